@@ -1,0 +1,1 @@
+//! Global-illumination techniques, all behind one trait.

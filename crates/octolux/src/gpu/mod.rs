@@ -1,0 +1,1 @@
+//! GPU context, pass timers and the memory ledger.

@@ -1,0 +1,148 @@
+//! Linear HDR images, OpenEXR and PNG output, and the filmic tone map shared with the GPU
+//! (`render/compose.wgsl` implements the same curve; a test keeps them in step).
+
+use crate::{Error, Result};
+use glam::Vec3;
+use std::path::Path;
+
+/// A linear-light RGB image, row-major, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HdrImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height` linear RGB values.
+    pub pixels: Vec<Vec3>,
+}
+
+impl HdrImage {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> HdrImage {
+        HdrImage {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; width as usize * height as usize],
+        }
+    }
+
+    /// Pixel at (`x`, `y`).
+    pub fn get(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Sets the pixel at (`x`, `y`).
+    pub fn set(&mut self, x: u32, y: u32, v: Vec3) {
+        self.pixels[(y * self.width + x) as usize] = v;
+    }
+
+    /// Writes a linear 32-bit float RGB OpenEXR file.
+    pub fn write_exr(&self, path: &Path) -> Result<()> {
+        create_parent(path)?;
+        let w = self.width as usize;
+        exr::prelude::write_rgb_file(path, w, self.height as usize, |x, y| {
+            let p = self.pixels[y * w + x];
+            (p.x, p.y, p.z)
+        })
+        .map_err(|e| Error::parse(path, format!("cannot write OpenEXR: {e}")))
+    }
+
+    /// Reads the RGB channels of an OpenEXR file (alpha ignored).
+    pub fn read_exr(path: &Path) -> Result<HdrImage> {
+        if !path.exists() {
+            return Err(Error::io(
+                path,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
+            ));
+        }
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |resolution, _| HdrImage::new(resolution.width() as u32, resolution.height() as u32),
+            |image: &mut HdrImage, position, (r, g, b, _a): (f32, f32, f32, f32)| {
+                image.set(position.x() as u32, position.y() as u32, Vec3::new(r, g, b));
+            },
+        )
+        .map_err(|e| Error::parse(path, format!("cannot read OpenEXR: {e}")))?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+
+    /// Writes the image tone-mapped for display: scaled by 2^`exposure`, filmic curve, sRGB.
+    pub fn write_png(&self, path: &Path, exposure: f32) -> Result<()> {
+        let scale = exposure.exp2();
+        let bytes: Vec<u8> = self
+            .pixels
+            .iter()
+            .flat_map(|&p| tone_map_to_srgb8(p * scale))
+            .collect();
+        write_rgb8_png(path, self.width, self.height, bytes)
+    }
+}
+
+/// Writes 8-bit RGB data as a PNG file.
+pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: Vec<u8>) -> Result<()> {
+    create_parent(path)?;
+    let image = image::RgbImage::from_raw(width, height, rgb)
+        .ok_or_else(|| Error::InvalidArgument("image buffer size does not match".into()))?;
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| Error::parse(path, format!("cannot write PNG: {e}")))
+}
+
+fn create_parent(path: &Path) -> Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Filmic tone curve (Narkowicz's fit of the ACES reference rendering transform), applied per
+/// channel to exposed linear values; output in 0..1, linear.
+pub fn filmic(x: f32) -> f32 {
+    let x = x.max(0.0);
+    ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
+}
+
+/// sRGB opto-electronic transfer function (linear 0..1 to encoded 0..1).
+pub fn linear_to_srgb(c: f32) -> f32 {
+    if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Exposed linear radiance to display sRGB bytes.
+pub fn tone_map_to_srgb8(p: Vec3) -> [u8; 3] {
+    [p.x, p.y, p.z].map(|c| (linear_to_srgb(filmic(c)) * 255.0 + 0.5) as u8)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trip() {
+        let dir = std::env::temp_dir().join(format!("octolux-exr-{}", std::process::id()));
+        let path = dir.join("a.exr");
+        let mut image = HdrImage::new(3, 2);
+        image.set(2, 1, Vec3::new(1.5, 0.25, 100.0));
+        image.set(0, 0, Vec3::new(0.001, 2.0, 3.0));
+        image.write_exr(&path).unwrap();
+        assert_eq!(HdrImage::read_exr(&path).unwrap(), image);
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn tone_map_is_monotonic_and_bounded() {
+        assert_eq!(tone_map_to_srgb8(Vec3::ZERO), [0, 0, 0]);
+        assert_eq!(tone_map_to_srgb8(Vec3::splat(1e6)), [255, 255, 255]);
+        let mut last = 0.0;
+        for i in 0..1000 {
+            let v = linear_to_srgb(filmic(i as f32 * 0.01));
+            assert!(v >= last);
+            last = v;
+        }
+    }
+}

@@ -1,0 +1,21 @@
+//! # octolux
+//!
+//! Real-time, fully dynamic diffuse global illumination on the GPU (wgpu + WGSL), with a CPU
+//! reference path tracer and image-error metrics so that every technique can be compared against
+//! ground truth on the same scene.
+//!
+//! The frame flows one way: scene update -> shadow maps -> G-buffer -> GI technique (indirect
+//! irradiance per pixel) -> compose (direct + albedo x indirect) -> tone map. See
+//! [`render::Renderer`] for the GPU side, [`reference`] for the path tracer and [`metrics`] for
+//! image comparisons.
+
+pub mod error;
+pub mod gi;
+pub mod gpu;
+pub mod image_io;
+pub mod metrics;
+pub mod reference;
+pub mod render;
+pub mod scene;
+
+pub use error::{Error, Result};

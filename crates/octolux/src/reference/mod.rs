@@ -1,0 +1,1 @@
+//! CPU reference path tracer: the ground truth every technique is judged against.

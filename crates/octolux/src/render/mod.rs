@@ -1,0 +1,1 @@
+//! The GPU frame: shadow maps, G-buffer, direct light, compose and tone map.

@@ -1,0 +1,100 @@
+//! Keyframed rigid animation: translation and rotation over time, linearly interpolated
+//! (rotations by slerp). Used by objects, lights and cameras alike.
+
+use glam::{Mat4, Quat, Vec3};
+
+/// One key of a [`Track`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keyframe {
+    /// Time in seconds.
+    pub time: f32,
+    /// Translation at this key.
+    pub translation: Vec3,
+    /// Rotation at this key (applied before the translation).
+    pub rotation: Quat,
+}
+
+/// A keyframed rigid transform. Keys are sorted by time; before the first key the first key
+/// holds, after the last the last holds, unless `looping`, in which case time wraps around the
+/// track's duration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Track {
+    /// Keys sorted by time (at least one).
+    pub keys: Vec<Keyframe>,
+    /// Whether time wraps around the last key.
+    pub looping: bool,
+}
+
+impl Track {
+    /// A track from keys in any order (sorted here). Returns `None` for an empty key list.
+    pub fn new(mut keys: Vec<Keyframe>, looping: bool) -> Option<Track> {
+        if keys.is_empty() {
+            return None;
+        }
+        keys.sort_by(|a, b| a.time.total_cmp(&b.time));
+        Some(Track { keys, looping })
+    }
+
+    /// The interpolated transform at time `t` seconds.
+    pub fn transform_at(&self, t: f32) -> Mat4 {
+        let (translation, rotation) = self.sample(t);
+        Mat4::from_rotation_translation(rotation, translation)
+    }
+
+    /// Interpolated (translation, rotation) at time `t`.
+    pub fn sample(&self, t: f32) -> (Vec3, Quat) {
+        let first = self.keys[0];
+        let last = self.keys[self.keys.len() - 1];
+        let mut t = t;
+        let duration = last.time - first.time;
+        if self.looping && duration > 0.0 {
+            t = first.time + (t - first.time).rem_euclid(duration);
+        }
+        if t <= first.time {
+            return (first.translation, first.rotation);
+        }
+        if t >= last.time {
+            return (last.translation, last.rotation);
+        }
+        let i = self.keys.partition_point(|k| k.time <= t);
+        let (a, b) = (self.keys[i - 1], self.keys[i]);
+        let s = ((t - a.time) / (b.time - a.time).max(1e-9)).clamp(0.0, 1.0);
+        (
+            a.translation.lerp(b.translation, s),
+            a.rotation.slerp(b.rotation, s),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolates_and_clamps() {
+        let track = Track::new(
+            vec![
+                Keyframe {
+                    time: 1.0,
+                    translation: Vec3::X,
+                    rotation: Quat::IDENTITY,
+                },
+                Keyframe {
+                    time: 0.0,
+                    translation: Vec3::ZERO,
+                    rotation: Quat::IDENTITY,
+                },
+            ],
+            false,
+        )
+        .unwrap();
+        assert_eq!(track.sample(0.5).0, Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(track.sample(-1.0).0, Vec3::ZERO);
+        assert_eq!(track.sample(7.0).0, Vec3::X);
+        let looping = Track {
+            looping: true,
+            ..track
+        };
+        assert!((looping.sample(1.25).0.x - 0.25).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,131 @@
+//! Pinhole cameras, shared by the GPU renderer and the path tracer so images line up exactly.
+
+use super::Track;
+use glam::{Mat4, Vec3};
+
+/// A pinhole camera looking from `position` at `target`.
+#[derive(Clone, Debug)]
+pub struct Camera {
+    /// Name for diagnostics and scene files.
+    pub name: String,
+    /// Eye position, world space.
+    pub position: Vec3,
+    /// Point looked at, world space.
+    pub target: Vec3,
+    /// Up hint.
+    pub up: Vec3,
+    /// Vertical field of view, radians.
+    pub vfov: f32,
+    /// Near clip distance (m).
+    pub near: f32,
+    /// Far clip distance (m).
+    pub far: f32,
+    /// Animation applied to position and target.
+    pub animation: Option<Track>,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera {
+            name: "camera".into(),
+            position: Vec3::new(0.0, 0.0, 3.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 45f32.to_radians(),
+            near: 0.01,
+            far: 100.0,
+            animation: None,
+        }
+    }
+}
+
+/// The matrices of a camera for one image size.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraView {
+    /// World to view.
+    pub view: Mat4,
+    /// View to clip (wgpu depth range 0..1).
+    pub proj: Mat4,
+    /// World to clip.
+    pub view_proj: Mat4,
+    /// Clip to world.
+    pub inv_view_proj: Mat4,
+    /// Eye position.
+    pub position: Vec3,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// A camera that frames the axis-aligned box `bounds` from the +z side.
+    pub fn framing(bounds: (Vec3, Vec3)) -> Camera {
+        let (lo, hi) = bounds;
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-3);
+        let vfov = 45f32.to_radians();
+        let distance = radius / (vfov * 0.5).sin();
+        Camera {
+            name: "auto".into(),
+            position: center + Vec3::new(0.0, radius * 0.2, distance),
+            target: center,
+            near: (distance - radius).max(distance * 1e-3) * 0.5,
+            far: (distance + radius) * 2.0,
+            vfov,
+            ..Camera::default()
+        }
+    }
+
+    /// The camera at time `t` (animation applied, `animation` cleared).
+    pub fn at_time(&self, t: f32) -> Camera {
+        let mut camera = self.clone();
+        if let Some(track) = &self.animation {
+            let m = track.transform_at(t);
+            camera.position = m.transform_point3(self.position);
+            camera.target = m.transform_point3(self.target);
+        }
+        camera.animation = None;
+        camera
+    }
+
+    /// Matrices for an image of `width` x `height` pixels.
+    pub fn view(&self, width: u32, height: u32) -> CameraView {
+        let aspect = width.max(1) as f32 / height.max(1) as f32;
+        let up = if (self.target - self.position)
+            .normalize_or_zero()
+            .cross(self.up)
+            .length()
+            < 1e-4
+        {
+            Vec3::Z
+        } else {
+            self.up
+        };
+        let view = Mat4::look_at_rh(self.position, self.target, up);
+        let proj = Mat4::perspective_rh(self.vfov, aspect, self.near, self.far);
+        let view_proj = proj * view;
+        CameraView {
+            view,
+            proj,
+            view_proj,
+            inv_view_proj: view_proj.inverse(),
+            position: self.position,
+            width,
+            height,
+        }
+    }
+}
+
+impl CameraView {
+    /// Unit direction of the primary ray through image position (`x`, `y`) in pixels, where
+    /// (0, 0) is the top-left corner of the image and (0.5, 0.5) the centre of the first pixel.
+    pub fn ray_direction(&self, x: f32, y: f32) -> Vec3 {
+        let ndc_x = x / self.width as f32 * 2.0 - 1.0;
+        let ndc_y = 1.0 - y / self.height as f32 * 2.0;
+        let far = self
+            .inv_view_proj
+            .project_point3(Vec3::new(ndc_x, ndc_y, 1.0));
+        (far - self.position).normalize()
+    }
+}

@@ -1,0 +1,408 @@
+//! The scene model shared by the GPU renderer and the reference path tracer.
+//!
+//! Units are physical (DESIGN.md §2): lengths in metres, point and spot lights in radiant
+//! intensity (W/sr), directional lights in irradiance (W/m^2), emissive surfaces in radiance
+//! (W/(m^2 sr)), surfaces Lambertian with BRDF albedo/pi. Colours are linear RGB.
+//!
+//! A [`Scene`] is static data plus animation tracks; [`Scene::frame`] evaluates everything at
+//! one instant into a [`SceneFrame`] that renderers consume.
+
+mod animation;
+mod camera;
+pub mod cornell;
+pub mod file;
+pub mod gltf;
+pub mod obj;
+pub mod ply;
+mod texture;
+mod validate;
+
+pub use animation::{Keyframe, Track};
+pub use camera::{Camera, CameraView};
+pub use texture::Texture;
+pub use validate::validate;
+
+use crate::{Error, Result};
+use glam::{Mat4, Vec2, Vec3};
+use std::path::Path;
+
+/// A triangle mesh with one material. Normals and UVs are per vertex (same length as
+/// `positions`); `indices` holds three entries per triangle.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Name for diagnostics.
+    pub name: String,
+    /// Object-space positions.
+    pub positions: Vec<Vec3>,
+    /// Object-space unit normals, one per position.
+    pub normals: Vec<Vec3>,
+    /// Texture coordinates, one per position (zeros when the source has none).
+    pub uvs: Vec<Vec2>,
+    /// Triangle list indices into the vertex arrays.
+    pub indices: Vec<u32>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Fills `normals` with area-weighted vertex normals computed from the triangles.
+    pub fn compute_normals(&mut self) {
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for tri in self.indices.chunks_exact(3) {
+            let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+            let n = (self.positions[b] - self.positions[a])
+                .cross(self.positions[c] - self.positions[a]);
+            normals[a] += n;
+            normals[b] += n;
+            normals[c] += n;
+        }
+        self.normals = normals
+            .into_iter()
+            .map(|n| n.try_normalize().unwrap_or(Vec3::Y))
+            .collect();
+    }
+}
+
+/// How a material's alpha (base colour texture alpha x factor alpha) is used.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    Opaque,
+    /// Texels with alpha below the cutoff are holes (foliage, chains).
+    Mask(f32),
+}
+
+/// A Lambertian material with optional emission.
+#[derive(Clone, Debug)]
+pub struct Material {
+    /// Name for diagnostics.
+    pub name: String,
+    /// Linear base colour (albedo) factor, multiplied with the texture when present.
+    pub base_color: Vec3,
+    /// Index into [`Scene::textures`]: sRGB base colour, alpha = coverage.
+    pub base_color_texture: Option<u32>,
+    /// Emitted radiance, W/(m^2 sr), linear RGB.
+    pub emission: Vec3,
+    /// How alpha is used.
+    pub alpha_mode: AlphaMode,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            base_color: Vec3::splat(0.8),
+            base_color_texture: None,
+            emission: Vec3::ZERO,
+            alpha_mode: AlphaMode::Opaque,
+        }
+    }
+}
+
+/// One placed instance of a set of meshes, optionally animated.
+#[derive(Clone, Debug)]
+pub struct Object {
+    /// Name for diagnostics and scene files.
+    pub name: String,
+    /// Indices into [`Scene::meshes`].
+    pub meshes: Vec<u32>,
+    /// Object-to-world transform at rest.
+    pub transform: Mat4,
+    /// Animation applied on top of `transform` (world = track(t) * transform).
+    pub animation: Option<Track>,
+}
+
+impl Object {
+    /// Object-to-world transform at time `t` seconds.
+    pub fn transform_at(&self, t: f32) -> Mat4 {
+        match &self.animation {
+            Some(track) => track.transform_at(t) * self.transform,
+            None => self.transform,
+        }
+    }
+}
+
+/// Kind of light source.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Omnidirectional point light; intensity in W/sr.
+    Point,
+    /// Spot light; intensity in W/sr on its axis, smooth falloff between the cone angles
+    /// (half-angles, radians).
+    Spot {
+        /// Full intensity inside this half-angle.
+        inner_angle: f32,
+        /// Zero intensity outside this half-angle.
+        outer_angle: f32,
+    },
+    /// Infinitely distant light; intensity is irradiance in W/m^2 on a surface facing it.
+    Directional,
+}
+
+/// A punctual light source.
+#[derive(Clone, Debug)]
+pub struct Light {
+    /// Name for diagnostics and scene files.
+    pub name: String,
+    /// Point, spot or directional.
+    pub kind: LightKind,
+    /// Linear colour; multiplied by `intensity`.
+    pub color: Vec3,
+    /// W/sr for point and spot lights, W/m^2 for directional lights.
+    pub intensity: f32,
+    /// World position (ignored for directional lights).
+    pub position: Vec3,
+    /// Unit direction the light travels in (spot axis, sun direction).
+    pub direction: Vec3,
+    /// Animation applied to position and direction.
+    pub animation: Option<Track>,
+}
+
+impl Light {
+    /// Radiant intensity (W/sr) or irradiance (W/m^2) per colour channel.
+    pub fn radiant(&self) -> Vec3 {
+        self.color * self.intensity
+    }
+
+    /// Spot-cone attenuation for a unit direction `dir` leaving the light (1 for non-spots).
+    /// Smoothstep in cos(angle) between the outer and inner cone; the GPU shader uses the same.
+    pub fn spot_factor(&self, dir: Vec3) -> f32 {
+        match self.kind {
+            LightKind::Spot {
+                inner_angle,
+                outer_angle,
+            } => spot_attenuation(
+                self.direction.dot(dir),
+                inner_angle.cos(),
+                outer_angle.cos(),
+            ),
+            _ => 1.0,
+        }
+    }
+
+    /// The light as it is at time `t` (animation applied, `animation` cleared).
+    pub fn at_time(&self, t: f32) -> Light {
+        let mut light = self.clone();
+        if let Some(track) = &self.animation {
+            let m = track.transform_at(t);
+            light.position = m.transform_point3(self.position);
+            light.direction = m
+                .transform_vector3(self.direction)
+                .normalize_or(self.direction);
+        }
+        light.animation = None;
+        light
+    }
+}
+
+/// Spot falloff: smoothstep from `cos_outer` (0) to `cos_inner` (1).
+pub fn spot_attenuation(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let width = (cos_inner - cos_outer).max(1e-6);
+    let x = ((cos_angle - cos_outer) / width).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// A complete scene: geometry, materials, lights, cameras, animation and exposure.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Scene name (file name or built-in name) for diagnostics.
+    pub name: String,
+    /// All meshes; objects refer to them by index.
+    pub meshes: Vec<Mesh>,
+    /// All materials; meshes refer to them by index.
+    pub materials: Vec<Material>,
+    /// All textures; materials refer to them by index.
+    pub textures: Vec<Texture>,
+    /// Placed (possibly animated) instances.
+    pub objects: Vec<Object>,
+    /// Light sources.
+    pub lights: Vec<Light>,
+    /// Cameras; renders use the first unless told otherwise.
+    pub cameras: Vec<Camera>,
+    /// Exposure in stops: pixel values are scaled by 2^exposure before tone mapping.
+    pub exposure: f32,
+}
+
+/// One world-space triangle of a [`SceneFrame`], with everything shading needs.
+#[derive(Clone, Copy, Debug)]
+pub struct WorldTriangle {
+    /// World positions.
+    pub positions: [Vec3; 3],
+    /// World unit normals per vertex.
+    pub normals: [Vec3; 3],
+    /// Texture coordinates per vertex.
+    pub uvs: [Vec2; 3],
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+/// A scene evaluated at one instant: object transforms, lights and camera.
+#[derive(Clone, Debug)]
+pub struct SceneFrame {
+    /// Time in seconds.
+    pub time: f32,
+    /// Object-to-world transform of each object, in [`Scene::objects`] order.
+    pub object_transforms: Vec<Mat4>,
+    /// Lights with animation applied.
+    pub lights: Vec<Light>,
+    /// The camera with animation applied.
+    pub camera: Camera,
+}
+
+impl Scene {
+    /// Loads a scene or model file, choosing the loader by extension: `.toml` (scene file),
+    /// `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is validated.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        let path = path.as_ref();
+        if !path.exists() {
+            return Err(Error::io(
+                path,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
+            ));
+        }
+        let name = path
+            .file_name()
+            .map(|s| s.to_string_lossy().to_lowercase())
+            .unwrap_or_default();
+        let mut scene = if name.ends_with(".toml") {
+            file::load(path)?
+        } else if name.ends_with(".gltf") || name.ends_with(".glb") {
+            gltf::load(path)?
+        } else if name.ends_with(".obj") {
+            obj::load(path)?
+        } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
+            ply::load(path)?
+        } else {
+            return Err(Error::parse(
+                path,
+                "unknown scene format (expected .toml, .gltf, .glb, .obj, .ply or .ply.gz)",
+            ));
+        };
+        validate(&mut scene)?;
+        Ok(scene)
+    }
+
+    /// Total triangle count over all object instances.
+    pub fn triangle_count(&self) -> usize {
+        self.objects
+            .iter()
+            .flat_map(|o| o.meshes.iter())
+            .map(|&m| self.meshes[m as usize].triangle_count())
+            .sum()
+    }
+
+    /// Whether anything in the scene moves.
+    pub fn is_animated(&self) -> bool {
+        self.objects.iter().any(|o| o.animation.is_some())
+            || self.lights.iter().any(|l| l.animation.is_some())
+            || self.cameras.iter().any(|c| c.animation.is_some())
+    }
+
+    /// The scene at time `t` seconds, seen through camera `camera` (clamped to the last one; a
+    /// default camera framing the scene bounds if there is none).
+    pub fn frame(&self, t: f32, camera: usize) -> SceneFrame {
+        let camera = match self
+            .cameras
+            .get(camera.min(self.cameras.len().saturating_sub(1)))
+        {
+            Some(c) => c.at_time(t),
+            None => Camera::framing(self.bounds_at(t)),
+        };
+        SceneFrame {
+            time: t,
+            object_transforms: self.objects.iter().map(|o| o.transform_at(t)).collect(),
+            lights: self.lights.iter().map(|l| l.at_time(t)).collect(),
+            camera,
+        }
+    }
+
+    /// World-space axis-aligned bounds (min, max) of all geometry at time `t`.
+    pub fn bounds_at(&self, t: f32) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for object in &self.objects {
+            let m = object.transform_at(t);
+            for &mesh in &object.meshes {
+                for &p in &self.meshes[mesh as usize].positions {
+                    let w = m.transform_point3(p);
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
+            }
+        }
+        if lo.x > hi.x {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// All triangles in world space for a frame (for the path tracer and voxelizers).
+    pub fn world_triangles(&self, frame: &SceneFrame) -> Vec<WorldTriangle> {
+        let mut out = Vec::with_capacity(self.triangle_count());
+        for (object, m) in self.objects.iter().zip(&frame.object_transforms) {
+            let normal_matrix = m.inverse().transpose();
+            for &mesh_index in &object.meshes {
+                let mesh = &self.meshes[mesh_index as usize];
+                for tri in mesh.indices.chunks_exact(3) {
+                    let v = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                    out.push(WorldTriangle {
+                        positions: v.map(|i| m.transform_point3(mesh.positions[i])),
+                        normals: v.map(|i| {
+                            normal_matrix
+                                .transform_vector3(mesh.normals[i])
+                                .normalize_or(Vec3::Y)
+                        }),
+                        uvs: v.map(|i| mesh.uvs.get(i).copied().unwrap_or(Vec2::ZERO)),
+                        material: mesh.material,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// True if some light or emissive material can illuminate the scene.
+    pub fn has_light(&self) -> bool {
+        self.lights
+            .iter()
+            .any(|l| l.intensity > 0.0 && l.color.max_element() > 0.0)
+            || self
+                .materials
+                .iter()
+                .any(|m| m.emission.max_element() > 0.0)
+    }
+
+    /// Appends `other`'s meshes, materials and textures, re-indexing, and returns the indices
+    /// of `other`'s meshes in `self`. Objects, lights and cameras of `other` are also appended.
+    pub fn merge(&mut self, other: Scene) -> Vec<u32> {
+        let material_base = self.materials.len() as u32;
+        let texture_base = self.textures.len() as u32;
+        let mesh_base = self.meshes.len() as u32;
+        self.textures.extend(other.textures);
+        self.materials
+            .extend(other.materials.into_iter().map(|mut m| {
+                m.base_color_texture = m.base_color_texture.map(|t| t + texture_base);
+                m
+            }));
+        let mesh_ids: Vec<u32> = (0..other.meshes.len() as u32)
+            .map(|i| i + mesh_base)
+            .collect();
+        self.meshes.extend(other.meshes.into_iter().map(|mut m| {
+            m.material += material_base;
+            m
+        }));
+        self.objects.extend(other.objects.into_iter().map(|mut o| {
+            o.meshes.iter_mut().for_each(|m| *m += mesh_base);
+            o
+        }));
+        self.lights.extend(other.lights);
+        self.cameras.extend(other.cameras);
+        mesh_ids
+    }
+}
