@@ -1,1 +1,50 @@
-fn main() {}
+//! `octolux`: render scenes with a GI technique or the reference path tracer, compare images
+//! and benchmark techniques against the reference.
+
+mod render;
+mod stats;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Real-time diffuse global illumination on the GPU, with a reference path tracer to judge it.
+#[derive(Parser)]
+#[command(name = "octolux", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// Log more (-v: info, -vv: debug). RUST_LOG overrides.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (default: the built-in Cornell box) to PNG and/or OpenEXR.
+    Render(render::RenderArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let level = match cli.verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    env_logger::Builder::from_env(
+        env_logger::Env::default()
+            .default_filter_or(format!("{level},wgpu_core=error,wgpu_hal=error,naga=error")),
+    )
+    .format_timestamp(None)
+    .init();
+    let result = match &cli.command {
+        Command::Render(args) => render::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,1 +1,59 @@
-//! Global-illumination techniques, all behind one trait.
+//! Global-illumination techniques, all behind [`GiTechnique`].
+//!
+//! The boundary (DESIGN.md §2): a technique reads the G-buffer, the lights, the shadow maps and
+//! the scene geometry, and writes an HDR *indirect irradiance* image (W/m^2, `Rgba16Float`,
+//! aligned with the G-buffer). Compose turns it into outgoing radiance as albedo/pi x E.
+
+mod none;
+
+pub use none::NoGi;
+
+use crate::gpu::{GpuContext, PassTimer};
+use crate::render::GBuffer;
+use crate::scene::{CameraView, Scene, SceneFrame};
+use crate::{Error, Result};
+
+/// Everything a technique may read in one frame.
+pub struct GiFrame<'a> {
+    /// The scene (static data).
+    pub scene: &'a Scene,
+    /// The scene evaluated at this frame's time.
+    pub frame: &'a SceneFrame,
+    /// The camera matrices for the output size.
+    pub view: &'a CameraView,
+    /// G-buffer of this frame.
+    pub gbuffer: &'a GBuffer,
+    /// The camera uniform (`Camera` in `render/common.wgsl`).
+    pub camera_uniform: &'a wgpu::Buffer,
+}
+
+/// A GI technique: owns its GPU state, updates it each frame and outputs indirect irradiance.
+pub trait GiTechnique {
+    /// Short name, as on the command line.
+    fn name(&self) -> &str;
+    /// Records the passes that bring the technique up to date with `frame` and write the
+    /// indirect irradiance image. Every pass goes through `timer` under a name.
+    fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()>;
+    /// The indirect irradiance image (valid after `update`).
+    fn indirect_view(&self) -> &wgpu::TextureView;
+}
+
+/// The GPU techniques that can be selected by name.
+pub const TECHNIQUES: &[&str] = &["none"];
+
+/// Creates the technique called `name` for images of `width` x `height`.
+pub fn create(
+    name: &str,
+    ctx: &GpuContext,
+    _scene: &Scene,
+    width: u32,
+    height: u32,
+) -> Result<Box<dyn GiTechnique>> {
+    match name {
+        "none" => Ok(Box::new(NoGi::new(ctx, width, height))),
+        other => Err(Error::InvalidArgument(format!(
+            "unknown GI technique '{other}' (available: {}, reference)",
+            TECHNIQUES.join(", ")
+        ))),
+    }
+}

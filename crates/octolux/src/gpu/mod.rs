@@ -1,1 +1,12 @@
-//! GPU context, pass timers and the memory ledger.
+//! GPU plumbing: device and adapter choice ([`GpuContext`]), per-pass timers ([`PassTimer`])
+//! and the memory ledger ([`MemoryLedger`]) every GPU resource is counted in.
+
+mod context;
+mod ledger;
+mod readback;
+mod timer;
+
+pub use context::{AdapterChoice, GpuContext, GpuOptions, ADAPTER_ENV};
+pub use ledger::{LedgerEntry, MemoryLedger};
+pub use readback::{read_buffer, read_texture};
+pub use timer::{PassTimer, PassTiming, TimingSource};

@@ -1,1 +1,349 @@
-//! The GPU frame: shadow maps, G-buffer, direct light, compose and tone map.
+//! The GPU frame: shadow maps -> G-buffer -> direct light -> GI technique -> compose + tone map.
+//!
+//! [`Renderer`] owns every stage. A frame evaluates the scene at a time, uploads transforms,
+//! lights and matrices, records each stage as a named pass (timed by [`PassTimer`]) and leaves
+//! the linear HDR image and the tone-mapped display image ready to read back.
+
+mod compose;
+mod direct;
+mod gbuffer;
+mod scene_gpu;
+mod shadow;
+
+pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
+pub use shadow::ShadowMaps;
+
+use crate::gi::{self, GiFrame, GiTechnique};
+use crate::gpu::{read_texture, GpuContext, PassTimer, PassTiming};
+use crate::image_io::HdrImage;
+use crate::scene::{CameraView, LightKind, Scene};
+use crate::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+use direct::GpuLight;
+use glam::{Vec3, Vec4};
+
+/// Largest accepted image side.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest accepted pixel count (64 Mpixel).
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+/// Checks an output size, with an error a person can act on.
+pub fn check_image_size(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(Error::InvalidArgument(format!(
+            "image size {width}x{height}: width and height must be at least 1"
+        )));
+    }
+    if width > MAX_IMAGE_SIDE
+        || height > MAX_IMAGE_SIDE
+        || width as u64 * height as u64 > MAX_PIXELS
+    {
+        return Err(Error::InvalidArgument(format!(
+            "image size {width}x{height} is too large (at most {MAX_IMAGE_SIDE} per side and {} Mpixel)",
+            MAX_PIXELS >> 20
+        )));
+    }
+    Ok(())
+}
+
+/// Frame settings.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    /// Output width in pixels.
+    pub width: u32,
+    /// Output height in pixels.
+    pub height: u32,
+    /// Side of each shadow-map layer in texels.
+    pub shadow_map_size: u32,
+    /// Which scene camera to use.
+    pub camera: usize,
+    /// GI technique name (see [`gi::TECHNIQUES`]).
+    pub gi: String,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 640,
+            height: 360,
+            shadow_map_size: 2048,
+            camera: 0,
+            gi: "none".into(),
+        }
+    }
+}
+
+/// `Camera` of `common.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct CameraUniform {
+    view_proj: [[f32; 4]; 4],
+    inv_view_proj: [[f32; 4]; 4],
+    position: [f32; 4],
+    size: [f32; 4],
+    params: [f32; 4],
+}
+
+/// G-buffer contents read back to the CPU (for tests and debugging).
+#[derive(Clone, Debug)]
+pub struct GBufferImages {
+    /// Linear albedo per pixel (zero on background).
+    pub albedo: Vec<Vec3>,
+    /// World normal per pixel (zero on background).
+    pub normal: Vec<Vec3>,
+    /// Emission per pixel.
+    pub emission: Vec<Vec3>,
+    /// Depth-buffer value per pixel (1 on background).
+    pub depth: Vec<f32>,
+}
+
+/// The GPU renderer for one scene and output size.
+pub struct Renderer {
+    ctx: GpuContext,
+    settings: RenderSettings,
+    scene_gpu: scene_gpu::SceneGpu,
+    shadows: ShadowMaps,
+    gbuffer: GBuffer,
+    direct: direct::DirectLight,
+    compose: compose::Compose,
+    gi: Box<dyn GiTechnique>,
+    camera_uniform: wgpu::Buffer,
+    timer: PassTimer,
+    last_view: Option<CameraView>,
+}
+
+impl Renderer {
+    /// Uploads `scene` and builds every stage for images of the configured size.
+    pub fn new(ctx: &GpuContext, scene: &Scene, settings: RenderSettings) -> Result<Renderer> {
+        check_image_size(settings.width, settings.height)?;
+        let max_dim = ctx.device.limits().max_texture_dimension_2d;
+        if settings.width > max_dim || settings.height > max_dim {
+            return Err(Error::InvalidArgument(format!(
+                "image size {}x{} exceeds the adapter's limit of {max_dim} per side",
+                settings.width, settings.height
+            )));
+        }
+        if settings.shadow_map_size < 16 || settings.shadow_map_size > max_dim {
+            return Err(Error::InvalidArgument(format!(
+                "shadow map size {} must be within 16..={max_dim}",
+                settings.shadow_map_size
+            )));
+        }
+        let (w, h) = (settings.width, settings.height);
+        let layer_count: u32 = scene
+            .lights
+            .iter()
+            .map(|l| if l.kind == LightKind::Point { 6 } else { 1 })
+            .sum();
+        let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + layer_count)?;
+        let shadows = ShadowMaps::new(ctx, &scene_gpu, &scene.lights, settings.shadow_map_size);
+        let gbuffer = GBuffer::new(ctx, &scene_gpu, w, h);
+        let camera_uniform = ctx.create_buffer_init(
+            "frame",
+            "camera",
+            bytemuck::bytes_of(&CameraUniform::zeroed()),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let direct = direct::DirectLight::new(ctx, &camera_uniform, &gbuffer, &shadows, w, h);
+        let gi = gi::create(&settings.gi, ctx, scene, w, h)?;
+        let mut compose = compose::Compose::new(ctx, w, h);
+        compose.bind(
+            ctx,
+            &camera_uniform,
+            &direct.output_view,
+            &gbuffer,
+            gi.indirect_view(),
+        );
+        ctx.check_errors()?;
+        Ok(Renderer {
+            ctx: ctx.clone(),
+            settings,
+            scene_gpu,
+            shadows,
+            gbuffer,
+            direct,
+            compose,
+            gi,
+            camera_uniform,
+            timer: PassTimer::new(ctx),
+            last_view: None,
+        })
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// The active GI technique.
+    pub fn technique(&self) -> &dyn GiTechnique {
+        self.gi.as_ref()
+    }
+
+    /// The G-buffer (for GI techniques and debugging).
+    pub fn gbuffer(&self) -> &GBuffer {
+        &self.gbuffer
+    }
+
+    /// The shadow maps.
+    pub fn shadow_maps(&self) -> &ShadowMaps {
+        &self.shadows
+    }
+
+    /// Renders `scene` (the one given to [`Renderer::new`]) at time `t` seconds and returns the
+    /// per-pass times of this frame.
+    pub fn render(&mut self, scene: &Scene, t: f32) -> Result<Vec<PassTiming>> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let frame = scene.frame(t, self.settings.camera);
+        let view = frame.camera.view(w, h);
+        let layers = self.shadows.layer_views(&frame.lights, scene.bounds_at(t));
+
+        let queue = &self.ctx.queue;
+        self.scene_gpu
+            .update_objects(queue, &frame.object_transforms);
+        let mut views = vec![(view.view_proj, view.position.extend(1.0))];
+        views.extend(layers.iter().map(|l| (l.view_proj, Vec4::ZERO)));
+        self.scene_gpu.update_views(queue, &views);
+        let gpu_lights: Vec<GpuLight> = frame
+            .lights
+            .iter()
+            .enumerate()
+            .map(|(i, light)| {
+                let slot = self.shadows.slots.get(i);
+                let first = slot.and_then(|s| layers.get(s.first_layer as usize));
+                let (kind, cos_inner, cos_outer) = match light.kind {
+                    LightKind::Point => (0.0, 1.0, -1.0),
+                    LightKind::Spot {
+                        inner_angle,
+                        outer_angle,
+                    } => (1.0, inner_angle.cos(), outer_angle.cos()),
+                    LightKind::Directional => (2.0, 1.0, -1.0),
+                };
+                GpuLight {
+                    position_kind: light.position.extend(kind).to_array(),
+                    direction_cos_inner: light
+                        .direction
+                        .normalize_or(Vec3::NEG_Y)
+                        .extend(cos_inner)
+                        .to_array(),
+                    radiant_cos_outer: light.radiant().extend(cos_outer).to_array(),
+                    shadow: shadow::shadow_params(slot, first).to_array(),
+                }
+            })
+            .collect();
+        let matrices: Vec<[f32; 16]> = layers.iter().map(|l| l.view_proj.to_cols_array()).collect();
+        self.direct.upload(queue, &gpu_lights, &matrices);
+        let camera = CameraUniform {
+            view_proj: view.view_proj.to_cols_array_2d(),
+            inv_view_proj: view.inv_view_proj.to_cols_array_2d(),
+            position: view.position.extend(1.0).to_array(),
+            size: [w as f32, h as f32, 1.0 / w as f32, 1.0 / h as f32],
+            params: [scene.exposure.exp2(), frame.lights.len() as f32, t, 0.0],
+        };
+        queue.write_buffer(&self.camera_uniform, 0, bytemuck::bytes_of(&camera));
+
+        self.shadows.render(&mut self.timer, &self.scene_gpu);
+        self.gbuffer.render(&mut self.timer, &self.scene_gpu);
+        self.direct.render(&mut self.timer, w, h);
+        let gi_frame = GiFrame {
+            scene,
+            frame: &frame,
+            view: &view,
+            gbuffer: &self.gbuffer,
+            camera_uniform: &self.camera_uniform,
+        };
+        self.gi.update(&self.ctx, &gi_frame, &mut self.timer)?;
+        self.compose.render(&mut self.timer, w, h);
+        self.last_view = Some(view);
+        self.timer.finish_frame()
+    }
+
+    /// The camera matrices of the last frame rendered.
+    pub fn last_view(&self) -> Option<&CameraView> {
+        self.last_view.as_ref()
+    }
+
+    /// Reads the linear HDR output of the last frame.
+    pub fn read_hdr(&self) -> Result<HdrImage> {
+        let bytes = read_texture(&self.ctx, &self.compose.hdr, 0)?;
+        let floats: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        Ok(HdrImage {
+            width: self.settings.width,
+            height: self.settings.height,
+            pixels: floats
+                .chunks_exact(4)
+                .map(|p| Vec3::new(p[0], p[1], p[2]))
+                .collect(),
+        })
+    }
+
+    /// Reads the tone-mapped sRGB display image of the last frame as RGB8.
+    pub fn read_display(&self) -> Result<Vec<u8>> {
+        let bytes = read_texture(&self.ctx, &self.compose.ldr, 0)?;
+        Ok(bytes
+            .chunks_exact(4)
+            .flat_map(|p| [p[0], p[1], p[2]])
+            .collect())
+    }
+
+    /// Reads the direct-light radiance of the last frame.
+    pub fn read_direct(&self) -> Result<HdrImage> {
+        Ok(self.half_image(&self.direct.output)?.0)
+    }
+
+    /// Reads the G-buffer of the last frame.
+    pub fn read_gbuffer(&self) -> Result<GBufferImages> {
+        let depth_bytes = read_texture(&self.ctx, &self.gbuffer.depth, 0)?;
+        Ok(GBufferImages {
+            albedo: self.half_image(&self.gbuffer.albedo)?.0.pixels,
+            normal: self.half_image(&self.gbuffer.normal)?.0.pixels,
+            emission: self.half_image(&self.gbuffer.emission)?.0.pixels,
+            depth: depth_bytes
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect(),
+        })
+    }
+
+    fn half_image(&self, texture: &wgpu::Texture) -> Result<(HdrImage, Vec<f32>)> {
+        let bytes = read_texture(&self.ctx, texture, 0)?;
+        let values: Vec<f32> = bytes
+            .chunks_exact(2)
+            .map(|c| f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
+            .collect();
+        let pixels = values
+            .chunks_exact(4)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect();
+        let alpha = values.chunks_exact(4).map(|p| p[3]).collect();
+        Ok((
+            HdrImage {
+                width: texture.width(),
+                height: texture.height(),
+                pixels,
+            },
+            alpha,
+        ))
+    }
+}
+
+/// IEEE 754 half to single precision.
+pub fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = ((h >> 10) & 0x1f) as i32;
+    let mantissa = (h & 0x3ff) as f32;
+    match exponent {
+        0 => sign * mantissa * (2f32).powi(-24),
+        31 => {
+            if mantissa == 0.0 {
+                sign * f32::INFINITY
+            } else {
+                f32::NAN
+            }
+        }
+        e => sign * (1.0 + mantissa / 1024.0) * (2f32).powi(e - 15),
+    }
+}

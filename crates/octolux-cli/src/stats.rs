@@ -1,0 +1,53 @@
+//! Tables of pass times and GPU memory, shared by `render --stats` and `bench`.
+
+use octolux::gpu::{MemoryLedger, PassTiming};
+
+/// Average time per pass name over several frames, in first-seen order.
+pub fn average_timings(frames: &[Vec<PassTiming>]) -> Vec<PassTiming> {
+    let mut out: Vec<(PassTiming, usize)> = Vec::new();
+    for frame in frames {
+        for t in frame {
+            match out.iter_mut().find(|(o, _)| o.name == t.name) {
+                Some((o, n)) => {
+                    o.ms += t.ms;
+                    *n += 1;
+                }
+                None => out.push((t.clone(), 1)),
+            }
+        }
+    }
+    out.into_iter()
+        .map(|(mut t, n)| {
+            t.ms /= n as f64;
+            t
+        })
+        .collect()
+}
+
+/// Prints pass times as a table.
+pub fn print_timings(timings: &[PassTiming], frames: usize) {
+    let source = timings.first().map(|t| t.source.label()).unwrap_or("-");
+    println!("pass times ({source}, mean of {frames} frame(s)):");
+    println!("  {:<24} {:>10}", "pass", "ms");
+    let mut total = 0.0;
+    for t in timings {
+        println!("  {:<24} {:>10.3}", t.name, t.ms);
+        total += t.ms;
+    }
+    println!("  {:<24} {:>10.3}", "total", total);
+}
+
+/// Prints GPU memory per owner as a table.
+pub fn print_memory(ledger: &MemoryLedger) {
+    println!("GPU memory by owner:");
+    println!("  {:<24} {:>10}", "owner", "MiB");
+    for (owner, bytes) in ledger.by_owner() {
+        println!("  {:<24} {:>10.3}", owner, mib(bytes));
+    }
+    println!("  {:<24} {:>10.3}", "total", mib(ledger.total()));
+}
+
+/// Bytes to MiB.
+pub fn mib(bytes: u64) -> f64 {
+    bytes as f64 / (1024.0 * 1024.0)
+}

@@ -1,0 +1,59 @@
+//! `--gi none`: no indirect light; the indirect image stays zero.
+
+use super::{GiFrame, GiTechnique};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::Result;
+
+/// The technique that adds nothing.
+pub struct NoGi {
+    _texture: wgpu::Texture,
+    view: wgpu::TextureView,
+}
+
+impl NoGi {
+    /// A zero indirect-irradiance image of the given size.
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> NoGi {
+        // New textures are zero-initialised by wgpu.
+        let texture = ctx.create_texture(
+            "none",
+            &wgpu::TextureDescriptor {
+                label: Some("indirect irradiance"),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba16Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                view_formats: &[],
+            },
+        );
+        let view = texture.create_view(&Default::default());
+        NoGi {
+            _texture: texture,
+            view,
+        }
+    }
+}
+
+impl GiTechnique for NoGi {
+    fn name(&self) -> &str {
+        "none"
+    }
+
+    fn update(
+        &mut self,
+        _ctx: &GpuContext,
+        _frame: &GiFrame,
+        _timer: &mut PassTimer,
+    ) -> Result<()> {
+        Ok(())
+    }
+
+    fn indirect_view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+}

@@ -1,0 +1,280 @@
+//! Headless device creation: prefers a discrete GPU, falls back to whatever adapter exists
+//! (Mesa's lavapipe in CI), and requests optional features only when the adapter has them.
+
+use super::ledger::{texture_bytes, MemoryLedger};
+use crate::{Error, Result};
+use std::sync::{Arc, Mutex};
+
+/// Environment variable naming the adapter to use (a case-insensitive substring of its name).
+pub const ADAPTER_ENV: &str = "OCTOLUX_ADAPTER";
+
+/// How to pick the adapter.
+#[derive(Clone, Debug, Default)]
+pub enum AdapterChoice {
+    /// The best adapter: discrete, then integrated, then virtual, then CPU (lavapipe).
+    #[default]
+    Best,
+    /// The first adapter whose name contains this text (case-insensitive).
+    Named(String),
+}
+
+/// Options for [`GpuContext::new`].
+#[derive(Clone, Debug)]
+pub struct GpuOptions {
+    /// Adapter choice; [`GpuOptions::from_env`] reads `OCTOLUX_ADAPTER`.
+    pub adapter: AdapterChoice,
+    /// Use timestamp queries for pass timings when the adapter supports them. When false (or
+    /// unsupported) passes are timed on the CPU around submit + wait.
+    pub timestamps: bool,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions {
+            adapter: AdapterChoice::Best,
+            timestamps: true,
+        }
+    }
+}
+
+impl GpuOptions {
+    /// Default options, with the adapter taken from `OCTOLUX_ADAPTER` when it is set.
+    pub fn from_env() -> GpuOptions {
+        let adapter = match std::env::var(ADAPTER_ENV) {
+            Ok(name) if !name.trim().is_empty() => AdapterChoice::Named(name.trim().to_string()),
+            _ => AdapterChoice::Best,
+        };
+        GpuOptions {
+            adapter,
+            ..GpuOptions::default()
+        }
+    }
+}
+
+/// The device, queue and bookkeeping shared by every renderer stage and technique. Cloning is
+/// cheap and shares everything.
+#[derive(Clone, Debug)]
+pub struct GpuContext {
+    /// The adapter in use.
+    pub adapter: wgpu::Adapter,
+    /// The logical device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Name, backend and type of the adapter.
+    pub info: wgpu::AdapterInfo,
+    /// Whether GPU timestamp queries are enabled.
+    pub timestamps: bool,
+    /// GPU memory by owner.
+    pub ledger: MemoryLedger,
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+fn type_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    }
+}
+
+const NO_ADAPTER_HELP: &str = "no GPU adapter found. octolux needs a Vulkan, Metal or DX12 \
+driver. On Linux without a GPU, install Mesa's software Vulkan driver (lavapipe), e.g. \
+`apt-get install mesa-vulkan-drivers` on Debian/Ubuntu or `dnf install mesa-vulkan-drivers` on \
+Fedora";
+
+impl GpuContext {
+    /// Creates a headless device according to `options`.
+    pub fn new(options: &GpuOptions) -> Result<GpuContext> {
+        pollster::block_on(Self::new_async(options))
+    }
+
+    async fn new_async(options: &GpuOptions) -> Result<GpuContext> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        // GL lacks compute features we rely on; keep to the modern APIs.
+        desc.backends &= wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+        let instance = wgpu::Instance::new(desc);
+        let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+        if adapters.is_empty() {
+            return Err(Error::Gpu(NO_ADAPTER_HELP.into()));
+        }
+        adapters.sort_by_key(|a| type_rank(a.get_info().device_type));
+        let adapter = match &options.adapter {
+            AdapterChoice::Best => adapters.swap_remove(0),
+            AdapterChoice::Named(name) => {
+                let wanted = name.to_lowercase();
+                match adapters
+                    .iter()
+                    .position(|a| a.get_info().name.to_lowercase().contains(&wanted))
+                {
+                    Some(i) => adapters.swap_remove(i),
+                    None => {
+                        let names: Vec<String> = adapters
+                            .iter()
+                            .map(|a| {
+                                let i = a.get_info();
+                                format!("'{}' ({:?}, {:?})", i.name, i.backend, i.device_type)
+                            })
+                            .collect();
+                        return Err(Error::Gpu(format!(
+                            "no adapter matches '{name}'; available: {}",
+                            names.join(", ")
+                        )));
+                    }
+                }
+            }
+        };
+        let info = adapter.get_info();
+        let timestamps =
+            options.timestamps && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut required_features = wgpu::Features::empty();
+        if timestamps {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("octolux"),
+                required_features,
+                required_limits: adapter.limits(),
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| Error::Gpu(format!("cannot create a device on '{}': {e}", info.name)))?;
+        let errors: Arc<Mutex<Vec<String>>> = Arc::default();
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            log::error!("GPU error: {e}");
+            sink.lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push(e.to_string());
+        }));
+        log::info!(
+            "GPU adapter: {} ({:?}, {:?}), timestamps: {timestamps}",
+            info.name,
+            info.backend,
+            info.device_type
+        );
+        Ok(GpuContext {
+            adapter,
+            device,
+            queue,
+            info,
+            timestamps,
+            ledger: MemoryLedger::default(),
+            errors,
+        })
+    }
+
+    /// Returns the first GPU error reported since the last call, if any.
+    pub fn check_errors(&self) -> Result<()> {
+        let mut errors = self.errors.lock().unwrap_or_else(|p| p.into_inner());
+        if errors.is_empty() {
+            return Ok(());
+        }
+        let first = errors[0].clone();
+        let more = errors.len() - 1;
+        errors.clear();
+        Err(Error::Gpu(if more > 0 {
+            format!("{first} (and {more} more errors)")
+        } else {
+            first
+        }))
+    }
+
+    /// One-line description of the adapter.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}; pass times from {})",
+            self.info.name,
+            self.info.backend,
+            self.info.device_type,
+            if self.timestamps {
+                "GPU timestamps"
+            } else {
+                "CPU submit+wait"
+            }
+        )
+    }
+
+    /// Creates a buffer and records it in the ledger under `owner`/`desc.label`.
+    pub fn create_buffer(&self, owner: &str, desc: &wgpu::BufferDescriptor) -> wgpu::Buffer {
+        let buffer = self.device.create_buffer(desc);
+        self.ledger
+            .record(owner, desc.label.unwrap_or("unnamed"), desc.size);
+        buffer
+    }
+
+    /// Creates a buffer with initial contents and records it in the ledger.
+    pub fn create_buffer_init(
+        &self,
+        owner: &str,
+        label: &str,
+        contents: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
+        // Zero-sized buffers are legal but awkward to bind; keep at least one element's worth.
+        let size = (contents.len() as u64).max(16).next_multiple_of(4);
+        let buffer = self.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        if !contents.is_empty() {
+            let mut padded = contents.to_vec();
+            padded.resize(contents.len().next_multiple_of(4), 0);
+            self.queue.write_buffer(&buffer, 0, &padded);
+        }
+        buffer
+    }
+
+    /// Creates a texture and records it in the ledger under `owner`/`desc.label`.
+    pub fn create_texture(&self, owner: &str, desc: &wgpu::TextureDescriptor) -> wgpu::Texture {
+        let texture = self.device.create_texture(desc);
+        self.ledger
+            .record(owner, desc.label.unwrap_or("unnamed"), texture_bytes(desc));
+        texture
+    }
+
+    /// Compiles WGSL source into a shader module.
+    pub fn shader(&self, label: &str, source: &str) -> wgpu::ShaderModule {
+        self.device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            })
+    }
+
+    /// A compute pipeline with an automatically derived layout.
+    pub fn compute_pipeline(
+        &self,
+        label: &str,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+    ) -> wgpu::ComputePipeline {
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait_idle(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map(|_| ())
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))
+    }
+}

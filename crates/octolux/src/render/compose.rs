@@ -1,0 +1,88 @@
+//! Compose and tone map (`compose.wgsl`): direct + albedo/pi x indirect irradiance, then
+//! exposure, the filmic curve and sRGB encoding for display.
+
+use super::direct::{dispatch_2d, tex};
+use super::gbuffer::{target, GBuffer};
+use crate::gpu::{GpuContext, PassTimer};
+
+const OWNER: &str = "compose";
+
+/// Compose pass and its HDR and display outputs.
+pub(crate) struct Compose {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    bind_group: Option<wgpu::BindGroup>,
+    pub hdr: wgpu::Texture,
+    hdr_view: wgpu::TextureView,
+    pub ldr: wgpu::Texture,
+    ldr_view: wgpu::TextureView,
+}
+
+impl Compose {
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Compose {
+        let source = [include_str!("common.wgsl"), include_str!("compose.wgsl")].concat();
+        let module = ctx.shader("compose", &source);
+        let pipeline = ctx.compute_pipeline("compose", &module, "main");
+        let layout = pipeline.get_bind_group_layout(0);
+        let usage = wgpu::TextureUsages::STORAGE_BINDING;
+        let (hdr, hdr_view) = target(
+            ctx,
+            OWNER,
+            "hdr",
+            width,
+            height,
+            wgpu::TextureFormat::Rgba32Float,
+            usage,
+        );
+        let (ldr, ldr_view) = target(
+            ctx,
+            OWNER,
+            "ldr",
+            width,
+            height,
+            wgpu::TextureFormat::Rgba8Unorm,
+            usage,
+        );
+        Compose {
+            pipeline,
+            layout,
+            bind_group: None,
+            hdr,
+            hdr_view,
+            ldr,
+            ldr_view,
+        }
+    }
+
+    /// (Re)binds the inputs; called when the GI technique (and so its output) changes.
+    pub fn bind(
+        &mut self,
+        ctx: &GpuContext,
+        camera: &wgpu::Buffer,
+        direct: &wgpu::TextureView,
+        gbuffer: &GBuffer,
+        indirect: &wgpu::TextureView,
+    ) {
+        self.bind_group = Some(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("compose"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: camera.as_entire_binding(),
+                },
+                tex(1, direct),
+                tex(2, &gbuffer.albedo_view),
+                tex(3, indirect),
+                tex(4, &self.hdr_view),
+                tex(5, &self.ldr_view),
+            ],
+        }));
+    }
+
+    pub fn render(&self, timer: &mut PassTimer, width: u32, height: u32) {
+        if let Some(group) = &self.bind_group {
+            dispatch_2d(timer, "compose", &self.pipeline, group, width, height);
+        }
+    }
+}

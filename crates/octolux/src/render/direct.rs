@@ -1,0 +1,151 @@
+//! Deferred direct lighting (`direct.wgsl`): emission plus the Lambertian response to every
+//! light, shadowed through the shadow-map array.
+
+use super::gbuffer::{target, GBuffer};
+use super::shadow::ShadowMaps;
+use crate::gpu::{GpuContext, PassTimer};
+use bytemuck::{Pod, Zeroable};
+
+const OWNER: &str = "direct";
+
+/// One light as `direct.wgsl` reads it.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable, Default)]
+pub(crate) struct GpuLight {
+    pub position_kind: [f32; 4],
+    pub direction_cos_inner: [f32; 4],
+    pub radiant_cos_outer: [f32; 4],
+    pub shadow: [f32; 4],
+}
+
+/// Direct-light pass and its output.
+pub(crate) struct DirectLight {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    pub output: wgpu::Texture,
+    pub output_view: wgpu::TextureView,
+    lights: wgpu::Buffer,
+    shadow_matrices: wgpu::Buffer,
+}
+
+impl DirectLight {
+    pub fn new(
+        ctx: &GpuContext,
+        camera: &wgpu::Buffer,
+        gbuffer: &GBuffer,
+        shadows: &ShadowMaps,
+        width: u32,
+        height: u32,
+    ) -> DirectLight {
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        let lights = ctx.create_buffer_init(
+            OWNER,
+            "lights",
+            &vec![0u8; shadows.slots.len().max(1) * std::mem::size_of::<GpuLight>()],
+            storage,
+        );
+        let shadow_matrices = ctx.create_buffer_init(
+            OWNER,
+            "shadow matrices",
+            &vec![0u8; shadows.layer_count.max(1) as usize * 64],
+            storage,
+        );
+        let source = [include_str!("common.wgsl"), include_str!("direct.wgsl")].concat();
+        let module = ctx.shader("direct", &source);
+        let pipeline = ctx.compute_pipeline("direct", &module, "main");
+        let (output, output_view) = target(
+            ctx,
+            OWNER,
+            "direct radiance",
+            width,
+            height,
+            wgpu::TextureFormat::Rgba16Float,
+            wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("direct"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: camera.as_entire_binding(),
+                },
+                tex(1, &gbuffer.albedo_view),
+                tex(2, &gbuffer.normal_view),
+                tex(3, &gbuffer.emission_view),
+                tex(4, &gbuffer.depth_view),
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: lights.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: shadow_matrices.as_entire_binding(),
+                },
+                tex(7, &shadows.array_view),
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: wgpu::BindingResource::Sampler(&shadows.sampler),
+                },
+                tex(9, &output_view),
+            ],
+        });
+        DirectLight {
+            pipeline,
+            bind_group,
+            output,
+            output_view,
+            lights,
+            shadow_matrices,
+        }
+    }
+
+    /// Uploads this frame's lights and shadow-layer matrices (column-major 4x4).
+    pub fn upload(&self, queue: &wgpu::Queue, lights: &[GpuLight], matrices: &[[f32; 16]]) {
+        if !lights.is_empty() {
+            queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(lights));
+        }
+        if !matrices.is_empty() {
+            queue.write_buffer(&self.shadow_matrices, 0, bytemuck::cast_slice(matrices));
+        }
+    }
+
+    pub fn render(&self, timer: &mut PassTimer, width: u32, height: u32) {
+        dispatch_2d(
+            timer,
+            "direct light",
+            &self.pipeline,
+            &self.bind_group,
+            width,
+            height,
+        );
+    }
+}
+
+/// A texture-view bind group entry.
+pub(crate) fn tex(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: wgpu::BindingResource::TextureView(view),
+    }
+}
+
+/// Runs an 8x8-workgroup compute pass over every pixel.
+pub(crate) fn dispatch_2d(
+    timer: &mut PassTimer,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    bind_group: &wgpu::BindGroup,
+    width: u32,
+    height: u32,
+) {
+    timer.pass(name, |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(name),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
+    });
+}

@@ -1,0 +1,168 @@
+//! The G-buffer: albedo, world normal (facing the viewer) and emission in `Rgba16Float`, depth
+//! in `Depth32Float`. World positions are reconstructed from depth (`common.wgsl`), which keeps
+//! the colour attachments within the 32 bytes per pixel every adapter allows.
+
+use super::scene_gpu::{SceneGpu, VERTEX_LAYOUT};
+use crate::gpu::{GpuContext, PassTimer};
+
+const OWNER: &str = "gbuffer";
+/// Format of the albedo, normal and emission targets.
+pub const GBUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// G-buffer targets. GI techniques read these (the boundary of DESIGN.md §2).
+pub struct GBuffer {
+    /// Linear albedo (rgb), a = 1 where there is geometry.
+    pub albedo: wgpu::Texture,
+    /// World-space unit normal (xyz), facing the camera.
+    pub normal: wgpu::Texture,
+    /// Emitted radiance (rgb).
+    pub emission: wgpu::Texture,
+    /// Depth, 0..1 (1 = background).
+    pub depth: wgpu::Texture,
+    /// Views of the above.
+    pub albedo_view: wgpu::TextureView,
+    /// View of `normal`.
+    pub normal_view: wgpu::TextureView,
+    /// View of `emission`.
+    pub emission_view: wgpu::TextureView,
+    /// View of `depth`.
+    pub depth_view: wgpu::TextureView,
+    pipeline: wgpu::RenderPipeline,
+}
+
+pub(crate) fn target(
+    ctx: &GpuContext,
+    owner: &str,
+    label: &str,
+    width: u32,
+    height: u32,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> (wgpu::Texture, wgpu::TextureView) {
+    let texture = ctx.create_texture(
+        owner,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: usage | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        },
+    );
+    let view = texture.create_view(&Default::default());
+    (texture, view)
+}
+
+impl GBuffer {
+    pub(crate) fn new(ctx: &GpuContext, scene_gpu: &SceneGpu, width: u32, height: u32) -> GBuffer {
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+        let (albedo, albedo_view) =
+            target(ctx, OWNER, "albedo", width, height, GBUFFER_FORMAT, usage);
+        let (normal, normal_view) =
+            target(ctx, OWNER, "normal", width, height, GBUFFER_FORMAT, usage);
+        let (emission, emission_view) =
+            target(ctx, OWNER, "emission", width, height, GBUFFER_FORMAT, usage);
+        let (depth, depth_view) = target(
+            ctx,
+            OWNER,
+            "depth",
+            width,
+            height,
+            wgpu::TextureFormat::Depth32Float,
+            usage,
+        );
+        let module = ctx.shader("gbuffer", include_str!("gbuffer.wgsl"));
+        let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
+        let color = Some(wgpu::ColorTargetState {
+            format: GBUFFER_FORMAT,
+            blend: None,
+            write_mask: wgpu::ColorWrites::ALL,
+        });
+        let pipeline = ctx
+            .device
+            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("gbuffer"),
+                layout: Some(&layout),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(VERTEX_LAYOUT)],
+                },
+                primitive: wgpu::PrimitiveState::default(),
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: wgpu::TextureFormat::Depth32Float,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Less),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_gbuffer"),
+                    compilation_options: Default::default(),
+                    targets: &[color.clone(), color.clone(), color],
+                }),
+                multiview_mask: None,
+                cache: None,
+            });
+        GBuffer {
+            albedo,
+            normal,
+            emission,
+            depth,
+            albedo_view,
+            normal_view,
+            emission_view,
+            depth_view,
+            pipeline,
+        }
+    }
+
+    /// Rasterises the scene; view uniform 0 must hold the camera.
+    pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu) {
+        timer.pass("gbuffer", |encoder, stamps| {
+            let clear = |view| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })
+            };
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("gbuffer"),
+                color_attachments: &[
+                    clear(&self.albedo_view),
+                    clear(&self.normal_view),
+                    clear(&self.emission_view),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: stamps.render(),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &scene_gpu.view_group, &[0]);
+            scene_gpu.draw(&mut pass);
+        });
+    }
+}

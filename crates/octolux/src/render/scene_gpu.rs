@@ -1,0 +1,390 @@
+//! Scene data on the GPU: vertex/index buffers per mesh, a bind group per material, per-object
+//! transforms (one uniform buffer, dynamic offsets) and the view uniforms used by the camera and
+//! every shadow-map layer.
+
+use crate::gpu::GpuContext;
+use crate::scene::{AlphaMode, Scene};
+use crate::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec4};
+
+const OWNER: &str = "scene";
+/// Uniform-buffer dynamic offsets must be multiples of this on every adapter we target.
+pub(crate) const UNIFORM_STRIDE: u64 = 256;
+
+/// Interleaved vertex layout: position, normal, uv.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct Vertex {
+    position: [f32; 3],
+    normal: [f32; 3],
+    uv: [f32; 2],
+}
+
+pub(crate) const VERTEX_LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+    array_stride: std::mem::size_of::<Vertex>() as u64,
+    step_mode: wgpu::VertexStepMode::Vertex,
+    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2],
+};
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct MaterialUniform {
+    base_color: [f32; 4],
+    emission: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ObjectUniform {
+    model: [[f32; 4]; 4],
+    normal_matrix: [[f32; 4]; 4],
+}
+
+/// View uniform for rasterisation (camera or shadow layer).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct ViewUniform {
+    pub view_proj: [[f32; 4]; 4],
+    pub position: [f32; 4],
+}
+
+pub(crate) struct GpuMesh {
+    pub vertices: wgpu::Buffer,
+    pub indices: wgpu::Buffer,
+    pub index_count: u32,
+    pub material: usize,
+}
+
+/// Bind group layouts shared by every rasterisation pass.
+pub(crate) struct RasterLayouts {
+    pub view: wgpu::BindGroupLayout,
+    pub material: wgpu::BindGroupLayout,
+    pub object: wgpu::BindGroupLayout,
+}
+
+impl RasterLayouts {
+    fn new(device: &wgpu::Device) -> RasterLayouts {
+        let uniform = |dynamic: bool, visibility| wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: dynamic,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        RasterLayouts {
+            view: device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("view"),
+                entries: &[uniform(true, vf)],
+            }),
+            object: device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("object"),
+                entries: &[uniform(true, wgpu::ShaderStages::VERTEX)],
+            }),
+            material: device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("material"),
+                entries: &[
+                    uniform(false, wgpu::ShaderStages::FRAGMENT),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 1,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Texture {
+                            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                            multisampled: false,
+                        },
+                        count: None,
+                    },
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 2,
+                        visibility: wgpu::ShaderStages::FRAGMENT,
+                        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                        count: None,
+                    },
+                ],
+            }),
+        }
+    }
+
+    pub fn pipeline_layout(&self, device: &wgpu::Device) -> wgpu::PipelineLayout {
+        device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("raster"),
+            bind_group_layouts: &[Some(&self.view), Some(&self.material), Some(&self.object)],
+            immediate_size: 0,
+        })
+    }
+}
+
+/// The scene's GPU resources.
+pub(crate) struct SceneGpu {
+    pub layouts: RasterLayouts,
+    pub meshes: Vec<GpuMesh>,
+    pub materials: Vec<wgpu::BindGroup>,
+    /// Per object: indices into `meshes`.
+    pub object_meshes: Vec<Vec<usize>>,
+    objects: wgpu::Buffer,
+    pub object_group: wgpu::BindGroup,
+    pub views: wgpu::Buffer,
+    pub view_group: wgpu::BindGroup,
+}
+
+impl SceneGpu {
+    /// Uploads `scene`; `view_capacity` is how many view uniforms (camera + shadow layers) fit.
+    pub fn new(ctx: &GpuContext, scene: &Scene, view_capacity: u32) -> Result<SceneGpu> {
+        let device = &ctx.device;
+        let layouts = RasterLayouts::new(device);
+        let max_buffer = device.limits().max_buffer_size;
+        let mut meshes = Vec::with_capacity(scene.meshes.len());
+        for (i, mesh) in scene.meshes.iter().enumerate() {
+            let vertices: Vec<Vertex> = (0..mesh.positions.len())
+                .map(|v| Vertex {
+                    position: mesh.positions[v].to_array(),
+                    normal: mesh.normals.get(v).copied().unwrap_or_default().to_array(),
+                    uv: mesh.uvs.get(v).copied().unwrap_or_default().to_array(),
+                })
+                .collect();
+            let bytes: &[u8] = bytemuck::cast_slice(&vertices);
+            if bytes.len() as u64 > max_buffer {
+                return Err(Error::Gpu(format!(
+                    "mesh '{}' needs a {} MiB vertex buffer, more than the adapter allows",
+                    mesh.name,
+                    bytes.len() >> 20
+                )));
+            }
+            meshes.push(GpuMesh {
+                vertices: ctx.create_buffer_init(
+                    OWNER,
+                    &format!("vertices {i}"),
+                    bytes,
+                    wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
+                ),
+                indices: ctx.create_buffer_init(
+                    OWNER,
+                    &format!("indices {i}"),
+                    bytemuck::cast_slice(&mesh.indices),
+                    wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
+                ),
+                index_count: mesh.indices.len() as u32,
+                material: mesh.material as usize,
+            });
+        }
+
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("material"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let max_dim = device.limits().max_texture_dimension_2d;
+        let mut textures = Vec::with_capacity(scene.textures.len());
+        for (i, tex) in scene.textures.iter().enumerate() {
+            if tex.width == 0 || tex.height == 0 || tex.width > max_dim || tex.height > max_dim {
+                return Err(Error::Gpu(format!(
+                    "texture '{}' is {}x{}; the adapter allows 1..{max_dim} per side",
+                    tex.name, tex.width, tex.height
+                )));
+            }
+            textures.push(upload_rgba8(
+                ctx,
+                &format!("texture {i}"),
+                tex.width,
+                tex.height,
+                &tex.rgba,
+            ));
+        }
+        let white = upload_rgba8(ctx, "white", 1, 1, &[255; 4]);
+        let materials = scene
+            .materials
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let texture = m.base_color_texture.and_then(|t| textures.get(t as usize));
+                let cutoff = match m.alpha_mode {
+                    AlphaMode::Opaque => -1.0,
+                    AlphaMode::Mask(c) => c,
+                };
+                let uniform = MaterialUniform {
+                    base_color: m.base_color.extend(cutoff).to_array(),
+                    emission: m
+                        .emission
+                        .extend(if texture.is_some() { 1.0 } else { 0.0 })
+                        .to_array(),
+                };
+                let buffer = ctx.create_buffer_init(
+                    OWNER,
+                    &format!("material {i}"),
+                    bytemuck::bytes_of(&uniform),
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                let view = texture.unwrap_or(&white);
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(&m.name),
+                    layout: &layouts.material,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: buffer.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: wgpu::BindingResource::Sampler(&sampler),
+                        },
+                    ],
+                })
+            })
+            .collect();
+
+        let object_count = scene.objects.len().max(1) as u64;
+        let objects = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("object transforms"),
+                size: object_count * UNIFORM_STRIDE,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let object_group = dynamic_group(device, &layouts.object, &objects, 128);
+        let views = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("view uniforms"),
+                size: view_capacity as u64 * UNIFORM_STRIDE,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let view_group = dynamic_group(device, &layouts.view, &views, 80);
+        Ok(SceneGpu {
+            layouts,
+            meshes,
+            materials,
+            object_meshes: scene
+                .objects
+                .iter()
+                .map(|o| o.meshes.iter().map(|&m| m as usize).collect())
+                .collect(),
+            objects,
+            object_group,
+            views,
+            view_group,
+        })
+    }
+
+    /// Uploads this frame's object transforms.
+    pub fn update_objects(&self, queue: &wgpu::Queue, transforms: &[Mat4]) {
+        let mut data = vec![0u8; transforms.len() * UNIFORM_STRIDE as usize];
+        for (i, m) in transforms.iter().enumerate() {
+            let u = ObjectUniform {
+                model: m.to_cols_array_2d(),
+                normal_matrix: m.inverse().transpose().to_cols_array_2d(),
+            };
+            let start = i * UNIFORM_STRIDE as usize;
+            data[start..start + 128].copy_from_slice(bytemuck::bytes_of(&u));
+        }
+        if !data.is_empty() {
+            queue.write_buffer(&self.objects, 0, &data);
+        }
+    }
+
+    /// Uploads view uniforms (index 0 = camera, then shadow layers).
+    pub fn update_views(&self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
+        let mut data = vec![0u8; views.len() * UNIFORM_STRIDE as usize];
+        for (i, (view_proj, position)) in views.iter().enumerate() {
+            let u = ViewUniform {
+                view_proj: view_proj.to_cols_array_2d(),
+                position: position.to_array(),
+            };
+            let start = i * UNIFORM_STRIDE as usize;
+            data[start..start + 80].copy_from_slice(bytemuck::bytes_of(&u));
+        }
+        queue.write_buffer(&self.views, 0, &data);
+    }
+
+    /// Draws every object with the bound pipeline; view group 0 must already be set.
+    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
+        for (o, meshes) in self.object_meshes.iter().enumerate() {
+            pass.set_bind_group(2, &self.object_group, &[(o as u64 * UNIFORM_STRIDE) as u32]);
+            for &m in meshes {
+                let mesh = &self.meshes[m];
+                pass.set_bind_group(1, &self.materials[mesh.material], &[]);
+                pass.set_vertex_buffer(0, mesh.vertices.slice(..));
+                pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+            }
+        }
+    }
+}
+
+fn dynamic_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    buffer: &wgpu::Buffer,
+    size: u64,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout,
+        entries: &[wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer,
+                offset: 0,
+                size: wgpu::BufferSize::new(size),
+            }),
+        }],
+    })
+}
+
+fn upload_rgba8(
+    ctx: &GpuContext,
+    label: &str,
+    width: u32,
+    height: u32,
+    rgba: &[u8],
+) -> wgpu::TextureView {
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    let texture = ctx.create_texture(
+        OWNER,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8UnormSrgb,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        },
+    );
+    ctx.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        rgba,
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(width * 4),
+            rows_per_image: Some(height),
+        },
+        size,
+    );
+    texture.create_view(&Default::default())
+}
