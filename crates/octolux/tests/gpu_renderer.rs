@@ -185,7 +185,7 @@ fn point_light_irradiance_matches_inverse_square_law() {
     let mut renderer = Renderer::new(&ctx, &scene, settings(w, h)).unwrap();
     renderer.render(&scene, 0.0).unwrap();
     let direct = renderer.read_direct().unwrap();
-    let view = renderer.last_view().unwrap().clone();
+    let view = *renderer.last_view().unwrap();
     let mut checked = 0;
     for y in 0..h {
         for x in 0..w {
@@ -245,7 +245,7 @@ fn check_shadows(light: Light) {
     let mut renderer = Renderer::new(&ctx, &scene, settings(w, h)).unwrap();
     renderer.render(&scene, 0.0).unwrap();
     let direct = renderer.read_direct().unwrap();
-    let view = renderer.last_view().unwrap().clone();
+    let view = *renderer.last_view().unwrap();
     let margin = Vec3::splat(0.08);
     let (mut shadowed, mut lit) = (0, 0);
     for y in 0..h {
