@@ -179,6 +179,7 @@ impl SceneGpu {
             address_mode_v: wgpu::AddressMode::Repeat,
             mag_filter: wgpu::FilterMode::Linear,
             min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
             ..Default::default()
         });
         let max_dim = device.limits().max_texture_dimension_2d;
@@ -346,6 +347,40 @@ fn dynamic_group(
     })
 }
 
+/// Halves an RGBA8 image with a 2x2 box filter, averaging colour in linear light (the texture
+/// is sRGB) and alpha linearly. Odd edges repeat their last texel.
+pub(crate) fn downsample_srgb(width: u32, height: u32, rgba: &[u8]) -> (u32, u32, Vec<u8>) {
+    let (w, h) = ((width / 2).max(1), (height / 2).max(1));
+    let to_linear = |v: u8| crate::scene::srgb_to_linear(v as f32 / 255.0);
+    let mut out = Vec::with_capacity((w * h * 4) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = [0.0f32; 4];
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                let sx = (2 * x + dx).min(width - 1);
+                let sy = (2 * y + dy).min(height - 1);
+                let i = ((sy * width + sx) * 4) as usize;
+                for c in 0..3 {
+                    sum[c] += to_linear(rgba[i + c]);
+                }
+                sum[3] += rgba[i + 3] as f32 / 255.0;
+            }
+            for (c, v) in sum.iter().enumerate() {
+                let v = v / 4.0;
+                let encoded = if c < 3 {
+                    crate::image_io::linear_to_srgb(v)
+                } else {
+                    v
+                };
+                out.push((encoded * 255.0 + 0.5).clamp(0.0, 255.0) as u8);
+            }
+        }
+    }
+    (w, h, out)
+}
+
+/// Uploads an sRGB RGBA8 image with a full mip chain (trilinear filtering keeps distant
+/// textured surfaces from aliasing).
 fn upload_rgba8(
     ctx: &GpuContext,
     label: &str,
@@ -353,17 +388,17 @@ fn upload_rgba8(
     height: u32,
     rgba: &[u8],
 ) -> wgpu::TextureView {
-    let size = wgpu::Extent3d {
-        width,
-        height,
-        depth_or_array_layers: 1,
-    };
+    let levels = 32 - width.max(height).leading_zeros();
     let texture = ctx.create_texture(
         OWNER,
         &wgpu::TextureDescriptor {
             label: Some(label),
-            size,
-            mip_level_count: 1,
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: levels,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: wgpu::TextureFormat::Rgba8UnormSrgb,
@@ -371,20 +406,54 @@ fn upload_rgba8(
             view_formats: &[],
         },
     );
-    ctx.queue.write_texture(
-        wgpu::TexelCopyTextureInfo {
-            texture: &texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        rgba,
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(width * 4),
-            rows_per_image: Some(height),
-        },
-        size,
-    );
+    let mut level_data = (width, height, rgba.to_vec());
+    for level in 0..levels {
+        let (w, h, data) = &level_data;
+        ctx.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: level,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            data,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 4),
+                rows_per_image: Some(*h),
+            },
+            wgpu::Extent3d {
+                width: *w,
+                height: *h,
+                depth_or_array_layers: 1,
+            },
+        );
+        if level + 1 < levels {
+            level_data = downsample_srgb(*w, *h, data);
+        }
+    }
     texture.create_view(&Default::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn downsample_averages_in_linear_light() {
+        // Black and white average to linear 0.5, which is sRGB 188.
+        let rgba = [
+            0, 0, 0, 0, 255, 255, 255, 255, 0, 0, 0, 0, 255, 255, 255, 255,
+        ];
+        let (w, h, out) = downsample_srgb(2, 2, &rgba);
+        assert_eq!((w, h), (1, 1));
+        assert_eq!(out, vec![188, 188, 188, 128]);
+        // Odd sizes: 3x1 -> 1x1 uses the first two texels.
+        let (w, h, out) = downsample_srgb(
+            3,
+            1,
+            &[10, 10, 10, 255, 10, 10, 10, 255, 200, 200, 200, 255],
+        );
+        assert_eq!((w, h, out), (1, 1, vec![10, 10, 10, 255]));
+    }
 }

@@ -19,7 +19,7 @@ mod validate;
 
 pub use animation::{Keyframe, Track};
 pub use camera::{Camera, CameraView};
-pub use texture::Texture;
+pub use texture::{srgb_to_linear, Texture};
 pub use validate::validate;
 
 use crate::{Error, Result};
