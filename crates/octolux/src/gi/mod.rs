@@ -9,7 +9,7 @@ mod none;
 pub use none::NoGi;
 
 use crate::gpu::{GpuContext, PassTimer};
-use crate::render::GBuffer;
+use crate::render::{GBuffer, LayerView, SceneGpu, ShadowMaps};
 use crate::scene::{CameraView, Scene, SceneFrame};
 use crate::{Error, Result};
 
@@ -25,6 +25,15 @@ pub struct GiFrame<'a> {
     pub gbuffer: &'a GBuffer,
     /// The camera uniform (`Camera` in `render/common.wgsl`).
     pub camera_uniform: &'a wgpu::Buffer,
+    /// The scene on the GPU: techniques rasterise it with their own pipelines (RSMs,
+    /// voxelisation) through [`SceneGpu::draw`]; view uniform `1 + i` holds shadow layer `i`.
+    pub scene_gpu: &'a SceneGpu,
+    /// Shadow maps of this frame (already rendered).
+    pub shadows: &'a ShadowMaps,
+    /// Per shadow layer: view-projection and texel footprint, in layer order.
+    pub shadow_layers: &'a [LayerView],
+    /// The lights as `render/direct.wgsl` reads them (`array<Light>`), one per scene light.
+    pub lights: &'a wgpu::Buffer,
 }
 
 /// A GI technique: owns its GPU state, updates it each frame and outputs indirect irradiance.

@@ -24,7 +24,7 @@ pub(crate) struct DirectLight {
     bind_group: wgpu::BindGroup,
     pub output: wgpu::Texture,
     pub output_view: wgpu::TextureView,
-    lights: wgpu::Buffer,
+    pub lights: wgpu::Buffer,
     shadow_matrices: wgpu::Buffer,
 }
 

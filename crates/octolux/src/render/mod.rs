@@ -7,11 +7,12 @@
 mod compose;
 mod direct;
 mod gbuffer;
-mod scene_gpu;
+pub(crate) mod scene_gpu;
 mod shadow;
 
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
-pub use shadow::ShadowMaps;
+pub use scene_gpu::SceneGpu;
+pub use shadow::{LayerView, ShadowMaps};
 
 use crate::gi::{self, GiFrame, GiTechnique};
 use crate::gpu::{read_texture, GpuContext, PassTimer, PassTiming};
@@ -251,6 +252,10 @@ impl Renderer {
             view: &view,
             gbuffer: &self.gbuffer,
             camera_uniform: &self.camera_uniform,
+            scene_gpu: &self.scene_gpu,
+            shadows: &self.shadows,
+            shadow_layers: &layers,
+            lights: &self.direct.lights,
         };
         self.gi.update(&self.ctx, &gi_frame, &mut self.timer)?;
         self.compose.render(&mut self.timer, w, h);

@@ -119,22 +119,24 @@ impl RasterLayouts {
     }
 }
 
-/// The scene's GPU resources.
-pub(crate) struct SceneGpu {
-    pub layouts: RasterLayouts,
-    pub meshes: Vec<GpuMesh>,
-    pub materials: Vec<wgpu::BindGroup>,
+/// The scene's GPU resources: meshes, materials, object transforms and view uniforms.
+/// Techniques that rasterise the scene (RSMs, voxelisation) build pipelines with
+/// `layouts.pipeline_layout()` and the vertex layout `VERTEX_LAYOUT`, then call `draw`.
+pub struct SceneGpu {
+    pub(crate) layouts: RasterLayouts,
+    pub(crate) meshes: Vec<GpuMesh>,
+    pub(crate) materials: Vec<wgpu::BindGroup>,
     /// Per object: indices into `meshes`.
-    pub object_meshes: Vec<Vec<usize>>,
+    pub(crate) object_meshes: Vec<Vec<usize>>,
     objects: wgpu::Buffer,
-    pub object_group: wgpu::BindGroup,
-    pub views: wgpu::Buffer,
-    pub view_group: wgpu::BindGroup,
+    pub(crate) object_group: wgpu::BindGroup,
+    pub(crate) views: wgpu::Buffer,
+    pub(crate) view_group: wgpu::BindGroup,
 }
 
 impl SceneGpu {
     /// Uploads `scene`; `view_capacity` is how many view uniforms (camera + shadow layers) fit.
-    pub fn new(ctx: &GpuContext, scene: &Scene, view_capacity: u32) -> Result<SceneGpu> {
+    pub(crate) fn new(ctx: &GpuContext, scene: &Scene, view_capacity: u32) -> Result<SceneGpu> {
         let device = &ctx.device;
         let layouts = RasterLayouts::new(device);
         let max_buffer = device.limits().max_buffer_size;
@@ -283,7 +285,7 @@ impl SceneGpu {
     }
 
     /// Uploads this frame's object transforms.
-    pub fn update_objects(&self, queue: &wgpu::Queue, transforms: &[Mat4]) {
+    pub(crate) fn update_objects(&self, queue: &wgpu::Queue, transforms: &[Mat4]) {
         let mut data = vec![0u8; transforms.len() * UNIFORM_STRIDE as usize];
         for (i, m) in transforms.iter().enumerate() {
             let u = ObjectUniform {
@@ -299,7 +301,7 @@ impl SceneGpu {
     }
 
     /// Uploads view uniforms (index 0 = camera, then shadow layers).
-    pub fn update_views(&self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
+    pub(crate) fn update_views(&self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
         let mut data = vec![0u8; views.len() * UNIFORM_STRIDE as usize];
         for (i, (view_proj, position)) in views.iter().enumerate() {
             let u = ViewUniform {
@@ -313,7 +315,7 @@ impl SceneGpu {
     }
 
     /// Draws every object with the bound pipeline; view group 0 must already be set.
-    pub fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
+    pub(crate) fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
         for (o, meshes) in self.object_meshes.iter().enumerate() {
             pass.set_bind_group(2, &self.object_group, &[(o as u64 * UNIFORM_STRIDE) as u32]);
             for &m in meshes {

@@ -19,10 +19,12 @@ pub(crate) struct ShadowSlot {
 
 /// View-projection and texel footprint of one shadow layer.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct LayerView {
+pub struct LayerView {
+    /// World to clip of this layer.
     pub view_proj: Mat4,
     /// World size of a texel per metre of distance (perspective) or absolute (orthographic).
     pub texel: f32,
+    /// Orthographic (directional light) or perspective.
     pub orthographic: bool,
 }
 
