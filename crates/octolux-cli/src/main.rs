@@ -1,6 +1,7 @@
 //! `octolux`: render scenes with a GI technique or the reference path tracer, compare images
 //! and benchmark techniques against the reference.
 
+mod gi_args;
 mod render;
 mod stats;
 

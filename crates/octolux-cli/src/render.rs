@@ -55,6 +55,9 @@ pub struct RenderArgs {
     /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
     #[arg(long)]
     pub no_timestamps: bool,
+    /// Technique settings.
+    #[command(flatten)]
+    pub gi_args: crate::gi_args::GiArgs,
 }
 
 /// Loads the scene named on the command line, or the built-in Cornell box.
@@ -143,6 +146,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         shadow_map_size: args.shadow_map_size,
         camera: args.camera,
         gi: args.gi.clone(),
+        gi_settings: {
+            let mut s = octolux::gi::GiSettings::default();
+            args.gi_args.apply(&mut s);
+            s
+        },
     };
     let start = std::time::Instant::now();
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;

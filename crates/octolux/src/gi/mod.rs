@@ -47,6 +47,24 @@ pub trait GiTechnique {
     fn indirect_view(&self) -> &wgpu::TextureView;
 }
 
+/// Settings of every technique, one field per technique family, each with documented defaults.
+/// Filled from the command line (`octolux render --gi lpv --lpv-size 32 ...`) and from a scene
+/// file's `[settings]` table.
+#[derive(Clone, Debug, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GiSettings {}
+
+impl GiSettings {
+    /// Reads settings from a scene file's `[settings]` table; unknown keys are errors.
+    pub fn from_table(table: &toml::Table, origin: &std::path::Path) -> Result<GiSettings> {
+        toml::Value::Table(table.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| {
+                Error::parse(origin, format!("[settings]: {}", e.message()))
+            })
+    }
+}
+
 /// The GPU techniques that can be selected by name.
 pub const TECHNIQUES: &[&str] = &["none"];
 
@@ -55,6 +73,7 @@ pub fn create(
     name: &str,
     ctx: &GpuContext,
     _scene: &Scene,
+    _settings: &GiSettings,
     width: u32,
     height: u32,
 ) -> Result<Box<dyn GiTechnique>> {

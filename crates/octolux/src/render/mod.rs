@@ -60,6 +60,8 @@ pub struct RenderSettings {
     pub camera: usize,
     /// GI technique name (see [`gi::TECHNIQUES`]).
     pub gi: String,
+    /// Settings of the GI techniques.
+    pub gi_settings: gi::GiSettings,
 }
 
 impl Default for RenderSettings {
@@ -70,6 +72,7 @@ impl Default for RenderSettings {
             shadow_map_size: 2048,
             camera: 0,
             gi: "none".into(),
+            gi_settings: gi::GiSettings::default(),
         }
     }
 }
@@ -146,7 +149,7 @@ impl Renderer {
             wgpu::BufferUsages::UNIFORM,
         );
         let direct = direct::DirectLight::new(ctx, &camera_uniform, &gbuffer, &shadows, w, h);
-        let gi = gi::create(&settings.gi, ctx, scene, w, h)?;
+        let gi = gi::create(&settings.gi, ctx, scene, &settings.gi_settings, w, h)?;
         let mut compose = compose::Compose::new(ctx, w, h);
         compose.bind(
             ctx,
