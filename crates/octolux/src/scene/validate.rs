@@ -26,6 +26,12 @@ pub fn validate(scene: &mut Scene) -> Result<()> {
                 mesh.name, mesh.positions[i]
             )));
         }
+        if let Some(&i) = mesh.indices.iter().find(|&&i| i as usize >= n) {
+            return Err(err(format!(
+                "mesh '{}': index {i} out of range (mesh has {n} vertices)",
+                mesh.name
+            )));
+        }
         if mesh.normals.len() != n {
             mesh.compute_normals();
         }
@@ -41,12 +47,6 @@ pub fn validate(scene: &mut Scene) -> Result<()> {
         if let Some(i) = mesh.uvs.iter().position(|v| !v.is_finite()) {
             return Err(err(format!(
                 "mesh '{}': vertex {i} has a non-finite UV",
-                mesh.name
-            )));
-        }
-        if let Some(&i) = mesh.indices.iter().find(|&&i| i as usize >= n) {
-            return Err(err(format!(
-                "mesh '{}': index {i} out of range (mesh has {n} vertices)",
                 mesh.name
             )));
         }
