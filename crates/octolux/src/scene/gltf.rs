@@ -152,12 +152,18 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
                         };
                         let set = texture_sets.get(material as usize).copied().unwrap_or(0);
                         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                        let Some(positions) = reader.read_positions() else {
+                        if primitive.get(&gltf::Semantic::Positions).is_none() {
                             log::warn!(
                                 "{}: primitive {mesh_name} has no positions; skipped",
                                 path.display()
                             );
                             continue;
+                        }
+                        let Some(positions) = reader.read_positions() else {
+                            return Err(Error::parse(
+                                path,
+                                format!("primitive {mesh_name}: POSITION accessor lies outside its buffer"),
+                            ));
                         };
                         let positions: Vec<Vec3> = positions.map(Vec3::from).collect();
                         let n = positions.len();
@@ -171,6 +177,12 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
                             .unwrap_or_default();
                         let indices: Vec<u32> = match reader.read_indices() {
                             Some(it) => it.into_u32().collect(),
+                            None if primitive.indices().is_some() => {
+                                return Err(Error::parse(
+                                    path,
+                                    format!("primitive {mesh_name}: index accessor lies outside its buffer"),
+                                ));
+                            }
                             None => (0..n as u32).collect(),
                         };
                         let mut out = Mesh {

@@ -85,14 +85,14 @@ pub fn load(path: &Path) -> Result<Scene> {
 }
 
 impl Mesh {
-    /// Computes normals only when every index is in range; otherwise leaves them for
-    /// validation, which reports the bad index as an error.
+    /// Computes normals only when every index is in range; otherwise fills in placeholders
+    /// so that validation gets to report the bad index as an error.
     pub(crate) fn compute_normals_checked(&mut self) {
         let n = self.positions.len();
         if self.indices.iter().all(|&i| (i as usize) < n) {
             self.compute_normals();
         } else {
-            self.normals.clear();
+            self.normals = vec![Vec3::Y; n];
         }
     }
 }
