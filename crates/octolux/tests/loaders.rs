@@ -300,12 +300,17 @@ fn no_geometry_is_an_error() {
 }
 
 #[test]
-fn missing_file_and_unknown_extension() {
+fn missing_file_is_an_error() {
     let dir = temp_dir("missing");
     match Scene::load(dir.join("nothere.obj")) {
         Err(e @ Error::Io { .. }) => assert!(e.to_string().contains("nothere.obj")),
         other => panic!("expected an I/O error, got {other:?}"),
     }
+}
+
+#[test]
+fn unknown_extension_is_an_error() {
+    let dir = temp_dir("unknown");
     let path = dir.join("model.xyz");
     write(&path, "whatever");
     let msg = expect_parse_error(Scene::load(&path), "model.xyz");
