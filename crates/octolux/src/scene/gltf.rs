@@ -1,10 +1,387 @@
-//! Loader placeholder, being written.
+//! glTF 2.0 loader (`.gltf` with external or embedded buffers, and `.glb`).
+//!
+//! - The default scene (or the first one) is walked with its node transforms; each node that
+//!   carries a mesh becomes an [`Object`] with the node's world transform. Each triangle
+//!   primitive becomes a [`Mesh`]; a mesh used by several nodes is converted once. Primitives in
+//!   other modes (points, lines, strips, fans) are skipped with a warning.
+//! - Materials: base colour factor (linear RGB; its alpha is ignored) and base colour texture
+//!   (sRGB, converted to RGBA8 whatever its pixel format, read with the texture's UV set);
+//!   alpha mode MASK keeps its cutoff, BLEND is treated as a 0.5 mask, OPAQUE ignores alpha;
+//!   emission = emissive factor x `KHR_materials_emissive_strength`, taken as radiance in
+//!   W/(m^2 sr). Other textures are ignored. A texture that cannot be read is a warning and
+//!   the factor is used alone.
+//! - `KHR_lights_punctual`: glTF gives point and spot intensity in candela (lm/sr) and
+//!   directional intensity in lux (lm/m^2). They are converted to radiometric units with the
+//!   luminous efficacy of 683 lm/W: W/sr = cd / 683 and W/m^2 = lx / 683. The colour is kept
+//!   as given. Spot cone angles are kept as half-angles; spot and directional lights shine
+//!   along the node's -Z axis. `range` is ignored (lights fall off with 1/d^2).
+//! - Perspective cameras: `yfov`, `znear`, `zfar` (an infinite projection gets a far plane of
+//!   10^5 x `znear`), placed at the node's world position looking along its -Z axis with its
+//!   +Y axis as up. Orthographic cameras are skipped with a warning.
 
-use super::Scene;
+use super::{AlphaMode, Camera, Light, LightKind, Material, Mesh, Object, Scene, Texture};
 use crate::{Error, Result};
+use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
+use std::collections::HashMap;
 use std::path::Path;
 
-/// Loads a scene from `path`.
+/// Luminous efficacy used to turn photometric glTF light units into radiometric ones (lm/W).
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Loads a `.gltf` or `.glb` file.
 pub fn load(path: &Path) -> Result<Scene> {
-    Err(Error::parse(path, "format not supported yet"))
+    let gltf =
+        gltf::Gltf::open(path).map_err(|e| Error::parse(path, format!("malformed glTF: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    // The glTF crate indexes by validated offsets, but a few of its accessors still assume
+    // well-formed data; a panic there is reported as a parse error.
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| convert(path, base, gltf)))
+        .unwrap_or_else(|_| {
+            Err(Error::parse(
+                path,
+                "malformed glTF (inconsistent buffers, accessors or references)",
+            ))
+        })
+}
+
+fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
+    let gltf::Gltf { document, blob } = gltf;
+    let buffers = gltf::import_buffers(&document, Some(base), blob)
+        .map_err(|e| Error::parse(path, format!("cannot load buffers: {e}")))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "gltf".into());
+    let mut scene = Scene {
+        name,
+        ..Scene::default()
+    };
+
+    // Images are decoded lazily, only for base colour textures.
+    let mut image_textures: HashMap<usize, Option<u32>> = HashMap::new();
+    let mut texture_sets: Vec<u32> = Vec::new();
+    for material in document.materials() {
+        let pbr = material.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        let mut texture = None;
+        let mut set = 0;
+        if let Some(info) = pbr.base_color_texture() {
+            set = info.tex_coord();
+            let image = info.texture().source();
+            texture = *image_textures.entry(image.index()).or_insert_with(|| {
+                match load_image(path, base, &image, &buffers) {
+                    Some(t) => {
+                        scene.textures.push(t);
+                        Some(scene.textures.len() as u32 - 1)
+                    }
+                    None => None,
+                }
+            });
+        }
+        texture_sets.push(set);
+        let strength = material.emissive_strength().unwrap_or(1.0);
+        scene.materials.push(Material {
+            name: material
+                .name()
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("material{}", scene.materials.len())),
+            base_color: Vec3::new(r, g, b),
+            base_color_texture: texture,
+            emission: Vec3::from(material.emissive_factor()) * strength,
+            alpha_mode: match material.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => {
+                    AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5))
+                }
+                gltf::material::AlphaMode::Blend => AlphaMode::Mask(0.5),
+            },
+        });
+    }
+    let mut default_material = None;
+
+    let Some(root) = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+    else {
+        return Err(Error::parse(path, "the glTF file has no scene"));
+    };
+    let mut converted: HashMap<usize, Vec<u32>> = HashMap::new();
+    let mut visited = vec![false; document.nodes().len()];
+    let mut stack: Vec<(gltf::Node, Mat4)> = root.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    stack.reverse();
+    while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            log::warn!(
+                "{}: node {} is reachable twice (cycle or shared child); visited once",
+                path.display(),
+                node.index()
+            );
+            continue;
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let node_name = node
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("node{}", node.index()));
+        if let Some(mesh) = node.mesh() {
+            let ids = match converted.get(&mesh.index()) {
+                Some(ids) => ids.clone(),
+                None => {
+                    let mut ids = Vec::new();
+                    for (p, primitive) in mesh.primitives().enumerate() {
+                        let mesh_name = format!(
+                            "{}/{p}",
+                            mesh.name()
+                                .map(str::to_string)
+                                .unwrap_or_else(|| format!("mesh{}", mesh.index()))
+                        );
+                        if primitive.mode() != gltf::mesh::Mode::Triangles {
+                            log::warn!(
+                                "{}: primitive {mesh_name} is not a triangle list ({:?}); skipped",
+                                path.display(),
+                                primitive.mode()
+                            );
+                            continue;
+                        }
+                        let material = match primitive.material().index() {
+                            Some(i) if i < scene.materials.len() => i as u32,
+                            _ => *default_material.get_or_insert_with(|| {
+                                scene.materials.push(Material::default());
+                                scene.materials.len() as u32 - 1
+                            }),
+                        };
+                        let set = texture_sets.get(material as usize).copied().unwrap_or(0);
+                        let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+                        if primitive.get(&gltf::Semantic::Positions).is_none() {
+                            log::warn!(
+                                "{}: primitive {mesh_name} has no positions; skipped",
+                                path.display()
+                            );
+                            continue;
+                        }
+                        let Some(positions) = reader.read_positions() else {
+                            return Err(Error::parse(
+                                path,
+                                format!("primitive {mesh_name}: POSITION accessor lies outside its buffer"),
+                            ));
+                        };
+                        let positions: Vec<Vec3> = positions.map(Vec3::from).collect();
+                        let n = positions.len();
+                        let normals: Vec<Vec3> = reader
+                            .read_normals()
+                            .map(|it| it.map(|v| Vec3::from(v).normalize_or(Vec3::Y)).collect())
+                            .unwrap_or_default();
+                        let uvs: Vec<Vec2> = reader
+                            .read_tex_coords(set)
+                            .map(|it| it.into_f32().map(Vec2::from).collect())
+                            .unwrap_or_default();
+                        let indices: Vec<u32> = match reader.read_indices() {
+                            Some(it) => it.into_u32().collect(),
+                            None if primitive.indices().is_some() => {
+                                return Err(Error::parse(
+                                    path,
+                                    format!("primitive {mesh_name}: index accessor lies outside its buffer"),
+                                ));
+                            }
+                            None => (0..n as u32).collect(),
+                        };
+                        let mut out = Mesh {
+                            name: mesh_name,
+                            normals: if normals.len() == n {
+                                normals
+                            } else {
+                                Vec::new()
+                            },
+                            uvs: if uvs.len() == n {
+                                uvs
+                            } else {
+                                vec![Vec2::ZERO; n]
+                            },
+                            positions,
+                            indices,
+                            material,
+                        };
+                        if out.normals.is_empty() {
+                            out.compute_normals_checked();
+                        }
+                        scene.meshes.push(out);
+                        ids.push(scene.meshes.len() as u32 - 1);
+                    }
+                    converted.insert(mesh.index(), ids.clone());
+                    ids
+                }
+            };
+            if !ids.is_empty() {
+                scene.objects.push(Object {
+                    name: node_name.clone(),
+                    meshes: ids,
+                    transform: world,
+                    animation: None,
+                });
+            }
+        }
+        let position = world.w_axis.xyz();
+        let forward = world
+            .transform_vector3(Vec3::NEG_Z)
+            .normalize_or(Vec3::NEG_Z);
+        if let Some(light) = node.light() {
+            let (kind, intensity) = match light.kind() {
+                gltf::khr_lights_punctual::Kind::Point => (LightKind::Point, light.intensity()),
+                gltf::khr_lights_punctual::Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => (
+                    LightKind::Spot {
+                        inner_angle: inner_cone_angle,
+                        outer_angle: outer_cone_angle,
+                    },
+                    light.intensity(),
+                ),
+                gltf::khr_lights_punctual::Kind::Directional => {
+                    (LightKind::Directional, light.intensity())
+                }
+            };
+            scene.lights.push(Light {
+                name: light
+                    .name()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| node_name.clone()),
+                kind,
+                color: Vec3::from(light.color()),
+                intensity: intensity / LUMENS_PER_WATT,
+                position,
+                direction: forward,
+                animation: None,
+            });
+        }
+        if let Some(camera) = node.camera() {
+            match camera.projection() {
+                gltf::camera::Projection::Perspective(p) => {
+                    let near = p.znear();
+                    scene.cameras.push(Camera {
+                        name: camera
+                            .name()
+                            .map(str::to_string)
+                            .unwrap_or_else(|| node_name.clone()),
+                        position,
+                        target: position + forward,
+                        up: world.transform_vector3(Vec3::Y).normalize_or(Vec3::Y),
+                        vfov: p.yfov(),
+                        near,
+                        far: p.zfar().unwrap_or(near * 1e5),
+                        animation: None,
+                    });
+                }
+                gltf::camera::Projection::Orthographic(_) => {
+                    log::warn!(
+                        "{}: orthographic camera on node {node_name} skipped",
+                        path.display()
+                    );
+                }
+            }
+        }
+        for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+            stack.push((child, world));
+        }
+    }
+    Ok(scene)
+}
+
+/// Decodes one glTF image into an RGBA8 texture; `None` with a warning on failure.
+fn load_image(
+    path: &Path,
+    base: &Path,
+    image: &gltf::Image,
+    buffers: &[gltf::buffer::Data],
+) -> Option<Texture> {
+    let label = match image.source() {
+        gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => uri.to_string(),
+        _ => image
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("image{}", image.index())),
+    };
+    if let gltf::image::Source::View { view, .. } = image.source() {
+        let end = view.offset().checked_add(view.length());
+        let len = buffers.get(view.buffer().index()).map(|b| b.0.len());
+        if end.is_none() || len.is_none() || end > len {
+            log::warn!(
+                "{}: image {label}: buffer view out of range; using the material colour",
+                path.display()
+            );
+            return None;
+        }
+    }
+    let data = match gltf::image::Data::from_source(image.source(), Some(base), buffers) {
+        Ok(d) => d,
+        Err(e) => {
+            log::warn!(
+                "{}: image {label}: {e}; using the material colour",
+                path.display()
+            );
+            return None;
+        }
+    };
+    if data.width > Texture::MAX_SIZE || data.height > Texture::MAX_SIZE {
+        log::warn!(
+            "{}: image {label} is {}x{}, too large; using the material colour",
+            path.display(),
+            data.width,
+            data.height
+        );
+        return None;
+    }
+    let rgba = to_rgba8(&data)?;
+    Some(Texture {
+        name: label,
+        width: data.width,
+        height: data.height,
+        rgba,
+    })
+}
+
+/// Converts any pixel format the glTF crate produces to RGBA8.
+fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<u8>> {
+    use gltf::image::Format;
+    let count = data.width as usize * data.height as usize;
+    let (channels, bytes) = match data.format {
+        Format::R8 => (1, 1),
+        Format::R8G8 => (2, 1),
+        Format::R8G8B8 => (3, 1),
+        Format::R8G8B8A8 => (4, 1),
+        Format::R16 => (1, 2),
+        Format::R16G16 => (2, 2),
+        Format::R16G16B16 => (3, 2),
+        Format::R16G16B16A16 => (4, 2),
+        Format::R32G32B32FLOAT => (3, 4),
+        Format::R32G32B32A32FLOAT => (4, 4),
+    };
+    if data.pixels.len() < count * channels * bytes {
+        return None;
+    }
+    let channel = |p: &[u8], c: usize| -> u8 {
+        let v = &p[c * bytes..(c + 1) * bytes];
+        match bytes {
+            1 => v[0],
+            2 => (u16::from_ne_bytes([v[0], v[1]]) >> 8) as u8,
+            _ => (f32::from_ne_bytes([v[0], v[1], v[2], v[3]]).clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
+        }
+    };
+    let mut out = Vec::with_capacity(count * 4);
+    for p in data.pixels.chunks_exact(channels * bytes).take(count) {
+        let texel = match channels {
+            1 => {
+                let l = channel(p, 0);
+                [l, l, l, 255]
+            }
+            2 => {
+                let l = channel(p, 0);
+                [l, l, l, channel(p, 1)]
+            }
+            3 => [channel(p, 0), channel(p, 1), channel(p, 2), 255],
+            _ => [channel(p, 0), channel(p, 1), channel(p, 2), channel(p, 3)],
+        };
+        out.extend_from_slice(&texel);
+    }
+    Some(out)
 }

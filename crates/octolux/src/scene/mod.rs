@@ -14,11 +14,13 @@ pub mod file;
 pub mod gltf;
 pub mod obj;
 pub mod ply;
+mod scenes_dir;
 mod texture;
 mod validate;
 
 pub use animation::{Keyframe, Track};
 pub use camera::{Camera, CameraView};
+pub use scenes_dir::scenes_dir;
 pub use texture::{srgb_to_linear, Texture};
 pub use validate::validate;
 
