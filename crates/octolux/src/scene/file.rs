@@ -376,7 +376,7 @@ fn track(
         if looping {
             return Err(bad(
                 path,
-                format!("{what}: `loop` is set but there are no [[{what}.animation]] keys"),
+                format!("{what}: `loop` is set but there are no animation keys"),
             ));
         }
         return Ok(None);
@@ -1243,5 +1243,27 @@ mod tests {
         let [a, b, c] = [0, 1, 2].map(|i| mesh.positions[mesh.indices[i] as usize]);
         assert!((b - a).cross(c - a).normalize().dot(Vec3::Y) > 0.999);
         assert_eq!(plane.bounds_at(0.0).1, Vec3::new(1.0, 0.0, 1.5));
+    }
+
+    #[test]
+    fn documented_example_is_valid() {
+        let doc = include_str!("../../../../docs/scene-format.md");
+        let start = doc.find("```toml\n").unwrap() + "```toml\n".len();
+        let end = start + doc[start..].find("```").unwrap();
+        let mut example = doc[start..end].to_string();
+        if !shared_scenes_dir().is_dir() {
+            example = example.replace("scenes:stanford-bunny/bunny.ply", "builtin:cornell-box");
+        }
+        // The example's model file only has to exist for the description to be checked.
+        let dir = std::env::temp_dir().join(format!("octolux-doc-example-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("models")).unwrap();
+        std::fs::write(dir.join("models/statue.obj"), "").unwrap();
+        let description = describe(&example, &dir.join("example.toml"));
+        std::fs::remove_dir_all(&dir).ok();
+        let description = description.unwrap();
+        assert_eq!(description.models.len(), 5);
+        assert_eq!(description.lights.len(), 3);
+        assert_eq!(description.cameras.len(), 1);
+        assert_eq!(description.settings["technique"].as_str(), Some("lpv"));
     }
 }
