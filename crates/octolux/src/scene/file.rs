@@ -10,9 +10,12 @@
 //! [[model]]
 //! path = "builtin:cornell-box"        # or "models/x.obj" (relative to this file),
 //!                                     # or "scenes:crytek-sponza/sponza_noleaf.obj"
+//!                                     # or "builtin:ground-plane" (with size = metres)
 //! scale = 1.0                         # or [x, y, z]
 //! rotate = [0.0, 90.0, 0.0]           # degrees, about x then y then z; or { axis = [..], angle = .. }
 //! translate = [0.0, 0.0, 0.0]
+//! pivot = [0.0, 0.0, 0.0]             # model-space point placed at `translate`
+//! objects = ["room"]                  # keep only these objects of the model
 //! material = { albedo = [0.8, 0.8, 0.8], emission = [0.0, 0.0, 0.0] }
 //! loop = true
 //! [[model.animation]]
