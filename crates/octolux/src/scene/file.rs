@@ -1,10 +1,1272 @@
-//! Loader placeholder, being written.
+//! Scene files: a small TOML format that places models, lights and cameras, with keyframe
+//! animation. `docs/scene-format.md` has the full reference and a complete example.
+//!
+//! ```toml
+//! name = "cornell-box"
+//! exposure = 0.0                      # stops
+//!
+//! [settings]                          # kept as a raw table for GI technique settings
+//!
+//! [[model]]
+//! path = "builtin:cornell-box"        # or "models/x.obj" (relative to this file),
+//!                                     # or "scenes:crytek-sponza/sponza_noleaf.obj"
+//!                                     # or "builtin:ground-plane" (with size = metres)
+//! scale = 1.0                         # or [x, y, z]
+//! rotate = [0.0, 90.0, 0.0]           # degrees, about x then y then z; or { axis = [..], angle = .. }
+//! translate = [0.0, 0.0, 0.0]
+//! pivot = [0.0, 0.0, 0.0]             # model-space point placed at `translate`
+//! objects = ["room"]                  # keep only these objects of the model
+//! material = { albedo = [0.8, 0.8, 0.8], emission = [0.0, 0.0, 0.0] }
+//! loop = true
+//! [[model.animation]]
+//! time = 0.0
+//! translate = [0.0, 0.0, 0.0]         # offset from the rest placement
+//! rotate = [0.0, 0.0, 0.0]            # about the model's placed pivot
+//!
+//! [[light]]
+//! type = "spot"                       # "point" | "spot" | "directional"
+//! position = [0.278, 0.538, 0.2796]
+//! direction = [0.0, -1.0, 0.0]        # or target = [x, y, z]
+//! color = [1.0, 1.0, 1.0]             # linear
+//! intensity = 1.0                     # W/sr (point, spot) or W/m^2 (directional)
+//! inner_angle = 55.0                  # half-angles, degrees (spot only)
+//! outer_angle = 70.0
+//!
+//! [[camera]]
+//! position = [0.278, 0.273, -0.8]
+//! target = [0.278, 0.273, 0.0]
+//! fov = 39.3                          # vertical, degrees
+//! ```
+//!
+//! Keyframe rotations of a light or camera turn it about its own position; those of a model
+//! turn it about its placed pivot (`translate`, which is where the model-space point `pivot`
+//! lands). To express that with [`Track`]s (which apply on top of the rest transform, about the
+//! world origin), the rest position of an animated item is folded into its keys: an animated
+//! light or camera has its rest position at the origin and the keys carry `position +
+//! translate`, and an animated object's rest transform has no translation.
+//!
+//! Unknown keys, out-of-range values and missing files are errors that name the scene file
+//! (and the line, for syntax and type errors).
 
-use super::Scene;
+use super::{cornell, Camera, Keyframe, Light, LightKind, Material, Mesh, Object, Scene, Track};
 use crate::{Error, Result};
-use std::path::Path;
+use glam::{Mat4, Quat, Vec2, Vec3};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
 
-/// Loads a scene from `path`.
+/// Prefix of model paths resolved against the shared scenes folder.
+pub const SCENES_PREFIX: &str = "scenes:";
+/// Prefix of built-in models.
+pub const BUILTIN_PREFIX: &str = "builtin:";
+/// Environment variable naming the shared scenes folder.
+pub const SCENES_ENV: &str = "OCTOLUX_SCENES";
+
+/// Loads and validates a scene file, dropping its `[settings]` table.
 pub fn load(path: &Path) -> Result<Scene> {
-    Err(Error::parse(path, "format not supported yet"))
+    load_with_settings(path).map(|(scene, _)| scene)
+}
+
+/// Loads and validates a scene file; also returns its `[settings]` table (empty when absent),
+/// which holds GI technique settings read elsewhere.
+pub fn load_with_settings(path: &Path) -> Result<(Scene, toml::Table)> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse_with_settings(&text, path)
+}
+
+/// Parses and validates scene-file text as if it had been read from `path` (relative model
+/// paths resolve against `path`'s folder; errors name `path`).
+pub fn parse(text: &str, path: &Path) -> Result<Scene> {
+    parse_with_settings(text, path).map(|(scene, _)| scene)
+}
+
+/// [`parse`], also returning the `[settings]` table.
+pub fn parse_with_settings(text: &str, path: &Path) -> Result<(Scene, toml::Table)> {
+    let description = describe(text, path)?;
+    let settings = description.settings.clone();
+    let mut scene = build(description, path)?;
+    super::validate(&mut scene)?;
+    Ok((scene, settings))
+}
+
+/// Parses and checks a scene file without loading any model: every field is checked and
+/// every model file must exist. Returns the model files it refers to (built-ins excluded), in
+/// file order.
+pub fn model_files(path: &Path) -> Result<Vec<PathBuf>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let description = describe(&text, path)?;
+    Ok(description
+        .models
+        .into_iter()
+        .filter_map(|m| match m.source {
+            Source::File(p) => Some(p),
+            _ => None,
+        })
+        .collect())
+}
+
+/// The folder that `scenes:` model paths are relative to: `$OCTOLUX_SCENES` when set, else
+/// `shared/scenes` beside the repository.
+pub fn shared_scenes_dir() -> PathBuf {
+    match std::env::var_os(SCENES_ENV) {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes"),
+    }
+}
+
+/// A flat, square quad mesh in the xz plane centred on the origin, normal +y, `size` metres
+/// along x and z, with UVs spanning 0..1. Used by `builtin:ground-plane`.
+pub fn ground_plane(size: Vec2) -> Scene {
+    let (hx, hz) = (size.x * 0.5, size.y * 0.5);
+    let mesh = Mesh {
+        name: "ground-plane".into(),
+        positions: vec![
+            Vec3::new(-hx, 0.0, -hz),
+            Vec3::new(-hx, 0.0, hz),
+            Vec3::new(hx, 0.0, hz),
+            Vec3::new(hx, 0.0, -hz),
+        ],
+        normals: vec![Vec3::Y; 4],
+        uvs: vec![Vec2::ZERO, Vec2::Y, Vec2::ONE, Vec2::X],
+        // Counter-clockwise seen from +y.
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material: 0,
+    };
+    Scene {
+        name: "ground-plane".into(),
+        meshes: vec![mesh],
+        materials: vec![Material {
+            name: "ground".into(),
+            ..Material::default()
+        }],
+        objects: vec![Object {
+            name: "ground-plane".into(),
+            meshes: vec![0],
+            transform: Mat4::IDENTITY,
+            animation: None,
+        }],
+        ..Scene::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Raw TOML shapes.
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    name: Option<String>,
+    #[serde(default)]
+    exposure: f32,
+    #[serde(default)]
+    settings: toml::Table,
+    #[serde(default, rename = "model")]
+    models: Vec<RawModel>,
+    #[serde(default, rename = "light")]
+    lights: Vec<RawLight>,
+    #[serde(default, rename = "camera")]
+    cameras: Vec<RawCamera>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawModel {
+    path: String,
+    name: Option<String>,
+    scale: Option<RawScale>,
+    rotate: Option<RawRotation>,
+    translate: Option<[f32; 3]>,
+    pivot: Option<[f32; 3]>,
+    objects: Option<Vec<String>>,
+    size: Option<RawScale2>,
+    material: Option<RawMaterial>,
+    #[serde(default, rename = "loop")]
+    looping: bool,
+    #[serde(default)]
+    animation: Vec<RawKey>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged, expecting = "a number or an array [x, y, z]")]
+enum RawScale {
+    Uniform(f32),
+    Axes([f32; 3]),
+}
+
+#[derive(Deserialize)]
+#[serde(untagged, expecting = "a number or an array [x, z]")]
+enum RawScale2 {
+    Square(f32),
+    Sides([f32; 2]),
+}
+
+#[derive(Deserialize)]
+#[serde(
+    untagged,
+    expecting = "Euler angles [x, y, z] in degrees or { axis = [x, y, z], angle = degrees }"
+)]
+enum RawRotation {
+    Euler([f32; 3]),
+    AxisAngle(RawAxisAngle),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawAxisAngle {
+    axis: [f32; 3],
+    angle: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    albedo: Option<[f32; 3]>,
+    emission: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawKey {
+    time: f32,
+    translate: Option<[f32; 3]>,
+    rotate: Option<RawRotation>,
+}
+
+#[derive(Deserialize, Clone, Copy, PartialEq, Debug)]
+#[serde(rename_all = "lowercase")]
+enum RawLightType {
+    Point,
+    Spot,
+    Directional,
+}
+
+impl RawLightType {
+    fn word(self) -> &'static str {
+        match self {
+            RawLightType::Point => "point",
+            RawLightType::Spot => "spot",
+            RawLightType::Directional => "directional",
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLight {
+    #[serde(rename = "type")]
+    kind: RawLightType,
+    name: Option<String>,
+    position: Option<[f32; 3]>,
+    direction: Option<[f32; 3]>,
+    target: Option<[f32; 3]>,
+    color: Option<[f32; 3]>,
+    intensity: f32,
+    inner_angle: Option<f32>,
+    outer_angle: Option<f32>,
+    #[serde(default, rename = "loop")]
+    looping: bool,
+    #[serde(default)]
+    animation: Vec<RawKey>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    name: Option<String>,
+    position: [f32; 3],
+    target: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+    near: Option<f32>,
+    far: Option<f32>,
+    #[serde(default, rename = "loop")]
+    looping: bool,
+    #[serde(default)]
+    animation: Vec<RawKey>,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Checked description.
+
+enum Source {
+    CornellBox,
+    GroundPlane(Vec2),
+    File(PathBuf),
+}
+
+struct ModelSpec {
+    label: String,
+    name: Option<String>,
+    source: Source,
+    /// Rest placement: translate * rotate * scale * translate(-pivot).
+    rotation: Quat,
+    scale: Vec3,
+    translate: Vec3,
+    pivot: Vec3,
+    objects: Option<Vec<String>>,
+    albedo: Option<Vec3>,
+    emission: Option<Vec3>,
+    animation: Option<Track>,
+}
+
+struct Description {
+    name: String,
+    exposure: f32,
+    settings: toml::Table,
+    models: Vec<ModelSpec>,
+    lights: Vec<Light>,
+    cameras: Vec<Camera>,
+}
+
+/// An error about `path` with a message.
+fn bad(path: &Path, message: impl Into<String>) -> Error {
+    Error::parse(path, message)
+}
+
+/// 1-based line and column of byte `offset` in `text`.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+fn vec3(v: [f32; 3], what: &str, path: &Path) -> Result<Vec3> {
+    let v = Vec3::from(v);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(bad(path, format!("{what}: {v} is not finite (NaN or inf)")))
+    }
+}
+
+fn finite(x: f32, what: &str, path: &Path) -> Result<f32> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(bad(path, format!("{what}: {x} is not finite (NaN or inf)")))
+    }
+}
+
+fn rotation(r: &RawRotation, what: &str, path: &Path) -> Result<Quat> {
+    match r {
+        RawRotation::Euler(angles) => {
+            let a = vec3(*angles, what, path)?;
+            // Applied about the fixed world axes in the order x, y, z.
+            Ok(Quat::from_rotation_z(a.z.to_radians())
+                * Quat::from_rotation_y(a.y.to_radians())
+                * Quat::from_rotation_x(a.x.to_radians()))
+        }
+        RawRotation::AxisAngle(aa) => {
+            let axis = vec3(aa.axis, &format!("{what}.axis"), path)?;
+            let angle = finite(aa.angle, &format!("{what}.angle"), path)?;
+            let axis = axis
+                .try_normalize()
+                .ok_or_else(|| bad(path, format!("{what}.axis is the zero vector")))?;
+            Ok(Quat::from_axis_angle(axis, angle.to_radians()))
+        }
+    }
+}
+
+/// Builds a track whose keys are `rest_translation + key.translate` and `key.rotate`.
+fn track(
+    keys: &[RawKey],
+    looping: bool,
+    rest_translation: Vec3,
+    what: &str,
+    path: &Path,
+) -> Result<Option<Track>> {
+    if keys.is_empty() {
+        if looping {
+            return Err(bad(
+                path,
+                format!("{what}: `loop` is set but there are no animation keys"),
+            ));
+        }
+        return Ok(None);
+    }
+    let mut out = Vec::with_capacity(keys.len());
+    for (i, key) in keys.iter().enumerate() {
+        let label = format!("{what}.animation[{i}]");
+        let time = finite(key.time, &format!("{label}.time"), path)?;
+        if out.iter().any(|k: &Keyframe| k.time == time) {
+            return Err(bad(path, format!("{label}: two keys at time {time} s")));
+        }
+        let translate = match key.translate {
+            Some(t) => vec3(t, &format!("{label}.translate"), path)?,
+            None => Vec3::ZERO,
+        };
+        let rotate = match &key.rotate {
+            Some(r) => rotation(r, &format!("{label}.rotate"), path)?,
+            None => Quat::IDENTITY,
+        };
+        out.push(Keyframe {
+            time,
+            translation: rest_translation + translate,
+            rotation: rotate,
+        });
+    }
+    Ok(Track::new(out, looping))
+}
+
+fn describe(text: &str, path: &Path) -> Result<Description> {
+    let raw: RawFile = toml::from_str(text).map_err(|e| {
+        let message = e.message().trim_end().to_string();
+        match e.span() {
+            Some(span) => {
+                let (line, column) = line_column(text, span.start);
+                bad(path, format!("line {line}, column {column}: {message}"))
+            }
+            None => bad(path, message),
+        }
+    })?;
+    let name = match raw.name {
+        Some(n) => n,
+        None => path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into()),
+    };
+    let exposure = finite(raw.exposure, "exposure", path)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let models = raw
+        .models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| describe_model(i, m, base, path))
+        .collect::<Result<Vec<_>>>()?;
+    let lights = raw
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(i, l)| describe_light(i, l, path))
+        .collect::<Result<Vec<_>>>()?;
+    let cameras = raw
+        .cameras
+        .iter()
+        .enumerate()
+        .map(|(i, c)| describe_camera(i, c, path))
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Description {
+        name,
+        exposure,
+        settings: raw.settings,
+        models,
+        lights,
+        cameras,
+    })
+}
+
+fn resolve_source(model: &RawModel, what: &str, base: &Path, path: &Path) -> Result<Source> {
+    let p = model.path.trim();
+    if model.size.is_some() && p != "builtin:ground-plane" {
+        return Err(bad(
+            path,
+            format!("{what}.size is only for builtin:ground-plane"),
+        ));
+    }
+    if let Some(builtin) = p.strip_prefix(BUILTIN_PREFIX) {
+        let source = match builtin {
+            "cornell-box" => Source::CornellBox,
+            "ground-plane" => {
+                let size = match model.size {
+                    None => Vec2::splat(10.0),
+                    Some(RawScale2::Square(s)) => Vec2::splat(s),
+                    Some(RawScale2::Sides(s)) => Vec2::from(s),
+                };
+                if !size.is_finite() || size.min_element() <= 0.0 {
+                    return Err(bad(
+                        path,
+                        format!("{what}.size must be positive and finite, got {size}"),
+                    ));
+                }
+                Source::GroundPlane(size)
+            }
+            other => {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{what}: unknown built-in model '{other}' \
+                         (expected builtin:cornell-box or builtin:ground-plane)"
+                    ),
+                ))
+            }
+        };
+        return Ok(source);
+    }
+    let file = if let Some(rel) = p.strip_prefix(SCENES_PREFIX) {
+        in_scenes_dir(rel, &shared_scenes_dir(), what, path)?
+    } else {
+        base.join(p)
+    };
+    if !file.is_file() {
+        return Err(bad(
+            path,
+            format!(
+                "{what}: model file '{p}' not found (looked for {})",
+                file.display()
+            ),
+        ));
+    }
+    let lower = p.to_lowercase();
+    if lower.ends_with(".toml") {
+        return Err(bad(
+            path,
+            format!(
+                "{what}: '{p}' is a scene file; models must be .obj, .ply, .ply.gz, .gltf or .glb"
+            ),
+        ));
+    }
+    Ok(Source::File(file))
+}
+
+/// `rel` inside the shared scenes folder `dir`, which must exist.
+fn in_scenes_dir(rel: &str, dir: &Path, what: &str, path: &Path) -> Result<PathBuf> {
+    if !dir.is_dir() {
+        return Err(bad(
+            path,
+            format!(
+                "{what}: '{SCENES_PREFIX}{rel}' needs the shared scenes folder, which was not \
+                 found at {}; set {SCENES_ENV} to the folder that holds the test scenes",
+                dir.display()
+            ),
+        ));
+    }
+    Ok(dir.join(rel.trim_start_matches(['/', '\\'])))
+}
+
+fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Result<ModelSpec> {
+    let what = format!("model[{index}] ({})", m.path);
+    let source = resolve_source(m, &what, base, path)?;
+    let scale = match m.scale {
+        None => Vec3::ONE,
+        Some(RawScale::Uniform(s)) => Vec3::splat(finite(s, &format!("{what}.scale"), path)?),
+        Some(RawScale::Axes(s)) => vec3(s, &format!("{what}.scale"), path)?,
+    };
+    if scale.abs().min_element() == 0.0 {
+        return Err(bad(
+            path,
+            format!("{what}.scale must not be zero (got {scale})"),
+        ));
+    }
+    let rotation = match &m.rotate {
+        Some(r) => rotation(r, &format!("{what}.rotate"), path)?,
+        None => Quat::IDENTITY,
+    };
+    let translate = match m.translate {
+        Some(t) => vec3(t, &format!("{what}.translate"), path)?,
+        None => Vec3::ZERO,
+    };
+    let pivot = match m.pivot {
+        Some(p) => vec3(p, &format!("{what}.pivot"), path)?,
+        None => Vec3::ZERO,
+    };
+    let (albedo, emission) = match &m.material {
+        None => (None, None),
+        Some(mat) => {
+            let albedo = match mat.albedo {
+                Some(a) => {
+                    let a = vec3(a, &format!("{what}.material.albedo"), path)?;
+                    if a.min_element() < 0.0 || a.max_element() > 1.0 {
+                        return Err(bad(
+                            path,
+                            format!("{what}.material.albedo must lie in [0, 1], got {a}"),
+                        ));
+                    }
+                    Some(a)
+                }
+                None => None,
+            };
+            let emission = match mat.emission {
+                Some(e) => {
+                    let e = vec3(e, &format!("{what}.material.emission"), path)?;
+                    if e.min_element() < 0.0 {
+                        return Err(bad(
+                            path,
+                            format!("{what}.material.emission must not be negative, got {e}"),
+                        ));
+                    }
+                    Some(e)
+                }
+                None => None,
+            };
+            (albedo, emission)
+        }
+    };
+    let animation = track(&m.animation, m.looping, translate, &what, path)?;
+    Ok(ModelSpec {
+        label: what,
+        name: m.name.clone(),
+        source,
+        rotation,
+        scale,
+        translate,
+        pivot,
+        objects: m.objects.clone(),
+        albedo,
+        emission,
+        animation,
+    })
+}
+
+fn describe_light(index: usize, l: &RawLight, path: &Path) -> Result<Light> {
+    let name = l.name.clone().unwrap_or_else(|| format!("light-{index}"));
+    let what = format!("light[{index}] ('{name}')");
+    let intensity = finite(l.intensity, &format!("{what}.intensity"), path)?;
+    if intensity < 0.0 {
+        return Err(bad(
+            path,
+            format!("{what}.intensity must not be negative, got {intensity}"),
+        ));
+    }
+    let color = match l.color {
+        Some(c) => vec3(c, &format!("{what}.color"), path)?,
+        None => Vec3::ONE,
+    };
+    if color.min_element() < 0.0 {
+        return Err(bad(
+            path,
+            format!("{what}.color must not be negative, got {color}"),
+        ));
+    }
+    let position = match l.position {
+        Some(p) => Some(vec3(p, &format!("{what}.position"), path)?),
+        None => None,
+    };
+    let target = match l.target {
+        Some(p) => Some(vec3(p, &format!("{what}.target"), path)?),
+        None => None,
+    };
+    let direction = match l.direction {
+        Some(d) => Some(vec3(d, &format!("{what}.direction"), path)?),
+        None => None,
+    };
+    if l.kind != RawLightType::Directional && position.is_none() {
+        return Err(bad(
+            path,
+            format!("{what}: a {} light needs a position", l.kind.word()),
+        ));
+    }
+    let direction = match (l.kind, direction, target) {
+        (_, Some(_), Some(_)) => {
+            return Err(bad(
+                path,
+                format!("{what}: give either direction or target, not both"),
+            ))
+        }
+        (RawLightType::Point, Some(_), _) | (RawLightType::Point, _, Some(_)) => {
+            return Err(bad(
+                path,
+                format!("{what}: a point light has no direction or target"),
+            ))
+        }
+        (RawLightType::Point, None, None) => Vec3::NEG_Y,
+        (_, Some(d), None) => d,
+        (_, None, Some(t)) => match position {
+            Some(p) => t - p,
+            None => {
+                return Err(bad(
+                    path,
+                    format!("{what}: target needs a position; give a direction instead"),
+                ))
+            }
+        },
+        (_, None, None) => return Err(bad(path, format!("{what}: needs a direction or a target"))),
+    };
+    let direction = direction.try_normalize().ok_or_else(|| {
+        bad(
+            path,
+            format!("{what}: direction is zero (or target equals position)"),
+        )
+    })?;
+    let kind = match l.kind {
+        RawLightType::Spot => {
+            let outer = l.outer_angle.ok_or_else(|| {
+                bad(
+                    path,
+                    format!("{what}: a spot light needs outer_angle (degrees)"),
+                )
+            })?;
+            let outer = finite(outer, &format!("{what}.outer_angle"), path)?;
+            let inner = finite(
+                l.inner_angle.unwrap_or(outer),
+                &format!("{what}.inner_angle"),
+                path,
+            )?;
+            if !(outer > 0.0 && outer < 180.0) {
+                return Err(bad(
+                    path,
+                    format!("{what}.outer_angle must lie in (0, 180) degrees, got {outer}"),
+                ));
+            }
+            if !(0.0..=outer).contains(&inner) {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{what}.inner_angle must lie in [0, outer_angle = {outer}] degrees, \
+                         got {inner}"
+                    ),
+                ));
+            }
+            LightKind::Spot {
+                inner_angle: inner.to_radians(),
+                outer_angle: outer.to_radians(),
+            }
+        }
+        other => {
+            if l.inner_angle.is_some() || l.outer_angle.is_some() {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{what}: inner_angle and outer_angle are for spot lights only, \
+                         this one is {}",
+                        other.word()
+                    ),
+                ));
+            }
+            if other == RawLightType::Point {
+                LightKind::Point
+            } else {
+                LightKind::Directional
+            }
+        }
+    };
+    let position = position.unwrap_or(Vec3::ZERO);
+    let animation = track(&l.animation, l.looping, position, &what, path)?;
+    Ok(Light {
+        name,
+        kind,
+        color,
+        intensity,
+        // An animated light rests at the origin; its keys carry the position.
+        position: if animation.is_some() {
+            Vec3::ZERO
+        } else {
+            position
+        },
+        direction,
+        animation,
+    })
+}
+
+fn describe_camera(index: usize, c: &RawCamera, path: &Path) -> Result<Camera> {
+    let name = c.name.clone().unwrap_or_else(|| format!("camera-{index}"));
+    let what = format!("camera[{index}] ('{name}')");
+    let defaults = Camera::default();
+    let position = vec3(c.position, &format!("{what}.position"), path)?;
+    let target = vec3(c.target, &format!("{what}.target"), path)?;
+    if (target - position).length_squared() == 0.0 {
+        return Err(bad(path, format!("{what}: target equals position")));
+    }
+    let up = match c.up {
+        Some(u) => vec3(u, &format!("{what}.up"), path)?,
+        None => Vec3::Y,
+    };
+    let up = up
+        .try_normalize()
+        .ok_or_else(|| bad(path, format!("{what}.up is the zero vector")))?;
+    let fov = finite(
+        c.fov.unwrap_or(defaults.vfov.to_degrees()),
+        &format!("{what}.fov"),
+        path,
+    )?;
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(bad(
+            path,
+            format!("{what}.fov must lie in (0, 180) degrees, got {fov}"),
+        ));
+    }
+    let near = finite(
+        c.near.unwrap_or(defaults.near),
+        &format!("{what}.near"),
+        path,
+    )?;
+    let far = finite(c.far.unwrap_or(defaults.far), &format!("{what}.far"), path)?;
+    if !(near > 0.0 && far > near) {
+        return Err(bad(
+            path,
+            format!("{what}: need 0 < near < far, got near = {near}, far = {far}"),
+        ));
+    }
+    let animation = track(&c.animation, c.looping, position, &what, path)?;
+    Ok(Camera {
+        name,
+        // An animated camera rests at the origin, looking along its rest view direction; the
+        // keys carry its position.
+        position: if animation.is_some() {
+            Vec3::ZERO
+        } else {
+            position
+        },
+        target: if animation.is_some() {
+            target - position
+        } else {
+            target
+        },
+        up,
+        vfov: fov.to_radians(),
+        near,
+        far,
+        animation,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building the scene.
+
+fn build(description: Description, path: &Path) -> Result<Scene> {
+    let mut scene = Scene {
+        name: description.name,
+        exposure: description.exposure,
+        ..Scene::default()
+    };
+    for model in description.models {
+        let part = load_model(&model, path)?;
+        scene.merge(part);
+    }
+    scene.lights.extend(description.lights);
+    scene.cameras.extend(description.cameras);
+    Ok(scene)
+}
+
+fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
+    let mut part = match &model.source {
+        Source::CornellBox => cornell::geometry(),
+        Source::GroundPlane(size) => ground_plane(*size),
+        Source::File(file) => Scene::load(file).map_err(|e| {
+            bad(
+                path,
+                format!("{}: could not load the model: {e}", model.label),
+            )
+        })?,
+    };
+    if part.objects.is_empty() {
+        // A loader that only returns meshes: one object holds them all.
+        part.objects.push(Object {
+            name: part.name.clone(),
+            meshes: (0..part.meshes.len() as u32).collect(),
+            transform: Mat4::IDENTITY,
+            animation: None,
+        });
+    }
+    if let Some(names) = &model.objects {
+        select_objects(&mut part, names, &model.label, path)?;
+    }
+    for material in &mut part.materials {
+        if let Some(albedo) = model.albedo {
+            // The override is the colour; a texture would still modulate it.
+            material.base_color = albedo;
+            material.base_color_texture = None;
+        }
+        if let Some(emission) = model.emission {
+            material.emission = emission;
+        }
+    }
+    let animated = model.animation.is_some();
+    // Rest placement; when animated the translation lives in the track's keys.
+    let rest_translation = if animated {
+        Vec3::ZERO
+    } else {
+        model.translate
+    };
+    let placement =
+        Mat4::from_scale_rotation_translation(model.scale, model.rotation, rest_translation)
+            * Mat4::from_translation(-model.pivot);
+    let single = part.objects.len() == 1;
+    for object in &mut part.objects {
+        if animated && object.animation.is_some() {
+            return Err(bad(
+                path,
+                format!(
+                    "{}: object '{}' is already animated in the model file; \
+                     it cannot take a model animation too",
+                    model.label, object.name
+                ),
+            ));
+        }
+        if placement != Mat4::IDENTITY {
+            object.transform = placement * object.transform;
+        }
+        if animated {
+            object.animation = model.animation.clone();
+        }
+        if let Some(name) = &model.name {
+            object.name = if single {
+                name.clone()
+            } else {
+                format!("{name}/{}", object.name)
+            };
+        }
+    }
+    // Lights and cameras that come with a model (glTF) are placed with it.
+    for light in &mut part.lights {
+        light.position = placement.transform_point3(light.position);
+        light.direction = placement
+            .transform_vector3(light.direction)
+            .normalize_or(light.direction);
+    }
+    for camera in &mut part.cameras {
+        camera.position = placement.transform_point3(camera.position);
+        camera.target = placement.transform_point3(camera.target);
+    }
+    Ok(part)
+}
+
+/// Keeps only the named objects of `part` and the meshes they use.
+fn select_objects(part: &mut Scene, names: &[String], label: &str, path: &Path) -> Result<()> {
+    for name in names {
+        if !part.objects.iter().any(|o| &o.name == name) {
+            let known: Vec<&str> = part.objects.iter().map(|o| o.name.as_str()).collect();
+            return Err(bad(
+                path,
+                format!(
+                    "{label}.objects: no object named '{name}' (the model has: {})",
+                    known.join(", ")
+                ),
+            ));
+        }
+    }
+    part.objects.retain(|o| names.contains(&o.name));
+    let mut remap = vec![u32::MAX; part.meshes.len()];
+    let mut meshes = Vec::new();
+    for object in &mut part.objects {
+        for m in &mut object.meshes {
+            let old = *m as usize;
+            let Some(slot) = remap.get_mut(old) else {
+                return Err(bad(
+                    path,
+                    format!("{label}: object '{}' refers to a missing mesh", object.name),
+                ));
+            };
+            if *slot == u32::MAX {
+                *slot = meshes.len() as u32;
+                meshes.push(part.meshes[old].clone());
+            }
+            *m = *slot;
+        }
+    }
+    part.meshes = meshes;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PATH: &str = "/virtual/test-scene.toml";
+
+    fn parse_err(text: &str) -> String {
+        match parse(text, Path::new(PATH)) {
+            Ok(_) => panic!("expected an error for:\n{text}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    const BOX: &str = "[[model]]\npath = \"builtin:cornell-box\"\n";
+
+    #[test]
+    fn minimal_builtin_scene() {
+        let scene = parse(BOX, Path::new(PATH)).unwrap();
+        assert_eq!(scene.name, "test-scene");
+        assert_eq!(scene.objects.len(), 3);
+        assert_eq!(scene.triangle_count(), 30);
+        assert!(scene.lights.is_empty() && scene.cameras.is_empty());
+    }
+
+    #[test]
+    fn settings_are_kept_raw() {
+        let text = format!("{BOX}[settings]\nlpv = {{ size = 32 }}\ntechnique = \"lpv\"\n");
+        let (_, settings) = parse_with_settings(&text, Path::new(PATH)).unwrap();
+        assert_eq!(settings["technique"].as_str(), Some("lpv"));
+        assert_eq!(settings["lpv"]["size"].as_integer(), Some(32));
+    }
+
+    #[test]
+    fn model_transform_is_translate_rotate_scale() {
+        let text = "[[model]]\npath = \"builtin:ground-plane\"\nsize = [2.0, 4.0]\n\
+                    scale = [2.0, 1.0, 1.0]\nrotate = { axis = [0.0, 1.0, 0.0], angle = 90.0 }\n\
+                    translate = [0.0, 1.0, 0.0]\nname = \"floor\"\n";
+        let scene = parse(text, Path::new(PATH)).unwrap();
+        assert_eq!(scene.objects[0].name, "floor");
+        let m = scene.objects[0].transform;
+        // Corner (1, 0, 2) -> scaled (2, 0, 2) -> turned 90 degrees about y (x -> -z,
+        // z -> x) -> (2, 0, -2) -> moved up.
+        let p = m.transform_point3(Vec3::new(1.0, 0.0, 2.0));
+        assert!((p - Vec3::new(2.0, 1.0, -2.0)).length() < 1e-5, "{p}");
+    }
+
+    #[test]
+    fn euler_angles_apply_x_then_y_then_z() {
+        let q = rotation(&RawRotation::Euler([90.0, 90.0, 0.0]), "r", Path::new(PATH)).unwrap();
+        // +y turned 90 degrees about x is +z, then 90 about y is +x.
+        assert!((q * Vec3::Y - Vec3::X).length() < 1e-6);
+    }
+
+    #[test]
+    fn material_override() {
+        let text = format!(
+            "{BOX}material = {{ albedo = [0.5, 0.25, 0.125], emission = [1.0, 2.0, 3.0] }}\n"
+        );
+        let scene = parse(&text, Path::new(PATH)).unwrap();
+        for m in &scene.materials {
+            assert_eq!(m.base_color, Vec3::new(0.5, 0.25, 0.125));
+            assert_eq!(m.emission, Vec3::new(1.0, 2.0, 3.0));
+        }
+    }
+
+    #[test]
+    fn object_selection_and_names() {
+        let text = "[[model]]\npath = \"builtin:cornell-box\"\nobjects = [\"tall-block\"]\n\
+                    [[model]]\npath = \"builtin:cornell-box\"\nname = \"box\"\n";
+        let scene = parse(text, Path::new(PATH)).unwrap();
+        let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "tall-block",
+                "box/room",
+                "box/short-block",
+                "box/tall-block"
+            ]
+        );
+        assert_eq!(scene.meshes.len(), 1 + 5);
+        assert_eq!(scene.meshes[0].name, "tall-block");
+        let err = parse_err("[[model]]\npath = \"builtin:cornell-box\"\nobjects = [\"teapot\"]\n");
+        assert!(
+            err.contains("teapot") && err.contains("short-block"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn light_target_becomes_direction() {
+        let text = format!(
+            "{BOX}[[light]]\ntype = \"spot\"\nposition = [0.0, 2.0, 0.0]\n\
+             target = [2.0, 0.0, 0.0]\nintensity = 3.0\ninner_angle = 10.0\nouter_angle = 20.0\n"
+        );
+        let scene = parse(&text, Path::new(PATH)).unwrap();
+        let light = &scene.lights[0];
+        assert_eq!(light.name, "light-0");
+        assert_eq!(light.color, Vec3::ONE);
+        let expected = Vec3::new(1.0, -1.0, 0.0).normalize();
+        assert!((light.direction - expected).length() < 1e-6);
+        assert_eq!(
+            light.kind,
+            LightKind::Spot {
+                inner_angle: 10f32.to_radians(),
+                outer_angle: 20f32.to_radians()
+            }
+        );
+    }
+
+    #[test]
+    fn animated_light_turns_about_its_position() {
+        let text = format!(
+            "{BOX}[[light]]\ntype = \"spot\"\nposition = [1.0, 2.0, 3.0]\n\
+             direction = [0.0, -1.0, 0.0]\nintensity = 1.0\nouter_angle = 30.0\n\
+             [[light.animation]]\ntime = 0.0\n\
+             [[light.animation]]\ntime = 2.0\ntranslate = [1.0, 0.0, 0.0]\n\
+             rotate = [0.0, 0.0, 90.0]\n"
+        );
+        let scene = parse(&text, Path::new(PATH)).unwrap();
+        let at0 = scene.lights[0].at_time(0.0);
+        assert!((at0.position - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
+        let at1 = scene.lights[0].at_time(1.0);
+        assert!((at1.position - Vec3::new(1.5, 2.0, 3.0)).length() < 1e-6);
+        // Halfway: 45 degrees about z turns -y towards +x.
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        assert!((at1.direction - Vec3::new(h, -h, 0.0)).length() < 1e-5);
+        // Not looping: holds the last key.
+        let at9 = scene.lights[0].at_time(9.0);
+        assert!((at9.position - Vec3::new(2.0, 2.0, 3.0)).length() < 1e-6);
+        assert!((at9.direction - Vec3::X).length() < 1e-5);
+    }
+
+    #[test]
+    fn animated_camera_keeps_its_view_direction() {
+        let text = format!(
+            "{BOX}[[camera]]\nposition = [0.0, 1.0, 5.0]\ntarget = [0.0, 1.0, 0.0]\n\
+             loop = true\n[[camera.animation]]\ntime = 0.0\n\
+             [[camera.animation]]\ntime = 1.0\ntranslate = [0.0, 0.0, -2.0]\n"
+        );
+        let scene = parse(&text, Path::new(PATH)).unwrap();
+        let c = scene.cameras[0].at_time(1.5);
+        assert!((c.position - Vec3::new(0.0, 1.0, 4.0)).length() < 1e-6);
+        assert!((c.target - Vec3::new(0.0, 1.0, -1.0)).length() < 1e-6);
+        assert_eq!(scene.cameras[0].vfov, 45f32.to_radians());
+    }
+
+    #[test]
+    fn unknown_key_is_named_with_its_line() {
+        let err =
+            parse_err("name = \"x\"\n[[model]]\npath = \"builtin:cornell-box\"\ncolour = 1\n");
+        assert!(err.contains(PATH), "{err}");
+        assert!(err.contains("colour"), "{err}");
+        assert!(err.contains("line 4"), "{err}");
+        let err = parse_err(&format!("{BOX}[[light]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = 1.0\nradius = 2.0\n"));
+        assert!(err.contains("radius"), "{err}");
+        let err = parse_err("exposur = 1.0\n");
+        assert!(err.contains("exposur") && err.contains("line 1"), "{err}");
+    }
+
+    #[test]
+    fn malformed_toml_names_the_line() {
+        let err = parse_err("name = \"x\"\n\n[[model]\npath = 1\n");
+        assert!(err.contains(PATH) && err.contains("line 3"), "{err}");
+        let err = parse_err("exposure = \"bright\"\n");
+        assert!(err.contains("line 1"), "{err}");
+    }
+
+    #[test]
+    fn missing_model_names_scene_and_model() {
+        let err = parse_err("[[model]]\npath = \"models/nowhere.obj\"\n");
+        assert!(err.contains(PATH), "{err}");
+        assert!(err.contains("models/nowhere.obj"), "{err}");
+        assert!(err.contains("not found"), "{err}");
+        let err = parse_err("[[model]]\npath = \"builtin:teapot\"\n");
+        assert!(err.contains("teapot"), "{err}");
+    }
+
+    #[test]
+    fn bad_light_values() {
+        let spot = |inner: &str, outer: &str, intensity: &str| {
+            format!(
+                "{BOX}[[light]]\ntype = \"spot\"\nname = \"s\"\nposition = [0.0, 1.0, 0.0]\n\
+                 direction = [0.0, -1.0, 0.0]\nintensity = {intensity}\n\
+                 inner_angle = {inner}\nouter_angle = {outer}\n"
+            )
+        };
+        let err = parse_err(&spot("50.0", "40.0", "1.0"));
+        assert!(err.contains("inner_angle") && err.contains("'s'"), "{err}");
+        let err = parse_err(&spot("10.0", "180.0", "1.0"));
+        assert!(err.contains("outer_angle"), "{err}");
+        let err = parse_err(&spot("10.0", "0.0", "1.0"));
+        assert!(err.contains("outer_angle"), "{err}");
+        let err = parse_err(&spot("10.0", "40.0", "-2.0"));
+        assert!(
+            err.contains("intensity") && err.contains("negative"),
+            "{err}"
+        );
+        let err = parse_err(&spot("10.0", "40.0", "nan"));
+        assert!(err.contains("intensity") && err.contains("NaN"), "{err}");
+        let err = parse_err(&spot("nan", "40.0", "1.0"));
+        assert!(err.contains("inner_angle"), "{err}");
+        let err = parse_err(&format!(
+            "{BOX}[[light]]\ntype = \"area\"\nposition = [0.0, 1.0, 0.0]\nintensity = 1.0\n"
+        ));
+        assert!(err.contains("area") && err.contains("directional"), "{err}");
+        let err = parse_err(&format!(
+            "{BOX}[[light]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = 1.0\nouter_angle = 20.0\n"
+        ));
+        assert!(err.contains("spot lights only"), "{err}");
+        let err = parse_err(&format!(
+            "{BOX}[[light]]\ntype = \"directional\"\ndirection = [0.0, 0.0, 0.0]\nintensity = 1.0\n"
+        ));
+        assert!(err.contains("zero"), "{err}");
+        let err = parse_err(&format!(
+            "{BOX}[[light]]\ntype = \"point\"\nposition = [0.0, nan, 0.0]\nintensity = 1.0\n"
+        ));
+        assert!(err.contains("position") && err.contains("NaN"), "{err}");
+    }
+
+    #[test]
+    fn bad_model_values() {
+        let err = parse_err(&format!("{BOX}scale = 0.0\n"));
+        assert!(err.contains("scale") && err.contains("zero"), "{err}");
+        let err = parse_err(&format!("{BOX}scale = [1.0, 0.0, 1.0]\n"));
+        assert!(err.contains("zero"), "{err}");
+        let err = parse_err(&format!("{BOX}scale = \"big\"\n"));
+        assert!(err.contains("a number or an array"), "{err}");
+        let err = parse_err(&format!("{BOX}translate = [0.0, inf, 0.0]\n"));
+        assert!(
+            err.contains("translate") && err.contains("not finite"),
+            "{err}"
+        );
+        let err = parse_err(&format!(
+            "{BOX}rotate = {{ axis = [0.0, 0.0, 0.0], angle = 3.0 }}\n"
+        ));
+        assert!(err.contains("zero vector"), "{err}");
+        let err = parse_err(&format!("{BOX}material = {{ albedo = [2.0, 0.0, 0.0] }}\n"));
+        assert!(err.contains("albedo"), "{err}");
+        let err = parse_err(&format!("{BOX}size = 3.0\n"));
+        assert!(err.contains("ground-plane"), "{err}");
+        let err = parse_err(&format!("{BOX}loop = true\n"));
+        assert!(err.contains("loop"), "{err}");
+    }
+
+    #[test]
+    fn bad_camera_values() {
+        let camera = |fov: &str, near: &str| {
+            format!(
+                "{BOX}[[camera]]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0]\n\
+                 fov = {fov}\nnear = {near}\n"
+            )
+        };
+        for fov in ["0.0", "180.0", "-5.0", "nan"] {
+            let err = parse_err(&camera(fov, "0.1"));
+            assert!(err.contains("fov"), "{err}");
+        }
+        let err = parse_err(&camera("40.0", "200.0"));
+        assert!(err.contains("near"), "{err}");
+    }
+
+    #[test]
+    fn scenes_prefix_needs_the_shared_folder() {
+        // The folder is passed in rather than set through the environment, which other tests
+        // running in parallel read.
+        let err = in_scenes_dir(
+            "a/b.obj",
+            Path::new("/no/such/folder"),
+            "model[0]",
+            Path::new(PATH),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains(PATH) && err.contains("scenes:a/b.obj"),
+            "{err}"
+        );
+        assert!(
+            err.contains(SCENES_ENV) && err.contains("scenes folder"),
+            "{err}"
+        );
+        if shared_scenes_dir().is_dir() {
+            let err = parse_err("[[model]]\npath = \"scenes:no-such-scene/x.obj\"\n");
+            assert!(
+                err.contains("no-such-scene/x.obj") && err.contains("not found"),
+                "{err}"
+            );
+        }
+    }
+
+    #[test]
+    fn ground_plane_faces_up() {
+        let mut plane = ground_plane(Vec2::new(2.0, 3.0));
+        super::super::validate(&mut plane).unwrap();
+        let mesh = &plane.meshes[0];
+        let [a, b, c] = [0, 1, 2].map(|i| mesh.positions[mesh.indices[i] as usize]);
+        assert!((b - a).cross(c - a).normalize().dot(Vec3::Y) > 0.999);
+        assert_eq!(plane.bounds_at(0.0).1, Vec3::new(1.0, 0.0, 1.5));
+    }
+
+    #[test]
+    fn documented_example_is_valid() {
+        let doc = include_str!("../../../../docs/scene-format.md");
+        let start = doc.find("```toml\n").unwrap() + "```toml\n".len();
+        let end = start + doc[start..].find("```").unwrap();
+        let mut example = doc[start..end].to_string();
+        if !shared_scenes_dir().is_dir() {
+            example = example.replace("scenes:stanford-bunny/bunny.ply", "builtin:cornell-box");
+        }
+        // The example's model file only has to exist for the description to be checked.
+        let dir = std::env::temp_dir().join(format!("octolux-doc-example-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("models")).unwrap();
+        std::fs::write(dir.join("models/statue.obj"), "").unwrap();
+        let description = describe(&example, &dir.join("example.toml"));
+        std::fs::remove_dir_all(&dir).ok();
+        let description = description.unwrap();
+        assert_eq!(description.models.len(), 5);
+        assert_eq!(description.lights.len(), 3);
+        assert_eq!(description.cameras.len(), 1);
+        assert_eq!(description.settings["technique"].as_str(), Some("lpv"));
+    }
 }

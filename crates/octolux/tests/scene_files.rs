@@ -1,0 +1,238 @@
+//! The scene files shipped in `scenes/`: every one parses, the Cornell box file is the built-in
+//! scene, and the animated one moves as its keys say.
+
+use glam::{Quat, Vec3};
+use octolux::scene::{cornell, file, LightKind, Scene};
+use std::path::{Path, PathBuf};
+
+fn scenes_folder() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
+}
+
+fn scene_files() -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(scenes_folder())
+        .expect("the scenes/ folder ships with the repository")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
+}
+
+fn uses_shared_scenes(path: &Path) -> bool {
+    std::fs::read_to_string(path)
+        .map(|t| t.contains(&format!("\"{}", file::SCENES_PREFIX)))
+        .unwrap_or(false)
+}
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).length() < 1e-5
+}
+
+#[test]
+fn every_shipped_scene_file_loads() {
+    let files = scene_files();
+    assert!(
+        files.len() >= 7,
+        "expected the shipped scene files, found {files:?}"
+    );
+    let shared = file::shared_scenes_dir().is_dir();
+    for path in files {
+        if uses_shared_scenes(&path) && !shared {
+            println!(
+                "skipping {}: the shared scenes folder ({}) is not there; set {} to check it",
+                path.display(),
+                file::shared_scenes_dir().display(),
+                file::SCENES_ENV
+            );
+            continue;
+        }
+        // Every field is checked and every model file exists.
+        let models = file::model_files(&path).unwrap_or_else(|e| panic!("{e}"));
+        match Scene::load(&path) {
+            Ok(scene) => {
+                assert!(scene.triangle_count() > 0, "{}", path.display());
+                assert!(scene.has_light(), "{}", path.display());
+                assert!(!scene.cameras.is_empty(), "{}", path.display());
+                println!(
+                    "{}: {} triangles, {} lights",
+                    path.display(),
+                    scene.triangle_count(),
+                    scene.lights.len()
+                );
+            }
+            Err(e) => {
+                // The scene file is at fault unless one of its models fails to load on its own
+                // (a format whose loader is not available in this build).
+                let model_error = models.iter().find_map(|m| Scene::load(m).err());
+                match model_error {
+                    Some(model_error) => println!(
+                        "not loading {}: a model does not load by itself: {model_error}",
+                        path.display()
+                    ),
+                    None => panic!("{e}"),
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn cornell_box_file_is_the_builtin_scene() {
+    let path = scenes_folder().join("cornell-box.toml");
+    let scene = Scene::load(&path).unwrap();
+    let expected = cornell::scene();
+    assert_eq!(scene.name, expected.name);
+    assert_eq!(scene.exposure, expected.exposure);
+    assert_eq!(scene.meshes.len(), expected.meshes.len());
+    for (a, b) in scene.meshes.iter().zip(&expected.meshes) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(a.positions, b.positions);
+        assert_eq!(a.normals, b.normals);
+        assert_eq!(a.uvs, b.uvs);
+        assert_eq!(a.indices, b.indices);
+        assert_eq!(a.material, b.material);
+    }
+    assert_eq!(scene.materials.len(), expected.materials.len());
+    for (a, b) in scene.materials.iter().zip(&expected.materials) {
+        assert_eq!(
+            (&a.name, a.base_color, a.emission, a.base_color_texture),
+            (&b.name, b.base_color, b.emission, b.base_color_texture)
+        );
+    }
+    assert_eq!(scene.objects.len(), expected.objects.len());
+    for (a, b) in scene.objects.iter().zip(&expected.objects) {
+        assert_eq!(
+            (&a.name, &a.meshes, a.transform),
+            (&b.name, &b.meshes, b.transform)
+        );
+        assert!(a.animation.is_none());
+    }
+    assert_eq!(scene.lights.len(), 1);
+    let (a, b) = (&scene.lights[0], &expected.lights[0]);
+    assert_eq!(a.name, b.name);
+    assert_eq!(a.kind, b.kind);
+    assert_eq!((a.color, a.intensity), (b.color, b.intensity));
+    // Decimal metres in the file against millimetres x 0.001 in code: equal to float rounding.
+    assert!(
+        close(a.position, b.position),
+        "{} vs {}",
+        a.position,
+        b.position
+    );
+    assert_eq!(a.direction, b.direction);
+    assert!(a.animation.is_none());
+    assert_eq!(scene.cameras.len(), 1);
+    let (a, b) = (&scene.cameras[0], &expected.cameras[0]);
+    assert_eq!(a.name, b.name);
+    assert!(close(a.position, b.position) && close(a.target, b.target));
+    assert_eq!((a.up, a.vfov, a.near, a.far), (b.up, b.vfov, b.near, b.far));
+    assert!(a.animation.is_none());
+}
+
+#[test]
+fn animated_cornell_box_moves_as_keyed() {
+    let path = scenes_folder().join("cornell-animated.toml");
+    let scene = Scene::load(&path).unwrap();
+    assert!(scene.is_animated());
+    let rest = Vec3::new(0.278, 0.538, 0.2796);
+    let light = &scene.lights[0];
+    assert_eq!(
+        light.kind,
+        LightKind::Spot {
+            inner_angle: 45f32.to_radians(),
+            outer_angle: 60f32.to_radians()
+        }
+    );
+    // Keys: 0 s rest, 1 s 12 cm to -x turned -25 degrees about z, 3 s 12 cm to +x turned +25,
+    // 4 s rest; looping every 4 s.
+    let down = Vec3::NEG_Y;
+    let tilted = |degrees: f32| {
+        let r = degrees.to_radians();
+        // -y turned about z by r: (sin r, -cos r, 0).
+        Vec3::new(r.sin(), -r.cos(), 0.0)
+    };
+    let cases = [
+        (0.0, rest, down),
+        (0.5, rest + Vec3::new(-0.06, 0.0, 0.0), tilted(-12.5)),
+        (1.0, rest + Vec3::new(-0.12, 0.0, 0.0), tilted(-25.0)),
+        (2.0, rest, down),
+        (2.5, rest + Vec3::new(0.06, 0.0, 0.0), tilted(12.5)),
+        (4.0, rest, down),
+        (4.5, rest + Vec3::new(-0.06, 0.0, 0.0), tilted(-12.5)),
+        (-3.5, rest + Vec3::new(-0.06, 0.0, 0.0), tilted(-12.5)),
+        (9.0, rest + Vec3::new(-0.12, 0.0, 0.0), tilted(-25.0)),
+    ];
+    for (t, position, direction) in cases {
+        let l = light.at_time(t);
+        assert!(
+            close(l.position, position),
+            "t = {t}: {} vs {position}",
+            l.position
+        );
+        assert!(
+            close(l.direction, direction),
+            "t = {t}: {} vs {direction}",
+            l.direction
+        );
+    }
+
+    // Objects: the room and the tall block never move; the short block turns about the centre
+    // of its footprint, 30 degrees about y and 5 cm to -x, 10 cm to +z at 2 s, back at 4 s.
+    let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["room", "tall-block", "short-block"]);
+    let corner = Vec3::new(0.130, 0.165, 0.065);
+    let pivot = Vec3::new(0.186, 0.0, 0.1685);
+    let moved = |degrees: f32, offset: Vec3| {
+        Quat::from_rotation_y(degrees.to_radians()) * (corner - pivot) + pivot + offset
+    };
+    let cases = [
+        (0.0, corner),
+        (1.0, moved(15.0, Vec3::new(-0.025, 0.0, 0.05))),
+        (2.0, moved(30.0, Vec3::new(-0.05, 0.0, 0.1))),
+        (3.0, moved(15.0, Vec3::new(-0.025, 0.0, 0.05))),
+        (4.0, corner),
+        (6.0, moved(30.0, Vec3::new(-0.05, 0.0, 0.1))),
+    ];
+    for (t, expected) in cases {
+        let frame = scene.frame(t, 0);
+        let p = frame.object_transforms[2].transform_point3(corner);
+        assert!(close(p, expected), "t = {t}: {p} vs {expected}");
+        for still in &frame.object_transforms[..2] {
+            assert!(still.abs_diff_eq(glam::Mat4::IDENTITY, 1e-6));
+        }
+    }
+    // The moving block keeps clear of the tall block and the walls: sampled over the loop.
+    for step in 0..=40 {
+        let frame = scene.frame(step as f32 * 0.1, 0);
+        let m = frame.object_transforms[2];
+        for &p in &scene.meshes[scene.objects[2].meshes[0] as usize].positions {
+            let w = m.transform_point3(p);
+            assert!(w.x > 0.0 && w.z > 0.0 && w.x < 0.55 && w.z < 0.55, "{w}");
+        }
+    }
+}
+
+#[test]
+fn scene_file_errors_name_the_file() {
+    let dir = std::env::temp_dir().join(format!("octolux-scene-files-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("broken.toml");
+    std::fs::write(&path, "[[model]]\npath = \"meshes/missing.obj\"\n").unwrap();
+    let err = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("broken.toml") && err.contains("meshes/missing.obj"),
+        "{err}"
+    );
+    std::fs::write(
+        &path,
+        "[[model]]\npath = \"builtin:cornell-box\"\nspin = 3\n",
+    )
+    .unwrap();
+    let err = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("broken.toml") && err.contains("spin") && err.contains("line 3"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
