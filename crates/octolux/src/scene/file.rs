@@ -104,15 +104,6 @@ pub fn model_files(path: &Path) -> Result<Vec<PathBuf>> {
         .collect())
 }
 
-/// The folder that `scenes:` model paths are relative to: `$OCTOLUX_SCENES` when set, else
-/// `shared/scenes` beside the repository.
-pub fn shared_scenes_dir() -> PathBuf {
-    match std::env::var_os(SCENES_ENV) {
-        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
-        _ => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes"),
-    }
-}
-
 /// A flat, square quad mesh in the xz plane centred on the origin, normal +y, `size` metres
 /// along x and z, with UVs spanning 0..1. Used by `builtin:ground-plane`.
 pub fn ground_plane(size: Vec2) -> Scene {
@@ -494,7 +485,7 @@ fn resolve_source(model: &RawModel, what: &str, base: &Path, path: &Path) -> Res
         return Ok(source);
     }
     let file = if let Some(rel) = p.strip_prefix(SCENES_PREFIX) {
-        in_scenes_dir(rel, &shared_scenes_dir(), what, path)?
+        in_scenes_dir(rel, &super::scenes_dir(), what, path)?
     } else {
         base.join(p)
     };
@@ -1229,7 +1220,7 @@ mod tests {
             err.contains(SCENES_ENV) && err.contains("scenes folder"),
             "{err}"
         );
-        if shared_scenes_dir().is_dir() {
+        if super::scenes_dir().is_dir() {
             let err = parse_err("[[model]]\npath = \"scenes:no-such-scene/x.obj\"\n");
             assert!(
                 err.contains("no-such-scene/x.obj") && err.contains("not found"),
@@ -1254,7 +1245,7 @@ mod tests {
         let start = doc.find("```toml\n").unwrap() + "```toml\n".len();
         let end = start + doc[start..].find("```").unwrap();
         let mut example = doc[start..end].to_string();
-        if !shared_scenes_dir().is_dir() {
+        if !super::scenes_dir().is_dir() {
             example = example.replace("scenes:stanford-bunny/bunny.ply", "builtin:cornell-box");
         }
         // The example's model file only has to exist for the description to be checked.
