@@ -1220,7 +1220,7 @@ mod tests {
             err.contains(SCENES_ENV) && err.contains("scenes folder"),
             "{err}"
         );
-        if super::scenes_dir().is_dir() {
+        if crate::scene::scenes_dir().is_dir() {
             let err = parse_err("[[model]]\npath = \"scenes:no-such-scene/x.obj\"\n");
             assert!(
                 err.contains("no-such-scene/x.obj") && err.contains("not found"),
@@ -1245,7 +1245,7 @@ mod tests {
         let start = doc.find("```toml\n").unwrap() + "```toml\n".len();
         let end = start + doc[start..].find("```").unwrap();
         let mut example = doc[start..end].to_string();
-        if !super::scenes_dir().is_dir() {
+        if !crate::scene::scenes_dir().is_dir() {
             example = example.replace("scenes:stanford-bunny/bunny.ply", "builtin:cornell-box");
         }
         // The example's model file only has to exist for the description to be checked.
