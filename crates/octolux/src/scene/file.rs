@@ -823,7 +823,7 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
     let mut part = match &model.source {
         Source::CornellBox => cornell::geometry(),
         Source::GroundPlane(size) => ground_plane(*size),
-        Source::File(file) => Scene::load(file).map_err(|e| {
+        Source::File(file) => Scene::load_model(file).map_err(|e| {
             bad(
                 path,
                 format!("{}: could not load the model: {e}", model.label),

@@ -258,8 +258,22 @@ pub struct SceneFrame {
 
 impl Scene {
     /// Loads a scene or model file, choosing the loader by extension: `.toml` (scene file),
-    /// `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is validated.
+    /// `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is validated, and a scene that
+    /// nothing lights gets a warning (it renders black).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        let scene = Self::load_model(path)?;
+        if !scene.has_light() {
+            log::warn!(
+                "scene '{}': no lights and no emissive surfaces; the image will be black",
+                scene.name
+            );
+        }
+        Ok(scene)
+    }
+
+    /// Like [`Scene::load`] without the warning about lights: for models that a scene file
+    /// lights itself.
+    pub fn load_model(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();
         if !path.exists() {
             return Err(Error::io(

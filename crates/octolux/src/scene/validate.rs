@@ -131,8 +131,5 @@ pub fn validate(scene: &mut Scene) -> Result<()> {
             "the scene has no geometry (no non-degenerate triangles)".into(),
         ));
     }
-    if !scene.has_light() {
-        log::warn!("scene '{name}': no lights and no emissive surfaces; the image will be black");
-    }
     Ok(())
 }
