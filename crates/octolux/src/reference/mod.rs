@@ -84,8 +84,8 @@ pub struct ReferenceSettings {
     pub bounces: Bounces,
     /// Stop after the pass during which this much time has passed (at least one pass runs).
     pub time_budget: Option<Duration>,
-    /// Seed of all random numbers; same seed and settings give the same image on any machine
-    /// thread count.
+    /// Seed of all random numbers; same seed and settings give the same image whatever the
+    /// thread count or pass sizes.
     pub seed: u64,
     /// Number of bounces followed before Russian roulette may end a path.
     pub roulette_start: u32,
@@ -265,7 +265,7 @@ struct Tracer<'a> {
 
 /// Ray origin offset: relative to the coordinates' magnitude so it works at any scene scale.
 fn offset(p: Vec3, n: Vec3) -> Vec3 {
-    p + n * (1e-4 * (1.0 + p.abs().max_element()) * 0.1)
+    p + n * (1e-5 * (1.0 + p.abs().max_element()))
 }
 
 impl Tracer<'_> {
