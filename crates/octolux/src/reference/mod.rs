@@ -1,1 +1,392 @@
 //! CPU reference path tracer: the ground truth every technique is judged against.
+//!
+//! It renders exactly what the GPU renderer models, from the same [`Scene`] and [`SceneFrame`]:
+//! Lambertian surfaces (BRDF albedo/pi, albedo = `base_color` x base colour texture), emissive
+//! surfaces (radiance, seen from both sides), punctual point and spot lights (W/sr,
+//! inverse-square falloff, [`Light::spot_factor`](crate::scene::Light::spot_factor)) and
+//! directional lights (irradiance `radiant()` arriving from `-direction`). The background is
+//! black. Primary rays go through [`CameraView::ray_direction`](crate::scene::CameraView) so the
+//! images line up with the GPU's pixel for pixel.
+//!
+//! Light transport:
+//! - surfaces are two-sided: the geometric and shading normals are turned towards the arriving
+//!   ray; the shading normal is used for cosines, the geometric one for ray offsets and to
+//!   reject light from below the true surface;
+//! - punctual lights are sampled by next-event estimation with any-hit shadow rays; emissive
+//!   surfaces are reached by BSDF (cosine-weighted) sampling only, so there is no double
+//!   counting and no need for multiple importance sampling;
+//! - alpha-masked materials are holes (for every ray) where texture alpha < cutoff;
+//! - Russian roulette from [`ReferenceSettings::roulette_start`] on, with survival probability
+//!   equal to the surface albedo's largest channel (at most 0.95), which is unbiased and keeps
+//!   the path weight constant in a grey furnace; unlimited paths are cut at
+//!   [`MAX_PATH_VERTICES`] vertices, where the remaining energy is below 0.95^256.
+//!
+//! Output split ([`ReferenceImages`]), with path vertices x1 (primary hit), x2, ...:
+//! - `direct` = emission of x1 + punctual light reflected at x1;
+//! - `indirect` = for each bounce k = 1..=n: emission of x(k+1) + punctual light reflected at
+//!   x(k+1), carried back to the eye;
+//! - `total` = `direct` + `indirect`;
+//! - `indirect_irradiance` E = irradiance (W/m^2) arriving at x1 over the shading-normal
+//!   hemisphere from the indirect paths, so that `indirect` = albedo/pi x E at every primary
+//!   hit of uniform albedo. This is what GI techniques output and compose multiplies by
+//!   albedo/pi; compare techniques on E to exclude texture and direct-light differences;
+//! - `albedo` = the primary hit's albedo (black where the ray misses), averaged over the
+//!   pixel's samples, to recompose `direct + albedo/pi x E` like the GPU does.
+
+mod accel;
+mod sampling;
+
+use crate::image_io::HdrImage;
+use crate::scene::{LightKind, Scene, SceneFrame};
+use crate::{Error, Result};
+use accel::{Accel, Hit};
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use sampling::{cosine_hemisphere, r2, Rng};
+use std::f32::consts::{FRAC_1_PI, PI};
+use std::time::{Duration, Instant};
+
+/// Largest accepted image side.
+pub const MAX_SIDE: u32 = 16384;
+/// Largest accepted pixel count (2^26).
+pub const MAX_PIXELS: u64 = 1 << 26;
+/// Hard limit on path length for [`Bounces::Unlimited`] (vertices after the primary hit).
+pub const MAX_PATH_VERTICES: u32 = 256;
+
+/// Which light paths the reference computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bounces {
+    /// Emission seen directly and punctual light reflected once; `indirect` stays black.
+    DirectOnly,
+    /// Direct light plus exactly `n` indirect bounces (`Indirect(1)` is one-bounce GI).
+    Indirect(u32),
+    /// Full multi-bounce transport (Russian roulette, unbiased).
+    Unlimited,
+}
+
+impl Bounces {
+    /// Largest number of indirect bounces.
+    fn max_indirect(self) -> u32 {
+        match self {
+            Bounces::DirectOnly => 0,
+            Bounces::Indirect(n) => n.min(MAX_PATH_VERTICES),
+            Bounces::Unlimited => MAX_PATH_VERTICES,
+        }
+    }
+}
+
+/// Settings of a reference render.
+#[derive(Clone, Debug)]
+pub struct ReferenceSettings {
+    /// Samples per pixel to reach.
+    pub spp: u32,
+    /// Which paths to follow.
+    pub bounces: Bounces,
+    /// Stop after the pass during which this much time has passed (at least one pass runs).
+    pub time_budget: Option<Duration>,
+    /// Seed of all random numbers; same seed and settings give the same image whatever the
+    /// thread count or pass sizes.
+    pub seed: u64,
+    /// Number of bounces followed before Russian roulette may end a path.
+    pub roulette_start: u32,
+    /// Largest number of samples per pixel in one progressive pass (passes start at 1 sample
+    /// and double up to this, so a time budget is checked often early on).
+    pub max_pass_spp: u32,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        ReferenceSettings {
+            spp: 64,
+            bounces: Bounces::Unlimited,
+            time_budget: None,
+            seed: 0,
+            roulette_start: 3,
+            max_pass_spp: 16,
+        }
+    }
+}
+
+/// The images of a reference render (all linear HDR, same size).
+#[derive(Clone, Debug)]
+pub struct ReferenceImages {
+    /// Emission seen directly plus punctual light reflected at the primary hit.
+    pub direct: HdrImage,
+    /// Light that bounced at least once more, up to the bounce limit.
+    pub indirect: HdrImage,
+    /// `direct + indirect`.
+    pub total: HdrImage,
+    /// Indirect irradiance at the primary hit, W/m^2 (see the module docs).
+    pub indirect_irradiance: HdrImage,
+    /// Albedo at the primary hit.
+    pub albedo: HdrImage,
+    /// Samples per pixel actually taken (less than asked for when the time budget ran out).
+    pub spp_done: u32,
+}
+
+/// Checks an image size: 1..=16384 per side and at most 2^26 pixels.
+pub fn check_size(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+        return Err(Error::InvalidArgument(format!(
+            "image size {width}x{height}: each side must be 1..={MAX_SIDE}"
+        )));
+    }
+    if width as u64 * height as u64 > MAX_PIXELS {
+        return Err(Error::InvalidArgument(format!(
+            "image size {width}x{height}: more than {MAX_PIXELS} pixels"
+        )));
+    }
+    Ok(())
+}
+
+/// Renders `frame` of `scene` at `width` x `height`. `progress(done, total)` is called after
+/// every pass with the samples per pixel done so far and the target.
+pub fn render(
+    scene: &Scene,
+    frame: &SceneFrame,
+    width: u32,
+    height: u32,
+    settings: &ReferenceSettings,
+    progress: &dyn Fn(u32, u32),
+) -> Result<ReferenceImages> {
+    check_size(width, height)?;
+    if settings.spp == 0 {
+        return Err(Error::InvalidArgument("spp must be at least 1".into()));
+    }
+    let start = Instant::now();
+    let accel = Accel::build(scene, frame)?;
+    let tracer = Tracer {
+        accel,
+        frame,
+        max_indirect: settings.bounces.max_indirect(),
+        roulette_start: settings.roulette_start,
+    };
+    let view = frame.camera.view(width, height);
+    let (w, h) = (width as usize, height as usize);
+    let mut accum = vec![Accum::default(); w * h];
+    let mut done = 0u32;
+    let mut pass = 1u32;
+    while done < settings.spp {
+        let n = pass.min(settings.spp - done);
+        accum.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            for (x, acc) in row.iter_mut().enumerate() {
+                let pixel = (y * w + x) as u64;
+                let shift = Rng::new(settings.seed, pixel, u64::MAX).next_vec2();
+                for s in done..done + n {
+                    let mut rng = Rng::new(settings.seed, pixel, s as u64);
+                    let jitter = r2(s, shift);
+                    let dir = view.ray_direction(x as f32 + jitter.x, y as f32 + jitter.y);
+                    acc.add(&tracer.trace(view.position, dir, &mut rng));
+                }
+            }
+        });
+        done += n;
+        progress(done, settings.spp);
+        pass = (pass * 2).min(settings.max_pass_spp.max(1));
+        if settings
+            .time_budget
+            .is_some_and(|budget| start.elapsed() >= budget)
+        {
+            break;
+        }
+    }
+    let scale = 1.0 / done as f64;
+    let image = |f: &dyn Fn(&Accum) -> DVec3| HdrImage {
+        width,
+        height,
+        pixels: accum.iter().map(|a| (f(a) * scale).as_vec3()).collect(),
+    };
+    let direct = image(&|a| a.direct);
+    let indirect = image(&|a| a.indirect);
+    let total = HdrImage {
+        width,
+        height,
+        pixels: direct
+            .pixels
+            .iter()
+            .zip(&indirect.pixels)
+            .map(|(d, i)| *d + *i)
+            .collect(),
+    };
+    Ok(ReferenceImages {
+        indirect_irradiance: image(&|a| a.irradiance),
+        albedo: image(&|a| a.albedo),
+        direct,
+        indirect,
+        total,
+        spp_done: done,
+    })
+}
+
+/// Per-pixel sums (f64 so long renders do not lose small samples).
+#[derive(Clone, Default)]
+struct Accum {
+    direct: DVec3,
+    indirect: DVec3,
+    irradiance: DVec3,
+    albedo: DVec3,
+}
+
+impl Accum {
+    fn add(&mut self, s: &PathSample) {
+        self.direct += s.direct.as_dvec3();
+        self.indirect += s.indirect.as_dvec3();
+        self.irradiance += s.irradiance.as_dvec3();
+        self.albedo += s.albedo.as_dvec3();
+    }
+}
+
+/// What one camera path contributes.
+#[derive(Default)]
+struct PathSample {
+    direct: Vec3,
+    indirect: Vec3,
+    irradiance: Vec3,
+    albedo: Vec3,
+}
+
+/// A shading point.
+struct Surface {
+    position: Vec3,
+    /// Geometric normal, facing the arriving ray.
+    geometric: Vec3,
+    /// Shading normal, on the same side as `geometric`.
+    shading: Vec3,
+    albedo: Vec3,
+    emission: Vec3,
+}
+
+struct Tracer<'a> {
+    accel: Accel<'a>,
+    frame: &'a SceneFrame,
+    max_indirect: u32,
+    roulette_start: u32,
+}
+
+/// Ray origin offset: relative to the coordinates' magnitude so it works at any scene scale.
+fn offset(p: Vec3, n: Vec3) -> Vec3 {
+    p + n * (1e-5 * (1.0 + p.abs().max_element()))
+}
+
+impl Tracer<'_> {
+    fn surface(&self, hit: &Hit, origin: Vec3, dir: Vec3) -> Surface {
+        let tri = &self.accel.tris[hit.tri as usize];
+        let material = &self.accel.materials[tri.material as usize];
+        let (u, v) = (hit.u, hit.v);
+        let mut geometric = tri.e1.cross(tri.e2).normalize_or(Vec3::Y);
+        if geometric.dot(dir) > 0.0 {
+            geometric = -geometric;
+        }
+        let mut shading =
+            (tri.normals[0] * (1.0 - u - v) + tri.normals[1] * u + tri.normals[2] * v)
+                .normalize_or(geometric);
+        if shading.dot(geometric) < 0.0 {
+            shading = -shading;
+        }
+        let albedo = match material.texture {
+            Some(tex) => material.base_color * tex.sample(tri.uv(u, v)).truncate(),
+            None => material.base_color,
+        };
+        Surface {
+            position: origin + dir * hit.t,
+            geometric,
+            shading,
+            albedo,
+            emission: material.emission,
+        }
+    }
+
+    /// Reflected radiance from all punctual lights at `s` (towards any viewer: Lambertian).
+    fn direct_light(&self, s: &Surface) -> Vec3 {
+        if s.albedo == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let origin = offset(s.position, s.geometric);
+        let mut irradiance = Vec3::ZERO;
+        for light in &self.frame.lights {
+            let (wi, distance, arriving) = match light.kind {
+                LightKind::Directional => {
+                    let wi = -light.direction.normalize_or(Vec3::NEG_Y);
+                    (wi, f32::INFINITY, light.radiant())
+                }
+                LightKind::Point | LightKind::Spot { .. } => {
+                    let to = light.position - s.position;
+                    let d2 = to.length_squared();
+                    if d2 <= 0.0 {
+                        continue;
+                    }
+                    let d = d2.sqrt();
+                    let wi = to / d;
+                    let spot = light.spot_factor(-wi);
+                    (wi, d, light.radiant() * (spot / d2))
+                }
+            };
+            let cos = s.shading.dot(wi);
+            if cos <= 0.0 || s.geometric.dot(wi) <= 0.0 || arriving.max_element() <= 0.0 {
+                continue;
+            }
+            let t_max = if distance.is_finite() {
+                // Stop short of the light; the offset origin is slightly closer already.
+                (light.position - origin).length() * (1.0 - 1e-5)
+            } else {
+                f32::INFINITY
+            };
+            if self.accel.unoccluded(origin, wi, t_max) {
+                irradiance += arriving * cos;
+            }
+        }
+        s.albedo * FRAC_1_PI * irradiance
+    }
+
+    fn trace(&self, origin: Vec3, dir: Vec3, rng: &mut Rng) -> PathSample {
+        let mut out = PathSample::default();
+        let Some(hit) = self.accel.closest(origin, dir, f32::INFINITY) else {
+            return out;
+        };
+        let first = self.surface(&hit, origin, dir);
+        out.albedo = first.albedo;
+        out.direct = first.emission + self.direct_light(&first);
+        if self.max_indirect == 0 {
+            return out;
+        }
+        // Radiance arriving at the primary hit along the sampled direction, from >= 1 bounce.
+        let mut incoming = Vec3::ZERO;
+        let mut weight = Vec3::ONE;
+        let mut s = first;
+        let mut bounce = 1u32;
+        loop {
+            let dir = cosine_hemisphere(s.shading, rng.next_vec2());
+            if dir.dot(s.geometric) <= 0.0 {
+                // Below the true surface: the shading normal leans away; such light is lost.
+                break;
+            }
+            let origin = offset(s.position, s.geometric);
+            let Some(hit) = self.accel.closest(origin, dir, f32::INFINITY) else {
+                break;
+            };
+            let next = self.surface(&hit, origin, dir);
+            incoming += weight * (next.emission + self.direct_light(&next));
+            if bounce >= self.max_indirect {
+                break;
+            }
+            // Lambertian with cosine sampling: BRDF x cos / pdf = albedo.
+            let mut factor = next.albedo;
+            if bounce >= self.roulette_start {
+                let survive = next.albedo.max_element().min(0.95);
+                if survive <= 0.0 || rng.next_f32() >= survive {
+                    break;
+                }
+                factor /= survive;
+            }
+            weight *= factor;
+            if weight.max_element() <= 0.0 {
+                break;
+            }
+            s = next;
+            bounce += 1;
+        }
+        out.indirect = out.albedo * incoming;
+        out.irradiance = PI * incoming;
+        out
+    }
+}

@@ -1,0 +1,60 @@
+//! `octolux diff`: error metrics of an image against a reference.
+
+use anyhow::Context;
+use octolux::metrics::{self, MetricOptions};
+use std::path::PathBuf;
+
+/// Compare an image with a reference: MSE, relMSE, PSNR, SSIM and FLIP.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DiffArgs {
+    /// Image to judge (.exr linear HDR; .png is decoded from sRGB to linear).
+    pub a: PathBuf,
+    /// Reference image, same size.
+    pub b: PathBuf,
+    /// Mask PNG of the same size: white pixels are compared, black ones ignored.
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
+    /// Write the per-pixel FLIP error map (magma colours) to this PNG.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the metrics as JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Exposure in stops applied before tone mapping for PSNR, SSIM and FLIP.
+    #[arg(long, default_value_t = 0.0)]
+    pub exposure: f32,
+}
+
+/// Runs `octolux diff`.
+pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
+    let a = metrics::load_image(&args.a)?;
+    let b = metrics::load_image(&args.b)?;
+    let mask = match &args.mask {
+        Some(path) => Some(metrics::load_mask(path, b.width, b.height)?),
+        None => None,
+    };
+    let options = MetricOptions {
+        exposure: args.exposure,
+        ..MetricOptions::default()
+    };
+    let m = metrics::compare_with(&a, &b, mask.as_deref(), &options)
+        .with_context(|| format!("comparing {} with {}", args.a.display(), args.b.display()))?;
+    if let Some(out) = &args.out {
+        metrics::flip_map(&a, &b, &options)?.write_png(out, mask.as_deref())?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&m)?);
+    } else {
+        println!("{} vs {} (reference)", args.a.display(), args.b.display());
+        println!("{:<8} {:>14}", "metric", "value");
+        println!("{:<8} {:>14.6e}", "MSE", m.mse);
+        println!("{:<8} {:>14.6e}", "relMSE", m.rel_mse);
+        println!("{:<8} {:>11.3} dB", "PSNR", m.psnr);
+        println!("{:<8} {:>14.5}", "SSIM", m.ssim);
+        println!("{:<8} {:>14.5}", "FLIP", m.flip);
+        if let Some(out) = &args.out {
+            println!("error map: {}", out.display());
+        }
+    }
+    Ok(())
+}
