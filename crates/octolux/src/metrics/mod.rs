@@ -18,6 +18,7 @@
 //!
 //! Use [`compare`] for all of them, [`flip_map`] for a per-pixel error image.
 
+use crate::scene::srgb_to_linear;
 use crate::image_io::{filmic, linear_to_srgb, write_rgb8_png, HdrImage};
 use crate::{Error, Result};
 use glam::Vec3;
@@ -381,11 +382,3 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
         .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))
 }
 
-/// sRGB decoding (encoded 0..1 to linear).
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
