@@ -1,6 +1,7 @@
 //! `octolux`: render scenes with a GI technique or the reference path tracer, compare images
 //! and benchmark techniques against the reference.
 
+mod diff;
 mod gi_args;
 mod render;
 mod stats;
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     /// Render a scene (default: the built-in Cornell box) to PNG and/or OpenEXR.
     Render(render::RenderArgs),
+    /// Compare two images (MSE, relMSE, PSNR, SSIM, FLIP) and optionally write an error map.
+    Diff(diff::DiffArgs),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +43,7 @@ fn main() -> ExitCode {
     .init();
     let result = match &cli.command {
         Command::Render(args) => render::run(args),
+        Command::Diff(args) => diff::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,13 +1,17 @@
 //! `octolux render`.
 
+use crate::gi_args::GiArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use octolux::gi::GiSettings;
 use octolux::gpu::{AdapterChoice, GpuContext, GpuOptions};
 use octolux::image_io::{write_rgb8_png, HdrImage};
+use octolux::reference::{self, Bounces, ReferenceImages, ReferenceSettings};
 use octolux::render::{check_image_size, RenderSettings, Renderer};
 use octolux::scene::{cornell, Scene};
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// Arguments of `octolux render`.
 #[derive(Args, Debug)]
@@ -37,9 +41,12 @@ pub struct RenderArgs {
     /// Also write the linear HDR image to this OpenEXR file.
     #[arg(long)]
     pub exr: Option<PathBuf>,
-    /// GI technique: none (direct light only).
+    /// GI technique: `none` (direct light only), or `reference` for the CPU path tracer.
     #[arg(long, default_value = "none")]
     pub gi: String,
+    /// Reference path tracer options (used with `--gi reference`).
+    #[command(flatten)]
+    pub reference: ReferenceArgs,
     /// Which of the scene's cameras to use.
     #[arg(long, default_value_t = 0)]
     pub camera: usize,
@@ -57,15 +64,141 @@ pub struct RenderArgs {
     pub no_timestamps: bool,
     /// Technique settings.
     #[command(flatten)]
-    pub gi_args: crate::gi_args::GiArgs,
+    pub gi_args: GiArgs,
 }
 
-/// Loads the scene named on the command line, or the built-in Cornell box.
-pub fn load_scene(path: Option<&Path>) -> Result<Scene> {
-    match path {
-        None => Ok(cornell::scene()),
-        Some(p) => Ok(Scene::load(p)?),
+/// Options of the reference path tracer.
+#[derive(Args, Debug, Clone)]
+pub struct ReferenceArgs {
+    /// Samples per pixel of the reference.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Light transport of the reference: `direct`, a number of indirect bounces (`1` = one
+    /// bounce, what LPV and VPL methods compute), or `unlimited`.
+    #[arg(long, default_value = "unlimited")]
+    pub bounces: String,
+    /// Stop refining after this many seconds (the image keeps the samples done so far).
+    #[arg(long)]
+    pub time_budget: Option<f64>,
+    /// Random seed (same seed, same image).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Also write the direct-light part as linear OpenEXR.
+    #[arg(long)]
+    pub direct_exr: Option<PathBuf>,
+    /// Also write the indirect part (outgoing radiance) as linear OpenEXR.
+    #[arg(long)]
+    pub indirect_exr: Option<PathBuf>,
+    /// Also write the indirect irradiance at the first hit (what GI techniques output).
+    #[arg(long)]
+    pub irradiance_exr: Option<PathBuf>,
+}
+
+impl ReferenceArgs {
+    /// Library settings from the flags.
+    pub fn settings(&self) -> Result<ReferenceSettings> {
+        if self.spp == 0 {
+            bail!("--spp must be at least 1");
+        }
+        let time_budget = match self.time_budget {
+            Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
+            Some(s) => bail!("--time-budget {s}: must be a positive number of seconds"),
+            None => None,
+        };
+        Ok(ReferenceSettings {
+            spp: self.spp,
+            bounces: self.bounces.parse::<Bounces>()?,
+            time_budget,
+            seed: self.seed,
+            ..ReferenceSettings::default()
+        })
     }
+}
+
+/// A progress bar for `len` units of work labelled `what`, hidden when not on a terminal.
+pub fn progress_bar(len: u64, what: &str) -> ProgressBar {
+    ProgressBar::new(len).with_style(
+        ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {what}, {{elapsed}} ({{eta}} left)"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    )
+}
+
+/// Renders the reference for one frame with a progress bar over samples per pixel.
+pub fn reference_frame(
+    scene: &Scene,
+    t: f32,
+    camera: usize,
+    width: u32,
+    height: u32,
+    settings: &ReferenceSettings,
+) -> Result<ReferenceImages> {
+    let frame = scene.frame(t, camera);
+    let bar = progress_bar(settings.spp as u64, &format!("spp ({})", settings.bounces));
+    let images = reference::render(scene, &frame, width, height, settings, &|done, _| {
+        bar.set_position(done as u64)
+    })?;
+    bar.finish_and_clear();
+    Ok(images)
+}
+
+fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
+    let settings = args.reference.settings()?;
+    let start = std::time::Instant::now();
+    let mut spp_done = 0;
+    for i in 0..args.frames {
+        let t = args.time + i as f32 / args.fps;
+        let images = reference_frame(scene, t, args.camera, args.width, args.height, &settings)?;
+        spp_done = images.spp_done;
+        write_image(
+            &frame_path(&args.out, i, args.frames),
+            &images.total,
+            None,
+            scene.exposure,
+        )?;
+        let extra = [
+            (&args.exr, &images.total),
+            (&args.reference.direct_exr, &images.direct),
+            (&args.reference.indirect_exr, &images.indirect),
+            (&args.reference.irradiance_exr, &images.indirect_irradiance),
+        ];
+        for (path, image) in extra {
+            if let Some(path) = path {
+                image.write_exr(&frame_path(path, i, args.frames))?;
+            }
+        }
+    }
+    println!(
+        "reference: {} frame(s) of '{}' at {}x{}, {} spp, {} in {:.2} s -> {}",
+        args.frames,
+        scene.name,
+        args.width,
+        args.height,
+        spp_done,
+        settings.bounces,
+        start.elapsed().as_secs_f64(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Loads the scene named on the command line (default: the built-in Cornell box) and the GI
+/// settings of its scene file, with the command-line flags applied on top.
+pub fn load_scene(path: Option<&Path>, flags: &GiArgs) -> Result<(Scene, GiSettings)> {
+    let (scene, mut settings) = match path {
+        None => (cornell::scene(), GiSettings::default()),
+        Some(p)
+            if p.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("toml")) =>
+        {
+            let (scene, table) = octolux::scene::file::load_with_settings(p)?;
+            (scene, GiSettings::from_table(&table, p)?)
+        }
+        Some(p) => (Scene::load(p)?, GiSettings::default()),
+    };
+    flags.apply(&mut settings);
+    Ok((scene, settings))
 }
 
 /// GPU options from the command line and the environment.
@@ -137,7 +270,20 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.frames == 0 || !(args.fps > 0.0 && args.fps.is_finite()) || !args.time.is_finite() {
         bail!("--frames must be at least 1, --fps positive and --time finite");
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    for path in [
+        &args.reference.direct_exr,
+        &args.reference.indirect_exr,
+        &args.reference.irradiance_exr,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        check_output(path)?;
+    }
+    let (scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
+    if args.gi == "reference" {
+        return run_reference(args, &scene);
+    }
     let ctx = GpuContext::new(&gpu_options(args.adapter.as_deref(), args.no_timestamps))?;
     log::info!("adapter: {}", ctx.describe());
     let settings = RenderSettings {
@@ -146,19 +292,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         shadow_map_size: args.shadow_map_size,
         camera: args.camera,
         gi: args.gi.clone(),
-        gi_settings: {
-            let mut s = octolux::gi::GiSettings::default();
-            args.gi_args.apply(&mut s);
-            s
-        },
+        gi_settings,
     };
     let start = std::time::Instant::now();
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;
     let progress = if args.frames > 1 {
-        ProgressBar::new(args.frames as u64).with_style(
-            ProgressStyle::with_template("{bar:40} {pos}/{len} frames, {elapsed} ({eta} left)")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-        )
+        progress_bar(args.frames as u64, "frames")
     } else {
         ProgressBar::hidden()
     };

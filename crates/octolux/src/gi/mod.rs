@@ -45,6 +45,9 @@ pub trait GiTechnique {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()>;
     /// The indirect irradiance image (valid after `update`).
     fn indirect_view(&self) -> &wgpu::TextureView;
+    /// The light transport this technique claims to compute, so that it is judged against the
+    /// matching reference (LPV and VPL methods compute one indirect bounce).
+    fn reference_bounces(&self) -> crate::reference::Bounces;
 }
 
 /// Settings of every technique, one field per technique family, each with documented defaults.

@@ -56,4 +56,8 @@ impl GiTechnique for NoGi {
     fn indirect_view(&self) -> &wgpu::TextureView {
         &self.view
     }
+
+    fn reference_bounces(&self) -> crate::reference::Bounces {
+        crate::reference::Bounces::DirectOnly
+    }
 }

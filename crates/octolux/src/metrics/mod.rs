@@ -18,8 +18,8 @@
 //!
 //! Use [`compare`] for all of them, [`flip_map`] for a per-pixel error image.
 
-use crate::scene::srgb_to_linear;
 use crate::image_io::{filmic, linear_to_srgb, write_rgb8_png, HdrImage};
+use crate::scene::srgb_to_linear;
 use crate::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -381,4 +381,3 @@ fn decode(path: &Path) -> Result<image::DynamicImage> {
     image::load_from_memory(&bytes)
         .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))
 }
-

@@ -46,10 +46,6 @@ use sampling::{cosine_hemisphere, r2, Rng};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::time::{Duration, Instant};
 
-/// Largest accepted image side.
-pub const MAX_SIDE: u32 = 16384;
-/// Largest accepted pixel count (2^26).
-pub const MAX_PIXELS: u64 = 1 << 26;
 /// Hard limit on path length for [`Bounces::Unlimited`] (vertices after the primary hit).
 pub const MAX_PATH_VERTICES: u32 = 256;
 
@@ -71,6 +67,33 @@ impl Bounces {
             Bounces::DirectOnly => 0,
             Bounces::Indirect(n) => n.min(MAX_PATH_VERTICES),
             Bounces::Unlimited => MAX_PATH_VERTICES,
+        }
+    }
+}
+
+impl std::str::FromStr for Bounces {
+    type Err = Error;
+
+    /// `direct`, `unlimited` (or `all`), or a number of indirect bounces (`0` = direct).
+    fn from_str(s: &str) -> Result<Bounces> {
+        match s.trim().to_lowercase().as_str() {
+            "direct" | "0" => Ok(Bounces::DirectOnly),
+            "unlimited" | "all" | "inf" => Ok(Bounces::Unlimited),
+            n => n.parse::<u32>().map(Bounces::Indirect).map_err(|_| {
+                Error::InvalidArgument(format!(
+                    "bounces '{s}': expected 'direct', 'unlimited' or a number"
+                ))
+            }),
+        }
+    }
+}
+
+impl std::fmt::Display for Bounces {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Bounces::DirectOnly => write!(f, "direct"),
+            Bounces::Indirect(n) => write!(f, "{n} bounce{}", if *n == 1 { "" } else { "s" }),
+            Bounces::Unlimited => write!(f, "unlimited"),
         }
     }
 }
@@ -124,21 +147,6 @@ pub struct ReferenceImages {
     pub spp_done: u32,
 }
 
-/// Checks an image size: 1..=16384 per side and at most 2^26 pixels.
-pub fn check_size(width: u32, height: u32) -> Result<()> {
-    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
-        return Err(Error::InvalidArgument(format!(
-            "image size {width}x{height}: each side must be 1..={MAX_SIDE}"
-        )));
-    }
-    if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(Error::InvalidArgument(format!(
-            "image size {width}x{height}: more than {MAX_PIXELS} pixels"
-        )));
-    }
-    Ok(())
-}
-
 /// Renders `frame` of `scene` at `width` x `height`. `progress(done, total)` is called after
 /// every pass with the samples per pixel done so far and the target.
 pub fn render(
@@ -149,7 +157,7 @@ pub fn render(
     settings: &ReferenceSettings,
     progress: &dyn Fn(u32, u32),
 ) -> Result<ReferenceImages> {
-    check_size(width, height)?;
+    crate::render::check_image_size(width, height)?;
     if settings.spp == 0 {
         return Err(Error::InvalidArgument("spp must be at least 1".into()));
     }

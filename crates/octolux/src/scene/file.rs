@@ -69,8 +69,21 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Loads and validates a scene file; also returns its `[settings]` table (empty when absent),
 /// which holds GI technique settings read elsewhere.
 pub fn load_with_settings(path: &Path) -> Result<(Scene, toml::Table)> {
+    if !path.exists() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
+        ));
+    }
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    parse_with_settings(&text, path)
+    let (scene, settings) = parse_with_settings(&text, path)?;
+    if !scene.has_light() {
+        log::warn!(
+            "scene '{}': no lights and no emissive surfaces; the image will be black",
+            scene.name
+        );
+    }
+    Ok((scene, settings))
 }
 
 /// Parses and validates scene-file text as if it had been read from `path` (relative model
