@@ -1,6 +1,7 @@
 //! `octolux`: render scenes with a GI technique or the reference path tracer, compare images
 //! and benchmark techniques against the reference.
 
+mod bench;
 mod diff;
 mod gi_args;
 mod render;
@@ -24,6 +25,8 @@ struct Cli {
 enum Command {
     /// Render a scene (default: the built-in Cornell box) to PNG and/or OpenEXR.
     Render(render::RenderArgs),
+    /// Render techniques and the matching reference on one scene; per-pass times, memory, error.
+    Bench(bench::BenchArgs),
     /// Compare two images (MSE, relMSE, PSNR, SSIM, FLIP) and optionally write an error map.
     Diff(diff::DiffArgs),
 }
@@ -44,6 +47,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Render(args) => render::run(args),
         Command::Diff(args) => diff::run(args),
+        Command::Bench(args) => bench::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

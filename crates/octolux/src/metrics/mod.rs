@@ -31,7 +31,7 @@ pub const REL_MSE_EPSILON: f64 = 0.01;
 pub const PSNR_CAP_DB: f64 = 100.0;
 
 /// The error of a test image against a reference.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
     /// Mean squared error, linear values.
     pub mse: f64,
