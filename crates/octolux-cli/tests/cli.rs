@@ -153,3 +153,246 @@ fn unknown_adapter_is_an_error() {
         &["no-such-gpu-anywhere", "available"],
     );
 }
+
+#[test]
+fn reference_writes_direct_indirect_and_total() {
+    let dir = temp_dir("reference");
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let output = octolux(&[
+        "render",
+        "--gi",
+        "reference",
+        "--bounces",
+        "1",
+        "--spp",
+        "4",
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--out",
+        &p("total.png"),
+        "--exr",
+        &p("total.exr"),
+        "--direct-exr",
+        &p("direct.exr"),
+        "--indirect-exr",
+        &p("indirect.exr"),
+        "--irradiance-exr",
+        &p("irradiance.exr"),
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let read = |n: &str| octolux::image_io::HdrImage::read_exr(&dir.join(n)).unwrap();
+    let (total, direct, indirect) = (read("total.exr"), read("direct.exr"), read("indirect.exr"));
+    assert!(indirect.pixels.iter().any(|p| p.max_element() > 0.0));
+    for i in 0..total.pixels.len() {
+        let sum = direct.pixels[i] + indirect.pixels[i];
+        assert!((total.pixels[i] - sum).abs().max_element() <= 1e-5 * sum.max_element().max(1.0));
+    }
+    assert_eq!(read("irradiance.exr").width, 24);
+    assert!(dir.join("total.png").exists());
+}
+
+#[test]
+fn bad_bounces_is_an_error() {
+    assert_fails_with(
+        &octolux(&["render", "--gi", "reference", "--bounces", "lots"]),
+        &["lots", "unlimited"],
+    );
+}
+
+#[test]
+fn bench_prints_a_table_and_json() {
+    let dir = temp_dir("bench");
+    let json = dir.join("bench.json");
+    let output = octolux(&[
+        "bench",
+        "--gi",
+        "none",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--spp",
+        "4",
+        "--warmup",
+        "0",
+        "--frames",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    for needle in [
+        "technique",
+        "GPU ms",
+        "FLIP",
+        "relMSE",
+        "none",
+        "reference (direct)",
+        "per-pass ms",
+    ] {
+        assert!(
+            stdout.contains(needle),
+            "'{needle}' missing from:\n{stdout}"
+        );
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let technique = &report["techniques"][0];
+    assert_eq!(technique["technique"], "none");
+    assert_eq!(technique["reference"], "direct");
+    assert!(technique["metrics"]["flip"].as_f64().unwrap() >= 0.0);
+    assert!(technique["total_mib"].as_f64().unwrap() > 0.0);
+    let passes: Vec<&str> = technique["passes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        passes,
+        ["shadow maps", "gbuffer", "direct light", "compose"]
+    );
+}
+
+#[test]
+fn diff_of_mismatched_sizes_is_an_error() {
+    let dir = temp_dir("diff");
+    let a = dir.join("a.exr");
+    let b = dir.join("b.exr");
+    octolux::image_io::HdrImage::new(4, 4)
+        .write_exr(&a)
+        .unwrap();
+    octolux::image_io::HdrImage::new(5, 4)
+        .write_exr(&b)
+        .unwrap();
+    assert_fails_with(
+        &octolux(&["diff", a.to_str().unwrap(), b.to_str().unwrap()]),
+        &["4x4", "5x4"],
+    );
+    assert_fails_with(
+        &octolux(&["diff", a.to_str().unwrap(), "/nonexistent.exr"]),
+        &["/nonexistent.exr"],
+    );
+}
+
+#[test]
+fn diff_prints_metrics_as_a_table_and_json() {
+    let dir = temp_dir("diff-ok");
+    let a = dir.join("a.exr");
+    let mut image = octolux::image_io::HdrImage::new(8, 8);
+    image.set(3, 3, glam::Vec3::ONE);
+    image.write_exr(&a).unwrap();
+    let output = octolux(&["diff", a.to_str().unwrap(), a.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success() && stdout.contains("FLIP") && stdout.contains("relMSE"),
+        "{stdout}"
+    );
+    let output = octolux(&["diff", a.to_str().unwrap(), a.to_str().unwrap(), "--json"]);
+    let value: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(value["flip"].as_f64(), Some(0.0));
+}
+
+/// Writes `files` into a fresh folder and renders the first one at a tiny size.
+fn render_files(name: &str, files: &[(&str, &str)]) -> (Output, PathBuf) {
+    let dir = temp_dir(name);
+    for (file, text) in files {
+        std::fs::write(dir.join(file), text).unwrap();
+    }
+    let scene = dir.join(files[0].0);
+    let out = dir.join("out.exr");
+    let output = octolux(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    (output, out)
+}
+
+#[test]
+fn malformed_toml_is_an_error() {
+    let (output, _) = render_files(
+        "bad-toml",
+        &[("scene.toml", "name = \"x\"\n[[light]\ntype = \"point\"\n")],
+    );
+    assert_fails_with(&output, &["scene.toml", "line"]);
+}
+
+#[test]
+fn malformed_obj_is_an_error() {
+    let (output, _) = render_files(
+        "bad-obj",
+        &[("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")],
+    );
+    assert_fails_with(&output, &["m.obj"]);
+}
+
+#[test]
+fn malformed_gltf_is_an_error() {
+    let (output, _) = render_files("bad-gltf", &[("m.gltf", "{ \"asset\": { \"version\": ")]);
+    assert_fails_with(&output, &["m.gltf"]);
+}
+
+#[test]
+fn nan_vertex_is_an_error() {
+    let (output, _) = render_files(
+        "nan",
+        &[("m.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")],
+    );
+    assert_fails_with(&output, &["non-finite"]);
+}
+
+#[test]
+fn scene_without_geometry_is_an_error() {
+    let (output, _) = render_files("empty", &[("m.obj", "# nothing here\n")]);
+    assert_fails_with(&output, &["no geometry"]);
+}
+
+#[test]
+fn unlit_scene_renders_black_with_a_warning() {
+    let (output, out) = render_files(
+        "unlit",
+        &[("m.obj", "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n")],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("no lights"), "{stderr}");
+    let image = octolux::image_io::HdrImage::read_exr(&out).unwrap();
+    assert!(image.pixels.iter().all(|p| *p == glam::Vec3::ZERO));
+}
+
+#[test]
+fn missing_texture_falls_back_to_the_factor_with_a_warning() {
+    let (output, _) = render_files(
+        "missing-texture",
+        &[
+            (
+                "m.obj",
+                "mtllib m.mtl\nusemtl red\nv -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n",
+            ),
+            (
+                "m.mtl",
+                "newmtl red\nKd 0.8 0.1 0.1\nKe 1 1 1\nmap_Kd nowhere.png\n",
+            ),
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("nowhere.png"), "{stderr}");
+}
