@@ -250,8 +250,8 @@ fn print_report(report: &BenchReport) {
         report.scene, report.width, report.height, report.time, report.adapter
     );
     println!(
-        "  {:<16} {:>10} {:>10} {:>10} {:>9} {:>11}  {}",
-        "technique", "GPU ms", "tech MiB", "total MiB", "FLIP", "relMSE", "reference"
+        "  {:<16} {:>10} {:>10} {:>10} {:>9} {:>11}  reference",
+        "technique", "GPU ms", "tech MiB", "total MiB", "FLIP", "relMSE"
     );
     for t in &report.techniques {
         println!(
