@@ -4,8 +4,10 @@
 //! the scene geometry, and writes an HDR *indirect irradiance* image (W/m^2, `Rgba16Float`,
 //! aligned with the G-buffer). Compose turns it into outgoing radiance as albedo/pi x E.
 
+pub mod lpv;
 mod none;
 
+pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;
 
 use crate::gpu::{GpuContext, PassTimer};
@@ -52,7 +54,15 @@ pub trait GiTechnique {
 /// file's `[settings]` table.
 #[derive(Clone, Debug, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct GiSettings {}
+pub struct GiSettings {
+    /// Uniform LPV, and the RSM/injection/lookup settings shared by `clpv` and `olpv`
+    /// (`[settings.lpv]`).
+    pub lpv: LpvSettings,
+    /// Cascaded LPV (`[settings.clpv]`).
+    pub clpv: ClpvSettings,
+    /// Octree LPV (`[settings.olpv]`).
+    pub olpv: OlpvSettings,
+}
 
 impl GiSettings {
     /// Reads settings from a scene file's `[settings]` table; unknown keys are errors.
@@ -66,19 +76,29 @@ impl GiSettings {
 }
 
 /// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &["none"];
+pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv"];
 
 /// Creates the technique called `name` for images of `width` x `height`.
 pub fn create(
     name: &str,
     ctx: &GpuContext,
-    _scene: &Scene,
-    _settings: &GiSettings,
+    scene: &Scene,
+    settings: &GiSettings,
     width: u32,
     height: u32,
 ) -> Result<Box<dyn GiTechnique>> {
     match name {
         "none" => Ok(Box::new(NoGi::new(ctx, width, height))),
+        "lpv" | "clpv" | "olpv" => {
+            let variant = match name {
+                "lpv" => lpv::Variant::Uniform,
+                "clpv" => lpv::Variant::Cascaded,
+                _ => lpv::Variant::Octree,
+            };
+            Ok(Box::new(LpvGi::new(
+                ctx, variant, settings, scene, width, height,
+            )?))
+        }
         other => Err(Error::InvalidArgument(format!(
             "unknown GI technique '{other}' (available: {}, reference)",
             TECHNIQUES.join(", ")
