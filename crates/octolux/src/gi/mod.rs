@@ -47,6 +47,10 @@ pub trait GiTechnique {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()>;
     /// The indirect irradiance image (valid after `update`).
     fn indirect_view(&self) -> &wgpu::TextureView;
+    /// The concrete technique, for tests and tools that inspect its state (None by default).
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }
 
 /// Settings of every technique, one field per technique family, each with documented defaults.

@@ -18,7 +18,8 @@ fn upload_cells(ctx: &GpuContext, buffer: &wgpu::Buffer, offset: u64, cells: &[C
     }
 }
 
-fn read_cells(
+/// Reads `count` cells from `first` of a light buffer.
+pub(crate) fn read_cells(
     ctx: &GpuContext,
     buffer: &wgpu::Buffer,
     first: u32,

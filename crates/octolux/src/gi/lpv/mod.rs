@@ -457,6 +457,17 @@ impl LpvGi {
         g
     }
 
+    /// Reads the accumulation buffer of the last frame, all grids one after another (with 0
+    /// iterations it holds exactly the injected light).
+    pub fn read_accumulated(&self, ctx: &GpuContext) -> Result<Vec<sh::Cell>> {
+        kernels::read_cells(ctx, &self.volumes.acc, 0, self.volumes.cells)
+    }
+
+    /// The placed grids of the last frame's layout (side, offsets), in buffer order.
+    pub fn layouts(&self) -> &[Layout] {
+        &self.layouts
+    }
+
     fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
         let octree = self
             .octree
@@ -548,5 +559,9 @@ impl GiTechnique for LpvGi {
 
     fn indirect_view(&self) -> &wgpu::TextureView {
         &self.output.view
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
     }
 }
