@@ -12,7 +12,7 @@ pub struct GiArgs {
     /// LPV: propagation iterations (default 16).
     #[arg(long)]
     pub lpv_iterations: Option<u32>,
-    /// LPV family: reflective shadow map side in texels (default 256).
+    /// LPV family: reflective shadow map side in texels (default 512).
     #[arg(long)]
     pub rsm_size: Option<u32>,
     /// LPV family: RSM texels per VPL side, one VPL per stride^2 block (default 4).

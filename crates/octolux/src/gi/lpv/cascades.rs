@@ -16,9 +16,10 @@ pub fn fit(bounds: (Vec3, Vec3), n: u32) -> (Vec3, f32) {
     (centre - Vec3::splat(cell * n as f32 * 0.5), cell)
 }
 
-/// Origin and cell side of `count` nested cascades of `n`^3 cells. The coarsest is `extent`
-/// wide (0: 1.25 x the largest scene extent); each finer one is half as wide. All are centred on
-/// the point of the view ray closest to the scene centre, snapped to their cell size.
+/// Origin and cell side of `count` nested cascades of `n`^3 cells. The finest is `extent` wide
+/// (0: 1.25 x the largest scene extent, so that its cells are no finer than the VPL spacing
+/// of a scene-sized RSM); each coarser one is twice as wide. All are centred on the point of
+/// the view ray closest to the scene centre, snapped to their cell size.
 pub fn place(
     bounds: (Vec3, Vec3),
     view: &CameraView,
@@ -27,7 +28,7 @@ pub fn place(
     extent: f32,
 ) -> Vec<(Vec3, f32)> {
     let (lo, hi) = bounds;
-    let coarsest = if extent > 0.0 {
+    let finest = if extent > 0.0 {
         extent
     } else {
         (hi - lo).max_element().max(1e-3) * 1.25
@@ -37,7 +38,7 @@ pub fn place(
     let focus = view.position + forward * forward.dot(centre - view.position).max(0.0);
     (0..count)
         .map(|i| {
-            let width = coarsest / (1u32 << (count - 1 - i)) as f32;
+            let width = finest * (1u32 << i) as f32;
             let cell = width / n as f32;
             let snapped = (focus / cell).round() * cell;
             (snapped - Vec3::splat(cell * (n / 2) as f32), cell)

@@ -81,41 +81,8 @@ fn inject_blocking(g: Grid, p: vec3<f32>, n: vec3<f32>, area: f32, section: u32)
     }
 }
 
-@compute @workgroup_size(8, 8, 1)
-fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(rsm_flux);
-    let stride = max(grids.stride, 1u);
-    let blocks = (size + stride - 1u) / stride;
-    if id.x >= blocks.x || id.y >= blocks.y {
-        return;
-    }
-    var flux = vec3<f32>(0.0);
-    var pos = vec3<f32>(0.0);
-    var nrm = vec3<f32>(0.0);
-    var weight = 0.0;
-    for (var sy = 0u; sy < stride; sy++) {
-        for (var sx = 0u; sx < stride; sx++) {
-            let t = id.xy * stride + vec2<u32>(sx, sy);
-            if t.x >= size.x || t.y >= size.y {
-                continue;
-            }
-            let texel = rsm_texel(t, id.z);
-            let w = texel.flux.r + texel.flux.g + texel.flux.b;
-            if !texel.valid || w <= 0.0 {
-                continue;
-            }
-            flux += texel.flux;
-            pos += texel.p * w;
-            nrm += texel.n * w;
-            weight += w;
-        }
-    }
-    if weight <= 0.0 || dot(nrm, nrm) < 1e-12 {
-        return;
-    }
-    // The VPL sits at the flux-weighted centre of its block and carries the block's flux.
-    pos /= weight;
-    let n = normalize(nrm);
+// One VPL of flux `flux` at `pos` with normal `n`, into every grid that receives light.
+fn inject_vpl(pos: vec3<f32>, n: vec3<f32>, flux: vec3<f32>) {
     let lobe = sh_lobe(n) / LPV_PI;
     for (var gi = 0u; gi < grids.count; gi++) {
         let g = grids.grids[gi];
@@ -134,6 +101,61 @@ fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
+}
+
+// One VPL per stride x stride block: the texels within one (finest) cell of the block's first
+// lit texel are merged into a VPL at their flux-weighted centre carrying their summed flux;
+// texels farther away (across a depth discontinuity: a block edge over the floor) become VPLs
+// of their own, so no VPL floats between surfaces and no flux is lost.
+@compute @workgroup_size(8, 8, 1)
+fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(rsm_flux);
+    let stride = max(grids.stride, 1u);
+    let blocks = (size + stride - 1u) / stride;
+    if id.x >= blocks.x || id.y >= blocks.y {
+        return;
+    }
+    var radius = 1e30;
+    for (var gi = 0u; gi < grids.count; gi++) {
+        if (grids.grids[gi].flags & 2u) != 0u {
+            radius = min(radius, grids.grids[gi].cell);
+        }
+    }
+    var have_ref = false;
+    var reference = vec3<f32>(0.0);
+    var flux = vec3<f32>(0.0);
+    var pos = vec3<f32>(0.0);
+    var nrm = vec3<f32>(0.0);
+    var weight = 0.0;
+    for (var sy = 0u; sy < stride; sy++) {
+        for (var sx = 0u; sx < stride; sx++) {
+            let t = id.xy * stride + vec2<u32>(sx, sy);
+            if t.x >= size.x || t.y >= size.y {
+                continue;
+            }
+            let texel = rsm_texel(t, id.z);
+            let w = texel.flux.r + texel.flux.g + texel.flux.b;
+            if !texel.valid || w <= 0.0 {
+                continue;
+            }
+            if !have_ref {
+                have_ref = true;
+                reference = texel.p;
+            }
+            if distance(texel.p, reference) > radius {
+                inject_vpl(texel.p, texel.n, texel.flux);
+                continue;
+            }
+            flux += texel.flux;
+            pos += texel.p * w;
+            nrm += texel.n * w;
+            weight += w;
+        }
+    }
+    if weight <= 0.0 || dot(nrm, nrm) < 1e-12 {
+        return;
+    }
+    inject_vpl(pos / weight, normalize(nrm), flux);
 }
 
 @compute @workgroup_size(8, 8, 1)

@@ -38,7 +38,7 @@ pub struct LpvSettings {
     pub size: u32,
     /// Propagation iterations (default 16).
     pub iterations: u32,
-    /// RSM side in texels (default 256).
+    /// RSM side in texels (default 512).
     pub rsm_size: u32,
     /// RSM texels per VPL side: one VPL per `rsm_stride`^2 block (default 4, as in 000).
     pub rsm_stride: u32,
@@ -55,7 +55,7 @@ impl Default for LpvSettings {
         LpvSettings {
             size: 32,
             iterations: 16,
-            rsm_size: 256,
+            rsm_size: 512,
             rsm_stride: 4,
             damping: 0.0,
             gain: 1.0,
@@ -74,7 +74,8 @@ pub struct ClpvSettings {
     pub size: u32,
     /// Propagation iterations per cascade (default 8).
     pub iterations: u32,
-    /// Side of the coarsest cascade in metres; 0 = 1.25 x the largest scene extent (default 0).
+    /// Side of the finest cascade in metres; each coarser one is twice as wide; 0 = 1.25 x the
+    /// largest scene extent (default 0).
     pub extent: f32,
 }
 
