@@ -378,6 +378,19 @@ impl LpvGi {
                     FLAG_INJECT
                 }
         });
+        let limits = ctx.device.limits();
+        let largest = (cells as u64 * CELL_BYTES).max(gv_total as u64 * 32);
+        if largest > limits.max_storage_buffer_binding_size || largest > limits.max_buffer_size {
+            return Err(Error::InvalidArgument(format!(
+                "{owner}: the volumes need a {} MiB buffer, more than the adapter allows \
+                 ({} MiB); use fewer or smaller grids",
+                largest >> 20,
+                limits
+                    .max_storage_buffer_binding_size
+                    .min(limits.max_buffer_size)
+                    >> 20
+            )));
+        }
         let layer_count: u32 = scene
             .lights
             .iter()
