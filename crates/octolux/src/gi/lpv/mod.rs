@@ -477,6 +477,11 @@ impl LpvGi {
         kernels::read_cells(ctx, &self.volumes.acc, 0, self.volumes.cells)
     }
 
+    /// The indirect-irradiance texture (`Rgba16Float`).
+    pub fn indirect_texture(&self) -> &wgpu::Texture {
+        &self.output.texture
+    }
+
     /// The placed grids of the last frame's layout (side, offsets), in buffer order.
     pub fn layouts(&self) -> &[Layout] {
         &self.layouts

@@ -76,6 +76,30 @@ pub fn irradiance(c: &Sh, n: Vec3, cell: f32) -> f32 {
     (dot(c, &lobe(-n)) / (cell * cell)).max(0.0)
 }
 
+/// Trilinear sample of an `n`^3 cell-centred volume at world point `p` (grid minimum corner
+/// `origin`, cell side `cell`), clamped to the outermost cell centres: the CPU reference of the
+/// lookup's filtering.
+pub fn sample_trilinear(v: &[Cell], n: usize, origin: Vec3, cell: f32, p: Vec3) -> Cell {
+    let u = ((p - origin) / cell - Vec3::splat(0.5)).clamp(Vec3::ZERO, Vec3::splat((n - 1) as f32));
+    let i0 = u.floor();
+    let f = u - i0;
+    let mut out = [[0.0f32; 4]; 3];
+    for k in 0..8 {
+        let o = [k & 1, (k >> 1) & 1, k >> 2];
+        let mut w = 1.0;
+        let mut c = [0usize; 3];
+        for a in 0..3 {
+            c[a] = (i0[a] as usize + o[a]).min(n - 1);
+            w *= if o[a] == 1 { f[a] } else { 1.0 - f[a] };
+        }
+        let src = &v[index(n, c[0], c[1], c[2])];
+        for ch in 0..3 {
+            add_scaled(&mut out[ch], &src[ch], w);
+        }
+    }
+    out
+}
+
 /// Solid angle of the axis-aligned rectangle [x0,x1] x [y0,y1] in the plane z = `d` (> 0),
 /// seen from the origin (exact, by the corner formula).
 pub fn rectangle_solid_angle(x0: f64, x1: f64, y0: f64, y1: f64, d: f64) -> f64 {
