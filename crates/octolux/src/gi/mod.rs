@@ -4,8 +4,10 @@
 //! the scene geometry, and writes an HDR *indirect irradiance* image (W/m^2, `Rgba16Float`,
 //! aligned with the G-buffer). Compose turns it into outgoing radiance as albedo/pi x E.
 
+pub mod lpv;
 mod none;
 
+pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;
 
 use crate::gpu::{GpuContext, PassTimer};
@@ -48,6 +50,10 @@ pub trait GiTechnique {
     /// The light transport this technique claims to compute, so that it is judged against the
     /// matching reference (LPV and VPL methods compute one indirect bounce).
     fn reference_bounces(&self) -> crate::reference::Bounces;
+    /// The concrete technique, for tests and tools that inspect its state (None by default).
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }
 
 /// Settings of every technique, one field per technique family, each with documented defaults.
@@ -55,7 +61,15 @@ pub trait GiTechnique {
 /// file's `[settings]` table.
 #[derive(Clone, Debug, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
-pub struct GiSettings {}
+pub struct GiSettings {
+    /// Uniform LPV, and the RSM/injection/lookup settings shared by `clpv` and `olpv`
+    /// (`[settings.lpv]`).
+    pub lpv: LpvSettings,
+    /// Cascaded LPV (`[settings.clpv]`).
+    pub clpv: ClpvSettings,
+    /// Octree LPV (`[settings.olpv]`).
+    pub olpv: OlpvSettings,
+}
 
 impl GiSettings {
     /// Reads settings from a scene file's `[settings]` table; unknown keys are errors.
@@ -69,19 +83,29 @@ impl GiSettings {
 }
 
 /// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &["none"];
+pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv"];
 
 /// Creates the technique called `name` for images of `width` x `height`.
 pub fn create(
     name: &str,
     ctx: &GpuContext,
-    _scene: &Scene,
-    _settings: &GiSettings,
+    scene: &Scene,
+    settings: &GiSettings,
     width: u32,
     height: u32,
 ) -> Result<Box<dyn GiTechnique>> {
     match name {
         "none" => Ok(Box::new(NoGi::new(ctx, width, height))),
+        "lpv" | "clpv" | "olpv" => {
+            let variant = match name {
+                "lpv" => lpv::Variant::Uniform,
+                "clpv" => lpv::Variant::Cascaded,
+                _ => lpv::Variant::Octree,
+            };
+            Ok(Box::new(LpvGi::new(
+                ctx, variant, settings, scene, width, height,
+            )?))
+        }
         other => Err(Error::InvalidArgument(format!(
             "unknown GI technique '{other}' (available: {}, reference)",
             TECHNIQUES.join(", ")

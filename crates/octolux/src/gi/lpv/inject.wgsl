@@ -1,0 +1,213 @@
+// Injection: RSM texels become VPLs (one per stride x stride block, carrying the block's flux)
+// injected as Lambertian SH lobes half a cell along their normal; RSM texels and G-buffer
+// pixels become surfels whose blocking potential A cos / s^2 goes into the geometry volumes
+// (cells at LPV cell corners). Float sums use compare-exchange loops on u32 bit patterns.
+
+@group(0) @binding(0) var<uniform> grids: Grids;
+@group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
+@group(0) @binding(2) var rsm_normal: texture_2d_array<f32>;
+@group(0) @binding(3) var rsm_flux: texture_2d_array<f32>;
+@group(0) @binding(4) var<storage, read_write> light_acc: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> gv_acc: array<atomic<u32>>;
+@group(0) @binding(6) var<uniform> cam: Camera;
+@group(0) @binding(7) var depth_tex: texture_depth_2d;
+@group(0) @binding(8) var normal_tex: texture_2d<f32>;
+@group(0) @binding(9) var<storage, read> gv_both: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> gv_out: array<vec4<f32>>;
+
+fn add_light(i: u32, v: f32) {
+    if v == 0.0 {
+        return;
+    }
+    var old = atomicLoad(&light_acc[i]);
+    loop {
+        let r = atomicCompareExchangeWeak(&light_acc[i], old, bitcast<u32>(bitcast<f32>(old) + v));
+        if r.exchanged {
+            break;
+        }
+        old = r.old_value;
+    }
+}
+
+fn add_gv(i: u32, v: f32) {
+    if v == 0.0 {
+        return;
+    }
+    var old = atomicLoad(&gv_acc[i]);
+    loop {
+        let r = atomicCompareExchangeWeak(&gv_acc[i], old, bitcast<u32>(bitcast<f32>(old) + v));
+        if r.exchanged {
+            break;
+        }
+        old = r.old_value;
+    }
+}
+
+// RSM texel: world position, unit normal facing the light, reflected flux (W) and surfel
+// area (m^2). position.w holds the texel's measure m (solid angle, or area across the beam
+// for orthographic maps), flux target = albedo x intensity (or x irradiance), normal.w the
+// ratio area / m.
+struct Texel {
+    valid: bool,
+    p: vec3<f32>,
+    n: vec3<f32>,
+    flux: vec3<f32>,
+    area: f32,
+};
+
+fn rsm_texel(t: vec2<u32>, layer: u32) -> Texel {
+    let pm = textureLoad(rsm_position, t, layer, 0);
+    let nn = textureLoad(rsm_normal, t, layer, 0);
+    let f = textureLoad(rsm_flux, t, layer, 0);
+    var out: Texel;
+    out.valid = pm.w > 0.0;
+    out.p = pm.xyz;
+    out.n = nn.xyz;
+    out.flux = f.rgb * pm.w;
+    out.area = pm.w * nn.w;
+    return out;
+}
+
+fn inject_blocking(g: Grid, p: vec3<f32>, n: vec3<f32>, area: f32, section: u32) {
+    let corner = vec3<i32>(round((p - g.origin) / g.cell));
+    let m = i32(g.n) + 1;
+    if any(corner < vec3<i32>(0)) || any(corner >= vec3<i32>(m)) {
+        return;
+    }
+    let i = section + g.gv_offset + u32(corner.x + m * (corner.y + m * corner.z));
+    let b = sh_lobe(n) * min(area / (g.cell * g.cell), 1.0);
+    for (var k = 0u; k < 4u; k++) {
+        add_gv(i * 4u + k, b[k]);
+    }
+}
+
+// One VPL of flux `flux` at `pos` with normal `n`, into every grid that receives light.
+fn inject_vpl(pos: vec3<f32>, n: vec3<f32>, flux: vec3<f32>) {
+    let lobe = sh_lobe(n) / LPV_PI;
+    for (var gi = 0u; gi < grids.count; gi++) {
+        let g = grids.grids[gi];
+        if (g.flags & 2u) == 0u {
+            continue;
+        }
+        let c = vec3<i32>(floor((pos + 0.5 * g.cell * n - g.origin) / g.cell));
+        let gn = i32(g.n);
+        if any(c < vec3<i32>(0)) || any(c >= vec3<i32>(gn)) {
+            continue;
+        }
+        let cell = g.offset + u32(c.x + gn * (c.y + gn * c.z));
+        for (var ch = 0u; ch < 3u; ch++) {
+            for (var k = 0u; k < 4u; k++) {
+                add_light((cell * 3u + ch) * 4u + k, flux[ch] * lobe[k]);
+            }
+        }
+    }
+}
+
+// One VPL per stride x stride block: the texels within one (finest) cell of the block's first
+// lit texel are merged into a VPL at their flux-weighted centre carrying their summed flux;
+// texels farther away (across a depth discontinuity: a block edge over the floor) become VPLs
+// of their own, so no VPL floats between surfaces and no flux is lost.
+@compute @workgroup_size(8, 8, 1)
+fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(rsm_flux);
+    let stride = max(grids.stride, 1u);
+    let blocks = (size + stride - 1u) / stride;
+    if id.x >= blocks.x || id.y >= blocks.y {
+        return;
+    }
+    var radius = 1e30;
+    for (var gi = 0u; gi < grids.count; gi++) {
+        if (grids.grids[gi].flags & 2u) != 0u {
+            radius = min(radius, grids.grids[gi].cell);
+        }
+    }
+    var have_ref = false;
+    var reference = vec3<f32>(0.0);
+    var flux = vec3<f32>(0.0);
+    var pos = vec3<f32>(0.0);
+    var nrm = vec3<f32>(0.0);
+    var weight = 0.0;
+    for (var sy = 0u; sy < stride; sy++) {
+        for (var sx = 0u; sx < stride; sx++) {
+            let t = id.xy * stride + vec2<u32>(sx, sy);
+            if t.x >= size.x || t.y >= size.y {
+                continue;
+            }
+            let texel = rsm_texel(t, id.z);
+            let w = texel.flux.r + texel.flux.g + texel.flux.b;
+            if !texel.valid || w <= 0.0 {
+                continue;
+            }
+            if !have_ref {
+                have_ref = true;
+                reference = texel.p;
+            }
+            if distance(texel.p, reference) > radius {
+                inject_vpl(texel.p, texel.n, texel.flux);
+                continue;
+            }
+            flux += texel.flux;
+            pos += texel.p * w;
+            nrm += texel.n * w;
+            weight += w;
+        }
+    }
+    if weight <= 0.0 || dot(nrm, nrm) < 1e-12 {
+        return;
+    }
+    inject_vpl(pos / weight, normalize(nrm), flux);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn inject_gv_rsm(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(rsm_flux);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let texel = rsm_texel(id.xy, id.z);
+    if !texel.valid {
+        return;
+    }
+    for (var gi = 0u; gi < grids.count; gi++) {
+        inject_blocking(grids.grids[gi], texel.p, texel.n, texel.area, 0u);
+    }
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn inject_gv_camera(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = vec2<u32>(cam.size.xy);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let depth = textureLoad(depth_tex, id.xy, 0);
+    if depth >= 1.0 {
+        return;
+    }
+    let p = world_from_depth(cam, id.xy, depth);
+    let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
+    // Pixel footprint on the plane of constant view depth (spanned by the neighbouring
+    // pixels at the same depth), tilted onto the surface.
+    let dx = world_from_depth(cam, id.xy + vec2<u32>(1u, 0u), depth) - p;
+    let dy = world_from_depth(cam, id.xy + vec2<u32>(0u, 1u), depth) - p;
+    let across = cross(dx, dy);
+    let plane_area = length(across);
+    let ray = normalize(p - cam.position.xyz);
+    let axis = across / max(plane_area, 1e-20);
+    let area = plane_area * abs(dot(axis, ray)) / max(abs(dot(n, ray)), 0.1);
+    for (var gi = 0u; gi < grids.count; gi++) {
+        inject_blocking(grids.grids[gi], p, n, area, grids.gv_total);
+    }
+}
+
+// Max-combination of the two geometry sources: per cell, the one with the larger band-0
+// blocking, so a surface seen by both the light and the camera is not counted twice.
+@compute @workgroup_size(64, 1, 1)
+fn combine_gv(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x + id.y * 65535u * 64u;
+    if i >= grids.gv_total {
+        return;
+    }
+    let a = gv_both[i];
+    let b = gv_both[i + grids.gv_total];
+    gv_out[i] = select(a, b, b.x > a.x);
+}

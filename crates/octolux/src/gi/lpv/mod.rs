@@ -1,0 +1,591 @@
+//! Light Propagation Volumes (001 Elvek 2012, 000 Olovsson & Doggett 2013): `lpv` (one uniform
+//! volume fitted to the scene), `clpv` (nested cascades around the camera) and `olpv` (a full
+//! octree of volumes with an index volume, merged into one).
+//!
+//! A frame, pass by pass (each a named, timed pass):
+//! 1. `rsm`: reflective shadow maps, one per shadow layer (6 per point light) ([`rsm`]).
+//! 2. `inject`: RSM blocks become VPLs, injected as Lambertian SH lobes; RSM texels and
+//!    G-buffer pixels become surfels of the geometry volume, max-combined ([`inject`]).
+//! 3. `olpv` only: `downsample` (eq. 2) and `index` (index volume levels) ([`octree`]).
+//! 4. `propagate`: k gather steps per grid, ping-pong, accumulated ([`propagate`]).
+//! 5. `olpv` only: `merge` (eq. 1) into one n^3 volume.
+//! 6. `lookup`: trilinear SH sample per pixel -> indirect irradiance ([`lookup`]).
+//!
+//! Units: cells hold SH of radiant intensity (W/sr); a surface in a cell of side s receives
+//! radiance I/s^2, so the lookup returns irradiance in W/m^2 (see `docs/lpv.md`).
+
+pub mod cascades;
+pub mod inject;
+pub mod kernels;
+pub mod lookup;
+pub mod octree;
+pub mod propagate;
+pub mod rsm;
+pub mod sh;
+
+use super::{GiFrame, GiTechnique};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Settings of the uniform LPV, also used for the RSM, injection, occlusion, damping and gain of
+/// `clpv` and `olpv`. Scene files: `[settings.lpv]`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LpvSettings {
+    /// Cells per side of the volume (default 32).
+    pub size: u32,
+    /// Propagation iterations (default 16).
+    pub iterations: u32,
+    /// RSM side in texels (default 512).
+    pub rsm_size: u32,
+    /// RSM texels per VPL side: one VPL per `rsm_stride`^2 block (default 4, as in 000).
+    pub rsm_stride: u32,
+    /// Damping of leaks at lookup (001 §3.3.1), 0 = off (default 0).
+    pub damping: f32,
+    /// Scale of the indirect irradiance (default 1: physical units, no fudge factor).
+    pub gain: f32,
+    /// Occlusion of propagation by the geometry volume (default true).
+    pub occlusion: bool,
+}
+
+impl Default for LpvSettings {
+    fn default() -> Self {
+        LpvSettings {
+            size: 32,
+            iterations: 16,
+            rsm_size: 512,
+            rsm_stride: 4,
+            damping: 0.0,
+            gain: 1.0,
+            occlusion: true,
+        }
+    }
+}
+
+/// Settings of the cascaded LPV. Scene files: `[settings.clpv]`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ClpvSettings {
+    /// Number of nested cascades, 1..=8 (default 3).
+    pub cascades: u32,
+    /// Cells per side of every cascade (default 32).
+    pub size: u32,
+    /// Propagation iterations per cascade (default 8).
+    pub iterations: u32,
+    /// Side of the finest cascade in metres; each coarser one is twice as wide; 0 = 1.25 x the
+    /// largest scene extent (default 0).
+    pub extent: f32,
+}
+
+impl Default for ClpvSettings {
+    fn default() -> Self {
+        ClpvSettings {
+            cascades: 3,
+            size: 32,
+            iterations: 8,
+            extent: 0.0,
+        }
+    }
+}
+
+/// Settings of the octree LPV. Scene files: `[settings.olpv]`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OlpvSettings {
+    /// Side n of level 0, a power of two >= 2 (default 32); l = log2(n) + 1 levels.
+    pub size: u32,
+    /// Propagation iterations on every level (default 4, the paper's k).
+    pub iterations: u32,
+}
+
+impl Default for OlpvSettings {
+    fn default() -> Self {
+        OlpvSettings {
+            size: 32,
+            iterations: 4,
+        }
+    }
+}
+
+/// Which member of the family.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// One volume fitted to the scene bounds.
+    Uniform,
+    /// Nested cascades around the camera.
+    Cascaded,
+    /// Full octree of volumes, merged.
+    Octree,
+}
+
+impl Variant {
+    /// Command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Uniform => "lpv",
+            Variant::Cascaded => "clpv",
+            Variant::Octree => "olpv",
+        }
+    }
+}
+
+/// Most grids (cascades or octree levels) one technique uses.
+pub const MAX_GRIDS: usize = 8;
+/// Bytes per grid uniform slot (uniform offsets must be multiples of 256).
+pub(crate) const SLOT: u64 = 256;
+
+/// `Grid` of `sh.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuGrid {
+    /// World position of the minimum corner.
+    pub origin: [f32; 3],
+    /// Cell side (m).
+    pub cell: f32,
+    /// Cells per side.
+    pub n: u32,
+    /// First cell in the light buffers.
+    pub offset: u32,
+    /// First cell of the geometry volume.
+    pub gv_offset: u32,
+    /// Bit 0: occlusion, bit 1: receives injected light.
+    pub flags: u32,
+}
+
+/// Flag: propagation is occluded by the geometry volume.
+pub const FLAG_OCCLUSION: u32 = 1;
+/// Flag: the grid receives injected VPLs.
+pub const FLAG_INJECT: u32 = 2;
+
+/// `Grids` of `sh.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+pub(crate) struct GpuGrids {
+    pub count: u32,
+    pub gv_total: u32,
+    pub stride: u32,
+    pub _pad0: u32,
+    pub gain: f32,
+    pub damping: f32,
+    pub blend: f32,
+    pub _pad1: f32,
+    pub grids: [GpuGrid; MAX_GRIDS],
+}
+
+/// A grid's shape without its placement: side and buffer offsets.
+#[derive(Clone, Copy, Debug)]
+pub struct Layout {
+    /// Cells per side.
+    pub n: u32,
+    /// First cell in the light buffers.
+    pub offset: u32,
+    /// First cell of its geometry volume.
+    pub gv_offset: u32,
+    /// `FLAG_*` bits.
+    pub flags: u32,
+}
+
+/// Cells in all grids and in all geometry volumes, for a list of sides.
+pub(crate) fn layouts(sides: &[u32], flags: impl Fn(usize) -> u32) -> (Vec<Layout>, u32, u32) {
+    let (mut cells, mut gv) = (0u32, 0u32);
+    let mut out = Vec::with_capacity(sides.len());
+    for (i, &n) in sides.iter().enumerate() {
+        out.push(Layout {
+            n,
+            offset: cells,
+            gv_offset: gv,
+            flags: flags(i),
+        });
+        cells += n * n * n;
+        gv += (n + 1) * (n + 1) * (n + 1);
+    }
+    (out, cells, gv)
+}
+
+/// Concatenates WGSL sources (shared declarations first).
+pub(crate) fn wgsl(parts: &[&str]) -> String {
+    parts.concat()
+}
+
+/// A bind group for `pipeline`'s group 0 with exactly the given bindings.
+pub(crate) fn bind(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    entries: &[(u32, wgpu::BindingResource)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|(binding, resource)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: resource.clone(),
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// A slice of a uniform buffer holding one struct of `size` bytes at slot `slot`.
+pub(crate) fn slot(buffer: &wgpu::Buffer, slot: u64, size: u64) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        buffer,
+        offset: slot * SLOT,
+        size: wgpu::BufferSize::new(size),
+    })
+}
+
+/// Number of workgroups of `group` threads covering `n`.
+pub(crate) fn groups(n: u32, group: u32) -> u32 {
+    n.div_ceil(group)
+}
+
+/// A storage buffer recorded in the ledger.
+pub(crate) fn storage(ctx: &GpuContext, owner: &str, label: &str, bytes: u64) -> wgpu::Buffer {
+    ctx.create_buffer(
+        owner,
+        &wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(16),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        },
+    )
+}
+
+/// A uniform buffer of `slots` 256-byte slots recorded in the ledger.
+pub(crate) fn uniform(ctx: &GpuContext, owner: &str, label: &str, slots: u64) -> wgpu::Buffer {
+    ctx.create_buffer(
+        owner,
+        &wgpu::BufferDescriptor {
+            label: Some(label),
+            size: slots.max(1) * SLOT,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        },
+    )
+}
+
+/// Bytes of one cell (3 channels x 4 coefficients x f32).
+pub const CELL_BYTES: u64 = 48;
+
+/// The LPV family technique.
+pub struct LpvGi {
+    variant: Variant,
+    settings: LpvSettings,
+    clpv: ClpvSettings,
+    layouts: Vec<Layout>,
+    gv_total: u32,
+    iterations: u32,
+    grids: wgpu::Buffer,
+    grid_slots: wgpu::Buffer,
+    lookup_grids: wgpu::Buffer,
+    volumes: propagate::Volumes,
+    rsm: rsm::RsmTargets,
+    octree: Option<octree::OctreeBuffers>,
+    output: lookup::Output,
+    /// Pipelines and bind groups, built on the first frame (they bind the G-buffer and the
+    /// scene's raster layouts, which the renderer hands over per frame).
+    passes: Option<Passes>,
+}
+
+struct Passes {
+    rsm: rsm::RsmPass,
+    inject: inject::Inject,
+    propagate: propagate::Propagate,
+    octree: Option<octree::Octree>,
+    lookup: lookup::Lookup,
+}
+
+impl LpvGi {
+    /// Creates the technique and all its GPU memory for `scene` and images of `width` x
+    /// `height`.
+    pub fn new(
+        ctx: &GpuContext,
+        variant: Variant,
+        settings: &super::GiSettings,
+        scene: &crate::scene::Scene,
+        width: u32,
+        height: u32,
+    ) -> Result<LpvGi> {
+        let owner = variant.name();
+        let s = settings.lpv.clone();
+        check(
+            s.rsm_size >= 4 && s.rsm_size <= 4096,
+            "lpv rsm_size",
+            "4..=4096",
+        )?;
+        check(
+            s.rsm_stride >= 1 && s.rsm_stride <= 16,
+            "lpv rsm_stride",
+            "1..=16",
+        )?;
+        check(
+            s.gain.is_finite() && s.gain >= 0.0,
+            "lpv gain",
+            "finite, >= 0",
+        )?;
+        check(
+            s.damping.is_finite() && s.damping >= 0.0,
+            "lpv damping",
+            "finite, >= 0",
+        )?;
+        let occlusion = if s.occlusion { FLAG_OCCLUSION } else { 0 };
+        let (sides, iterations, inject_level0_only) = match variant {
+            Variant::Uniform => {
+                check(s.size >= 2 && s.size <= 128, "lpv size", "2..=128")?;
+                check(s.iterations <= 256, "lpv iterations", "0..=256")?;
+                (vec![s.size], s.iterations, false)
+            }
+            Variant::Cascaded => {
+                let c = &settings.clpv;
+                check(
+                    c.cascades >= 1 && c.cascades as usize <= MAX_GRIDS,
+                    "clpv cascades",
+                    "1..=8",
+                )?;
+                check(c.size >= 2 && c.size <= 128, "clpv size", "2..=128")?;
+                check(c.iterations <= 256, "clpv iterations", "0..=256")?;
+                check(
+                    c.extent.is_finite() && c.extent >= 0.0,
+                    "clpv extent",
+                    "finite, >= 0",
+                )?;
+                (vec![c.size; c.cascades as usize], c.iterations, false)
+            }
+            Variant::Octree => {
+                let o = &settings.olpv;
+                check(
+                    o.size >= 2 && o.size <= 128 && o.size.is_power_of_two(),
+                    "olpv size",
+                    "a power of two in 2..=128",
+                )?;
+                check(o.iterations <= 256, "olpv iterations", "0..=256")?;
+                let l = o.size.trailing_zeros() + 1;
+                ((0..l).map(|i| o.size >> i).collect(), o.iterations, true)
+            }
+        };
+        let (layouts, cells, gv_total) = layouts(&sides, |i| {
+            occlusion
+                | if inject_level0_only && i > 0 {
+                    0
+                } else {
+                    FLAG_INJECT
+                }
+        });
+        let limits = ctx.device.limits();
+        let largest = (cells as u64 * CELL_BYTES).max(gv_total as u64 * 32);
+        if largest > limits.max_storage_buffer_binding_size || largest > limits.max_buffer_size {
+            return Err(Error::InvalidArgument(format!(
+                "{owner}: the volumes need a {} MiB buffer, more than the adapter allows \
+                 ({} MiB); use fewer or smaller grids",
+                largest >> 20,
+                limits
+                    .max_storage_buffer_binding_size
+                    .min(limits.max_buffer_size)
+                    >> 20
+            )));
+        }
+        let layer_count: u32 = scene
+            .lights
+            .iter()
+            .map(|l| {
+                if l.kind == crate::scene::LightKind::Point {
+                    6
+                } else {
+                    1
+                }
+            })
+            .sum();
+        Ok(LpvGi {
+            variant,
+            clpv: settings.clpv.clone(),
+            gv_total,
+            iterations,
+            grids: uniform(ctx, owner, "grids", 2),
+            grid_slots: uniform(ctx, owner, "grid slots", sides.len() as u64),
+            lookup_grids: uniform(ctx, owner, "lookup grids", 2),
+            volumes: propagate::Volumes::new(ctx, owner, cells, gv_total),
+            rsm: rsm::RsmTargets::new(ctx, owner, layer_count, s.rsm_size),
+            octree: (variant == Variant::Octree)
+                .then(|| octree::OctreeBuffers::new(ctx, owner, settings.olpv.size, cells)),
+            output: lookup::Output::new(ctx, owner, width, height),
+            passes: None,
+            layouts,
+            settings: s,
+        })
+    }
+
+    /// The grids of this frame, placed in the world.
+    fn place(&self, frame: &GiFrame) -> Vec<GpuGrid> {
+        let bounds = frame.scene.bounds_at(frame.frame.time);
+        let placements: Vec<(Vec3, f32)> = match self.variant {
+            Variant::Uniform | Variant::Octree => {
+                let (origin, cell) = cascades::fit(bounds, self.layouts[0].n);
+                (0..self.layouts.len())
+                    .map(|i| (origin, cell * (1u32 << i) as f32))
+                    .collect()
+            }
+            Variant::Cascaded => cascades::place(
+                bounds,
+                frame.view,
+                self.layouts.len(),
+                self.layouts[0].n,
+                self.clpv.extent,
+            ),
+        };
+        self.layouts
+            .iter()
+            .zip(placements)
+            .map(|(l, (origin, cell))| GpuGrid {
+                origin: origin.to_array(),
+                cell,
+                n: l.n,
+                offset: l.offset,
+                gv_offset: l.gv_offset,
+                flags: l.flags,
+            })
+            .collect()
+    }
+
+    fn gpu_grids(&self, grids: &[GpuGrid]) -> GpuGrids {
+        let mut g = GpuGrids {
+            count: grids.len() as u32,
+            gv_total: self.gv_total,
+            stride: self.settings.rsm_stride,
+            _pad0: 0,
+            gain: self.settings.gain,
+            damping: self.settings.damping,
+            blend: 2.0,
+            _pad1: 0.0,
+            grids: [GpuGrid::default(); MAX_GRIDS],
+        };
+        for (dst, src) in g.grids.iter_mut().zip(grids) {
+            *dst = *src;
+        }
+        g
+    }
+
+    /// Reads the accumulation buffer of the last frame, all grids one after another (with 0
+    /// iterations it holds exactly the injected light).
+    pub fn read_accumulated(&self, ctx: &GpuContext) -> Result<Vec<sh::Cell>> {
+        kernels::read_cells(ctx, &self.volumes.acc, 0, self.volumes.cells)
+    }
+
+    /// The indirect-irradiance texture (`Rgba16Float`).
+    pub fn indirect_texture(&self) -> &wgpu::Texture {
+        &self.output.texture
+    }
+
+    /// The placed grids of the last frame's layout (side, offsets), in buffer order.
+    pub fn layouts(&self) -> &[Layout] {
+        &self.layouts
+    }
+
+    fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
+        let octree = self
+            .octree
+            .as_ref()
+            .map(|b| octree::Octree::new(ctx, b, &self.volumes));
+        let (volume, lookup_grids) = match &self.octree {
+            Some(o) => (&o.merged, &self.lookup_grids),
+            None => (&self.volumes.acc, &self.grids),
+        };
+        Passes {
+            rsm: rsm::RsmPass::new(ctx, frame.scene_gpu, &self.rsm),
+            inject: inject::Inject::new(ctx, &self.grids, &self.rsm, &self.volumes, frame),
+            propagate: propagate::Propagate::new(
+                ctx,
+                &self.grid_slots,
+                self.layouts.len(),
+                &self.volumes,
+            ),
+            octree,
+            lookup: lookup::Lookup::new(ctx, lookup_grids, volume, &self.output, frame),
+        }
+    }
+}
+
+fn check(ok: bool, what: &str, range: &str) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::InvalidArgument(format!("{what} must be {range}")))
+    }
+}
+
+impl GiTechnique for LpvGi {
+    fn name(&self) -> &str {
+        self.variant.name()
+    }
+
+    fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
+        let name = self.variant.name();
+        let placed = self.place(frame);
+        let grids = self.gpu_grids(&placed);
+        ctx.queue
+            .write_buffer(&self.grids, 0, bytemuck::bytes_of(&grids));
+        for (i, g) in placed.iter().enumerate() {
+            ctx.queue
+                .write_buffer(&self.grid_slots, i as u64 * SLOT, bytemuck::bytes_of(g));
+        }
+        if self.variant == Variant::Octree {
+            // The lookup reads the merged volume: one grid of level 0's placement.
+            let mut merged = grids;
+            merged.count = 1;
+            merged.grids[0].offset = 0;
+            ctx.queue
+                .write_buffer(&self.lookup_grids, 0, bytemuck::bytes_of(&merged));
+        }
+        if self.passes.is_none() {
+            self.passes = Some(self.build(ctx, frame));
+        }
+        let Some(p) = &self.passes else {
+            return Ok(());
+        };
+        p.rsm.update(ctx, &self.rsm, frame);
+        p.rsm
+            .record(timer, frame.scene_gpu, &self.rsm, &format!("{name} rsm"));
+        p.inject.record(
+            timer,
+            &format!("{name} inject"),
+            &self.volumes,
+            self.settings.rsm_stride,
+        );
+        if let Some(octree) = &p.octree {
+            octree.record_downsample(timer, &self.volumes);
+            octree.record_index(timer);
+        }
+        p.propagate.record(
+            timer,
+            &format!("{name} propagate"),
+            &self.volumes,
+            &self.layouts,
+            self.iterations,
+        );
+        if let Some(octree) = &p.octree {
+            octree.record_merge(timer);
+        }
+        p.lookup
+            .record(timer, &format!("{name} lookup"), &self.output);
+        Ok(())
+    }
+
+    fn indirect_view(&self) -> &wgpu::TextureView {
+        &self.output.view
+    }
+
+    fn reference_bounces(&self) -> crate::reference::Bounces {
+        // RSM VPLs propagated once: exactly one indirect bounce.
+        crate::reference::Bounces::Indirect(1)
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+}

@@ -1,0 +1,334 @@
+//! Reflective shadow maps (one per shadow layer: spot and directional lights have one, point
+//! lights six cube faces). Each texel stores world position, light-facing normal and what the
+//! injection needs for the VPL's physical flux and the surfel's area (see `rsm.wgsl`).
+
+use super::GiFrame;
+use crate::gpu::{GpuContext, PassTimer};
+use crate::render::scene_gpu::{SceneGpu, UNIFORM_STRIDE, VERTEX_LAYOUT};
+use crate::scene::LightKind;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Format of the position (xyz, texel measure) target.
+pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Format of the normal (xyz, area / measure) and albedo x intensity targets; the three
+/// targets fit the 32 bytes per sample every adapter allows.
+pub const HALF_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// `RsmLayer` of `rsm.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct RsmLayer {
+    /// xyz light position, w kind (0 point, 1 spot, 2 directional).
+    pub position_kind: [f32; 4],
+    /// xyz layer axis, w tan(half fov) or texel area across the beam.
+    pub axis_tan: [f32; 4],
+    /// rgb radiant intensity or irradiance, w cube face or -1.
+    pub radiant_face: [f32; 4],
+    /// cos inner, cos outer, RSM side, unused.
+    pub cone: [f32; 4],
+}
+
+/// The RSM textures (arrays with one layer per shadow layer).
+pub struct RsmTargets {
+    /// Side in texels.
+    pub size: u32,
+    /// Number of layers (0 when the scene has no lights).
+    pub layers: u32,
+    /// Position + measure.
+    pub position: wgpu::Texture,
+    /// Normal + area ratio.
+    pub normal: wgpu::Texture,
+    /// Albedo x intensity.
+    pub flux: wgpu::Texture,
+    _depth: wgpu::Texture,
+    pub(crate) position_array: wgpu::TextureView,
+    pub(crate) normal_array: wgpu::TextureView,
+    pub(crate) flux_array: wgpu::TextureView,
+    /// Per layer: position, normal, flux, depth views.
+    layer_views: Vec<[wgpu::TextureView; 4]>,
+    uniforms: wgpu::Buffer,
+}
+
+impl RsmTargets {
+    /// Allocates `layers` RSM layers of `size`^2 texels.
+    pub fn new(ctx: &GpuContext, owner: &str, layers: u32, size: u32) -> RsmTargets {
+        let make = |label: &str, format| {
+            ctx.create_texture(
+                owner,
+                &wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d {
+                        width: size,
+                        height: size,
+                        depth_or_array_layers: layers.max(1),
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING
+                        | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                },
+            )
+        };
+        let position = make("rsm position", POSITION_FORMAT);
+        let normal = make("rsm normal", HALF_FORMAT);
+        let flux = make("rsm flux", HALF_FORMAT);
+        let depth = make("rsm depth", wgpu::TextureFormat::Depth32Float);
+        let array = |t: &wgpu::Texture| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        };
+        let layer = |t: &wgpu::Texture, i: u32| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2),
+                base_array_layer: i,
+                array_layer_count: Some(1),
+                ..Default::default()
+            })
+        };
+        let layer_views = (0..layers)
+            .map(|i| {
+                [
+                    layer(&position, i),
+                    layer(&normal, i),
+                    layer(&flux, i),
+                    layer(&depth, i),
+                ]
+            })
+            .collect();
+        RsmTargets {
+            size,
+            layers,
+            position_array: array(&position),
+            normal_array: array(&normal),
+            flux_array: array(&flux),
+            layer_views,
+            uniforms: super::uniform(ctx, owner, "rsm layers", layers as u64),
+            position,
+            normal,
+            flux,
+            _depth: depth,
+        }
+    }
+}
+
+/// The RSM rasterisation pipeline.
+pub struct RsmPass {
+    pipeline: wgpu::RenderPipeline,
+    group: wgpu::BindGroup,
+}
+
+impl RsmPass {
+    /// Builds the pipeline on the scene's raster layouts plus a per-layer uniform (group 3).
+    pub(crate) fn new(ctx: &GpuContext, scene_gpu: &SceneGpu, targets: &RsmTargets) -> RsmPass {
+        let device = &ctx.device;
+        let layer_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("rsm layer"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: true,
+                    min_binding_size: None,
+                },
+                count: None,
+            }],
+        });
+        let l = &scene_gpu.layouts;
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("rsm"),
+            bind_group_layouts: &[
+                Some(&l.view),
+                Some(&l.material),
+                Some(&l.object),
+                Some(&layer_layout),
+            ],
+            immediate_size: 0,
+        });
+        let module = ctx.shader("rsm", include_str!("rsm.wgsl"));
+        let target = |format| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        };
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("rsm"),
+            layout: Some(&layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(VERTEX_LAYOUT)],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: wgpu::TextureFormat::Depth32Float,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_rsm"),
+                compilation_options: Default::default(),
+                targets: &[
+                    target(POSITION_FORMAT),
+                    target(HALF_FORMAT),
+                    target(HALF_FORMAT),
+                ],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("rsm layer"),
+            layout: &layer_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &targets.uniforms,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(std::mem::size_of::<RsmLayer>() as u64),
+                }),
+            }],
+        });
+        RsmPass { pipeline, group }
+    }
+
+    /// Uploads the per-layer light parameters of this frame.
+    pub(crate) fn update(&self, ctx: &GpuContext, targets: &RsmTargets, frame: &GiFrame) {
+        let layers = rsm_layers(frame, targets.size);
+        let mut data = vec![0u8; targets.layers as usize * super::SLOT as usize];
+        for (i, l) in layers.iter().enumerate().take(targets.layers as usize) {
+            let start = i * super::SLOT as usize;
+            data[start..start + 64].copy_from_slice(bytemuck::bytes_of(l));
+        }
+        if !data.is_empty() {
+            ctx.queue.write_buffer(&targets.uniforms, 0, &data);
+        }
+    }
+
+    /// Rasterises every layer.
+    pub(crate) fn record(
+        &self,
+        timer: &mut PassTimer,
+        scene_gpu: &SceneGpu,
+        targets: &RsmTargets,
+        name: &str,
+    ) {
+        if targets.layers == 0 {
+            return;
+        }
+        timer.pass(name, |encoder, stamps| {
+            let n = targets.layer_views.len();
+            for (i, views) in targets.layer_views.iter().enumerate() {
+                let clear = |view| {
+                    Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })
+                };
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("rsm layer"),
+                    color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2])],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: &views[3],
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: stamps.render_part(i == 0, i + 1 == n),
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                pass.set_pipeline(&self.pipeline);
+                let view_offset = ((i as u64 + 1) * UNIFORM_STRIDE) as u32;
+                pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
+                pass.set_bind_group(3, &self.group, &[(i as u64 * super::SLOT) as u32]);
+                scene_gpu.draw(&mut pass);
+            }
+        });
+    }
+}
+
+/// Cube-face axes in the order of the shadow layers of a point light (+x, -x, +y, -y, +z, -z).
+const FACE_AXES: [Vec3; 6] = [
+    Vec3::X,
+    Vec3::NEG_X,
+    Vec3::Y,
+    Vec3::NEG_Y,
+    Vec3::Z,
+    Vec3::NEG_Z,
+];
+
+/// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow layers'
+/// matrices.
+pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
+    let shadow_size = frame.shadows.size as f32;
+    let mut out = Vec::new();
+    for light in &frame.frame.lights {
+        let radiant = light.radiant();
+        let dir = light.direction.normalize_or(Vec3::NEG_Y);
+        let first = out.len();
+        let Some(view) = frame.shadow_layers.get(first) else {
+            break;
+        };
+        // The layer's texel footprint times the shadow-map side is the frustum's full width
+        // at unit distance (perspective) or in metres (orthographic).
+        let width = view.texel * shadow_size;
+        match light.kind {
+            LightKind::Directional => {
+                let side = width / rsm_size as f32;
+                out.push(RsmLayer {
+                    position_kind: light.position.extend(2.0).to_array(),
+                    axis_tan: dir.extend(side * side).to_array(),
+                    radiant_face: radiant.extend(-1.0).to_array(),
+                    cone: [1.0, -1.0, rsm_size as f32, 0.0],
+                });
+            }
+            LightKind::Spot {
+                inner_angle,
+                outer_angle,
+            } => out.push(RsmLayer {
+                position_kind: light.position.extend(1.0).to_array(),
+                axis_tan: dir.extend(width * 0.5).to_array(),
+                radiant_face: radiant.extend(-1.0).to_array(),
+                cone: [inner_angle.cos(), outer_angle.cos(), rsm_size as f32, 0.0],
+            }),
+            LightKind::Point => {
+                for (face, axis) in FACE_AXES.iter().enumerate() {
+                    let tan = frame
+                        .shadow_layers
+                        .get(first + face)
+                        .map_or(width, |v| v.texel * shadow_size)
+                        * 0.5;
+                    out.push(RsmLayer {
+                        position_kind: light.position.extend(0.0).to_array(),
+                        axis_tan: axis.extend(tan).to_array(),
+                        radiant_face: radiant.extend(face as f32).to_array(),
+                        cone: [1.0, -1.0, rsm_size as f32, 0.0],
+                    });
+                }
+            }
+        }
+    }
+    out
+}

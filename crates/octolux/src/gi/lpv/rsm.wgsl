@@ -1,0 +1,125 @@
+// Reflective shadow maps: rasterise the scene from a light (the shadow layer's matrix) and
+// store, per texel, the world position, the normal facing the light and what the injection
+// needs to turn the texel into a VPL with physical flux:
+//   perspective (spot, point face): measure m = solid angle of the texel
+//     = (2 tan(half fov) / N)^2 cos^3(angle to the axis); incident flux = I(w) m
+//   orthographic (directional): m = texel area across the beam; incident flux = E m
+// reflected flux = albedo x incident flux (Lambertian: everything not absorbed leaves).
+// Surfel area = m r^2 / cos (perspective) or m / cos (orthographic).
+
+struct View {
+    view_proj: mat4x4<f32>,
+    position: vec4<f32>,
+};
+@group(0) @binding(0) var<uniform> view: View;
+
+struct Material {
+    base_color: vec4<f32>,
+    emission: vec4<f32>,
+};
+@group(1) @binding(0) var<uniform> material: Material;
+@group(1) @binding(1) var base_texture: texture_2d<f32>;
+@group(1) @binding(2) var base_sampler: sampler;
+
+struct Object {
+    model: mat4x4<f32>,
+    normal_matrix: mat4x4<f32>,
+};
+@group(2) @binding(0) var<uniform> object: Object;
+
+struct RsmLayer {
+    // xyz light position, w: kind (0 point, 1 spot, 2 directional)
+    position_kind: vec4<f32>,
+    // xyz: unit axis of the layer (spot axis, cube face, sun direction of travel),
+    // w: tan(half fov) (perspective) or texel area across the beam (orthographic)
+    axis_tan: vec4<f32>,
+    // rgb: radiant intensity (W/sr) or irradiance (W/m^2), w: cube face (point lights) or -1
+    radiant_face: vec4<f32>,
+    // x: cos inner, y: cos outer (spot), z: RSM side in texels
+    cone: vec4<f32>,
+};
+@group(3) @binding(0) var<uniform> layer: RsmLayer;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+};
+
+@vertex
+fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) uv: vec2<f32>) -> VertexOut {
+    var out: VertexOut;
+    let world = object.model * vec4<f32>(position, 1.0);
+    out.world = world.xyz;
+    out.clip = view.view_proj * world;
+    out.normal = (object.normal_matrix * vec4<f32>(normal, 0.0)).xyz;
+    out.uv = uv;
+    return out;
+}
+
+struct RsmOut {
+    @location(0) position: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) flux: vec4<f32>,
+};
+
+fn face_of(d: vec3<f32>) -> f32 {
+    let a = abs(d);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1.0, 0.0, d.x > 0.0);
+    }
+    if a.y >= a.z {
+        return select(3.0, 2.0, d.y > 0.0);
+    }
+    return select(5.0, 4.0, d.z > 0.0);
+}
+
+@fragment
+fn fs_rsm(in: VertexOut) -> RsmOut {
+    var color = vec4<f32>(material.base_color.rgb, 1.0);
+    if material.emission.w > 0.5 {
+        color *= textureSample(base_texture, base_sampler, in.uv);
+    }
+    if material.base_color.a >= 0.0 && color.a < material.base_color.a {
+        discard;
+    }
+    let kind = layer.position_kind.w;
+    let axis = layer.axis_tan.xyz;
+    var to_light = -axis;
+    var measure = layer.axis_tan.w;
+    var ratio = 1.0;
+    var radiant = layer.radiant_face.rgb;
+    var out: RsmOut;
+    if kind < 1.5 {
+        let d = in.world - layer.position_kind.xyz;
+        let r2 = max(dot(d, d), 1e-12);
+        let w = d * inverseSqrt(r2);
+        to_light = -w;
+        // Cube faces overlap slightly (widened shadow frusta): each direction belongs to
+        // exactly one face, so no flux is counted twice.
+        if layer.radiant_face.w >= 0.0 && face_of(w) != layer.radiant_face.w {
+            out.position = vec4<f32>(0.0);
+            out.normal = vec4<f32>(0.0);
+            out.flux = vec4<f32>(0.0);
+            return out;
+        }
+        let cos_axis = max(dot(w, axis), 1e-4);
+        let texel = 2.0 * layer.axis_tan.w / layer.cone.z;
+        measure = texel * texel * cos_axis * cos_axis * cos_axis;
+        ratio = r2;
+        if kind > 0.5 {
+            let x = clamp((dot(w, axis) - layer.cone.y) / max(layer.cone.x - layer.cone.y, 1e-6), 0.0, 1.0);
+            radiant *= x * x * (3.0 - 2.0 * x);
+        }
+    }
+    var n = normalize(in.normal);
+    if dot(n, to_light) < 0.0 {
+        n = -n;
+    }
+    ratio /= max(dot(n, to_light), 0.05);
+    out.position = vec4<f32>(in.world, measure);
+    out.normal = vec4<f32>(n, ratio);
+    out.flux = vec4<f32>(color.rgb * radiant, 0.0);
+    return out;
+}

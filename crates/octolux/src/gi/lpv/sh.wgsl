@@ -1,0 +1,50 @@
+// SH helpers and grid description shared by the LPV shaders (same conventions as sh.rs).
+
+const SH_C0: f32 = 0.2820948;
+const SH_C1: f32 = 0.4886025;
+const LOBE_C0: f32 = 0.8862269;
+const LOBE_C1: f32 = 1.0233267;
+const FRONT_SOLID_ANGLE: f32 = 0.4006697;
+const SIDE_SOLID_ANGLE: f32 = 0.42343135;
+const LPV_PI: f32 = 3.14159265358979;
+
+// One uniform grid of cells (a whole LPV, a cascade or an octree level).
+struct Grid {
+    // world position of the grid's minimum corner
+    origin: vec3<f32>,
+    // cell side (m)
+    cell: f32,
+    // cells per side
+    n: u32,
+    // first cell of this grid in the light buffers
+    offset: u32,
+    // first cell of this grid's geometry volume ((n+1)^3 cells at LPV cell corners)
+    gv_offset: u32,
+    // bit 0: occlusion by the geometry volume, bit 1: receives injected light
+    flags: u32,
+};
+
+// Every grid of a technique, plus the settings the injection and lookup passes need.
+struct Grids {
+    count: u32,
+    // cells in all geometry volumes together
+    gv_total: u32,
+    // RSM injection stride (texels per VPL side)
+    stride: u32,
+    _pad0: u32,
+    gain: f32,
+    damping: f32,
+    // cascade blend width in cells
+    blend: f32,
+    _pad1: f32,
+    grids: array<Grid, 8>,
+};
+
+fn sh_basis(d: vec3<f32>) -> vec4<f32> {
+    return vec4<f32>(SH_C0, -SH_C1 * d.y, SH_C1 * d.z, -SH_C1 * d.x);
+}
+
+// SH of max(0, n.w).
+fn sh_lobe(n: vec3<f32>) -> vec4<f32> {
+    return vec4<f32>(LOBE_C0, -LOBE_C1 * n.y, LOBE_C1 * n.z, -LOBE_C1 * n.x);
+}
