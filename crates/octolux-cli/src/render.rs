@@ -5,7 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::gi::GiSettings;
-use octolux::gpu::{AdapterChoice, GpuContext, GpuOptions};
+use octolux::gpu::{AdapterChoice, GpuContext, GpuOptions, Timestamps};
 use octolux::image_io::{write_rgb8_png, HdrImage};
 use octolux::reference::{self, Bounces, ReferenceImages, ReferenceSettings};
 use octolux::render::{check_image_size, RenderSettings, Renderer};
@@ -207,7 +207,9 @@ pub fn gpu_options(adapter: Option<&str>, no_timestamps: bool) -> GpuOptions {
     if let Some(name) = adapter {
         options.adapter = AdapterChoice::Named(name.to_string());
     }
-    options.timestamps = !no_timestamps;
+    if no_timestamps {
+        options.timestamps = Timestamps::Off;
+    }
     options
 }
 

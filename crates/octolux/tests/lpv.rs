@@ -475,7 +475,7 @@ fn measurements_octree_error_per_iteration_and_pass_time_ratio() {
     // on the Cornell box, best of 3 frames each. Passes are timed on their own (CPU submit +
     // wait): lavapipe's timestamps around multi-dispatch passes are not trustworthy.
     let ctx = GpuContext::new(&GpuOptions {
-        timestamps: false,
+        timestamps: octolux::gpu::Timestamps::Off,
         ..GpuOptions::default()
     })
     .unwrap();

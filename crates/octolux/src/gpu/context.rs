@@ -23,16 +23,28 @@ pub enum AdapterChoice {
 pub struct GpuOptions {
     /// Adapter choice; [`GpuOptions::from_env`] reads `OCTOLUX_ADAPTER`.
     pub adapter: AdapterChoice,
-    /// Use timestamp queries for pass timings when the adapter supports them. When false (or
-    /// unsupported) passes are timed on the CPU around submit + wait.
-    pub timestamps: bool,
+    /// Whether pass times come from GPU timestamp queries or CPU submit + wait.
+    pub timestamps: Timestamps,
+}
+
+/// When to time passes with GPU timestamp queries.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Timestamps {
+    /// When the adapter supports them, except on CPU adapters (lavapipe): their compute-pass
+    /// timestamps do not bracket the work, so CPU submit + wait is the honest figure there.
+    #[default]
+    Auto,
+    /// Whenever the adapter supports them.
+    Always,
+    /// Never: every pass is submitted on its own and timed on the CPU.
+    Off,
 }
 
 impl Default for GpuOptions {
     fn default() -> Self {
         GpuOptions {
             adapter: AdapterChoice::Best,
-            timestamps: true,
+            timestamps: Timestamps::Auto,
         }
     }
 }
@@ -127,8 +139,16 @@ impl GpuContext {
             }
         };
         let info = adapter.get_info();
-        let timestamps =
-            options.timestamps && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        // CPU adapters (lavapipe) expose timestamp queries, but their compute-pass timestamps
+        // do not bracket the work (16 propagation steps read as 0.02 ms); on them the honest
+        // figure is CPU submit + wait per pass.
+        let supported = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let timestamps = supported
+            && match options.timestamps {
+                Timestamps::Auto => info.device_type != wgpu::DeviceType::Cpu,
+                Timestamps::Always => true,
+                Timestamps::Off => false,
+            };
         let mut required_features = wgpu::Features::empty();
         if timestamps {
             required_features |= wgpu::Features::TIMESTAMP_QUERY;
