@@ -26,8 +26,11 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 360)]
     pub height: u32,
     /// Scene time in seconds of the (first) frame.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, conflicts_with = "frame")]
     pub time: f32,
+    /// Start at frame N of the animation instead: time = N / fps.
+    #[arg(long)]
+    pub frame: Option<u32>,
     /// Number of frames to render, `1/fps` seconds apart; with more than one, outputs are
     /// numbered (render_0000.png, ...).
     #[arg(long, default_value_t = 1)]
@@ -65,6 +68,16 @@ pub struct RenderArgs {
     /// Technique settings.
     #[command(flatten)]
     pub gi_args: GiArgs,
+}
+
+impl RenderArgs {
+    /// Scene time of the first frame.
+    pub fn start_time(&self) -> f32 {
+        match self.frame {
+            Some(n) => n as f32 / self.fps,
+            None => self.time,
+        }
+    }
 }
 
 /// Options of the reference path tracer.
@@ -148,7 +161,7 @@ fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
     let start = std::time::Instant::now();
     let mut spp_done = 0;
     for i in 0..args.frames {
-        let t = args.time + i as f32 / args.fps;
+        let t = args.start_time() + i as f32 / args.fps;
         let images = reference_frame(scene, t, args.camera, args.width, args.height, &settings)?;
         spp_done = images.spp_done;
         write_image(
@@ -272,6 +285,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.frames == 0 || !(args.fps > 0.0 && args.fps.is_finite()) || !args.time.is_finite() {
         bail!("--frames must be at least 1, --fps positive and --time finite");
     }
+    let start_time = args.start_time();
     for path in [
         &args.reference.direct_exr,
         &args.reference.indirect_exr,
@@ -305,7 +319,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     };
     let mut all_timings = Vec::new();
     for i in 0..args.frames {
-        let t = args.time + i as f32 / args.fps;
+        let t = start_time + i as f32 / args.fps;
         all_timings.push(renderer.render(&scene, t)?);
         let hdr = renderer.read_hdr()?;
         let display = renderer.read_display()?;

@@ -396,3 +396,55 @@ fn missing_texture_falls_back_to_the_factor_with_a_warning() {
     assert!(output.status.success(), "{stderr}");
     assert!(stderr.contains("nowhere.png"), "{stderr}");
 }
+
+#[test]
+fn no_adapter_says_how_to_install_a_driver() {
+    // Restricting wgpu to GL leaves no Vulkan/Metal/DX12 adapter, as on a machine without a
+    // driver.
+    let output = Command::new(env!("CARGO_BIN_EXE_octolux"))
+        .args(["render", "--width", "8", "--height", "8"])
+        .env("WGPU_BACKEND", "gl")
+        .output()
+        .unwrap();
+    assert_fails_with(&output, &["no GPU adapter", "mesa-vulkan-drivers"]);
+}
+
+#[test]
+fn frame_n_of_an_animation_matches_its_time() {
+    let dir = temp_dir("frame-n");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    let by_frame = dir.join("a.exr");
+    let by_time = dir.join("b.exr");
+    let first = dir.join("c.exr");
+    for (extra, out) in [
+        (["--frame", "45"], &by_frame),
+        (["--time", "1.5"], &by_time),
+        (["--frame", "0"], &first),
+    ] {
+        let mut args = vec![
+            "render",
+            scene,
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--fps",
+            "30",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let output = octolux(&args);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+    }
+    let read = |p: &PathBuf| octolux::image_io::HdrImage::read_exr(p).unwrap();
+    assert_eq!(read(&by_frame), read(&by_time));
+    assert_ne!(read(&by_frame), read(&first), "the scene moves");
+}

@@ -10,12 +10,34 @@ use octolux::scene::cornell;
 
 #[test]
 fn direct_light_of_the_cornell_box_matches_the_reference() {
+    check_direct_light(&cornell::scene(), 0.0);
+}
+
+/// The animated box at a time where the light has moved and tilted and the block has slid and
+/// turned: both renderers evaluate the animation identically.
+#[test]
+fn direct_light_of_the_animated_box_matches_the_reference_mid_animation() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    let scene = octolux::scene::Scene::load(path).unwrap();
+    assert!(scene.is_animated());
+    let (a, b) = (scene.frame(0.0, 0), scene.frame(1.3, 0));
+    assert_ne!(
+        a.lights[0].position, b.lights[0].position,
+        "the light moves"
+    );
+    assert_ne!(a.object_transforms, b.object_transforms, "an object moves");
+    check_direct_light(&scene, 1.3);
+}
+
+fn check_direct_light(scene: &octolux::scene::Scene, t: f32) {
     let (w, h) = (64, 64);
-    let scene = cornell::scene();
     let ctx = GpuContext::new(&GpuOptions::default()).unwrap();
     let mut renderer = Renderer::new(
         &ctx,
-        &scene,
+        scene,
         RenderSettings {
             width: w,
             height: h,
@@ -23,15 +45,15 @@ fn direct_light_of_the_cornell_box_matches_the_reference() {
         },
     )
     .unwrap();
-    renderer.render(&scene, 0.0).unwrap();
+    renderer.render(scene, t).unwrap();
     let gpu = renderer.read_hdr().unwrap();
-    let frame = scene.frame(0.0, 0);
+    let frame = scene.frame(t, 0);
     let settings = ReferenceSettings {
         spp: 64,
         bounces: Bounces::DirectOnly,
         ..ReferenceSettings::default()
     };
-    let reference = reference::render(&scene, &frame, w, h, &settings, &|_, _| {})
+    let reference = reference::render(scene, &frame, w, h, &settings, &|_, _| {})
         .unwrap()
         .total;
 
