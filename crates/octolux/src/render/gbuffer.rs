@@ -2,7 +2,7 @@
 //! in `Depth32Float`. World positions are reconstructed from depth (`common.wgsl`), which keeps
 //! the colour attachments within the 32 bytes per pixel every adapter allows.
 
-use super::scene_gpu::{SceneGpu, VERTEX_LAYOUT};
+use super::scene_gpu::{raster_pipeline, SceneGpu};
 use crate::gpu::{GpuContext, PassTimer};
 
 const OWNER: &str = "gbuffer";
@@ -85,35 +85,15 @@ impl GBuffer {
             blend: None,
             write_mask: wgpu::ColorWrites::ALL,
         });
-        let pipeline = ctx
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("gbuffer"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(VERTEX_LAYOUT)],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: wgpu::TextureFormat::Depth32Float,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_gbuffer"),
-                    compilation_options: Default::default(),
-                    targets: &[color.clone(), color.clone(), color],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        let pipeline = raster_pipeline(
+            &ctx.device,
+            "gbuffer",
+            &layout,
+            &module,
+            "fs_gbuffer",
+            &[color.clone(), color.clone(), color],
+            Default::default(),
+        );
         GBuffer {
             albedo,
             normal,

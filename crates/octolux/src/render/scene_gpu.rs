@@ -329,6 +329,48 @@ impl SceneGpu {
     }
 }
 
+/// A pipeline that rasterises the scene's meshes (vertex entry `vs`, [`VERTEX_LAYOUT`]) into a
+/// `Depth32Float` depth buffer with a less-than test, and fragment entry `fs_entry` writing
+/// `targets`. Shared by the G-buffer, shadow maps and reflective shadow maps.
+pub(crate) fn raster_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    module: &wgpu::ShaderModule,
+    fs_entry: &str,
+    targets: &[Option<wgpu::ColorTargetState>],
+    bias: wgpu::DepthBiasState,
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs"),
+            compilation_options: Default::default(),
+            buffers: &[Some(VERTEX_LAYOUT)],
+        },
+        // Surfaces are two-sided, so nothing is culled.
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: wgpu::TextureFormat::Depth32Float,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Less),
+            stencil: Default::default(),
+            bias,
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(fs_entry),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
 fn dynamic_group(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,

@@ -4,7 +4,7 @@
 //! the outer cone; point faces are 90-degree frusta widened slightly so filtering never reads
 //! past a face edge.
 
-use super::scene_gpu::{SceneGpu, VERTEX_LAYOUT};
+use super::scene_gpu::{raster_pipeline, SceneGpu};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::{Light, LightKind};
 use glam::{Mat4, Vec3, Vec4};
@@ -110,39 +110,21 @@ impl ShadowMaps {
             .collect();
         let module = ctx.shader("gbuffer", include_str!("gbuffer.wgsl"));
         let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
-        let pipeline = ctx
-            .device
-            .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some("shadow"),
-                layout: Some(&layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some("vs"),
-                    compilation_options: Default::default(),
-                    buffers: &[Some(VERTEX_LAYOUT)],
-                },
-                primitive: wgpu::PrimitiveState::default(),
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: wgpu::TextureFormat::Depth32Float,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: wgpu::DepthBiasState {
-                        constant: 2,
-                        slope_scale: 1.5,
-                        clamp: 0.0,
-                    },
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some("fs_shadow"),
-                    compilation_options: Default::default(),
-                    targets: &[],
-                }),
-                multiview_mask: None,
-                cache: None,
-            });
+        // Slope-scaled bias against acne on surfaces at grazing angles to the light.
+        let bias = wgpu::DepthBiasState {
+            constant: 2,
+            slope_scale: 1.5,
+            clamp: 0.0,
+        };
+        let pipeline = raster_pipeline(
+            &ctx.device,
+            "shadow",
+            &layout,
+            &module,
+            "fs_shadow",
+            &[],
+            bias,
+        );
         let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("shadow compare"),
             mag_filter: wgpu::FilterMode::Linear,
