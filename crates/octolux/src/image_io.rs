@@ -99,6 +99,13 @@ fn create_parent(path: &Path) -> Result<()> {
 
 /// Filmic tone curve (Narkowicz's fit of the ACES reference rendering transform), applied per
 /// channel to exposed linear values; output in 0..1, linear.
+///
+/// ```
+/// use octolux::image_io::filmic;
+/// assert_eq!(filmic(0.0), 0.0);
+/// assert!(filmic(0.18) > 0.2 && filmic(0.18) < 0.3); // mid grey stays mid
+/// assert_eq!(filmic(1e6), 1.0);
+/// ```
 pub fn filmic(x: f32) -> f32 {
     let x = x.max(0.0);
     ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)

@@ -75,6 +75,13 @@ impl std::str::FromStr for Bounces {
     type Err = Error;
 
     /// `direct`, `unlimited` (or `all`), or a number of indirect bounces (`0` = direct).
+    ///
+    /// ```
+    /// use octolux::reference::Bounces;
+    /// assert_eq!("1".parse::<Bounces>().unwrap(), Bounces::Indirect(1));
+    /// assert_eq!("direct".parse::<Bounces>().unwrap(), Bounces::DirectOnly);
+    /// assert!("lots".parse::<Bounces>().is_err());
+    /// ```
     fn from_str(s: &str) -> Result<Bounces> {
         match s.trim().to_lowercase().as_str() {
             "direct" | "0" => Ok(Bounces::DirectOnly),

@@ -17,6 +17,15 @@ pub struct Keyframe {
 /// A keyframed rigid transform. Keys are sorted by time; before the first key the first key
 /// holds, after the last the last holds, unless `looping`, in which case time wraps around the
 /// track's duration.
+///
+/// ```
+/// use glam::{Quat, Vec3};
+/// use octolux::scene::{Keyframe, Track};
+/// let key = |time, x| Keyframe { time, translation: Vec3::new(x, 0.0, 0.0), rotation: Quat::IDENTITY };
+/// let track = Track::new(vec![key(0.0, 0.0), key(2.0, 1.0)], true).unwrap();
+/// assert_eq!(track.sample(1.0).0.x, 0.5);
+/// assert_eq!(track.sample(3.0).0.x, 0.5); // looping: t = 3 is t = 1
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Track {
     /// Keys sorted by time (at least one).
