@@ -409,7 +409,7 @@ fn settings_come_from_scene_tables_and_reject_unknown_keys() {
     )
     .unwrap();
     let s = GiSettings::from_table(&table, std::path::Path::new("x.toml")).unwrap();
-    assert_eq!((s.lpv.size, s.lpv.gain, s.lpv.iterations), (24, 2.0, 16));
+    assert_eq!((s.lpv.size, s.lpv.gain, s.lpv.iterations), (24, 2.0, 32));
     assert_eq!(
         (s.clpv.cascades, s.olpv.iterations, s.olpv.size),
         (4, 6, 32)
