@@ -834,15 +834,15 @@ fn measurements_cornell_irradiance_per_region() {
     .unwrap();
     let configs: Vec<(&str, GiSettings)> = {
         let mut v = Vec::new();
-        for (name, size, it, occ) in [
-            ("lpv", 32, 16, true),
-            ("lpv", 32, 64, true),
-            ("lpv", 32, 64, false),
-            ("clpv", 32, 0, true),
-            ("olpv", 32, 0, true),
+        // Defaults (0 = keep), then lpv with more iterations and without occlusion.
+        for (name, it, occ) in [
+            ("lpv", 0, true),
+            ("lpv", 64, true),
+            ("lpv", 64, false),
+            ("clpv", 0, true),
+            ("olpv", 0, true),
         ] {
             let mut gi = GiSettings::default();
-            gi.lpv.size = size;
             if it > 0 {
                 gi.lpv.iterations = it;
             }
