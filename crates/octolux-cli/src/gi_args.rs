@@ -9,7 +9,7 @@ pub struct GiArgs {
     /// LPV: cells per side of the uniform volume (default 32).
     #[arg(long)]
     pub lpv_size: Option<u32>,
-    /// LPV: propagation iterations (default 16).
+    /// LPV: propagation iterations (default 32).
     #[arg(long)]
     pub lpv_iterations: Option<u32>,
     /// LPV family: reflective shadow map side in texels (default 512).
@@ -33,13 +33,13 @@ pub struct GiArgs {
     /// Cascaded LPV: cells per side of each cascade (default 32).
     #[arg(long)]
     pub clpv_size: Option<u32>,
-    /// Cascaded LPV: propagation iterations per cascade (default 8).
+    /// Cascaded LPV: propagation iterations per cascade (default 32).
     #[arg(long)]
     pub clpv_iterations: Option<u32>,
     /// Octree LPV: side of level 0, a power of two (default 32).
     #[arg(long)]
     pub olpv_size: Option<u32>,
-    /// Octree LPV: propagation iterations per level (default 4).
+    /// Octree LPV: propagation iterations per level (default 8).
     #[arg(long)]
     pub olpv_iterations: Option<u32>,
 }
