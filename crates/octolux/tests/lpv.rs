@@ -808,9 +808,14 @@ fn cornell_region(p: Vec3, n: Vec3, a: Vec3) -> Option<&'static str> {
     }
 }
 
+/// Cornell box irradiance per region against the one-bounce reference (`indirect_irradiance`).
+/// Prints the table of docs/lpv.md (SPP=4096 in release for the documented figures) and holds
+/// every default technique to the right order of magnitude on every region the LPV can reach:
+/// within a factor 6 of the reference (directly lit surfaces such as the block tops light
+/// themselves, see the lit-plane test, and reach ~4.5x). The ceiling, which light from the
+/// floor must cross the whole volume to reach, is the documented exception (ratio < 0.1).
 #[test]
-#[ignore = "measurement: Cornell box irradiance per region against the one-bounce reference; run in release"]
-fn measurements_cornell_irradiance_per_region() {
+fn cornell_irradiance_per_region_against_the_reference() {
     use octolux::reference::{Bounces, ReferenceSettings};
     let ctx = context();
     let scene = octolux::scene::cornell::scene();
@@ -818,7 +823,7 @@ fn measurements_cornell_irradiance_per_region() {
     let spp = std::env::var("SPP")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(256);
+        .unwrap_or(64);
     let reference = octolux::reference::render(
         &scene,
         &scene.frame(0.0, 0),
@@ -858,6 +863,8 @@ fn measurements_cornell_irradiance_per_region() {
             _ => (gi.lpv.size, gi.lpv.iterations),
         };
         let label = format!("{technique} n={n} k={k} occlusion={}", gi.lpv.occlusion);
+        let is_default =
+            gi.lpv.occlusion && (technique != "lpv" || k == GiSettings::default().lpv.iterations);
         let settings = RenderSettings {
             width: w,
             height: h,
@@ -894,10 +901,19 @@ fn measurements_cornell_irradiance_per_region() {
         println!("{label}");
         for (region, (t, rf, count)) in sums {
             let (t, rf) = (t / count as f64, rf / count as f64);
-            println!(
-                "  {region:12} pixels {count:5} E {t:.4} reference {rf:.4} ratio {:.3}",
-                t / rf
-            );
+            let ratio = t / rf;
+            println!("  {region:12} pixels {count:5} E {t:.4} reference {rf:.4} ratio {ratio:.3}");
+            if is_default && region == "ceiling" {
+                assert!(
+                    ratio < 0.1,
+                    "{label}: the ceiling is lit now ({ratio}); update docs/lpv.md"
+                );
+            } else if is_default {
+                assert!(
+                    (1.0 / 6.0..6.0).contains(&ratio),
+                    "{label}: {region} ratio {ratio}"
+                );
+            }
         }
     }
 }
