@@ -4,7 +4,7 @@
 
 use super::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::render::scene_gpu::{SceneGpu, UNIFORM_STRIDE, VERTEX_LAYOUT};
+use crate::render::scene_gpu::{raster_pipeline, SceneGpu, UNIFORM_STRIDE};
 use crate::scene::LightKind;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -160,37 +160,19 @@ impl RsmPass {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("rsm"),
-            layout: Some(&layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs"),
-                compilation_options: Default::default(),
-                buffers: &[Some(VERTEX_LAYOUT)],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: wgpu::TextureFormat::Depth32Float,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_rsm"),
-                compilation_options: Default::default(),
-                targets: &[
-                    target(POSITION_FORMAT),
-                    target(HALF_FORMAT),
-                    target(HALF_FORMAT),
-                ],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = raster_pipeline(
+            device,
+            "rsm",
+            &layout,
+            &module,
+            "fs_rsm",
+            &[
+                target(POSITION_FORMAT),
+                target(HALF_FORMAT),
+                target(HALF_FORMAT),
+            ],
+            Default::default(),
+        );
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("rsm layer"),
             layout: &layer_layout,
