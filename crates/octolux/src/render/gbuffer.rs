@@ -78,7 +78,10 @@ impl GBuffer {
             wgpu::TextureFormat::Depth32Float,
             usage,
         );
-        let module = ctx.shader("gbuffer", include_str!("gbuffer.wgsl"));
+        let module = ctx.shader(
+            "gbuffer",
+            &[include_str!("raster.wgsl"), include_str!("gbuffer.wgsl")].concat(),
+        );
         let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
         let color = Some(wgpu::ColorTargetState {
             format: GBUFFER_FORMAT,

@@ -1,51 +1,5 @@
-// G-buffer and shadow-map rasterisation. Both use `vs`; the G-buffer writes albedo, normal and
-// emission, the shadow pass only runs the alpha test of masked materials.
-
-struct View {
-    view_proj: mat4x4<f32>,
-    position: vec4<f32>,
-};
-@group(0) @binding(0) var<uniform> view: View;
-
-struct Material {
-    // rgb linear albedo factor, a: alpha cutoff (negative = opaque)
-    base_color: vec4<f32>,
-    // rgb emitted radiance, w: 1 if the base colour texture is used
-    emission: vec4<f32>,
-};
-@group(1) @binding(0) var<uniform> material: Material;
-@group(1) @binding(1) var base_texture: texture_2d<f32>;
-@group(1) @binding(2) var base_sampler: sampler;
-
-struct Object {
-    model: mat4x4<f32>,
-    normal_matrix: mat4x4<f32>,
-};
-@group(2) @binding(0) var<uniform> object: Object;
-
-struct VertexOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-};
-
-@vertex
-fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) uv: vec2<f32>) -> VertexOut {
-    var out: VertexOut;
-    let world = object.model * vec4<f32>(position, 1.0);
-    out.world = world.xyz;
-    out.clip = view.view_proj * world;
-    out.normal = (object.normal_matrix * vec4<f32>(normal, 0.0)).xyz;
-    out.uv = uv;
-    return out;
-}
-
-fn base_color(uv: vec2<f32>) -> vec4<f32> {
-    let texel = textureSample(base_texture, base_sampler, uv);
-    let factor = vec4<f32>(material.base_color.rgb, 1.0);
-    return select(factor, factor * texel, material.emission.w > 0.5);
-}
+// G-buffer and shadow-map fragment shaders (after `raster.wgsl`): the G-buffer writes albedo,
+// normal and emission, the shadow pass only runs the alpha test of masked materials.
 
 struct GBufferOut {
     @location(0) albedo: vec4<f32>,

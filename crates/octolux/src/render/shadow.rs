@@ -108,7 +108,10 @@ impl ShadowMaps {
                 })
             })
             .collect();
-        let module = ctx.shader("gbuffer", include_str!("gbuffer.wgsl"));
+        let module = ctx.shader(
+            "shadow",
+            &[include_str!("raster.wgsl"), include_str!("gbuffer.wgsl")].concat(),
+        );
         let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
         // Slope-scaled bias against acne on surfaces at grazing angles to the light.
         let bias = wgpu::DepthBiasState {

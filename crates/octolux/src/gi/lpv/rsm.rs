@@ -152,7 +152,14 @@ impl RsmPass {
             ],
             immediate_size: 0,
         });
-        let module = ctx.shader("rsm", include_str!("rsm.wgsl"));
+        let module = ctx.shader(
+            "rsm",
+            &[
+                include_str!("../../render/raster.wgsl"),
+                include_str!("rsm.wgsl"),
+            ]
+            .concat(),
+        );
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,

@@ -1,31 +1,11 @@
 // Reflective shadow maps: rasterise the scene from a light (the shadow layer's matrix) and
 // store, per texel, the world position, the normal facing the light and what the injection
-// needs to turn the texel into a VPL with physical flux:
+// needs to turn the texel into a VPL with physical flux (after `render/raster.wgsl`):
 //   perspective (spot, point face): measure m = solid angle of the texel
 //     = (2 tan(half fov) / N)^2 cos^3(angle to the axis); incident flux = I(w) m
 //   orthographic (directional): m = texel area across the beam; incident flux = E m
 // reflected flux = albedo x incident flux (Lambertian: everything not absorbed leaves).
 // Surfel area = m r^2 / cos (perspective) or m / cos (orthographic).
-
-struct View {
-    view_proj: mat4x4<f32>,
-    position: vec4<f32>,
-};
-@group(0) @binding(0) var<uniform> view: View;
-
-struct Material {
-    base_color: vec4<f32>,
-    emission: vec4<f32>,
-};
-@group(1) @binding(0) var<uniform> material: Material;
-@group(1) @binding(1) var base_texture: texture_2d<f32>;
-@group(1) @binding(2) var base_sampler: sampler;
-
-struct Object {
-    model: mat4x4<f32>,
-    normal_matrix: mat4x4<f32>,
-};
-@group(2) @binding(0) var<uniform> object: Object;
 
 struct RsmLayer {
     // xyz light position, w: kind (0 point, 1 spot, 2 directional)
@@ -39,24 +19,6 @@ struct RsmLayer {
     cone: vec4<f32>,
 };
 @group(3) @binding(0) var<uniform> layer: RsmLayer;
-
-struct VertexOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-};
-
-@vertex
-fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @location(2) uv: vec2<f32>) -> VertexOut {
-    var out: VertexOut;
-    let world = object.model * vec4<f32>(position, 1.0);
-    out.world = world.xyz;
-    out.clip = view.view_proj * world;
-    out.normal = (object.normal_matrix * vec4<f32>(normal, 0.0)).xyz;
-    out.uv = uv;
-    return out;
-}
 
 struct RsmOut {
     @location(0) position: vec4<f32>,
@@ -77,10 +39,7 @@ fn face_of(d: vec3<f32>) -> f32 {
 
 @fragment
 fn fs_rsm(in: VertexOut) -> RsmOut {
-    var color = vec4<f32>(material.base_color.rgb, 1.0);
-    if material.emission.w > 0.5 {
-        color *= textureSample(base_texture, base_sampler, in.uv);
-    }
+    let color = base_color(in.uv);
     if material.base_color.a >= 0.0 && color.a < material.base_color.a {
         discard;
     }
