@@ -82,6 +82,25 @@ impl GiSettings {
     }
 }
 
+/// Allocates a technique's indirect-irradiance image: `Rgba16Float`, G-buffer sized, written
+/// by a compute pass, read by compose and copyable for tests. Recorded under `owner`.
+pub(crate) fn indirect_target(
+    ctx: &GpuContext,
+    owner: &str,
+    width: u32,
+    height: u32,
+) -> (wgpu::Texture, wgpu::TextureView) {
+    crate::render::render_target(
+        ctx,
+        owner,
+        "indirect irradiance",
+        width,
+        height,
+        wgpu::TextureFormat::Rgba16Float,
+        wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+    )
+}
+
 /// The GPU techniques that can be selected by name.
 pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv"];
 

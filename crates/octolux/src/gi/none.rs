@@ -14,24 +14,7 @@ impl NoGi {
     /// A zero indirect-irradiance image of the given size.
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> NoGi {
         // New textures are zero-initialised by wgpu.
-        let texture = ctx.create_texture(
-            "none",
-            &wgpu::TextureDescriptor {
-                label: Some("indirect irradiance"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba16Float,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                view_formats: &[],
-            },
-        );
-        let view = texture.create_view(&Default::default());
+        let (texture, view) = super::indirect_target(ctx, "none", width, height);
         NoGi {
             _texture: texture,
             view,

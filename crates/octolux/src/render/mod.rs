@@ -10,6 +10,7 @@ mod gbuffer;
 pub(crate) mod scene_gpu;
 mod shadow;
 
+pub(crate) use gbuffer::target as render_target;
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub use scene_gpu::SceneGpu;
 pub use shadow::{LayerView, ShadowMaps};

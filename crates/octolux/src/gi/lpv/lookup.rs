@@ -14,26 +14,7 @@ pub struct Output {
 impl Output {
     /// Allocates the output image.
     pub fn new(ctx: &GpuContext, owner: &str, width: u32, height: u32) -> Output {
-        let texture = ctx.create_texture(
-            owner,
-            &wgpu::TextureDescriptor {
-                label: Some("indirect irradiance"),
-                size: wgpu::Extent3d {
-                    width,
-                    height,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: wgpu::TextureFormat::Rgba16Float,
-                usage: wgpu::TextureUsages::STORAGE_BINDING
-                    | wgpu::TextureUsages::TEXTURE_BINDING
-                    | wgpu::TextureUsages::COPY_SRC,
-                view_formats: &[],
-            },
-        );
-        let view = texture.create_view(&Default::default());
+        let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
         Output { texture, view }
     }
 }
