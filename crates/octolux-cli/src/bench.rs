@@ -2,7 +2,7 @@
 //! camera and frame; one table of per-pass GPU time, memory and error against the reference.
 
 use crate::gi_args::GiArgs;
-use crate::render::{gpu_options, load_scene, reference_frame, ReferenceArgs};
+use crate::render::{load_scene, reference_frame, GpuArgs, SamplingArgs};
 use crate::stats::{average_timings, mib};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -44,24 +44,18 @@ pub struct BenchArgs {
     /// (`direct`, a number of bounces, `unlimited`); e.g. `1` to compare GI off and on.
     #[arg(long)]
     pub against: Option<String>,
-    /// Reference options (`--spp`, `--seed`, `--time-budget`; `--bounces` is ignored here).
+    /// Reference sampling (the transport is the one each technique claims, or `--against`).
     #[command(flatten)]
-    pub reference: ReferenceArgs,
-    /// Shadow-map resolution per layer.
-    #[arg(long, default_value_t = 2048)]
-    pub shadow_map_size: u32,
+    pub sampling: SamplingArgs,
     /// Write the results as JSON to this file (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write every technique's image and every reference as EXR + PNG into this folder.
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
-    /// GPU adapter (substring of its name).
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
-    #[arg(long)]
-    pub no_timestamps: bool,
+    /// GPU options.
+    #[command(flatten)]
+    pub gpu: GpuArgs,
     /// Technique settings.
     #[command(flatten)]
     pub gi_args: GiArgs,
@@ -130,9 +124,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .as_deref()
         .map(str::parse::<Bounces>)
         .transpose()?;
-    let mut reference_settings = args.reference.settings()?;
+    let mut reference_settings = args.sampling.settings(Bounces::Unlimited)?;
     let (scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
-    let options = gpu_options(args.adapter.as_deref(), args.no_timestamps);
+    let options = args.gpu.options();
     let mut techniques = Vec::new();
     let mut images: Vec<(String, Bounces, HdrImage)> = Vec::new();
     let mut adapter = String::new();
@@ -143,7 +137,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         let settings = RenderSettings {
             width: args.width,
             height: args.height,
-            shadow_map_size: args.shadow_map_size,
+            shadow_map_size: args.gpu.shadow_map_size,
             camera: args.camera,
             gi: name.clone(),
             gi_settings: gi_settings.clone(),

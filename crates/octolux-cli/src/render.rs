@@ -44,7 +44,8 @@ pub struct RenderArgs {
     /// Also write the linear HDR image to this OpenEXR file.
     #[arg(long)]
     pub exr: Option<PathBuf>,
-    /// GI technique: `none` (direct light only), or `reference` for the CPU path tracer.
+    /// GI technique: `none` (direct light only), `lpv`, `clpv`, `olpv`, or `reference` (the
+    /// CPU path tracer).
     #[arg(long, default_value = "none")]
     pub gi: String,
     /// Reference path tracer options (used with `--gi reference`).
@@ -53,18 +54,12 @@ pub struct RenderArgs {
     /// Which of the scene's cameras to use.
     #[arg(long, default_value_t = 0)]
     pub camera: usize,
-    /// Shadow-map resolution per layer.
-    #[arg(long, default_value_t = 2048)]
-    pub shadow_map_size: u32,
     /// Print per-pass times and GPU memory per owner.
     #[arg(long)]
     pub stats: bool,
-    /// GPU adapter to use (substring of its name; see -v output). Also OCTOLUX_ADAPTER.
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
-    #[arg(long)]
-    pub no_timestamps: bool,
+    /// GPU options.
+    #[command(flatten)]
+    pub gpu: GpuArgs,
     /// Technique settings.
     #[command(flatten)]
     pub gi_args: GiArgs,
@@ -83,19 +78,13 @@ impl RenderArgs {
 /// Options of the reference path tracer.
 #[derive(Args, Debug, Clone)]
 pub struct ReferenceArgs {
-    /// Samples per pixel of the reference.
-    #[arg(long, default_value_t = 64)]
-    pub spp: u32,
+    /// Samples, time budget and seed.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
     /// Light transport of the reference: `direct`, a number of indirect bounces (`1` = one
     /// bounce, what LPV and VPL methods compute), or `unlimited`.
     #[arg(long, default_value = "unlimited")]
     pub bounces: String,
-    /// Stop refining after this many seconds (the image keeps the samples done so far).
-    #[arg(long)]
-    pub time_budget: Option<f64>,
-    /// Random seed (same seed, same image).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
     /// Also write the direct-light part as linear OpenEXR.
     #[arg(long)]
     pub direct_exr: Option<PathBuf>,
@@ -107,9 +96,58 @@ pub struct ReferenceArgs {
     pub irradiance_exr: Option<PathBuf>,
 }
 
+/// Sampling options of the reference path tracer (shared by `render` and `bench`).
+#[derive(Args, Debug, Clone)]
+pub struct SamplingArgs {
+    /// Samples per pixel of the reference.
+    #[arg(long, default_value_t = 64)]
+    pub spp: u32,
+    /// Stop refining after this many seconds (the image keeps the samples done so far).
+    #[arg(long)]
+    pub time_budget: Option<f64>,
+    /// Random seed (same seed, same image).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+/// GPU options (shared by `render` and `bench`).
+#[derive(Args, Debug, Clone)]
+pub struct GpuArgs {
+    /// Shadow-map resolution per layer.
+    #[arg(long, default_value_t = 2048)]
+    pub shadow_map_size: u32,
+    /// GPU adapter to use (substring of its name; see -v output). Also OCTOLUX_ADAPTER.
+    #[arg(long)]
+    pub adapter: Option<String>,
+    /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
+    #[arg(long)]
+    pub no_timestamps: bool,
+}
+
+impl GpuArgs {
+    /// Device options from the flags and the environment.
+    pub fn options(&self) -> GpuOptions {
+        let mut options = GpuOptions::from_env();
+        if let Some(name) = &self.adapter {
+            options.adapter = AdapterChoice::Named(name.clone());
+        }
+        if self.no_timestamps {
+            options.timestamps = Timestamps::Off;
+        }
+        options
+    }
+}
+
 impl ReferenceArgs {
     /// Library settings from the flags.
     pub fn settings(&self) -> Result<ReferenceSettings> {
+        self.sampling.settings(self.bounces.parse::<Bounces>()?)
+    }
+}
+
+impl SamplingArgs {
+    /// Library settings from the flags, for the given transport.
+    pub fn settings(&self, bounces: Bounces) -> Result<ReferenceSettings> {
         if self.spp == 0 {
             bail!("--spp must be at least 1");
         }
@@ -120,7 +158,7 @@ impl ReferenceArgs {
         };
         Ok(ReferenceSettings {
             spp: self.spp,
-            bounces: self.bounces.parse::<Bounces>()?,
+            bounces,
             time_budget,
             seed: self.seed,
             ..ReferenceSettings::default()
@@ -214,18 +252,6 @@ pub fn load_scene(path: Option<&Path>, flags: &GiArgs) -> Result<(Scene, GiSetti
     Ok((scene, settings))
 }
 
-/// GPU options from the command line and the environment.
-pub fn gpu_options(adapter: Option<&str>, no_timestamps: bool) -> GpuOptions {
-    let mut options = GpuOptions::from_env();
-    if let Some(name) = adapter {
-        options.adapter = AdapterChoice::Named(name.to_string());
-    }
-    if no_timestamps {
-        options.timestamps = Timestamps::Off;
-    }
-    options
-}
-
 /// Output path of frame `i` of `n`.
 pub fn frame_path(base: &Path, i: u32, n: u32) -> PathBuf {
     if n <= 1 {
@@ -300,12 +326,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     if args.gi == "reference" {
         return run_reference(args, &scene);
     }
-    let ctx = GpuContext::new(&gpu_options(args.adapter.as_deref(), args.no_timestamps))?;
+    let ctx = GpuContext::new(&args.gpu.options())?;
     log::info!("adapter: {}", ctx.describe());
     let settings = RenderSettings {
         width: args.width,
         height: args.height,
-        shadow_map_size: args.shadow_map_size,
+        shadow_map_size: args.gpu.shadow_map_size,
         camera: args.camera,
         gi: args.gi.clone(),
         gi_settings,
