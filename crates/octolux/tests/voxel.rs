@@ -199,3 +199,118 @@ fn absurd_resolutions_are_rejected() {
     }
     assert!(VoxelGrid::new(Vec3::ZERO, 0.0, 64).is_err());
 }
+
+/// A few random triangles, a thin pole and a 45-degree plane with different colours.
+fn small_scene() -> Vec<VoxelTriangle> {
+    let mut rng = Rng(12345);
+    let mut tris: Vec<VoxelTriangle> = (0..12)
+        .map(|i| {
+            let c = rng.vec(0.15, 0.85);
+            let albedo = [(i * 20) as u8, 255 - (i * 20) as u8, 77];
+            tri(
+                c + rng.vec(-0.2, 0.2),
+                c + rng.vec(-0.2, 0.2),
+                c + rng.vec(-0.2, 0.2),
+                albedo,
+            )
+        })
+        .collect();
+    tris.extend(thin_box(
+        Vec3::new(0.2, 0.11, 0.13),
+        Vec3::new(0.81, 0.87, 0.71),
+        0.01,
+        [250, 10, 10],
+    ));
+    tris
+}
+
+#[test]
+fn octree_equals_cpu_build_and_mip_filter() {
+    use octolux::voxel::svo::SvoBuilder;
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let tris = small_scene();
+    for res in [8u32, 32] {
+        let grid = unit_grid(res);
+        let (svo, timings) = builder.build(&ctx, &grid, &tris).unwrap();
+        assert!(timings.iter().any(|t| t.name == "svo bricks"));
+        let gpu = svo.read_back(&ctx).unwrap();
+        let coords = gpu.coordinates();
+        let fragments = cpu::voxelize(&grid, &tris);
+        let voxels = cpu::voxel_values(&fragments, &tris);
+        let occupied: BTreeSet<[u32; 3]> = voxels.keys().copied().collect();
+        let depth = grid.depth();
+        let reference = cpu::build_octree(depth, &occupied);
+        let lattices = cpu::lattices(depth, &voxels);
+        assert_eq!(gpu.levels.len(), depth as usize);
+        let mut checked = 0;
+        for (d, &(start, end)) in gpu.levels.iter().enumerate() {
+            // Same nodes, same subdivision.
+            let nodes: std::collections::BTreeMap<[u32; 3], bool> = (start..end)
+                .map(|n| (coords[n as usize], gpu.child[n as usize] != 0))
+                .collect();
+            assert_eq!(
+                nodes.len() as u32,
+                end - start,
+                "duplicate nodes on level {d}"
+            );
+            assert_eq!(nodes, reference[d].nodes, "level {d} at {res}^3");
+            for n in start..end {
+                let c = coords[n as usize];
+                // Neighbour links: present exactly when the neighbour exists.
+                for a in 0..3 {
+                    let mut cc = c;
+                    cc[a] += 1;
+                    let m = gpu.neighbours[n as usize][a];
+                    if m == 0 {
+                        assert!(
+                            !reference[d].nodes.contains_key(&cc),
+                            "missing link {c:?} -> {cc:?}"
+                        );
+                    } else {
+                        assert_eq!(coords[m as usize], cc, "wrong link on level {d}");
+                        assert!((start..end).contains(&m));
+                        // Consistent brick borders: the shared face is bit-identical.
+                        for k in 0..9 {
+                            let (u, v) = (k % 3, k / 3);
+                            let mut hi = [0usize; 3];
+                            let mut lo = [0usize; 3];
+                            hi[a] = 2;
+                            hi[(a + 1) % 3] = u;
+                            hi[(a + 2) % 3] = v;
+                            lo[(a + 1) % 3] = u;
+                            lo[(a + 2) % 3] = v;
+                            let ti = |i: [usize; 3]| i[0] + 3 * i[1] + 9 * i[2];
+                            assert_eq!(
+                                gpu.bricks[n as usize][ti(hi)],
+                                gpu.bricks[m as usize][ti(lo)]
+                            );
+                        }
+                    }
+                }
+                // Brick texels equal the CPU lattice (leaf box filter and mip filter).
+                for t in 0..27u32 {
+                    let p = glam::IVec3::new(
+                        (2 * c[0] + t % 3) as i32,
+                        (2 * c[1] + (t / 3) % 3) as i32,
+                        (2 * c[2] + t / 9) as i32,
+                    );
+                    let want = lattices[d].get(p);
+                    let got = gpu.bricks[n as usize][t as usize];
+                    let err = (got - want).abs().max_element();
+                    assert!(
+                        err <= 2e-3 + 2e-3 * want.abs().max_element(),
+                        "level {d} node {c:?} texel {t}: GPU {got} CPU {want} ({res}^3)"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000);
+        assert!(ctx
+            .ledger
+            .by_owner()
+            .iter()
+            .any(|(o, b)| o == "svo" && *b >= svo.bytes()));
+    }
+}

@@ -18,6 +18,7 @@
 //! is not done yet (see `docs/voxels.md`).
 
 pub mod cpu;
+pub mod svo;
 pub mod voxelize;
 
 use crate::scene::{Scene, SceneFrame};

@@ -1,0 +1,539 @@
+//! Sparse voxel octree with a corner-sampled brick pool, built on the GPU level by level
+//! (Arnebäck 2017 §3.1): flag occupied nodes from the voxel fragments, flag the 26 neighbours
+//! of every occupied node, subdivide flagged nodes (8 children allocated with an atomic
+//! counter), link neighbours; then fill the leaf bricks, transfer between neighbours and mipmap
+//! bottom-up, transferring again on every level.
+//!
+//! Layout (struct-of-arrays, 4 words per node + brick): `child` (first of 8 contiguous
+//! children), `neighbours` (+x, +y, +z on the same level). Every node owns exactly one brick,
+//! so the brick pointer is the node index and costs nothing. A brick is 3x3x3 RGBA16F texels
+//! (premultiplied albedo, opacity) on the node's corners, edge midpoints, face centres and
+//! centre: 216 bytes.
+//!
+//! The values define one corner-sampled lattice per level: on the finest level, each lattice
+//! point (a voxel corner) holds the sum of the touching voxels' values / 8; each coarser
+//! level applies the separable [1/4 1/2 1/4] filter ([`super::cpu::lattices`] is the reference).
+//! A brick holds the lattice restricted to its node, so neighbouring bricks agree on their
+//! shared faces, and trilinear interpolation inside a brick is continuous across nodes.
+//!
+//! What is stored is albedo and opacity; light injection into radiance is not implemented yet,
+//! and the octree is rebuilt whole (no static/dynamic split).
+
+use super::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
+use super::{VoxelGrid, VoxelTriangle};
+use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::{Error, Result};
+
+/// Ledger owner of the octree's buffers.
+pub const OWNER: &str = "svo";
+/// Words per brick (27 texels x RGBA16F).
+pub const BRICK_WORDS: u32 = 54;
+const UNIFORM_STRIDE: u64 = 256;
+const CONTROL_WORDS: u64 = 64;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct LevelParams {
+    d: u32,
+    depth: u32,
+    fragments: u32,
+    capacity: u32,
+}
+
+/// A sparse voxel octree on the GPU.
+pub struct Svo {
+    /// The voxel grid the finest level resolves.
+    pub grid: VoxelGrid,
+    /// Number of nodes (all levels).
+    pub node_count: u32,
+    /// `array<u32>`: first child index, 0 = none.
+    pub child: wgpu::Buffer,
+    /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
+    pub neighbours: wgpu::Buffer,
+    /// `array<u32>`, [`BRICK_WORDS`] per node: 27 texels as two `pack2x16float` words.
+    pub bricks: wgpu::Buffer,
+    /// Node index range of every level.
+    pub levels: Vec<(u32, u32)>,
+    /// Voxel fragments the octree was built from.
+    pub fragment_count: u32,
+}
+
+/// The octree read back to the CPU (for tests and tools).
+#[derive(Clone, Debug)]
+pub struct SvoCpu {
+    /// First child per node.
+    pub child: Vec<u32>,
+    /// +x, +y, +z neighbours per node.
+    pub neighbours: Vec<[u32; 3]>,
+    /// 27 RGBA texels per node (texel `i + 3j + 9k`).
+    pub bricks: Vec<[glam::Vec4; 27]>,
+    /// Node range per level.
+    pub levels: Vec<(u32, u32)>,
+}
+
+impl SvoCpu {
+    /// Coordinates of every node on its level, found by walking down from the root.
+    pub fn coordinates(&self) -> Vec<[u32; 3]> {
+        let mut coords = vec![[0u32; 3]; self.child.len()];
+        for &(start, end) in &self.levels {
+            for n in start..end {
+                let first = self.child[n as usize];
+                if first != 0 {
+                    let c = coords[n as usize];
+                    for o in 0..8u32 {
+                        coords[(first + o) as usize] = [
+                            c[0] * 2 + (o & 1),
+                            c[1] * 2 + ((o >> 1) & 1),
+                            c[2] * 2 + (o >> 2),
+                        ];
+                    }
+                }
+            }
+        }
+        coords
+    }
+}
+
+/// The octree build pipelines.
+pub struct SvoBuilder {
+    voxelizer: Voxelizer,
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
+    pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+enum Dispatch {
+    Fragments,
+    Level(u32),
+    One,
+}
+
+impl SvoBuilder {
+    /// Compiles the build kernels.
+    pub fn new(ctx: &GpuContext) -> SvoBuilder {
+        let device = &ctx.device;
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(16),
+            },
+            count: None,
+        }];
+        entries.push(storage(1, true));
+        entries.push(storage(2, true));
+        entries.extend((3..=8).map(|b| storage(b, false)));
+        let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("svo"),
+            entries: &entries,
+        });
+        let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("svo args"),
+            entries: &[storage(0, false)],
+        });
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("svo.wgsl"));
+        let module = ctx.shader("svo", &source);
+        let plain = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("svo"),
+            bind_group_layouts: &[Some(&layout0)],
+            immediate_size: 0,
+        });
+        let with_args = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("svo finish level"),
+            bind_group_layouts: &[Some(&layout0), Some(&layout1)],
+            immediate_size: 0,
+        });
+        let mut pipelines = std::collections::HashMap::new();
+        for entry in [
+            "flag_occupied",
+            "flag_needed",
+            "subdivide",
+            "finish_level",
+            "leaf_accumulate",
+            "leaf_fill",
+            "transfer_x",
+            "transfer_y",
+            "transfer_z",
+            "mip",
+        ] {
+            let layout = if entry == "finish_level" {
+                &with_args
+            } else {
+                &plain
+            };
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            pipelines.insert(entry, pipeline);
+        }
+        SvoBuilder {
+            voxelizer: Voxelizer::new(ctx),
+            layout0,
+            layout1,
+            pipelines,
+        }
+    }
+
+    /// Voxelizes `tris` into `grid` and builds the octree. Returns the octree and the pass
+    /// times (voxelization, structure, bricks); scratch buffers are released at the end.
+    pub fn build(
+        &self,
+        ctx: &GpuContext,
+        grid: &VoxelGrid,
+        tris: &[VoxelTriangle],
+    ) -> Result<(Svo, Vec<PassTiming>)> {
+        super::check_resolution(grid.resolution)?;
+        if grid.resolution < 4 {
+            return Err(Error::InvalidArgument(
+                "octree resolution must be at least 4".into(),
+            ));
+        }
+        let mut timings = Vec::new();
+        let list = self
+            .voxelizer
+            .fragments(ctx, OWNER, grid, tris, &mut timings)?;
+        let depth = grid.depth();
+        let max_nodes = (ctx.device.limits().max_storage_buffer_binding_size
+            / (BRICK_WORDS as u64 * 4))
+            .min(u32::MAX as u64 / 64) as u32;
+        let mut capacity = (list.count as u64 * 4 + 4096).min(max_nodes as u64) as u32;
+        loop {
+            let attempt = self.build_with(ctx, grid, &list, depth, capacity, &mut timings)?;
+            match attempt {
+                Some(svo) => {
+                    ctx.ledger.record(OWNER, "fragments", 0);
+                    ctx.ledger.record(OWNER, "triangles", 0);
+                    return Ok((svo, timings));
+                }
+                None if capacity >= max_nodes => {
+                    return Err(Error::InvalidArgument(format!(
+                        "the octree at {}^3 needs more than {max_nodes} nodes, more than this \
+                         GPU can bind; use a lower resolution",
+                        grid.resolution
+                    )))
+                }
+                None => capacity = (capacity as u64 * 2).min(max_nodes as u64) as u32,
+            }
+        }
+    }
+
+    fn build_with(
+        &self,
+        ctx: &GpuContext,
+        grid: &VoxelGrid,
+        list: &FragmentList,
+        depth: u32,
+        capacity: u32,
+        timings: &mut Vec<PassTiming>,
+    ) -> Result<Option<Svo>> {
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let scratch = |label: &str, words: u64, usage: wgpu::BufferUsages| {
+            ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: (words * 4).max(16),
+                    usage,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        let cap = capacity as u64;
+        let child = scratch("child (build)", cap, usage);
+        let nbr = scratch("neighbours (build)", cap * 3, usage);
+        let coord = scratch("coordinates (build)", cap, usage);
+        let flags = scratch("flags (build)", cap, usage);
+        let control = scratch("control", CONTROL_WORDS, usage);
+        let args = scratch(
+            "dispatch args",
+            3 * 16,
+            usage | wgpu::BufferUsages::INDIRECT,
+        );
+        let mut init = vec![0u32; CONTROL_WORDS as usize];
+        init[0] = 1; // the root is allocated
+        init[2] = 0;
+        init[3] = 1;
+        ctx.queue
+            .write_buffer(&control, 0, bytemuck::cast_slice(&init));
+        ctx.queue
+            .write_buffer(&args, 0, bytemuck::cast_slice(&[1u32, 1, 1]));
+        let mut params = vec![0u8; UNIFORM_STRIDE as usize * depth as usize];
+        for d in 0..depth {
+            let p = LevelParams {
+                d,
+                depth,
+                fragments: list.count,
+                capacity,
+            };
+            let at = d as usize * UNIFORM_STRIDE as usize;
+            params[at..at + 16].copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        let uniform =
+            ctx.create_buffer_init(OWNER, "level params", &params, wgpu::BufferUsages::UNIFORM);
+        // The brick pool is bound in the structure phase too (the layout is shared), so it gets
+        // a placeholder there and its exact size afterwards.
+        let placeholder = scratch("placeholder", 4, usage);
+        let group = |bricks: &wgpu::Buffer| {
+            let buffers: [&wgpu::Buffer; 8] = [
+                &list.buffer,
+                &list.triangles,
+                &child,
+                &nbr,
+                &coord,
+                &flags,
+                &control,
+                bricks,
+            ];
+            let mut entries = vec![wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &uniform,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(16),
+                }),
+            }];
+            for (i, b) in buffers.iter().enumerate() {
+                entries.push(wgpu::BindGroupEntry {
+                    binding: i as u32 + 1,
+                    resource: b.as_entire_binding(),
+                });
+            }
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("svo"),
+                layout: &self.layout0,
+                entries: &entries,
+            })
+        };
+        let args_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo args"),
+            layout: &self.layout1,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: args.as_entire_binding(),
+            }],
+        });
+        let mut timer = PassTimer::new(ctx);
+        let structure = group(&placeholder);
+        let mut steps = Vec::new();
+        for d in 0..depth {
+            steps.push(("flag_occupied", d, Dispatch::Fragments));
+            steps.push(("flag_needed", d, Dispatch::Level(d)));
+            if d + 1 < depth {
+                steps.push(("subdivide", d, Dispatch::Level(d)));
+                steps.push(("finish_level", d, Dispatch::One));
+            }
+        }
+        self.record(
+            &mut timer,
+            "svo structure",
+            &structure,
+            &args_group,
+            &args,
+            list.count,
+            &steps,
+        );
+        timings.extend(timer.finish_frame()?);
+        let control_cpu: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &control, 0, CONTROL_WORDS * 4)?).to_vec();
+        if control_cpu[1] != 0 {
+            return Ok(None);
+        }
+        let node_count = control_cpu[0];
+        let levels: Vec<(u32, u32)> = (0..depth as usize)
+            .map(|d| (control_cpu[2 + 2 * d], control_cpu[3 + 2 * d]))
+            .collect();
+        let bricks = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("brick pool"),
+                size: node_count as u64 * BRICK_WORDS as u64 * 4,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let filling = group(&bricks);
+        let leaf = depth - 1;
+        let mut steps = vec![
+            ("leaf_accumulate", leaf, Dispatch::Fragments),
+            ("leaf_fill", leaf, Dispatch::Level(leaf)),
+        ];
+        for d in (0..depth).rev() {
+            if d != leaf {
+                steps.push(("mip", d, Dispatch::Level(d)));
+            }
+            for t in ["transfer_x", "transfer_y", "transfer_z"] {
+                steps.push((t, d, Dispatch::Level(d)));
+            }
+        }
+        self.record(
+            &mut timer,
+            "svo bricks",
+            &filling,
+            &args_group,
+            &args,
+            list.count,
+            &steps,
+        );
+        // Keep only what the octree needs, at its exact size.
+        let mut exact = |label: &str, words: u64, from: &wgpu::Buffer| {
+            let buffer = ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: (words * 4).max(16),
+                    usage,
+                    mapped_at_creation: false,
+                },
+            );
+            timer.untimed(|encoder| {
+                encoder.copy_buffer_to_buffer(from, 0, &buffer, 0, Some(words * 4))
+            });
+            buffer
+        };
+        let child_exact = exact("child", node_count as u64, &child);
+        let nbr_exact = exact("neighbours", node_count as u64 * 3, &nbr);
+        timings.extend(timer.finish_frame()?);
+        for label in [
+            "child (build)",
+            "neighbours (build)",
+            "coordinates (build)",
+            "flags (build)",
+            "control",
+            "dispatch args",
+            "level params",
+            "placeholder",
+        ] {
+            ctx.ledger.record(OWNER, label, 0);
+        }
+        Ok(Some(Svo {
+            grid: *grid,
+            node_count,
+            child: child_exact,
+            neighbours: nbr_exact,
+            bricks,
+            levels,
+            fragment_count: list.count,
+        }))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &self,
+        timer: &mut PassTimer,
+        name: &str,
+        group: &wgpu::BindGroup,
+        args_group: &wgpu::BindGroup,
+        args: &wgpu::Buffer,
+        fragments: u32,
+        steps: &[(&'static str, u32, Dispatch)],
+    ) {
+        timer.pass(name, |encoder, stamps| {
+            let last = steps.len().saturating_sub(1);
+            for (i, (entry, d, dispatch)) in steps.iter().enumerate() {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(entry),
+                    timestamp_writes: stamps.compute_part(i == 0, i == last),
+                });
+                pass.set_pipeline(&self.pipelines[entry]);
+                pass.set_bind_group(0, group, &[*d * UNIFORM_STRIDE as u32]);
+                match dispatch {
+                    Dispatch::Fragments => {
+                        let (x, y) = dispatch_size(fragments);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
+                    Dispatch::Level(level) => {
+                        pass.dispatch_workgroups_indirect(args, *level as u64 * 12);
+                    }
+                    Dispatch::One => {
+                        pass.set_bind_group(1, args_group, &[]);
+                        pass.dispatch_workgroups(1, 1, 1);
+                    }
+                }
+            }
+        });
+    }
+}
+
+impl Svo {
+    /// Bytes the octree keeps on the GPU (nodes + bricks).
+    pub fn bytes(&self) -> u64 {
+        self.node_count as u64 * (4 * 4 + BRICK_WORDS as u64 * 4)
+    }
+
+    /// Reads the octree back.
+    pub fn read_back(&self, ctx: &GpuContext) -> Result<SvoCpu> {
+        let n = self.node_count as u64;
+        let child: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &self.child, 0, n * 4)?).to_vec();
+        let nbr: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &self.neighbours, 0, n * 12)?).to_vec();
+        let words: Vec<u32> = bytemuck::cast_slice(&read_buffer(
+            ctx,
+            &self.bricks,
+            0,
+            n * BRICK_WORDS as u64 * 4,
+        )?)
+        .to_vec();
+        let bricks = words
+            .chunks_exact(BRICK_WORDS as usize)
+            .map(|b| {
+                std::array::from_fn(|t| {
+                    let lo = unpack_half2(b[2 * t]);
+                    let hi = unpack_half2(b[2 * t + 1]);
+                    glam::Vec4::new(lo[0], lo[1], hi[0], hi[1])
+                })
+            })
+            .collect();
+        Ok(SvoCpu {
+            child,
+            neighbours: nbr.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            bricks,
+            levels: self.levels.clone(),
+        })
+    }
+}
+
+/// Decodes a `pack2x16float` word.
+pub fn unpack_half2(w: u32) -> [f32; 2] {
+    [half_to_f32(w as u16), half_to_f32((w >> 16) as u16)]
+}
+
+/// IEEE half to f32.
+pub fn half_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = ((h >> 10) & 31) as i32;
+    let mant = (h & 1023) as f32;
+    sign * match exp {
+        0 => mant * 2f32.powi(-24),
+        31 => {
+            if mant == 0.0 {
+                f32::INFINITY
+            } else {
+                f32::NAN
+            }
+        }
+        e => (1.0 + mant / 1024.0) * 2f32.powi(e - 15),
+    }
+}
