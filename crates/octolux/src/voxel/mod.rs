@@ -17,6 +17,7 @@
 //! What is stored: premultiplied albedo and opacity (RGBA). Light injection into voxel radiance
 //! is not done yet (see `docs/voxels.md`).
 
+pub mod clipmap;
 pub mod cpu;
 pub mod svo;
 pub mod voxelize;

@@ -1,0 +1,333 @@
+//! Voxel clipmap (Arnebäck 2017, chapter 4): `levels` dense volumes of equal resolution
+//! `resolution`^3 around the camera, level `l` with voxels of `voxel_size * 2^l`, so each level
+//! covers twice the extent of the one inside it.
+//!
+//! Addressing is toroidal: the voxel at integer world-voxel coordinates `g` of a level lives in
+//! slot `g mod resolution`, so a level that follows the camera keeps every voxel it still
+//! covers where it is; [`Clipmap::update`] revoxelises only the slabs that camera motion
+//! exposes (at most three boxes per level), and a level is rebuilt whole only when it moves by
+//! its full width. Each level is voxelized at its own resolution (per-level voxelization).
+//!
+//! Storage: one `array<u32>` of RGBA8 texels (averaged albedo, opacity 255 where any triangle
+//! touches the voxel), level after level. Light injection and anisotropic (6-direction) voxels
+//! are not implemented.
+
+use super::voxelize::{bind_buffers, dispatch, upload_triangles, work_items, OVERLAP_WGSL};
+use super::VoxelTriangle;
+use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::{Error, Result};
+use glam::{IVec3, Vec3};
+
+/// Ledger owner of the clipmap's buffers.
+pub const OWNER: &str = "clipmap";
+/// Voxels the accumulation scratch holds; larger update boxes are processed in z slices.
+const ACCUM_VOXELS: u64 = 1 << 21;
+
+/// Clipmap dimensions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipmapSettings {
+    /// Voxels per axis of every level (a power of two, 4..=512).
+    pub resolution: u32,
+    /// Number of levels (1..=8).
+    pub levels: u32,
+    /// Voxel edge of the finest level (m).
+    pub voxel_size: f32,
+}
+
+impl ClipmapSettings {
+    /// Checks the settings.
+    pub fn validate(&self) -> Result<()> {
+        if !(4..=512).contains(&self.resolution) || !self.resolution.is_power_of_two() {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap resolution {}: must be a power of two from 4 to 512",
+                self.resolution
+            )));
+        }
+        if !(1..=8).contains(&self.levels) {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap levels {}: must be 1 to 8",
+                self.levels
+            )));
+        }
+        if !(self.voxel_size.is_finite() && self.voxel_size > 0.0) {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap voxel size {}: must be positive",
+                self.voxel_size
+            )));
+        }
+        Ok(())
+    }
+
+    /// Voxel edge of level `l`.
+    pub fn level_voxel(&self, l: u32) -> f32 {
+        self.voxel_size * (1u32 << l) as f32
+    }
+
+    /// First voxel (world-voxel coordinates of level `l`) of the level centred on `camera`.
+    pub fn level_origin(&self, l: u32, camera: Vec3) -> IVec3 {
+        (camera / self.level_voxel(l)).floor().as_ivec3() - IVec3::splat(self.resolution as i32 / 2)
+    }
+}
+
+/// One box of voxels `[lo, hi)` of one level that an update revoxelised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UpdateBox {
+    /// Level.
+    pub level: u32,
+    /// First voxel (world-voxel coordinates of the level).
+    pub lo: IVec3,
+    /// One past the last voxel.
+    pub hi: IVec3,
+}
+
+impl UpdateBox {
+    /// Voxels in the box.
+    pub fn volume(&self) -> u64 {
+        let s = (self.hi - self.lo).max(IVec3::ZERO);
+        s.x as u64 * s.y as u64 * s.z as u64
+    }
+}
+
+/// The boxes of voxels in the level `[new, new + res)` that `[old, old + res)` did not cover:
+/// one slab per axis the level moved along, each excluding the slabs before it (disjoint).
+pub fn exposed_boxes(level: u32, old: Option<IVec3>, new: IVec3, res: i32) -> Vec<UpdateBox> {
+    let whole = UpdateBox {
+        level,
+        lo: new,
+        hi: new + IVec3::splat(res),
+    };
+    let Some(old) = old else {
+        return vec![whole];
+    };
+    let delta = new - old;
+    if delta.abs().max_element() >= res {
+        return vec![whole];
+    }
+    let mut out = Vec::new();
+    let mut rest = whole;
+    for a in 0..3 {
+        let d = delta[a];
+        if d > 0 {
+            let mut slab = rest;
+            slab.lo[a] = old[a] + res;
+            rest.hi[a] = old[a] + res;
+            out.push(slab);
+        } else if d < 0 {
+            let mut slab = rest;
+            slab.hi[a] = old[a];
+            rest.lo[a] = old[a];
+            out.push(slab);
+        }
+    }
+    out
+}
+
+/// A voxel clipmap on the GPU.
+pub struct Clipmap {
+    /// Dimensions.
+    pub settings: ClipmapSettings,
+    /// Per level, the first voxel it covers (world-voxel coordinates), once updated.
+    pub origins: Vec<Option<IVec3>>,
+    /// The voxels: `levels * resolution^3` RGBA8 words, level after level, toroidal.
+    pub voxels: wgpu::Buffer,
+    accum: wgpu::Buffer,
+    written: wgpu::Buffer,
+    accumulate: wgpu::ComputePipeline,
+    resolve: wgpu::ComputePipeline,
+}
+
+impl Clipmap {
+    /// Allocates an empty clipmap.
+    pub fn new(ctx: &GpuContext, settings: ClipmapSettings) -> Result<Clipmap> {
+        settings.validate()?;
+        let res = settings.resolution as u64;
+        let bytes = settings.levels as u64 * res * res * res * 4;
+        if bytes > ctx.device.limits().max_storage_buffer_binding_size {
+            return Err(Error::InvalidArgument(format!(
+                "a clipmap of {} levels of {}^3 needs {bytes} bytes, more than this GPU can \
+                 bind",
+                settings.levels, settings.resolution
+            )));
+        }
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let voxels = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("voxels"),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let accum_voxels = ACCUM_VOXELS.min(res * res * res).max(res * res);
+        let accum = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("accumulation scratch"),
+                size: accum_voxels * 16,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let written = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("written counter"),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("clipmap.wgsl"));
+        let module = ctx.shader("clipmap", &source);
+        Ok(Clipmap {
+            settings,
+            origins: vec![None; settings.levels as usize],
+            voxels,
+            accum,
+            written,
+            accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
+            resolve: ctx.compute_pipeline("clipmap resolve", &module, "resolve"),
+        })
+    }
+
+    /// Bytes the clipmap keeps on the GPU (the voxels; the accumulation scratch is reported
+    /// separately in the ledger).
+    pub fn bytes(&self) -> u64 {
+        self.voxels.size()
+    }
+
+    /// Brings every level to the camera position `camera`, revoxelising only the voxels the
+    /// levels did not cover before (everything on the first call). Passes are recorded into
+    /// `timer` as `clipmap L<l>`. Returns the boxes revoxelised.
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        tris: &[VoxelTriangle],
+        camera: Vec3,
+    ) -> Result<Vec<UpdateBox>> {
+        if !camera.is_finite() {
+            return Err(Error::InvalidArgument(format!("camera position {camera}")));
+        }
+        let res = self.settings.resolution as i32;
+        let mut boxes = Vec::new();
+        for l in 0..self.settings.levels {
+            let new = self.settings.level_origin(l, camera);
+            boxes.extend(exposed_boxes(l, self.origins[l as usize], new, res));
+            self.origins[l as usize] = Some(new);
+        }
+        self.revoxelise(ctx, timer, tris, &boxes)?;
+        Ok(boxes)
+    }
+
+    /// Revoxelises the given boxes (each inside its level's current extent), for example the
+    /// region a moving object left and entered.
+    pub fn revoxelise(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        tris: &[VoxelTriangle],
+        boxes: &[UpdateBox],
+    ) -> Result<()> {
+        if boxes.is_empty() {
+            return Ok(());
+        }
+        let triangles = upload_triangles(ctx, OWNER, tris);
+        let res = self.settings.resolution as u64;
+        let slice = (res * res).max(1);
+        let max_depth = (self.accum.size() / 16 / slice).max(1) as i32;
+        let mut item_bytes = 0u64;
+        for b in boxes {
+            let mut z = b.lo.z;
+            while z < b.hi.z {
+                let part = UpdateBox {
+                    level: b.level,
+                    lo: IVec3::new(b.lo.x, b.lo.y, z),
+                    hi: IVec3::new(b.hi.x, b.hi.y, (z + max_depth).min(b.hi.z)),
+                };
+                z = part.hi.z;
+                if part.volume() == 0 {
+                    continue;
+                }
+                let inv = 1.0 / self.settings.level_voxel(part.level);
+                let items = work_items(tris, Vec3::ZERO, inv, part.lo, part.hi);
+                item_bytes = item_bytes.max(items.len() as u64 * 8);
+                let params = super::voxelize::VoxParams {
+                    lo: part.lo.extend(0).to_array(),
+                    hi: part.hi.extend(0).to_array(),
+                    origin: [0.0, 0.0, 0.0, inv],
+                    misc: [
+                        items.len() as u32,
+                        (part.level as u64 * res * res * res) as u32,
+                        res as u32,
+                        0,
+                    ],
+                };
+                let uniform = ctx.create_buffer_init(
+                    OWNER,
+                    "box params",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                let items_buffer = ctx.create_buffer_init(
+                    OWNER,
+                    "work items",
+                    bytemuck::cast_slice(&items),
+                    wgpu::BufferUsages::STORAGE,
+                );
+                let name = format!("clipmap L{}", part.level);
+                let group = bind_buffers(
+                    ctx,
+                    &self.accumulate,
+                    &[
+                        (0, &uniform),
+                        (1, &triangles),
+                        (2, &items_buffer),
+                        (3, &self.accum),
+                    ],
+                );
+                dispatch(
+                    timer,
+                    &format!("{name} voxelize"),
+                    &self.accumulate,
+                    &group,
+                    items.len() as u32,
+                );
+                let group = bind_buffers(
+                    ctx,
+                    &self.resolve,
+                    &[
+                        (0, &uniform),
+                        (3, &self.accum),
+                        (4, &self.voxels),
+                        (5, &self.written),
+                    ],
+                );
+                dispatch(
+                    timer,
+                    &format!("{name} resolve"),
+                    &self.resolve,
+                    &group,
+                    part.volume() as u32,
+                );
+            }
+        }
+        ctx.ledger.record(OWNER, "work items", item_bytes);
+        Ok(())
+    }
+
+    /// Voxels written by all updates so far (read from the GPU counter). Blocks.
+    pub fn voxels_written(&self, ctx: &GpuContext) -> Result<u32> {
+        let bytes = read_buffer(ctx, &self.written, 0, 4)?;
+        Ok(bytemuck::cast_slice::<u8, u32>(&bytes)[0])
+    }
+
+    /// Reads all voxels back (RGBA8 words, level after level, toroidal order). Blocks.
+    pub fn read_voxels(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        let bytes = read_buffer(ctx, &self.voxels, 0, self.voxels.size())?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+}
