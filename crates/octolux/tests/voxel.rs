@@ -341,8 +341,8 @@ fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
     let boxes = clipmap.update(&ctx, &mut timer, &tris, moved).unwrap();
     timer.finish_frame().unwrap();
     let mut expected = 0i64;
-    for l in 0..settings.levels as usize {
-        let d = (clipmap.origins[l].unwrap() - before[l].unwrap()).abs();
+    for (now, was) in clipmap.origins.iter().zip(&before) {
+        let d = (now.unwrap() - was.unwrap()).abs();
         expected += res * res * res - (res - d.x as i64) * (res - d.y as i64) * (res - d.z as i64);
     }
     let written = (clipmap.voxels_written(&ctx).unwrap() - full) as i64;
