@@ -373,3 +373,60 @@ fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
         fresh.read_voxels(&ctx).unwrap()
     );
 }
+
+#[test]
+fn gpu_sampling_matches_cpu_twins() {
+    use glam::Vec4;
+    use octolux::gpu::PassTimer;
+    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
+    use octolux::voxel::debug::{probe, Structure};
+    use octolux::voxel::sample::{clip_sample, svo_sample, ClipInfo};
+    use octolux::voxel::svo::SvoBuilder;
+    let ctx = context();
+    let tris = small_scene();
+    let grid = unit_grid(32);
+    let (svo, _) = SvoBuilder::new(&ctx).build(&ctx, &grid, &tris).unwrap();
+    let settings = ClipmapSettings {
+        resolution: 16,
+        levels: 3,
+        voxel_size: 1.0 / 32.0,
+    };
+    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    clipmap
+        .update(&ctx, &mut timer, &tris, Vec3::splat(0.45))
+        .unwrap();
+    timer.finish_frame().unwrap();
+    let mut rng = Rng(777);
+    let points: Vec<Vec4> = (0..400)
+        .map(|i| {
+            rng.vec(-0.05, 1.05)
+                .extend([0.01, 1.0 / 32.0, 0.05, 0.1, 0.3][i % 5])
+        })
+        .collect();
+    let svo_cpu = svo.read_back(&ctx).unwrap();
+    let gpu = probe(&ctx, Structure::Svo(&svo), &points).unwrap();
+    let mut nonzero = 0;
+    for (p, g) in points.iter().zip(&gpu) {
+        let c = svo_sample(&svo_cpu, &grid, p.truncate(), p.w);
+        assert!(
+            (*g - c).abs().max_element() < 1e-4,
+            "octree at {p}: GPU {g} CPU {c}"
+        );
+        nonzero += (c.w > 0.0) as u32;
+    }
+    assert!(nonzero > 20, "only {nonzero} non-empty octree samples");
+    let voxels = clipmap.read_voxels(&ctx).unwrap();
+    let info = ClipInfo::new(&clipmap.settings, &clipmap.origins);
+    let gpu = probe(&ctx, Structure::Clipmap(&clipmap), &points).unwrap();
+    let mut nonzero = 0;
+    for (p, g) in points.iter().zip(&gpu) {
+        let c = clip_sample(&info, &voxels, p.truncate(), p.w);
+        assert!(
+            (*g - c).abs().max_element() < 1e-4,
+            "clipmap at {p}: GPU {g} CPU {c}"
+        );
+        nonzero += (c.w > 0.0) as u32;
+    }
+    assert!(nonzero > 20, "only {nonzero} non-empty clipmap samples");
+}

@@ -19,6 +19,8 @@
 
 pub mod clipmap;
 pub mod cpu;
+pub mod debug;
+pub mod sample;
 pub mod svo;
 pub mod voxelize;
 

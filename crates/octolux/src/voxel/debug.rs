@@ -1,0 +1,241 @@
+//! Looking at the voxel structures: [`probe`] samples one at given points on the GPU (tests
+//! compare it with the CPU twins), and [`render_view`] ray-marches it from a camera and returns
+//! an RGBA8 image of the stored albedo (front-to-back compositing of filtered samples), so a
+//! person can check that the structure matches the scene.
+
+use super::clipmap::Clipmap;
+use super::sample::{ClipInfo, SvoInfo, CLIPMAP_SAMPLE_WGSL, SVO_SAMPLE_WGSL};
+use super::svo::Svo;
+use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::scene::CameraView;
+use crate::{Error, Result};
+use glam::{Vec3, Vec4};
+
+/// A structure to sample.
+#[derive(Clone, Copy)]
+pub enum Structure<'a> {
+    /// A sparse voxel octree.
+    Svo(&'a Svo),
+    /// A clipmap.
+    Clipmap(&'a Clipmap),
+}
+
+const SVO_HEADER: &str = "
+@group(0) @binding(1) var<uniform> svo_info: SvoInfo;
+@group(0) @binding(2) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(3) var<storage, read> svo_bricks: array<u32>;
+fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return svo_sample(p, footprint); }
+";
+
+const CLIP_HEADER: &str = "
+@group(0) @binding(1) var<uniform> clip_info: ClipInfo;
+@group(0) @binding(2) var<storage, read> clip_voxels: array<u32>;
+fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_sample(p, footprint); }
+";
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ViewBlock {
+    inv_view_proj: [[f32; 4]; 4],
+    eye: [f32; 4],
+    lo: [f32; 4],
+    hi: [f32; 4],
+    misc: [u32; 4],
+    step: [f32; 4],
+}
+
+impl Structure<'_> {
+    fn source(&self) -> String {
+        let (functions, header) = match self {
+            Structure::Svo(_) => (SVO_SAMPLE_WGSL, SVO_HEADER),
+            Structure::Clipmap(_) => (CLIPMAP_SAMPLE_WGSL, CLIP_HEADER),
+        };
+        format!("{functions}\n{header}\n{}", include_str!("debug.wgsl"))
+    }
+
+    fn info(&self, ctx: &GpuContext) -> wgpu::Buffer {
+        let bytes = match self {
+            Structure::Svo(svo) => bytemuck::bytes_of(&SvoInfo::new(&svo.grid)).to_vec(),
+            Structure::Clipmap(c) => {
+                bytemuck::bytes_of(&ClipInfo::new(&c.settings, &c.origins)).to_vec()
+            }
+        };
+        ctx.create_buffer_init("voxel debug", "info", &bytes, wgpu::BufferUsages::UNIFORM)
+    }
+
+    /// World-space box the structure covers (the coarsest clipmap level).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match self {
+            Structure::Svo(svo) => {
+                let g = &svo.grid;
+                (
+                    g.origin,
+                    g.origin + Vec3::splat(g.voxel_size * g.resolution as f32),
+                )
+            }
+            Structure::Clipmap(c) => {
+                let l = c.settings.levels - 1;
+                let v = c.settings.level_voxel(l);
+                let o = c.origins[l as usize].unwrap_or_default().as_vec3() * v;
+                (o, o + Vec3::splat(v * c.settings.resolution as f32))
+            }
+        }
+    }
+
+    /// The footprint (m) of level `level` of the structure: the octree's lattice spacing on
+    /// that level, or the clipmap level's voxel edge.
+    pub fn level_footprint(&self, level: u32) -> Result<f32> {
+        match self {
+            Structure::Svo(svo) => {
+                let depth = svo.grid.depth();
+                if level >= depth {
+                    return Err(Error::InvalidArgument(format!(
+                        "level {level}: the octree has levels 0 to {}",
+                        depth - 1
+                    )));
+                }
+                Ok(svo.grid.voxel_size * (1u32 << (depth - 1 - level)) as f32)
+            }
+            Structure::Clipmap(c) => {
+                if level >= c.settings.levels {
+                    return Err(Error::InvalidArgument(format!(
+                        "level {level}: the clipmap has levels 0 to {}",
+                        c.settings.levels - 1
+                    )));
+                }
+                Ok(c.settings.level_voxel(level))
+            }
+        }
+    }
+
+    fn bind(
+        &self,
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        view: &wgpu::Buffer,
+        info: &wgpu::Buffer,
+        extra: &[(u32, &wgpu::Buffer)],
+    ) -> wgpu::BindGroup {
+        let mut buffers: Vec<(u32, &wgpu::Buffer)> = vec![(0, view), (1, info)];
+        match self {
+            Structure::Svo(svo) => {
+                buffers.push((2, &svo.child));
+                buffers.push((3, &svo.bricks));
+            }
+            Structure::Clipmap(c) => buffers.push((2, &c.voxels)),
+        }
+        buffers.extend_from_slice(extra);
+        super::voxelize::bind_buffers(ctx, pipeline, &buffers)
+    }
+}
+
+fn view_block(misc: [u32; 4], step: [f32; 4]) -> ViewBlock {
+    ViewBlock {
+        inv_view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
+        eye: [0.0; 4],
+        lo: [0.0; 4],
+        hi: [0.0; 4],
+        misc,
+        step,
+    }
+}
+
+/// Samples `structure` at `points` (xyz = position, w = footprint) on the GPU. Blocks.
+pub fn probe(ctx: &GpuContext, structure: Structure, points: &[Vec4]) -> Result<Vec<Vec4>> {
+    let n = points.len() as u32;
+    let module = ctx.shader("voxel probe", &structure.source());
+    let pipeline = ctx.compute_pipeline("voxel probe", &module, "probe");
+    let block = view_block([0, 0, n, 0], [0.0; 4]);
+    let view = ctx.create_buffer_init(
+        "voxel debug",
+        "view",
+        bytemuck::bytes_of(&block),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let info = structure.info(ctx);
+    let input = ctx.create_buffer_init(
+        "voxel debug",
+        "points",
+        bytemuck::cast_slice(points),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let out = ctx.create_buffer(
+        "voxel debug",
+        &wgpu::BufferDescriptor {
+            label: Some("samples"),
+            size: (n as u64 * 16).max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    );
+    let group = structure.bind(ctx, &pipeline, &view, &info, &[(4, &input), (5, &out)]);
+    let mut timer = PassTimer::new(ctx);
+    timer.pass("voxel probe", |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxel probe"),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(n.div_ceil(64).max(1), 1, 1);
+    });
+    timer.finish_frame()?;
+    let bytes = read_buffer(ctx, &out, 0, n as u64 * 16)?;
+    Ok(bytemuck::cast_slice::<u8, Vec4>(&bytes).to_vec())
+}
+
+/// Ray-marches `structure` as seen through `view` with samples of footprint `footprint` (m),
+/// one step per footprint, and returns the composited albedo as RGBA8 rows (top first) and the
+/// time of the pass (`voxel debug view`). Blocks.
+pub fn render_view(
+    ctx: &GpuContext,
+    structure: Structure,
+    view: &CameraView,
+    footprint: f32,
+) -> Result<(Vec<u8>, Vec<PassTiming>)> {
+    if !(footprint.is_finite() && footprint > 0.0) {
+        return Err(Error::InvalidArgument(format!("footprint {footprint}")));
+    }
+    let (lo, hi) = structure.bounds();
+    let mut block = view_block(
+        // lavapipe ends any invocation after 65535 loop iterations; 2048 steps stay far below.
+        [view.width, view.height, 0, 2048],
+        [footprint, footprint, 0.0, 0.0],
+    );
+    block.inv_view_proj = view.inv_view_proj.to_cols_array_2d();
+    block.eye = view.position.extend(1.0).to_array();
+    block.lo = lo.extend(0.0).to_array();
+    block.hi = hi.extend(0.0).to_array();
+    let module = ctx.shader("voxel debug view", &structure.source());
+    let pipeline = ctx.compute_pipeline("voxel debug view", &module, "raymarch");
+    let uniform = ctx.create_buffer_init(
+        "voxel debug",
+        "view",
+        bytemuck::bytes_of(&block),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let info = structure.info(ctx);
+    let pixels = view.width as u64 * view.height as u64;
+    let image = ctx.create_buffer(
+        "voxel debug",
+        &wgpu::BufferDescriptor {
+            label: Some("image"),
+            size: (pixels * 4).max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    );
+    let group = structure.bind(ctx, &pipeline, &uniform, &info, &[(6, &image)]);
+    let mut timer = PassTimer::new(ctx);
+    timer.pass("voxel debug view", |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("voxel debug view"),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(view.width.div_ceil(8), view.height.div_ceil(8), 1);
+    });
+    let timings = timer.finish_frame()?;
+    Ok((read_buffer(ctx, &image, 0, pixels * 4)?, timings))
+}

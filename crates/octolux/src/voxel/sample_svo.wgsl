@@ -1,0 +1,63 @@
+// Filtered sampling of the sparse voxel octree: `svo_sample(p, footprint)` returns the
+// premultiplied albedo and opacity at world position `p`, filtered over a footprint of
+// `footprint` metres (the lattice spacing of the chosen level; quadrilinear between levels).
+// The includer declares:
+//   var<uniform> svo_info: SvoInfo;
+//   var<storage, read> svo_child: array<u32>;
+//   var<storage, read> svo_bricks: array<u32>;
+
+struct SvoInfo {
+    // xyz: grid origin, w: voxel size.
+    origin: vec4<f32>,
+    // x: depth (levels), y: resolution.
+    misc: vec4<u32>,
+}
+
+fn svo_texel(node: u32, t: vec3<u32>) -> vec4<f32> {
+    let w = (node * 27u + t.x + 3u * t.y + 9u * t.z) * 2u;
+    return vec4<f32>(unpack2x16float(svo_bricks[w]), unpack2x16float(svo_bricks[w + 1u]));
+}
+
+// Trilinear sample of level d at grid position g (voxel units); zero where no node exists.
+fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
+    let depth = svo_info.misc.x;
+    let x = g / f32(1u << (depth - 1u - d));
+    let size = 1u << d;
+    if any(x < vec3<f32>(0.0)) || any(x > vec3<f32>(2.0 * f32(size))) {
+        return vec4<f32>(0.0);
+    }
+    let c = min(vec3<u32>(x * 0.5), vec3<u32>(size - 1u));
+    var node = 0u;
+    for (var l = 0u; l < d; l++) {
+        let first = svo_child[node];
+        if first == 0u {
+            return vec4<f32>(0.0);
+        }
+        let s = d - 1u - l;
+        node = first + ((c.x >> s) & 1u) + (((c.y >> s) & 1u) << 1u) + (((c.z >> s) & 1u) << 2u);
+    }
+    let local = clamp(x - 2.0 * vec3<f32>(c), vec3<f32>(0.0), vec3<f32>(2.0));
+    let i0 = min(vec3<u32>(local), vec3<u32>(1u));
+    let f = local - vec3<f32>(i0);
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < 8u; k++) {
+        let o = vec3<u32>(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
+        let w = select(1.0 - f, f, o == vec3<u32>(1u));
+        sum += w.x * w.y * w.z * svo_texel(node, i0 + o);
+    }
+    return sum;
+}
+
+fn svo_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+    let depth = svo_info.misc.x;
+    let g = (p - svo_info.origin.xyz) / svo_info.origin.w;
+    // Level d has lattice spacing voxel * 2^(depth - 1 - d).
+    let lod = clamp(log2(max(footprint / svo_info.origin.w, 1.0)), 0.0, f32(depth - 1u));
+    let fine = depth - 1u - u32(floor(lod));
+    let t = lod - floor(lod);
+    let a = svo_sample_level(g, fine);
+    if t <= 0.0 || fine == 0u {
+        return a;
+    }
+    return mix(a, svo_sample_level(g, fine - 1u), t);
+}
