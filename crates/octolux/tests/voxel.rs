@@ -299,7 +299,7 @@ fn octree_equals_cpu_build_and_mip_filter() {
                     let got = gpu.bricks[n as usize][t as usize];
                     let err = (got - want).abs().max_element();
                     assert!(
-                        err <= 2e-3 + 2e-3 * want.abs().max_element(),
+                        err <= 3e-3 + 2e-3 * want.abs().max_element(),
                         "level {d} node {c:?} texel {t}: GPU {got} CPU {want} ({res}^3)"
                     );
                     checked += 1;

@@ -1,7 +1,8 @@
 //! Looking at the voxel structures: [`probe`] samples one at given points on the GPU (tests
 //! compare it with the CPU twins), and [`render_view`] ray-marches it from a camera and returns
-//! an RGBA8 image of the stored albedo (front-to-back compositing of filtered samples), so a
-//! person can check that the structure matches the scene.
+//! an RGBA8 image of the stored albedo (front-to-back compositing of filtered samples, shaded
+//! by the opacity gradient where the ray first passes half opacity, so that equally coloured
+//! surfaces stay apart), so a person can check that the structure matches the scene.
 
 use super::clipmap::Clipmap;
 use super::sample::{ClipInfo, SvoInfo, CLIPMAP_SAMPLE_WGSL, SVO_SAMPLE_WGSL};
@@ -185,7 +186,7 @@ pub fn probe(ctx: &GpuContext, structure: Structure, points: &[Vec4]) -> Result<
 }
 
 /// Ray-marches `structure` as seen through `view` with samples of footprint `footprint` (m),
-/// one step per footprint, and returns the composited albedo as RGBA8 rows (top first) and the
+/// half a footprint per step, and returns the composited albedo as RGBA8 rows (top first) and the
 /// time of the pass (`voxel debug view`). Blocks.
 pub fn render_view(
     ctx: &GpuContext,
@@ -200,7 +201,7 @@ pub fn render_view(
     let mut block = view_block(
         // lavapipe ends any invocation after 65535 loop iterations; 2048 steps stay far below.
         [view.width, view.height, 0, 2048],
-        [footprint, footprint, 0.0, 0.0],
+        [footprint, 0.5 * footprint, 0.0, 0.0],
     );
     block.inv_view_proj = view.inv_view_proj.to_cols_array_2d();
     block.eye = view.position.extend(1.0).to_array();
@@ -238,4 +239,105 @@ pub fn render_view(
     });
     let timings = timer.finish_frame()?;
     Ok((read_buffer(ctx, &image, 0, pixels * 4)?, timings))
+}
+
+/// Which structure [`render_scene`] builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StructureKind {
+    /// Sparse voxel octree.
+    Svo,
+    /// Clipmap.
+    Clipmap,
+}
+
+impl std::str::FromStr for StructureKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<StructureKind> {
+        match s {
+            "svo" => Ok(StructureKind::Svo),
+            "clipmap" => Ok(StructureKind::Clipmap),
+            _ => Err(Error::InvalidArgument(format!(
+                "voxel structure '{s}': expected svo or clipmap"
+            ))),
+        }
+    }
+}
+
+/// The clipmap that stands beside an `n`^3 octree in the debug view and the measurements:
+/// finest voxel equal to the octree's, levels of `min(n, 64)`^3, as many as it takes for the
+/// coarsest to span twice the octree's grid (so that the whole scene stays inside the part of
+/// the coarsest level that may be sampled wherever the clipmap is centred in the scene).
+pub fn matching_clipmap(grid: &super::VoxelGrid) -> super::clipmap::ClipmapSettings {
+    let resolution = grid.resolution.clamp(4, 64);
+    super::clipmap::ClipmapSettings {
+        resolution,
+        levels: (grid.resolution / resolution).trailing_zeros() + 2,
+        voxel_size: grid.voxel_size,
+    }
+}
+
+/// Builds `kind` for `scene` at time `t` (octree: the `resolution`^3 grid enclosing the scene;
+/// clipmap: [`matching_clipmap`] centred on the scene's centre) and ray-marches it from camera
+/// `camera` at footprint level `level` (default: the finest). Returns sRGB-encoded RGB8 rows
+/// and a one-line summary (nodes or voxels, memory, pass times).
+#[allow(clippy::too_many_arguments)]
+pub fn render_scene(
+    ctx: &GpuContext,
+    scene: &crate::scene::Scene,
+    t: f32,
+    camera: usize,
+    width: u32,
+    height: u32,
+    kind: StructureKind,
+    resolution: u32,
+    level: Option<u32>,
+) -> Result<(Vec<u8>, String)> {
+    let frame = scene.frame(t, camera);
+    let tris = super::scene_triangles(scene, &frame);
+    let bounds = scene.bounds_at(t);
+    let grid = super::VoxelGrid::enclosing(bounds, resolution)?;
+    let view = frame.camera.view(width, height);
+    let (rgba, summary) = match kind {
+        StructureKind::Svo => {
+            let (svo, timings) = super::svo::SvoBuilder::new(ctx).build(ctx, &grid, &tris)?;
+            let s = Structure::Svo(&svo);
+            let footprint = s.level_footprint(level.unwrap_or(grid.depth() - 1))?;
+            let (rgba, _) = render_view(ctx, s, &view, footprint)?;
+            let ms: f64 = timings.iter().map(|t| t.ms).sum();
+            let summary = format!(
+                "octree {r}^3: {} nodes, {} fragments, {:.1} MB, build {ms:.1} ms",
+                svo.node_count,
+                svo.fragment_count,
+                svo.bytes() as f64 / 1e6,
+                r = grid.resolution
+            );
+            (rgba, summary)
+        }
+        StructureKind::Clipmap => {
+            let settings = matching_clipmap(&grid);
+            let mut clipmap = super::clipmap::Clipmap::new(ctx, settings)?;
+            let mut timer = PassTimer::new(ctx);
+            let centre = (bounds.0 + bounds.1) * 0.5;
+            clipmap.update(ctx, &mut timer, &tris, centre)?;
+            let ms: f64 = timer.finish_frame()?.iter().map(|t| t.ms).sum();
+            let s = Structure::Clipmap(&clipmap);
+            let footprint = s.level_footprint(level.unwrap_or(0))?;
+            let (rgba, _) = render_view(ctx, s, &view, footprint)?;
+            let summary = format!(
+                "clipmap {} levels of {}^3: {:.1} MB, build {ms:.1} ms",
+                settings.levels,
+                settings.resolution,
+                clipmap.bytes() as f64 / 1e6
+            );
+            (rgba, summary)
+        }
+    };
+    let rgb = rgba
+        .chunks_exact(4)
+        .flat_map(|p| {
+            [p[0], p[1], p[2]]
+                .map(|c| (crate::image_io::linear_to_srgb(c as f32 / 255.0) * 255.0).round() as u8)
+        })
+        .collect();
+    Ok((rgb, summary))
 }

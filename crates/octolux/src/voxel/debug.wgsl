@@ -44,10 +44,26 @@ fn raymarch(@builtin(global_invocation_id) id: vec3<u32>) {
     let tmax = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), max(t0.z, t1.z));
     var colour = vec4<f32>(0.0);
     var t = tmin + 0.5 * view.step.y;
+    var shade = 1.0;
+    var shaded = false;
     for (var i = 0u; i < view.misc.w && t < tmax && colour.a < 0.99; i++) {
-        let s = sample_structure(view.eye.xyz + t * dir, view.step.x);
+        let p = view.eye.xyz + t * dir;
+        let s = sample_structure(p, view.step.x);
         colour += (1.0 - colour.a) * s;
+        if !shaded && colour.a > 0.5 {
+            // Shade by the opacity gradient (a surface normal estimate) so that surfaces of
+            // equal albedo stay distinguishable.
+            shaded = true;
+            let h = view.step.x;
+            let n = vec3<f32>(
+                sample_structure(p + vec3<f32>(h, 0.0, 0.0), h).a - sample_structure(p - vec3<f32>(h, 0.0, 0.0), h).a,
+                sample_structure(p + vec3<f32>(0.0, h, 0.0), h).a - sample_structure(p - vec3<f32>(0.0, h, 0.0), h).a,
+                sample_structure(p + vec3<f32>(0.0, 0.0, h), h).a - sample_structure(p - vec3<f32>(0.0, 0.0, h), h).a);
+            if dot(n, n) > 1e-8 {
+                shade = 0.45 + 0.55 * abs(dot(normalize(n), normalize(vec3<f32>(0.4, 0.8, -0.45))));
+            }
+        }
         t += view.step.y;
     }
-    image[id.x + id.y * view.misc.x] = pack4x8unorm(vec4<f32>(colour.rgb, 1.0));
+    image[id.x + id.y * view.misc.x] = pack4x8unorm(vec4<f32>(colour.rgb * shade, 1.0));
 }

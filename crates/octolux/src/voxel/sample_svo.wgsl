@@ -14,8 +14,7 @@ struct SvoInfo {
 }
 
 fn svo_texel(node: u32, t: vec3<u32>) -> vec4<f32> {
-    let w = (node * 27u + t.x + 3u * t.y + 9u * t.z) * 2u;
-    return vec4<f32>(unpack2x16float(svo_bricks[w]), unpack2x16float(svo_bricks[w + 1u]));
+    return unpack4x8unorm(svo_bricks[node * 27u + t.x + 3u * t.y + 9u * t.z]);
 }
 
 // Trilinear sample of level d at grid position g (voxel units); zero where no node exists.

@@ -6,9 +6,10 @@
 //!
 //! Layout (struct-of-arrays, 4 words per node + brick): `child` (first of 8 contiguous
 //! children), `neighbours` (+x, +y, +z on the same level). Every node owns exactly one brick,
-//! so the brick pointer is the node index and costs nothing. A brick is 3x3x3 RGBA16F texels
+//! so the brick pointer is the node index and costs nothing. A brick is 3x3x3 RGBA8 texels
 //! (premultiplied albedo, opacity) on the node's corners, edge midpoints, face centres and
-//! centre: 216 bytes.
+//! centre: 108 bytes, so a node costs 124 bytes in all. The build accumulates, transfers and
+//! filters in an RGBA16F pool (216 bytes per node) that is converted and released at the end.
 //!
 //! The values define one corner-sampled lattice per level: on the finest level, each lattice
 //! point (a voxel corner) holds the sum of the touching voxels' values / 8; each coarser
@@ -26,9 +27,28 @@ use crate::{Error, Result};
 
 /// Ledger owner of the octree's buffers.
 pub const OWNER: &str = "svo";
-/// Words per brick (27 texels x RGBA16F).
-pub const BRICK_WORDS: u32 = 54;
+/// Words per brick while building (27 texels x RGBA16F).
+pub const BUILD_BRICK_WORDS: u32 = 54;
+/// Words per brick of the finished pool (27 texels x RGBA8).
+pub const BRICK_WORDS: u32 = 27;
 const UNIFORM_STRIDE: u64 = 256;
+
+/// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
+const PACK_WGSL: &str = "
+@group(0) @binding(0) var<uniform> count: vec4<u32>;
+@group(0) @binding(1) var<storage, read> wide: array<u32>;
+@group(0) @binding(2) var<storage, read_write> narrow: array<u32>;
+@compute @workgroup_size(64)
+fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    if i >= count.x {
+        return;
+    }
+    let v = vec4<f32>(unpack2x16float(wide[2u * i]), unpack2x16float(wide[2u * i + 1u]));
+    narrow[i] = pack4x8unorm(clamp(v, vec4<f32>(0.0), vec4<f32>(1.0)));
+}
+";
 const CONTROL_WORDS: u64 = 64;
 
 #[repr(C)]
@@ -50,7 +70,7 @@ pub struct Svo {
     pub child: wgpu::Buffer,
     /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
     pub neighbours: wgpu::Buffer,
-    /// `array<u32>`, [`BRICK_WORDS`] per node: 27 texels as two `pack2x16float` words.
+    /// `array<u32>`, [`BRICK_WORDS`] per node: 27 texels as `pack4x8unorm` words.
     pub bricks: wgpu::Buffer,
     /// Node index range of every level.
     pub levels: Vec<(u32, u32)>,
@@ -100,6 +120,7 @@ pub struct SvoBuilder {
     layout0: wgpu::BindGroupLayout,
     layout1: wgpu::BindGroupLayout,
     pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    pack: wgpu::ComputePipeline,
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -186,7 +207,9 @@ impl SvoBuilder {
             });
             pipelines.insert(entry, pipeline);
         }
+        let pack_module = ctx.shader("svo pack", PACK_WGSL);
         SvoBuilder {
+            pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
@@ -214,7 +237,7 @@ impl SvoBuilder {
             .fragments(ctx, OWNER, grid, tris, &mut timings)?;
         let depth = grid.depth();
         let max_nodes = (ctx.device.limits().max_storage_buffer_binding_size
-            / (BRICK_WORDS as u64 * 4))
+            / (BUILD_BRICK_WORDS as u64 * 4))
             .min(u32::MAX as u64 / 64) as u32;
         let mut capacity = (list.count as u64 * 4 + 4096).min(max_nodes as u64) as u32;
         loop {
@@ -367,8 +390,8 @@ impl SvoBuilder {
         let bricks = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
-                label: Some("brick pool"),
-                size: node_count as u64 * BRICK_WORDS as u64 * 4,
+                label: Some("brick pool (build, RGBA16F)"),
+                size: node_count as u64 * BUILD_BRICK_WORDS as u64 * 4,
                 usage,
                 mapped_at_creation: false,
             },
@@ -395,6 +418,34 @@ impl SvoBuilder {
             &args,
             list.count,
             &steps,
+        );
+        // The finished pool: RGBA8, half the size of the build pool.
+        let packed = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("brick pool"),
+                size: (node_count as u64 * BRICK_WORDS as u64 * 4).max(16),
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let count = ctx.create_buffer_init(
+            OWNER,
+            "pack params",
+            bytemuck::cast_slice(&[node_count * 27, 0, 0, 0]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let pack_group = super::voxelize::bind_buffers(
+            ctx,
+            &self.pack,
+            &[(0, &count), (1, &bricks), (2, &packed)],
+        );
+        super::voxelize::dispatch(
+            &mut timer,
+            "svo pack bricks",
+            &self.pack,
+            &pack_group,
+            node_count * 27,
         );
         // Keep only what the octree needs, at its exact size.
         let mut exact = |label: &str, words: u64, from: &wgpu::Buffer| {
@@ -424,6 +475,8 @@ impl SvoBuilder {
             "dispatch args",
             "level params",
             "placeholder",
+            "pack params",
+            "brick pool (build, RGBA16F)",
         ] {
             ctx.ledger.record(OWNER, label, 0);
         }
@@ -432,7 +485,7 @@ impl SvoBuilder {
             node_count,
             child: child_exact,
             neighbours: nbr_exact,
-            bricks,
+            bricks: packed,
             levels,
             fragment_count: list.count,
         }))
@@ -498,13 +551,7 @@ impl Svo {
         .to_vec();
         let bricks = words
             .chunks_exact(BRICK_WORDS as usize)
-            .map(|b| {
-                std::array::from_fn(|t| {
-                    let lo = unpack_half2(b[2 * t]);
-                    let hi = unpack_half2(b[2 * t + 1]);
-                    glam::Vec4::new(lo[0], lo[1], hi[0], hi[1])
-                })
-            })
+            .map(|b| std::array::from_fn(|t| unpack_unorm8(b[t])))
             .collect();
         Ok(SvoCpu {
             child,
@@ -513,6 +560,16 @@ impl Svo {
             levels: self.levels.clone(),
         })
     }
+}
+
+/// Decodes a `pack4x8unorm` word.
+pub fn unpack_unorm8(w: u32) -> glam::Vec4 {
+    glam::Vec4::new(
+        (w & 255) as f32,
+        ((w >> 8) & 255) as f32,
+        ((w >> 16) & 255) as f32,
+        (w >> 24) as f32,
+    ) / 255.0
 }
 
 /// Decodes a `pack2x16float` word.
