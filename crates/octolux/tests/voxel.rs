@@ -430,3 +430,85 @@ fn gpu_sampling_matches_cpu_twins() {
     }
     assert!(nonzero > 20, "only {nonzero} non-empty clipmap samples");
 }
+
+/// Memory and build time of the octree and the matching clipmap at 64^3..512^3 on the Cornell
+/// box and Crytek Sponza (when its files are present), printed as the table in
+/// `docs/voxels.md`. Slow on lavapipe: run with `cargo test --release --test voxel -- --ignored
+/// --nocapture`.
+#[test]
+#[ignore]
+fn measure_memory_and_build_time() {
+    use octolux::gpu::PassTimer;
+    use octolux::voxel::clipmap::Clipmap;
+    use octolux::voxel::debug::matching_clipmap;
+    use octolux::voxel::svo::SvoBuilder;
+    let ctx = context();
+    println!("adapter: {}", ctx.describe());
+    let builder = SvoBuilder::new(&ctx);
+    let mut scenes = vec![octolux::scene::cornell::scene()];
+    let sponza = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/crytek-sponza.toml"
+    );
+    match octolux::scene::Scene::load(sponza) {
+        Ok(scene) => scenes.push(scene),
+        Err(e) => println!("Crytek Sponza skipped: {e}"),
+    }
+    // Warm up (shader compilation happens at the first dispatch on some drivers).
+    let warm = octolux::scene::cornell::scene();
+    let warm_tris = octolux::voxel::scene_triangles(&warm, &warm.frame(0.0, 0));
+    let warm_grid = VoxelGrid::enclosing(warm.bounds_at(0.0), 32).unwrap();
+    builder.build(&ctx, &warm_grid, &warm_tris).unwrap();
+    let mut warm_clip = Clipmap::new(&ctx, matching_clipmap(&warm_grid)).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    warm_clip
+        .update(&ctx, &mut timer, &warm_tris, Vec3::ZERO)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    println!("| scene | N^3 | triangles | fragments | octree nodes | octree MB | octree build ms | clipmap | clipmap MB | clipmap build ms |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for scene in &scenes {
+        let frame = scene.frame(0.0, 0);
+        let tris = octolux::voxel::scene_triangles(scene, &frame);
+        let bounds = scene.bounds_at(0.0);
+        for res in [64u32, 128, 256, 512] {
+            let grid = VoxelGrid::enclosing(bounds, res).unwrap();
+            let start = std::time::Instant::now();
+            let (svo_cols, svo_ms) = match builder.build(&ctx, &grid, &tris) {
+                Ok((svo, timings)) => {
+                    let gpu_ms: f64 = timings.iter().map(|t| t.ms).sum();
+                    (
+                        format!(
+                            "{} | {} | {:.1}",
+                            svo.fragment_count,
+                            svo.node_count,
+                            svo.bytes() as f64 / 1e6
+                        ),
+                        format!(
+                            "{gpu_ms:.0} ({:.0} wall)",
+                            start.elapsed().as_secs_f64() * 1e3
+                        ),
+                    )
+                }
+                Err(e) => (format!("- | - | {e}"), "-".into()),
+            };
+            let settings = matching_clipmap(&grid);
+            let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+            let mut timer = PassTimer::new(&ctx);
+            let start = std::time::Instant::now();
+            clipmap
+                .update(&ctx, &mut timer, &tris, (bounds.0 + bounds.1) * 0.5)
+                .unwrap();
+            let clip_gpu: f64 = timer.finish_frame().unwrap().iter().map(|t| t.ms).sum();
+            let clip_wall = start.elapsed().as_secs_f64() * 1e3;
+            println!(
+                "| {} | {res} | {} | {svo_cols} | {svo_ms} | {} x {}^3 | {:.2} | {clip_gpu:.0} ({clip_wall:.0} wall) |",
+                scene.name,
+                tris.len(),
+                settings.levels,
+                settings.resolution,
+                clipmap.bytes() as f64 / 1e6
+            );
+        }
+    }
+}

@@ -331,3 +331,67 @@ impl Clipmap {
         Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposed_boxes_are_the_new_minus_the_old_region() {
+        let res = 8;
+        let old = IVec3::new(3, -2, 5);
+        for delta in [
+            IVec3::new(2, 0, 0),
+            IVec3::new(-3, 1, 0),
+            IVec3::new(1, -1, 7),
+            IVec3::new(0, 0, 0),
+            IVec3::new(9, 0, 0),
+        ] {
+            let new = old + delta;
+            let boxes = exposed_boxes(0, Some(old), new, res);
+            let inside = |p: IVec3, o: IVec3| p.cmpge(o).all() && p.cmplt(o + res).all();
+            for z in new.z..new.z + res {
+                for y in new.y..new.y + res {
+                    for x in new.x..new.x + res {
+                        let p = IVec3::new(x, y, z);
+                        let hits = boxes
+                            .iter()
+                            .filter(|b| p.cmpge(b.lo).all() && p.cmplt(b.hi).all())
+                            .count();
+                        let exposed = !inside(p, old) || delta.abs().max_element() >= res;
+                        assert_eq!(hits, exposed as usize, "{p} for delta {delta}");
+                    }
+                }
+            }
+        }
+        assert_eq!(exposed_boxes(2, None, old, res).len(), 1);
+    }
+
+    #[test]
+    fn bad_settings_are_rejected() {
+        let ok = ClipmapSettings {
+            resolution: 64,
+            levels: 4,
+            voxel_size: 0.1,
+        };
+        assert!(ok.validate().is_ok());
+        for bad in [
+            ClipmapSettings {
+                resolution: 48,
+                ..ok
+            },
+            ClipmapSettings {
+                resolution: 1024,
+                ..ok
+            },
+            ClipmapSettings { levels: 0, ..ok },
+            ClipmapSettings { levels: 9, ..ok },
+            ClipmapSettings {
+                voxel_size: f32::NAN,
+                ..ok
+            },
+        ] {
+            assert!(matches!(bad.validate(), Err(Error::InvalidArgument(_))));
+        }
+    }
+}

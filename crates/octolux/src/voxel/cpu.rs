@@ -249,3 +249,59 @@ fn weight(o: i32) -> f32 {
         0.25
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlap_is_closed_and_exact() {
+        let c = IVec3::new(2, 3, 4);
+        // Touching a corner counts; a hair further does not.
+        let t = |d: f32| {
+            let p = Vec3::new(3.0 + d, 4.0 + d, 5.0 + d);
+            tri_box_overlap(
+                p,
+                p + Vec3::new(1.0, 2.0, 1.0),
+                p + Vec3::new(2.0, 0.5, 1.0),
+                c,
+            )
+        };
+        assert!(t(0.0));
+        assert!(!t(1e-3));
+        // A plane through the box diagonal, whose vertices are all far outside the box.
+        let a = Vec3::new(-10.0, -10.0, 4.5);
+        assert!(tri_box_overlap(
+            a,
+            Vec3::new(20.0, -10.0, 4.5),
+            Vec3::new(-10.0, 20.0, 4.5),
+            c
+        ));
+        // A triangle whose bounding box overlaps but which passes beside the box.
+        assert!(!tri_box_overlap(
+            Vec3::new(0.0, 0.0, 4.5),
+            Vec3::new(3.0, 0.0, 4.5),
+            Vec3::new(0.0, 3.0, 4.5),
+            c
+        ));
+    }
+
+    #[test]
+    fn mip_filter_preserves_a_full_lattice() {
+        let mut voxels = BTreeMap::new();
+        for z in 0..8 {
+            for y in 0..8 {
+                for x in 0..8 {
+                    voxels.insert([x, y, z], Vec4::ONE);
+                }
+            }
+        }
+        let l = lattices(3, &voxels);
+        // Interior points of every level see a full neighbourhood: value 1.
+        assert!((l[2].get(IVec3::splat(4)) - Vec4::ONE).abs().max_element() < 1e-6);
+        assert!((l[1].get(IVec3::splat(2)) - Vec4::ONE).abs().max_element() < 1e-6);
+        assert!((l[0].get(IVec3::splat(1)) - Vec4::ONE).abs().max_element() < 1e-6);
+        // A corner of the grid touches one voxel of eight.
+        assert!((l[2].get(IVec3::ZERO).w - 0.125).abs() < 1e-6);
+    }
+}
