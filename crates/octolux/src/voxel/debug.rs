@@ -25,6 +25,7 @@ const SVO_HEADER: &str = "
 @group(0) @binding(1) var<uniform> svo_info: SvoInfo;
 @group(0) @binding(2) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(3) var<storage, read> svo_bricks: array<u32>;
+@group(0) @binding(7) var<storage, read> svo_brick_index: array<u32>;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return svo_sample(p, footprint); }
 ";
 
@@ -122,6 +123,7 @@ impl Structure<'_> {
             Structure::Svo(svo) => {
                 buffers.push((2, &svo.child));
                 buffers.push((3, &svo.bricks));
+                buffers.push((7, &svo.brick_index));
             }
             Structure::Clipmap(c) => buffers.push((2, &c.voxels)),
         }

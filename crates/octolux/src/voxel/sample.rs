@@ -17,7 +17,7 @@ use super::VoxelGrid;
 use glam::{IVec3, UVec3, Vec3, Vec4};
 
 /// WGSL: `svo_sample(p, footprint)`; the includer declares `svo_info`, `svo_child`,
-/// `svo_bricks` (see the file's header).
+/// `svo_bricks`, `svo_brick_index` (see the file's header).
 pub const SVO_SAMPLE_WGSL: &str = include_str!("sample_svo.wgsl");
 /// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
 pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
@@ -99,10 +99,14 @@ pub fn svo_sample_level(svo: &SvoCpu, depth: u32, g: Vec3, d: u32) -> Vec4 {
         let s = d - 1 - l;
         node = first + ((c.x >> s) & 1) + (((c.y >> s) & 1) << 1) + (((c.z >> s) & 1) << 2);
     }
+    let b = svo.brick_of[node as usize];
+    if b == 0 {
+        return Vec4::ZERO;
+    }
     let local = (x - 2.0 * c.as_vec3()).clamp(Vec3::ZERO, Vec3::splat(2.0));
     let i0 = local.as_uvec3().min(UVec3::ONE);
     let f = local - i0.as_vec3();
-    let brick = &svo.bricks[node as usize];
+    let brick = &svo.bricks[b as usize - 1];
     trilinear(f, |o| {
         let t = i0 + o;
         brick[(t.x + 3 * t.y + 9 * t.z) as usize]

@@ -5,6 +5,7 @@
 //   var<uniform> svo_info: SvoInfo;
 //   var<storage, read> svo_child: array<u32>;
 //   var<storage, read> svo_bricks: array<u32>;
+//   var<storage, read> svo_brick_index: array<u32>;
 
 struct SvoInfo {
     // xyz: grid origin, w: voxel size.
@@ -13,8 +14,8 @@ struct SvoInfo {
     misc: vec4<u32>,
 }
 
-fn svo_texel(node: u32, t: vec3<u32>) -> vec4<f32> {
-    return unpack4x8unorm(svo_bricks[node * 27u + t.x + 3u * t.y + 9u * t.z]);
+fn svo_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
+    return unpack4x8unorm(svo_bricks[brick * 27u + t.x + 3u * t.y + 9u * t.z]);
 }
 
 // Trilinear sample of level d at grid position g (voxel units); zero where no node exists.
@@ -35,6 +36,11 @@ fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
         let s = d - 1u - l;
         node = first + ((c.x >> s) & 1u) + (((c.y >> s) & 1u) << 1u) + (((c.z >> s) & 1u) << 2u);
     }
+    // A node without a brick has an all-zero lattice.
+    let b = svo_brick_index[node];
+    if b == 0u {
+        return vec4<f32>(0.0);
+    }
     let local = clamp(x - 2.0 * vec3<f32>(c), vec3<f32>(0.0), vec3<f32>(2.0));
     let i0 = min(vec3<u32>(local), vec3<u32>(1u));
     let f = local - vec3<f32>(i0);
@@ -42,7 +48,7 @@ fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
     for (var k = 0u; k < 8u; k++) {
         let o = vec3<u32>(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
         let w = select(1.0 - f, f, o == vec3<u32>(1u));
-        sum += w.x * w.y * w.z * svo_texel(node, i0 + o);
+        sum += w.x * w.y * w.z * svo_texel(b - 1u, i0 + o);
     }
     return sum;
 }

@@ -4,12 +4,13 @@
 //! counter), link neighbours; then fill the leaf bricks, transfer between neighbours and mipmap
 //! bottom-up, transferring again on every level.
 //!
-//! Layout (struct-of-arrays, 4 words per node + brick): `child` (first of 8 contiguous
-//! children), `neighbours` (+x, +y, +z on the same level). Every node owns exactly one brick,
-//! so the brick pointer is the node index and costs nothing. A brick is 3x3x3 RGBA8 texels
+//! Layout (struct-of-arrays, 5 words per node): `child` (first of 8 contiguous children),
+//! `neighbours` (+x, +y, +z on the same level) and `brick_index` (brick + 1, 0 = none). Only
+//! *needed* nodes (occupied or next to an occupied node) get a brick: the others exist because
+//! a sibling is needed, and their lattice is provably all zero. A brick is 3x3x3 RGBA8 texels
 //! (premultiplied albedo, opacity) on the node's corners, edge midpoints, face centres and
-//! centre: 108 bytes, so a node costs 124 bytes in all. The build accumulates, transfers and
-//! filters in an RGBA16F pool (216 bytes per node) that is converted and released at the end.
+//! centre: 108 bytes. The build accumulates, transfers and filters in an RGBA16F pool (216
+//! bytes per brick) that is converted and released at the end.
 //!
 //! The values define one corner-sampled lattice per level: on the finest level, each lattice
 //! point (a voxel corner) holds the sum of the touching voxels' values / 8; each coarser
@@ -31,6 +32,8 @@ pub const OWNER: &str = "svo";
 pub const BUILD_BRICK_WORDS: u32 = 54;
 /// Words per brick of the finished pool (27 texels x RGBA8).
 pub const BRICK_WORDS: u32 = 27;
+/// Bytes per node: child, 3 neighbours, brick index.
+pub const NODE_BYTES: u64 = 20;
 const UNIFORM_STRIDE: u64 = 256;
 
 /// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
@@ -50,6 +53,8 @@ fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
 }
 ";
 const CONTROL_WORDS: u64 = 64;
+/// Word of `control` counting bricks (`BRICK_COUNTER` in `svo.wgsl`).
+const BRICK_COUNTER: usize = 60;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -70,8 +75,12 @@ pub struct Svo {
     pub child: wgpu::Buffer,
     /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
     pub neighbours: wgpu::Buffer,
-    /// `array<u32>`, [`BRICK_WORDS`] per node: 27 texels as `pack4x8unorm` words.
+    /// `array<u32>`, [`BRICK_WORDS`] per brick: 27 texels as `pack4x8unorm` words.
     pub bricks: wgpu::Buffer,
+    /// `array<u32>`: per node, its brick index + 1 (0 = no brick, an all-zero lattice).
+    pub brick_index: wgpu::Buffer,
+    /// Number of bricks.
+    pub brick_count: u32,
     /// Node index range of every level.
     pub levels: Vec<(u32, u32)>,
     /// Voxel fragments the octree was built from.
@@ -85,13 +94,23 @@ pub struct SvoCpu {
     pub child: Vec<u32>,
     /// +x, +y, +z neighbours per node.
     pub neighbours: Vec<[u32; 3]>,
-    /// 27 RGBA texels per node (texel `i + 3j + 9k`).
+    /// 27 RGBA texels per brick (texel `i + 3j + 9k`).
     pub bricks: Vec<[glam::Vec4; 27]>,
+    /// Per node, its brick index + 1 (0 = none).
+    pub brick_of: Vec<u32>,
     /// Node range per level.
     pub levels: Vec<(u32, u32)>,
 }
 
 impl SvoCpu {
+    /// The texels of node `n` (zeros when it has no brick).
+    pub fn node_brick(&self, n: u32) -> [glam::Vec4; 27] {
+        match self.brick_of[n as usize] {
+            0 => [glam::Vec4::ZERO; 27],
+            b => self.bricks[b as usize - 1],
+        }
+    }
+
     /// Coordinates of every node on its level, found by walking down from the root.
     pub fn coordinates(&self) -> Vec<[u32; 3]> {
         let mut coords = vec![[0u32; 3]; self.child.len()];
@@ -138,6 +157,7 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 
 enum Dispatch {
     Fragments,
+    Capacity(u32),
     Level(u32),
     One,
 }
@@ -184,6 +204,7 @@ impl SvoBuilder {
             "flag_occupied",
             "flag_needed",
             "subdivide",
+            "assign_bricks",
             "finish_level",
             "leaf_accumulate",
             "leaf_fill",
@@ -236,8 +257,8 @@ impl SvoBuilder {
             .voxelizer
             .fragments(ctx, OWNER, grid, tris, &mut timings)?;
         let depth = grid.depth();
-        let max_nodes = (ctx.device.limits().max_storage_buffer_binding_size
-            / (BUILD_BRICK_WORDS as u64 * 4))
+        // The neighbour array (3 words per node) is the largest per-node array.
+        let max_nodes = (ctx.device.limits().max_storage_buffer_binding_size / 12)
             .min(u32::MAX as u64 / 64) as u32;
         let mut capacity = (list.count as u64 * 4 + 4096).min(max_nodes as u64) as u32;
         loop {
@@ -368,6 +389,7 @@ impl SvoBuilder {
                 steps.push(("finish_level", d, Dispatch::One));
             }
         }
+        steps.push(("assign_bricks", 0, Dispatch::Capacity(capacity)));
         self.record(
             &mut timer,
             "svo structure",
@@ -384,6 +406,17 @@ impl SvoBuilder {
             return Ok(None);
         }
         let node_count = control_cpu[0];
+        let brick_count = control_cpu[BRICK_COUNTER];
+        let max_bricks =
+            ctx.device.limits().max_storage_buffer_binding_size / (BUILD_BRICK_WORDS as u64 * 4);
+        if brick_count as u64 > max_bricks {
+            return Err(Error::InvalidArgument(format!(
+                "the octree at {}^3 has {node_count} nodes and needs {brick_count} bricks; this \
+                 GPU can bind at most {max_bricks} (RGBA16F build pool in one storage binding); \
+                 use a lower resolution",
+                grid.resolution
+            )));
+        }
         let levels: Vec<(u32, u32)> = (0..depth as usize)
             .map(|d| (control_cpu[2 + 2 * d], control_cpu[3 + 2 * d]))
             .collect();
@@ -391,7 +424,7 @@ impl SvoBuilder {
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("brick pool (build, RGBA16F)"),
-                size: node_count as u64 * BUILD_BRICK_WORDS as u64 * 4,
+                size: (brick_count as u64 * BUILD_BRICK_WORDS as u64 * 4).max(16),
                 usage,
                 mapped_at_creation: false,
             },
@@ -424,7 +457,7 @@ impl SvoBuilder {
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("brick pool"),
-                size: (node_count as u64 * BRICK_WORDS as u64 * 4).max(16),
+                size: (brick_count as u64 * BRICK_WORDS as u64 * 4).max(16),
                 usage,
                 mapped_at_creation: false,
             },
@@ -432,7 +465,7 @@ impl SvoBuilder {
         let count = ctx.create_buffer_init(
             OWNER,
             "pack params",
-            bytemuck::cast_slice(&[node_count * 27, 0, 0, 0]),
+            bytemuck::cast_slice(&[brick_count * 27, 0, 0, 0]),
             wgpu::BufferUsages::UNIFORM,
         );
         let pack_group = super::voxelize::bind_buffers(
@@ -445,7 +478,7 @@ impl SvoBuilder {
             "svo pack bricks",
             &self.pack,
             &pack_group,
-            node_count * 27,
+            brick_count * 27,
         );
         // Keep only what the octree needs, at its exact size.
         let mut exact = |label: &str, words: u64, from: &wgpu::Buffer| {
@@ -465,6 +498,7 @@ impl SvoBuilder {
         };
         let child_exact = exact("child", node_count as u64, &child);
         let nbr_exact = exact("neighbours", node_count as u64 * 3, &nbr);
+        let brick_index = exact("brick index", node_count as u64, &flags);
         timings.extend(timer.finish_frame()?);
         for label in [
             "child (build)",
@@ -486,6 +520,8 @@ impl SvoBuilder {
             child: child_exact,
             neighbours: nbr_exact,
             bricks: packed,
+            brick_index,
+            brick_count,
             levels,
             fragment_count: list.count,
         }))
@@ -516,6 +552,10 @@ impl SvoBuilder {
                         let (x, y) = dispatch_size(fragments);
                         pass.dispatch_workgroups(x, y, 1);
                     }
+                    Dispatch::Capacity(n) => {
+                        let (x, y) = dispatch_size(*n);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
                     Dispatch::Level(level) => {
                         pass.dispatch_workgroups_indirect(args, *level as u64 * 12);
                     }
@@ -532,7 +572,7 @@ impl SvoBuilder {
 impl Svo {
     /// Bytes the octree keeps on the GPU (nodes + bricks).
     pub fn bytes(&self) -> u64 {
-        self.node_count as u64 * (4 * 4 + BRICK_WORDS as u64 * 4)
+        self.node_count as u64 * NODE_BYTES + self.brick_count as u64 * BRICK_WORDS as u64 * 4
     }
 
     /// Reads the octree back.
@@ -546,9 +586,11 @@ impl Svo {
             ctx,
             &self.bricks,
             0,
-            n * BRICK_WORDS as u64 * 4,
+            self.brick_count as u64 * BRICK_WORDS as u64 * 4,
         )?)
         .to_vec();
+        let brick_of: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &self.brick_index, 0, n * 4)?).to_vec();
         let bricks = words
             .chunks_exact(BRICK_WORDS as usize)
             .map(|b| std::array::from_fn(|t| unpack_unorm8(b[t])))
@@ -557,6 +599,7 @@ impl Svo {
             child,
             neighbours: nbr.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
             bricks,
+            brick_of,
             levels: self.levels.clone(),
         })
     }

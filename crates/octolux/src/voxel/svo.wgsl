@@ -1,9 +1,9 @@
 // Sparse voxel octree, built level by level. Level d has 2^d nodes per axis; the finest level
 // (depth - 1) holds nodes of 2x2x2 voxels. Nodes are struct-of-arrays: `child` (index of the
 // first of 8 contiguous children, 0 = none; the root is never a child) and `nbr` (+x, +y, +z
-// neighbour on the same level, 0 = none). Every node owns the brick with its own index: 27
-// corner-sampled RGBA texels (premultiplied albedo, opacity) as f16 pairs, 54 words.
-// `coord` and `flags` are build scratch.
+// neighbour on the same level, 0 = none). After the structure phase `flags` holds each node's
+// brick index + 1 (0 = no brick: only needed nodes get one). A brick is 27 corner-sampled RGBA
+// texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord` is build scratch.
 
 struct LevelParams {
     d: u32,
@@ -26,6 +26,7 @@ struct LevelParams {
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
 
 const INVALID: u32 = 0xffffffffu;
+const BRICK_COUNTER: u32 = 60u;
 const OCCUPIED: u32 = 1u;
 const NEEDED: u32 = 2u;
 
@@ -65,13 +66,21 @@ fn level_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
     return n;
 }
 
-fn read_texel(node: u32, t: u32) -> vec4<f32> {
-    let w = (node * 27u + t) * 2u;
+// Brick of a node (after assign_bricks), INVALID when it has none.
+fn brick_of(node: u32) -> u32 {
+    return atomicLoad(&flags[node]) - 1u;
+}
+
+fn read_texel(brick: u32, t: u32) -> vec4<f32> {
+    if brick == INVALID {
+        return vec4<f32>(0.0);
+    }
+    let w = (brick * 27u + t) * 2u;
     return vec4<f32>(unpack2x16float(atomicLoad(&bricks[w])), unpack2x16float(atomicLoad(&bricks[w + 1u])));
 }
 
-fn write_texel(node: u32, t: u32, v: vec4<f32>) {
-    let w = (node * 27u + t) * 2u;
+fn write_texel(brick: u32, t: u32, v: vec4<f32>) {
+    let w = (brick * 27u + t) * 2u;
     atomicStore(&bricks[w], pack2x16float(v.xy));
     atomicStore(&bricks[w + 1u], pack2x16float(v.zw));
 }
@@ -166,6 +175,22 @@ fn finish_level() {
     args[3u * (L.d + 1u) + 2u] = 1u;
 }
 
+// Gives every needed node a brick (the others have an all-zero lattice and need none); the
+// node's flags become its brick index + 1.
+@compute @workgroup_size(64)
+fn assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) li: u32) {
+    let n = linear_index(wg, nwg, li);
+    if n >= min(atomicLoad(&control[0]), L.capacity) {
+        return;
+    }
+    var brick = 0u;
+    if (atomicLoad(&flags[n]) & NEEDED) != 0u {
+        brick = atomicAdd(&control[BRICK_COUNTER], 1u) + 1u;
+    }
+    atomicStore(&flags[n], brick);
+}
+
 // Leaf voxels: integer sums of albedo (x255) and fragment count, in words 0..31 of the leaf's
 // brick, 4 per voxel (octant order).
 @compute @workgroup_size(64)
@@ -181,9 +206,13 @@ fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
     if n == INVALID {
         return;
     }
+    let b = brick_of(n);
+    if b == INVALID {
+        return;
+    }
     let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
     let albedo = bitcast<u32>(tris[frag.y].p0.w);
-    let w = n * 54u + o * 4u;
+    let w = b * 54u + o * 4u;
     atomicAdd(&bricks[w], albedo & 255u);
     atomicAdd(&bricks[w + 1u], (albedo >> 8u) & 255u);
     atomicAdd(&bricks[w + 2u], (albedo >> 16u) & 255u);
@@ -200,9 +229,13 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     if n == INVALID {
         return;
     }
+    let b = brick_of(n);
+    if b == INVALID {
+        return;
+    }
     var voxels: array<vec4<f32>, 8>;
     for (var o = 0u; o < 8u; o++) {
-        let w = n * 54u + o * 4u;
+        let w = b * 54u + o * 4u;
         let count = atomicLoad(&bricks[w + 3u]);
         if count == 0u {
             voxels[o] = vec4<f32>(0.0);
@@ -222,7 +255,7 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
                 sum += voxels[o] * 0.125;
             }
         }
-        write_texel(n, t, sum);
+        write_texel(b, t, sum);
     }
 }
 
@@ -237,6 +270,12 @@ fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
     if m == 0u {
         return;
     }
+    // A node without a brick has an all-zero lattice: nothing to add or to receive.
+    let bn = brick_of(n);
+    let bm = brick_of(m);
+    if bn == INVALID || bm == INVALID {
+        return;
+    }
     for (var k = 0u; k < 9u; k++) {
         var hi = vec3<u32>(0u);
         var lo = vec3<u32>(0u);
@@ -247,9 +286,9 @@ fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
         hi[v] = k / 3u;
         lo[u] = k % 3u;
         lo[v] = k / 3u;
-        let s = read_texel(n, texel_index(hi)) + read_texel(m, texel_index(lo));
-        write_texel(n, texel_index(hi), s);
-        write_texel(m, texel_index(lo), s);
+        let s = read_texel(bn, texel_index(hi)) + read_texel(bm, texel_index(lo));
+        write_texel(bn, texel_index(hi), s);
+        write_texel(bm, texel_index(lo), s);
     }
 }
 
@@ -288,7 +327,8 @@ fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<
         return;
     }
     let first = child[n];
-    if first == 0u {
+    let bn = brick_of(n);
+    if first == 0u || bn == INVALID {
         return;
     }
     let nc = unpack3(coord[n]);
@@ -313,8 +353,8 @@ fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<
                 }
             }
             let ch = first + a.x + 2u * a.y + 4u * a.z;
-            sum += w * read_texel(ch, texel_index(local));
+            sum += w * read_texel(brick_of(ch), texel_index(local));
         }
-        write_texel(n, t, sum);
+        write_texel(bn, t, sum);
     }
 }
