@@ -366,6 +366,14 @@ fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
     );
     assert!(a.iter().filter(|&&v| v != 0).count() > 500);
     assert_eq!(a, b, "incremental clipmap differs from a rebuild");
+    // And both equal the CPU reference voxelization of every level.
+    let origins: Vec<_> = clipmap.origins.iter().map(|o| o.unwrap()).collect();
+    let reference = cpu::clipmap_voxels(&settings, &origins, &tris);
+    let wrong = a.iter().zip(&reference).filter(|(x, y)| x != y).count();
+    assert_eq!(
+        wrong, 0,
+        "{wrong} clipmap voxels differ from the CPU reference"
+    );
     // A large jump rebuilds whole levels and still matches.
     let far = moved + Vec3::new(0.9, 0.0, -0.7);
     clipmap.update(&ctx, &mut timer, &tris, far).unwrap();

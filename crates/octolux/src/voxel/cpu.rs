@@ -242,6 +242,54 @@ pub fn lattices(depth: u32, voxels: &BTreeMap<[u32; 3], Vec4>) -> Vec<Lattice> {
     out
 }
 
+/// The voxels of a clipmap whose levels start at `origins` (world-voxel coordinates), in the
+/// GPU's layout (level after level, toroidal slots, RGBA8: albedo averaged with rounding,
+/// alpha 255 where a triangle touches the voxel).
+pub fn clipmap_voxels(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    tris: &[VoxelTriangle],
+) -> Vec<u32> {
+    let res = settings.resolution as i32;
+    let r = res as usize;
+    let mut out = vec![0u32; origins.len() * r * r * r];
+    for (l, &origin) in origins.iter().enumerate() {
+        let inv = 1.0 / settings.level_voxel(l as u32);
+        let mut sums: BTreeMap<[i32; 3], [u32; 4]> = BTreeMap::new();
+        for tri in tris {
+            let [a, b, c] = tri.positions.map(|p| (p - Vec3::ZERO) * inv);
+            let big = Vec3::splat(1.0e6);
+            let mn = a.min(b).min(c).clamp(-big, big);
+            let mx = a.max(b).max(c).clamp(-big, big);
+            let first = (mn.ceil().as_ivec3() - IVec3::ONE).max(origin);
+            let last = mx.floor().as_ivec3().min(origin + IVec3::splat(res - 1));
+            for z in first.z..=last.z {
+                for y in first.y..=last.y {
+                    for x in first.x..=last.x {
+                        if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
+                            let s = sums.entry([x, y, z]).or_default();
+                            for i in 0..3 {
+                                s[i] += tri.albedo[i] as u32;
+                            }
+                            s[3] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        for (g, s) in sums {
+            let half = s[3] / 2;
+            let word = (s[0] + half) / s[3]
+                | ((s[1] + half) / s[3]) << 8
+                | ((s[2] + half) / s[3]) << 16
+                | 255 << 24;
+            let m = IVec3::from(g).rem_euclid(IVec3::splat(res)).as_uvec3();
+            out[l * r * r * r + m.x as usize + r * (m.y as usize + r * m.z as usize)] = word;
+        }
+    }
+    out
+}
+
 fn weight(o: i32) -> f32 {
     if o == 0 {
         0.5
