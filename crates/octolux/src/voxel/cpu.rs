@@ -268,8 +268,8 @@ pub fn clipmap_voxels(
                     for x in first.x..=last.x {
                         if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
                             let s = sums.entry([x, y, z]).or_default();
-                            for i in 0..3 {
-                                s[i] += tri.albedo[i] as u32;
+                            for (sum, a) in s.iter_mut().zip(tri.albedo) {
+                                *sum += a as u32;
                             }
                             s[3] += 1;
                         }
@@ -279,10 +279,10 @@ pub fn clipmap_voxels(
         }
         for (g, s) in sums {
             let half = s[3] / 2;
-            let word = (s[0] + half) / s[3]
-                | ((s[1] + half) / s[3]) << 8
-                | ((s[2] + half) / s[3]) << 16
-                | 255 << 24;
+            let word = ((s[0] + half) / s[3])
+                | (((s[1] + half) / s[3]) << 8)
+                | (((s[2] + half) / s[3]) << 16)
+                | (255 << 24);
             let m = IVec3::from(g).rem_euclid(IVec3::splat(res)).as_uvec3();
             out[l * r * r * r + m.x as usize + r * (m.y as usize + r * m.z as usize)] = word;
         }
