@@ -524,3 +524,61 @@ fn measure_memory_and_build_time() {
         }
     }
 }
+
+#[test]
+fn clipmap_revoxelises_only_around_a_moving_object() {
+    use octolux::gpu::PassTimer;
+    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
+    let ctx = context();
+    let settings = ClipmapSettings {
+        resolution: 16,
+        levels: 3,
+        voxel_size: 1.0 / 32.0,
+    };
+    let still = small_scene();
+    let object = |at: Vec3| thin_box(at, at + Vec3::new(0.05, 0.13, 0.04), 0.04, [9, 9, 250]);
+    let (a, b) = (Vec3::new(0.31, 0.42, 0.37), Vec3::new(0.36, 0.47, 0.41));
+    let bounds = |at: Vec3| (at - Vec3::splat(0.03), at + Vec3::new(0.08, 0.16, 0.07));
+    let before: Vec<VoxelTriangle> = still.iter().copied().chain(object(a)).collect();
+    let after: Vec<VoxelTriangle> = still.iter().copied().chain(object(b)).collect();
+    let camera = Vec3::splat(0.45);
+    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    clipmap.update(&ctx, &mut timer, &before, camera).unwrap();
+    timer.finish_frame().unwrap();
+    let full = clipmap.voxels_written(&ctx).unwrap();
+    // The camera stays: nothing is exposed; the object's old and new regions are revoxelised.
+    assert!(clipmap
+        .update(&ctx, &mut timer, &after, camera)
+        .unwrap()
+        .is_empty());
+    let (old_lo, old_hi) = bounds(a);
+    let (new_lo, new_hi) = bounds(b);
+    let mut boxes = clipmap.boxes_touching(old_lo, old_hi);
+    boxes.extend(clipmap.boxes_touching(new_lo, new_hi));
+    clipmap
+        .revoxelise(&ctx, &mut timer, &after, &boxes)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    let written = clipmap.voxels_written(&ctx).unwrap() - full;
+    assert_eq!(
+        written as u64,
+        boxes.iter().map(|b| b.volume()).sum::<u64>()
+    );
+    assert!(written < full / 10, "{written} of {full} voxels rewritten");
+    let mut fresh = Clipmap::new(&ctx, settings).unwrap();
+    fresh.update(&ctx, &mut timer, &after, camera).unwrap();
+    timer.finish_frame().unwrap();
+    let got = clipmap.read_voxels(&ctx).unwrap();
+    assert_ne!(got, {
+        let mut stale = Clipmap::new(&ctx, settings).unwrap();
+        stale.update(&ctx, &mut timer, &before, camera).unwrap();
+        timer.finish_frame().unwrap();
+        stale.read_voxels(&ctx).unwrap()
+    });
+    assert_eq!(
+        got,
+        fresh.read_voxels(&ctx).unwrap(),
+        "differs from a rebuild after the move"
+    );
+}

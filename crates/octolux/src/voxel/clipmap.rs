@@ -9,8 +9,10 @@
 //! its full width. Each level is voxelized at its own resolution (per-level voxelization).
 //!
 //! Storage: one `array<u32>` of RGBA8 texels (averaged albedo, opacity 255 where any triangle
-//! touches the voxel), level after level. Light injection and anisotropic (6-direction) voxels
-//! are not implemented.
+//! touches the voxel), level after level. Moving objects: revoxelise the boxes that their old
+//! and new bounds touch ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller
+//! decides what moved. Light injection and anisotropic (6-direction) voxels are not
+//! implemented.
 
 use super::voxelize::{bind_buffers, dispatch, upload_triangles, work_items, OVERLAP_WGSL};
 use super::VoxelTriangle;
@@ -223,8 +225,34 @@ impl Clipmap {
         Ok(boxes)
     }
 
+    /// The boxes of every level that cover the world-space box `[lo, hi]` (with one voxel of
+    /// margin, since touching counts), clipped to each level's current extent. For a moving
+    /// object, revoxelise the boxes of its old and of its new bounds.
+    pub fn boxes_touching(&self, lo: Vec3, hi: Vec3) -> Vec<UpdateBox> {
+        let res = IVec3::splat(self.settings.resolution as i32);
+        let mut out = Vec::new();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return out;
+        }
+        for (l, origin) in self.origins.iter().enumerate() {
+            let Some(origin) = *origin else { continue };
+            let v = self.settings.level_voxel(l as u32);
+            let first = ((lo / v).floor().as_ivec3() - IVec3::ONE).max(origin);
+            let end = ((hi / v).floor().as_ivec3() + IVec3::splat(2)).min(origin + res);
+            let b = UpdateBox {
+                level: l as u32,
+                lo: first,
+                hi: end,
+            };
+            if (end - first).cmpgt(IVec3::ZERO).all() {
+                out.push(b);
+            }
+        }
+        out
+    }
+
     /// Revoxelises the given boxes (each inside its level's current extent), for example the
-    /// region a moving object left and entered.
+    /// region a moving object left and entered ([`Clipmap::boxes_touching`]).
     pub fn revoxelise(
         &self,
         ctx: &GpuContext,
