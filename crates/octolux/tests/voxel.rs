@@ -228,11 +228,19 @@ fn small_scene() -> Vec<VoxelTriangle> {
 fn octree_equals_cpu_build_and_mip_filter() {
     use octolux::voxel::svo::SvoBuilder;
     let ctx = context();
-    let builder = SvoBuilder::new(&ctx);
     let tris = small_scene();
-    for res in [8u32, 32] {
+    // The last case splits the brick pool over three buffers.
+    for (res, split) in [(8u32, false), (32, false), (32, true)] {
         let grid = unit_grid(res);
+        let mut builder = SvoBuilder::new(&ctx);
+        if split {
+            let (whole, _) = builder.build(&ctx, &grid, &tris).unwrap();
+            builder = builder.with_pool_limit(whole.brick_count.div_ceil(3));
+        }
         let (svo, timings) = builder.build(&ctx, &grid, &tris).unwrap();
+        if split {
+            assert!(svo.brick_count > 2 * svo.pool_bricks, "pool not split");
+        }
         assert!(timings.iter().any(|t| t.name == "svo bricks"));
         let gpu = svo.read_back(&ctx).unwrap();
         let coords = gpu.coordinates();
@@ -397,7 +405,13 @@ fn gpu_sampling_matches_cpu_twins() {
     let ctx = context();
     let tris = small_scene();
     let grid = unit_grid(32);
-    let (svo, _) = SvoBuilder::new(&ctx).build(&ctx, &grid, &tris).unwrap();
+    // A brick pool split over several buffers, so that sampling crosses buffers.
+    let (whole, _) = SvoBuilder::new(&ctx).build(&ctx, &grid, &tris).unwrap();
+    let (svo, _) = SvoBuilder::new(&ctx)
+        .with_pool_limit(whole.brick_count.div_ceil(4))
+        .build(&ctx, &grid, &tris)
+        .unwrap();
+    assert!(svo.brick_count > 3 * svo.pool_bricks);
     let settings = ClipmapSettings {
         resolution: 16,
         levels: 3,

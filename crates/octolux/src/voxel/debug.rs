@@ -24,7 +24,10 @@ pub enum Structure<'a> {
 const SVO_HEADER: &str = "
 @group(0) @binding(1) var<uniform> svo_info: SvoInfo;
 @group(0) @binding(2) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_bricks: array<u32>;
+@group(0) @binding(3) var<storage, read> svo_bricks0: array<u32>;
+@group(0) @binding(8) var<storage, read> svo_bricks1: array<u32>;
+@group(0) @binding(9) var<storage, read> svo_bricks2: array<u32>;
+@group(0) @binding(10) var<storage, read> svo_bricks3: array<u32>;
 @group(0) @binding(7) var<storage, read> svo_brick_index: array<u32>;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return svo_sample(p, footprint); }
 ";
@@ -57,7 +60,9 @@ impl Structure<'_> {
 
     fn info(&self, ctx: &GpuContext) -> wgpu::Buffer {
         let bytes = match self {
-            Structure::Svo(svo) => bytemuck::bytes_of(&SvoInfo::new(&svo.grid)).to_vec(),
+            Structure::Svo(svo) => {
+                bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)).to_vec()
+            }
             Structure::Clipmap(c) => {
                 bytemuck::bytes_of(&ClipInfo::new(&c.settings, &c.origins)).to_vec()
             }
@@ -122,7 +127,9 @@ impl Structure<'_> {
         match self {
             Structure::Svo(svo) => {
                 buffers.push((2, &svo.child));
-                buffers.push((3, &svo.bricks));
+                for (binding, pool) in [3, 8, 9, 10].into_iter().zip(&svo.bricks) {
+                    buffers.push((binding, pool));
+                }
                 buffers.push((7, &svo.brick_index));
             }
             Structure::Clipmap(c) => buffers.push((2, &c.voxels)),

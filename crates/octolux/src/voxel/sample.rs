@@ -17,7 +17,7 @@ use super::VoxelGrid;
 use glam::{IVec3, UVec3, Vec3, Vec4};
 
 /// WGSL: `svo_sample(p, footprint)`; the includer declares `svo_info`, `svo_child`,
-/// `svo_bricks`, `svo_brick_index` (see the file's header).
+/// `svo_bricks0..3`, `svo_brick_index` (see the file's header).
 pub const SVO_SAMPLE_WGSL: &str = include_str!("sample_svo.wgsl");
 /// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
 pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
@@ -28,16 +28,17 @@ pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
 pub struct SvoInfo {
     /// Grid origin (xyz) and voxel size (w).
     pub origin: [f32; 4],
-    /// Depth, resolution, unused, unused.
+    /// Depth, resolution, bricks per pool buffer, unused.
     pub misc: [u32; 4],
 }
 
 impl SvoInfo {
-    /// The block for an octree over `grid`.
-    pub fn new(grid: &VoxelGrid) -> SvoInfo {
+    /// The block for an octree over `grid` whose brick pool holds `pool_bricks` bricks per
+    /// buffer ([`super::svo::Svo::pool_bricks`]).
+    pub fn new(grid: &VoxelGrid, pool_bricks: u32) -> SvoInfo {
         SvoInfo {
             origin: grid.origin.extend(grid.voxel_size).to_array(),
-            misc: [grid.depth(), grid.resolution, 0, 0],
+            misc: [grid.depth(), grid.resolution, pool_bricks.max(1), 0],
         }
     }
 }

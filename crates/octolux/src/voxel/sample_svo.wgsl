@@ -4,18 +4,26 @@
 // The includer declares:
 //   var<uniform> svo_info: SvoInfo;
 //   var<storage, read> svo_child: array<u32>;
-//   var<storage, read> svo_bricks: array<u32>;
+//   var<storage, read> svo_bricks0: array<u32>; (and svo_bricks1..3: the pool's 4 buffers)
 //   var<storage, read> svo_brick_index: array<u32>;
 
 struct SvoInfo {
     // xyz: grid origin, w: voxel size.
     origin: vec4<f32>,
-    // x: depth (levels), y: resolution.
+    // x: depth (levels), y: resolution, z: bricks per pool buffer.
     misc: vec4<u32>,
 }
 
 fn svo_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
-    return unpack4x8unorm(svo_bricks[brick * 27u + t.x + 3u * t.y + 9u * t.z]);
+    let w = (brick % svo_info.misc.z) * 27u + t.x + 3u * t.y + 9u * t.z;
+    var word = 0u;
+    switch brick / svo_info.misc.z {
+        case 0u: { word = svo_bricks0[w]; }
+        case 1u: { word = svo_bricks1[w]; }
+        case 2u: { word = svo_bricks2[w]; }
+        default: { word = svo_bricks3[w]; }
+    }
+    return unpack4x8unorm(word);
 }
 
 // Trilinear sample of level d at grid position g (voxel units); zero where no node exists.

@@ -39,8 +39,14 @@ const UNIFORM_STRIDE: u64 = 256;
 /// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
 const PACK_WGSL: &str = "
 @group(0) @binding(0) var<uniform> count: vec4<u32>;
-@group(0) @binding(1) var<storage, read> wide: array<u32>;
-@group(0) @binding(2) var<storage, read_write> narrow: array<u32>;
+@group(0) @binding(1) var<storage, read> wide0: array<u32>;
+@group(0) @binding(2) var<storage, read> wide1: array<u32>;
+@group(0) @binding(3) var<storage, read> wide2: array<u32>;
+@group(0) @binding(4) var<storage, read> wide3: array<u32>;
+@group(0) @binding(5) var<storage, read_write> narrow0: array<u32>;
+@group(0) @binding(6) var<storage, read_write> narrow1: array<u32>;
+@group(0) @binding(7) var<storage, read_write> narrow2: array<u32>;
+@group(0) @binding(8) var<storage, read_write> narrow3: array<u32>;
 @compute @workgroup_size(64)
 fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
@@ -48,8 +54,26 @@ fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if i >= count.x {
         return;
     }
-    let v = vec4<f32>(unpack2x16float(wide[2u * i]), unpack2x16float(wide[2u * i + 1u]));
-    narrow[i] = pack4x8unorm(clamp(v, vec4<f32>(0.0), vec4<f32>(1.0)));
+    let b = i / 27u;
+    let t = i % 27u;
+    let slot = b % count.y;
+    let w = slot * 54u + 2u * t;
+    var lo = 0u;
+    var hi = 0u;
+    switch b / count.y {
+        case 0u: { lo = wide0[w]; hi = wide0[w + 1u]; }
+        case 1u: { lo = wide1[w]; hi = wide1[w + 1u]; }
+        case 2u: { lo = wide2[w]; hi = wide2[w + 1u]; }
+        default: { lo = wide3[w]; hi = wide3[w + 1u]; }
+    }
+    let v = clamp(vec4<f32>(unpack2x16float(lo), unpack2x16float(hi)), vec4<f32>(0.0), vec4<f32>(1.0));
+    let n = slot * 27u + t;
+    switch b / count.y {
+        case 0u: { narrow0[n] = pack4x8unorm(v); }
+        case 1u: { narrow1[n] = pack4x8unorm(v); }
+        case 2u: { narrow2[n] = pack4x8unorm(v); }
+        default: { narrow3[n] = pack4x8unorm(v); }
+    }
 }
 ";
 const CONTROL_WORDS: u64 = 64;
@@ -63,7 +87,12 @@ struct LevelParams {
     depth: u32,
     fragments: u32,
     capacity: u32,
+    pool_bricks: u32,
+    pad: [u32; 3],
 }
+
+/// Most buffers a brick pool is split over (one storage binding each).
+pub const POOLS: u32 = 4;
 
 /// A sparse voxel octree on the GPU.
 pub struct Svo {
@@ -75,8 +104,12 @@ pub struct Svo {
     pub child: wgpu::Buffer,
     /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
     pub neighbours: wgpu::Buffer,
-    /// `array<u32>`, [`BRICK_WORDS`] per brick: 27 texels as `pack4x8unorm` words.
-    pub bricks: wgpu::Buffer,
+    /// The brick pool, split over [`POOLS`] buffers (unused ones are 16-byte placeholders):
+    /// brick `b` is slot `b % pool_bricks` of buffer `b / pool_bricks`, [`BRICK_WORDS`] words
+    /// (27 texels as `pack4x8unorm`).
+    pub bricks: Vec<wgpu::Buffer>,
+    /// Bricks per pool buffer.
+    pub pool_bricks: u32,
     /// `array<u32>`: per node, its brick index + 1 (0 = no brick, an all-zero lattice).
     pub brick_index: wgpu::Buffer,
     /// Number of bricks.
@@ -140,6 +173,7 @@ pub struct SvoBuilder {
     layout1: wgpu::BindGroupLayout,
     pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
     pack: wgpu::ComputePipeline,
+    pool_limit: Option<u32>,
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -172,13 +206,13 @@ impl SvoBuilder {
             ty: wgpu::BindingType::Buffer {
                 ty: wgpu::BufferBindingType::Uniform,
                 has_dynamic_offset: true,
-                min_binding_size: wgpu::BufferSize::new(16),
+                min_binding_size: wgpu::BufferSize::new(32),
             },
             count: None,
         }];
         entries.push(storage(1, true));
         entries.push(storage(2, true));
-        entries.extend((3..=8).map(|b| storage(b, false)));
+        entries.extend((3..=11).map(|b| storage(b, false)));
         let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("svo"),
             entries: &entries,
@@ -231,11 +265,19 @@ impl SvoBuilder {
         let pack_module = ctx.shader("svo pack", PACK_WGSL);
         SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
+            pool_limit: None,
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
             pipelines,
         }
+    }
+
+    /// Caps the bricks per pool buffer below what the device can bind (tests use this to
+    /// exercise pools split over several buffers).
+    pub fn with_pool_limit(mut self, bricks: u32) -> SvoBuilder {
+        self.pool_limit = Some(bricks.max(1));
+        self
     }
 
     /// Voxelizes `tris` into `grid` and builds the octree. Returns the octree and the pass
@@ -261,8 +303,17 @@ impl SvoBuilder {
         let max_nodes = (ctx.device.limits().max_storage_buffer_binding_size / 12)
             .min(u32::MAX as u64 / 64) as u32;
         let mut capacity = (list.count as u64 * 4 + 4096).min(max_nodes as u64) as u32;
+        let device_pool = (ctx.device.limits().max_storage_buffer_binding_size
+            / (BUILD_BRICK_WORDS as u64 * 4))
+            .min(u32::MAX as u64 / 64) as u32;
+        let pool_bricks = self
+            .pool_limit
+            .unwrap_or(device_pool)
+            .min(device_pool)
+            .max(1);
         loop {
-            let attempt = self.build_with(ctx, grid, &list, depth, capacity, &mut timings)?;
+            let attempt =
+                self.build_with(ctx, grid, &list, depth, capacity, pool_bricks, &mut timings)?;
             match attempt {
                 Some(svo) => {
                     ctx.ledger.record(OWNER, "fragments", 0);
@@ -281,6 +332,7 @@ impl SvoBuilder {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn build_with(
         &self,
         ctx: &GpuContext,
@@ -288,6 +340,7 @@ impl SvoBuilder {
         list: &FragmentList,
         depth: u32,
         capacity: u32,
+        pool_bricks: u32,
         timings: &mut Vec<PassTiming>,
     ) -> Result<Option<Svo>> {
         let usage = wgpu::BufferUsages::STORAGE
@@ -330,17 +383,19 @@ impl SvoBuilder {
                 depth,
                 fragments: list.count,
                 capacity,
+                pool_bricks,
+                pad: [0; 3],
             };
             let at = d as usize * UNIFORM_STRIDE as usize;
-            params[at..at + 16].copy_from_slice(bytemuck::bytes_of(&p));
+            params[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
         }
         let uniform =
             ctx.create_buffer_init(OWNER, "level params", &params, wgpu::BufferUsages::UNIFORM);
         // The brick pool is bound in the structure phase too (the layout is shared), so it gets
         // a placeholder there and its exact size afterwards.
         let placeholder = scratch("placeholder", 4, usage);
-        let group = |bricks: &wgpu::Buffer| {
-            let buffers: [&wgpu::Buffer; 8] = [
+        let group = |pools: [&wgpu::Buffer; 4]| {
+            let buffers: [&wgpu::Buffer; 11] = [
                 &list.buffer,
                 &list.triangles,
                 &child,
@@ -348,14 +403,17 @@ impl SvoBuilder {
                 &coord,
                 &flags,
                 &control,
-                bricks,
+                pools[0],
+                pools[1],
+                pools[2],
+                pools[3],
             ];
             let mut entries = vec![wgpu::BindGroupEntry {
                 binding: 0,
                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                     buffer: &uniform,
                     offset: 0,
-                    size: wgpu::BufferSize::new(16),
+                    size: wgpu::BufferSize::new(32),
                 }),
             }];
             for (i, b) in buffers.iter().enumerate() {
@@ -379,7 +437,7 @@ impl SvoBuilder {
             }],
         });
         let mut timer = PassTimer::new(ctx);
-        let structure = group(&placeholder);
+        let structure = group([&placeholder; 4]);
         let mut steps = Vec::new();
         for d in 0..depth {
             steps.push(("flag_occupied", d, Dispatch::Fragments));
@@ -407,29 +465,46 @@ impl SvoBuilder {
         }
         let node_count = control_cpu[0];
         let brick_count = control_cpu[BRICK_COUNTER];
-        let max_bricks =
-            ctx.device.limits().max_storage_buffer_binding_size / (BUILD_BRICK_WORDS as u64 * 4);
-        if brick_count as u64 > max_bricks {
+        let pools_needed = brick_count.div_ceil(pool_bricks).max(1);
+        if pools_needed > POOLS {
             return Err(Error::InvalidArgument(format!(
                 "the octree at {}^3 has {node_count} nodes and needs {brick_count} bricks; this \
-                 GPU can bind at most {max_bricks} (RGBA16F build pool in one storage binding); \
-                 use a lower resolution",
-                grid.resolution
+                 GPU can bind at most {} ({POOLS} storage bindings of {pool_bricks} RGBA16F \
+                 bricks); use a lower resolution",
+                grid.resolution,
+                POOLS * pool_bricks
             )));
         }
         let levels: Vec<(u32, u32)> = (0..depth as usize)
             .map(|d| (control_cpu[2 + 2 * d], control_cpu[3 + 2 * d]))
             .collect();
-        let bricks = ctx.create_buffer(
-            OWNER,
-            &wgpu::BufferDescriptor {
-                label: Some("brick pool (build, RGBA16F)"),
-                size: (brick_count as u64 * BUILD_BRICK_WORDS as u64 * 4).max(16),
-                usage,
-                mapped_at_creation: false,
-            },
-        );
-        let filling = group(&bricks);
+        // Pool k holds bricks [k * pool_bricks, (k + 1) * pool_bricks).
+        let pool_sizes: Vec<u64> = (0..POOLS)
+            .map(|k| {
+                (brick_count as u64)
+                    .saturating_sub(k as u64 * pool_bricks as u64)
+                    .min(pool_bricks as u64)
+            })
+            .collect();
+        let make_pools = |label: &str, words: u64| -> Vec<wgpu::Buffer> {
+            pool_sizes
+                .iter()
+                .enumerate()
+                .map(|(k, &bricks)| {
+                    ctx.create_buffer(
+                        OWNER,
+                        &wgpu::BufferDescriptor {
+                            label: Some(&format!("{label} {k}")),
+                            size: (bricks * words * 4).max(16),
+                            usage,
+                            mapped_at_creation: false,
+                        },
+                    )
+                })
+                .collect()
+        };
+        let wide = make_pools("brick pool (build, RGBA16F)", BUILD_BRICK_WORDS as u64);
+        let filling = group([&wide[0], &wide[1], &wide[2], &wide[3]]);
         let leaf = depth - 1;
         let mut steps = vec![
             ("leaf_accumulate", leaf, Dispatch::Fragments),
@@ -453,25 +528,27 @@ impl SvoBuilder {
             &steps,
         );
         // The finished pool: RGBA8, half the size of the build pool.
-        let packed = ctx.create_buffer(
-            OWNER,
-            &wgpu::BufferDescriptor {
-                label: Some("brick pool"),
-                size: (brick_count as u64 * BRICK_WORDS as u64 * 4).max(16),
-                usage,
-                mapped_at_creation: false,
-            },
-        );
+        let packed = make_pools("brick pool", BRICK_WORDS as u64);
         let count = ctx.create_buffer_init(
             OWNER,
             "pack params",
-            bytemuck::cast_slice(&[brick_count * 27, 0, 0, 0]),
+            bytemuck::cast_slice(&[brick_count * 27, pool_bricks, 0, 0]),
             wgpu::BufferUsages::UNIFORM,
         );
         let pack_group = super::voxelize::bind_buffers(
             ctx,
             &self.pack,
-            &[(0, &count), (1, &bricks), (2, &packed)],
+            &[
+                (0, &count),
+                (1, &wide[0]),
+                (2, &wide[1]),
+                (3, &wide[2]),
+                (4, &wide[3]),
+                (5, &packed[0]),
+                (6, &packed[1]),
+                (7, &packed[2]),
+                (8, &packed[3]),
+            ],
         );
         super::voxelize::dispatch(
             &mut timer,
@@ -510,9 +587,12 @@ impl SvoBuilder {
             "level params",
             "placeholder",
             "pack params",
-            "brick pool (build, RGBA16F)",
         ] {
             ctx.ledger.record(OWNER, label, 0);
+        }
+        for k in 0..POOLS {
+            ctx.ledger
+                .record(OWNER, &format!("brick pool (build, RGBA16F) {k}"), 0);
         }
         Ok(Some(Svo {
             grid: *grid,
@@ -520,6 +600,7 @@ impl SvoBuilder {
             child: child_exact,
             neighbours: nbr_exact,
             bricks: packed,
+            pool_bricks,
             brick_index,
             brick_count,
             levels,
@@ -582,13 +663,17 @@ impl Svo {
             bytemuck::cast_slice(&read_buffer(ctx, &self.child, 0, n * 4)?).to_vec();
         let nbr: Vec<u32> =
             bytemuck::cast_slice(&read_buffer(ctx, &self.neighbours, 0, n * 12)?).to_vec();
-        let words: Vec<u32> = bytemuck::cast_slice(&read_buffer(
-            ctx,
-            &self.bricks,
-            0,
-            self.brick_count as u64 * BRICK_WORDS as u64 * 4,
-        )?)
-        .to_vec();
+        let mut words: Vec<u32> = Vec::new();
+        let mut left = self.brick_count as u64;
+        for pool in &self.bricks {
+            let bricks = left.min(self.pool_bricks as u64);
+            if bricks == 0 {
+                break;
+            }
+            let bytes = read_buffer(ctx, pool, 0, bricks * BRICK_WORDS as u64 * 4)?;
+            words.extend_from_slice(bytemuck::cast_slice(&bytes));
+            left -= bricks;
+        }
         let brick_of: Vec<u32> =
             bytemuck::cast_slice(&read_buffer(ctx, &self.brick_index, 0, n * 4)?).to_vec();
         let bricks = words

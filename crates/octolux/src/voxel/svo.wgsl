@@ -10,6 +10,11 @@ struct LevelParams {
     depth: u32,
     fragments: u32,
     capacity: u32,
+    // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
+    pool_bricks: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> L: LevelParams;
@@ -21,7 +26,10 @@ struct LevelParams {
 @group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
 // [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d.
 @group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;
-@group(0) @binding(8) var<storage, read_write> bricks: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read_write> bricks0: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> bricks1: array<atomic<u32>>;
+@group(0) @binding(10) var<storage, read_write> bricks2: array<atomic<u32>>;
+@group(0) @binding(11) var<storage, read_write> bricks3: array<atomic<u32>>;
 // Indirect dispatch arguments, 3 words per level (bound only by finish_level).
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
 
@@ -71,18 +79,51 @@ fn brick_of(node: u32) -> u32 {
     return atomicLoad(&flags[node]) - 1u;
 }
 
+// Word i (0..53) of brick b: pool b / pool_bricks, slot b % pool_bricks.
+fn bw_index(b: u32, i: u32) -> u32 {
+    return (b % L.pool_bricks) * 54u + i;
+}
+
+fn bw_load(b: u32, i: u32) -> u32 {
+    let w = bw_index(b, i);
+    switch b / L.pool_bricks {
+        case 0u: { return atomicLoad(&bricks0[w]); }
+        case 1u: { return atomicLoad(&bricks1[w]); }
+        case 2u: { return atomicLoad(&bricks2[w]); }
+        default: { return atomicLoad(&bricks3[w]); }
+    }
+}
+
+fn bw_store(b: u32, i: u32, v: u32) {
+    let w = bw_index(b, i);
+    switch b / L.pool_bricks {
+        case 0u: { atomicStore(&bricks0[w], v); }
+        case 1u: { atomicStore(&bricks1[w], v); }
+        case 2u: { atomicStore(&bricks2[w], v); }
+        default: { atomicStore(&bricks3[w], v); }
+    }
+}
+
+fn bw_add(b: u32, i: u32, v: u32) {
+    let w = bw_index(b, i);
+    switch b / L.pool_bricks {
+        case 0u: { atomicAdd(&bricks0[w], v); }
+        case 1u: { atomicAdd(&bricks1[w], v); }
+        case 2u: { atomicAdd(&bricks2[w], v); }
+        default: { atomicAdd(&bricks3[w], v); }
+    }
+}
+
 fn read_texel(brick: u32, t: u32) -> vec4<f32> {
     if brick == INVALID {
         return vec4<f32>(0.0);
     }
-    let w = (brick * 27u + t) * 2u;
-    return vec4<f32>(unpack2x16float(atomicLoad(&bricks[w])), unpack2x16float(atomicLoad(&bricks[w + 1u])));
+    return vec4<f32>(unpack2x16float(bw_load(brick, 2u * t)), unpack2x16float(bw_load(brick, 2u * t + 1u)));
 }
 
 fn write_texel(brick: u32, t: u32, v: vec4<f32>) {
-    let w = (brick * 27u + t) * 2u;
-    atomicStore(&bricks[w], pack2x16float(v.xy));
-    atomicStore(&bricks[w + 1u], pack2x16float(v.zw));
+    bw_store(brick, 2u * t, pack2x16float(v.xy));
+    bw_store(brick, 2u * t + 1u, pack2x16float(v.zw));
 }
 
 fn texel_index(i: vec3<u32>) -> u32 {
@@ -212,11 +253,11 @@ fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
     }
     let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
     let albedo = bitcast<u32>(tris[frag.y].p0.w);
-    let w = b * 54u + o * 4u;
-    atomicAdd(&bricks[w], albedo & 255u);
-    atomicAdd(&bricks[w + 1u], (albedo >> 8u) & 255u);
-    atomicAdd(&bricks[w + 2u], (albedo >> 16u) & 255u);
-    atomicAdd(&bricks[w + 3u], 1u);
+    let w = o * 4u;
+    bw_add(b, w, albedo & 255u);
+    bw_add(b, w + 1u, (albedo >> 8u) & 255u);
+    bw_add(b, w + 2u, (albedo >> 16u) & 255u);
+    bw_add(b, w + 3u, 1u);
 }
 
 // Leaf bricks: texel (i, j, k) sits on a voxel corner and holds this node's share of the box
@@ -235,15 +276,15 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     }
     var voxels: array<vec4<f32>, 8>;
     for (var o = 0u; o < 8u; o++) {
-        let w = b * 54u + o * 4u;
-        let count = atomicLoad(&bricks[w + 3u]);
+        let w = o * 4u;
+        let count = bw_load(b, w + 3u);
         if count == 0u {
             voxels[o] = vec4<f32>(0.0);
         } else {
             let c = f32(count);
-            voxels[o] = vec4<f32>(f32(atomicLoad(&bricks[w])) / c / 255.0,
-                                  f32(atomicLoad(&bricks[w + 1u])) / c / 255.0,
-                                  f32(atomicLoad(&bricks[w + 2u])) / c / 255.0, 1.0);
+            voxels[o] = vec4<f32>(f32(bw_load(b, w)) / c / 255.0,
+                                  f32(bw_load(b, w + 1u)) / c / 255.0,
+                                  f32(bw_load(b, w + 2u)) / c / 255.0, 1.0);
         }
     }
     for (var t = 0u; t < 27u; t++) {
