@@ -596,3 +596,37 @@ fn clipmap_revoxelises_only_around_a_moving_object() {
         "differs from a rebuild after the move"
     );
 }
+
+#[test]
+fn empty_input_gives_empty_structures() {
+    use octolux::gpu::PassTimer;
+    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
+    use octolux::voxel::svo::SvoBuilder;
+    let ctx = context();
+    // Nothing, and a triangle entirely outside the grid.
+    let outside = vec![tri(
+        Vec3::splat(3.0),
+        Vec3::new(3.5, 3.0, 3.0),
+        Vec3::new(3.0, 3.5, 3.0),
+        [1, 1, 1],
+    )];
+    for tris in [Vec::new(), outside] {
+        let (svo, _) = SvoBuilder::new(&ctx)
+            .build(&ctx, &unit_grid(16), &tris)
+            .unwrap();
+        assert_eq!(
+            (svo.fragment_count, svo.node_count, svo.brick_count),
+            (0, 1, 0)
+        );
+        let settings = ClipmapSettings {
+            resolution: 8,
+            levels: 2,
+            voxel_size: 0.1,
+        };
+        let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+        let mut timer = PassTimer::new(&ctx);
+        clipmap.update(&ctx, &mut timer, &tris, Vec3::ZERO).unwrap();
+        timer.finish_frame().unwrap();
+        assert!(clipmap.read_voxels(&ctx).unwrap().iter().all(|&v| v == 0));
+    }
+}

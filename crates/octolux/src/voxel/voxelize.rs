@@ -40,7 +40,11 @@ pub fn dispatch_size(n: u32) -> (u32, u32) {
 
 /// Uploads triangles in the GPU layout under `owner`.
 pub fn upload_triangles(ctx: &GpuContext, owner: &str, tris: &[VoxelTriangle]) -> wgpu::Buffer {
-    let gpu: Vec<GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
+    let mut gpu: Vec<GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
+    if gpu.is_empty() {
+        // A binding must hold at least one element; kernels are told the real count.
+        gpu.push(bytemuck::Zeroable::zeroed());
+    }
     ctx.create_buffer_init(
         owner,
         "triangles",
