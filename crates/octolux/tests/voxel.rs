@@ -630,3 +630,85 @@ fn empty_input_gives_empty_structures() {
         assert!(clipmap.read_voxels(&ctx).unwrap().iter().all(|&v| v == 0));
     }
 }
+
+#[test]
+fn clipmap_light_injection_matches_analytic_irradiance_and_shadows() {
+    use octolux::gpu::PassTimer;
+    use octolux::scene::{Light, LightKind};
+    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
+    let ctx = context();
+    // A floor facing +y under a point light, and a small occluder (facing the light) between.
+    let quad = |y: f32, lo: f32, hi: f32, albedo: [u8; 3]| {
+        let (a, b) = (Vec3::new(lo, y, lo), Vec3::new(lo, y, hi));
+        let (c, d) = (Vec3::new(hi, y, hi), Vec3::new(hi, y, lo));
+        vec![tri(a, b, c, albedo), tri(a, c, d, albedo)]
+    };
+    let mut tris = quad(0.3003, 0.05, 0.95, [200, 150, 100]);
+    tris.extend(quad(0.5503, 0.35, 0.5, [255, 255, 255]));
+    let light = Light {
+        name: "point".into(),
+        kind: LightKind::Point,
+        color: Vec3::ONE,
+        intensity: 1.0,
+        position: Vec3::new(0.5, 0.8, 0.5),
+        direction: Vec3::NEG_Y,
+        animation: None,
+    };
+    let settings = ClipmapSettings {
+        resolution: 32,
+        levels: 2,
+        voxel_size: 1.0 / 32.0,
+    };
+    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    clipmap
+        .update(&ctx, &mut timer, &tris, Vec3::splat(0.5))
+        .unwrap();
+    clipmap
+        .inject(&ctx, &mut timer, std::slice::from_ref(&light), 512)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    let voxels = clipmap.read_voxels(&ctx).unwrap();
+    let radiance = clipmap.read_radiance(&ctx).unwrap();
+    let r = settings.resolution as i32;
+    let origin = clipmap.origins[0].unwrap();
+    let at = |x: f32, z: f32| {
+        // The level-0 floor voxel under (x, z).
+        let g = glam::IVec3::new(
+            (x * 32.0) as i32,
+            (0.3003f32 * 32.0) as i32,
+            (z * 32.0) as i32,
+        );
+        assert!(g.cmpge(origin).all() && g.cmplt(origin + r).all());
+        let m = g.rem_euclid(glam::IVec3::splat(r));
+        let slot = (m.x + r * (m.y + r * m.z)) as usize;
+        let p = (g.as_vec3() + 0.5) / 32.0;
+        (voxels[slot], radiance[slot], p)
+    };
+    let mut lit = 0;
+    for (x, z) in [(0.75, 0.75), (0.62, 0.8), (0.8, 0.3), (0.3, 0.8)] {
+        let (word, got, p) = at(x, z);
+        let albedo = Vec3::new(
+            (word & 255) as f32,
+            ((word >> 8) & 255) as f32,
+            ((word >> 16) & 255) as f32,
+        ) / 255.0;
+        let d = light.position - p;
+        let want = albedo / std::f32::consts::PI * (d.normalize().y / d.length_squared());
+        let err = ((got.truncate() - want).abs() / want).max_element();
+        assert!(err < 0.01, "lit voxel at {p}: {got} vs {want}");
+        assert_eq!(got.w, 1.0);
+        lit += 1;
+    }
+    assert_eq!(lit, 4);
+    // Under the occluder (its shadow on the floor spans about 0.2..0.5 in x and z).
+    for (x, z) in [(0.3, 0.3), (0.4, 0.35), (0.33, 0.45)] {
+        let (_, got, p) = at(x, z);
+        let d = light.position - p;
+        let open = 0.8 / std::f32::consts::PI * (d.normalize().y / d.length_squared());
+        assert!(
+            got.x < 0.1 * open,
+            "shadowed voxel at {p}: {got} (unshadowed about {open})"
+        );
+    }
+}

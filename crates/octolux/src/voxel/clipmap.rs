@@ -132,6 +132,12 @@ pub struct Clipmap {
     pub origins: Vec<Option<IVec3>>,
     /// The voxels: `levels * resolution^3` RGBA8 words, level after level, toroidal.
     pub voxels: wgpu::Buffer,
+    /// Averaged unit normal per voxel (snorm8 x3), same layout as `voxels`.
+    pub normals: wgpu::Buffer,
+    /// Injected radiance (RGBA16F: radiance, opacity; 2 words per voxel slot), once
+    /// [`Clipmap::inject`] has run.
+    pub radiance: Option<wgpu::Buffer>,
+    inject: Option<wgpu::ComputePipeline>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
@@ -163,12 +169,21 @@ impl Clipmap {
                 mapped_at_creation: false,
             },
         );
+        let normals = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("normals"),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
         let accum_voxels = ACCUM_VOXELS.min(res * res * res).max(res * res);
         let accum = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("accumulation scratch"),
-                size: accum_voxels * 16,
+                size: accum_voxels * 32,
                 usage,
                 mapped_at_creation: false,
             },
@@ -188,6 +203,9 @@ impl Clipmap {
             settings,
             origins: vec![None; settings.levels as usize],
             voxels,
+            normals,
+            radiance: None,
+            inject: None,
             accum,
             written,
             accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
@@ -266,7 +284,7 @@ impl Clipmap {
         let triangles = upload_triangles(ctx, OWNER, tris);
         let res = self.settings.resolution as u64;
         let slice = (res * res).max(1);
-        let max_depth = (self.accum.size() / 16 / slice).max(1) as i32;
+        let max_depth = (self.accum.size() / 32 / slice).max(1) as i32;
         let mut item_bytes = 0u64;
         for b in boxes {
             let mut z = b.lo.z;
@@ -332,6 +350,7 @@ impl Clipmap {
                         (3, &self.accum),
                         (4, &self.voxels),
                         (5, &self.written),
+                        (6, &self.normals),
                     ],
                 );
                 dispatch(
@@ -345,6 +364,130 @@ impl Clipmap {
         }
         ctx.ledger.record(OWNER, "work items", item_bytes);
         Ok(())
+    }
+
+    /// Injects direct light: every occupied voxel gets outgoing radiance albedo / pi x the
+    /// irradiance from `lights` (point, spot, directional), with visibility found by marching
+    /// the clipmap's own opacity towards each light (at most `max_steps` samples, half a voxel
+    /// of the voxel's level apart, per ray). Writes [`Clipmap::radiance`]; the pass is `clipmap inject`.
+    pub fn inject(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        lights: &[crate::scene::Light],
+        max_steps: u32,
+    ) -> Result<()> {
+        let mut gpu: Vec<[f32; 12]> = lights
+            .iter()
+            .map(|l| {
+                let (kind, inner, outer) = match l.kind {
+                    crate::scene::LightKind::Point => (0.0, 1.0, -1.0),
+                    crate::scene::LightKind::Spot {
+                        inner_angle,
+                        outer_angle,
+                    } => (1.0, inner_angle.cos(), outer_angle.cos()),
+                    crate::scene::LightKind::Directional => (2.0, 1.0, -1.0),
+                };
+                let e = l.radiant();
+                [
+                    l.position.x,
+                    l.position.y,
+                    l.position.z,
+                    kind,
+                    l.direction.x,
+                    l.direction.y,
+                    l.direction.z,
+                    inner,
+                    e.x,
+                    e.y,
+                    e.z,
+                    outer,
+                ]
+            })
+            .collect();
+        let count = gpu.len() as u32;
+        if gpu.is_empty() {
+            gpu.push([0.0; 12]);
+        }
+        let lights_buffer = ctx.create_buffer_init(
+            OWNER,
+            "inject lights",
+            bytemuck::cast_slice(&gpu),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let res = self.settings.resolution as u64;
+        let slots = (self.settings.levels as u64 * res * res * res) as u32;
+        let params = ctx.create_buffer_init(
+            OWNER,
+            "inject params",
+            bytemuck::cast_slice(&[count, max_steps.clamp(1, 4096), slots, 0]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let info = ctx.create_buffer_init(
+            OWNER,
+            "inject info",
+            bytemuck::bytes_of(&super::sample::ClipInfo::new(&self.settings, &self.origins)),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let radiance = match self.radiance.take() {
+            Some(r) => r,
+            None => ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some("radiance"),
+                    size: slots as u64 * 8,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            ),
+        };
+        let pipeline = match &self.inject {
+            Some(p) => p.clone(),
+            None => {
+                let source = format!(
+                    "{}\n{}",
+                    super::sample::CLIPMAP_SAMPLE_WGSL,
+                    include_str!("inject.wgsl")
+                );
+                let module = ctx.shader("clipmap inject", &source);
+                let p = ctx.compute_pipeline("clipmap inject", &module, "inject");
+                self.inject = Some(p.clone());
+                p
+            }
+        };
+        let group = bind_buffers(
+            ctx,
+            &pipeline,
+            &[
+                (0, &info),
+                (1, &self.voxels),
+                (2, &self.normals),
+                (3, &lights_buffer),
+                (4, &radiance),
+                (5, &params),
+            ],
+        );
+        dispatch(timer, "clipmap inject", &pipeline, &group, slots);
+        self.radiance = Some(radiance);
+        Ok(())
+    }
+
+    /// Reads the injected radiance back: per voxel slot (layout of `voxels`), RGB radiance
+    /// and opacity. Empty before [`Clipmap::inject`]. Blocks.
+    pub fn read_radiance(&self, ctx: &GpuContext) -> Result<Vec<glam::Vec4>> {
+        let Some(radiance) = &self.radiance else {
+            return Ok(Vec::new());
+        };
+        let bytes = read_buffer(ctx, radiance, 0, radiance.size())?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok(words
+            .chunks_exact(2)
+            .map(|w| {
+                let a = super::svo::unpack_half2(w[0]);
+                let b = super::svo::unpack_half2(w[1]);
+                glam::Vec4::new(a[0], a[1], b[0], b[1])
+            })
+            .collect())
     }
 
     /// Voxels written by all updates so far (read from the GPU counter). Blocks.

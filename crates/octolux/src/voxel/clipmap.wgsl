@@ -10,6 +10,13 @@
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> voxels: array<u32>;
 @group(0) @binding(5) var<storage, read_write> written: array<atomic<u32>>;
+// Per voxel: averaged unit normal, snorm8 x3 (same slots as `voxels`).
+@group(0) @binding(6) var<storage, read_write> normals: array<u32>;
+
+// Sign-extended byte `i` of a packed snorm8 word, in units of 1/127.
+fn snorm_byte(w: u32, i: u32) -> i32 {
+    return (bitcast<i32>(w << (24u - 8u * i))) >> 24u;
+}
 
 fn box_size() -> vec3<u32> {
     return vec3<u32>(P.hi.xyz - P.lo.xyz);
@@ -35,11 +42,16 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         let cell = nth_cell(range, i);
         if tri_box_overlap(a, b, c, cell) {
             let l = vec3<u32>(cell - P.lo.xyz);
-            let k = 4u * (l.x + size.x * (l.y + size.y * l.z));
+            let k = 8u * (l.x + size.x * (l.y + size.y * l.z));
             atomicAdd(&accum[k], albedo & 255u);
             atomicAdd(&accum[k + 1u], (albedo >> 8u) & 255u);
             atomicAdd(&accum[k + 2u], (albedo >> 16u) & 255u);
             atomicAdd(&accum[k + 3u], 1u);
+            // Signed normal sums: two's-complement addition wraps the same way as unsigned.
+            let nb = bitcast<u32>(tri.p1.w);
+            atomicAdd(&accum[k + 4u], bitcast<u32>(snorm_byte(nb, 0u)));
+            atomicAdd(&accum[k + 5u], bitcast<u32>(snorm_byte(nb, 1u)));
+            atomicAdd(&accum[k + 6u], bitcast<u32>(snorm_byte(nb, 2u)));
         }
     }
 }
@@ -53,11 +65,14 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
         return;
     }
     let l = vec3<u32>(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
-    let k = 4u * i;
+    let k = 8u * i;
     let count = atomicExchange(&accum[k + 3u], 0u);
     let r = atomicExchange(&accum[k], 0u);
     let g = atomicExchange(&accum[k + 1u], 0u);
     let b = atomicExchange(&accum[k + 2u], 0u);
+    let n = vec3<f32>(vec3<i32>(bitcast<i32>(atomicExchange(&accum[k + 4u], 0u)),
+                                bitcast<i32>(atomicExchange(&accum[k + 5u], 0u)),
+                                bitcast<i32>(atomicExchange(&accum[k + 6u], 0u))));
     var value = 0u;
     if count > 0u {
         let half = count / 2u;
@@ -67,6 +82,12 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
     let res = i32(P.misc.z);
     let cell = P.lo.xyz + vec3<i32>(l);
     let m = vec3<u32>(((cell % res) + res) % res);
-    voxels[P.misc.y + m.x + P.misc.z * (m.y + P.misc.z * m.z)] = value;
+    let slot = P.misc.y + m.x + P.misc.z * (m.y + P.misc.z * m.z);
+    voxels[slot] = value;
+    var packed_normal = 0u;
+    if dot(n, n) > 0.0 {
+        packed_normal = pack4x8snorm(vec4<f32>(normalize(n), 0.0));
+    }
+    normals[slot] = packed_normal;
     atomicAdd(&written[0], 1u);
 }
