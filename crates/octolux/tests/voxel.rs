@@ -701,6 +701,31 @@ fn clipmap_light_injection_matches_analytic_irradiance_and_shadows() {
         lit += 1;
     }
     assert_eq!(lit, 4);
+    // Filtered radiance through the sampling interface: GPU equals the CPU twin.
+    let info = octolux::voxel::sample::ClipInfo::new(&clipmap.settings, &clipmap.origins);
+    let mut rng = Rng(4242);
+    let points: Vec<glam::Vec4> = (0..200)
+        .map(|i| {
+            let p = rng.vec(0.1, 0.9);
+            Vec3::new(p.x, 0.25 + 0.1 * p.y, p.z).extend([0.03, 0.05, 0.08][i % 3])
+        })
+        .collect();
+    let gpu = octolux::voxel::debug::probe(
+        &ctx,
+        octolux::voxel::debug::Structure::ClipmapRadiance(&clipmap),
+        &points,
+    )
+    .unwrap();
+    let mut nonzero = 0;
+    for (q, g) in points.iter().zip(&gpu) {
+        let c = octolux::voxel::sample::clip_radiance_sample(&info, &radiance, q.truncate(), q.w);
+        assert!(
+            (*g - c).abs().max_element() < 1e-3,
+            "radiance at {q}: GPU {g} CPU {c}"
+        );
+        nonzero += (c.x > 0.0) as u32;
+    }
+    assert!(nonzero > 20);
     // Under the occluder (its shadow on the floor spans about 0.2..0.5 in x and z).
     for (x, z) in [(0.3, 0.3), (0.4, 0.35), (0.33, 0.45)] {
         let (_, got, p) = at(x, z);

@@ -5,7 +5,9 @@
 //! surfaces stay apart), so a person can check that the structure matches the scene.
 
 use super::clipmap::Clipmap;
-use super::sample::{ClipInfo, SvoInfo, CLIPMAP_SAMPLE_WGSL, SVO_SAMPLE_WGSL};
+use super::sample::{
+    ClipInfo, SvoInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL, SVO_SAMPLE_WGSL,
+};
 use super::svo::Svo;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::scene::CameraView;
@@ -17,8 +19,10 @@ use glam::{Vec3, Vec4};
 pub enum Structure<'a> {
     /// A sparse voxel octree.
     Svo(&'a Svo),
-    /// A clipmap.
+    /// A clipmap (albedo).
     Clipmap(&'a Clipmap),
+    /// A clipmap's injected radiance ([`Clipmap::inject`] must have run).
+    ClipmapRadiance(&'a Clipmap),
 }
 
 const SVO_HEADER: &str = "
@@ -30,6 +34,13 @@ const SVO_HEADER: &str = "
 @group(0) @binding(10) var<storage, read> svo_bricks3: array<u32>;
 @group(0) @binding(7) var<storage, read> svo_brick_index: array<u32>;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return svo_sample(p, footprint); }
+";
+
+const RADIANCE_HEADER: &str = "
+@group(0) @binding(1) var<uniform> clip_info: ClipInfo;
+@group(0) @binding(2) var<storage, read> clip_voxels: array<u32>;
+@group(0) @binding(3) var<storage, read> clip_radiance: array<u32>;
+fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_radiance_sample(p, footprint); }
 ";
 
 const CLIP_HEADER: &str = "
@@ -50,10 +61,23 @@ struct ViewBlock {
 }
 
 impl Structure<'_> {
+    fn ready(&self) -> Result<()> {
+        match self {
+            Structure::ClipmapRadiance(c) if c.radiance.is_none() => Err(Error::InvalidArgument(
+                "the clipmap has no radiance yet: run Clipmap::inject first".into(),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     fn source(&self) -> String {
         let (functions, header) = match self {
-            Structure::Svo(_) => (SVO_SAMPLE_WGSL, SVO_HEADER),
-            Structure::Clipmap(_) => (CLIPMAP_SAMPLE_WGSL, CLIP_HEADER),
+            Structure::Svo(_) => (SVO_SAMPLE_WGSL.to_string(), SVO_HEADER),
+            Structure::Clipmap(_) => (CLIPMAP_SAMPLE_WGSL.to_string(), CLIP_HEADER),
+            Structure::ClipmapRadiance(_) => (
+                format!("{CLIPMAP_SAMPLE_WGSL}\n{CLIPMAP_RADIANCE_WGSL}"),
+                RADIANCE_HEADER,
+            ),
         };
         format!("{functions}\n{header}\n{}", include_str!("debug.wgsl"))
     }
@@ -63,7 +87,7 @@ impl Structure<'_> {
             Structure::Svo(svo) => {
                 bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)).to_vec()
             }
-            Structure::Clipmap(c) => {
+            Structure::Clipmap(c) | Structure::ClipmapRadiance(c) => {
                 bytemuck::bytes_of(&ClipInfo::new(&c.settings, &c.origins)).to_vec()
             }
         };
@@ -80,7 +104,7 @@ impl Structure<'_> {
                     g.origin + Vec3::splat(g.voxel_size * g.resolution as f32),
                 )
             }
-            Structure::Clipmap(c) => {
+            Structure::Clipmap(c) | Structure::ClipmapRadiance(c) => {
                 let l = c.settings.levels - 1;
                 let v = c.settings.level_voxel(l);
                 let o = c.origins[l as usize].unwrap_or_default().as_vec3() * v;
@@ -103,7 +127,7 @@ impl Structure<'_> {
                 }
                 Ok(svo.grid.voxel_size * (1u32 << (depth - 1 - level)) as f32)
             }
-            Structure::Clipmap(c) => {
+            Structure::Clipmap(c) | Structure::ClipmapRadiance(c) => {
                 if level >= c.settings.levels {
                     return Err(Error::InvalidArgument(format!(
                         "level {level}: the clipmap has levels 0 to {}",
@@ -133,6 +157,12 @@ impl Structure<'_> {
                 buffers.push((7, &svo.brick_index));
             }
             Structure::Clipmap(c) => buffers.push((2, &c.voxels)),
+            Structure::ClipmapRadiance(c) => {
+                // `clip_voxels` is declared (the albedo functions name it) but not used.
+                if let Some(radiance) = &c.radiance {
+                    buffers.push((3, radiance));
+                }
+            }
         }
         buffers.extend_from_slice(extra);
         super::voxelize::bind_buffers(ctx, pipeline, &buffers)
@@ -152,6 +182,7 @@ fn view_block(misc: [u32; 4], step: [f32; 4]) -> ViewBlock {
 
 /// Samples `structure` at `points` (xyz = position, w = footprint) on the GPU. Blocks.
 pub fn probe(ctx: &GpuContext, structure: Structure, points: &[Vec4]) -> Result<Vec<Vec4>> {
+    structure.ready()?;
     let n = points.len() as u32;
     let module = ctx.shader("voxel probe", &structure.source());
     let pipeline = ctx.compute_pipeline("voxel probe", &module, "probe");
@@ -206,6 +237,7 @@ pub fn render_view(
     if !(footprint.is_finite() && footprint > 0.0) {
         return Err(Error::InvalidArgument(format!("footprint {footprint}")));
     }
+    structure.ready()?;
     let (lo, hi) = structure.bounds();
     let mut block = view_block(
         // lavapipe ends any invocation after 65535 loop iterations; 2048 steps stay far below.
@@ -255,8 +287,10 @@ pub fn render_view(
 pub enum StructureKind {
     /// Sparse voxel octree.
     Svo,
-    /// Clipmap.
+    /// Clipmap (albedo).
     Clipmap,
+    /// Clipmap with light injected from the scene's lights (radiance).
+    ClipmapRadiance,
 }
 
 impl std::str::FromStr for StructureKind {
@@ -265,8 +299,9 @@ impl std::str::FromStr for StructureKind {
         match s {
             "svo" => Ok(StructureKind::Svo),
             "clipmap" => Ok(StructureKind::Clipmap),
+            "clipmap-radiance" => Ok(StructureKind::ClipmapRadiance),
             _ => Err(Error::InvalidArgument(format!(
-                "voxel structure '{s}': expected svo or clipmap"
+                "voxel structure '{s}': expected svo, clipmap or clipmap-radiance"
             ))),
         }
     }
@@ -322,14 +357,21 @@ pub fn render_scene(
             );
             (rgba, summary)
         }
-        StructureKind::Clipmap => {
+        StructureKind::Clipmap | StructureKind::ClipmapRadiance => {
             let settings = matching_clipmap(&grid);
             let mut clipmap = super::clipmap::Clipmap::new(ctx, settings)?;
             let mut timer = PassTimer::new(ctx);
             let centre = (bounds.0 + bounds.1) * 0.5;
             clipmap.update(ctx, &mut timer, &tris, centre)?;
+            if kind == StructureKind::ClipmapRadiance {
+                clipmap.inject(ctx, &mut timer, &frame.lights, 1024)?;
+            }
             let ms: f64 = timer.finish_frame()?.iter().map(|t| t.ms).sum();
-            let s = Structure::Clipmap(&clipmap);
+            let s = if kind == StructureKind::ClipmapRadiance {
+                Structure::ClipmapRadiance(&clipmap)
+            } else {
+                Structure::Clipmap(&clipmap)
+            };
             let footprint = s.level_footprint(level.unwrap_or(0))?;
             let (rgba, _) = render_view(ctx, s, &view, footprint)?;
             let summary = format!(

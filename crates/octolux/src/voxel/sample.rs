@@ -21,6 +21,9 @@ use glam::{IVec3, UVec3, Vec3, Vec4};
 pub const SVO_SAMPLE_WGSL: &str = include_str!("sample_svo.wgsl");
 /// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
 pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
+/// WGSL: `clip_radiance_sample(p, footprint)` over the injected radiance; goes after
+/// [`CLIPMAP_SAMPLE_WGSL`]; the includer also declares `clip_radiance`.
+pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("sample_radiance.wgsl");
 
 /// Uniform block `SvoInfo` of [`SVO_SAMPLE_WGSL`].
 #[repr(C)]
@@ -150,18 +153,42 @@ fn clip_contains(info: &ClipInfo, p: Vec3, l: u32) -> bool {
     g.cmpge(lo).all() && g.cmplt(lo + Vec3::splat(info.misc[0] as f32 - 1.0)).all()
 }
 
-fn clip_sample_level(info: &ClipInfo, voxels: &[u32], p: Vec3, l: u32) -> Vec4 {
+fn clip_sample_level(
+    info: &ClipInfo,
+    p: Vec3,
+    l: u32,
+    fetch: &impl Fn(u32, IVec3) -> Vec4,
+) -> Vec4 {
     let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
     let i0 = g.floor().as_ivec3();
     let f = g - g.floor();
-    trilinear(f, |o| {
-        clip_voxel(voxels, info.misc[0], l, i0 + o.as_ivec3())
-    })
+    trilinear(f, |o| fetch(l, i0 + o.as_ivec3()))
 }
 
 /// CPU twin of `clip_sample`, over voxels read back with
 /// [`super::clipmap::Clipmap::read_voxels`].
 pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
+    clip_sample_with(info, p, footprint, &|l, g| {
+        clip_voxel(voxels, info.misc[0], l, g)
+    })
+}
+
+/// CPU twin of `clip_radiance_sample`, over radiance read back with
+/// [`super::clipmap::Clipmap::read_radiance`].
+pub fn clip_radiance_sample(info: &ClipInfo, radiance: &[Vec4], p: Vec3, footprint: f32) -> Vec4 {
+    let res = info.misc[0];
+    clip_sample_with(info, p, footprint, &|l, g| {
+        let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
+        radiance[(l * res * res * res + m.x + res * (m.y + res * m.z)) as usize]
+    })
+}
+
+fn clip_sample_with(
+    info: &ClipInfo,
+    p: Vec3,
+    footprint: f32,
+    fetch: &impl Fn(u32, IVec3) -> Vec4,
+) -> Vec4 {
     let levels = info.misc[1];
     let lod = (footprint / info.voxel[0])
         .max(1.0)
@@ -174,10 +201,10 @@ pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> 
     if l >= levels {
         return Vec4::ZERO;
     }
-    let a = clip_sample_level(info, voxels, p, l);
+    let a = clip_sample_level(info, p, l, fetch);
     let t = lod - lod.floor();
     if t <= 0.0 || l as f32 > lod.floor() || l + 1 >= levels || !clip_contains(info, p, l + 1) {
         return a;
     }
-    a.lerp(clip_sample_level(info, voxels, p, l + 1), t)
+    a.lerp(clip_sample_level(info, p, l + 1, fetch), t)
 }
