@@ -9,10 +9,11 @@
 //! its full width. Each level is voxelized at its own resolution (per-level voxelization).
 //!
 //! Storage: one `array<u32>` of RGBA8 texels (averaged albedo, opacity 255 where any triangle
-//! touches the voxel), level after level. Moving objects: revoxelise the boxes that their old
-//! and new bounds touch ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller
-//! decides what moved. Light injection and anisotropic (6-direction) voxels are not
-//! implemented.
+//! touches the voxel), level after level, and the averaged normals in the same layout.
+//! [`Clipmap::inject`] adds RGBA16F radiance (direct light, visibility by voxel shadow rays).
+//! Moving objects: revoxelise the boxes that their old and new bounds touch
+//! ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller decides what moved.
+//! Anisotropic (6-direction) voxels are not implemented.
 
 use super::voxelize::{bind_buffers, dispatch, upload_triangles, work_items, OVERLAP_WGSL};
 use super::VoxelTriangle;
@@ -213,10 +214,11 @@ impl Clipmap {
         })
     }
 
-    /// Bytes the clipmap keeps on the GPU (the voxels; the accumulation scratch is reported
-    /// separately in the ledger).
+    /// Bytes the clipmap keeps on the GPU: albedo/opacity and normals (4 + 4 bytes per voxel)
+    /// and, once light has been injected, radiance (8 bytes per voxel). The accumulation
+    /// scratch is reported separately in the ledger.
     pub fn bytes(&self) -> u64 {
-        self.voxels.size()
+        self.voxels.size() + self.normals.size() + self.radiance.as_ref().map_or(0, |r| r.size())
     }
 
     /// Brings every level to the camera position `camera`, revoxelising only the voxels the

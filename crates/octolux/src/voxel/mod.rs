@@ -14,8 +14,9 @@
 //! - [`cpu`]: CPU reference implementations the tests compare the GPU with.
 //! - [`debug`]: a ray-marched view of the stored albedo.
 //!
-//! What is stored: premultiplied albedo and opacity (RGBA). Light injection into voxel radiance
-//! is not done yet (see `docs/voxels.md`).
+//! What is stored: premultiplied albedo and opacity (RGBA) in both structures; the clipmap can
+//! also inject direct light into voxel radiance ([`clipmap::Clipmap::inject`]). The octree
+//! has no light injection yet (see `docs/voxels.md`).
 
 pub mod clipmap;
 pub mod cpu;

@@ -3,8 +3,9 @@
 //! shaders ([`SVO_SAMPLE_WGSL`], [`CLIPMAP_SAMPLE_WGSL`]), with the uniform blocks it reads
 //! ([`SvoInfo`], [`ClipInfo`]) and CPU twins ([`svo_sample`], [`clip_sample`]) for tests.
 //!
-//! Both return premultiplied RGB and opacity. Until light is injected the RGB is albedo; once
-//! radiance is stored the same functions return filtered radiance.
+//! Both return premultiplied RGB and opacity; the RGB is albedo. For the clipmap,
+//! `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU twin [`clip_radiance_sample`]) returns
+//! the injected radiance the same way.
 //!
 //! - Octree: the level whose lattice spacing matches the footprint (quadrilinear between two
 //!   levels), trilinear inside the brick of the node containing `p`; zero where no node exists.
