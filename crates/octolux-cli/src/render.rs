@@ -63,6 +63,21 @@ pub struct RenderArgs {
     /// Technique settings.
     #[command(flatten)]
     pub gi_args: GiArgs,
+    /// What to show: `shaded` (the rendered image) or `voxels` (the voxel structure's albedo,
+    /// ray-marched; see --voxel-structure, --voxel-res and --level).
+    #[arg(long, default_value = "shaded")]
+    pub view: String,
+    /// Structure shown by `--view voxels`: `svo` or `clipmap`.
+    #[arg(long, default_value = "svo")]
+    pub voxel_structure: String,
+    /// Voxel resolution of `--view voxels` (the octree's grid; the clipmap's finest voxel
+    /// matches it).
+    #[arg(long, default_value_t = 128)]
+    pub voxel_res: u32,
+    /// Level sampled by `--view voxels` (octree: 0 = root; clipmap: 0 = finest). Default: the
+    /// finest.
+    #[arg(long)]
+    pub level: Option<u32>,
 }
 
 impl RenderArgs {
@@ -234,6 +249,32 @@ fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+fn run_voxel_view(args: &RenderArgs, scene: &Scene) -> Result<()> {
+    use octolux::voxel::debug;
+    if !args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!("{}: --view voxels writes a .png", args.out.display());
+    }
+    let ctx = GpuContext::new(&gpu_options(args.adapter.as_deref(), args.no_timestamps))?;
+    let (rgb, summary) = debug::render_scene(
+        &ctx,
+        scene,
+        args.time,
+        args.camera,
+        args.width,
+        args.height,
+        args.voxel_structure.parse()?,
+        args.voxel_res,
+        args.level,
+    )?;
+    write_rgb8_png(&args.out, args.width, args.height, rgb)?;
+    println!("{summary} -> {}", args.out.display());
+    Ok(())
+}
+
 /// Loads the scene named on the command line (default: the built-in Cornell box) and the GI
 /// settings of its scene file, with the command-line flags applied on top.
 pub fn load_scene(path: Option<&Path>, flags: &GiArgs) -> Result<(Scene, GiSettings)> {
@@ -323,6 +364,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         check_output(path)?;
     }
     let (scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
+    match args.view.as_str() {
+        "shaded" => {}
+        "voxels" => return run_voxel_view(args, &scene),
+        other => bail!("--view {other}: expected shaded or voxels"),
+    }
     if args.gi == "reference" {
         return run_reference(args, &scene);
     }

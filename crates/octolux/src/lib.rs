@@ -17,5 +17,6 @@ pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod voxel;
 
 pub use error::{Error, Result};

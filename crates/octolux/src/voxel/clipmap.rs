@@ -1,0 +1,570 @@
+//! Voxel clipmap (Arnebäck 2017, chapter 4): `levels` dense volumes of equal resolution
+//! `resolution`^3 around the camera, level `l` with voxels of `voxel_size * 2^l`, so each level
+//! covers twice the extent of the one inside it.
+//!
+//! Addressing is toroidal: the voxel at integer world-voxel coordinates `g` of a level lives in
+//! slot `g mod resolution`, so a level that follows the camera keeps every voxel it still
+//! covers where it is; [`Clipmap::update`] revoxelises only the slabs that camera motion
+//! exposes (at most three boxes per level), and a level is rebuilt whole only when it moves by
+//! its full width. Each level is voxelized at its own resolution (per-level voxelization).
+//!
+//! Storage: one `array<u32>` of RGBA8 texels (averaged albedo, opacity 255 where any triangle
+//! touches the voxel), level after level, and the averaged normals in the same layout.
+//! [`Clipmap::inject`] adds RGBA16F radiance (direct light, visibility by voxel shadow rays).
+//! Moving objects: revoxelise the boxes that their old and new bounds touch
+//! ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller decides what moved.
+//! Anisotropic (6-direction) voxels are not implemented.
+
+use super::voxelize::{bind_buffers, dispatch, upload_triangles, work_items, OVERLAP_WGSL};
+use super::VoxelTriangle;
+use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::{Error, Result};
+use glam::{IVec3, Vec3};
+
+/// Ledger owner of the clipmap's buffers.
+pub const OWNER: &str = "clipmap";
+/// Voxels the accumulation scratch holds; larger update boxes are processed in z slices.
+const ACCUM_VOXELS: u64 = 1 << 21;
+
+/// Clipmap dimensions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipmapSettings {
+    /// Voxels per axis of every level (a power of two, 4..=512).
+    pub resolution: u32,
+    /// Number of levels (1..=8).
+    pub levels: u32,
+    /// Voxel edge of the finest level (m).
+    pub voxel_size: f32,
+}
+
+impl ClipmapSettings {
+    /// Checks the settings.
+    pub fn validate(&self) -> Result<()> {
+        if !(4..=512).contains(&self.resolution) || !self.resolution.is_power_of_two() {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap resolution {}: must be a power of two from 4 to 512",
+                self.resolution
+            )));
+        }
+        if !(1..=8).contains(&self.levels) {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap levels {}: must be 1 to 8",
+                self.levels
+            )));
+        }
+        if !(self.voxel_size.is_finite() && self.voxel_size > 0.0) {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap voxel size {}: must be positive",
+                self.voxel_size
+            )));
+        }
+        Ok(())
+    }
+
+    /// Voxel edge of level `l`.
+    pub fn level_voxel(&self, l: u32) -> f32 {
+        self.voxel_size * (1u32 << l) as f32
+    }
+
+    /// First voxel (world-voxel coordinates of level `l`) of the level centred on `camera`.
+    pub fn level_origin(&self, l: u32, camera: Vec3) -> IVec3 {
+        (camera / self.level_voxel(l)).floor().as_ivec3() - IVec3::splat(self.resolution as i32 / 2)
+    }
+}
+
+/// One box of voxels `[lo, hi)` of one level that an update revoxelised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UpdateBox {
+    /// Level.
+    pub level: u32,
+    /// First voxel (world-voxel coordinates of the level).
+    pub lo: IVec3,
+    /// One past the last voxel.
+    pub hi: IVec3,
+}
+
+impl UpdateBox {
+    /// Voxels in the box.
+    pub fn volume(&self) -> u64 {
+        let s = (self.hi - self.lo).max(IVec3::ZERO);
+        s.x as u64 * s.y as u64 * s.z as u64
+    }
+}
+
+/// The boxes of voxels in the level `[new, new + res)` that `[old, old + res)` did not cover:
+/// one slab per axis the level moved along, each excluding the slabs before it (disjoint).
+pub fn exposed_boxes(level: u32, old: Option<IVec3>, new: IVec3, res: i32) -> Vec<UpdateBox> {
+    let whole = UpdateBox {
+        level,
+        lo: new,
+        hi: new + IVec3::splat(res),
+    };
+    let Some(old) = old else {
+        return vec![whole];
+    };
+    let delta = new - old;
+    if delta.abs().max_element() >= res {
+        return vec![whole];
+    }
+    let mut out = Vec::new();
+    let mut rest = whole;
+    for a in 0..3 {
+        let d = delta[a];
+        if d > 0 {
+            let mut slab = rest;
+            slab.lo[a] = old[a] + res;
+            rest.hi[a] = old[a] + res;
+            out.push(slab);
+        } else if d < 0 {
+            let mut slab = rest;
+            slab.hi[a] = old[a];
+            rest.lo[a] = old[a];
+            out.push(slab);
+        }
+    }
+    out
+}
+
+/// A voxel clipmap on the GPU.
+pub struct Clipmap {
+    /// Dimensions.
+    pub settings: ClipmapSettings,
+    /// Per level, the first voxel it covers (world-voxel coordinates), once updated.
+    pub origins: Vec<Option<IVec3>>,
+    /// The voxels: `levels * resolution^3` RGBA8 words, level after level, toroidal.
+    pub voxels: wgpu::Buffer,
+    /// Averaged unit normal per voxel (snorm8 x3), same layout as `voxels`.
+    pub normals: wgpu::Buffer,
+    /// Injected radiance (RGBA16F: radiance, opacity; 2 words per voxel slot), once
+    /// [`Clipmap::inject`] has run.
+    pub radiance: Option<wgpu::Buffer>,
+    inject: Option<wgpu::ComputePipeline>,
+    accum: wgpu::Buffer,
+    written: wgpu::Buffer,
+    accumulate: wgpu::ComputePipeline,
+    resolve: wgpu::ComputePipeline,
+}
+
+impl Clipmap {
+    /// Allocates an empty clipmap.
+    pub fn new(ctx: &GpuContext, settings: ClipmapSettings) -> Result<Clipmap> {
+        settings.validate()?;
+        let res = settings.resolution as u64;
+        let bytes = settings.levels as u64 * res * res * res * 4;
+        if bytes > ctx.device.limits().max_storage_buffer_binding_size {
+            return Err(Error::InvalidArgument(format!(
+                "a clipmap of {} levels of {}^3 needs {bytes} bytes, more than this GPU can \
+                 bind",
+                settings.levels, settings.resolution
+            )));
+        }
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let voxels = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("voxels"),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let normals = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("normals"),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let accum_voxels = ACCUM_VOXELS.min(res * res * res).max(res * res);
+        let accum = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("accumulation scratch"),
+                size: accum_voxels * 32,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let written = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("written counter"),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("clipmap.wgsl"));
+        let module = ctx.shader("clipmap", &source);
+        Ok(Clipmap {
+            settings,
+            origins: vec![None; settings.levels as usize],
+            voxels,
+            normals,
+            radiance: None,
+            inject: None,
+            accum,
+            written,
+            accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
+            resolve: ctx.compute_pipeline("clipmap resolve", &module, "resolve"),
+        })
+    }
+
+    /// Bytes the clipmap keeps on the GPU: albedo/opacity and normals (4 + 4 bytes per voxel)
+    /// and, once light has been injected, radiance (8 bytes per voxel). The accumulation
+    /// scratch is reported separately in the ledger.
+    pub fn bytes(&self) -> u64 {
+        self.voxels.size() + self.normals.size() + self.radiance.as_ref().map_or(0, |r| r.size())
+    }
+
+    /// Brings every level to the camera position `camera`, revoxelising only the voxels the
+    /// levels did not cover before (everything on the first call). Passes are recorded into
+    /// `timer` as `clipmap L<l>`. Returns the boxes revoxelised.
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        tris: &[VoxelTriangle],
+        camera: Vec3,
+    ) -> Result<Vec<UpdateBox>> {
+        if !camera.is_finite() {
+            return Err(Error::InvalidArgument(format!("camera position {camera}")));
+        }
+        let res = self.settings.resolution as i32;
+        let mut boxes = Vec::new();
+        for l in 0..self.settings.levels {
+            let new = self.settings.level_origin(l, camera);
+            boxes.extend(exposed_boxes(l, self.origins[l as usize], new, res));
+            self.origins[l as usize] = Some(new);
+        }
+        self.revoxelise(ctx, timer, tris, &boxes)?;
+        Ok(boxes)
+    }
+
+    /// The boxes of every level that cover the world-space box `[lo, hi]` (with one voxel of
+    /// margin, since touching counts), clipped to each level's current extent. For a moving
+    /// object, revoxelise the boxes of its old and of its new bounds.
+    pub fn boxes_touching(&self, lo: Vec3, hi: Vec3) -> Vec<UpdateBox> {
+        let res = IVec3::splat(self.settings.resolution as i32);
+        let mut out = Vec::new();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return out;
+        }
+        for (l, origin) in self.origins.iter().enumerate() {
+            let Some(origin) = *origin else { continue };
+            let v = self.settings.level_voxel(l as u32);
+            let first = ((lo / v).floor().as_ivec3() - IVec3::ONE).max(origin);
+            let end = ((hi / v).floor().as_ivec3() + IVec3::splat(2)).min(origin + res);
+            let b = UpdateBox {
+                level: l as u32,
+                lo: first,
+                hi: end,
+            };
+            if (end - first).cmpgt(IVec3::ZERO).all() {
+                out.push(b);
+            }
+        }
+        out
+    }
+
+    /// Revoxelises the given boxes (each inside its level's current extent), for example the
+    /// region a moving object left and entered ([`Clipmap::boxes_touching`]).
+    pub fn revoxelise(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        tris: &[VoxelTriangle],
+        boxes: &[UpdateBox],
+    ) -> Result<()> {
+        if boxes.is_empty() {
+            return Ok(());
+        }
+        let triangles = upload_triangles(ctx, OWNER, tris);
+        let res = self.settings.resolution as u64;
+        let slice = (res * res).max(1);
+        let max_depth = (self.accum.size() / 32 / slice).max(1) as i32;
+        let mut item_bytes = 0u64;
+        for b in boxes {
+            let mut z = b.lo.z;
+            while z < b.hi.z {
+                let part = UpdateBox {
+                    level: b.level,
+                    lo: IVec3::new(b.lo.x, b.lo.y, z),
+                    hi: IVec3::new(b.hi.x, b.hi.y, (z + max_depth).min(b.hi.z)),
+                };
+                z = part.hi.z;
+                if part.volume() == 0 {
+                    continue;
+                }
+                let inv = 1.0 / self.settings.level_voxel(part.level);
+                let items = work_items(tris, Vec3::ZERO, inv, part.lo, part.hi);
+                item_bytes = item_bytes.max(items.len() as u64 * 8);
+                let params = super::voxelize::VoxParams {
+                    lo: part.lo.extend(0).to_array(),
+                    hi: part.hi.extend(0).to_array(),
+                    origin: [0.0, 0.0, 0.0, inv],
+                    misc: [
+                        items.len() as u32,
+                        (part.level as u64 * res * res * res) as u32,
+                        res as u32,
+                        0,
+                    ],
+                };
+                let uniform = ctx.create_buffer_init(
+                    OWNER,
+                    "box params",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::UNIFORM,
+                );
+                let items_buffer = ctx.create_buffer_init(
+                    OWNER,
+                    "work items",
+                    bytemuck::cast_slice(&items),
+                    wgpu::BufferUsages::STORAGE,
+                );
+                let name = format!("clipmap L{}", part.level);
+                let group = bind_buffers(
+                    ctx,
+                    &self.accumulate,
+                    &[
+                        (0, &uniform),
+                        (1, &triangles),
+                        (2, &items_buffer),
+                        (3, &self.accum),
+                    ],
+                );
+                dispatch(
+                    timer,
+                    &format!("{name} voxelize"),
+                    &self.accumulate,
+                    &group,
+                    items.len() as u32,
+                );
+                let group = bind_buffers(
+                    ctx,
+                    &self.resolve,
+                    &[
+                        (0, &uniform),
+                        (3, &self.accum),
+                        (4, &self.voxels),
+                        (5, &self.written),
+                        (6, &self.normals),
+                    ],
+                );
+                dispatch(
+                    timer,
+                    &format!("{name} resolve"),
+                    &self.resolve,
+                    &group,
+                    part.volume() as u32,
+                );
+            }
+        }
+        ctx.ledger.record(OWNER, "work items", item_bytes);
+        Ok(())
+    }
+
+    /// Injects direct light: every occupied voxel gets outgoing radiance albedo / pi x the
+    /// irradiance from `lights` (point, spot, directional), with visibility found by marching
+    /// the clipmap's own opacity towards each light (at most `max_steps` samples, half a voxel
+    /// of the voxel's level apart, per ray). Writes [`Clipmap::radiance`]; the pass is `clipmap inject`.
+    pub fn inject(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        lights: &[crate::scene::Light],
+        max_steps: u32,
+    ) -> Result<()> {
+        let mut gpu: Vec<[f32; 12]> = lights
+            .iter()
+            .map(|l| {
+                let (kind, inner, outer) = match l.kind {
+                    crate::scene::LightKind::Point => (0.0, 1.0, -1.0),
+                    crate::scene::LightKind::Spot {
+                        inner_angle,
+                        outer_angle,
+                    } => (1.0, inner_angle.cos(), outer_angle.cos()),
+                    crate::scene::LightKind::Directional => (2.0, 1.0, -1.0),
+                };
+                let e = l.radiant();
+                [
+                    l.position.x,
+                    l.position.y,
+                    l.position.z,
+                    kind,
+                    l.direction.x,
+                    l.direction.y,
+                    l.direction.z,
+                    inner,
+                    e.x,
+                    e.y,
+                    e.z,
+                    outer,
+                ]
+            })
+            .collect();
+        let count = gpu.len() as u32;
+        if gpu.is_empty() {
+            gpu.push([0.0; 12]);
+        }
+        let lights_buffer = ctx.create_buffer_init(
+            OWNER,
+            "inject lights",
+            bytemuck::cast_slice(&gpu),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let res = self.settings.resolution as u64;
+        let slots = (self.settings.levels as u64 * res * res * res) as u32;
+        let params = ctx.create_buffer_init(
+            OWNER,
+            "inject params",
+            bytemuck::cast_slice(&[count, max_steps.clamp(1, 4096), slots, 0]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let info = ctx.create_buffer_init(
+            OWNER,
+            "inject info",
+            bytemuck::bytes_of(&super::sample::ClipInfo::new(&self.settings, &self.origins)),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let radiance = match self.radiance.take() {
+            Some(r) => r,
+            None => ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some("radiance"),
+                    size: slots as u64 * 8,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            ),
+        };
+        let pipeline = match &self.inject {
+            Some(p) => p.clone(),
+            None => {
+                let source = format!(
+                    "{}\n{}",
+                    super::sample::CLIPMAP_SAMPLE_WGSL,
+                    include_str!("inject.wgsl")
+                );
+                let module = ctx.shader("clipmap inject", &source);
+                let p = ctx.compute_pipeline("clipmap inject", &module, "inject");
+                self.inject = Some(p.clone());
+                p
+            }
+        };
+        let group = bind_buffers(
+            ctx,
+            &pipeline,
+            &[
+                (0, &info),
+                (1, &self.voxels),
+                (2, &self.normals),
+                (3, &lights_buffer),
+                (4, &radiance),
+                (5, &params),
+            ],
+        );
+        dispatch(timer, "clipmap inject", &pipeline, &group, slots);
+        self.radiance = Some(radiance);
+        Ok(())
+    }
+
+    /// Reads the injected radiance back: per voxel slot (layout of `voxels`), RGB radiance
+    /// and opacity. Empty before [`Clipmap::inject`]. Blocks.
+    pub fn read_radiance(&self, ctx: &GpuContext) -> Result<Vec<glam::Vec4>> {
+        let Some(radiance) = &self.radiance else {
+            return Ok(Vec::new());
+        };
+        let bytes = read_buffer(ctx, radiance, 0, radiance.size())?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok(words
+            .chunks_exact(2)
+            .map(|w| {
+                let a = super::svo::unpack_half2(w[0]);
+                let b = super::svo::unpack_half2(w[1]);
+                glam::Vec4::new(a[0], a[1], b[0], b[1])
+            })
+            .collect())
+    }
+
+    /// Voxels written by all updates so far (read from the GPU counter). Blocks.
+    pub fn voxels_written(&self, ctx: &GpuContext) -> Result<u32> {
+        let bytes = read_buffer(ctx, &self.written, 0, 4)?;
+        Ok(bytemuck::cast_slice::<u8, u32>(&bytes)[0])
+    }
+
+    /// Reads all voxels back (RGBA8 words, level after level, toroidal order). Blocks.
+    pub fn read_voxels(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        let bytes = read_buffer(ctx, &self.voxels, 0, self.voxels.size())?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exposed_boxes_are_the_new_minus_the_old_region() {
+        let res = 8;
+        let old = IVec3::new(3, -2, 5);
+        for delta in [
+            IVec3::new(2, 0, 0),
+            IVec3::new(-3, 1, 0),
+            IVec3::new(1, -1, 7),
+            IVec3::new(0, 0, 0),
+            IVec3::new(9, 0, 0),
+        ] {
+            let new = old + delta;
+            let boxes = exposed_boxes(0, Some(old), new, res);
+            let inside = |p: IVec3, o: IVec3| p.cmpge(o).all() && p.cmplt(o + res).all();
+            for z in new.z..new.z + res {
+                for y in new.y..new.y + res {
+                    for x in new.x..new.x + res {
+                        let p = IVec3::new(x, y, z);
+                        let hits = boxes
+                            .iter()
+                            .filter(|b| p.cmpge(b.lo).all() && p.cmplt(b.hi).all())
+                            .count();
+                        let exposed = !inside(p, old) || delta.abs().max_element() >= res;
+                        assert_eq!(hits, exposed as usize, "{p} for delta {delta}");
+                    }
+                }
+            }
+        }
+        assert_eq!(exposed_boxes(2, None, old, res).len(), 1);
+    }
+
+    #[test]
+    fn bad_settings_are_rejected() {
+        let ok = ClipmapSettings {
+            resolution: 64,
+            levels: 4,
+            voxel_size: 0.1,
+        };
+        assert!(ok.validate().is_ok());
+        for bad in [
+            ClipmapSettings {
+                resolution: 48,
+                ..ok
+            },
+            ClipmapSettings {
+                resolution: 1024,
+                ..ok
+            },
+            ClipmapSettings { levels: 0, ..ok },
+            ClipmapSettings { levels: 9, ..ok },
+            ClipmapSettings {
+                voxel_size: f32::NAN,
+                ..ok
+            },
+        ] {
+            assert!(matches!(bad.validate(), Err(Error::InvalidArgument(_))));
+        }
+    }
+}

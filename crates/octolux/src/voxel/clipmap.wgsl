@@ -1,0 +1,93 @@
+// Clipmap voxelization of one box of one level: accumulate integer albedo sums and fragment
+// counts per voxel of the box (work items of at most CHUNK voxels), then resolve each voxel of
+// the box into its toroidal slot: RGBA8 (albedo averaged with rounding, opacity 255 when any
+// triangle touches the voxel, all zero otherwise).
+// misc: x = work items, y = first voxel of the level in `voxels`, z = resolution per axis.
+
+@group(0) @binding(0) var<uniform> P: VoxParams;
+@group(0) @binding(1) var<storage, read> tris: array<Tri>;
+@group(0) @binding(2) var<storage, read> items: array<vec2<u32>>;
+@group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> voxels: array<u32>;
+@group(0) @binding(5) var<storage, read_write> written: array<atomic<u32>>;
+// Per voxel: averaged unit normal, snorm8 x3 (same slots as `voxels`).
+@group(0) @binding(6) var<storage, read_write> normals: array<u32>;
+
+// Sign-extended byte `i` of a packed snorm8 word, in units of 1/127.
+fn snorm_byte(w: u32, i: u32) -> i32 {
+    return (bitcast<i32>(w << (24u - 8u * i))) >> 24u;
+}
+
+fn box_size() -> vec3<u32> {
+    return vec3<u32>(P.hi.xyz - P.lo.xyz);
+}
+
+@compute @workgroup_size(64)
+fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    let w = linear_index(wg, nwg, li);
+    if w >= P.misc.x {
+        return;
+    }
+    let t = items[w].x;
+    let tri = tris[t];
+    let a = to_grid(tri.p0.xyz, P.origin);
+    let b = to_grid(tri.p1.xyz, P.origin);
+    let c = to_grid(tri.p2.xyz, P.origin);
+    let range = tri_cells(a, b, c, P.lo.xyz, P.hi.xyz);
+    let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
+    let albedo = bitcast<u32>(tri.p0.w);
+    let size = box_size();
+    for (var i = items[w].y * CHUNK; i < cells; i++) {
+        let cell = nth_cell(range, i);
+        if tri_box_overlap(a, b, c, cell) {
+            let l = vec3<u32>(cell - P.lo.xyz);
+            let k = 8u * (l.x + size.x * (l.y + size.y * l.z));
+            atomicAdd(&accum[k], albedo & 255u);
+            atomicAdd(&accum[k + 1u], (albedo >> 8u) & 255u);
+            atomicAdd(&accum[k + 2u], (albedo >> 16u) & 255u);
+            atomicAdd(&accum[k + 3u], 1u);
+            // Signed normal sums: two's-complement addition wraps the same way as unsigned.
+            let nb = bitcast<u32>(tri.p1.w);
+            atomicAdd(&accum[k + 4u], bitcast<u32>(snorm_byte(nb, 0u)));
+            atomicAdd(&accum[k + 5u], bitcast<u32>(snorm_byte(nb, 1u)));
+            atomicAdd(&accum[k + 6u], bitcast<u32>(snorm_byte(nb, 2u)));
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+           @builtin(local_invocation_index) li: u32) {
+    let i = linear_index(wg, nwg, li);
+    let size = box_size();
+    if i >= size.x * size.y * size.z {
+        return;
+    }
+    let l = vec3<u32>(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
+    let k = 8u * i;
+    let count = atomicExchange(&accum[k + 3u], 0u);
+    let r = atomicExchange(&accum[k], 0u);
+    let g = atomicExchange(&accum[k + 1u], 0u);
+    let b = atomicExchange(&accum[k + 2u], 0u);
+    let n = vec3<f32>(vec3<i32>(bitcast<i32>(atomicExchange(&accum[k + 4u], 0u)),
+                                bitcast<i32>(atomicExchange(&accum[k + 5u], 0u)),
+                                bitcast<i32>(atomicExchange(&accum[k + 6u], 0u))));
+    var value = 0u;
+    if count > 0u {
+        let half = count / 2u;
+        value = ((r + half) / count) | (((g + half) / count) << 8u) | (((b + half) / count) << 16u)
+            | (255u << 24u);
+    }
+    let res = i32(P.misc.z);
+    let cell = P.lo.xyz + vec3<i32>(l);
+    let m = vec3<u32>(((cell % res) + res) % res);
+    let slot = P.misc.y + m.x + P.misc.z * (m.y + P.misc.z * m.z);
+    voxels[slot] = value;
+    var packed_normal = 0u;
+    if dot(n, n) > 0.0 {
+        packed_normal = pack4x8snorm(vec4<f32>(normalize(n), 0.0));
+    }
+    normals[slot] = packed_normal;
+    atomicAdd(&written[0], 1u);
+}

@@ -1,0 +1,355 @@
+//! CPU reference implementations of the voxel kernels, written for clarity; the tests compare
+//! the GPU structures with them.
+
+use super::{VoxelGrid, VoxelTriangle};
+use glam::{IVec3, Vec3, Vec4};
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Grid coordinates of `p`: the same two f32 operations per axis as `to_grid` in WGSL.
+pub fn to_grid(p: Vec3, grid: &VoxelGrid) -> Vec3 {
+    let inv = 1.0 / grid.voxel_size;
+    Vec3::new(
+        (p.x - grid.origin.x) * inv,
+        (p.y - grid.origin.y) * inv,
+        (p.z - grid.origin.z) * inv,
+    )
+}
+
+fn dot3(a: Vec3, b: Vec3) -> f32 {
+    a.x * b.x + a.y * b.y + a.z * b.z
+}
+
+fn separated(axis: Vec3, v: [Vec3; 3]) -> bool {
+    let p = v.map(|v| dot3(axis, v));
+    let r = 0.5 * (axis.x.abs() + axis.y.abs() + axis.z.abs());
+    p[0].min(p[1]).min(p[2]) > r || p[0].max(p[1]).max(p[2]) < -r
+}
+
+fn edge_separates(e: Vec3, v: [Vec3; 3]) -> bool {
+    separated(Vec3::new(0.0, -e.z, e.y), v)
+        || separated(Vec3::new(e.z, 0.0, -e.x), v)
+        || separated(Vec3::new(-e.y, e.x, 0.0), v)
+}
+
+/// Exact overlap of a triangle (grid coordinates) with the closed unit voxel `cell`, by the
+/// separating axis theorem: 3 box normals, the triangle normal and the 9 edge cross products.
+pub fn tri_box_overlap(a: Vec3, b: Vec3, c: Vec3, cell: IVec3) -> bool {
+    let centre = cell.as_vec3() + Vec3::splat(0.5);
+    let v = [a - centre, b - centre, c - centre];
+    let mn = v[0].min(v[1]).min(v[2]);
+    let mx = v[0].max(v[1]).max(v[2]);
+    if mn.cmpgt(Vec3::splat(0.5)).any() || mx.cmplt(Vec3::splat(-0.5)).any() {
+        return false;
+    }
+    let e0 = v[1] - v[0];
+    let e1 = v[2] - v[1];
+    let e2 = v[0] - v[2];
+    let n = Vec3::new(
+        e0.y * e1.z - e0.z * e1.y,
+        e0.z * e1.x - e0.x * e1.z,
+        e0.x * e1.y - e0.y * e1.x,
+    );
+    if separated(n, [v[0]; 3]) {
+        return false;
+    }
+    !(edge_separates(e0, v) || edge_separates(e1, v) || edge_separates(e2, v))
+}
+
+/// The voxel fragment list the GPU voxelizer produces, in the same order: per triangle, the
+/// touched voxels of its bounding box in z, y, x loop order.
+pub fn voxelize(grid: &VoxelGrid, tris: &[VoxelTriangle]) -> Vec<([u32; 3], u32)> {
+    let res = grid.resolution as i32;
+    let mut out = Vec::new();
+    for (t, tri) in tris.iter().enumerate() {
+        let [a, b, c] = tri.positions.map(|p| to_grid(p, grid));
+        let big = Vec3::splat(1.0e6);
+        let mn = a.min(b).min(c).clamp(-big, big);
+        let mx = a.max(b).max(c).clamp(-big, big);
+        let first = (mn.ceil().as_ivec3() - IVec3::ONE).max(IVec3::ZERO);
+        let last = mx.floor().as_ivec3().min(IVec3::splat(res - 1));
+        for z in first.z..=last.z {
+            for y in first.y..=last.y {
+                for x in first.x..=last.x {
+                    if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
+                        out.push(([x as u32, y as u32, z as u32], t as u32));
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Premultiplied albedo and opacity of every occupied voxel: the mean of the albedo of the
+/// fragments in it (as the GPU computes it: integer sums, then one division), opacity 1.
+pub fn voxel_values(
+    fragments: &[([u32; 3], u32)],
+    tris: &[VoxelTriangle],
+) -> BTreeMap<[u32; 3], Vec4> {
+    let mut sums: BTreeMap<[u32; 3], [u32; 4]> = BTreeMap::new();
+    for &(v, t) in fragments {
+        let s = sums.entry(v).or_default();
+        let albedo = tris[t as usize].albedo;
+        for (i, a) in albedo.iter().enumerate() {
+            s[i] += *a as u32;
+        }
+        s[3] += 1;
+    }
+    sums.into_iter().map(|(v, s)| (v, voxel_value(s))).collect()
+}
+
+/// One voxel's value from its integer sums (r, g, b, count), as the GPU computes it.
+pub fn voxel_value(s: [u32; 4]) -> Vec4 {
+    if s[3] == 0 {
+        return Vec4::ZERO;
+    }
+    let n = s[3] as f32;
+    Vec4::new(
+        s[0] as f32 / n / 255.0,
+        s[1] as f32 / n / 255.0,
+        s[2] as f32 / n / 255.0,
+        1.0,
+    )
+}
+
+/// One level of the reference octree: nodes by coordinates, each with whether it was
+/// subdivided (has 8 children on the next level).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CpuLevel {
+    /// Node coordinates (level `d` has `2^d` nodes per axis) -> subdivided.
+    pub nodes: BTreeMap<[u32; 3], bool>,
+}
+
+/// The reference octree over a `2^depth` voxel grid: level `d` holds nodes of `2^(depth-d)`
+/// voxels; a node is subdivided when it holds a voxel or is one of the 26 neighbours of a node
+/// that does, and a subdivided node gets all 8 children.
+pub fn build_octree(depth: u32, voxels: &BTreeSet<[u32; 3]>) -> Vec<CpuLevel> {
+    let mut levels: Vec<CpuLevel> = Vec::new();
+    let mut existing: BTreeSet<[u32; 3]> = BTreeSet::from([[0, 0, 0]]);
+    for d in 0..depth {
+        let shift = depth - d;
+        let occupied: BTreeSet<[u32; 3]> = voxels.iter().map(|v| v.map(|c| c >> shift)).collect();
+        let mut needed = BTreeSet::new();
+        for o in &occupied {
+            for n in neighbourhood(*o, 1 << d) {
+                if existing.contains(&n) {
+                    needed.insert(n);
+                }
+            }
+        }
+        let leaf = d + 1 == depth;
+        let level = CpuLevel {
+            nodes: existing
+                .iter()
+                .map(|&c| (c, !leaf && needed.contains(&c)))
+                .collect(),
+        };
+        let mut next = BTreeSet::new();
+        for (c, &sub) in &level.nodes {
+            if sub {
+                for o in 0..8u32 {
+                    next.insert([
+                        c[0] * 2 + (o & 1),
+                        c[1] * 2 + ((o >> 1) & 1),
+                        c[2] * 2 + ((o >> 2) & 1),
+                    ]);
+                }
+            }
+        }
+        levels.push(level);
+        existing = next;
+    }
+    levels
+}
+
+/// `c` and its up to 26 neighbours inside `[0, n)^3`.
+pub fn neighbourhood(c: [u32; 3], n: u32) -> Vec<[u32; 3]> {
+    let mut out = Vec::with_capacity(27);
+    for dz in -1i64..=1 {
+        for dy in -1i64..=1 {
+            for dx in -1i64..=1 {
+                let p = [c[0] as i64 + dx, c[1] as i64 + dy, c[2] as i64 + dz];
+                if p.iter().all(|&v| v >= 0 && v < n as i64) {
+                    out.push(p.map(|v| v as u32));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A dense corner-sampled lattice of `size`^3 RGBA values.
+#[derive(Clone, Debug)]
+pub struct Lattice {
+    /// Points per axis.
+    pub size: u32,
+    /// Values, x fastest.
+    pub values: Vec<Vec4>,
+}
+
+impl Lattice {
+    /// The value at integer point `p` (zero outside).
+    pub fn get(&self, p: IVec3) -> Vec4 {
+        let s = self.size as i32;
+        if p.cmplt(IVec3::ZERO).any() || p.cmpge(IVec3::splat(s)).any() {
+            return Vec4::ZERO;
+        }
+        self.values[(p.x + s * (p.y + s * p.z)) as usize]
+    }
+}
+
+/// The corner-sampled lattices of every octree level, finest last. Level `depth - 1` has its
+/// points on voxel corners, each the sum of the touching voxels' values / 8 (empty voxels count
+/// as zero: a box filter of the voxels evaluated at the corners); level `d` has `2^(d+1) + 1`
+/// points per axis, each the separable [1/4 1/2 1/4] filter of the 27 finer points around the
+/// same position.
+pub fn lattices(depth: u32, voxels: &BTreeMap<[u32; 3], Vec4>) -> Vec<Lattice> {
+    let n = 1u32 << depth;
+    let size = n + 1;
+    let mut finest = Lattice {
+        size,
+        values: vec![Vec4::ZERO; (size * size * size) as usize],
+    };
+    for (v, value) in voxels {
+        for o in 0..8u32 {
+            let p = [v[0] + (o & 1), v[1] + ((o >> 1) & 1), v[2] + ((o >> 2) & 1)];
+            finest.values[(p[0] + size * (p[1] + size * p[2])) as usize] += *value / 8.0;
+        }
+    }
+    let mut out = vec![finest];
+    for d in (0..depth - 1).rev() {
+        let fine = &out[0];
+        let size = (1u32 << (d + 1)) + 1;
+        let mut values = vec![Vec4::ZERO; (size * size * size) as usize];
+        for z in 0..size as i32 {
+            for y in 0..size as i32 {
+                for x in 0..size as i32 {
+                    let mut sum = Vec4::ZERO;
+                    for oz in -1..=1 {
+                        for oy in -1..=1 {
+                            for ox in -1..=1 {
+                                let w = weight(ox) * weight(oy) * weight(oz);
+                                sum += fine.get(IVec3::new(2 * x + ox, 2 * y + oy, 2 * z + oz)) * w;
+                            }
+                        }
+                    }
+                    values[(x + size as i32 * (y + size as i32 * z)) as usize] = sum;
+                }
+            }
+        }
+        out.insert(0, Lattice { size, values });
+    }
+    out
+}
+
+/// The voxels of a clipmap whose levels start at `origins` (world-voxel coordinates), in the
+/// GPU's layout (level after level, toroidal slots, RGBA8: albedo averaged with rounding,
+/// alpha 255 where a triangle touches the voxel).
+pub fn clipmap_voxels(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    tris: &[VoxelTriangle],
+) -> Vec<u32> {
+    let res = settings.resolution as i32;
+    let r = res as usize;
+    let mut out = vec![0u32; origins.len() * r * r * r];
+    for (l, &origin) in origins.iter().enumerate() {
+        let inv = 1.0 / settings.level_voxel(l as u32);
+        let mut sums: BTreeMap<[i32; 3], [u32; 4]> = BTreeMap::new();
+        for tri in tris {
+            let [a, b, c] = tri.positions.map(|p| (p - Vec3::ZERO) * inv);
+            let big = Vec3::splat(1.0e6);
+            let mn = a.min(b).min(c).clamp(-big, big);
+            let mx = a.max(b).max(c).clamp(-big, big);
+            let first = (mn.ceil().as_ivec3() - IVec3::ONE).max(origin);
+            let last = mx.floor().as_ivec3().min(origin + IVec3::splat(res - 1));
+            for z in first.z..=last.z {
+                for y in first.y..=last.y {
+                    for x in first.x..=last.x {
+                        if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
+                            let s = sums.entry([x, y, z]).or_default();
+                            for (sum, a) in s.iter_mut().zip(tri.albedo) {
+                                *sum += a as u32;
+                            }
+                            s[3] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        for (g, s) in sums {
+            let half = s[3] / 2;
+            let word = ((s[0] + half) / s[3])
+                | (((s[1] + half) / s[3]) << 8)
+                | (((s[2] + half) / s[3]) << 16)
+                | (255 << 24);
+            let m = IVec3::from(g).rem_euclid(IVec3::splat(res)).as_uvec3();
+            out[l * r * r * r + m.x as usize + r * (m.y as usize + r * m.z as usize)] = word;
+        }
+    }
+    out
+}
+
+fn weight(o: i32) -> f32 {
+    if o == 0 {
+        0.5
+    } else {
+        0.25
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overlap_is_closed_and_exact() {
+        let c = IVec3::new(2, 3, 4);
+        // Touching a corner counts; a hair further does not.
+        let t = |d: f32| {
+            let p = Vec3::new(3.0 + d, 4.0 + d, 5.0 + d);
+            tri_box_overlap(
+                p,
+                p + Vec3::new(1.0, 2.0, 1.0),
+                p + Vec3::new(2.0, 0.5, 1.0),
+                c,
+            )
+        };
+        assert!(t(0.0));
+        assert!(!t(1e-3));
+        // A plane through the box diagonal, whose vertices are all far outside the box.
+        let a = Vec3::new(-10.0, -10.0, 4.5);
+        assert!(tri_box_overlap(
+            a,
+            Vec3::new(20.0, -10.0, 4.5),
+            Vec3::new(-10.0, 20.0, 4.5),
+            c
+        ));
+        // A triangle whose bounding box overlaps but which passes beside the box.
+        assert!(!tri_box_overlap(
+            Vec3::new(0.0, 0.0, 4.5),
+            Vec3::new(3.0, 0.0, 4.5),
+            Vec3::new(0.0, 3.0, 4.5),
+            c
+        ));
+    }
+
+    #[test]
+    fn mip_filter_preserves_a_full_lattice() {
+        let mut voxels = BTreeMap::new();
+        for z in 0..8 {
+            for y in 0..8 {
+                for x in 0..8 {
+                    voxels.insert([x, y, z], Vec4::ONE);
+                }
+            }
+        }
+        let l = lattices(3, &voxels);
+        // Interior points of every level see a full neighbourhood: value 1.
+        assert!((l[2].get(IVec3::splat(4)) - Vec4::ONE).abs().max_element() < 1e-6);
+        assert!((l[1].get(IVec3::splat(2)) - Vec4::ONE).abs().max_element() < 1e-6);
+        assert!((l[0].get(IVec3::splat(1)) - Vec4::ONE).abs().max_element() < 1e-6);
+        // A corner of the grid touches one voxel of eight.
+        assert!((l[2].get(IVec3::ZERO).w - 0.125).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,217 @@
+//! Voxel scene representations that cone tracing, VPL visibility and probe placement stand on
+//! (Arnebäck 2017, chapters 3 and 4):
+//!
+//! - [`voxelize`]: a conservative compute-shader voxelizer (exact triangle/box overlap by the
+//!   separating axis theorem; no geometry shaders), producing a voxel fragment list or filling a
+//!   dense region directly. Deterministic: every accumulation is an integer atomic sum.
+//! - [`svo`]: a sparse voxel octree built level by level on the GPU (flag, subdivide/allocate
+//!   with an atomic counter, neighbour links) with a 3x3x3 corner-sampled brick pool, neighbour
+//!   transfer and bottom-up mipmapping.
+//! - [`clipmap`]: nested levels of equal resolution and doubling extent around the camera with
+//!   toroidal addressing; camera motion revoxelises only the exposed slabs.
+//! - [`sample`]: the common "filtered value at `p` with footprint `d`" interface of both
+//!   structures, as WGSL ([`sample::SAMPLE_WGSL`]) and as a CPU twin for tests.
+//! - [`cpu`]: CPU reference implementations the tests compare the GPU with.
+//! - [`debug`]: a ray-marched view of the stored albedo.
+//!
+//! What is stored: premultiplied albedo and opacity (RGBA) in both structures; the clipmap can
+//! also inject direct light into voxel radiance ([`clipmap::Clipmap::inject`]). The octree
+//! has no light injection yet (see `docs/voxels.md`).
+
+pub mod clipmap;
+pub mod cpu;
+pub mod debug;
+pub mod sample;
+pub mod svo;
+pub mod voxelize;
+
+use crate::scene::{Scene, SceneFrame};
+use crate::{Error, Result};
+use glam::{Vec2, Vec3};
+
+/// Largest grid edge accepted by the voxel structures (1024^3 voxels).
+pub const MAX_RESOLUTION: u32 = 1024;
+
+/// A cubic voxel grid: `resolution`^3 voxels of edge `voxel_size` starting at `origin`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VoxelGrid {
+    /// World position of the corner of voxel (0, 0, 0).
+    pub origin: Vec3,
+    /// Edge length of one voxel (m).
+    pub voxel_size: f32,
+    /// Voxels per axis.
+    pub resolution: u32,
+}
+
+impl VoxelGrid {
+    /// A grid, checking that the resolution is a power of two in `2..=MAX_RESOLUTION` and the
+    /// voxel size is positive and finite.
+    pub fn new(origin: Vec3, voxel_size: f32, resolution: u32) -> Result<VoxelGrid> {
+        check_resolution(resolution)?;
+        if !(voxel_size.is_finite() && voxel_size > 0.0 && origin.is_finite()) {
+            return Err(Error::InvalidArgument(format!(
+                "voxel grid: voxel size {voxel_size} and origin {origin} must be finite, size > 0"
+            )));
+        }
+        Ok(VoxelGrid {
+            origin,
+            voxel_size,
+            resolution,
+        })
+    }
+
+    /// The cube grid of `resolution`^3 voxels enclosing `bounds` with a margin of one voxel
+    /// on every side, so geometry never touches the grid's outer faces.
+    pub fn enclosing(bounds: (Vec3, Vec3), resolution: u32) -> Result<VoxelGrid> {
+        check_resolution(resolution)?;
+        let (lo, hi) = bounds;
+        let extent = (hi - lo).max_element().max(1e-3);
+        let voxel_size = extent / (resolution as f32 - 2.0);
+        let centre = (lo + hi) * 0.5;
+        Self::new(
+            centre - Vec3::splat(voxel_size * resolution as f32 * 0.5),
+            voxel_size,
+            resolution,
+        )
+    }
+
+    /// Octree depth: levels `0..depth()`, the finest holding nodes of 2x2x2 voxels.
+    pub fn depth(&self) -> u32 {
+        self.resolution.trailing_zeros()
+    }
+
+    /// World position to grid coordinates (voxel units).
+    pub fn to_grid(&self, p: Vec3) -> Vec3 {
+        (p - self.origin) / self.voxel_size
+    }
+}
+
+/// Checks a voxel resolution: a power of two in `2..=MAX_RESOLUTION`.
+pub fn check_resolution(resolution: u32) -> Result<()> {
+    if !(2..=MAX_RESOLUTION).contains(&resolution) || !resolution.is_power_of_two() {
+        return Err(Error::InvalidArgument(format!(
+            "voxel resolution {resolution}: must be a power of two from 2 to {MAX_RESOLUTION}"
+        )));
+    }
+    Ok(())
+}
+
+/// One triangle as the voxelizer reads it: world positions and per-triangle surface data.
+/// Albedo is quantised to 8 bits here so that the GPU and the CPU reference average the same
+/// integers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VoxelTriangle {
+    /// World positions.
+    pub positions: [Vec3; 3],
+    /// Linear albedo x 255 (material factor x mean texture colour over the triangle).
+    pub albedo: [u8; 3],
+    /// Unit geometric normal.
+    pub normal: Vec3,
+    /// Emitted radiance, W/(m^2 sr).
+    pub emission: Vec3,
+}
+
+/// GPU layout of [`VoxelTriangle`] (16 words): positions in `xyz`, and in the `w`s the packed
+/// albedo (RGBA8), normal (snorm8x3) and emission red; `extra` holds emission green and blue.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuTriangle {
+    /// Vertex 0 and packed albedo bits.
+    pub p0: [f32; 4],
+    /// Vertex 1 and packed normal bits.
+    pub p1: [f32; 4],
+    /// Vertex 2 and emission red.
+    pub p2: [f32; 4],
+    /// Emission green, blue, unused, unused.
+    pub extra: [f32; 4],
+}
+
+impl VoxelTriangle {
+    /// Packed RGBA8 albedo (alpha 255), red in the low byte.
+    pub fn albedo_bits(&self) -> u32 {
+        self.albedo[0] as u32
+            | (self.albedo[1] as u32) << 8
+            | (self.albedo[2] as u32) << 16
+            | 255 << 24
+    }
+
+    /// The GPU layout.
+    pub fn to_gpu(&self) -> GpuTriangle {
+        let n = self.normal.clamp(Vec3::splat(-1.0), Vec3::splat(1.0)) * 127.0;
+        let normal_bits = (n.x.round() as i32 as u32 & 255)
+            | (n.y.round() as i32 as u32 & 255) << 8
+            | (n.z.round() as i32 as u32 & 255) << 16;
+        let [a, b, c] = self.positions;
+        GpuTriangle {
+            p0: [a.x, a.y, a.z, f32::from_bits(self.albedo_bits())],
+            p1: [b.x, b.y, b.z, f32::from_bits(normal_bits)],
+            p2: [c.x, c.y, c.z, self.emission.x],
+            extra: [self.emission.y, self.emission.z, 0.0, 0.0],
+        }
+    }
+}
+
+/// The scene's triangles at one frame with their voxel surface data. Albedo is the material
+/// factor times the texture averaged over seven points of the triangle (vertices, edge
+/// midpoints and centroid): one colour per triangle, which is what the voxelizer stores.
+pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> {
+    scene
+        .world_triangles(frame)
+        .iter()
+        .map(|t| {
+            let material = scene.materials.get(t.material as usize);
+            let (factor, emission, texture) = match material {
+                Some(m) => (
+                    m.base_color,
+                    m.emission,
+                    m.base_color_texture
+                        .and_then(|i| scene.textures.get(i as usize)),
+                ),
+                None => (Vec3::splat(0.8), Vec3::ZERO, None),
+            };
+            let tex = match texture {
+                Some(tex) => {
+                    let [a, b, c] = t.uvs;
+                    let points: [Vec2; 7] = [
+                        a,
+                        b,
+                        c,
+                        (a + b) * 0.5,
+                        (b + c) * 0.5,
+                        (c + a) * 0.5,
+                        (a + b + c) / 3.0,
+                    ];
+                    points
+                        .iter()
+                        .map(|&uv| tex.sample(uv).truncate())
+                        .sum::<Vec3>()
+                        / 7.0
+                }
+                None => Vec3::ONE,
+            };
+            let albedo = (factor * tex).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
+            let [p0, p1, p2] = t.positions;
+            let normal = (p1 - p0).cross(p2 - p0).normalize_or(t.normals[0]);
+            VoxelTriangle {
+                positions: t.positions,
+                albedo: [
+                    albedo.x.round() as u8,
+                    albedo.y.round() as u8,
+                    albedo.z.round() as u8,
+                ],
+                normal,
+                emission,
+            }
+        })
+        .collect()
+}
+
+/// Packs voxel coordinates (each < 1024) into one word, 10 bits per axis.
+pub fn pack_coord(x: u32, y: u32, z: u32) -> u32 {
+    (x & 1023) | (y & 1023) << 10 | (z & 1023) << 20
+}
+
+/// Inverse of [`pack_coord`].
+pub fn unpack_coord(c: u32) -> [u32; 3] {
+    [c & 1023, (c >> 10) & 1023, (c >> 20) & 1023]
+}

@@ -1,0 +1,211 @@
+//! The common sampling interface of the voxel structures: "filtered value and opacity at
+//! position `p` with footprint `d`", as WGSL that later techniques paste in front of their own
+//! shaders ([`SVO_SAMPLE_WGSL`], [`CLIPMAP_SAMPLE_WGSL`]), with the uniform blocks it reads
+//! ([`SvoInfo`], [`ClipInfo`]) and CPU twins ([`svo_sample`], [`clip_sample`]) for tests.
+//!
+//! Both return premultiplied RGB and opacity; the RGB is albedo. For the clipmap,
+//! `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU twin [`clip_radiance_sample`]) returns
+//! the injected radiance the same way.
+//!
+//! - Octree: the level whose lattice spacing matches the footprint (quadrilinear between two
+//!   levels), trilinear inside the brick of the node containing `p`; zero where no node exists.
+//! - Clipmap: the finest level whose voxel is at least the footprint and which holds `p`'s
+//!   whole trilinear neighbourhood; a level that does not contain `p` is never read.
+
+use super::clipmap::ClipmapSettings;
+use super::svo::SvoCpu;
+use super::VoxelGrid;
+use glam::{IVec3, UVec3, Vec3, Vec4};
+
+/// WGSL: `svo_sample(p, footprint)`; the includer declares `svo_info`, `svo_child`,
+/// `svo_bricks0..3`, `svo_brick_index` (see the file's header).
+pub const SVO_SAMPLE_WGSL: &str = include_str!("sample_svo.wgsl");
+/// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
+pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
+/// WGSL: `clip_radiance_sample(p, footprint)` over the injected radiance; goes after
+/// [`CLIPMAP_SAMPLE_WGSL`]; the includer also declares `clip_radiance`.
+pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("sample_radiance.wgsl");
+
+/// Uniform block `SvoInfo` of [`SVO_SAMPLE_WGSL`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SvoInfo {
+    /// Grid origin (xyz) and voxel size (w).
+    pub origin: [f32; 4],
+    /// Depth, resolution, bricks per pool buffer, unused.
+    pub misc: [u32; 4],
+}
+
+impl SvoInfo {
+    /// The block for an octree over `grid` whose brick pool holds `pool_bricks` bricks per
+    /// buffer ([`super::svo::Svo::pool_bricks`]).
+    pub fn new(grid: &VoxelGrid, pool_bricks: u32) -> SvoInfo {
+        SvoInfo {
+            origin: grid.origin.extend(grid.voxel_size).to_array(),
+            misc: [grid.depth(), grid.resolution, pool_bricks.max(1), 0],
+        }
+    }
+}
+
+/// Uniform block `ClipInfo` of [`CLIPMAP_SAMPLE_WGSL`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ClipInfo {
+    /// Finest voxel size (x).
+    pub voxel: [f32; 4],
+    /// Resolution, levels.
+    pub misc: [u32; 4],
+    /// First voxel of each level.
+    pub origins: [[i32; 4]; 8],
+}
+
+impl ClipInfo {
+    /// The block for a clipmap with these settings and level origins (levels without an
+    /// origin are treated as empty by placing them far away).
+    pub fn new(settings: &ClipmapSettings, origins: &[Option<IVec3>]) -> ClipInfo {
+        let mut o = [[i32::MIN / 2; 4]; 8];
+        for (slot, origin) in o.iter_mut().zip(origins) {
+            if let Some(origin) = origin {
+                *slot = origin.extend(0).to_array();
+            }
+        }
+        ClipInfo {
+            voxel: [settings.voxel_size, 0.0, 0.0, 0.0],
+            misc: [settings.resolution, settings.levels, 0, 0],
+            origins: o,
+        }
+    }
+}
+
+fn trilinear(f: Vec3, mut texel: impl FnMut(UVec3) -> Vec4) -> Vec4 {
+    let mut sum = Vec4::ZERO;
+    for k in 0..8u32 {
+        let o = UVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        let w = Vec3::select(o.cmpeq(UVec3::ONE), f, Vec3::ONE - f);
+        sum += w.x * w.y * w.z * texel(o);
+    }
+    sum
+}
+
+/// CPU twin of `svo_sample_level`: level `d` at grid position `g` (voxel units).
+pub fn svo_sample_level(svo: &SvoCpu, depth: u32, g: Vec3, d: u32) -> Vec4 {
+    let x = g / (1u32 << (depth - 1 - d)) as f32;
+    let size = 1u32 << d;
+    if x.cmplt(Vec3::ZERO).any() || x.cmpgt(Vec3::splat(2.0 * size as f32)).any() {
+        return Vec4::ZERO;
+    }
+    let c = (x * 0.5).as_uvec3().min(UVec3::splat(size - 1));
+    let mut node = 0u32;
+    for l in 0..d {
+        let first = svo.child[node as usize];
+        if first == 0 {
+            return Vec4::ZERO;
+        }
+        let s = d - 1 - l;
+        node = first + ((c.x >> s) & 1) + (((c.y >> s) & 1) << 1) + (((c.z >> s) & 1) << 2);
+    }
+    let b = svo.brick_of[node as usize];
+    if b == 0 {
+        return Vec4::ZERO;
+    }
+    let local = (x - 2.0 * c.as_vec3()).clamp(Vec3::ZERO, Vec3::splat(2.0));
+    let i0 = local.as_uvec3().min(UVec3::ONE);
+    let f = local - i0.as_vec3();
+    let brick = &svo.bricks[b as usize - 1];
+    trilinear(f, |o| {
+        let t = i0 + o;
+        brick[(t.x + 3 * t.y + 9 * t.z) as usize]
+    })
+}
+
+/// CPU twin of `svo_sample`.
+pub fn svo_sample(svo: &SvoCpu, grid: &VoxelGrid, p: Vec3, footprint: f32) -> Vec4 {
+    let depth = grid.depth();
+    let g = (p - grid.origin) / grid.voxel_size;
+    let lod = (footprint / grid.voxel_size)
+        .max(1.0)
+        .log2()
+        .clamp(0.0, (depth - 1) as f32);
+    let fine = depth - 1 - lod.floor() as u32;
+    let t = lod - lod.floor();
+    let a = svo_sample_level(svo, depth, g, fine);
+    if t <= 0.0 || fine == 0 {
+        return a;
+    }
+    a.lerp(svo_sample_level(svo, depth, g, fine - 1), t)
+}
+
+fn clip_voxel(voxels: &[u32], res: u32, l: u32, g: IVec3) -> Vec4 {
+    let r = res as i32;
+    let m = g.rem_euclid(IVec3::splat(r)).as_uvec3();
+    let w = voxels[(l * res * res * res + m.x + res * (m.y + res * m.z)) as usize];
+    Vec4::new(
+        (w & 255) as f32 / 255.0,
+        ((w >> 8) & 255) as f32 / 255.0,
+        ((w >> 16) & 255) as f32 / 255.0,
+        (w >> 24) as f32 / 255.0,
+    )
+}
+
+fn clip_contains(info: &ClipInfo, p: Vec3, l: u32) -> bool {
+    let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
+    let o = info.origins[l as usize];
+    let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
+    g.cmpge(lo).all() && g.cmplt(lo + Vec3::splat(info.misc[0] as f32 - 1.0)).all()
+}
+
+fn clip_sample_level(
+    info: &ClipInfo,
+    p: Vec3,
+    l: u32,
+    fetch: &impl Fn(u32, IVec3) -> Vec4,
+) -> Vec4 {
+    let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
+    let i0 = g.floor().as_ivec3();
+    let f = g - g.floor();
+    trilinear(f, |o| fetch(l, i0 + o.as_ivec3()))
+}
+
+/// CPU twin of `clip_sample`, over voxels read back with
+/// [`super::clipmap::Clipmap::read_voxels`].
+pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
+    clip_sample_with(info, p, footprint, &|l, g| {
+        clip_voxel(voxels, info.misc[0], l, g)
+    })
+}
+
+/// CPU twin of `clip_radiance_sample`, over radiance read back with
+/// [`super::clipmap::Clipmap::read_radiance`].
+pub fn clip_radiance_sample(info: &ClipInfo, radiance: &[Vec4], p: Vec3, footprint: f32) -> Vec4 {
+    let res = info.misc[0];
+    clip_sample_with(info, p, footprint, &|l, g| {
+        let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
+        radiance[(l * res * res * res + m.x + res * (m.y + res * m.z)) as usize]
+    })
+}
+
+fn clip_sample_with(
+    info: &ClipInfo,
+    p: Vec3,
+    footprint: f32,
+    fetch: &impl Fn(u32, IVec3) -> Vec4,
+) -> Vec4 {
+    let levels = info.misc[1];
+    let lod = (footprint / info.voxel[0])
+        .max(1.0)
+        .log2()
+        .clamp(0.0, (levels - 1) as f32);
+    let mut l = lod.floor() as u32;
+    while l < levels && !clip_contains(info, p, l) {
+        l += 1;
+    }
+    if l >= levels {
+        return Vec4::ZERO;
+    }
+    let a = clip_sample_level(info, p, l, fetch);
+    let t = lod - lod.floor();
+    if t <= 0.0 || l as f32 > lod.floor() || l + 1 >= levels || !clip_contains(info, p, l + 1) {
+        return a;
+    }
+    a.lerp(clip_sample_level(info, p, l + 1, fetch), t)
+}

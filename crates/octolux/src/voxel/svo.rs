@@ -1,0 +1,724 @@
+//! Sparse voxel octree with a corner-sampled brick pool, built on the GPU level by level
+//! (Arnebäck 2017 §3.1): flag occupied nodes from the voxel fragments, flag the 26 neighbours
+//! of every occupied node, subdivide flagged nodes (8 children allocated with an atomic
+//! counter), link neighbours; then fill the leaf bricks, transfer between neighbours and mipmap
+//! bottom-up, transferring again on every level.
+//!
+//! Layout (struct-of-arrays, 5 words per node): `child` (first of 8 contiguous children),
+//! `neighbours` (+x, +y, +z on the same level) and `brick_index` (brick + 1, 0 = none). Only
+//! *needed* nodes (occupied or next to an occupied node) get a brick: the others exist because
+//! a sibling is needed, and their lattice is provably all zero. A brick is 3x3x3 RGBA8 texels
+//! (premultiplied albedo, opacity) on the node's corners, edge midpoints, face centres and
+//! centre: 108 bytes. The build accumulates, transfers and filters in an RGBA16F pool (216
+//! bytes per brick) that is converted and released at the end.
+//!
+//! The values define one corner-sampled lattice per level: on the finest level, each lattice
+//! point (a voxel corner) holds the sum of the touching voxels' values / 8; each coarser
+//! level applies the separable [1/4 1/2 1/4] filter ([`super::cpu::lattices`] is the reference).
+//! A brick holds the lattice restricted to its node, so neighbouring bricks agree on their
+//! shared faces, and trilinear interpolation inside a brick is continuous across nodes.
+//!
+//! What is stored is albedo and opacity; light injection into radiance is not implemented yet,
+//! and the octree is rebuilt whole (no static/dynamic split).
+
+use super::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
+use super::{VoxelGrid, VoxelTriangle};
+use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::{Error, Result};
+
+/// Ledger owner of the octree's buffers.
+pub const OWNER: &str = "svo";
+/// Words per brick while building (27 texels x RGBA16F).
+pub const BUILD_BRICK_WORDS: u32 = 54;
+/// Words per brick of the finished pool (27 texels x RGBA8).
+pub const BRICK_WORDS: u32 = 27;
+/// Bytes per node: child, 3 neighbours, brick index.
+pub const NODE_BYTES: u64 = 20;
+const UNIFORM_STRIDE: u64 = 256;
+
+/// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
+const PACK_WGSL: &str = "
+@group(0) @binding(0) var<uniform> count: vec4<u32>;
+@group(0) @binding(1) var<storage, read> wide0: array<u32>;
+@group(0) @binding(2) var<storage, read> wide1: array<u32>;
+@group(0) @binding(3) var<storage, read> wide2: array<u32>;
+@group(0) @binding(4) var<storage, read> wide3: array<u32>;
+@group(0) @binding(5) var<storage, read_write> narrow0: array<u32>;
+@group(0) @binding(6) var<storage, read_write> narrow1: array<u32>;
+@group(0) @binding(7) var<storage, read_write> narrow2: array<u32>;
+@group(0) @binding(8) var<storage, read_write> narrow3: array<u32>;
+@compute @workgroup_size(64)
+fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    if i >= count.x {
+        return;
+    }
+    let b = i / 27u;
+    let t = i % 27u;
+    let slot = b % count.y;
+    let w = slot * 54u + 2u * t;
+    var lo = 0u;
+    var hi = 0u;
+    switch b / count.y {
+        case 0u: { lo = wide0[w]; hi = wide0[w + 1u]; }
+        case 1u: { lo = wide1[w]; hi = wide1[w + 1u]; }
+        case 2u: { lo = wide2[w]; hi = wide2[w + 1u]; }
+        default: { lo = wide3[w]; hi = wide3[w + 1u]; }
+    }
+    let v = clamp(vec4<f32>(unpack2x16float(lo), unpack2x16float(hi)), vec4<f32>(0.0), vec4<f32>(1.0));
+    let n = slot * 27u + t;
+    switch b / count.y {
+        case 0u: { narrow0[n] = pack4x8unorm(v); }
+        case 1u: { narrow1[n] = pack4x8unorm(v); }
+        case 2u: { narrow2[n] = pack4x8unorm(v); }
+        default: { narrow3[n] = pack4x8unorm(v); }
+    }
+}
+";
+const CONTROL_WORDS: u64 = 64;
+/// Word of `control` counting bricks (`BRICK_COUNTER` in `svo.wgsl`).
+const BRICK_COUNTER: usize = 60;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct LevelParams {
+    d: u32,
+    depth: u32,
+    fragments: u32,
+    capacity: u32,
+    pool_bricks: u32,
+    pad: [u32; 3],
+}
+
+/// Most buffers a brick pool is split over (one storage binding each).
+pub const POOLS: u32 = 4;
+
+/// A sparse voxel octree on the GPU.
+pub struct Svo {
+    /// The voxel grid the finest level resolves.
+    pub grid: VoxelGrid,
+    /// Number of nodes (all levels).
+    pub node_count: u32,
+    /// `array<u32>`: first child index, 0 = none.
+    pub child: wgpu::Buffer,
+    /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
+    pub neighbours: wgpu::Buffer,
+    /// The brick pool, split over [`POOLS`] buffers (unused ones are 16-byte placeholders):
+    /// brick `b` is slot `b % pool_bricks` of buffer `b / pool_bricks`, [`BRICK_WORDS`] words
+    /// (27 texels as `pack4x8unorm`).
+    pub bricks: Vec<wgpu::Buffer>,
+    /// Bricks per pool buffer.
+    pub pool_bricks: u32,
+    /// `array<u32>`: per node, its brick index + 1 (0 = no brick, an all-zero lattice).
+    pub brick_index: wgpu::Buffer,
+    /// Number of bricks.
+    pub brick_count: u32,
+    /// Node index range of every level.
+    pub levels: Vec<(u32, u32)>,
+    /// Voxel fragments the octree was built from.
+    pub fragment_count: u32,
+}
+
+/// The octree read back to the CPU (for tests and tools).
+#[derive(Clone, Debug)]
+pub struct SvoCpu {
+    /// First child per node.
+    pub child: Vec<u32>,
+    /// +x, +y, +z neighbours per node.
+    pub neighbours: Vec<[u32; 3]>,
+    /// 27 RGBA texels per brick (texel `i + 3j + 9k`).
+    pub bricks: Vec<[glam::Vec4; 27]>,
+    /// Per node, its brick index + 1 (0 = none).
+    pub brick_of: Vec<u32>,
+    /// Node range per level.
+    pub levels: Vec<(u32, u32)>,
+}
+
+impl SvoCpu {
+    /// The texels of node `n` (zeros when it has no brick).
+    pub fn node_brick(&self, n: u32) -> [glam::Vec4; 27] {
+        match self.brick_of[n as usize] {
+            0 => [glam::Vec4::ZERO; 27],
+            b => self.bricks[b as usize - 1],
+        }
+    }
+
+    /// Coordinates of every node on its level, found by walking down from the root.
+    pub fn coordinates(&self) -> Vec<[u32; 3]> {
+        let mut coords = vec![[0u32; 3]; self.child.len()];
+        for &(start, end) in &self.levels {
+            for n in start..end {
+                let first = self.child[n as usize];
+                if first != 0 {
+                    let c = coords[n as usize];
+                    for o in 0..8u32 {
+                        coords[(first + o) as usize] = [
+                            c[0] * 2 + (o & 1),
+                            c[1] * 2 + ((o >> 1) & 1),
+                            c[2] * 2 + (o >> 2),
+                        ];
+                    }
+                }
+            }
+        }
+        coords
+    }
+}
+
+/// The octree build pipelines.
+pub struct SvoBuilder {
+    voxelizer: Voxelizer,
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
+    pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    pack: wgpu::ComputePipeline,
+    pool_limit: Option<u32>,
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+enum Dispatch {
+    Fragments,
+    Capacity(u32),
+    Level(u32),
+    One,
+}
+
+impl SvoBuilder {
+    /// Compiles the build kernels.
+    pub fn new(ctx: &GpuContext) -> SvoBuilder {
+        let device = &ctx.device;
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(32),
+            },
+            count: None,
+        }];
+        entries.push(storage(1, true));
+        entries.push(storage(2, true));
+        entries.extend((3..=11).map(|b| storage(b, false)));
+        let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("svo"),
+            entries: &entries,
+        });
+        let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("svo args"),
+            entries: &[storage(0, false)],
+        });
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("svo.wgsl"));
+        let module = ctx.shader("svo", &source);
+        let plain = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("svo"),
+            bind_group_layouts: &[Some(&layout0)],
+            immediate_size: 0,
+        });
+        let with_args = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("svo finish level"),
+            bind_group_layouts: &[Some(&layout0), Some(&layout1)],
+            immediate_size: 0,
+        });
+        let mut pipelines = std::collections::HashMap::new();
+        for entry in [
+            "flag_occupied",
+            "flag_needed",
+            "subdivide",
+            "assign_bricks",
+            "finish_level",
+            "leaf_accumulate",
+            "leaf_fill",
+            "transfer_x",
+            "transfer_y",
+            "transfer_z",
+            "mip",
+        ] {
+            let layout = if entry == "finish_level" {
+                &with_args
+            } else {
+                &plain
+            };
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            pipelines.insert(entry, pipeline);
+        }
+        let pack_module = ctx.shader("svo pack", PACK_WGSL);
+        SvoBuilder {
+            pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
+            pool_limit: None,
+            voxelizer: Voxelizer::new(ctx),
+            layout0,
+            layout1,
+            pipelines,
+        }
+    }
+
+    /// Caps the bricks per pool buffer below what the device can bind (tests use this to
+    /// exercise pools split over several buffers).
+    pub fn with_pool_limit(mut self, bricks: u32) -> SvoBuilder {
+        self.pool_limit = Some(bricks.max(1));
+        self
+    }
+
+    /// Voxelizes `tris` into `grid` and builds the octree. Returns the octree and the pass
+    /// times (voxelization, structure, bricks); scratch buffers are released at the end.
+    pub fn build(
+        &self,
+        ctx: &GpuContext,
+        grid: &VoxelGrid,
+        tris: &[VoxelTriangle],
+    ) -> Result<(Svo, Vec<PassTiming>)> {
+        super::check_resolution(grid.resolution)?;
+        if grid.resolution < 4 {
+            return Err(Error::InvalidArgument(
+                "octree resolution must be at least 4".into(),
+            ));
+        }
+        let mut timings = Vec::new();
+        let list = self
+            .voxelizer
+            .fragments(ctx, OWNER, grid, tris, &mut timings)?;
+        let depth = grid.depth();
+        // The neighbour array (3 words per node) is the largest per-node array.
+        let max_nodes = (ctx.device.limits().max_storage_buffer_binding_size / 12)
+            .min(u32::MAX as u64 / 64) as u32;
+        let mut capacity = (list.count as u64 * 4 + 4096).min(max_nodes as u64) as u32;
+        let device_pool = (ctx.device.limits().max_storage_buffer_binding_size
+            / (BUILD_BRICK_WORDS as u64 * 4))
+            .min(u32::MAX as u64 / 64) as u32;
+        let pool_bricks = self
+            .pool_limit
+            .unwrap_or(device_pool)
+            .min(device_pool)
+            .max(1);
+        loop {
+            let attempt =
+                self.build_with(ctx, grid, &list, depth, capacity, pool_bricks, &mut timings)?;
+            match attempt {
+                Some(svo) => {
+                    ctx.ledger.record(OWNER, "fragments", 0);
+                    ctx.ledger.record(OWNER, "triangles", 0);
+                    return Ok((svo, timings));
+                }
+                None if capacity >= max_nodes => {
+                    return Err(Error::InvalidArgument(format!(
+                        "the octree at {}^3 needs more than {max_nodes} nodes, more than this \
+                         GPU can bind; use a lower resolution",
+                        grid.resolution
+                    )))
+                }
+                None => capacity = (capacity as u64 * 2).min(max_nodes as u64) as u32,
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build_with(
+        &self,
+        ctx: &GpuContext,
+        grid: &VoxelGrid,
+        list: &FragmentList,
+        depth: u32,
+        capacity: u32,
+        pool_bricks: u32,
+        timings: &mut Vec<PassTiming>,
+    ) -> Result<Option<Svo>> {
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let scratch = |label: &str, words: u64, usage: wgpu::BufferUsages| {
+            ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: (words * 4).max(16),
+                    usage,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        let cap = capacity as u64;
+        let child = scratch("child (build)", cap, usage);
+        let nbr = scratch("neighbours (build)", cap * 3, usage);
+        let coord = scratch("coordinates (build)", cap, usage);
+        let flags = scratch("flags (build)", cap, usage);
+        let control = scratch("control", CONTROL_WORDS, usage);
+        let args = scratch(
+            "dispatch args",
+            3 * 16,
+            usage | wgpu::BufferUsages::INDIRECT,
+        );
+        let mut init = vec![0u32; CONTROL_WORDS as usize];
+        init[0] = 1; // the root is allocated
+        init[2] = 0;
+        init[3] = 1;
+        ctx.queue
+            .write_buffer(&control, 0, bytemuck::cast_slice(&init));
+        ctx.queue
+            .write_buffer(&args, 0, bytemuck::cast_slice(&[1u32, 1, 1]));
+        let mut params = vec![0u8; UNIFORM_STRIDE as usize * depth as usize];
+        for d in 0..depth {
+            let p = LevelParams {
+                d,
+                depth,
+                fragments: list.count,
+                capacity,
+                pool_bricks,
+                pad: [0; 3],
+            };
+            let at = d as usize * UNIFORM_STRIDE as usize;
+            params[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        let uniform =
+            ctx.create_buffer_init(OWNER, "level params", &params, wgpu::BufferUsages::UNIFORM);
+        // The brick pool is bound in the structure phase too (the layout is shared), so it gets
+        // a placeholder there and its exact size afterwards.
+        let placeholder = scratch("placeholder", 4, usage);
+        let group = |pools: [&wgpu::Buffer; 4]| {
+            let buffers: [&wgpu::Buffer; 11] = [
+                &list.buffer,
+                &list.triangles,
+                &child,
+                &nbr,
+                &coord,
+                &flags,
+                &control,
+                pools[0],
+                pools[1],
+                pools[2],
+                pools[3],
+            ];
+            let mut entries = vec![wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &uniform,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(32),
+                }),
+            }];
+            for (i, b) in buffers.iter().enumerate() {
+                entries.push(wgpu::BindGroupEntry {
+                    binding: i as u32 + 1,
+                    resource: b.as_entire_binding(),
+                });
+            }
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("svo"),
+                layout: &self.layout0,
+                entries: &entries,
+            })
+        };
+        let args_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo args"),
+            layout: &self.layout1,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: args.as_entire_binding(),
+            }],
+        });
+        let mut timer = PassTimer::new(ctx);
+        let structure = group([&placeholder; 4]);
+        let mut steps = Vec::new();
+        for d in 0..depth {
+            steps.push(("flag_occupied", d, Dispatch::Fragments));
+            steps.push(("flag_needed", d, Dispatch::Level(d)));
+            if d + 1 < depth {
+                steps.push(("subdivide", d, Dispatch::Level(d)));
+                steps.push(("finish_level", d, Dispatch::One));
+            }
+        }
+        steps.push(("assign_bricks", 0, Dispatch::Capacity(capacity)));
+        self.record(
+            &mut timer,
+            "svo structure",
+            &structure,
+            &args_group,
+            &args,
+            list.count,
+            &steps,
+        );
+        timings.extend(timer.finish_frame()?);
+        let control_cpu: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &control, 0, CONTROL_WORDS * 4)?).to_vec();
+        if control_cpu[1] != 0 {
+            return Ok(None);
+        }
+        let node_count = control_cpu[0];
+        let brick_count = control_cpu[BRICK_COUNTER];
+        let pools_needed = brick_count.div_ceil(pool_bricks).max(1);
+        if pools_needed > POOLS {
+            return Err(Error::InvalidArgument(format!(
+                "the octree at {}^3 has {node_count} nodes and needs {brick_count} bricks; this \
+                 GPU can bind at most {} ({POOLS} storage bindings of {pool_bricks} RGBA16F \
+                 bricks); use a lower resolution",
+                grid.resolution,
+                POOLS * pool_bricks
+            )));
+        }
+        let levels: Vec<(u32, u32)> = (0..depth as usize)
+            .map(|d| (control_cpu[2 + 2 * d], control_cpu[3 + 2 * d]))
+            .collect();
+        // Pool k holds bricks [k * pool_bricks, (k + 1) * pool_bricks).
+        let pool_sizes: Vec<u64> = (0..POOLS)
+            .map(|k| {
+                (brick_count as u64)
+                    .saturating_sub(k as u64 * pool_bricks as u64)
+                    .min(pool_bricks as u64)
+            })
+            .collect();
+        let make_pools = |label: &str, words: u64| -> Vec<wgpu::Buffer> {
+            pool_sizes
+                .iter()
+                .enumerate()
+                .map(|(k, &bricks)| {
+                    ctx.create_buffer(
+                        OWNER,
+                        &wgpu::BufferDescriptor {
+                            label: Some(&format!("{label} {k}")),
+                            size: (bricks * words * 4).max(16),
+                            usage,
+                            mapped_at_creation: false,
+                        },
+                    )
+                })
+                .collect()
+        };
+        let wide = make_pools("brick pool (build, RGBA16F)", BUILD_BRICK_WORDS as u64);
+        let filling = group([&wide[0], &wide[1], &wide[2], &wide[3]]);
+        let leaf = depth - 1;
+        let mut steps = vec![
+            ("leaf_accumulate", leaf, Dispatch::Fragments),
+            ("leaf_fill", leaf, Dispatch::Level(leaf)),
+        ];
+        for d in (0..depth).rev() {
+            if d != leaf {
+                steps.push(("mip", d, Dispatch::Level(d)));
+            }
+            for t in ["transfer_x", "transfer_y", "transfer_z"] {
+                steps.push((t, d, Dispatch::Level(d)));
+            }
+        }
+        self.record(
+            &mut timer,
+            "svo bricks",
+            &filling,
+            &args_group,
+            &args,
+            list.count,
+            &steps,
+        );
+        // The finished pool: RGBA8, half the size of the build pool.
+        let packed = make_pools("brick pool", BRICK_WORDS as u64);
+        let count = ctx.create_buffer_init(
+            OWNER,
+            "pack params",
+            bytemuck::cast_slice(&[brick_count * 27, pool_bricks, 0, 0]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let pack_group = super::voxelize::bind_buffers(
+            ctx,
+            &self.pack,
+            &[
+                (0, &count),
+                (1, &wide[0]),
+                (2, &wide[1]),
+                (3, &wide[2]),
+                (4, &wide[3]),
+                (5, &packed[0]),
+                (6, &packed[1]),
+                (7, &packed[2]),
+                (8, &packed[3]),
+            ],
+        );
+        super::voxelize::dispatch(
+            &mut timer,
+            "svo pack bricks",
+            &self.pack,
+            &pack_group,
+            brick_count * 27,
+        );
+        // Keep only what the octree needs, at its exact size.
+        let mut exact = |label: &str, words: u64, from: &wgpu::Buffer| {
+            let buffer = ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: (words * 4).max(16),
+                    usage,
+                    mapped_at_creation: false,
+                },
+            );
+            timer.untimed(|encoder| {
+                encoder.copy_buffer_to_buffer(from, 0, &buffer, 0, Some(words * 4))
+            });
+            buffer
+        };
+        let child_exact = exact("child", node_count as u64, &child);
+        let nbr_exact = exact("neighbours", node_count as u64 * 3, &nbr);
+        let brick_index = exact("brick index", node_count as u64, &flags);
+        timings.extend(timer.finish_frame()?);
+        for label in [
+            "child (build)",
+            "neighbours (build)",
+            "coordinates (build)",
+            "flags (build)",
+            "control",
+            "dispatch args",
+            "level params",
+            "placeholder",
+            "pack params",
+        ] {
+            ctx.ledger.record(OWNER, label, 0);
+        }
+        for k in 0..POOLS {
+            ctx.ledger
+                .record(OWNER, &format!("brick pool (build, RGBA16F) {k}"), 0);
+        }
+        Ok(Some(Svo {
+            grid: *grid,
+            node_count,
+            child: child_exact,
+            neighbours: nbr_exact,
+            bricks: packed,
+            pool_bricks,
+            brick_index,
+            brick_count,
+            levels,
+            fragment_count: list.count,
+        }))
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record(
+        &self,
+        timer: &mut PassTimer,
+        name: &str,
+        group: &wgpu::BindGroup,
+        args_group: &wgpu::BindGroup,
+        args: &wgpu::Buffer,
+        fragments: u32,
+        steps: &[(&'static str, u32, Dispatch)],
+    ) {
+        timer.pass(name, |encoder, stamps| {
+            let last = steps.len().saturating_sub(1);
+            for (i, (entry, d, dispatch)) in steps.iter().enumerate() {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(entry),
+                    timestamp_writes: stamps.compute_part(i == 0, i == last),
+                });
+                pass.set_pipeline(&self.pipelines[entry]);
+                pass.set_bind_group(0, group, &[*d * UNIFORM_STRIDE as u32]);
+                match dispatch {
+                    Dispatch::Fragments => {
+                        let (x, y) = dispatch_size(fragments);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
+                    Dispatch::Capacity(n) => {
+                        let (x, y) = dispatch_size(*n);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
+                    Dispatch::Level(level) => {
+                        pass.dispatch_workgroups_indirect(args, *level as u64 * 12);
+                    }
+                    Dispatch::One => {
+                        pass.set_bind_group(1, args_group, &[]);
+                        pass.dispatch_workgroups(1, 1, 1);
+                    }
+                }
+            }
+        });
+    }
+}
+
+impl Svo {
+    /// Bytes the octree keeps on the GPU (nodes + bricks).
+    pub fn bytes(&self) -> u64 {
+        self.node_count as u64 * NODE_BYTES + self.brick_count as u64 * BRICK_WORDS as u64 * 4
+    }
+
+    /// Reads the octree back.
+    pub fn read_back(&self, ctx: &GpuContext) -> Result<SvoCpu> {
+        let n = self.node_count as u64;
+        let child: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &self.child, 0, n * 4)?).to_vec();
+        let nbr: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &self.neighbours, 0, n * 12)?).to_vec();
+        let mut words: Vec<u32> = Vec::new();
+        let mut left = self.brick_count as u64;
+        for pool in &self.bricks {
+            let bricks = left.min(self.pool_bricks as u64);
+            if bricks == 0 {
+                break;
+            }
+            let bytes = read_buffer(ctx, pool, 0, bricks * BRICK_WORDS as u64 * 4)?;
+            words.extend_from_slice(bytemuck::cast_slice(&bytes));
+            left -= bricks;
+        }
+        let brick_of: Vec<u32> =
+            bytemuck::cast_slice(&read_buffer(ctx, &self.brick_index, 0, n * 4)?).to_vec();
+        let bricks = words
+            .chunks_exact(BRICK_WORDS as usize)
+            .map(|b| std::array::from_fn(|t| unpack_unorm8(b[t])))
+            .collect();
+        Ok(SvoCpu {
+            child,
+            neighbours: nbr.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            bricks,
+            brick_of,
+            levels: self.levels.clone(),
+        })
+    }
+}
+
+/// Decodes a `pack4x8unorm` word.
+pub fn unpack_unorm8(w: u32) -> glam::Vec4 {
+    glam::Vec4::new(
+        (w & 255) as f32,
+        ((w >> 8) & 255) as f32,
+        ((w >> 16) & 255) as f32,
+        (w >> 24) as f32,
+    ) / 255.0
+}
+
+/// Decodes a `pack2x16float` word.
+pub fn unpack_half2(w: u32) -> [f32; 2] {
+    [half_to_f32(w as u16), half_to_f32((w >> 16) as u16)]
+}
+
+/// IEEE half to f32.
+pub fn half_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = ((h >> 10) & 31) as i32;
+    let mant = (h & 1023) as f32;
+    sign * match exp {
+        0 => mant * 2f32.powi(-24),
+        31 => {
+            if mant == 0.0 {
+                f32::INFINITY
+            } else {
+                f32::NAN
+            }
+        }
+        e => (1.0 + mant / 1024.0) * 2f32.powi(e - 15),
+    }
+}

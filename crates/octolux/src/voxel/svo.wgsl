@@ -1,0 +1,401 @@
+// Sparse voxel octree, built level by level. Level d has 2^d nodes per axis; the finest level
+// (depth - 1) holds nodes of 2x2x2 voxels. Nodes are struct-of-arrays: `child` (index of the
+// first of 8 contiguous children, 0 = none; the root is never a child) and `nbr` (+x, +y, +z
+// neighbour on the same level, 0 = none). After the structure phase `flags` holds each node's
+// brick index + 1 (0 = no brick: only needed nodes get one). A brick is 27 corner-sampled RGBA
+// texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord` is build scratch.
+
+struct LevelParams {
+    d: u32,
+    depth: u32,
+    fragments: u32,
+    capacity: u32,
+    // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
+    pool_bricks: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> L: LevelParams;
+@group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
+@group(0) @binding(2) var<storage, read> tris: array<Tri>;
+@group(0) @binding(3) var<storage, read_write> child: array<u32>;
+@group(0) @binding(4) var<storage, read_write> nbr: array<u32>;
+@group(0) @binding(5) var<storage, read_write> coord: array<u32>;
+@group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
+// [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d.
+@group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read_write> bricks0: array<atomic<u32>>;
+@group(0) @binding(9) var<storage, read_write> bricks1: array<atomic<u32>>;
+@group(0) @binding(10) var<storage, read_write> bricks2: array<atomic<u32>>;
+@group(0) @binding(11) var<storage, read_write> bricks3: array<atomic<u32>>;
+// Indirect dispatch arguments, 3 words per level (bound only by finish_level).
+@group(1) @binding(0) var<storage, read_write> args: array<u32>;
+
+const INVALID: u32 = 0xffffffffu;
+const BRICK_COUNTER: u32 = 60u;
+const OCCUPIED: u32 = 1u;
+const NEEDED: u32 = 2u;
+
+fn unpack3(c: u32) -> vec3<u32> {
+    return vec3<u32>(c & 1023u, (c >> 10u) & 1023u, (c >> 20u) & 1023u);
+}
+
+fn pack3(c: vec3<u32>) -> u32 {
+    return (c.x & 1023u) | ((c.y & 1023u) << 10u) | ((c.z & 1023u) << 20u);
+}
+
+fn octant_offset(o: u32) -> vec3<u32> {
+    return vec3<u32>(o & 1u, (o >> 1u) & 1u, (o >> 2u) & 1u);
+}
+
+// The node of level d at coordinates c, or INVALID when an ancestor has no children.
+fn find(c: vec3<u32>, d: u32) -> u32 {
+    var node = 0u;
+    for (var l = 0u; l < d; l++) {
+        let first = child[node];
+        if first == 0u {
+            return INVALID;
+        }
+        let s = d - 1u - l;
+        let o = ((c.x >> s) & 1u) | (((c.y >> s) & 1u) << 1u) | (((c.z >> s) & 1u) << 2u);
+        node = first + o;
+    }
+    return node;
+}
+
+// Node of this invocation on level L.d, or INVALID past the level's end.
+fn level_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    let n = atomicLoad(&control[2u + 2u * L.d]) + linear_index(wg, nwg, li);
+    if n >= atomicLoad(&control[3u + 2u * L.d]) {
+        return INVALID;
+    }
+    return n;
+}
+
+// Brick of a node (after assign_bricks), INVALID when it has none.
+fn brick_of(node: u32) -> u32 {
+    return atomicLoad(&flags[node]) - 1u;
+}
+
+// Word i (0..53) of brick b: pool b / pool_bricks, slot b % pool_bricks.
+fn bw_index(b: u32, i: u32) -> u32 {
+    return (b % L.pool_bricks) * 54u + i;
+}
+
+fn bw_load(b: u32, i: u32) -> u32 {
+    let w = bw_index(b, i);
+    switch b / L.pool_bricks {
+        case 0u: { return atomicLoad(&bricks0[w]); }
+        case 1u: { return atomicLoad(&bricks1[w]); }
+        case 2u: { return atomicLoad(&bricks2[w]); }
+        default: { return atomicLoad(&bricks3[w]); }
+    }
+}
+
+fn bw_store(b: u32, i: u32, v: u32) {
+    let w = bw_index(b, i);
+    switch b / L.pool_bricks {
+        case 0u: { atomicStore(&bricks0[w], v); }
+        case 1u: { atomicStore(&bricks1[w], v); }
+        case 2u: { atomicStore(&bricks2[w], v); }
+        default: { atomicStore(&bricks3[w], v); }
+    }
+}
+
+fn bw_add(b: u32, i: u32, v: u32) {
+    let w = bw_index(b, i);
+    switch b / L.pool_bricks {
+        case 0u: { atomicAdd(&bricks0[w], v); }
+        case 1u: { atomicAdd(&bricks1[w], v); }
+        case 2u: { atomicAdd(&bricks2[w], v); }
+        default: { atomicAdd(&bricks3[w], v); }
+    }
+}
+
+fn read_texel(brick: u32, t: u32) -> vec4<f32> {
+    if brick == INVALID {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(unpack2x16float(bw_load(brick, 2u * t)), unpack2x16float(bw_load(brick, 2u * t + 1u)));
+}
+
+fn write_texel(brick: u32, t: u32, v: vec4<f32>) {
+    bw_store(brick, 2u * t, pack2x16float(v.xy));
+    bw_store(brick, 2u * t + 1u, pack2x16float(v.zw));
+}
+
+fn texel_index(i: vec3<u32>) -> u32 {
+    return i.x + 3u * i.y + 9u * i.z;
+}
+
+@compute @workgroup_size(64)
+fn flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) li: u32) {
+    let f = linear_index(wg, nwg, li);
+    if f >= L.fragments {
+        return;
+    }
+    let v = unpack3(fragments[f].x);
+    let n = find(v >> vec3<u32>(L.depth - L.d), L.d);
+    if n != INVALID {
+        atomicOr(&flags[n], OCCUPIED);
+    }
+}
+
+// Neighbour links of every node of the level, and the 26-neighbourhood of occupied nodes.
+@compute @workgroup_size(64)
+fn flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+               @builtin(local_invocation_index) li: u32) {
+    let n = level_node(wg, nwg, li);
+    if n == INVALID {
+        return;
+    }
+    let c = unpack3(coord[n]);
+    let size = 1u << L.d;
+    for (var a = 0u; a < 3u; a++) {
+        var e = vec3<u32>(0u);
+        e[a] = 1u;
+        let cc = c + e;
+        var link = 0u;
+        if cc[a] < size {
+            let m = find(cc, L.d);
+            if m != INVALID {
+                link = m;
+            }
+        }
+        nbr[3u * n + a] = link;
+    }
+    if (atomicLoad(&flags[n]) & OCCUPIED) == 0u {
+        return;
+    }
+    for (var k = 0u; k < 27u; k++) {
+        let o = vec3<i32>(i32(k % 3u), i32((k / 3u) % 3u), i32(k / 9u)) - vec3<i32>(1);
+        let cc = vec3<i32>(c) + o;
+        if any(cc < vec3<i32>(0)) || any(cc >= vec3<i32>(i32(size))) {
+            continue;
+        }
+        let m = find(vec3<u32>(cc), L.d);
+        if m != INVALID {
+            atomicOr(&flags[m], NEEDED);
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+             @builtin(local_invocation_index) li: u32) {
+    let n = level_node(wg, nwg, li);
+    if n == INVALID || (atomicLoad(&flags[n]) & NEEDED) == 0u {
+        return;
+    }
+    let base = atomicAdd(&control[0], 8u);
+    if base + 8u > L.capacity {
+        atomicStore(&control[1], 1u);
+        return;
+    }
+    child[n] = base;
+    let c = unpack3(coord[n]);
+    for (var o = 0u; o < 8u; o++) {
+        coord[base + o] = pack3(c * 2u + octant_offset(o));
+    }
+}
+
+// Records the node range of level d + 1 and its indirect dispatch size.
+@compute @workgroup_size(1)
+fn finish_level() {
+    let start = atomicLoad(&control[3u + 2u * L.d]);
+    let end = min(atomicLoad(&control[0]), L.capacity);
+    atomicStore(&control[2u + 2u * (L.d + 1u)], start);
+    atomicStore(&control[3u + 2u * (L.d + 1u)], end);
+    let groups = (end - start + 63u) / 64u;
+    let x = min(groups, 65535u);
+    args[3u * (L.d + 1u)] = x;
+    args[3u * (L.d + 1u) + 1u] = (groups + 65534u) / 65535u;
+    args[3u * (L.d + 1u) + 2u] = 1u;
+}
+
+// Gives every needed node a brick (the others have an all-zero lattice and need none); the
+// node's flags become its brick index + 1.
+@compute @workgroup_size(64)
+fn assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) li: u32) {
+    let n = linear_index(wg, nwg, li);
+    if n >= min(atomicLoad(&control[0]), L.capacity) {
+        return;
+    }
+    var brick = 0u;
+    if (atomicLoad(&flags[n]) & NEEDED) != 0u {
+        brick = atomicAdd(&control[BRICK_COUNTER], 1u) + 1u;
+    }
+    atomicStore(&flags[n], brick);
+}
+
+// Leaf voxels: integer sums of albedo (x255) and fragment count, in words 0..31 of the leaf's
+// brick, 4 per voxel (octant order).
+@compute @workgroup_size(64)
+fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                   @builtin(local_invocation_index) li: u32) {
+    let f = linear_index(wg, nwg, li);
+    if f >= L.fragments {
+        return;
+    }
+    let frag = fragments[f];
+    let v = unpack3(frag.x);
+    let n = find(v >> vec3<u32>(1u), L.depth - 1u);
+    if n == INVALID {
+        return;
+    }
+    let b = brick_of(n);
+    if b == INVALID {
+        return;
+    }
+    let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
+    let albedo = bitcast<u32>(tris[frag.y].p0.w);
+    let w = o * 4u;
+    bw_add(b, w, albedo & 255u);
+    bw_add(b, w + 1u, (albedo >> 8u) & 255u);
+    bw_add(b, w + 2u, (albedo >> 16u) & 255u);
+    bw_add(b, w + 3u, 1u);
+}
+
+// Leaf bricks: texel (i, j, k) sits on a voxel corner and holds this node's share of the box
+// filter there, the sum of its touching voxels / 8; the neighbour transfer adds the shares of
+// the neighbouring nodes.
+@compute @workgroup_size(64)
+fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+             @builtin(local_invocation_index) li: u32) {
+    let n = level_node(wg, nwg, li);
+    if n == INVALID {
+        return;
+    }
+    let b = brick_of(n);
+    if b == INVALID {
+        return;
+    }
+    var voxels: array<vec4<f32>, 8>;
+    for (var o = 0u; o < 8u; o++) {
+        let w = o * 4u;
+        let count = bw_load(b, w + 3u);
+        if count == 0u {
+            voxels[o] = vec4<f32>(0.0);
+        } else {
+            let c = f32(count);
+            voxels[o] = vec4<f32>(f32(bw_load(b, w)) / c / 255.0,
+                                  f32(bw_load(b, w + 1u)) / c / 255.0,
+                                  f32(bw_load(b, w + 2u)) / c / 255.0, 1.0);
+        }
+    }
+    for (var t = 0u; t < 27u; t++) {
+        let i = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
+        var sum = vec4<f32>(0.0);
+        for (var o = 0u; o < 8u; o++) {
+            let a = octant_offset(o);
+            if all(i >= a) && all(i - a <= vec3<u32>(1u)) {
+                sum += voxels[o] * 0.125;
+            }
+        }
+        write_texel(b, t, sum);
+    }
+}
+
+// Neighbour transfer along one axis: the face shared by a node and its + neighbour gets the
+// sum of both partial values, written to both bricks.
+fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
+    let n = level_node(wg, nwg, li);
+    if n == INVALID {
+        return;
+    }
+    let m = nbr[3u * n + axis];
+    if m == 0u {
+        return;
+    }
+    // A node without a brick has an all-zero lattice: nothing to add or to receive.
+    let bn = brick_of(n);
+    let bm = brick_of(m);
+    if bn == INVALID || bm == INVALID {
+        return;
+    }
+    for (var k = 0u; k < 9u; k++) {
+        var hi = vec3<u32>(0u);
+        var lo = vec3<u32>(0u);
+        let u = (axis + 1u) % 3u;
+        let v = (axis + 2u) % 3u;
+        hi[axis] = 2u;
+        hi[u] = k % 3u;
+        hi[v] = k / 3u;
+        lo[u] = k % 3u;
+        lo[v] = k / 3u;
+        let s = read_texel(bn, texel_index(hi)) + read_texel(bm, texel_index(lo));
+        write_texel(bn, texel_index(hi), s);
+        write_texel(bm, texel_index(lo), s);
+    }
+}
+
+@compute @workgroup_size(64)
+fn transfer_x(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    transfer(wg, nwg, li, 0u);
+}
+
+@compute @workgroup_size(64)
+fn transfer_y(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    transfer(wg, nwg, li, 1u);
+}
+
+@compute @workgroup_size(64)
+fn transfer_z(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    transfer(wg, nwg, li, 2u);
+}
+
+fn tap_weight(o: u32) -> f32 {
+    return select(0.25, 0.5, o == 1u);
+}
+
+// Mipmap: each coarse texel is the separable [1/4 1/2 1/4] filter of the 27 finer texels
+// around it, read from this node's children. A finer texel on this node's boundary is shared
+// with the neighbour node, which adds the same texel when the coarse texel is shared too: its
+// weight is divided by the number of nodes sharing it (inside the grid), and the neighbour transfer that follows
+// sums the shares.
+@compute @workgroup_size(64)
+fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+       @builtin(local_invocation_index) li: u32) {
+    let n = level_node(wg, nwg, li);
+    if n == INVALID {
+        return;
+    }
+    let first = child[n];
+    let bn = brick_of(n);
+    if first == 0u || bn == INVALID {
+        return;
+    }
+    let nc = unpack3(coord[n]);
+    let size = 1u << L.d;
+    for (var t = 0u; t < 27u; t++) {
+        let c = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
+        var sum = vec4<f32>(0.0);
+        for (var k = 0u; k < 27u; k++) {
+            let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+            let f = vec3<i32>(2u * c + o) - vec3<i32>(1);
+            if any(f < vec3<i32>(0)) || any(f > vec3<i32>(4)) {
+                continue;
+            }
+            let a = min(vec3<u32>(f) / 2u, vec3<u32>(1u));
+            let local = vec3<u32>(f) - 2u * a;
+            var w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
+            for (var ax = 0u; ax < 3u; ax++) {
+                // Shared only where a neighbour node exists inside the grid.
+                let inner = (c[ax] == 0u && nc[ax] > 0u) || (c[ax] == 2u && nc[ax] + 1u < size);
+                if inner && o[ax] == 1u {
+                    w *= 0.5;
+                }
+            }
+            let ch = first + a.x + 2u * a.y + 4u * a.z;
+            sum += w * read_texel(brick_of(ch), texel_index(local));
+        }
+        write_texel(bn, t, sum);
+    }
+}

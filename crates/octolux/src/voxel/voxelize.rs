@@ -1,0 +1,296 @@
+//! Conservative voxelization in compute shaders (wgpu has no geometry shaders): one invocation
+//! per triangle visits the voxels of its bounding box and keeps those the triangle touches,
+//! decided by the exact separating-axis triangle/box test (`overlap.wgsl`). Thin poles and
+//! 45-degree planes are therefore never lost, unlike rasterisation-based voxelization.
+//!
+//! [`Voxelizer::fragments`] builds a voxel fragment list whose memory is bounded by a count
+//! pass: the list holds exactly one 8-byte fragment per (triangle, voxel) pair.
+
+use super::{GpuTriangle, VoxelGrid, VoxelTriangle};
+use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::{Error, Result};
+
+/// WGSL shared by every voxelization kernel (triangle layout, overlap test).
+pub const OVERLAP_WGSL: &str = include_str!("overlap.wgsl");
+
+/// Uniform block `VoxParams` of `overlap.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VoxParams {
+    /// First voxel of the region (xyz).
+    pub lo: [i32; 4],
+    /// One past the last voxel of the region (xyz).
+    pub hi: [i32; 4],
+    /// Grid origin (xyz) and 1 / voxel size (w).
+    pub origin: [f32; 4],
+    /// Triangle count, then kernel-specific values.
+    pub misc: [u32; 4],
+}
+
+/// Workgroup counts for `n` invocations of 64-wide workgroups, spread over two dimensions so
+/// that no dimension exceeds the 65535 limit (`linear_index` in `overlap.wgsl` undoes it).
+pub fn dispatch_size(n: u32) -> (u32, u32) {
+    let groups = n.div_ceil(64).max(1);
+    if groups <= 65535 {
+        (groups, 1)
+    } else {
+        (65535, groups.div_ceil(65535))
+    }
+}
+
+/// Uploads triangles in the GPU layout under `owner`.
+pub fn upload_triangles(ctx: &GpuContext, owner: &str, tris: &[VoxelTriangle]) -> wgpu::Buffer {
+    let mut gpu: Vec<GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
+    if gpu.is_empty() {
+        // A binding must hold at least one element; kernels are told the real count.
+        gpu.push(bytemuck::Zeroable::zeroed());
+    }
+    ctx.create_buffer_init(
+        owner,
+        "triangles",
+        bytemuck::cast_slice(&gpu),
+        wgpu::BufferUsages::STORAGE,
+    )
+}
+
+/// Bounding-box voxels one invocation visits (`CHUNK` in `overlap.wgsl`).
+pub const CHUNK: u32 = 4096;
+
+/// Work items (triangle, chunk) covering every triangle's bounding box clipped to the voxel
+/// box `[lo, hi)` of the grid with origin `origin` and voxel size `1 / inv`. The boxes are
+/// computed with one voxel of margin per side, so that they are never smaller than the GPU's
+/// (which may round differently); surplus chunks visit nothing.
+pub fn work_items(
+    tris: &[VoxelTriangle],
+    origin: glam::Vec3,
+    inv: f32,
+    lo: glam::IVec3,
+    hi: glam::IVec3,
+) -> Vec<[u32; 2]> {
+    let mut items = Vec::new();
+    for (t, tri) in tris.iter().enumerate() {
+        let g = tri.positions.map(|p| (p - origin) * inv);
+        let big = glam::Vec3::splat(1.0e6);
+        let mn = g[0].min(g[1]).min(g[2]).clamp(-big, big);
+        let mx = g[0].max(g[1]).max(g[2]).clamp(-big, big);
+        let first = (mn.floor().as_ivec3() - glam::IVec3::splat(2)).max(lo);
+        let last = (mx.floor().as_ivec3() + glam::IVec3::ONE).min(hi - glam::IVec3::ONE);
+        let size = last - first + glam::IVec3::ONE;
+        if size.cmple(glam::IVec3::ZERO).any() {
+            continue;
+        }
+        let cells = size.x as u64 * size.y as u64 * size.z as u64;
+        for chunk in 0..cells.div_ceil(CHUNK as u64) {
+            items.push([t as u32, chunk as u32]);
+        }
+    }
+    items
+}
+
+/// A voxel fragment list on the GPU: `count` fragments of two words, (packed voxel coordinate
+/// as in [`super::pack_coord`], triangle index).
+pub struct FragmentList {
+    /// The fragments (`array<vec2<u32>>`), at least one element long.
+    pub buffer: wgpu::Buffer,
+    /// Number of fragments.
+    pub count: u32,
+    /// The triangles the fragments refer to (`array<Tri>` of `overlap.wgsl`).
+    pub triangles: wgpu::Buffer,
+    /// Number of triangles.
+    pub triangle_count: u32,
+}
+
+/// The fragment-list voxelizer's pipelines.
+pub struct Voxelizer {
+    count: wgpu::ComputePipeline,
+    emit: wgpu::ComputePipeline,
+}
+
+pub(crate) fn bind_buffers(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Records a 2D-spread compute dispatch of `n` invocations as the named pass `name`.
+pub(crate) fn dispatch(
+    timer: &mut PassTimer,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    n: u32,
+) {
+    let (x, y) = dispatch_size(n);
+    timer.pass(name, |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(name),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    });
+}
+
+impl Voxelizer {
+    /// Compiles the voxelization kernels.
+    pub fn new(ctx: &GpuContext) -> Voxelizer {
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("voxelize.wgsl"));
+        let module = ctx.shader("voxelize", &source);
+        Voxelizer {
+            count: ctx.compute_pipeline("voxelize count", &module, "count_fragments"),
+            emit: ctx.compute_pipeline("voxelize emit", &module, "emit_fragments"),
+        }
+    }
+
+    /// Voxelizes `tris` into `grid`: a count pass, a scan of the counts on the CPU (which also
+    /// sizes the list), and an emit pass. Buffers are recorded under `owner`; the pass times
+    /// (`voxelize count`, `voxelize emit`) are appended to `timings`.
+    pub fn fragments(
+        &self,
+        ctx: &GpuContext,
+        owner: &str,
+        grid: &VoxelGrid,
+        tris: &[VoxelTriangle],
+        timings: &mut Vec<PassTiming>,
+    ) -> Result<FragmentList> {
+        let n = u32::try_from(tris.len())
+            .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
+        let res = grid.resolution as i32;
+        let items = work_items(
+            tris,
+            grid.origin,
+            1.0 / grid.voxel_size,
+            glam::IVec3::ZERO,
+            glam::IVec3::splat(res),
+        );
+        let n_items = u32::try_from(items.len())
+            .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
+        let params = VoxParams {
+            lo: [0; 4],
+            hi: [res, res, res, 0],
+            origin: [
+                grid.origin.x,
+                grid.origin.y,
+                grid.origin.z,
+                1.0 / grid.voxel_size,
+            ],
+            misc: [n_items, 0, 0, 0],
+        };
+        let uniform = ctx.create_buffer_init(
+            owner,
+            "voxelize params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let triangles = upload_triangles(ctx, owner, tris);
+        let items_buffer = ctx.create_buffer_init(
+            owner,
+            "work items",
+            bytemuck::cast_slice(&items),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let counts = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("fragment counts"),
+                size: (n_items as u64 * 4).max(16),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let mut timer = PassTimer::new(ctx);
+        let group = bind_buffers(
+            ctx,
+            &self.count,
+            &[
+                (0, &uniform),
+                (1, &triangles),
+                (2, &counts),
+                (4, &items_buffer),
+            ],
+        );
+        dispatch(&mut timer, "voxelize count", &self.count, &group, n_items);
+        timings.extend(timer.finish_frame()?);
+        let bytes = read_buffer(ctx, &counts, 0, n_items as u64 * 4)?;
+        let counts_cpu: &[u32] = bytemuck::cast_slice(&bytes);
+        let mut offsets = Vec::with_capacity(counts_cpu.len());
+        let mut total: u64 = 0;
+        for &c in counts_cpu {
+            offsets.push(total as u32);
+            total += c as u64;
+        }
+        let limit = ctx.device.limits().max_storage_buffer_binding_size / 8;
+        if total > limit.min(u32::MAX as u64) {
+            return Err(Error::InvalidArgument(format!(
+                "voxelizing {} triangles at {}^3 gives {total} fragments, more than this GPU \
+                 can bind ({limit}); use a lower resolution",
+                tris.len(),
+                grid.resolution
+            )));
+        }
+        let buffer = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("fragments"),
+                size: (total * 8).max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        );
+        if n_items > 0 {
+            ctx.queue
+                .write_buffer(&counts, 0, bytemuck::cast_slice(&offsets));
+        }
+        let group = bind_buffers(
+            ctx,
+            &self.emit,
+            &[
+                (0, &uniform),
+                (1, &triangles),
+                (2, &counts),
+                (3, &buffer),
+                (4, &items_buffer),
+            ],
+        );
+        dispatch(&mut timer, "voxelize emit", &self.emit, &group, n_items);
+        timings.extend(timer.finish_frame()?);
+        // The counts are scratch: forget them in the ledger once the list exists.
+        ctx.ledger.record(owner, "fragment counts", 0);
+        ctx.ledger.record(owner, "work items", 0);
+        Ok(FragmentList {
+            buffer,
+            count: total as u32,
+            triangles,
+            triangle_count: n,
+        })
+    }
+}
+
+/// Reads a fragment list back: (voxel coordinate, triangle index) pairs in list order.
+pub fn read_fragments(ctx: &GpuContext, list: &FragmentList) -> Result<Vec<([u32; 3], u32)>> {
+    if list.count == 0 {
+        return Ok(Vec::new());
+    }
+    let bytes = read_buffer(ctx, &list.buffer, 0, list.count as u64 * 8)?;
+    let words: &[u32] = bytemuck::cast_slice(&bytes);
+    Ok(words
+        .chunks_exact(2)
+        .map(|w| (super::unpack_coord(w[0]), w[1]))
+        .collect())
+}
