@@ -258,11 +258,11 @@ fn run_voxel_view(args: &RenderArgs, scene: &Scene) -> Result<()> {
     {
         bail!("{}: --view voxels writes a .png", args.out.display());
     }
-    let ctx = GpuContext::new(&gpu_options(args.adapter.as_deref(), args.no_timestamps))?;
+    let ctx = GpuContext::new(&args.gpu.options())?;
     let (rgb, summary) = debug::render_scene(
         &ctx,
         scene,
-        args.time,
+        args.start_time(),
         args.camera,
         args.width,
         args.height,
