@@ -448,3 +448,45 @@ fn frame_n_of_an_animation_matches_its_time() {
     assert_eq!(read(&by_frame), read(&by_time));
     assert_ne!(read(&by_frame), read(&first), "the scene moves");
 }
+
+#[test]
+fn voxel_debug_view_renders_and_rejects_bad_input() {
+    let dir = temp_dir("voxels");
+    let out = dir.join("voxels.png");
+    let output = octolux(&[
+        "render",
+        "--view",
+        "voxels",
+        "--voxel-res",
+        "32",
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(String::from_utf8_lossy(&output.stdout).contains("octree 32^3"));
+    assert!(std::fs::metadata(&out).unwrap().len() > 100);
+    assert_fails_with(
+        &octolux(&["render", "--view", "voxels", "--out", "v.exr"]),
+        &["v.exr", ".png"],
+    );
+    assert_fails_with(
+        &octolux(&[
+            "render",
+            "--view",
+            "voxels",
+            "--voxel-res",
+            "100000",
+            "--out",
+            out.to_str().unwrap(),
+        ]),
+        &["100000"],
+    );
+}
