@@ -67,7 +67,8 @@ pub struct RenderArgs {
     /// ray-marched; see --voxel-structure, --voxel-res and --level).
     #[arg(long, default_value = "shaded")]
     pub view: String,
-    /// Structure shown by `--view voxels`: `svo` or `clipmap`.
+    /// Structure shown by `--view voxels`: `svo`, `clipmap` or `clipmap-radiance` (the
+    /// clipmap's injected direct radiance).
     #[arg(long, default_value = "svo")]
     pub voxel_structure: String,
     /// Voxel resolution of `--view voxels` (the octree's grid; the clipmap's finest voxel
