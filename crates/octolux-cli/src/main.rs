@@ -32,6 +32,14 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Mesa's Vulkan drivers print "XDG_RUNTIME_DIR is invalid or not set" on every device
+    // creation when it is unset (headless machines, CI), which reads like a failure. Nothing
+    // of ours uses it; point it at the temporary folder before any thread starts.
+    #[cfg(target_os = "linux")]
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        // SAFETY: no other thread exists yet, so nothing can read the environment concurrently.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir()) };
+    }
     let cli = Cli::parse();
     let level = match cli.verbose {
         0 => "warn",
