@@ -45,7 +45,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub against: Option<String>,
     /// Reference sampling (the transport is the one each technique claims, or `--against`).
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Reference path tracer")]
     pub sampling: SamplingArgs,
     /// Write the results as JSON to this file (`-` for standard output).
     #[arg(long)]
@@ -54,10 +54,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// GPU options.
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "GPU")]
     pub gpu: GpuArgs,
     /// Technique settings.
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Technique settings")]
     pub gi_args: GiArgs,
 }
 

@@ -48,37 +48,37 @@ pub struct RenderArgs {
     /// CPU path tracer).
     #[arg(long, default_value = "none")]
     pub gi: String,
-    /// Reference path tracer options (used with `--gi reference`).
-    #[command(flatten)]
-    pub reference: ReferenceArgs,
     /// Which of the scene's cameras to use.
     #[arg(long, default_value_t = 0)]
     pub camera: usize,
     /// Print per-pass times and GPU memory per owner.
     #[arg(long)]
     pub stats: bool,
-    /// GPU options.
-    #[command(flatten)]
-    pub gpu: GpuArgs,
-    /// Technique settings.
-    #[command(flatten)]
-    pub gi_args: GiArgs,
     /// What to show: `shaded` (the rendered image) or `voxels` (the voxel structure's albedo,
     /// ray-marched; see --voxel-structure, --voxel-res and --level).
-    #[arg(long, default_value = "shaded")]
+    #[arg(long, default_value = "shaded", help_heading = "Voxel debug view")]
     pub view: String,
     /// Structure shown by `--view voxels`: `svo`, `clipmap` or `clipmap-radiance` (the
     /// clipmap's injected direct radiance).
-    #[arg(long, default_value = "svo")]
+    #[arg(long, default_value = "svo", help_heading = "Voxel debug view")]
     pub voxel_structure: String,
     /// Voxel resolution of `--view voxels` (the octree's grid; the clipmap's finest voxel
     /// matches it).
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, help_heading = "Voxel debug view")]
     pub voxel_res: u32,
     /// Level sampled by `--view voxels` (octree: 0 = root; clipmap: 0 = finest). Default: the
     /// finest.
-    #[arg(long)]
+    #[arg(long, help_heading = "Voxel debug view")]
     pub level: Option<u32>,
+    /// Reference path tracer options (used with `--gi reference`).
+    #[command(flatten, next_help_heading = "Reference path tracer (--gi reference)")]
+    pub reference: ReferenceArgs,
+    /// GPU options.
+    #[command(flatten, next_help_heading = "GPU")]
+    pub gpu: GpuArgs,
+    /// Technique settings.
+    #[command(flatten, next_help_heading = "Technique settings")]
+    pub gi_args: GiArgs,
 }
 
 impl RenderArgs {
