@@ -44,15 +44,15 @@ pub struct BenchArgs {
     /// (`direct`, a number of bounces, `unlimited`); e.g. `1` to compare GI off and on.
     #[arg(long)]
     pub against: Option<String>,
-    /// Reference sampling (the transport is the one each technique claims, or `--against`).
-    #[command(flatten, next_help_heading = "Reference path tracer")]
-    pub sampling: SamplingArgs,
     /// Write the results as JSON to this file (`-` for standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Write every technique's image and every reference as EXR + PNG into this folder.
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
+    /// Reference sampling (the transport is the one each technique claims, or `--against`).
+    #[command(flatten, next_help_heading = "Reference path tracer")]
+    pub sampling: SamplingArgs,
     /// GPU options.
     #[command(flatten, next_help_heading = "GPU")]
     pub gpu: GpuArgs,
