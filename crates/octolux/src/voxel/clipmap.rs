@@ -13,7 +13,14 @@
 //! [`Clipmap::inject`] adds RGBA16F radiance (direct light, visibility by voxel shadow rays).
 //! Moving objects: revoxelise the boxes that their old and new bounds touch
 //! ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller decides what moved.
-//! Anisotropic (6-direction) voxels are not implemented.
+//!
+//! Options ([`ClipmapOptions`], [`Clipmap::with_options`]): `filtered` rebuilds the voxels of
+//! every coarser level that lie wholly inside the next finer level from the 2x2x2 finer voxels
+//! (opacity = covered fraction, premultiplied colour averaged) after each update, keeping
+//! per-level voxelization only outside the finer level; `anisotropic` (implies `filtered`) adds
+//! 6 directional values per voxel of levels 1 and up ([`Clipmap::aniso`]), composited front to
+//! back from the finer level along each axis. Sampling with blending by distance to a level's
+//! border and with directional values: [`super::clipmap_sample`].
 
 use super::voxelize::{bind_buffers, dispatch, upload_triangles, work_items, OVERLAP_WGSL};
 use super::VoxelTriangle;
@@ -70,6 +77,70 @@ impl ClipmapSettings {
     pub fn level_origin(&self, l: u32, camera: Vec3) -> IVec3 {
         (camera / self.level_voxel(l)).floor().as_ivec3() - IVec3::splat(self.resolution as i32 / 2)
     }
+}
+
+/// How the coarser levels are built (both off by default: per-level voxelization).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ClipmapOptions {
+    /// Rebuild each coarser level's voxels inside the finer level from the finer voxels.
+    pub filtered: bool,
+    /// Keep 6 directional values per voxel of levels 1 and up (implies `filtered`): 24 more
+    /// bytes per voxel of those levels.
+    pub anisotropic: bool,
+}
+
+impl ClipmapOptions {
+    /// Whether coarser levels are filtered from finer ones.
+    pub fn filters(&self) -> bool {
+        self.filtered || self.anisotropic
+    }
+}
+
+/// The voxels of level `level` that lie wholly inside the finer level starting at `fine`
+/// (world-voxel coordinates of level `level - 1`): `[ceil(fine / 2), floor((fine + res) / 2))`.
+pub fn covered_box(level: u32, fine: IVec3, res: i32) -> UpdateBox {
+    UpdateBox {
+        level,
+        lo: (fine + IVec3::ONE).div_euclid(IVec3::splat(2)),
+        hi: (fine + IVec3::splat(res)).div_euclid(IVec3::splat(2)),
+    }
+}
+
+/// `a` minus `b` (same level) as at most 6 disjoint boxes.
+pub fn box_minus(a: UpdateBox, b: UpdateBox) -> Vec<UpdateBox> {
+    let lo = a.lo.max(b.lo);
+    let hi = a.hi.min(b.hi);
+    if a.volume() == 0 {
+        return Vec::new();
+    }
+    if (hi - lo).cmple(IVec3::ZERO).any() {
+        return vec![a];
+    }
+    let mut out = Vec::new();
+    let mut rest = a;
+    for axis in 0..3 {
+        if rest.lo[axis] < lo[axis] {
+            let mut slab = rest;
+            slab.hi[axis] = lo[axis];
+            out.push(slab);
+            rest.lo[axis] = lo[axis];
+        }
+        if rest.hi[axis] > hi[axis] {
+            let mut slab = rest;
+            slab.lo[axis] = hi[axis];
+            out.push(slab);
+            rest.hi[axis] = hi[axis];
+        }
+    }
+    out
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct FilterParams {
+    lo: [i32; 4],
+    hi: [i32; 4],
+    misc: [u32; 4],
 }
 
 /// One box of voxels `[lo, hi)` of one level that an update revoxelised.
@@ -138,6 +209,14 @@ pub struct Clipmap {
     /// Injected radiance (RGBA16F: radiance, opacity; 2 words per voxel slot), once
     /// [`Clipmap::inject`] has run.
     pub radiance: Option<wgpu::Buffer>,
+    /// How coarser levels are built.
+    pub options: ClipmapOptions,
+    /// With [`ClipmapOptions::anisotropic`]: per voxel slot of levels 1 and up (level after
+    /// level from level 1, toroidal), 6 RGBA8 words, for travel along +x, -x, +y, -y, +z, -z.
+    pub aniso: Option<wgpu::Buffer>,
+    filter: wgpu::ComputePipeline,
+    replicate: wgpu::ComputePipeline,
+    no_aniso: wgpu::Buffer,
     inject: Option<wgpu::ComputePipeline>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
@@ -146,8 +225,17 @@ pub struct Clipmap {
 }
 
 impl Clipmap {
-    /// Allocates an empty clipmap.
+    /// Allocates an empty clipmap with per-level voxelization.
     pub fn new(ctx: &GpuContext, settings: ClipmapSettings) -> Result<Clipmap> {
+        Self::with_options(ctx, settings, ClipmapOptions::default())
+    }
+
+    /// Allocates an empty clipmap built as `options` say.
+    pub fn with_options(
+        ctx: &GpuContext,
+        settings: ClipmapSettings,
+        options: ClipmapOptions,
+    ) -> Result<Clipmap> {
         settings.validate()?;
         let res = settings.resolution as u64;
         let bytes = settings.levels as u64 * res * res * res * 4;
@@ -198,14 +286,50 @@ impl Clipmap {
                 mapped_at_creation: false,
             },
         );
+        let aniso_bytes = (settings.levels as u64 - 1) * res * res * res * 24;
+        if options.anisotropic && aniso_bytes > ctx.device.limits().max_storage_buffer_binding_size
+        {
+            return Err(Error::InvalidArgument(format!(
+                "anisotropic voxels for {} levels of {}^3 need {aniso_bytes} bytes, more than \
+                 this GPU can bind",
+                settings.levels, settings.resolution
+            )));
+        }
+        let aniso = (options.anisotropic && aniso_bytes > 0).then(|| {
+            ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some("anisotropic voxels"),
+                    size: aniso_bytes,
+                    usage,
+                    mapped_at_creation: false,
+                },
+            )
+        });
+        let no_aniso = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("no anisotropic voxels"),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
         let source = format!("{OVERLAP_WGSL}\n{}", include_str!("clipmap.wgsl"));
         let module = ctx.shader("clipmap", &source);
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("clipmap_filter.wgsl"));
+        let filter_module = ctx.shader("clipmap filter", &source);
         Ok(Clipmap {
             settings,
             origins: vec![None; settings.levels as usize],
             voxels,
             normals,
             radiance: None,
+            options,
+            aniso,
+            filter: ctx.compute_pipeline("clipmap filter", &filter_module, "filter_level"),
+            replicate: ctx.compute_pipeline("clipmap replicate", &filter_module, "replicate"),
+            no_aniso,
             inject: None,
             accum,
             written,
@@ -214,11 +338,15 @@ impl Clipmap {
         })
     }
 
-    /// Bytes the clipmap keeps on the GPU: albedo/opacity and normals (4 + 4 bytes per voxel)
-    /// and, once light has been injected, radiance (8 bytes per voxel). The accumulation
-    /// scratch is reported separately in the ledger.
+    /// Bytes the clipmap keeps on the GPU: albedo/opacity and normals (4 + 4 bytes per voxel),
+    /// with anisotropic voxels 24 bytes per voxel of levels 1 and up, and, once light has been
+    /// injected, radiance (8 bytes per voxel). The accumulation scratch is reported separately
+    /// in the ledger.
     pub fn bytes(&self) -> u64 {
-        self.voxels.size() + self.normals.size() + self.radiance.as_ref().map_or(0, |r| r.size())
+        self.voxels.size()
+            + self.normals.size()
+            + self.aniso.as_ref().map_or(0, |a| a.size())
+            + self.radiance.as_ref().map_or(0, |r| r.size())
     }
 
     /// Brings every level to the camera position `camera`, revoxelising only the voxels the
@@ -236,10 +364,36 @@ impl Clipmap {
         }
         let res = self.settings.resolution as i32;
         let mut boxes = Vec::new();
+        let old = self.origins.clone();
         for l in 0..self.settings.levels {
             let new = self.settings.level_origin(l, camera);
             boxes.extend(exposed_boxes(l, self.origins[l as usize], new, res));
             self.origins[l as usize] = Some(new);
+        }
+        if self.options.filters() {
+            // Voxels the finer level no longer covers get voxelized on their own again.
+            for l in 1..self.settings.levels as usize {
+                let (Some(was), Some(now), Some(here)) = (old[l - 1], self.origins[l - 1], old[l])
+                else {
+                    continue;
+                };
+                let level = UpdateBox {
+                    level: l as u32,
+                    lo: here.max(self.origins[l].unwrap_or(here)),
+                    hi: (here + IVec3::splat(res))
+                        .min(self.origins[l].unwrap_or(here) + IVec3::splat(res)),
+                };
+                let left = covered_box(l as u32, was, res);
+                let clipped = UpdateBox {
+                    lo: left.lo.max(level.lo),
+                    hi: left.hi.min(level.hi),
+                    ..left
+                };
+                if (clipped.hi - clipped.lo).cmple(IVec3::ZERO).any() {
+                    continue;
+                }
+                boxes.extend(box_minus(clipped, covered_box(l as u32, now, res)));
+            }
         }
         self.revoxelise(ctx, timer, tris, &boxes)?;
         Ok(boxes)
@@ -272,7 +426,8 @@ impl Clipmap {
     }
 
     /// Revoxelises the given boxes (each inside its level's current extent), for example the
-    /// region a moving object left and entered ([`Clipmap::boxes_touching`]).
+    /// region a moving object left and entered ([`Clipmap::boxes_touching`]). A filtered
+    /// clipmap then rebuilds every coarser level's voxels inside the finer level, finest first.
     pub fn revoxelise(
         &self,
         ctx: &GpuContext,
@@ -365,7 +520,76 @@ impl Clipmap {
             }
         }
         ctx.ledger.record(OWNER, "work items", item_bytes);
+        if self.options.filters() {
+            self.filter_levels(ctx, timer, boxes);
+        }
         Ok(())
+    }
+
+    fn filter_pass(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        pipeline: &wgpu::ComputePipeline,
+        name: &str,
+        b: &UpdateBox,
+    ) {
+        if b.volume() == 0 {
+            return;
+        }
+        let params = FilterParams {
+            lo: b.lo.extend(0).to_array(),
+            hi: b.hi.extend(0).to_array(),
+            misc: [
+                b.level,
+                self.settings.resolution,
+                self.aniso.is_some() as u32,
+                0,
+            ],
+        };
+        let uniform = ctx.create_buffer_init(
+            OWNER,
+            "filter params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let aniso = self.aniso.as_ref().unwrap_or(&self.no_aniso);
+        let mut buffers = vec![(0, &uniform), (1, &self.voxels), (3, aniso)];
+        // `replicate` has no normals binding.
+        if std::ptr::eq(pipeline, &self.filter) {
+            buffers.push((2, &self.normals));
+        }
+        let group = bind_buffers(ctx, pipeline, &buffers);
+        dispatch(timer, name, pipeline, &group, b.volume() as u32);
+    }
+
+    /// Directional values of the revoxelised coarse boxes (a copy of the isotropic value),
+    /// then each coarser level's voxels inside the finer level from the finer voxels.
+    fn filter_levels(&self, ctx: &GpuContext, timer: &mut PassTimer, boxes: &[UpdateBox]) {
+        let res = self.settings.resolution as i32;
+        if self.aniso.is_some() {
+            for b in boxes.iter().filter(|b| b.level > 0) {
+                let name = format!("clipmap L{} replicate", b.level);
+                self.filter_pass(ctx, timer, &self.replicate, &name, b);
+            }
+        }
+        for l in 1..self.settings.levels {
+            let (Some(fine), Some(_)) = (self.origins[l as usize - 1], self.origins[l as usize])
+            else {
+                continue;
+            };
+            let name = format!("clipmap L{l} filter");
+            self.filter_pass(ctx, timer, &self.filter, &name, &covered_box(l, fine, res));
+        }
+    }
+
+    /// Reads the directional values back ([`Clipmap::aniso`]; empty without them). Blocks.
+    pub fn read_aniso(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        let Some(aniso) = &self.aniso else {
+            return Ok(Vec::new());
+        };
+        let bytes = read_buffer(ctx, aniso, 0, aniso.size())?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
 
     /// Injects direct light: every occupied voxel gets outgoing radiance albedo / pi x the

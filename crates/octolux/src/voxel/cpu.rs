@@ -290,6 +290,129 @@ pub fn clipmap_voxels(
     out
 }
 
+fn unpack_u8(w: u32) -> [u32; 4] {
+    [w & 255, (w >> 8) & 255, (w >> 16) & 255, w >> 24]
+}
+
+fn pack_u8(v: [u32; 4]) -> u32 {
+    v[0] | (v[1] << 8) | (v[2] << 16) | (v[3] << 24)
+}
+
+fn clip_slot(res: i32, g: IVec3) -> usize {
+    let m = g.rem_euclid(IVec3::splat(res)).as_uvec3();
+    let r = res as u32;
+    (m.x + r * (m.y + r * m.z)) as usize
+}
+
+/// Level filtering of a clipmap (CPU twin of `filter_level` in `clipmap_filter.wgsl`), in
+/// place over voxels in the GPU layout ([`clipmap_voxels`]): level by level from level 1, the
+/// voxels wholly inside the finer level ([`super::clipmap::covered_box`]) become the rounded
+/// mean of their 2x2x2 finer voxels, per premultiplied channel and opacity.
+pub fn clipmap_filter(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    voxels: &mut [u32],
+) {
+    let res = settings.resolution as i32;
+    let n = (res * res * res) as usize;
+    for l in 1..origins.len() {
+        let b = super::clipmap::covered_box(l as u32, origins[l - 1], res);
+        for z in b.lo.z..b.hi.z {
+            for y in b.lo.y..b.hi.y {
+                for x in b.lo.x..b.hi.x {
+                    let c = IVec3::new(x, y, z);
+                    let mut sum = [0u32; 4];
+                    for k in 0..8 {
+                        let o = IVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+                        let v = unpack_u8(voxels[(l - 1) * n + clip_slot(res, 2 * c + o)]);
+                        for (s, v) in sum.iter_mut().zip(v) {
+                            *s += v;
+                        }
+                    }
+                    voxels[l * n + clip_slot(res, c)] = pack_u8(sum.map(|s| (s + 4) / 8));
+                }
+            }
+        }
+    }
+}
+
+/// The directional values of an anisotropic clipmap (CPU twin of `filter_level` and
+/// `replicate` in `clipmap_filter.wgsl`) from its filtered voxels ([`clipmap_filter`]): per
+/// voxel slot of levels 1 and up, 6 RGBA8 words for travel along +x, -x, +y, -y, +z, -z. Inside
+/// the finer level, the two finer voxels met along the direction composited front to back
+/// (rounded integer arithmetic), averaged over the 4 pairs; elsewhere the isotropic value.
+pub fn clipmap_aniso(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    voxels: &[u32],
+) -> Vec<u32> {
+    let res = settings.resolution as i32;
+    let n = (res * res * res) as usize;
+    let levels = origins.len();
+    let mut out = vec![0u32; levels.saturating_sub(1) * n * 6];
+    for l in 1..levels {
+        let covered = super::clipmap::covered_box(l as u32, origins[l - 1], res);
+        let o = origins[l];
+        for z in o.z..o.z + res {
+            for y in o.y..o.y + res {
+                for x in o.x..o.x + res {
+                    let c = IVec3::new(x, y, z);
+                    let s = clip_slot(res, c);
+                    let inside = c.cmpge(covered.lo).all() && c.cmplt(covered.hi).all();
+                    for d in 0..6usize {
+                        out[((l - 1) * n + s) * 6 + d] = if inside {
+                            aniso_value(&out, voxels, n, res, l, c, d)
+                        } else {
+                            voxels[l * n + s]
+                        };
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+fn aniso_value(
+    aniso: &[u32],
+    voxels: &[u32],
+    n: usize,
+    res: i32,
+    l: usize,
+    c: IVec3,
+    d: usize,
+) -> u32 {
+    let fine = |g: IVec3| {
+        let s = clip_slot(res, g);
+        unpack_u8(if l == 1 {
+            voxels[s]
+        } else {
+            aniso[((l - 2) * n + s) * 6 + d]
+        })
+    };
+    let axis = d / 2;
+    let mut acc = [0u32; 4];
+    for j in 0..4 {
+        let mut o0 = IVec3::ZERO;
+        let others: Vec<usize> = (0..3).filter(|&a| a != axis).collect();
+        o0[others[0]] = j & 1;
+        o0[others[1]] = (j >> 1) & 1;
+        let mut o1 = o0;
+        o1[axis] = 1;
+        let (front, back) = if d.is_multiple_of(2) {
+            (o0, o1)
+        } else {
+            (o1, o0)
+        };
+        let f = fine(2 * c + front);
+        let b = fine(2 * c + back);
+        for i in 0..4 {
+            acc[i] += f[i] + ((255 - f[3]) * b[i] + 127) / 255;
+        }
+    }
+    pack_u8(acc.map(|a| (a + 2) / 4))
+}
+
 fn weight(o: i32) -> f32 {
     if o == 0 {
         0.5

@@ -19,6 +19,7 @@
 //! has no light injection yet (see `docs/voxels.md`).
 
 pub mod clipmap;
+pub mod clipmap_sample;
 pub mod cpu;
 pub mod debug;
 pub mod sample;

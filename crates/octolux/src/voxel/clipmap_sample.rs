@@ -1,0 +1,286 @@
+//! Clipmap sampling that blends between levels by distance to a level's border and reads
+//! anisotropic voxels: the WGSL [`CLIPMAP_BLEND_WGSL`] (`clip_sample_blend`,
+//! `clip_sample_aniso`; goes after [`super::sample::CLIPMAP_SAMPLE_WGSL`]), its CPU twins
+//! [`clip_sample_blend`] and [`clip_sample_aniso`], and [`probe_blend`], which evaluates the
+//! WGSL at given points for tests.
+//!
+//! Level choice: the level `l` of `clip_sample` (the finest whose voxel is at least the
+//! footprint and which holds the point's trilinear neighbourhood), mixed with level `l + 1` by
+//! `1 - (1 - t)(1 - e)`, `t` the fractional footprint level and `e` a smoothstep that rises
+//! from 0 at [`BLEND_CELLS`] voxels inside the border of level `l` to 1 on it. A level that
+//! does not contain the point is never read.
+
+use super::clipmap::Clipmap;
+use super::sample::ClipInfo;
+use super::voxelize::bind_buffers;
+use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::{Error, Result};
+use glam::{IVec3, UVec3, Vec3, Vec4};
+
+/// WGSL: `clip_sample_blend(p, footprint)` and `clip_sample_aniso(p, footprint, dir)`.
+pub const CLIPMAP_BLEND_WGSL: &str = include_str!("clipmap_sample.wgsl");
+/// Width (voxels of the finer level) of the band along a level's border over which samples
+/// fade to the next coarser level (`CLIP_BLEND_CELLS` in WGSL).
+pub const BLEND_CELLS: f32 = 2.0;
+
+fn level_grid(info: &ClipInfo, p: Vec3, l: u32) -> Vec3 {
+    p / (info.voxel[0] * (1u32 << l) as f32) - 0.5
+}
+
+/// Whether level `l` holds the trilinear neighbourhood of `p`.
+pub fn contains(info: &ClipInfo, p: Vec3, l: u32) -> bool {
+    border_distance(info, p, l) >= 0.0 && {
+        let g = level_grid(info, p, l);
+        let o = info.origins[l as usize];
+        let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
+        g.cmplt(lo + Vec3::splat(info.misc[0] as f32 - 1.0)).all()
+    }
+}
+
+/// Distance (voxels of level `l`) from `p` to the border of the region where level `l` holds
+/// `p`'s trilinear neighbourhood (negative outside).
+pub fn border_distance(info: &ClipInfo, p: Vec3, l: u32) -> f32 {
+    let g = level_grid(info, p, l);
+    let o = info.origins[l as usize];
+    let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
+    let hi = lo + Vec3::splat(info.misc[0] as f32 - 1.0);
+    let d = (g - lo).min(hi - g);
+    d.x.min(d.y.min(d.z))
+}
+
+/// The level `clip_sample_blend` reads at `p` (None when no level holds `p`) and the weight
+/// of the next coarser level.
+pub fn blend_choice(info: &ClipInfo, p: Vec3, footprint: f32) -> Option<(u32, f32)> {
+    let levels = info.misc[1];
+    let lod = (footprint / info.voxel[0])
+        .max(1.0)
+        .log2()
+        .clamp(0.0, (levels - 1) as f32);
+    let mut l = lod.floor() as u32;
+    while l < levels && !contains(info, p, l) {
+        l += 1;
+    }
+    if l >= levels {
+        return None;
+    }
+    if l + 1 >= levels || !contains(info, p, l + 1) {
+        return Some((l, 0.0));
+    }
+    let t = if l as f32 == lod.floor() {
+        lod - lod.floor()
+    } else {
+        0.0
+    };
+    let x = (border_distance(info, p, l) / BLEND_CELLS).clamp(0.0, 1.0);
+    let e = 1.0 - x * x * (3.0 - 2.0 * x);
+    Some((l, 1.0 - (1.0 - t) * (1.0 - e)))
+}
+
+fn trilinear(f: Vec3, mut texel: impl FnMut(UVec3) -> Vec4) -> Vec4 {
+    let mut sum = Vec4::ZERO;
+    for k in 0..8u32 {
+        let o = UVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+        let w = Vec3::select(o.cmpeq(UVec3::ONE), f, Vec3::ONE - f);
+        sum += w.x * w.y * w.z * texel(o);
+    }
+    sum
+}
+
+fn unorm8(w: u32) -> Vec4 {
+    Vec4::new(
+        (w & 255) as f32 / 255.0,
+        ((w >> 8) & 255) as f32 / 255.0,
+        ((w >> 16) & 255) as f32 / 255.0,
+        (w >> 24) as f32 / 255.0,
+    )
+}
+
+fn slot(res: u32, g: IVec3) -> usize {
+    let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
+    (m.x + res * (m.y + res * m.z)) as usize
+}
+
+/// Trilinear sample of level `l` at `p` over `fetch(level, voxel)` (world-voxel coordinates).
+pub fn sample_level(
+    info: &ClipInfo,
+    p: Vec3,
+    l: u32,
+    fetch: &mut impl FnMut(u32, IVec3) -> Vec4,
+) -> Vec4 {
+    let g = level_grid(info, p, l);
+    let i0 = g.floor().as_ivec3();
+    trilinear(g - g.floor(), |o| fetch(l, i0 + o.as_ivec3()))
+}
+
+/// CPU twin of `clip_sample_blend` over any voxel source `fetch(level, voxel)`.
+pub fn clip_sample_blend_with(
+    info: &ClipInfo,
+    p: Vec3,
+    footprint: f32,
+    mut fetch: impl FnMut(u32, IVec3) -> Vec4,
+) -> Vec4 {
+    let Some((l, w)) = blend_choice(info, p, footprint) else {
+        return Vec4::ZERO;
+    };
+    let a = sample_level(info, p, l, &mut fetch);
+    if w <= 0.0 {
+        return a;
+    }
+    a.lerp(sample_level(info, p, l + 1, &mut fetch), w)
+}
+
+/// CPU twin of `clip_sample_blend` over voxels read back with [`Clipmap::read_voxels`].
+pub fn clip_sample_blend(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
+    let res = info.misc[0];
+    clip_sample_blend_with(info, p, footprint, |l, g| {
+        voxels
+            .get((l * res * res * res) as usize + slot(res, g))
+            .map_or(Vec4::ZERO, |&w| unorm8(w))
+    })
+}
+
+/// CPU twin of `clip_sample_aniso` over voxels and directional values read back with
+/// [`Clipmap::read_voxels`] and [`Clipmap::read_aniso`]; `dir` is the travel direction.
+pub fn clip_sample_aniso(
+    info: &ClipInfo,
+    voxels: &[u32],
+    aniso: &[u32],
+    p: Vec3,
+    footprint: f32,
+    dir: Vec3,
+) -> Vec4 {
+    let res = info.misc[0];
+    let n = (res * res * res) as usize;
+    let a = dir.abs();
+    let w = a / (a.x + a.y + a.z).max(1e-20);
+    let faces = [
+        if dir.x >= 0.0 { 0 } else { 1 },
+        if dir.y >= 0.0 { 2 } else { 3 },
+        if dir.z >= 0.0 { 4 } else { 5 },
+    ];
+    let word = |i: usize| aniso.get(i).map_or(Vec4::ZERO, |&v| unorm8(v));
+    let mut fetch = |l: u32, g: IVec3| {
+        if l == 0 {
+            return voxels.get(slot(res, g)).map_or(Vec4::ZERO, |&v| unorm8(v));
+        }
+        let s = (l as usize - 1) * n + slot(res, g);
+        w.x * word(s * 6 + faces[0]) + w.y * word(s * 6 + faces[1]) + w.z * word(s * 6 + faces[2])
+    };
+    let Some((l, t)) = blend_choice(info, p, footprint) else {
+        return Vec4::ZERO;
+    };
+    let a = sample_level(info, p, l, &mut fetch);
+    if t <= 0.0 {
+        return a;
+    }
+    a.lerp(sample_level(info, p, l + 1, &mut fetch), t)
+}
+
+const PROBE_WGSL: &str = "
+@group(0) @binding(0) var<uniform> clip_info: ClipInfo;
+@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
+@group(0) @binding(2) var<storage, read> clip_aniso: array<u32>;
+@group(0) @binding(3) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> dirs: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> samples: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&points) {
+        return;
+    }
+    let q = points[id.x];
+    let d = dirs[id.x];
+    if d.w > 0.5 {
+        samples[id.x] = clip_sample_aniso(q.xyz, q.w, d.xyz);
+    } else {
+        samples[id.x] = clip_sample_blend(q.xyz, q.w);
+    }
+}
+";
+
+/// Evaluates `clip_sample_blend` (without `dirs`) or `clip_sample_aniso` (with one travel
+/// direction per point) on the GPU at `points` (xyz position, w footprint). Blocks.
+pub fn probe_blend(
+    ctx: &GpuContext,
+    clipmap: &Clipmap,
+    points: &[Vec4],
+    dirs: Option<&[Vec3]>,
+) -> Result<Vec<Vec4>> {
+    let dir_words: Vec<Vec4> = match dirs {
+        Some(d) if d.len() != points.len() => {
+            return Err(Error::InvalidArgument(format!(
+                "{} directions for {} points",
+                d.len(),
+                points.len()
+            )))
+        }
+        Some(_) if clipmap.aniso.is_none() => {
+            return Err(Error::InvalidArgument(
+                "directional samples need a clipmap with anisotropic voxels".into(),
+            ))
+        }
+        Some(d) => d.iter().map(|d| d.extend(1.0)).collect(),
+        None => vec![Vec4::ZERO; points.len()],
+    };
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let owner = "clipmap probe";
+    let source = format!(
+        "{}\n{CLIPMAP_BLEND_WGSL}\n{PROBE_WGSL}",
+        super::sample::CLIPMAP_SAMPLE_WGSL
+    );
+    let module = ctx.shader(owner, &source);
+    let pipeline = ctx.compute_pipeline(owner, &module, "probe");
+    let info = ctx.create_buffer_init(
+        owner,
+        "info",
+        bytemuck::bytes_of(&ClipInfo::new(&clipmap.settings, &clipmap.origins)),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let storage = wgpu::BufferUsages::STORAGE;
+    let input = ctx.create_buffer_init(owner, "points", bytemuck::cast_slice(points), storage);
+    let dir_buffer = ctx.create_buffer_init(
+        owner,
+        "directions",
+        bytemuck::cast_slice(&dir_words),
+        storage,
+    );
+    let n = points.len() as u64;
+    let out = ctx.create_buffer(
+        owner,
+        &wgpu::BufferDescriptor {
+            label: Some("samples"),
+            size: n * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    );
+    let aniso = clipmap.aniso.as_ref().unwrap_or(&clipmap.voxels);
+    let group = bind_buffers(
+        ctx,
+        &pipeline,
+        &[
+            (0, &info),
+            (1, &clipmap.voxels),
+            (2, aniso),
+            (3, &input),
+            (4, &dir_buffer),
+            (5, &out),
+        ],
+    );
+    let mut timer = PassTimer::new(ctx);
+    timer.pass(owner, |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(owner),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    });
+    timer.finish_frame()?;
+    let bytes = read_buffer(ctx, &out, 0, n * 16)?;
+    Ok(bytemuck::cast_slice::<u8, Vec4>(&bytes).to_vec())
+}
