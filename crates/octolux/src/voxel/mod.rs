@@ -23,6 +23,7 @@ pub mod cpu;
 pub mod debug;
 pub mod sample;
 pub mod svo;
+pub mod svo_inject;
 pub mod voxelize;
 
 use crate::scene::{Scene, SceneFrame};
