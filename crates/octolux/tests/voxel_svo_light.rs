@@ -294,9 +294,9 @@ fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow
     assert!(mip < 4e-3, "radiance mip error {mip}");
 }
 
-#[test]
-fn emission_is_carried_into_radiance_and_mipmapped() {
-    let ctx = context();
+/// A 16^3 octree of an emissive triangle and a thin non-emissive one, injected without lights.
+fn emissive_octree(ctx: &GpuContext) -> (VoxelGrid, Vec<VoxelTriangle>, Svo) {
+    let ctx = ctx.clone();
     let res = 16;
     let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / res as f32, res).unwrap();
     let emission = Vec3::new(3.0, 0.5, 0.25);
@@ -322,6 +322,12 @@ fn emission_is_carried_into_radiance_and_mipmapped() {
     ];
     let builder = SvoBuilder::new(&ctx);
     let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
+    inject_nothing(&ctx, &builder, &svo);
+    (grid, tris, svo)
+}
+
+fn inject_nothing(ctx: &GpuContext, builder: &SvoBuilder, svo: &Svo) {
+    let ctx = ctx.clone();
     // No lights: a one-layer depth array and a one-light buffer that is not read.
     let shadows = ctx.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("no shadows"),
@@ -340,9 +346,16 @@ fn emission_is_carried_into_radiance_and_mipmapped() {
     let lights = storage_init(&ctx, "no lights", &[0.0; 16]);
     let mut timer = PassTimer::new(&ctx);
     builder
-        .inject(&ctx, &mut timer, &svo, &shadows, &[], &lights, 0)
+        .inject(&ctx, &mut timer, svo, &shadows, &[], &lights, 0)
         .unwrap();
     timer.finish_frame().unwrap();
+}
+
+#[test]
+fn emission_is_carried_into_radiance_and_mipmapped() {
+    let ctx = context();
+    let (grid, tris, svo) = emissive_octree(&ctx);
+    let emission = tris[0].emission;
     let cpu_svo = svo.read_back(&ctx).unwrap();
     let voxels = voxel_map(&svo, &cpu_svo, &ctx);
     // The CPU voxel emission: the mean of the touching fragments' emission.
@@ -371,4 +384,124 @@ fn emission_is_carried_into_radiance_and_mipmapped() {
     assert!(root != 0);
     let bricks = svo.read_radiance(&ctx).unwrap();
     assert!(bricks[root as usize - 1].iter().any(|t| t.x > 0.0));
+}
+
+#[test]
+fn gpu_radiance_samples_equal_the_cpu_twin() {
+    use octolux::voxel::sample::{svo_sample, SvoInfo, SVO_SAMPLE_WGSL};
+    use octolux::voxel::svo_inject::SVO_RADIANCE_SAMPLE_WGSL;
+    let ctx = context();
+    let (grid, _, svo) = emissive_octree(&ctx);
+    let mut cpu_svo = svo.read_back(&ctx).unwrap();
+    cpu_svo.bricks = svo.read_radiance(&ctx).unwrap();
+    let source = format!(
+        "@group(0) @binding(0) var<uniform> svo_info: SvoInfo;
+@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(2) var<storage, read> svo_brick_index: array<u32>;
+@group(0) @binding(3) var<storage, read> svo_bricks0: array<u32>;
+@group(0) @binding(4) var<storage, read> svo_bricks1: array<u32>;
+@group(0) @binding(5) var<storage, read> svo_bricks2: array<u32>;
+@group(0) @binding(6) var<storage, read> svo_bricks3: array<u32>;
+@group(0) @binding(7) var<storage, read> svo_radiance0: array<u32>;
+@group(0) @binding(8) var<storage, read> svo_radiance1: array<u32>;
+@group(0) @binding(9) var<storage, read> svo_radiance2: array<u32>;
+@group(0) @binding(10) var<storage, read> svo_radiance3: array<u32>;
+@group(0) @binding(11) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(12) var<storage, read_write> out: array<vec4<f32>>;
+{SVO_SAMPLE_WGSL}
+{SVO_RADIANCE_SAMPLE_WGSL}
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
+    if id.x >= arrayLength(&points) {{
+        return;
+    }}
+    let q = points[id.x];
+    // Touch the albedo pool so that every declared binding is part of the layout.
+    let unused = svo_sample(q.xyz, 1e9) * 0.0;
+    out[id.x] = svo_radiance_sample(q.xyz, q.w) + unused;
+}}
+"
+    );
+    let module = ctx.shader("radiance probe", &source);
+    let pipeline = ctx.compute_pipeline("radiance probe", &module, "probe");
+    // Points spread over the emitter's neighbourhood, footprints from a voxel to 8 voxels.
+    let mut points = Vec::new();
+    for i in 0..400u32 {
+        let f = |k: u32| ((i * k) % 97) as f32 / 97.0;
+        let p = Vec3::new(0.1 + 0.8 * f(31), 0.3 + 0.5 * f(57), 0.1 + 0.8 * f(71));
+        let footprint = grid.voxel_size * (1.0 + 7.0 * f(13));
+        points.push(p.extend(footprint));
+    }
+    let info = ctx.create_buffer_init(
+        "test",
+        "svo info",
+        bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let input = ctx.create_buffer_init(
+        "test",
+        "points",
+        bytemuck::cast_slice(&points),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let out = ctx.create_buffer(
+        "test",
+        &wgpu::BufferDescriptor {
+            label: Some("samples"),
+            size: points.len() as u64 * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    );
+    let mut buffers: Vec<(u32, &wgpu::Buffer)> =
+        vec![(0, &info), (1, &svo.child), (2, &svo.brick_index)];
+    for (k, b) in svo.bricks.iter().enumerate() {
+        buffers.push((3 + k as u32, b));
+    }
+    for (k, b) in svo.radiance.iter().enumerate() {
+        buffers.push((7 + k as u32, b));
+    }
+    buffers.push((11, &input));
+    buffers.push((12, &out));
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .map(|&(binding, b)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    let mut timer = PassTimer::new(&ctx);
+    timer.pass("radiance probe", |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("radiance probe"),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
+    });
+    timer.finish_frame().unwrap();
+    let bytes = octolux::gpu::read_buffer(&ctx, &out, 0, points.len() as u64 * 16).unwrap();
+    let gpu: &[Vec4] = bytemuck::cast_slice(&bytes);
+    let mut worst = 0.0f32;
+    let mut nonzero = 0;
+    for (q, g) in points.iter().zip(gpu) {
+        let c = svo_sample(&cpu_svo, &grid, q.truncate(), q.w);
+        worst = worst.max((c - *g).abs().max_element());
+        if c.x > 0.0 {
+            nonzero += 1;
+        }
+    }
+    println!("radiance samples: {nonzero} of 400 non-zero, worst GPU-CPU difference {worst:.2e}");
+    assert!(nonzero > 100);
+    // Radiance up to 3 W/(m^2 sr): 1e-4 relative, as for the albedo sampler.
+    assert!(
+        worst < 3e-4,
+        "GPU and CPU radiance samples differ by {worst}"
+    );
 }

@@ -14,6 +14,12 @@ use super::voxelize::{bind_buffers, dispatch, FragmentList, OVERLAP_WGSL};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::render::LayerView;
 
+/// WGSL: `svo_radiance_sample(p, footprint)`, the injected radiance filtered like
+/// `svo_sample` ([`super::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
+/// declares `svo_radiance0..3` (the buffers of [`super::svo::Svo::radiance`]). CPU twin:
+/// [`super::sample::svo_sample`] over the bricks of [`super::svo::Svo::read_radiance`].
+pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("svo_radiance_sample.wgsl");
+
 /// Words kept per leaf voxel: albedo sums (3), fragment count, emission sums (3, fixed point
 /// x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
