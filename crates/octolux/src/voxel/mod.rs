@@ -14,9 +14,10 @@
 //! - [`cpu`]: CPU reference implementations the tests compare the GPU with.
 //! - [`debug`]: a ray-marched view of the stored albedo.
 //!
-//! What is stored: premultiplied albedo and opacity (RGBA) in both structures; the clipmap can
-//! also inject direct light into voxel radiance ([`clipmap::Clipmap::inject`]). The octree
-//! has no light injection yet (see `docs/voxels.md`).
+//! What is stored: premultiplied albedo and opacity (RGBA) in both structures. Both can inject
+//! direct light into voxel radiance: the octree from the renderer's shadow maps, with emission
+//! ([`svo::SvoBuilder::inject`]), the clipmap with voxel shadow rays
+//! ([`clipmap::Clipmap::inject`]). See `docs/voxels.md` for what is not done yet.
 
 pub mod clipmap;
 pub mod clipmap_sample;
@@ -24,6 +25,7 @@ pub mod cpu;
 pub mod debug;
 pub mod sample;
 pub mod svo;
+pub mod svo_inject;
 pub mod voxelize;
 
 use crate::scene::{Scene, SceneFrame};

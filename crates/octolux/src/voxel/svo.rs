@@ -18,8 +18,11 @@
 //! A brick holds the lattice restricted to its node, so neighbouring bricks agree on their
 //! shared faces, and trilinear interpolation inside a brick is continuous across nodes.
 //!
-//! What is stored is albedo and opacity; light injection into radiance is not implemented yet,
-//! and the octree is rebuilt whole (no static/dynamic split).
+//! Besides albedo and opacity the octree keeps, per leaf voxel, the sums of its fragments'
+//! albedo, emission and normal, and an RGBA16F radiance pool (radiance, opacity) in the same
+//! brick layout: [`SvoBuilder::inject`] fills it with emission + albedo/pi x direct irradiance
+//! (visibility from the renderer's shadow maps) and filters it with the same transfer and mip
+//! passes ([`super::svo_inject`]). The octree is rebuilt whole (no static/dynamic split).
 
 use super::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
 use super::{VoxelGrid, VoxelTriangle};
@@ -118,6 +121,23 @@ pub struct Svo {
     pub levels: Vec<(u32, u32)>,
     /// Voxel fragments the octree was built from.
     pub fragment_count: u32,
+    /// `array<u32>`: per node, its packed coordinates on its level (10 bits per axis).
+    pub coord: wgpu::Buffer,
+    /// Level ranges and counters of the build (`control` in `svo.wgsl`), kept for the passes
+    /// that run per level after the build (injection).
+    pub control: wgpu::Buffer,
+    /// Indirect dispatch sizes per level.
+    pub args: wgpu::Buffer,
+    /// Per-level parameters (one 256-byte slot per level).
+    pub level_params: wgpu::Buffer,
+    /// Per leaf voxel (leaf node - first leaf node) x 8 + octant: fragment sums of albedo,
+    /// emission and normal, [`super::svo_inject::LEAF_SUM_WORDS`] words.
+    pub leaf_sums: wgpu::Buffer,
+    /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
+    /// 27 texels of RGBA16F (radiance, opacity). Zero until [`SvoBuilder::inject`].
+    pub radiance: Vec<wgpu::Buffer>,
+    /// Injected radiance and opacity per leaf voxel (RGBA16F, same order as `leaf_sums`).
+    pub voxel_radiance: wgpu::Buffer,
 }
 
 /// The octree read back to the CPU (for tests and tools).
@@ -174,6 +194,7 @@ pub struct SvoBuilder {
     pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
     pack: wgpu::ComputePipeline,
     pool_limit: Option<u32>,
+    light: super::svo_inject::SvoLight,
 }
 
 fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -266,6 +287,7 @@ impl SvoBuilder {
         SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
             pool_limit: None,
+            light: super::svo_inject::SvoLight::new(ctx),
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
@@ -557,6 +579,12 @@ impl SvoBuilder {
             &pack_group,
             brick_count * 27,
         );
+        let leaves = levels.last().copied().unwrap_or((0, 0));
+        let leaf_sums = self
+            .light
+            .accumulate(ctx, &mut timer, list, &child, depth, leaves);
+        let radiance = make_pools("radiance pool", BUILD_BRICK_WORDS as u64);
+        let voxel_radiance = scratch("voxel radiance", (leaves.1 - leaves.0) as u64 * 16, usage);
         // Keep only what the octree needs, at its exact size.
         let mut exact = |label: &str, words: u64, from: &wgpu::Buffer| {
             let buffer = ctx.create_buffer(
@@ -576,15 +604,13 @@ impl SvoBuilder {
         let child_exact = exact("child", node_count as u64, &child);
         let nbr_exact = exact("neighbours", node_count as u64 * 3, &nbr);
         let brick_index = exact("brick index", node_count as u64, &flags);
+        let coord_exact = exact("coordinates", node_count as u64, &coord);
         timings.extend(timer.finish_frame()?);
         for label in [
             "child (build)",
             "neighbours (build)",
             "coordinates (build)",
             "flags (build)",
-            "control",
-            "dispatch args",
-            "level params",
             "placeholder",
             "pack params",
         ] {
@@ -605,7 +631,124 @@ impl SvoBuilder {
             brick_count,
             levels,
             fragment_count: list.count,
+            coord: coord_exact,
+            control,
+            args,
+            level_params: uniform,
+            leaf_sums,
+            radiance,
+            voxel_radiance,
         }))
+    }
+
+    /// Injects direct light into `svo`'s radiance pool: per leaf voxel, emission + albedo/pi x
+    /// direct irradiance from the first `light_count` lights of `lights` (the renderer's light
+    /// buffer, `array<Light>` of `render/direct.wgsl`), with visibility from `shadow_array`
+    /// (the renderer's `Depth32Float` shadow-map array, [`crate::render::ShadowMaps::texture`])
+    /// and its layer matrices `shadow_layers`; then the neighbour transfer and mip filter
+    /// upward, level by level. Units: radiance in W/(m^2 sr).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inject(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        shadow_array: &wgpu::Texture,
+        shadow_layers: &[crate::render::LayerView],
+        lights: &wgpu::Buffer,
+        light_count: u32,
+    ) -> Result<()> {
+        let needed = light_count as u64 * super::svo_inject::LIGHT_BYTES;
+        if lights.size() < needed.max(super::svo_inject::LIGHT_BYTES) {
+            return Err(Error::InvalidArgument(format!(
+                "octree injection: {light_count} lights need a light buffer of {needed} bytes \
+                 (at least one light's), it has {}",
+                lights.size()
+            )));
+        }
+        if svo.levels.is_empty() {
+            return Ok(());
+        }
+        self.light.inject_leaves(
+            ctx,
+            timer,
+            svo,
+            shadow_array,
+            shadow_layers,
+            lights,
+            light_count,
+        );
+        // The transfer and mip kernels bind the build layout: no fragments or triangles.
+        let placeholder = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("inject placeholder"),
+                size: 64,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            },
+        );
+        let buffers: [&wgpu::Buffer; 11] = [
+            &placeholder,
+            &placeholder,
+            &svo.child,
+            &svo.neighbours,
+            &svo.coord,
+            &svo.brick_index,
+            &svo.control,
+            &svo.radiance[0],
+            &svo.radiance[1],
+            &svo.radiance[2],
+            &svo.radiance[3],
+        ];
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer: &svo.level_params,
+                offset: 0,
+                size: wgpu::BufferSize::new(32),
+            }),
+        }];
+        for (i, b) in buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: i as u32 + 1,
+                resource: b.as_entire_binding(),
+            });
+        }
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo radiance"),
+            layout: &self.layout0,
+            entries: &entries,
+        });
+        let args_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo args"),
+            layout: &self.layout1,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: svo.args.as_entire_binding(),
+            }],
+        });
+        let depth = svo.levels.len() as u32;
+        let mut steps = Vec::new();
+        for d in (0..depth).rev() {
+            if d + 1 != depth {
+                steps.push(("mip", d, Dispatch::Level(d)));
+            }
+            for t in ["transfer_x", "transfer_y", "transfer_z"] {
+                steps.push((t, d, Dispatch::Level(d)));
+            }
+        }
+        self.record(
+            timer,
+            "svo radiance mip",
+            &group,
+            &args_group,
+            &svo.args,
+            0,
+            &steps,
+        );
+        ctx.ledger.record(OWNER, "inject placeholder", 0);
+        Ok(())
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -688,6 +831,50 @@ impl Svo {
             levels: self.levels.clone(),
         })
     }
+}
+
+impl Svo {
+    /// Reads the radiance pool back: 27 (radiance, opacity) texels per brick, brick order as
+    /// [`SvoCpu::bricks`] (so an [`SvoCpu`] with these bricks samples radiance).
+    pub fn read_radiance(&self, ctx: &GpuContext) -> Result<Vec<[glam::Vec4; 27]>> {
+        let mut words: Vec<u32> = Vec::new();
+        let mut left = self.brick_count as u64;
+        for pool in &self.radiance {
+            let bricks = left.min(self.pool_bricks as u64);
+            if bricks == 0 {
+                break;
+            }
+            let bytes = read_buffer(ctx, pool, 0, bricks * BUILD_BRICK_WORDS as u64 * 4)?;
+            words.extend_from_slice(bytemuck::cast_slice(&bytes));
+            left -= bricks;
+        }
+        Ok(words
+            .chunks_exact(BUILD_BRICK_WORDS as usize)
+            .map(|b| std::array::from_fn(|t| unpack_half4(b[2 * t], b[2 * t + 1])))
+            .collect())
+    }
+
+    /// Reads the injected radiance of every leaf voxel back: index (leaf node - first leaf
+    /// node) x 8 + octant (x + 2y + 4z), (radiance, opacity).
+    pub fn read_voxel_radiance(&self, ctx: &GpuContext) -> Result<Vec<glam::Vec4>> {
+        let (first, end) = self.levels.last().copied().unwrap_or((0, 0));
+        let n = (end - first) as u64 * 8;
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let bytes = read_buffer(ctx, &self.voxel_radiance, 0, n * 8)?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok(words
+            .chunks_exact(2)
+            .map(|w| unpack_half4(w[0], w[1]))
+            .collect())
+    }
+}
+
+fn unpack_half4(lo: u32, hi: u32) -> glam::Vec4 {
+    let [x, y] = unpack_half2(lo);
+    let [z, w] = unpack_half2(hi);
+    glam::Vec4::new(x, y, z, w)
 }
 
 /// Decodes a `pack4x8unorm` word.

@@ -1,0 +1,188 @@
+//! Light injection into the sparse voxel octree (Arnebäck 2017 §3.2): every leaf voxel gets
+//! outgoing radiance `emission + albedo / pi x E`, where `E` is the direct irradiance from the
+//! renderer's lights with visibility from the renderer's shadow-map array (the same PCF lookup
+//! as the deferred lighting, taken half a voxel above the voxel centre along its normal). The
+//! leaf radiance fills the leaf bricks of an RGBA16F radiance pool (radiance, opacity) exactly
+//! as albedo fills the albedo bricks, and the octree's neighbour transfer and mip kernels then
+//! filter it upward, so every level holds the same corner-sampled lattice filter of radiance
+//! as of albedo ([`super::cpu::lattices`] of the voxel radiance is the reference).
+//!
+//! Per leaf voxel the build keeps the sums of its fragments' albedo, emission and normal
+//! ([`LEAF_SUM_WORDS`] words), which is what injection reads.
+
+use super::voxelize::{bind_buffers, dispatch, FragmentList, OVERLAP_WGSL};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::render::LayerView;
+
+/// WGSL: `svo_radiance_sample(p, footprint)`, the injected radiance filtered like
+/// `svo_sample` ([`super::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
+/// declares `svo_radiance0..3` (the buffers of [`super::svo::Svo::radiance`]). CPU twin:
+/// [`super::sample::svo_sample`] over the bricks of [`super::svo::Svo::read_radiance`].
+pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("svo_radiance_sample.wgsl");
+
+/// Words kept per leaf voxel: albedo sums (3), fragment count, emission sums (3, fixed point
+/// x1024), normal sums (3, snorm8 as two's complement).
+pub const LEAF_SUM_WORDS: u32 = 10;
+
+/// Bytes of one light in the renderer's light buffer (`Light` in `render/direct.wgsl`).
+pub const LIGHT_BYTES: u64 = 64;
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct InjectParams {
+    origin_voxel: [f32; 4],
+    misc: [u32; 4],
+}
+
+/// The accumulation and injection kernels.
+pub(crate) struct SvoLight {
+    accumulate: wgpu::ComputePipeline,
+    inject: wgpu::ComputePipeline,
+    sampler: wgpu::Sampler,
+}
+
+impl SvoLight {
+    pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
+        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("svo_inject.wgsl"));
+        let module = ctx.shader("svo inject", &source);
+        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("svo shadow compare"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        SvoLight {
+            accumulate: ctx.compute_pipeline("svo leaf sums", &module, "accumulate"),
+            inject: ctx.compute_pipeline("svo inject", &module, "inject"),
+            sampler,
+        }
+    }
+
+    /// Sums every fragment into its leaf voxel; returns the sums buffer
+    /// (leaf nodes x 8 voxels x [`LEAF_SUM_WORDS`]).
+    pub(crate) fn accumulate(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        list: &FragmentList,
+        child: &wgpu::Buffer,
+        depth: u32,
+        leaves: (u32, u32),
+    ) -> wgpu::Buffer {
+        let leaf_count = leaves.1 - leaves.0;
+        let sums = ctx.create_buffer(
+            super::svo::OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("leaf sums"),
+                size: (leaf_count as u64 * 8 * LEAF_SUM_WORDS as u64 * 4).max(16),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let params = ctx.create_buffer_init(
+            super::svo::OWNER,
+            "leaf sum params",
+            bytemuck::cast_slice(&[list.count, depth, leaves.0, leaf_count]),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let group = bind_buffers(
+            ctx,
+            &self.accumulate,
+            &[
+                (0, &params),
+                (1, &list.buffer),
+                (2, &list.triangles),
+                (3, child),
+                (4, &sums),
+            ],
+        );
+        dispatch(timer, "svo leaf sums", &self.accumulate, &group, list.count);
+        ctx.ledger.record(super::svo::OWNER, "leaf sum params", 0);
+        sums
+    }
+
+    /// Records the leaf injection of `svo` (before its transfer and mip passes).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn inject_leaves(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &super::svo::Svo,
+        shadow_array: &wgpu::Texture,
+        shadow_layers: &[LayerView],
+        lights: &wgpu::Buffer,
+        light_count: u32,
+    ) {
+        let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
+        let leaf_count = end - first;
+        let grid = &svo.grid;
+        let params = InjectParams {
+            origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
+            misc: [first, leaf_count, light_count, svo.pool_bricks],
+        };
+        let owner = super::svo::OWNER;
+        let uniform = ctx.create_buffer_init(
+            owner,
+            "inject params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let mut matrices: Vec<[f32; 16]> = shadow_layers
+            .iter()
+            .map(|l| l.view_proj.to_cols_array())
+            .collect();
+        if matrices.is_empty() {
+            matrices.push(glam::Mat4::IDENTITY.to_cols_array());
+        }
+        let matrices = ctx.create_buffer_init(
+            owner,
+            "inject shadow matrices",
+            bytemuck::cast_slice(&matrices),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let buffers: [(u32, &wgpu::Buffer); 11] = [
+            (10, &uniform),
+            (11, &svo.leaf_sums),
+            (12, &svo.coord),
+            (13, &svo.brick_index),
+            (14, lights),
+            (15, &matrices),
+            (18, &svo.voxel_radiance),
+            (19, &svo.radiance[0]),
+            (20, &svo.radiance[1]),
+            (21, &svo.radiance[2]),
+            (22, &svo.radiance[3]),
+        ];
+        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 16,
+            resource: wgpu::BindingResource::TextureView(&view),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 17,
+            resource: wgpu::BindingResource::Sampler(&self.sampler),
+        });
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo inject"),
+            layout: &self.inject.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        dispatch(timer, "svo inject", &self.inject, &group, leaf_count);
+        for label in ["inject params", "inject shadow matrices"] {
+            ctx.ledger.record(owner, label, 0);
+        }
+    }
+}
