@@ -6,7 +6,7 @@
 //!
 //! The frame flows one way: scene update -> shadow maps -> G-buffer -> GI technique (indirect
 //! irradiance per pixel) -> compose (direct + albedo x indirect) -> tone map. See
-//! [`render::Renderer`] for the GPU side, [`reference`] for the path tracer and [`metrics`] for
+//! [`render::Renderer`] for the GPU side, [`reference`](mod@reference) for the path tracer and [`metrics`] for
 //! image comparisons.
 
 pub mod error;

@@ -28,7 +28,7 @@ pub struct GiFrame<'a> {
     /// The camera uniform (`Camera` in `render/common.wgsl`).
     pub camera_uniform: &'a wgpu::Buffer,
     /// The scene on the GPU: techniques rasterise it with their own pipelines (RSMs,
-    /// voxelisation) through [`SceneGpu::draw`]; view uniform `1 + i` holds shadow layer `i`.
+    /// voxelisation) through `SceneGpu::draw`; view uniform `1 + i` holds shadow layer `i`.
     pub scene_gpu: &'a SceneGpu,
     /// Shadow maps of this frame (already rendered).
     pub shadows: &'a ShadowMaps,

@@ -100,7 +100,7 @@ pub fn sample_trilinear(v: &[Cell], n: usize, origin: Vec3, cell: f32, p: Vec3) 
     out
 }
 
-/// Solid angle of the axis-aligned rectangle [x0,x1] x [y0,y1] in the plane z = `d` (> 0),
+/// Solid angle of the axis-aligned rectangle `[x0, x1] x [y0, y1]` in the plane z = `d` (> 0),
 /// seen from the origin (exact, by the corner formula).
 pub fn rectangle_solid_angle(x0: f64, x1: f64, y0: f64, y1: f64, d: f64) -> f64 {
     let corner = |x: f64, y: f64| (x * y / (d * (x * x + y * y + d * d).sqrt())).atan();
