@@ -50,7 +50,12 @@ impl DirectLight {
             &vec![0u8; shadows.layer_count.max(1) as usize * 64],
             storage,
         );
-        let source = [include_str!("common.wgsl"), include_str!("direct.wgsl")].concat();
+        let source = [
+            include_str!("common.wgsl"),
+            include_str!("lights.wgsl"),
+            include_str!("direct.wgsl"),
+        ]
+        .concat();
         let module = ctx.shader("direct", &source);
         let pipeline = ctx.compute_pipeline("direct", &module, "main");
         let (output, output_view) = target(

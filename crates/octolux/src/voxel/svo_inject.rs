@@ -43,7 +43,12 @@ pub(crate) struct SvoLight {
 
 impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
-        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("svo_inject.wgsl"));
+        let source = [
+            OVERLAP_WGSL,
+            include_str!("../render/lights.wgsl"),
+            include_str!("svo_inject.wgsl"),
+        ]
+        .join("\n");
         let module = ctx.shader("svo inject", &source);
         let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("svo shadow compare"),

@@ -71,17 +71,7 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     }
 }
 
-struct Light {
-    // xyz position, w: kind (0 point, 1 spot, 2 directional)
-    position_kind: vec4<f32>,
-    // xyz unit direction of travel, w: cos(inner cone half-angle)
-    direction_cos_inner: vec4<f32>,
-    // rgb radiant intensity (W/sr) or irradiance (W/m^2), w: cos(outer half-angle)
-    radiant_cos_outer: vec4<f32>,
-    // x: first shadow layer (negative = no shadow), y: shadow texel size per metre
-    // (perspective) or absolute (orthographic), z: 1 if orthographic
-    shadow: vec4<f32>,
-};
+// `Light`, `light_incidence` and `shadow_visibility` come from `render/lights.wgsl`.
 
 struct InjectParams {
     // xyz grid origin, w voxel size
@@ -116,53 +106,6 @@ fn pool_store(b: u32, i: u32, v: u32) {
     }
 }
 
-fn cube_face(d: vec3<f32>) -> u32 {
-    let a = abs(d);
-    if a.x >= a.y && a.x >= a.z {
-        return select(1u, 0u, d.x > 0.0);
-    }
-    if a.y >= a.z {
-        return select(3u, 2u, d.y > 0.0);
-    }
-    return select(5u, 4u, d.z > 0.0);
-}
-
-fn spot_attenuation(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
-    let x = clamp((cos_angle - cos_outer) / max(cos_inner - cos_outer, 1e-6), 0.0, 1.0);
-    return x * x * (3.0 - 2.0 * x);
-}
-
-// Fraction of the light reaching the voxel centred at `p`: the PCF of `render/direct.wgsl`,
-// looked up half a voxel along the normal (the surface may lie anywhere in the voxel) plus
-// the renderer's normal offset.
-fn visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32) -> f32 {
-    if light.shadow.x < 0.0 {
-        return 1.0;
-    }
-    var layer = u32(light.shadow.x);
-    if light.position_kind.w < 0.5 {
-        layer += cube_face(p - light.position_kind.xyz);
-    }
-    let texel_world = select(light.shadow.y * dist, light.shadow.y, light.shadow.z > 0.5);
-    let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
-    let lift = 0.5 * P.origin_voxel.w + texel_world * 1.5 * (1.0 - 0.5 * cos_l);
-    let offset_p = p + n * lift + to_light * texel_world * 0.5;
-    let clip = shadow_matrices[layer] * vec4<f32>(offset_p, 1.0);
-    let ndc = clip.xyz / clip.w;
-    let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
-    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
-        return 1.0;
-    }
-    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_maps));
-    var sum = 0.0;
-    for (var y = -1; y <= 1; y++) {
-        for (var x = -1; x <= 1; x++) {
-            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + vec2<f32>(f32(x), f32(y)) * texel, layer, ndc.z);
-        }
-    }
-    return sum / 9.0;
-}
-
 // Outgoing radiance and opacity of leaf voxel `i` (node-major, octant order) at `p`.
 fn voxel_value(i: u32, p: vec3<f32>) -> vec4<f32> {
     let w = i * SUM_WORDS;
@@ -184,32 +127,18 @@ fn voxel_value(i: u32, p: vec3<f32>) -> vec4<f32> {
     var e = vec3<f32>(0.0);
     for (var k = 0u; k < P.misc.z; k++) {
         let light = lights[k];
-        let kind = light.position_kind.w;
-        var to_light: vec3<f32>;
-        var el: vec3<f32>;
-        var dist = 1.0;
-        if kind > 1.5 {
-            to_light = -light.direction_cos_inner.xyz;
-            el = light.radiant_cos_outer.rgb;
-        } else {
-            let d = light.position_kind.xyz - p;
-            let r2 = max(dot(d, d), 1e-8);
-            dist = sqrt(r2);
-            to_light = d / dist;
-            el = light.radiant_cos_outer.rgb / r2;
-            if kind > 0.5 {
-                el *= spot_attenuation(dot(light.direction_cos_inner.xyz, -to_light), light.direction_cos_inner.w, light.radiant_cos_outer.w);
-            }
-        }
+        let inc = light_incidence(light, p);
         // A voxel without a dominant normal (opposite faces cancelled) is lit as facing the light.
         var cos_theta = 1.0;
         if has_normal {
-            cos_theta = dot(n, to_light);
+            cos_theta = dot(n, inc.to_light);
         }
-        if cos_theta <= 0.0 || all(el <= vec3<f32>(0.0)) {
+        if cos_theta <= 0.0 || all(inc.irradiance <= vec3<f32>(0.0)) {
             continue;
         }
-        e += el * cos_theta * visibility(light, p, n, to_light, dist);
+        // Looked up half a voxel along the normal: the surface may lie anywhere in the voxel.
+        let lift = 0.5 * P.origin_voxel.w;
+        e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, lift);
     }
     return vec4<f32>(emission + albedo / PI * e, 1.0);
 }

@@ -1,0 +1,94 @@
+// Punctual lights as the renderer uploads them (`render/direct.rs`, `GpuLight`), their
+// irradiance and their PCF-filtered shadow-map visibility. Shared by the direct-light pass and
+// voxel light injection so both light surfaces identically. The including shader declares
+// `shadow_matrices: array<mat4x4<f32>>`, `shadow_maps: texture_depth_2d_array` and
+// `shadow_sampler: sampler_comparison`.
+
+struct Light {
+    // xyz position, w: kind (0 point, 1 spot, 2 directional)
+    position_kind: vec4<f32>,
+    // xyz unit direction of travel, w: cos(inner cone half-angle)
+    direction_cos_inner: vec4<f32>,
+    // rgb radiant intensity (W/sr) or irradiance (W/m^2), w: cos(outer half-angle)
+    radiant_cos_outer: vec4<f32>,
+    // x: first shadow layer (negative = no shadow), y: world size of a shadow texel per metre
+    // of distance (perspective) or absolute (orthographic), z: 1 if orthographic, w unused
+    shadow: vec4<f32>,
+};
+
+// Cube face of direction `d` in the order +x, -x, +y, -y, +z, -z.
+fn cube_face(d: vec3<f32>) -> u32 {
+    let a = abs(d);
+    if a.x >= a.y && a.x >= a.z {
+        return select(1u, 0u, d.x > 0.0);
+    }
+    if a.y >= a.z {
+        return select(3u, 2u, d.y > 0.0);
+    }
+    return select(5u, 4u, d.z > 0.0);
+}
+
+// Spot falloff: smoothstep from the outer cone (0) to the inner cone (1), as on the CPU.
+fn spot_attenuation(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let x = clamp((cos_angle - cos_outer) / max(cos_inner - cos_outer, 1e-6), 0.0, 1.0);
+    return x * x * (3.0 - 2.0 * x);
+}
+
+struct Incidence {
+    // unit direction towards the light
+    to_light: vec3<f32>,
+    // irradiance on a surface facing the light (W/m^2), before shadowing
+    irradiance: vec3<f32>,
+    // distance to the light (1 for directional lights)
+    dist: f32,
+};
+
+// Light arriving at `p` from `light`, unshadowed.
+fn light_incidence(light: Light, p: vec3<f32>) -> Incidence {
+    var out: Incidence;
+    out.dist = 1.0;
+    if light.position_kind.w > 1.5 {
+        out.to_light = -light.direction_cos_inner.xyz;
+        out.irradiance = light.radiant_cos_outer.rgb;
+        return out;
+    }
+    let d = light.position_kind.xyz - p;
+    let r2 = max(dot(d, d), 1e-8);
+    out.dist = sqrt(r2);
+    out.to_light = d / out.dist;
+    out.irradiance = light.radiant_cos_outer.rgb / r2;
+    if light.position_kind.w > 0.5 {
+        out.irradiance *= spot_attenuation(dot(light.direction_cos_inner.xyz, -out.to_light), light.direction_cos_inner.w, light.radiant_cos_outer.w);
+    }
+    return out;
+}
+
+// Fraction of the light reaching `p` (normal `n`): 3x3 bilinear comparison taps (a 4x4-texel
+// footprint), looked up `lift` metres plus ~1.5 shadow texels along the normal; the texel-scaled
+// normal offset removes acne without the light leaking of large constant biases.
+fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32, lift: f32) -> f32 {
+    if light.shadow.x < 0.0 {
+        return 1.0;
+    }
+    var layer = u32(light.shadow.x);
+    if light.position_kind.w < 0.5 {
+        layer += cube_face(p - light.position_kind.xyz);
+    }
+    let texel_world = select(light.shadow.y * dist, light.shadow.y, light.shadow.z > 0.5);
+    let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
+    let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * texel_world * 0.5;
+    let clip = shadow_matrices[layer] * vec4<f32>(offset_p, 1.0);
+    let ndc = clip.xyz / clip.w;
+    let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
+    if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
+        return 1.0;
+    }
+    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_maps));
+    var sum = 0.0;
+    for (var y = -1; y <= 1; y++) {
+        for (var x = -1; x <= 1; x++) {
+            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + vec2<f32>(f32(x), f32(y)) * texel, layer, ndc.z);
+        }
+    }
+    return sum / 9.0;
+}
