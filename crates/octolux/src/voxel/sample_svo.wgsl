@@ -26,51 +26,83 @@ fn svo_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
     return unpack4x8unorm(word);
 }
 
-// Trilinear sample of level d at grid position g (voxel units); zero where no node exists.
-fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
+// The brick cell of level d holding grid position g (voxel units): `brick` is the brick index
+// + 1 (0 where no node or no brick exists: an all-zero lattice), `i0` the lower lattice corner
+// and `f` the trilinear weights inside the cell. Shared by every channel's sampler.
+struct SvoCell {
+    brick: u32,
+    i0: vec3<u32>,
+    f: vec3<f32>,
+}
+
+fn svo_locate(g: vec3<f32>, d: u32) -> SvoCell {
+    var cell: SvoCell;
     let depth = svo_info.misc.x;
     let x = g / f32(1u << (depth - 1u - d));
     let size = 1u << d;
     if any(x < vec3<f32>(0.0)) || any(x > vec3<f32>(2.0 * f32(size))) {
-        return vec4<f32>(0.0);
+        return cell;
     }
     let c = min(vec3<u32>(x * 0.5), vec3<u32>(size - 1u));
     var node = 0u;
     for (var l = 0u; l < d; l++) {
         let first = svo_child[node];
         if first == 0u {
-            return vec4<f32>(0.0);
+            return cell;
         }
         let s = d - 1u - l;
         node = first + ((c.x >> s) & 1u) + (((c.y >> s) & 1u) << 1u) + (((c.z >> s) & 1u) << 2u);
     }
-    // A node without a brick has an all-zero lattice.
-    let b = svo_brick_index[node];
-    if b == 0u {
-        return vec4<f32>(0.0);
-    }
+    cell.brick = svo_brick_index[node];
     let local = clamp(x - 2.0 * vec3<f32>(c), vec3<f32>(0.0), vec3<f32>(2.0));
-    let i0 = min(vec3<u32>(local), vec3<u32>(1u));
-    let f = local - vec3<f32>(i0);
+    cell.i0 = min(vec3<u32>(local), vec3<u32>(1u));
+    cell.f = local - vec3<f32>(cell.i0);
+    return cell;
+}
+
+// Trilinear weight of corner `k` (bit 0: x, 1: y, 2: z) of a cell, and its lattice offset.
+fn svo_corner(k: u32) -> vec3<u32> {
+    return vec3<u32>(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
+}
+
+fn svo_weight(cell: SvoCell, o: vec3<u32>) -> f32 {
+    let w = select(1.0 - cell.f, cell.f, o == vec3<u32>(1u));
+    return w.x * w.y * w.z;
+}
+
+// Level choice for a footprint: the finer level, the blend `t` towards the next coarser one,
+// and the grid position. Level d has lattice spacing voxel * 2^(depth - 1 - d).
+struct SvoLod {
+    fine: u32,
+    t: f32,
+    g: vec3<f32>,
+}
+
+fn svo_lod(p: vec3<f32>, footprint: f32) -> SvoLod {
+    let depth = svo_info.misc.x;
+    let lod = clamp(log2(max(footprint / svo_info.origin.w, 1.0)), 0.0, f32(depth - 1u));
+    return SvoLod(depth - 1u - u32(floor(lod)), lod - floor(lod), (p - svo_info.origin.xyz) / svo_info.origin.w);
+}
+
+// Trilinear albedo/opacity sample of level d at grid position g; zero where no node exists.
+fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
+    let cell = svo_locate(g, d);
     var sum = vec4<f32>(0.0);
+    if cell.brick == 0u {
+        return sum;
+    }
     for (var k = 0u; k < 8u; k++) {
-        let o = vec3<u32>(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
-        let w = select(1.0 - f, f, o == vec3<u32>(1u));
-        sum += w.x * w.y * w.z * svo_texel(b - 1u, i0 + o);
+        let o = svo_corner(k);
+        sum += svo_weight(cell, o) * svo_texel(cell.brick - 1u, cell.i0 + o);
     }
     return sum;
 }
 
 fn svo_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
-    let depth = svo_info.misc.x;
-    let g = (p - svo_info.origin.xyz) / svo_info.origin.w;
-    // Level d has lattice spacing voxel * 2^(depth - 1 - d).
-    let lod = clamp(log2(max(footprint / svo_info.origin.w, 1.0)), 0.0, f32(depth - 1u));
-    let fine = depth - 1u - u32(floor(lod));
-    let t = lod - floor(lod);
-    let a = svo_sample_level(g, fine);
-    if t <= 0.0 || fine == 0u {
+    let lod = svo_lod(p, footprint);
+    let a = svo_sample_level(lod.g, lod.fine);
+    if lod.t <= 0.0 || lod.fine == 0u {
         return a;
     }
-    return mix(a, svo_sample_level(g, fine - 1u), t);
+    return mix(a, svo_sample_level(lod.g, lod.fine - 1u), lod.t);
 }
