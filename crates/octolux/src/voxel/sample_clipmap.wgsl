@@ -15,11 +15,16 @@ struct ClipInfo {
     origins: array<vec4<i32>, 8>,
 }
 
-fn clip_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {
+// Index of the voxel at world-voxel coordinates `g` of level `l` (toroidal addressing).
+fn clip_slot(l: u32, g: vec3<i32>) -> u32 {
     let res = i32(clip_info.misc.x);
     let m = vec3<u32>(((g % res) + res) % res);
     let r = clip_info.misc.x;
-    return unpack4x8unorm(clip_voxels[l * r * r * r + m.x + r * (m.y + r * m.z)]);
+    return l * r * r * r + m.x + r * (m.y + r * m.z);
+}
+
+fn clip_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {
+    return unpack4x8unorm(clip_voxels[clip_slot(l, g)]);
 }
 
 // Whether level l holds p's trilinear neighbourhood.
@@ -29,33 +34,66 @@ fn clip_contains(p: vec3<f32>, l: u32) -> bool {
     return all(g >= lo) && all(g < lo + vec3<f32>(f32(clip_info.misc.x) - 1.0));
 }
 
-fn clip_sample_level(p: vec3<f32>, l: u32) -> vec4<f32> {
-    let g = p / (clip_info.voxel.x * f32(1u << l)) - 0.5;
-    let i0 = vec3<i32>(floor(g));
-    let f = g - floor(g);
-    var sum = vec4<f32>(0.0);
-    for (var k = 0u; k < 8u; k++) {
-        let o = vec3<u32>(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u);
-        let w = select(1.0 - f, f, o == vec3<u32>(1u));
-        sum += w.x * w.y * w.z * clip_voxel(l, i0 + vec3<i32>(o));
-    }
-    return sum;
+// Trilinear cell of level l around p: lower corner and weights.
+struct ClipCell {
+    i0: vec3<i32>,
+    f: vec3<f32>,
 }
 
-fn clip_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+fn clip_cell(p: vec3<f32>, l: u32) -> ClipCell {
+    let g = p / (clip_info.voxel.x * f32(1u << l)) - 0.5;
+    return ClipCell(vec3<i32>(floor(g)), g - floor(g));
+}
+
+fn clip_corner(k: u32) -> vec3<i32> {
+    return vec3<i32>(i32(k & 1u), i32((k >> 1u) & 1u), i32((k >> 2u) & 1u));
+}
+
+fn clip_weight(cell: ClipCell, o: vec3<i32>) -> f32 {
+    let w = select(1.0 - cell.f, cell.f, o == vec3<i32>(1));
+    return w.x * w.y * w.z;
+}
+
+// Level choice for a footprint: the finest level at least as coarse as the footprint that
+// contains p (`level` = levels when none does), and the blend `t` towards the next level, 0
+// when that level cannot be read.
+struct ClipLod {
+    level: u32,
+    t: f32,
+}
+
+fn clip_lod(p: vec3<f32>, footprint: f32) -> ClipLod {
     let levels = clip_info.misc.y;
     let lod = clamp(log2(max(footprint / clip_info.voxel.x, 1.0)), 0.0, f32(levels - 1u));
     var l = u32(floor(lod));
     while l < levels && !clip_contains(p, l) {
         l++;
     }
-    if l >= levels {
+    var t = lod - floor(lod);
+    if l >= levels || f32(l) > floor(lod) || l + 1u >= levels || !clip_contains(p, l + 1u) {
+        t = 0.0;
+    }
+    return ClipLod(l, t);
+}
+
+fn clip_sample_level(p: vec3<f32>, l: u32) -> vec4<f32> {
+    let cell = clip_cell(p, l);
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < 8u; k++) {
+        let o = clip_corner(k);
+        sum += clip_weight(cell, o) * clip_voxel(l, cell.i0 + o);
+    }
+    return sum;
+}
+
+fn clip_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+    let lod = clip_lod(p, footprint);
+    if lod.level >= clip_info.misc.y {
         return vec4<f32>(0.0);
     }
-    let a = clip_sample_level(p, l);
-    let t = lod - floor(lod);
-    if t <= 0.0 || f32(l) > floor(lod) || l + 1u >= levels || !clip_contains(p, l + 1u) {
+    let a = clip_sample_level(p, lod.level);
+    if lod.t <= 0.0 {
         return a;
     }
-    return mix(a, clip_sample_level(p, l + 1u), t);
+    return mix(a, clip_sample_level(p, lod.level + 1u), lod.t);
 }
