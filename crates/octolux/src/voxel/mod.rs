@@ -6,7 +6,8 @@
 //!   dense region directly. Deterministic: every accumulation is an integer atomic sum.
 //! - [`svo`]: a sparse voxel octree built level by level on the GPU (flag, subdivide/allocate
 //!   with an atomic counter, neighbour links) with a 3x3x3 corner-sampled brick pool, neighbour
-//!   transfer and bottom-up mipmapping.
+//!   transfer and bottom-up mipmapping; [`svo_dynamic`] gives it a static part built once and
+//!   a dynamic part rebuilt every frame.
 //! - [`clipmap`]: nested levels of equal resolution and doubling extent around the camera with
 //!   toroidal addressing; camera motion revoxelises only the exposed slabs.
 //! - [`sample`]: the common "filtered value at `p` with footprint `d`" interface of both
@@ -25,6 +26,7 @@ pub mod cpu;
 pub mod debug;
 pub mod sample;
 pub mod svo;
+pub mod svo_dynamic;
 pub mod svo_inject;
 pub mod voxelize;
 

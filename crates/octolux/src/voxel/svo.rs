@@ -22,8 +22,14 @@
 //! albedo, emission and normal, and an RGBA16F radiance pool (radiance, opacity) in the same
 //! brick layout: [`SvoBuilder::inject`] fills it with emission + albedo/pi x direct irradiance
 //! (visibility from the renderer's shadow maps) and filters it with the same transfer and mip
-//! passes ([`super::svo_inject`]). The octree is rebuilt whole (no static/dynamic split).
+//! passes ([`super::svo_inject`]).
+//!
+//! Moving geometry goes into a dynamic part ([`super::svo_dynamic`], Arnebäck 2017 §3.1.7):
+//! an octree built with [`SvoBuilder::build_with_reserve`] keeps room for dynamic nodes and
+//! bricks after its static ones, and [`SvoBuilder::update_dynamic`] replaces the dynamic part
+//! each frame without voxelizing or rebuilding the static one.
 
+use super::svo_dynamic::DynamicReserve;
 use super::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
 use super::{VoxelGrid, VoxelTriangle};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
@@ -79,19 +85,53 @@ fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
 }
 ";
-const CONTROL_WORDS: u64 = 64;
+pub(crate) const CONTROL_WORDS: u64 = 128;
 /// Word of `control` counting bricks (`BRICK_COUNTER` in `svo.wgsl`).
-const BRICK_COUNTER: usize = 60;
+pub(crate) const BRICK_COUNTER: usize = 60;
+/// Indirect dispatch slots (3 words each): static levels, dynamic levels, dynamic lists.
+pub(crate) const ARGS_SLOTS: u64 = 64;
+/// First indirect slot of the dynamic node ranges (`ARGS_DYN_NODES` in `svo_dynamic.wgsl`).
+pub(crate) const ARGS_DYN_NODES: u32 = 16;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct LevelParams {
-    d: u32,
+pub(crate) struct LevelParams {
+    pub d: u32,
+    pub depth: u32,
+    pub fragments: u32,
+    pub capacity: u32,
+    pub pool_bricks: u32,
+    /// 0: the level's static nodes; 1: its dynamic nodes (or, for the dynamic update's
+    /// gather kernels, the previous update's dirty list).
+    pub range: u32,
+    pub pad: [u32; 2],
+}
+
+/// Uniform block of one [`LevelParams`] per slot (256 bytes apart): slot `d` walks level
+/// `d`'s static nodes, slot `depth + d` its dynamic ones.
+pub(crate) fn level_params(
+    ctx: &GpuContext,
+    label: &str,
     depth: u32,
     fragments: u32,
     capacity: u32,
     pool_bricks: u32,
-    pad: [u32; 3],
+) -> wgpu::Buffer {
+    let mut params = vec![0u8; UNIFORM_STRIDE as usize * 2 * depth as usize];
+    for slot in 0..2 * depth {
+        let p = LevelParams {
+            d: slot % depth,
+            depth,
+            fragments,
+            capacity,
+            pool_bricks,
+            range: slot / depth,
+            pad: [0; 2],
+        };
+        let at = slot as usize * UNIFORM_STRIDE as usize;
+        params[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
+    }
+    ctx.create_buffer_init(OWNER, label, &params, wgpu::BufferUsages::UNIFORM)
 }
 
 /// Most buffers a brick pool is split over (one storage binding each).
@@ -136,8 +176,17 @@ pub struct Svo {
     /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
     /// 27 texels of RGBA16F (radiance, opacity). Zero until [`SvoBuilder::inject`].
     pub radiance: Vec<wgpu::Buffer>,
-    /// Injected radiance and opacity per leaf voxel (RGBA16F, same order as `leaf_sums`).
+    /// Injected radiance and opacity per leaf voxel (RGBA16F): static leaves in the order of
+    /// `leaf_sums`, then the dynamic leaves in node order.
     pub voxel_radiance: wgpu::Buffer,
+    /// Nodes of the static part (`[0, static_nodes)`); dynamic nodes follow.
+    pub static_nodes: u32,
+    /// Bricks of the static part; dynamic bricks follow.
+    pub static_bricks: u32,
+    /// Node index range of every level's dynamic nodes (empty without a dynamic part).
+    pub dynamic_levels: Vec<(u32, u32)>,
+    /// Room for the dynamic part, `None` for an octree built without a reserve.
+    pub(crate) dynamic: Option<super::svo_dynamic::SvoDynamic>,
 }
 
 /// The octree read back to the CPU (for tests and tools).
@@ -151,8 +200,10 @@ pub struct SvoCpu {
     pub bricks: Vec<[glam::Vec4; 27]>,
     /// Per node, its brick index + 1 (0 = none).
     pub brick_of: Vec<u32>,
-    /// Node range per level.
+    /// Static node range per level.
     pub levels: Vec<(u32, u32)>,
+    /// Dynamic node range per level (empty without a dynamic part).
+    pub dynamic_levels: Vec<(u32, u32)>,
 }
 
 impl SvoCpu {
@@ -167,8 +218,10 @@ impl SvoCpu {
     /// Coordinates of every node on its level, found by walking down from the root.
     pub fn coordinates(&self) -> Vec<[u32; 3]> {
         let mut coords = vec![[0u32; 3]; self.child.len()];
-        for &(start, end) in &self.levels {
-            for n in start..end {
+        let none = (0, 0);
+        for (d, &stat) in self.levels.iter().enumerate() {
+            let dynamic = self.dynamic_levels.get(d).copied().unwrap_or(none);
+            for n in (stat.0..stat.1).chain(dynamic.0..dynamic.1) {
                 let first = self.child[n as usize];
                 if first != 0 {
                     let c = coords[n as usize];
@@ -188,16 +241,19 @@ impl SvoCpu {
 
 /// The octree build pipelines.
 pub struct SvoBuilder {
-    voxelizer: Voxelizer,
-    layout0: wgpu::BindGroupLayout,
+    pub(super) voxelizer: Voxelizer,
+    pub(super) layout0: wgpu::BindGroupLayout,
     layout1: wgpu::BindGroupLayout,
-    pipelines: std::collections::HashMap<&'static str, wgpu::ComputePipeline>,
+    /// Group 2 of the dynamic update's kernels (`svo_dynamic.wgsl`).
+    pub(super) dyn_layout: wgpu::BindGroupLayout,
+    /// Kernels by entry point, with the groups they bind beyond group 0.
+    pipelines: std::collections::HashMap<&'static str, (wgpu::ComputePipeline, Groups)>,
     pack: wgpu::ComputePipeline,
     pool_limit: Option<u32>,
-    light: super::svo_inject::SvoLight,
+    pub(super) light: super::svo_inject::SvoLight,
 }
 
-fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -210,10 +266,22 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-enum Dispatch {
+/// Which bind groups beyond group 0 a kernel uses: group 1 (the dispatch arguments, which a
+/// kernel dispatched indirectly must not bind) and group 2 (the dynamic part).
+#[derive(Clone, Copy)]
+struct Groups {
+    args: bool,
+    dynamic: bool,
+}
+
+pub(super) enum Dispatch {
+    /// One invocation per fragment.
     Fragments,
+    /// `n` invocations.
     Capacity(u32),
-    Level(u32),
+    /// Indirect, from this slot of the dispatch arguments.
+    Indirect(u32),
+    /// One workgroup.
     One,
 }
 
@@ -242,7 +310,12 @@ impl SvoBuilder {
             label: Some("svo args"),
             entries: &[storage(0, false)],
         });
-        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("svo.wgsl"));
+        let dyn_layout = super::svo_dynamic::bind_group_layout(device);
+        let source = format!(
+            "{OVERLAP_WGSL}\n{}\n{}",
+            include_str!("svo.wgsl"),
+            include_str!("svo_dynamic.wgsl")
+        );
         let module = ctx.shader("svo", &source);
         let plain = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("svo"),
@@ -254,8 +327,18 @@ impl SvoBuilder {
             bind_group_layouts: &[Some(&layout0), Some(&layout1)],
             immediate_size: 0,
         });
+        let dynamic = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("svo dynamic"),
+            bind_group_layouts: &[Some(&layout0), None, Some(&dyn_layout)],
+            immediate_size: 0,
+        });
+        let dynamic_args = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("svo dynamic finish"),
+            bind_group_layouts: &[Some(&layout0), Some(&layout1), Some(&dyn_layout)],
+            immediate_size: 0,
+        });
         let mut pipelines = std::collections::HashMap::new();
-        for entry in [
+        for entry in super::svo_dynamic::ENTRY_POINTS.iter().copied().chain([
             "flag_occupied",
             "flag_needed",
             "subdivide",
@@ -267,11 +350,16 @@ impl SvoBuilder {
             "transfer_y",
             "transfer_z",
             "mip",
-        ] {
-            let layout = if entry == "finish_level" {
-                &with_args
-            } else {
-                &plain
+        ]) {
+            let groups = Groups {
+                args: entry.contains("finish"),
+                dynamic: entry.starts_with("dyn_"),
+            };
+            let layout = match (groups.args, groups.dynamic) {
+                (true, true) => &dynamic_args,
+                (true, false) => &with_args,
+                (false, true) => &dynamic,
+                (false, false) => &plain,
             };
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(entry),
@@ -281,7 +369,7 @@ impl SvoBuilder {
                 compilation_options: Default::default(),
                 cache: None,
             });
-            pipelines.insert(entry, pipeline);
+            pipelines.insert(entry, (pipeline, groups));
         }
         let pack_module = ctx.shader("svo pack", PACK_WGSL);
         SvoBuilder {
@@ -291,6 +379,7 @@ impl SvoBuilder {
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
+            dyn_layout,
             pipelines,
         }
     }
@@ -304,11 +393,25 @@ impl SvoBuilder {
 
     /// Voxelizes `tris` into `grid` and builds the octree. Returns the octree and the pass
     /// times (voxelization, structure, bricks); scratch buffers are released at the end.
+    /// The octree has no dynamic part: see [`SvoBuilder::build_with_reserve`].
     pub fn build(
         &self,
         ctx: &GpuContext,
         grid: &VoxelGrid,
         tris: &[VoxelTriangle],
+    ) -> Result<(Svo, Vec<PassTiming>)> {
+        self.build_with_reserve(ctx, grid, tris, DynamicReserve::NONE)
+    }
+
+    /// Builds the static part of an octree from `tris` (as [`SvoBuilder::build`]) with room
+    /// for a dynamic part of up to `reserve` nodes and bricks, which
+    /// [`SvoBuilder::update_dynamic`] fills each frame.
+    pub fn build_with_reserve(
+        &self,
+        ctx: &GpuContext,
+        grid: &VoxelGrid,
+        tris: &[VoxelTriangle],
+        reserve: DynamicReserve,
     ) -> Result<(Svo, Vec<PassTiming>)> {
         super::check_resolution(grid.resolution)?;
         if grid.resolution < 4 {
@@ -334,8 +437,14 @@ impl SvoBuilder {
             .min(device_pool)
             .max(1);
         loop {
-            let attempt =
-                self.build_with(ctx, grid, &list, depth, capacity, pool_bricks, &mut timings)?;
+            let attempt = self.build_with(
+                ctx,
+                grid,
+                &list,
+                (depth, capacity, pool_bricks),
+                reserve,
+                &mut timings,
+            )?;
             match attempt {
                 Some(svo) => {
                     ctx.ledger.record(OWNER, "fragments", 0);
@@ -354,15 +463,14 @@ impl SvoBuilder {
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// One build attempt with `capacity` nodes of scratch; `None` when they did not suffice.
     fn build_with(
         &self,
         ctx: &GpuContext,
         grid: &VoxelGrid,
         list: &FragmentList,
-        depth: u32,
-        capacity: u32,
-        pool_bricks: u32,
+        (depth, capacity, pool_bricks): (u32, u32, u32),
+        reserve: DynamicReserve,
         timings: &mut Vec<PassTiming>,
     ) -> Result<Option<Svo>> {
         let usage = wgpu::BufferUsages::STORAGE
@@ -387,7 +495,7 @@ impl SvoBuilder {
         let control = scratch("control", CONTROL_WORDS, usage);
         let args = scratch(
             "dispatch args",
-            3 * 16,
+            3 * ARGS_SLOTS,
             usage | wgpu::BufferUsages::INDIRECT,
         );
         let mut init = vec![0u32; CONTROL_WORDS as usize];
@@ -398,74 +506,45 @@ impl SvoBuilder {
             .write_buffer(&control, 0, bytemuck::cast_slice(&init));
         ctx.queue
             .write_buffer(&args, 0, bytemuck::cast_slice(&[1u32, 1, 1]));
-        let mut params = vec![0u8; UNIFORM_STRIDE as usize * depth as usize];
-        for d in 0..depth {
-            let p = LevelParams {
-                d,
-                depth,
-                fragments: list.count,
-                capacity,
-                pool_bricks,
-                pad: [0; 3],
-            };
-            let at = d as usize * UNIFORM_STRIDE as usize;
-            params[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
-        }
-        let uniform =
-            ctx.create_buffer_init(OWNER, "level params", &params, wgpu::BufferUsages::UNIFORM);
+        let uniform = level_params(
+            ctx,
+            "level params",
+            depth,
+            list.count,
+            capacity,
+            pool_bricks,
+        );
         // The brick pool is bound in the structure phase too (the layout is shared), so it gets
         // a placeholder there and its exact size afterwards.
         let placeholder = scratch("placeholder", 4, usage);
         let group = |pools: [&wgpu::Buffer; 4]| {
-            let buffers: [&wgpu::Buffer; 11] = [
-                &list.buffer,
-                &list.triangles,
-                &child,
-                &nbr,
-                &coord,
-                &flags,
-                &control,
-                pools[0],
-                pools[1],
-                pools[2],
-                pools[3],
-            ];
-            let mut entries = vec![wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &uniform,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(32),
-                }),
-            }];
-            for (i, b) in buffers.iter().enumerate() {
-                entries.push(wgpu::BindGroupEntry {
-                    binding: i as u32 + 1,
-                    resource: b.as_entire_binding(),
-                });
-            }
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("svo"),
-                layout: &self.layout0,
-                entries: &entries,
-            })
+            self.group0(
+                ctx,
+                &uniform,
+                [
+                    &list.buffer,
+                    &list.triangles,
+                    &child,
+                    &nbr,
+                    &coord,
+                    &flags,
+                    &control,
+                    pools[0],
+                    pools[1],
+                    pools[2],
+                    pools[3],
+                ],
+            )
         };
-        let args_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("svo args"),
-            layout: &self.layout1,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: args.as_entire_binding(),
-            }],
-        });
+        let args_group = self.args_group(ctx, &args);
         let mut timer = PassTimer::new(ctx);
         let structure = group([&placeholder; 4]);
         let mut steps = Vec::new();
         for d in 0..depth {
             steps.push(("flag_occupied", d, Dispatch::Fragments));
-            steps.push(("flag_needed", d, Dispatch::Level(d)));
+            steps.push(("flag_needed", d, Dispatch::Indirect(d)));
             if d + 1 < depth {
-                steps.push(("subdivide", d, Dispatch::Level(d)));
+                steps.push(("subdivide", d, Dispatch::Indirect(d)));
                 steps.push(("finish_level", d, Dispatch::One));
             }
         }
@@ -474,7 +553,7 @@ impl SvoBuilder {
             &mut timer,
             "svo structure",
             &structure,
-            &args_group,
+            (&args_group, None),
             &args,
             list.count,
             &steps,
@@ -487,32 +566,38 @@ impl SvoBuilder {
         }
         let node_count = control_cpu[0];
         let brick_count = control_cpu[BRICK_COUNTER];
-        let pools_needed = brick_count.div_ceil(pool_bricks).max(1);
-        if pools_needed > POOLS {
+        let brick_capacity = brick_count as u64 + reserve.bricks as u64;
+        if brick_capacity.div_ceil(pool_bricks as u64).max(1) > POOLS as u64 {
             return Err(Error::InvalidArgument(format!(
-                "the octree at {}^3 has {node_count} nodes and needs {brick_count} bricks; this \
-                 GPU can bind at most {} ({POOLS} storage bindings of {pool_bricks} RGBA16F \
-                 bricks); use a lower resolution",
+                "the octree at {}^3 has {node_count} nodes and needs {brick_count} bricks (+ \
+                 {} reserved for dynamic geometry); this GPU can bind at most {} ({POOLS} \
+                 storage bindings of {pool_bricks} RGBA16F bricks); use a lower resolution or \
+                 a smaller reserve",
                 grid.resolution,
+                reserve.bricks,
                 POOLS * pool_bricks
+            )));
+        }
+        let max_nodes =
+            (ctx.device.limits().max_storage_buffer_binding_size / 12).min(u32::MAX as u64 / 64);
+        let node_capacity = node_count as u64 + reserve.nodes as u64;
+        if node_capacity > max_nodes {
+            return Err(Error::InvalidArgument(format!(
+                "the octree at {}^3 has {node_count} nodes; with {} reserved for dynamic \
+                 geometry it needs more than this GPU can bind ({max_nodes}); reserve fewer",
+                grid.resolution, reserve.nodes
             )));
         }
         let levels: Vec<(u32, u32)> = (0..depth as usize)
             .map(|d| (control_cpu[2 + 2 * d], control_cpu[3 + 2 * d]))
             .collect();
         // Pool k holds bricks [k * pool_bricks, (k + 1) * pool_bricks).
-        let pool_sizes: Vec<u64> = (0..POOLS)
-            .map(|k| {
-                (brick_count as u64)
-                    .saturating_sub(k as u64 * pool_bricks as u64)
-                    .min(pool_bricks as u64)
-            })
-            .collect();
-        let make_pools = |label: &str, words: u64| -> Vec<wgpu::Buffer> {
-            pool_sizes
-                .iter()
-                .enumerate()
-                .map(|(k, &bricks)| {
+        let make_pools = |label: &str, words: u64, total: u64| -> Vec<wgpu::Buffer> {
+            (0..POOLS as u64)
+                .map(|k| {
+                    let bricks = total
+                        .saturating_sub(k * pool_bricks as u64)
+                        .min(pool_bricks as u64);
                     ctx.create_buffer(
                         OWNER,
                         &wgpu::BufferDescriptor {
@@ -525,32 +610,36 @@ impl SvoBuilder {
                 })
                 .collect()
         };
-        let wide = make_pools("brick pool (build, RGBA16F)", BUILD_BRICK_WORDS as u64);
+        let wide = make_pools(
+            "brick pool (build, RGBA16F)",
+            BUILD_BRICK_WORDS as u64,
+            brick_count as u64,
+        );
         let filling = group([&wide[0], &wide[1], &wide[2], &wide[3]]);
         let leaf = depth - 1;
         let mut steps = vec![
             ("leaf_accumulate", leaf, Dispatch::Fragments),
-            ("leaf_fill", leaf, Dispatch::Level(leaf)),
+            ("leaf_fill", leaf, Dispatch::Indirect(leaf)),
         ];
         for d in (0..depth).rev() {
             if d != leaf {
-                steps.push(("mip", d, Dispatch::Level(d)));
+                steps.push(("mip", d, Dispatch::Indirect(d)));
             }
             for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.push((t, d, Dispatch::Level(d)));
+                steps.push((t, d, Dispatch::Indirect(d)));
             }
         }
         self.record(
             &mut timer,
             "svo bricks",
             &filling,
-            &args_group,
+            (&args_group, None),
             &args,
             list.count,
             &steps,
         );
         // The finished pool: RGBA8, half the size of the build pool.
-        let packed = make_pools("brick pool", BRICK_WORDS as u64);
+        let packed = make_pools("brick pool", BRICK_WORDS as u64, brick_capacity);
         let count = ctx.create_buffer_init(
             OWNER,
             "pack params",
@@ -583,28 +672,34 @@ impl SvoBuilder {
         let leaf_sums = self
             .light
             .accumulate(ctx, &mut timer, list, &child, depth, leaves);
-        let radiance = make_pools("radiance pool", BUILD_BRICK_WORDS as u64);
-        let voxel_radiance = scratch("voxel radiance", (leaves.1 - leaves.0) as u64 * 16, usage);
-        // Keep only what the octree needs, at its exact size.
-        let mut exact = |label: &str, words: u64, from: &wgpu::Buffer| {
+        let radiance = make_pools("radiance pool", BUILD_BRICK_WORDS as u64, brick_capacity);
+        let voxel_radiance = scratch(
+            "voxel radiance",
+            (leaves.1 - leaves.0 + reserve.nodes) as u64 * 16,
+            usage,
+        );
+        // Keep only what the octree needs, at its exact size (plus the dynamic reserve, which
+        // starts zeroed).
+        let mut exact = |label: &str, per_node: u64, from: &wgpu::Buffer| {
             let buffer = ctx.create_buffer(
                 OWNER,
                 &wgpu::BufferDescriptor {
                     label: Some(label),
-                    size: (words * 4).max(16),
+                    size: (node_capacity * per_node * 4).max(16),
                     usage,
                     mapped_at_creation: false,
                 },
             );
+            let words = node_count as u64 * per_node;
             timer.untimed(|encoder| {
                 encoder.copy_buffer_to_buffer(from, 0, &buffer, 0, Some(words * 4))
             });
             buffer
         };
-        let child_exact = exact("child", node_count as u64, &child);
-        let nbr_exact = exact("neighbours", node_count as u64 * 3, &nbr);
-        let brick_index = exact("brick index", node_count as u64, &flags);
-        let coord_exact = exact("coordinates", node_count as u64, &coord);
+        let child_exact = exact("child", 1, &child);
+        let nbr_exact = exact("neighbours", 3, &nbr);
+        let brick_index = exact("brick index", 1, &flags);
+        let coord_exact = exact("coordinates", 1, &coord);
         timings.extend(timer.finish_frame()?);
         for label in [
             "child (build)",
@@ -638,6 +733,15 @@ impl SvoBuilder {
             leaf_sums,
             radiance,
             voxel_radiance,
+            static_nodes: node_count,
+            static_bricks: brick_count,
+            dynamic_levels: Vec::new(),
+            dynamic: super::svo_dynamic::SvoDynamic::new(
+                ctx,
+                reserve,
+                node_capacity as u32,
+                brick_capacity as u32,
+            ),
         }))
     }
 
@@ -688,23 +792,79 @@ impl SvoBuilder {
                 mapped_at_creation: false,
             },
         );
-        let buffers: [&wgpu::Buffer; 11] = [
-            &placeholder,
-            &placeholder,
-            &svo.child,
-            &svo.neighbours,
-            &svo.coord,
-            &svo.brick_index,
-            &svo.control,
-            &svo.radiance[0],
-            &svo.radiance[1],
-            &svo.radiance[2],
-            &svo.radiance[3],
-        ];
+        let group = self.group0(
+            ctx,
+            &svo.level_params,
+            [
+                &placeholder,
+                &placeholder,
+                &svo.child,
+                &svo.neighbours,
+                &svo.coord,
+                &svo.brick_index,
+                &svo.control,
+                &svo.radiance[0],
+                &svo.radiance[1],
+                &svo.radiance[2],
+                &svo.radiance[3],
+            ],
+        );
+        let args_group = self.args_group(ctx, &svo.args);
+        let depth = svo.levels.len() as u32;
+        // Every level's static nodes, then its dynamic ones (uniform slot depth + d).
+        let ranges = |d: u32| {
+            let dynamic = !svo.dynamic_levels.is_empty();
+            [(d, d)]
+                .into_iter()
+                .chain(dynamic.then_some((depth + d, ARGS_DYN_NODES + d)))
+        };
+        let mut steps = Vec::new();
+        for d in (0..depth).rev() {
+            if d + 1 != depth {
+                steps.extend(ranges(d).map(|(slot, args)| ("mip", slot, Dispatch::Indirect(args))));
+            }
+            for t in ["transfer_x", "transfer_y", "transfer_z"] {
+                steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::Indirect(args))));
+            }
+        }
+        self.record(
+            timer,
+            "svo radiance mip",
+            &group,
+            (&args_group, None),
+            &svo.args,
+            0,
+            &steps,
+        );
+        ctx.ledger.record(OWNER, "inject placeholder", 0);
+        Ok(())
+    }
+
+    /// Group 0 of the octree kernels: `uniform` (per-level slots) and the 11 storage buffers
+    /// of `svo.wgsl` (fragments, triangles, child, neighbours, coordinates, flags / brick
+    /// index, control, the 4 brick pool buffers).
+    /// Group 1: the dispatch arguments, written by the `finish` kernels.
+    pub(super) fn args_group(&self, ctx: &GpuContext, args: &wgpu::Buffer) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo args"),
+            layout: &self.layout1,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: args.as_entire_binding(),
+            }],
+        })
+    }
+
+    pub(super) fn group0(
+        &self,
+        ctx: &GpuContext,
+        uniform: &wgpu::Buffer,
+        buffers: [&wgpu::Buffer; 11],
+    ) -> wgpu::BindGroup {
         let mut entries = vec![wgpu::BindGroupEntry {
             binding: 0,
             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: &svo.level_params,
+                buffer: uniform,
                 offset: 0,
                 size: wgpu::BufferSize::new(32),
             }),
@@ -715,49 +875,23 @@ impl SvoBuilder {
                 resource: b.as_entire_binding(),
             });
         }
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("svo radiance"),
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("svo"),
             layout: &self.layout0,
             entries: &entries,
-        });
-        let args_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("svo args"),
-            layout: &self.layout1,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: svo.args.as_entire_binding(),
-            }],
-        });
-        let depth = svo.levels.len() as u32;
-        let mut steps = Vec::new();
-        for d in (0..depth).rev() {
-            if d + 1 != depth {
-                steps.push(("mip", d, Dispatch::Level(d)));
-            }
-            for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.push((t, d, Dispatch::Level(d)));
-            }
-        }
-        self.record(
-            timer,
-            "svo radiance mip",
-            &group,
-            &args_group,
-            &svo.args,
-            0,
-            &steps,
-        );
-        ctx.ledger.record(OWNER, "inject placeholder", 0);
-        Ok(())
+        })
     }
 
+    /// Records `steps` (entry point, uniform slot, dispatch) as one timed pass; kernels that
+    /// write dispatch arguments get `args_group` (group 1, over `args`), those of the dynamic
+    /// part `dynamic` (group 2).
     #[allow(clippy::too_many_arguments)]
-    fn record(
+    pub(super) fn record(
         &self,
         timer: &mut PassTimer,
         name: &str,
         group: &wgpu::BindGroup,
-        args_group: &wgpu::BindGroup,
+        (args_group, dynamic): (&wgpu::BindGroup, Option<&wgpu::BindGroup>),
         args: &wgpu::Buffer,
         fragments: u32,
         steps: &[(&'static str, u32, Dispatch)],
@@ -769,8 +903,15 @@ impl SvoBuilder {
                     label: Some(entry),
                     timestamp_writes: stamps.compute_part(i == 0, i == last),
                 });
-                pass.set_pipeline(&self.pipelines[entry]);
+                let (pipeline, groups) = &self.pipelines[entry];
+                pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, group, &[*d * UNIFORM_STRIDE as u32]);
+                if groups.args {
+                    pass.set_bind_group(1, args_group, &[]);
+                }
+                if groups.dynamic {
+                    pass.set_bind_group(2, dynamic.expect("dynamic kernels get group 2"), &[]);
+                }
                 match dispatch {
                     Dispatch::Fragments => {
                         let (x, y) = dispatch_size(fragments);
@@ -780,11 +921,10 @@ impl SvoBuilder {
                         let (x, y) = dispatch_size(*n);
                         pass.dispatch_workgroups(x, y, 1);
                     }
-                    Dispatch::Level(level) => {
-                        pass.dispatch_workgroups_indirect(args, *level as u64 * 12);
+                    Dispatch::Indirect(slot) => {
+                        pass.dispatch_workgroups_indirect(args, *slot as u64 * 12);
                     }
                     Dispatch::One => {
-                        pass.set_bind_group(1, args_group, &[]);
                         pass.dispatch_workgroups(1, 1, 1);
                     }
                 }
@@ -829,6 +969,7 @@ impl Svo {
             bricks,
             brick_of,
             levels: self.levels.clone(),
+            dynamic_levels: self.dynamic_levels.clone(),
         })
     }
 }

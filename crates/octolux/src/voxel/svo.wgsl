@@ -12,7 +12,9 @@ struct LevelParams {
     capacity: u32,
     // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
     pool_bricks: u32,
-    pad0: u32,
+    // Which node range a kernel walks: 0 the level's static nodes; 1 its dynamic nodes
+    // (`level_node`) or the previous update's dirty list (`dirty_node`, svo_dynamic.wgsl).
+    range: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -24,7 +26,8 @@ struct LevelParams {
 @group(0) @binding(4) var<storage, read_write> nbr: array<u32>;
 @group(0) @binding(5) var<storage, read_write> coord: array<u32>;
 @group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
-// [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d.
+// [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d;
+// words 64.. belong to the dynamic part (svo_dynamic.wgsl), [60] counts bricks.
 @group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;
 @group(0) @binding(8) var<storage, read_write> bricks0: array<atomic<u32>>;
 @group(0) @binding(9) var<storage, read_write> bricks1: array<atomic<u32>>;
@@ -65,10 +68,12 @@ fn find(c: vec3<u32>, d: u32) -> u32 {
     return node;
 }
 
-// Node of this invocation on level L.d, or INVALID past the level's end.
+// Node of this invocation on level L.d (its static or, with L.range == 1, its dynamic
+// nodes), or INVALID past the range's end.
 fn level_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
-    let n = atomicLoad(&control[2u + 2u * L.d]) + linear_index(wg, nwg, li);
-    if n >= atomicLoad(&control[3u + 2u * L.d]) {
+    let base = select(2u, 64u, L.range == 1u) + 2u * L.d;
+    let n = atomicLoad(&control[base]) + linear_index(wg, nwg, li);
+    if n >= atomicLoad(&control[base + 1u]) {
         return INVALID;
     }
     return n;

@@ -1,0 +1,525 @@
+// Dynamic part of the sparse voxel octree (Arnebäck 2017 §3.1.7), compiled after svo.wgsl.
+// The static part (nodes [0, S), bricks [0, B)) is built once; every update clears what the
+// previous update added, then flags, subdivides and links for the dynamic fragments only,
+// allocating new nodes after S and new bricks after B. Nothing of the static part is
+// rewritten except the pointers into the dynamic section and the bricks whose lattice the
+// dynamic geometry changes (or changed in the previous update), which are recomputed by
+// gathering ("dirty" nodes: the needed lists below).
+//
+// Per node `state` (group 2; group 1 holds the dispatch arguments, bound only for the
+// dyn_finish_* kernels that write them): bit 0 occupied by a dynamic fragment, bit 1 needed by
+// dynamic geometry (in its 26-neighbourhood), bits 2..31 on leaf nodes: 1 + the node's slot in
+// `dyn_sums` (its index in the occupied list). Lists hold node indices: the occupied list and
+// the needed list are appended level by level, their per-level ranges kept in `control`.
+
+struct DynParams {
+    // x: static nodes S, y: static bricks B, z: node capacity, w: brick capacity
+    sizes: vec4<u32>,
+    // x: previous update's node count, y: previous needed-list length, z: occupied-list
+    // capacity, w: needed-list capacity
+    lists: vec4<u32>,
+    // x: first static leaf node, y: whether dyn_sums holds data (1) or not (0)
+    leaves: vec4<u32>,
+    // previous update's needed-list range per level (x: start, y: end)
+    last_need: array<vec4<u32>, 16>,
+    // previous update's dynamic node range per level (x: start, y: end)
+    last_nodes: array<vec4<u32>, 16>,
+}
+
+@group(2) @binding(1) var<uniform> D: DynParams;
+@group(2) @binding(2) var<storage, read_write> state: array<atomic<u32>>;
+@group(2) @binding(3) var<storage, read_write> occ_list: array<u32>;
+@group(2) @binding(4) var<storage, read_write> need_list: array<u32>;
+@group(2) @binding(5) var<storage, read> last_need_list: array<u32>;
+@group(2) @binding(6) var<storage, read_write> dyn_sums: array<atomic<u32>>;
+@group(2) @binding(7) var<storage, read> static_sums: array<u32>;
+
+const DYN_OCCUPIED: u32 = 1u;
+const DYN_NEEDED: u32 = 2u;
+// Words of `control` (see svo.rs): per-level ranges of the dynamic nodes, the occupied and
+// the needed lists; list counters; overflow of the lists or the brick pool.
+const DYN_NODES: u32 = 64u;
+const OCC_RANGE: u32 = 84u;
+const NEED_RANGE: u32 = 104u;
+const OCC_COUNT: u32 = 124u;
+const NEED_COUNT: u32 = 125u;
+const DYN_OVERFLOW: u32 = 126u;
+// Indirect argument slots (3 words each): static levels 0.., dynamic nodes 16.., occupied
+// list 32.., needed list 48...
+const ARGS_DYN_NODES: u32 = 16u;
+const ARGS_OCC: u32 = 32u;
+const ARGS_NEED: u32 = 48u;
+const ARGS_ALL_NEEDED: u32 = 63u;
+const SUM_WORDS: u32 = 10u;
+
+fn write_args(slot: u32, count: u32) {
+    let groups = (count + 63u) / 64u;
+    args[3u * slot] = min(groups, 65535u);
+    args[3u * slot + 1u] = (groups + 65534u) / 65535u;
+    args[3u * slot + 2u] = 1u;
+}
+
+// Entry `i` of the range [control[base], control[base + 1]), INVALID past its end.
+fn range_entry(wg: vec3<u32>, nwg: vec3<u32>, li: u32, base: u32) -> u32 {
+    let i = atomicLoad(&control[base]) + linear_index(wg, nwg, li);
+    if i >= atomicLoad(&control[base + 1u]) {
+        return INVALID;
+    }
+    return i;
+}
+
+// ---- Clearing the previous update -------------------------------------------------------
+
+// Previous dynamic nodes [S, previous count): the static node below each of them on every
+// axis pointed to it; that link goes back to 0 (in the static part it had no neighbour there).
+@compute @workgroup_size(64)
+fn dyn_unlink(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    let n = D.sizes.x + linear_index(wg, nwg, li);
+    if n >= D.lists.x {
+        return;
+    }
+    let c = unpack3(coord[n]);
+    let d = node_level(n);
+    for (var a = 0u; a < 3u; a++) {
+        if c[a] == 0u {
+            continue;
+        }
+        var e = vec3<u32>(0u);
+        e[a] = 1u;
+        let m = find(c - e, d);
+        if m != INVALID && m < D.sizes.x {
+            nbr[3u * m + a] = 0u;
+        }
+    }
+}
+
+// The level of dynamic node n in the previous update.
+fn node_level(n: u32) -> u32 {
+    for (var d = 1u; d < L.depth; d++) {
+        if n < D.last_nodes[d].y {
+            return d;
+        }
+    }
+    return L.depth - 1u;
+}
+
+// Previous needed list: static nodes drop children and bricks taken from the dynamic
+// section, and every listed node's state is cleared.
+@compute @workgroup_size(64)
+fn dyn_reset(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+             @builtin(local_invocation_index) li: u32) {
+    let i = linear_index(wg, nwg, li);
+    if i >= D.lists.y {
+        return;
+    }
+    let n = last_need_list[i];
+    if n >= D.sizes.x {
+        return;
+    }
+    if child[n] >= D.sizes.x {
+        child[n] = 0u;
+    }
+    if atomicLoad(&flags[n]) > D.sizes.y {
+        atomicStore(&flags[n], 0u);
+    }
+    atomicStore(&state[n], 0u);
+}
+
+// ---- Structure ----------------------------------------------------------------------------
+
+// Every dynamic fragment flags its node on level d; the first one lists the node.
+@compute @workgroup_size(64)
+fn dyn_flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                     @builtin(local_invocation_index) li: u32) {
+    let f = linear_index(wg, nwg, li);
+    if f >= L.fragments {
+        return;
+    }
+    let v = unpack3(fragments[f].x);
+    let n = find(v >> vec3<u32>(L.depth - L.d), L.d);
+    if n == INVALID {
+        return;
+    }
+    let old = atomicOr(&state[n], DYN_OCCUPIED);
+    if (old & DYN_OCCUPIED) != 0u {
+        return;
+    }
+    let i = atomicAdd(&control[OCC_COUNT], 1u);
+    if i >= D.lists.z {
+        atomicStore(&control[DYN_OVERFLOW], 1u);
+        return;
+    }
+    occ_list[i] = n;
+    if L.d + 1u == L.depth {
+        atomicOr(&state[n], (i + 1u) << 2u);
+    }
+}
+
+// Closes a list's range for level d (it starts where level d - 1 ended) and sizes its dispatch.
+fn finish_list(range: u32, counter: u32, capacity: u32, slot: u32) {
+    var start = 0u;
+    if L.d > 0u {
+        start = atomicLoad(&control[range + 2u * L.d - 1u]);
+    }
+    let end = min(atomicLoad(&control[counter]), capacity);
+    atomicStore(&control[range + 2u * L.d], start);
+    atomicStore(&control[range + 2u * L.d + 1u], end);
+    write_args(slot + L.d, end - start);
+}
+
+@compute @workgroup_size(1)
+fn dyn_finish_occupied() {
+    finish_list(OCC_RANGE, OCC_COUNT, D.lists.z, ARGS_OCC);
+}
+
+@compute @workgroup_size(1)
+fn dyn_finish_needed() {
+    finish_list(NEED_RANGE, NEED_COUNT, D.lists.w, ARGS_NEED);
+    write_args(ARGS_ALL_NEEDED, min(atomicLoad(&control[NEED_COUNT]), D.lists.w));
+}
+
+// The 26-neighbourhood of every node the dynamic fragments occupy on level d (all of these
+// nodes exist: their parents' neighbourhoods were subdivided) is needed; each is listed once.
+@compute @workgroup_size(64)
+fn dyn_flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                   @builtin(local_invocation_index) li: u32) {
+    let i = range_entry(wg, nwg, li, OCC_RANGE + 2u * L.d);
+    if i == INVALID {
+        return;
+    }
+    let c = vec3<i32>(unpack3(coord[occ_list[i]]));
+    let size = i32(1u << L.d);
+    for (var k = 0u; k < 27u; k++) {
+        let cc = c + vec3<i32>(i32(k % 3u), i32((k / 3u) % 3u), i32(k / 9u)) - vec3<i32>(1);
+        if any(cc < vec3<i32>(0)) || any(cc >= vec3<i32>(size)) {
+            continue;
+        }
+        let m = find(vec3<u32>(cc), L.d);
+        if m == INVALID {
+            continue;
+        }
+        let old = atomicOr(&state[m], DYN_NEEDED);
+        if (old & DYN_NEEDED) != 0u {
+            continue;
+        }
+        let j = atomicAdd(&control[NEED_COUNT], 1u);
+        if j >= D.lists.w {
+            atomicStore(&control[DYN_OVERFLOW], 1u);
+            continue;
+        }
+        need_list[j] = m;
+    }
+}
+
+// Needed nodes of level d without children get 8, allocated in the dynamic section.
+@compute @workgroup_size(64)
+fn dyn_subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) li: u32) {
+    let i = range_entry(wg, nwg, li, NEED_RANGE + 2u * L.d);
+    if i == INVALID {
+        return;
+    }
+    let n = need_list[i];
+    if child[n] != 0u {
+        return;
+    }
+    let base = atomicAdd(&control[0], 8u);
+    if base + 8u > L.capacity {
+        atomicStore(&control[1], 1u);
+        return;
+    }
+    child[n] = base;
+    let c = unpack3(coord[n]);
+    for (var o = 0u; o < 8u; o++) {
+        coord[base + o] = pack3(c * 2u + octant_offset(o));
+    }
+}
+
+// Records the dynamic node range of level d + 1 (allocated by `dyn_subdivide` on level d).
+@compute @workgroup_size(1)
+fn dyn_finish_nodes() {
+    let start = atomicLoad(&control[DYN_NODES + 2u * L.d + 1u]);
+    let end = min(atomicLoad(&control[0]), L.capacity);
+    atomicStore(&control[DYN_NODES + 2u * (L.d + 1u)], start);
+    atomicStore(&control[DYN_NODES + 2u * (L.d + 1u) + 1u], end);
+    write_args(ARGS_DYN_NODES + L.d + 1u, end - start);
+}
+
+// Links of the new nodes of level d: their own +x, +y, +z links, and the +axis link of a
+// static node just below them, which had no neighbour there before.
+@compute @workgroup_size(64)
+fn dyn_link(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+            @builtin(local_invocation_index) li: u32) {
+    let n = range_entry(wg, nwg, li, DYN_NODES + 2u * L.d);
+    if n == INVALID {
+        return;
+    }
+    let c = unpack3(coord[n]);
+    let size = 1u << L.d;
+    for (var a = 0u; a < 3u; a++) {
+        var e = vec3<u32>(0u);
+        e[a] = 1u;
+        var link = 0u;
+        if c[a] + 1u < size {
+            let m = find(c + e, L.d);
+            if m != INVALID {
+                link = m;
+            }
+        }
+        nbr[3u * n + a] = link;
+        if c[a] > 0u {
+            let m = find(c - e, L.d);
+            if m != INVALID && m < D.sizes.x {
+                nbr[3u * m + a] = n;
+            }
+        }
+    }
+}
+
+// Every needed node without a brick gets one after the static bricks.
+@compute @workgroup_size(64)
+fn dyn_assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                     @builtin(local_invocation_index) li: u32) {
+    let i = linear_index(wg, nwg, li);
+    if i >= min(atomicLoad(&control[NEED_COUNT]), D.lists.w) {
+        return;
+    }
+    let n = need_list[i];
+    if atomicLoad(&flags[n]) != 0u {
+        return;
+    }
+    let b = atomicAdd(&control[BRICK_COUNTER], 1u);
+    if b >= D.sizes.w {
+        atomicStore(&control[DYN_OVERFLOW], 2u);
+        return;
+    }
+    atomicStore(&flags[n], b + 1u);
+}
+
+// ---- Leaf sums and bricks -------------------------------------------------------------------
+
+// Dynamic fragments add albedo, emission and normal sums into their leaf's slot, as the
+// static build's leaf sums do (`svo_inject.wgsl`).
+@compute @workgroup_size(64)
+fn dyn_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                  @builtin(local_invocation_index) li: u32) {
+    let f = linear_index(wg, nwg, li);
+    if f >= L.fragments {
+        return;
+    }
+    let frag = fragments[f];
+    let v = unpack3(frag.x);
+    let n = find(v >> vec3<u32>(1u), L.depth - 1u);
+    if n == INVALID {
+        return;
+    }
+    let slot = atomicLoad(&state[n]) >> 2u;
+    if slot == 0u {
+        return;
+    }
+    let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
+    let w = ((slot - 1u) * 8u + o) * SUM_WORDS;
+    let tri = tris[frag.y];
+    let albedo = bitcast<u32>(tri.p0.w);
+    atomicAdd(&dyn_sums[w], albedo & 255u);
+    atomicAdd(&dyn_sums[w + 1u], (albedo >> 8u) & 255u);
+    atomicAdd(&dyn_sums[w + 2u], (albedo >> 16u) & 255u);
+    atomicAdd(&dyn_sums[w + 3u], 1u);
+    let e = clamp(vec3<f32>(tri.p2.w, tri.extra.x, tri.extra.y), vec3<f32>(0.0), vec3<f32>(65504.0));
+    for (var k = 0u; k < 3u; k++) {
+        atomicAdd(&dyn_sums[w + 4u + k], u32(round(e[k] * 1024.0)));
+    }
+    let nb = bitcast<u32>(tri.p1.w);
+    for (var k = 0u; k < 3u; k++) {
+        let b = (nb >> (8u * k)) & 255u;
+        atomicAdd(&dyn_sums[w + 7u + k], bitcast<u32>(i32(b << 24u) >> 24u));
+    }
+}
+
+// Albedo and opacity of leaf voxel v (grid coordinates): the static and dynamic sums of its
+// fragments together, averaged like `leaf_fill`.
+fn voxel_albedo(v: vec3<i32>) -> vec4<f32> {
+    let res = i32(1u << L.depth);
+    if any(v < vec3<i32>(0)) || any(v >= vec3<i32>(res)) {
+        return vec4<f32>(0.0);
+    }
+    let u = vec3<u32>(v);
+    let n = find(u >> vec3<u32>(1u), L.depth - 1u);
+    if n == INVALID {
+        return vec4<f32>(0.0);
+    }
+    let o = (u.x & 1u) | ((u.y & 1u) << 1u) | ((u.z & 1u) << 2u);
+    var s = vec4<u32>(0u);
+    if n >= D.leaves.x && n < D.sizes.x {
+        let w = ((n - D.leaves.x) * 8u + o) * SUM_WORDS;
+        s = vec4<u32>(static_sums[w], static_sums[w + 1u], static_sums[w + 2u], static_sums[w + 3u]);
+    }
+    let slot = atomicLoad(&state[n]) >> 2u;
+    if slot != 0u {
+        let w = ((slot - 1u) * 8u + o) * SUM_WORDS;
+        s += vec4<u32>(atomicLoad(&dyn_sums[w]), atomicLoad(&dyn_sums[w + 1u]),
+                       atomicLoad(&dyn_sums[w + 2u]), atomicLoad(&dyn_sums[w + 3u]));
+    }
+    if s.w == 0u {
+        return vec4<f32>(0.0);
+    }
+    let c = f32(s.w);
+    return vec4<f32>(f32(s.x) / c / 255.0, f32(s.y) / c / 255.0, f32(s.z) / c / 255.0, 1.0);
+}
+
+// Texel t of the finished RGBA8 pool (27 words per brick); `b1` is brick + 1, 0 = none.
+fn texel8(b1: u32, t: u32) -> vec4<f32> {
+    if b1 == 0u {
+        return vec4<f32>(0.0);
+    }
+    let b = b1 - 1u;
+    let w = (b % L.pool_bricks) * 27u + t;
+    switch b / L.pool_bricks {
+        case 0u: { return unpack4x8unorm(atomicLoad(&bricks0[w])); }
+        case 1u: { return unpack4x8unorm(atomicLoad(&bricks1[w])); }
+        case 2u: { return unpack4x8unorm(atomicLoad(&bricks2[w])); }
+        default: { return unpack4x8unorm(atomicLoad(&bricks3[w])); }
+    }
+}
+
+fn store8(b1: u32, t: u32, v: vec4<f32>) {
+    if b1 == 0u || b1 > D.sizes.w {
+        return;
+    }
+    let b = b1 - 1u;
+    let w = (b % L.pool_bricks) * 27u + t;
+    let p = pack4x8unorm(clamp(v, vec4<f32>(0.0), vec4<f32>(1.0)));
+    switch b / L.pool_bricks {
+        case 0u: { atomicStore(&bricks0[w], p); }
+        case 1u: { atomicStore(&bricks1[w], p); }
+        case 2u: { atomicStore(&bricks2[w], p); }
+        default: { atomicStore(&bricks3[w], p); }
+    }
+}
+
+// Bricks (+ 1) of the 3x3x3 nodes around c on level d (index x + 3y + 9z, c at 13).
+fn brick_block(c: vec3<u32>, d: u32) -> array<u32, 27> {
+    var out: array<u32, 27>;
+    let size = i32(1u << d);
+    for (var k = 0u; k < 27u; k++) {
+        let cc = vec3<i32>(c) + vec3<i32>(i32(k % 3u), i32((k / 3u) % 3u), i32(k / 9u)) - vec3<i32>(1);
+        out[k] = 0u;
+        if all(cc >= vec3<i32>(0)) && all(cc < vec3<i32>(size)) {
+            let m = find(vec3<u32>(cc), d);
+            if m != INVALID {
+                out[k] = atomicLoad(&flags[m]);
+            }
+        }
+    }
+    return out;
+}
+
+// Writes texel t of node (block centre) to every node sharing its lattice point, so shared
+// faces stay identical even where a neighbour is not recomputed.
+fn store_shared(block: array<u32, 27>, t: vec3<u32>, v: vec4<f32>) {
+    for (var k = 0u; k < 27u; k++) {
+        let o = vec3<i32>(i32(k % 3u), i32((k / 3u) % 3u), i32(k / 9u)) - vec3<i32>(1);
+        // In the neighbour at offset o the point is at t - 2o, which must lie in 0..2.
+        let local = vec3<i32>(t) - 2 * o;
+        if any(local < vec3<i32>(0)) || any(local > vec3<i32>(2)) {
+            continue;
+        }
+        store8(block[k], texel_index(vec3<u32>(local)), v);
+    }
+}
+
+// The dirty node of this invocation on level d: this update's needed list, or (when
+// L.range == 1) the previous update's, whose static nodes must return to their static values.
+fn dirty_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    if L.range == 1u {
+        let r = D.last_need[L.d];
+        let i = r.x + linear_index(wg, nwg, li);
+        if i >= r.y {
+            return INVALID;
+        }
+        let n = last_need_list[i];
+        if n >= D.sizes.x {
+            return INVALID;
+        }
+        return n;
+    }
+    let i = range_entry(wg, nwg, li, NEED_RANGE + 2u * L.d);
+    if i == INVALID {
+        return INVALID;
+    }
+    return need_list[i];
+}
+
+// Leaf bricks of dirty nodes, gathered: texel (i, j, k) = the 8 voxels touching the corner / 8.
+@compute @workgroup_size(64)
+fn dyn_leaf_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                   @builtin(local_invocation_index) li: u32) {
+    let n = dirty_node(wg, nwg, li);
+    if n == INVALID || atomicLoad(&flags[n]) == 0u {
+        return;
+    }
+    let c = unpack3(coord[n]);
+    let base = 2 * vec3<i32>(c) - vec3<i32>(1);
+    var voxels: array<vec4<f32>, 64>;
+    for (var k = 0u; k < 64u; k++) {
+        voxels[k] = voxel_albedo(base + vec3<i32>(i32(k % 4u), i32((k / 4u) % 4u), i32(k / 16u)));
+    }
+    let block = brick_block(c, L.d);
+    for (var t = 0u; t < 27u; t++) {
+        let i = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
+        var sum = vec4<f32>(0.0);
+        for (var o = 0u; o < 8u; o++) {
+            // Voxel 2c + i - 1 + octant, at block index i + octant.
+            let q = i + octant_offset(o);
+            sum += voxels[q.x + 4u * q.y + 16u * q.z] * 0.125;
+        }
+        store_shared(block, i, sum);
+    }
+}
+
+// Coarser bricks of dirty nodes, gathered: the [1/4 1/2 1/4] filter of the 27 finer lattice
+// points around each texel, read from whichever finer node holds them (any sharer holds the
+// whole value; a missing or brickless sharer means the value is zero).
+@compute @workgroup_size(64)
+fn dyn_mip_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                  @builtin(local_invocation_index) li: u32) {
+    let n = dirty_node(wg, nwg, li);
+    if n == INVALID || atomicLoad(&flags[n]) == 0u {
+        return;
+    }
+    let c = unpack3(coord[n]);
+    let fine = L.d + 1u;
+    let fine_size = i32(1u << fine);
+    // Finer nodes 2c - 1 .. 2c + 2 on every axis.
+    var fb: array<u32, 64>;
+    for (var k = 0u; k < 64u; k++) {
+        let q = 2 * vec3<i32>(c) - vec3<i32>(1) + vec3<i32>(i32(k % 4u), i32((k / 4u) % 4u), i32(k / 16u));
+        fb[k] = 0u;
+        if all(q >= vec3<i32>(0)) && all(q < vec3<i32>(fine_size)) {
+            let m = find(vec3<u32>(q), fine);
+            if m != INVALID {
+                fb[k] = atomicLoad(&flags[m]);
+            }
+        }
+    }
+    let block = brick_block(c, L.d);
+    for (var t = 0u; t < 27u; t++) {
+        let ti = vec3<i32>(i32(t % 3u), i32((t / 3u) % 3u), i32(t / 9u));
+        var sum = vec4<f32>(0.0);
+        for (var k = 0u; k < 27u; k++) {
+            let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+            // Finer lattice point (global, in finer half-node units).
+            let g = 4 * vec3<i32>(c) + 2 * ti + vec3<i32>(o) - vec3<i32>(1);
+            if any(g < vec3<i32>(0)) || any(g > vec3<i32>(2 * fine_size)) {
+                continue;
+            }
+            let node = min(g / 2, vec3<i32>(fine_size - 1));
+            let local = vec3<u32>(g - 2 * node);
+            let q = vec3<u32>(node - (2 * vec3<i32>(c) - vec3<i32>(1)));
+            let w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
+            sum += w * texel8(fb[q.x + 4u * q.y + 16u * q.z], texel_index(local));
+        }
+        store_shared(block, vec3<u32>(ti), sum);
+    }
+}

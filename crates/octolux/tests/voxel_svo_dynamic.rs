@@ -1,0 +1,272 @@
+//! The octree's dynamic part (Arnebäck 2017 §3.1.7): a static part built once and a dynamic
+//! part replaced on every update must together equal an octree of static + dynamic geometry
+//! built from scratch: the same nodes, subdivisions, neighbour links and bricks, shared brick
+//! faces identical, every texel the exact CPU lattice within a stated tolerance; and the
+//! update must not voxelize the static geometry again.
+
+use glam::Vec3;
+use octolux::gpu::{GpuContext, GpuOptions};
+use octolux::voxel::svo::{SvoBuilder, SvoCpu};
+use octolux::voxel::svo_dynamic::DynamicReserve;
+use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
+use std::collections::{BTreeMap, BTreeSet};
+
+fn context() -> GpuContext {
+    GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+}
+
+fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3]) -> VoxelTriangle {
+    VoxelTriangle {
+        positions: [a, b, c],
+        albedo,
+        normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
+        emission: Vec3::ZERO,
+    }
+}
+
+/// An axis-aligned box from `lo` to `hi` (12 triangles).
+fn cube(lo: Vec3, hi: Vec3, albedo: [u8; 3]) -> Vec<VoxelTriangle> {
+    let p = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    let faces = [
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+    ];
+    faces
+        .iter()
+        .flat_map(|f| {
+            [
+                tri(p(f[0]), p(f[1]), p(f[2]), albedo),
+                tri(p(f[0]), p(f[2]), p(f[3]), albedo),
+            ]
+        })
+        .collect()
+}
+
+/// A floor, a back wall and a slanted triangle (static geometry of the unit cube).
+fn static_scene() -> Vec<VoxelTriangle> {
+    let mut tris = vec![
+        tri(
+            Vec3::new(0.05, 0.1, 0.05),
+            Vec3::new(0.95, 0.1, 0.05),
+            Vec3::new(0.95, 0.1, 0.95),
+            [200, 200, 200],
+        ),
+        tri(
+            Vec3::new(0.05, 0.1, 0.05),
+            Vec3::new(0.95, 0.1, 0.95),
+            Vec3::new(0.05, 0.1, 0.95),
+            [200, 200, 200],
+        ),
+        tri(
+            Vec3::new(0.3, 0.2, 0.4),
+            Vec3::new(0.7, 0.8, 0.5),
+            Vec3::new(0.4, 0.6, 0.8),
+            [30, 220, 40],
+        ),
+    ];
+    tris.extend(cube(
+        Vec3::new(0.05, 0.1, 0.9),
+        Vec3::new(0.95, 0.9, 0.93),
+        [220, 30, 30],
+    ));
+    tris
+}
+
+/// Largest texel error of an updated octree against the exact lattice. Gathered texels are
+/// filtered from 8-bit finer texels (the build filters 16-bit ones): every level adds at most
+/// half an 8-bit step of rounding to an average of finer errors, so a level `k` above the
+/// leaves is within (k + 1) / 2 steps, plus the f16 error the build already has.
+fn tolerance(depth: u32, d: usize) -> f32 {
+    (depth as usize - d) as f32 * 0.5 / 255.0 + 3e-3
+}
+
+/// Checks `gpu` against the octree of `tris` built on the CPU: the same nodes on every level
+/// (static and dynamic ranges together), subdivision, links, bricks on exactly the needed
+/// nodes, shared faces bit-identical, texels within [`tolerance`]. Returns the worst error.
+fn check(gpu: &SvoCpu, grid: &VoxelGrid, tris: &[VoxelTriangle], label: &str) -> f32 {
+    let depth = grid.depth();
+    let fragments = cpu::voxelize(grid, tris);
+    let voxels = cpu::voxel_values(&fragments, tris);
+    let occupied: BTreeSet<[u32; 3]> = voxels.keys().copied().collect();
+    let reference = cpu::build_octree(depth, &occupied);
+    let lattices = cpu::lattices(depth, &voxels);
+    let coords = gpu.coordinates();
+    let mut worst = 0.0f32;
+    for d in 0..depth as usize {
+        let (s0, s1) = gpu.levels[d];
+        let (d0, d1) = gpu.dynamic_levels.get(d).copied().unwrap_or((0, 0));
+        let range: Vec<u32> = (s0..s1).chain(d0..d1).collect();
+        let nodes: BTreeMap<[u32; 3], bool> = range
+            .iter()
+            .map(|&n| (coords[n as usize], gpu.child[n as usize] != 0))
+            .collect();
+        assert_eq!(
+            nodes.len(),
+            range.len(),
+            "{label}: duplicate nodes on level {d}"
+        );
+        assert_eq!(nodes, reference[d].nodes, "{label}: nodes of level {d}");
+        let in_level = |m: u32| (s0..s1).contains(&m) || (d0..d1).contains(&m);
+        // Needed nodes: occupied ones and their 26 neighbours.
+        let shift = depth - d as u32;
+        let needed: BTreeSet<[u32; 3]> = occupied
+            .iter()
+            .map(|v| v.map(|c| c >> shift))
+            .flat_map(|c| cpu::neighbourhood(c, 1 << d))
+            .collect();
+        for &n in &range {
+            let c = coords[n as usize];
+            assert_eq!(
+                gpu.brick_of[n as usize] != 0,
+                needed.contains(&c),
+                "{label}: brick of level {d} node {c:?}"
+            );
+            for a in 0..3 {
+                let mut cc = c;
+                cc[a] += 1;
+                let m = gpu.neighbours[n as usize][a];
+                if m == 0 {
+                    assert!(
+                        !reference[d].nodes.contains_key(&cc),
+                        "{label}: missing link {c:?} -> {cc:?} on level {d}"
+                    );
+                    continue;
+                }
+                assert!(in_level(m), "{label}: link to another level");
+                assert_eq!(coords[m as usize], cc, "{label}: wrong link on level {d}");
+                for k in 0..9 {
+                    let (u, v) = (k % 3, k / 3);
+                    let mut hi = [0usize; 3];
+                    let mut lo = [0usize; 3];
+                    hi[a] = 2;
+                    hi[(a + 1) % 3] = u;
+                    hi[(a + 2) % 3] = v;
+                    lo[(a + 1) % 3] = u;
+                    lo[(a + 2) % 3] = v;
+                    let ti = |i: [usize; 3]| i[0] + 3 * i[1] + 9 * i[2];
+                    assert_eq!(
+                        gpu.node_brick(n)[ti(hi)],
+                        gpu.node_brick(m)[ti(lo)],
+                        "{label}: shared face of {c:?} and {cc:?} on level {d}"
+                    );
+                }
+            }
+            for t in 0..27u32 {
+                let p = glam::IVec3::new(
+                    (2 * c[0] + t % 3) as i32,
+                    (2 * c[1] + (t / 3) % 3) as i32,
+                    (2 * c[2] + t / 9) as i32,
+                );
+                let want = lattices[d].get(p);
+                let got = gpu.node_brick(n)[t as usize];
+                let err = (got - want).abs().max_element();
+                worst = worst.max(err);
+                assert!(
+                    err <= tolerance(depth, d) + 2e-3 * want.abs().max_element(),
+                    "{label}: level {d} node {c:?} texel {t}: GPU {got} CPU {want}"
+                );
+            }
+        }
+    }
+    worst
+}
+
+fn unit_grid(res: u32) -> VoxelGrid {
+    VoxelGrid::new(Vec3::ZERO, 1.0 / res as f32, res).unwrap()
+}
+
+fn with(a: &[VoxelTriangle], b: &[VoxelTriangle]) -> Vec<VoxelTriangle> {
+    a.iter().chain(b).copied().collect()
+}
+
+#[test]
+fn dynamic_updates_equal_rebuilds() {
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let grid = unit_grid(32);
+    let statics = static_scene();
+    let (mut svo, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(20_000))
+        .unwrap();
+    let (static_nodes, static_bricks) = (svo.node_count, svo.brick_count);
+    check(&svo.read_back(&ctx).unwrap(), &grid, &statics, "static");
+    // A block resting on the floor (sharing voxels with it and with the slanted triangle),
+    // moved away, moved into the wall, removed, and back.
+    let positions = [
+        Some(Vec3::new(0.35, 0.08, 0.35)),
+        Some(Vec3::new(0.6, 0.5, 0.2)),
+        Some(Vec3::new(0.12, 0.55, 0.85)),
+        None,
+        Some(Vec3::new(0.35, 0.08, 0.35)),
+    ];
+    for (step, at) in positions.iter().enumerate() {
+        let moving = at.map_or(Vec::new(), |p| {
+            cube(p, p + Vec3::new(0.17, 0.13, 0.11), [40, 90, 250])
+        });
+        let update = builder.update_dynamic(&ctx, &mut svo, &moving).unwrap();
+        let all = with(&statics, &moving);
+        let label = format!("update {step}");
+        let worst = check(&svo.read_back(&ctx).unwrap(), &grid, &all, &label);
+        println!(
+            "{label}: {} fragments, {} nodes and {} bricks added, {} dirty, worst texel error {worst:.2e}",
+            update.fragments, update.nodes, update.bricks, update.dirty
+        );
+        // Only the dynamic triangles were voxelized.
+        assert_eq!(
+            update.fragments as usize,
+            cpu::voxelize(&grid, &moving).len()
+        );
+        // A rebuild of everything has exactly as many nodes and bricks.
+        let (rebuilt, _) = builder.build(&ctx, &grid, &all).unwrap();
+        assert_eq!(svo.node_count, rebuilt.node_count, "{label}: nodes");
+        assert_eq!(svo.brick_count, rebuilt.brick_count, "{label}: bricks");
+        if at.is_none() {
+            assert_eq!(
+                (svo.node_count, svo.brick_count),
+                (static_nodes, static_bricks)
+            );
+            assert_eq!((update.nodes, update.bricks), (0, 0));
+        } else {
+            assert!(
+                update.nodes > 0 && update.bricks > 0,
+                "{label}: nothing added"
+            );
+        }
+    }
+}
+
+#[test]
+fn updates_need_a_reserve_large_enough() {
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let grid = unit_grid(16);
+    let statics = static_scene();
+    let (mut plain, _) = builder.build(&ctx, &grid, &statics).unwrap();
+    let err = builder.update_dynamic(&ctx, &mut plain, &[]).unwrap_err();
+    assert!(err.to_string().contains("build_with_reserve"), "{err}");
+    let (mut small, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(16))
+        .unwrap();
+    let big = cube(Vec3::splat(0.2), Vec3::splat(0.8), [255, 0, 0]);
+    let err = builder.update_dynamic(&ctx, &mut small, &big).unwrap_err();
+    assert!(err.to_string().contains("reserve is too small"), "{err}");
+    // After a failed update, the next one (here: nothing moving) restores the octree.
+    let update = builder.update_dynamic(&ctx, &mut small, &[]).unwrap();
+    assert_eq!((update.nodes, update.bricks), (0, 0));
+    check(
+        &small.read_back(&ctx).unwrap(),
+        &grid,
+        &statics,
+        "after overflow",
+    );
+}
