@@ -15,16 +15,24 @@ fn context() -> GpuContext {
     GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
 }
 
-/// Leaf voxel radiance by voxel coordinates (occupied voxels only).
+/// Node indices of level `d`, static then dynamic.
+fn level_nodes(svo: &Svo, d: usize) -> impl Iterator<Item = u32> {
+    let (s0, s1) = svo.levels[d];
+    let (d0, d1) = svo.dynamic_levels.get(d).copied().unwrap_or((0, 0));
+    (s0..s1).chain(d0..d1)
+}
+
+/// Leaf voxel radiance by voxel coordinates (occupied voxels only; static and dynamic leaves).
 fn voxel_map(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> BTreeMap<[u32; 3], Vec4> {
     let radiance = svo.read_voxel_radiance(ctx).unwrap();
     let coords = cpu_svo.coordinates();
-    let (first, end) = *svo.levels.last().unwrap();
+    let leaf = svo.levels.len() - 1;
     let mut out = BTreeMap::new();
-    for n in first..end {
+    // Radiance slots: static leaves in order, then dynamic leaves in order.
+    for (slot, n) in level_nodes(svo, leaf).enumerate() {
         let c = coords[n as usize];
         for o in 0..8u32 {
-            let v = radiance[((n - first) * 8 + o) as usize];
+            let v = radiance[slot * 8 + o as usize];
             if v.w > 0.0 {
                 out.insert(
                     [
@@ -55,8 +63,8 @@ fn mip_error(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> f32 {
         .fold(0.0f32, f32::max)
         .max(1e-6);
     let mut worst = 0.0f32;
-    for (d, &(start, end)) in svo.levels.iter().enumerate() {
-        for n in start..end {
+    for d in 0..svo.levels.len() {
+        for n in level_nodes(svo, d) {
             let b = cpu_svo.brick_of[n as usize];
             if b == 0 {
                 continue;
@@ -355,7 +363,15 @@ fn inject_nothing(ctx: &GpuContext, builder: &SvoBuilder, svo: &Svo) {
 fn emission_is_carried_into_radiance_and_mipmapped() {
     let ctx = context();
     let (grid, tris, svo) = emissive_octree(&ctx);
-    let emission = tris[0].emission;
+    check_emission(&ctx, &grid, &tris, &svo);
+}
+
+/// Every occupied voxel of `svo` (lit by nothing) holds the mean emission of the fragments of
+/// `tris` in it, the radiance mips are the CPU filter of those voxels, and the root holds
+/// emission.
+fn check_emission(ctx: &GpuContext, grid: &VoxelGrid, tris: &[VoxelTriangle], svo: &Svo) {
+    let (ctx, grid) = (ctx.clone(), *grid);
+    let emission = tris.iter().map(|t| t.emission.x).fold(0.0, f32::max);
     let cpu_svo = svo.read_back(&ctx).unwrap();
     let voxels = voxel_map(&svo, &cpu_svo, &ctx);
     // The CPU voxel emission: the mean of the touching fragments' emission.
@@ -372,9 +388,9 @@ fn emission_is_carried_into_radiance_and_mipmapped() {
         let want = *e / *n as f32;
         let got = voxels.get(v).copied().unwrap_or(Vec4::ZERO);
         assert_eq!(got.w, 1.0);
-        worst = worst.max((got.truncate() - want).abs().max_element() / emission.x);
+        worst = worst.max((got.truncate() - want).abs().max_element() / emission);
     }
-    let mip = mip_error(&svo, &cpu_svo, &ctx);
+    let mip = mip_error(svo, &cpu_svo, &ctx);
     println!("emission worst error {worst:.2e} (of the largest), mip error {mip:.2e}");
     // f16 storage: 2^-11 relative.
     assert!(worst < 1e-3, "emission error {worst}");
@@ -384,6 +400,28 @@ fn emission_is_carried_into_radiance_and_mipmapped() {
     assert!(root != 0);
     let bricks = svo.read_radiance(&ctx).unwrap();
     assert!(bricks[root as usize - 1].iter().any(|t| t.x > 0.0));
+}
+
+#[test]
+fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
+    use octolux::voxel::svo_dynamic::DynamicReserve;
+    let ctx = context();
+    let (grid, tris, _) = emissive_octree(&ctx);
+    // The slanted, non-emissive triangle is static; the emissive one moves down through it.
+    let statics = vec![tris[1]];
+    let builder = SvoBuilder::new(&ctx);
+    let (mut svo, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(4096))
+        .unwrap();
+    for dy in [0.0, -0.2, -0.31] {
+        let mut moving = tris[0];
+        for p in &mut moving.positions {
+            p.y += dy;
+        }
+        builder.update_dynamic(&ctx, &mut svo, &[moving]).unwrap();
+        inject_nothing(&ctx, &builder, &svo);
+        check_emission(&ctx, &grid, &[statics[0], moving], &svo);
+    }
 }
 
 #[test]

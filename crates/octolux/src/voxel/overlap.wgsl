@@ -8,6 +8,25 @@ struct Tri {
     extra: vec4<f32>,
 }
 
+// What one fragment of `tri` adds to its leaf voxel's sums (the octree's 10 words per voxel):
+// albedo r, g, b (x255), 1 (the count), emission r, g, b (fixed point x1024, W/(m^2 sr)),
+// normal x, y, z (snorm8 as two's complement). Integer sums do not depend on their order.
+fn fragment_sum_terms(tri: Tri) -> array<u32, 10> {
+    var t: array<u32, 10>;
+    let albedo = bitcast<u32>(tri.p0.w);
+    t[0] = albedo & 255u;
+    t[1] = (albedo >> 8u) & 255u;
+    t[2] = (albedo >> 16u) & 255u;
+    t[3] = 1u;
+    let e = clamp(vec3<f32>(tri.p2.w, tri.extra.x, tri.extra.y), vec3<f32>(0.0), vec3<f32>(65504.0));
+    let nb = bitcast<u32>(tri.p1.w);
+    for (var k = 0u; k < 3u; k++) {
+        t[4u + k] = u32(round(e[k] * 1024.0));
+        t[7u + k] = bitcast<u32>(i32(((nb >> (8u * k)) & 255u) << 24u) >> 24u);
+    }
+    return t;
+}
+
 // A box of voxels [lo, hi) of a grid whose voxel (0,0,0) starts at `origin.xyz` and whose voxels
 // have edge 1 / origin.w; misc.x = triangle count, misc.y/z/w are kernel specific.
 struct VoxParams {

@@ -996,10 +996,12 @@ impl Svo {
     }
 
     /// Reads the injected radiance of every leaf voxel back: index (leaf node - first leaf
-    /// node) x 8 + octant (x + 2y + 4z), (radiance, opacity).
+    /// node) x 8 + octant (x + 2y + 4z), (radiance, opacity); the dynamic part's leaves follow
+    /// the static ones ((static leaves + leaf node - first dynamic leaf node) x 8 + octant).
     pub fn read_voxel_radiance(&self, ctx: &GpuContext) -> Result<Vec<glam::Vec4>> {
         let (first, end) = self.levels.last().copied().unwrap_or((0, 0));
-        let n = (end - first) as u64 * 8;
+        let (d0, d1) = self.dynamic_levels.last().copied().unwrap_or((0, 0));
+        let n = (end - first + d1 - d0) as u64 * 8;
         if n == 0 {
             return Ok(Vec::new());
         }

@@ -320,20 +320,9 @@ fn dyn_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
     }
     let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
     let w = ((slot - 1u) * 8u + o) * SUM_WORDS;
-    let tri = tris[frag.y];
-    let albedo = bitcast<u32>(tri.p0.w);
-    atomicAdd(&dyn_sums[w], albedo & 255u);
-    atomicAdd(&dyn_sums[w + 1u], (albedo >> 8u) & 255u);
-    atomicAdd(&dyn_sums[w + 2u], (albedo >> 16u) & 255u);
-    atomicAdd(&dyn_sums[w + 3u], 1u);
-    let e = clamp(vec3<f32>(tri.p2.w, tri.extra.x, tri.extra.y), vec3<f32>(0.0), vec3<f32>(65504.0));
-    for (var k = 0u; k < 3u; k++) {
-        atomicAdd(&dyn_sums[w + 4u + k], u32(round(e[k] * 1024.0)));
-    }
-    let nb = bitcast<u32>(tri.p1.w);
-    for (var k = 0u; k < 3u; k++) {
-        let b = (nb >> (8u * k)) & 255u;
-        atomicAdd(&dyn_sums[w + 7u + k], bitcast<u32>(i32(b << 24u) >> 24u));
+    let terms = fragment_sum_terms(tris[frag.y]);
+    for (var k = 0u; k < SUM_WORDS; k++) {
+        atomicAdd(&dyn_sums[w + k], terms[k]);
     }
 }
 

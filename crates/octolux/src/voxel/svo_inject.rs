@@ -32,6 +32,7 @@ pub const LIGHT_BYTES: u64 = 64;
 struct InjectParams {
     origin_voxel: [f32; 4],
     misc: [u32; 4],
+    part: [u32; 4],
 }
 
 /// The accumulation and injection kernels.
@@ -122,19 +123,16 @@ impl SvoLight {
         light_count: u32,
     ) {
         let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
-        let leaf_count = end - first;
         let grid = &svo.grid;
-        let params = InjectParams {
-            origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
-            misc: [first, leaf_count, light_count, svo.pool_bricks],
-        };
+        let dynamic = svo.dynamic.as_ref();
+        // Static leaves, then the dynamic part's leaves (their radiance slots follow).
+        let mut parts = vec![(first, end - first, 0)];
+        if let (Some(_), Some(&(d0, d1))) = (dynamic, svo.dynamic_levels.last()) {
+            if d1 > d0 {
+                parts.push((d0, d1 - d0, end - first));
+            }
+        }
         let owner = super::svo::OWNER;
-        let uniform = ctx.create_buffer_init(
-            owner,
-            "inject params",
-            bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM,
-        );
         let mut matrices: Vec<[f32; 16]> = shadow_layers
             .iter()
             .map(|l| l.view_proj.to_cols_array())
@@ -152,18 +150,79 @@ impl SvoLight {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        let buffers: [(u32, &wgpu::Buffer); 11] = [
-            (10, &uniform),
+        let placeholder = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("inject placeholder"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            },
+        );
+        let (dyn_sums, dyn_state) = match dynamic {
+            Some(d) => (&d.sums, d.state()),
+            None => (&placeholder, &placeholder),
+        };
+        for (i, &(node, count, slot)) in parts.iter().enumerate() {
+            let params = InjectParams {
+                origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
+                misc: [node, count, light_count, svo.pool_bricks],
+                part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
+            };
+            let uniform = ctx.create_buffer_init(
+                owner,
+                "inject params",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let name = if i == 0 {
+                "svo inject"
+            } else {
+                "svo inject (dynamic)"
+            };
+            self.inject_part(
+                ctx,
+                timer,
+                svo,
+                [&uniform, &matrices, lights, dyn_sums, dyn_state],
+                &view,
+                (name, count),
+            );
+        }
+        for label in [
+            "inject params",
+            "inject shadow matrices",
+            "inject placeholder",
+        ] {
+            ctx.ledger.record(owner, label, 0);
+        }
+    }
+
+    /// One injection dispatch over `count` leaves; `buffers` are the parameters, the shadow
+    /// matrices, the lights and the dynamic part's sums and state.
+    fn inject_part(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &super::svo::Svo,
+        [uniform, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
+        view: &wgpu::TextureView,
+        (name, count): (&str, u32),
+    ) {
+        let buffers: [(u32, &wgpu::Buffer); 13] = [
+            (10, uniform),
             (11, &svo.leaf_sums),
             (12, &svo.coord),
             (13, &svo.brick_index),
             (14, lights),
-            (15, &matrices),
+            (15, matrices),
             (18, &svo.voxel_radiance),
             (19, &svo.radiance[0]),
             (20, &svo.radiance[1]),
             (21, &svo.radiance[2]),
             (22, &svo.radiance[3]),
+            (23, dyn_sums),
+            (24, dyn_state),
         ];
         let mut entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -174,7 +233,7 @@ impl SvoLight {
             .collect();
         entries.push(wgpu::BindGroupEntry {
             binding: 16,
-            resource: wgpu::BindingResource::TextureView(&view),
+            resource: wgpu::BindingResource::TextureView(view),
         });
         entries.push(wgpu::BindGroupEntry {
             binding: 17,
@@ -185,9 +244,6 @@ impl SvoLight {
             layout: &self.inject.get_bind_group_layout(0),
             entries: &entries,
         });
-        dispatch(timer, "svo inject", &self.inject, &group, leaf_count);
-        for label in ["inject params", "inject shadow matrices"] {
-            ctx.ledger.record(owner, label, 0);
-        }
+        dispatch(timer, name, &self.inject, &group, count);
     }
 }

@@ -26,10 +26,6 @@ fn unpack3(c: u32) -> vec3<u32> {
     return vec3<u32>(c & 1023u, (c >> 10u) & 1023u, (c >> 20u) & 1023u);
 }
 
-fn sign_extend8(b: u32) -> i32 {
-    return (i32(b << 24u)) >> 24u;
-}
-
 @compute @workgroup_size(64)
 fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
@@ -55,19 +51,9 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     }
     let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
     let w = ((node - A.misc.z) * 8u + o) * SUM_WORDS;
-    let tri = tris[frag.y];
-    let albedo = bitcast<u32>(tri.p0.w);
-    atomicAdd(&sums[w], albedo & 255u);
-    atomicAdd(&sums[w + 1u], (albedo >> 8u) & 255u);
-    atomicAdd(&sums[w + 2u], (albedo >> 16u) & 255u);
-    atomicAdd(&sums[w + 3u], 1u);
-    let e = clamp(vec3<f32>(tri.p2.w, tri.extra.x, tri.extra.y), vec3<f32>(0.0), vec3<f32>(65504.0));
-    for (var k = 0u; k < 3u; k++) {
-        atomicAdd(&sums[w + 4u + k], u32(round(e[k] * EMISSION_SCALE)));
-    }
-    let nb = bitcast<u32>(tri.p1.w);
-    for (var k = 0u; k < 3u; k++) {
-        atomicAdd(&sums[w + 7u + k], bitcast<u32>(sign_extend8((nb >> (8u * k)) & 255u)));
+    let terms = fragment_sum_terms(tris[frag.y]);
+    for (var k = 0u; k < SUM_WORDS; k++) {
+        atomicAdd(&sums[w + k], terms[k]);
     }
 }
 
@@ -76,8 +62,11 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
 struct InjectParams {
     // xyz grid origin, w voxel size
     origin_voxel: vec4<f32>,
-    // x: first leaf node, y: leaf nodes, z: lights, w: bricks per pool buffer
+    // x: first leaf node of this dispatch, y: leaf nodes, z: lights, w: bricks per pool buffer
     misc: vec4<u32>,
+    // x: static nodes, y: first static leaf node, z: `voxel_radiance` slot of this dispatch's
+    // first leaf, w: 1 when the octree has a dynamic part (`dyn_sums`, `dyn_state`)
+    part: vec4<u32>,
 }
 
 @group(0) @binding(10) var<uniform> P: InjectParams;
@@ -93,6 +82,10 @@ struct InjectParams {
 @group(0) @binding(20) var<storage, read_write> pool1: array<u32>;
 @group(0) @binding(21) var<storage, read_write> pool2: array<u32>;
 @group(0) @binding(22) var<storage, read_write> pool3: array<u32>;
+// The dynamic part (svo_dynamic.wgsl): per node state (leaf slot + 1 in bits 2..) and the
+// dynamic fragments' sums per slot.
+@group(0) @binding(23) var<storage, read> dyn_sums: array<u32>;
+@group(0) @binding(24) var<storage, read> dyn_state: array<u32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -106,18 +99,38 @@ fn pool_store(b: u32, i: u32, v: u32) {
     }
 }
 
-// Outgoing radiance and opacity of leaf voxel `i` (node-major, octant order) at `p`.
-fn voxel_value(i: u32, p: vec3<f32>) -> vec4<f32> {
-    let w = i * SUM_WORDS;
-    let count = leaf_sums[w + 3u];
+// The fragment sums of octant `o` of leaf node `node`: its static sums plus, in an octree with
+// a dynamic part, those of the dynamic fragments.
+fn leaf_voxel_sums(node: u32, o: u32) -> array<u32, 10> {
+    var s: array<u32, 10>;
+    if node >= P.part.y && node < P.part.x {
+        let w = ((node - P.part.y) * 8u + o) * SUM_WORDS;
+        for (var k = 0u; k < SUM_WORDS; k++) {
+            s[k] = leaf_sums[w + k];
+        }
+    }
+    if P.part.w != 0u {
+        let slot = dyn_state[node] >> 2u;
+        if slot != 0u {
+            let w = ((slot - 1u) * 8u + o) * SUM_WORDS;
+            for (var k = 0u; k < SUM_WORDS; k++) {
+                s[k] += dyn_sums[w + k];
+            }
+        }
+    }
+    return s;
+}
+
+// Outgoing radiance and opacity at `p` of the leaf voxel with fragment sums `s`.
+fn voxel_value(s: array<u32, 10>, p: vec3<f32>) -> vec4<f32> {
+    let count = s[3];
     if count == 0u {
         return vec4<f32>(0.0);
     }
     let c = f32(count);
-    let albedo = vec3<f32>(f32(leaf_sums[w]), f32(leaf_sums[w + 1u]), f32(leaf_sums[w + 2u])) / c / 255.0;
-    let emission = vec3<f32>(f32(leaf_sums[w + 4u]), f32(leaf_sums[w + 5u]), f32(leaf_sums[w + 6u])) / c / EMISSION_SCALE;
-    var n = vec3<f32>(f32(bitcast<i32>(leaf_sums[w + 7u])), f32(bitcast<i32>(leaf_sums[w + 8u])),
-                      f32(bitcast<i32>(leaf_sums[w + 9u])));
+    let albedo = vec3<f32>(f32(s[0]), f32(s[1]), f32(s[2])) / c / 255.0;
+    let emission = vec3<f32>(f32(s[4]), f32(s[5]), f32(s[6])) / c / EMISSION_SCALE;
+    var n = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
     let has_normal = dot(n, n) > 0.01 * c * c * 127.0 * 127.0;
     if has_normal {
         n = normalize(n);
@@ -161,9 +174,10 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     for (var o = 0u; o < 8u; o++) {
         let v = 2u * c + octant(o);
         let p = P.origin_voxel.xyz + (vec3<f32>(v) + 0.5) * P.origin_voxel.w;
-        voxels[o] = voxel_value(l * 8u + o, p);
-        voxel_radiance[2u * (l * 8u + o)] = pack2x16float(voxels[o].xy);
-        voxel_radiance[2u * (l * 8u + o) + 1u] = pack2x16float(voxels[o].zw);
+        voxels[o] = voxel_value(leaf_voxel_sums(n, o), p);
+        let slot = (P.part.z + l) * 8u + o;
+        voxel_radiance[2u * slot] = pack2x16float(voxels[o].xy);
+        voxel_radiance[2u * slot + 1u] = pack2x16float(voxels[o].zw);
     }
     if b1 == 0u {
         return;
