@@ -243,7 +243,7 @@ impl SvoBuilder {
                     .into(),
             ));
         };
-        if depth > MAX_DEPTH || depth < 2 {
+        if !(2..=MAX_DEPTH).contains(&depth) {
             return Err(Error::InvalidArgument(format!(
                 "the dynamic part needs an octree of 2 to {MAX_DEPTH} levels, this one has {depth}"
             )));
