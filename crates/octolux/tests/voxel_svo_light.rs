@@ -63,7 +63,7 @@ fn mip_error(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> f32 {
         .fold(0.0f32, f32::max)
         .max(1e-6);
     let mut worst = 0.0f32;
-    for d in 0..svo.levels.len() {
+    for (d, lattice) in lattices.iter().enumerate() {
         for n in level_nodes(svo, d) {
             let b = cpu_svo.brick_of[n as usize];
             if b == 0 {
@@ -72,7 +72,7 @@ fn mip_error(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> f32 {
             let c = IVec3::from_array(coords[n as usize].map(|x| x as i32));
             for t in 0..27 {
                 let i = IVec3::new(t % 3, (t / 3) % 3, t / 9);
-                let want = lattices[d].get(2 * c + i);
+                let want = lattice.get(2 * c + i);
                 let got = bricks[b as usize - 1][t as usize];
                 worst = worst.max((want - got).abs().max_element() / scale);
             }
@@ -373,9 +373,9 @@ fn check_emission(ctx: &GpuContext, grid: &VoxelGrid, tris: &[VoxelTriangle], sv
     let (ctx, grid) = (ctx.clone(), *grid);
     let emission = tris.iter().map(|t| t.emission.x).fold(0.0, f32::max);
     let cpu_svo = svo.read_back(&ctx).unwrap();
-    let voxels = voxel_map(&svo, &cpu_svo, &ctx);
+    let voxels = voxel_map(svo, &cpu_svo, &ctx);
     // The CPU voxel emission: the mean of the touching fragments' emission.
-    let fragments = cpu::voxelize(&grid, &tris);
+    let fragments = cpu::voxelize(&grid, tris);
     let mut sums: BTreeMap<[u32; 3], (Vec3, u32)> = BTreeMap::new();
     for (v, t) in &fragments {
         let s = sums.entry(*v).or_insert((Vec3::ZERO, 0));
