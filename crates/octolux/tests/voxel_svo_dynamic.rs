@@ -270,3 +270,86 @@ fn updates_need_a_reserve_large_enough() {
         "after overflow",
     );
 }
+
+/// Time of a dynamic update against a full rebuild of the same frame (figures for
+/// docs/voxels.md; the assertion is only that both give the same octree size).
+/// `VOXEL_TABLE=full cargo test --release -p octolux --test voxel_svo_dynamic measure --
+/// --nocapture` prints the whole table; by default one small row runs.
+#[test]
+fn measure_update_against_rebuild() {
+    use octolux::scene::Scene;
+    use octolux::voxel::scene_triangles_split;
+    let full = std::env::var("VOXEL_TABLE").is_ok_and(|v| v == "full");
+    let ctx = context();
+    println!("adapter: {}", ctx.describe());
+    let builder = SvoBuilder::new(&ctx);
+    let scenes_dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/");
+    let mut cases = Vec::new();
+    // The animated Cornell box: its short block moves (t = 0 then t = 1 s).
+    let animated = Scene::load(format!("{scenes_dir}cornell-animated.toml")).unwrap();
+    let split = |t: f32| scene_triangles_split(&animated, &animated.frame(t, 0));
+    let (still, before) = split(0.0);
+    let (_, after) = split(1.0);
+    assert!(!before.is_empty() && !still.is_empty());
+    cases.push((
+        "cornell-animated",
+        animated.bounds_at(0.0),
+        still,
+        before,
+        after,
+    ));
+    if full {
+        match Scene::load(format!("{scenes_dir}crytek-sponza.toml")) {
+            Ok(sponza) => {
+                // A 1 m cube (the scene is in metres) moving 50 cm through the middle.
+                let tris = octolux::voxel::scene_triangles(&sponza, &sponza.frame(0.0, 0));
+                let bounds = sponza.bounds_at(0.0);
+                let at = (bounds.0 + bounds.1) * 0.5
+                    - Vec3::new(0.0, (bounds.1.y - bounds.0.y) * 0.3, 0.0);
+                let block = |p: Vec3| cube(p, p + Vec3::ONE, [200, 60, 60]);
+                let moved = at + Vec3::new(0.5, 0.0, 0.0);
+                cases.push((
+                    "crytek-sponza + moving cube",
+                    bounds,
+                    tris,
+                    block(at),
+                    block(moved),
+                ));
+            }
+            Err(e) => println!("Crytek Sponza skipped: {e}"),
+        }
+    }
+    let resolutions: &[u32] = if full { &[64, 128, 256] } else { &[32] };
+    println!("| scene | N^3 | static / moving triangles | rebuild ms | update ms | update / rebuild | nodes, bricks added | dirty nodes |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (name, bounds, still, before, after) in &cases {
+        for &res in resolutions {
+            let grid = VoxelGrid::enclosing(*bounds, res).unwrap();
+            let (mut svo, _) = builder
+                .build_with_reserve(&ctx, &grid, still, DynamicReserve::new(1 << 17))
+                .unwrap();
+            // The first update also compiles nothing new but touches every buffer once.
+            builder.update_dynamic(&ctx, &mut svo, before).unwrap();
+            let start = std::time::Instant::now();
+            let update = builder.update_dynamic(&ctx, &mut svo, after).unwrap();
+            let update_wall = start.elapsed().as_secs_f64() * 1e3;
+            let update_gpu: f64 = update.timings.iter().map(|t| t.ms).sum();
+            let all = with(still, after);
+            let start = std::time::Instant::now();
+            let (rebuilt, timings) = builder.build(&ctx, &grid, &all).unwrap();
+            let rebuild_wall = start.elapsed().as_secs_f64() * 1e3;
+            let rebuild_gpu: f64 = timings.iter().map(|t| t.ms).sum();
+            assert_eq!(svo.node_count, rebuilt.node_count, "{name} at {res}^3");
+            assert_eq!(svo.brick_count, rebuilt.brick_count, "{name} at {res}^3");
+            println!(
+                "| {name} | {res} | {} / {} | {rebuild_gpu:.1} ({rebuild_wall:.0} wall) | {update_gpu:.1} ({update_wall:.0} wall) | {:.2} | {}, {} | {} |",
+                still.len(),
+                after.len(),
+                update_gpu / rebuild_gpu.max(1e-9),
+                update.nodes,
+                update.bricks,
+                update.dirty
+            );
+        }
+    }
+}

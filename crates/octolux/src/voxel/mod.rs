@@ -211,6 +211,34 @@ pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> 
         .collect()
 }
 
+/// The voxel triangles of `frame`, split into those of objects without animation (static:
+/// an octree's static part, built once) and those of animated objects (moving: its dynamic
+/// part, [`svo::SvoBuilder::update_dynamic`] every frame).
+pub fn scene_triangles_split(
+    scene: &Scene,
+    frame: &SceneFrame,
+) -> (Vec<VoxelTriangle>, Vec<VoxelTriangle>) {
+    let all = scene_triangles(scene, frame);
+    let (mut still, mut moving) = (Vec::new(), Vec::new());
+    let mut at = 0;
+    // `world_triangles` lists objects in order, each mesh's triangles in order.
+    for object in &scene.objects {
+        let count: usize = object
+            .meshes
+            .iter()
+            .map(|&m| scene.meshes[m as usize].indices.len() / 3)
+            .sum();
+        let part = &all[at..at + count];
+        if object.animation.is_some() {
+            moving.extend_from_slice(part);
+        } else {
+            still.extend_from_slice(part);
+        }
+        at += count;
+    }
+    (still, moving)
+}
+
 /// Packs voxel coordinates (each < 1024) into one word, 10 bits per axis.
 pub fn pack_coord(x: u32, y: u32, z: u32) -> u32 {
     (x & 1023) | (y & 1023) << 10 | (z & 1023) << 20
