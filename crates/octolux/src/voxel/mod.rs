@@ -25,6 +25,7 @@ pub mod cpu;
 pub mod debug;
 pub mod sample;
 pub mod svo;
+pub mod svo_aniso;
 pub mod svo_inject;
 pub mod voxelize;
 
