@@ -146,7 +146,13 @@ fn red_wall_in_front_of_green_reads_the_front_colour() {
     let ctx = context();
     let grid = unit_grid(32);
     let tris = walls();
-    let (svo, values) = build(&ctx, &SvoBuilder::new(&ctx), &SvoAniso::new(&ctx), &grid, &tris);
+    let (svo, values) = build(
+        &ctx,
+        &SvoBuilder::new(&ctx),
+        &SvoAniso::new(&ctx),
+        &grid,
+        &tris,
+    );
     let tree = svo.read_back(&ctx).unwrap();
     let aniso = values.read_back(&ctx).unwrap();
     let red = Vec4::new(1.0, 0.0, 0.0, 1.0);
@@ -172,14 +178,25 @@ fn red_wall_in_front_of_green_reads_the_front_colour() {
         let near = |a: Vec4, b: Vec4| (a - b).abs().max_element() < 0.01;
         assert!(near(cpu[0], red), "travelling +x at {p}: {}", cpu[0]);
         assert!(near(cpu[1], green), "travelling -x at {p}: {}", cpu[1]);
-        assert!(cpu[2].x > 0.6 && cpu[2].y < 0.3, "oblique at {p}: {}", cpu[2]);
+        assert!(
+            cpu[2].x > 0.6 && cpu[2].y < 0.3,
+            "oblique at {p}: {}",
+            cpu[2]
+        );
         // Along y the walls are side by side: half of each.
-        assert!(near(cpu[3], half * side), "travelling +y at {p}: {}", cpu[3]);
+        assert!(
+            near(cpu[3], half * side),
+            "travelling +y at {p}: {}",
+            cpu[3]
+        );
         // The isotropic sample mixes the two, whichever way the cone travels.
         let iso = svo_sample(&tree, &grid, p, f);
         let gpu_iso = SvoAniso::probe(&ctx, &svo, &values, &[p.extend(f)], None).unwrap()[0];
         assert!((gpu_iso - iso).abs().max_element() < 1e-4);
-        println!("isotropic at {p}, footprint {f}: {iso}; +x {}, -x {}", cpu[0], cpu[1]);
+        println!(
+            "isotropic at {p}, footprint {f}: {iso}; +x {}, -x {}",
+            cpu[0], cpu[1]
+        );
         assert!(
             iso.x > 0.1 && iso.y > 0.1 && (iso.x - iso.y).abs() < 0.25 * iso.w,
             "isotropic at {p}: {iso}"
@@ -202,11 +219,23 @@ fn gpu_directional_samples_match_cpu_twin() {
     let words = values.read_back(&ctx).unwrap();
     let mut rng = Rng(99);
     let v = grid.voxel_size;
-    let footprints = [0.5 * v, v, 1.5 * v, 2.0 * v, 3.0 * v, 5.0 * v, 11.0 * v, 40.0 * v];
+    let footprints = [
+        0.5 * v,
+        v,
+        1.5 * v,
+        2.0 * v,
+        3.0 * v,
+        5.0 * v,
+        11.0 * v,
+        40.0 * v,
+    ];
     let mut points = Vec::new();
     let mut dirs = Vec::new();
     for i in 0..480 {
-        points.push(rng.vec(-0.05, 1.05).extend(footprints[i % footprints.len()]));
+        points.push(
+            rng.vec(-0.05, 1.05)
+                .extend(footprints[i % footprints.len()]),
+        );
         let d = rng.vec(-1.0, 1.0);
         // Some axis-aligned directions and some with a zero component.
         dirs.push(match i % 7 {
@@ -255,7 +284,16 @@ fn measure_memory_and_pass_time() {
     println!("|---|---|---|---|---|---|");
     for &res in resolutions {
         let grid = VoxelGrid::enclosing(bounds, res).unwrap();
-        let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
+        let svo = match builder.build(&ctx, &grid, &tris) {
+            Ok((svo, _)) => svo,
+            Err(e) => {
+                println!(
+                    "| {res} | octree build failed: {} |",
+                    e.to_string().replace('\n', " ")
+                );
+                continue;
+            }
+        };
         let mut ms = Vec::new();
         let mut bytes = 0;
         for _ in 0..3 {

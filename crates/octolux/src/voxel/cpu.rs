@@ -415,7 +415,10 @@ fn aniso_value(
 
 /// Per occupied voxel, its RGBA8 word: the rounded integer mean of its fragments' albedo,
 /// alpha 255 (`leaf_voxel` in `svo_aniso.wgsl`, which reads the octree's leaf sums).
-pub fn voxel_words(fragments: &[([u32; 3], u32)], tris: &[VoxelTriangle]) -> BTreeMap<[u32; 3], u32> {
+pub fn voxel_words(
+    fragments: &[([u32; 3], u32)],
+    tris: &[VoxelTriangle],
+) -> BTreeMap<[u32; 3], u32> {
     let mut sums: BTreeMap<[u32; 3], [u32; 4]> = BTreeMap::new();
     for &(v, t) in fragments {
         let s = sums.entry(v).or_default();
@@ -441,9 +444,16 @@ pub fn voxel_words(fragments: &[([u32; 3], u32)], tris: &[VoxelTriangle]) -> BTr
 /// above that its 8 children's values for the same direction: the two met along the direction
 /// front to back (rounded integer arithmetic), averaged over the 4 pairs, as
 /// [`clipmap_aniso`] does.
-pub fn svo_aniso(depth: u32, voxels: &BTreeMap<[u32; 3], u32>) -> Vec<BTreeMap<[u32; 3], [u32; 6]>> {
+pub fn svo_aniso(
+    depth: u32,
+    voxels: &BTreeMap<[u32; 3], u32>,
+) -> Vec<BTreeMap<[u32; 3], [u32; 6]>> {
     let octant = |c: [u32; 3], o: usize| {
-        [c[0] * 2 + (o as u32 & 1), c[1] * 2 + ((o as u32 >> 1) & 1), c[2] * 2 + (o as u32 >> 2)]
+        [
+            c[0] * 2 + (o as u32 & 1),
+            c[1] * 2 + ((o as u32 >> 1) & 1),
+            c[2] * 2 + (o as u32 >> 2),
+        ]
     };
     let mut levels: Vec<BTreeMap<[u32; 3], [u32; 6]>> = Vec::new();
     let leaves: BTreeSet<[u32; 3]> = voxels.keys().map(|v| v.map(|c| c >> 1)).collect();

@@ -7,6 +7,8 @@
 //! - [`svo`]: a sparse voxel octree built level by level on the GPU (flag, subdivide/allocate
 //!   with an atomic counter, neighbour links) with a 3x3x3 corner-sampled brick pool, neighbour
 //!   transfer and bottom-up mipmapping.
+//! - [`svo_aniso`]: optional anisotropic (6-direction) values per octree node, built bottom-up
+//!   from the leaf sums, and their directional sampling.
 //! - [`clipmap`]: nested levels of equal resolution and doubling extent around the camera with
 //!   toroidal addressing; camera motion revoxelises only the exposed slabs.
 //! - [`sample`]: the common "filtered value at `p` with footprint `d`" interface of both

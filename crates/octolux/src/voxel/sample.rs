@@ -5,7 +5,9 @@
 //!
 //! Both return premultiplied RGB and opacity; the RGB is albedo. For the clipmap,
 //! `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU twin [`clip_radiance_sample`]) returns
-//! the injected radiance the same way.
+//! the injected radiance the same way. The octree's anisotropic values are sampled by
+//! `svo_sample_aniso` ([`super::svo_aniso::SVO_ANISO_SAMPLE_WGSL`], CPU twin
+//! [`svo_sample_aniso`]).
 //!
 //! - Octree: the level whose lattice spacing matches the footprint (quadrilinear between two
 //!   levels), trilinear inside the brick of the node containing `p`; zero where no node exists.

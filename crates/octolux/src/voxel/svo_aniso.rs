@@ -14,9 +14,10 @@
 //! - Coarser levels, bottom-up, one dispatch per level: the same rule over the 8 children's
 //!   values for the same direction (a child without a brick is transparent zero).
 //!
-//! Storage: 6 words per *brick* ([`SvoAnisoValues::buffer`], word `(brick_index[node] - 1) * 6
-//! + direction`), 24 bytes per brick. A node without a brick is neither occupied nor next to an
-//! occupied node, so it contains no occupied voxel and all its values are zero.
+//! Storage: 6 words per *brick* ([`SvoAnisoValues::buffer`], word
+//! `(brick_index[node] - 1) * 6 + direction`), 24 bytes per brick. A node without a brick is
+//! neither occupied nor next to an occupied node, so it contains no occupied voxel and all its
+//! values are zero.
 //!
 //! Sampling: [`SVO_ANISO_SAMPLE_WGSL`] (`svo_sample_aniso(p, footprint, dir)`), CPU twin
 //! [`super::sample::svo_sample_aniso`]. CPU twin of the values: [`super::cpu::svo_aniso`].
