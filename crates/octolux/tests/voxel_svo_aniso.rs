@@ -77,7 +77,11 @@ fn node_values_equal_cpu_twin_and_bricks_cover_every_nonzero_node() {
     let ctx = context();
     let builder = SvoBuilder::new(&ctx);
     let aniso = SvoAniso::new(&ctx);
-    // The same kernels over a second, different octree: rebuilding is one call.
+    // An empty octree has no bricks and no values.
+    let (_, empty) = build(&ctx, &builder, &aniso, &unit_grid(8), &[]);
+    assert_eq!(empty.brick_count, 0);
+    assert!(empty.read_back(&ctx).unwrap().is_empty());
+    // The same kernels over different octrees: rebuilding is one call.
     for (res, seed, count) in [(8u32, 1u64, 8usize), (32, 2, 20), (64, 3, 30)] {
         let grid = unit_grid(res);
         let tris = scene(seed, count);
