@@ -413,6 +413,99 @@ fn aniso_value(
     pack_u8(acc.map(|a| (a + 2) / 4))
 }
 
+/// Per occupied voxel, its RGBA8 word: the rounded integer mean of its fragments' albedo,
+/// alpha 255 (`leaf_voxel` in `svo_aniso.wgsl`, which reads the octree's leaf sums).
+pub fn voxel_words(
+    fragments: &[([u32; 3], u32)],
+    tris: &[VoxelTriangle],
+) -> BTreeMap<[u32; 3], u32> {
+    let mut sums: BTreeMap<[u32; 3], [u32; 4]> = BTreeMap::new();
+    for &(v, t) in fragments {
+        let s = sums.entry(v).or_default();
+        for (sum, a) in s.iter_mut().zip(tris[t as usize].albedo) {
+            *sum += a as u32;
+        }
+        s[3] += 1;
+    }
+    sums.into_iter()
+        .map(|(v, s)| {
+            let half = s[3] / 2;
+            let rgb = [0, 1, 2].map(|i| (s[i] + half) / s[3]);
+            (v, pack_u8([rgb[0], rgb[1], rgb[2], 255]))
+        })
+        .collect()
+}
+
+/// The anisotropic values of the octree's nodes (CPU twin of `svo_aniso.wgsl`) over a
+/// `2^depth` grid with the occupied voxels `voxels` ([`voxel_words`]): entry `d` holds level
+/// `d` (nodes of `2^(depth - d)` voxels) by node coordinates, 6 RGBA8 words per node for
+/// travel along +x, -x, +y, -y, +z, -z. Only nodes containing an occupied voxel are listed;
+/// every other node is zero. On the finest level the values composite the node's 2x2x2 voxels,
+/// above that its 8 children's values for the same direction: the two met along the direction
+/// front to back (rounded integer arithmetic), averaged over the 4 pairs, as
+/// [`clipmap_aniso`] does.
+pub fn svo_aniso(
+    depth: u32,
+    voxels: &BTreeMap<[u32; 3], u32>,
+) -> Vec<BTreeMap<[u32; 3], [u32; 6]>> {
+    let octant = |c: [u32; 3], o: usize| {
+        [
+            c[0] * 2 + (o as u32 & 1),
+            c[1] * 2 + ((o as u32 >> 1) & 1),
+            c[2] * 2 + (o as u32 >> 2),
+        ]
+    };
+    let mut levels: Vec<BTreeMap<[u32; 3], [u32; 6]>> = Vec::new();
+    let leaves: BTreeSet<[u32; 3]> = voxels.keys().map(|v| v.map(|c| c >> 1)).collect();
+    let finest = leaves
+        .into_iter()
+        .map(|c| {
+            let fine = |o: usize| unpack_u8(voxels.get(&octant(c, o)).copied().unwrap_or(0));
+            (c, std::array::from_fn(|d| composite_pairs(d, fine)))
+        })
+        .collect();
+    levels.push(finest);
+    for _ in 1..depth {
+        let below = &levels[0];
+        let parents: BTreeSet<[u32; 3]> = below.keys().map(|v| v.map(|c| c >> 1)).collect();
+        let level = parents
+            .into_iter()
+            .map(|c| {
+                let values: [u32; 6] = std::array::from_fn(|d| {
+                    composite_pairs(d, |o| {
+                        unpack_u8(below.get(&octant(c, o)).map_or(0, |v| v[d]))
+                    })
+                });
+                (c, values)
+            })
+            .collect();
+        levels.insert(0, level);
+    }
+    levels
+}
+
+/// Direction `d` (+x, -x, +y, -y, +z, -z) of a 2x2x2 block of RGBA8 values `fine(octant)`:
+/// the two met along the direction composited front to back, averaged over the 4 pairs.
+fn composite_pairs(d: usize, fine: impl Fn(usize) -> [u32; 4]) -> u32 {
+    let axis = d / 2;
+    let bit = 1usize << axis;
+    let mut acc = [0u32; 4];
+    for j in 0..4usize {
+        let k0 = ((j >> axis) << (axis + 1)) | (j & (bit - 1));
+        let (front, back) = if d.is_multiple_of(2) {
+            (k0, k0 | bit)
+        } else {
+            (k0 | bit, k0)
+        };
+        let f = fine(front);
+        let b = fine(back);
+        for i in 0..4 {
+            acc[i] += f[i] + ((255 - f[3]) * b[i] + 127) / 255;
+        }
+    }
+    pack_u8(acc.map(|a| (a + 2) / 4))
+}
+
 fn weight(o: i32) -> f32 {
     if o == 0 {
         0.5

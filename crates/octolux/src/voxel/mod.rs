@@ -8,6 +8,8 @@
 //!   with an atomic counter, neighbour links) with a 3x3x3 corner-sampled brick pool, neighbour
 //!   transfer and bottom-up mipmapping; [`svo_dynamic`] gives it a static part built once and
 //!   a dynamic part rebuilt every frame.
+//! - [`svo_aniso`]: optional anisotropic (6-direction) values per octree node, built bottom-up
+//!   from the leaf sums, and their directional sampling.
 //! - [`clipmap`]: nested levels of equal resolution and doubling extent around the camera with
 //!   toroidal addressing; camera motion revoxelises only the exposed slabs.
 //! - [`sample`]: the common "filtered value at `p` with footprint `d`" interface of both
@@ -26,6 +28,7 @@ pub mod cpu;
 pub mod debug;
 pub mod sample;
 pub mod svo;
+pub mod svo_aniso;
 pub mod svo_dynamic;
 pub mod svo_inject;
 pub mod voxelize;

@@ -5,7 +5,9 @@
 //!
 //! Both return premultiplied RGB and opacity; the RGB is albedo. For the clipmap,
 //! `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU twin [`clip_radiance_sample`]) returns
-//! the injected radiance the same way.
+//! the injected radiance the same way. The octree's anisotropic values are sampled by
+//! `svo_sample_aniso` ([`super::svo_aniso::SVO_ANISO_SAMPLE_WGSL`], CPU twin
+//! [`svo_sample_aniso`]).
 //!
 //! - Octree: the level whose lattice spacing matches the footprint (quadrilinear between two
 //!   levels), trilinear inside the brick of the node containing `p`; zero where no node exists.
@@ -13,7 +15,7 @@
 //!   whole trilinear neighbourhood; a level that does not contain `p` is never read.
 
 use super::clipmap::ClipmapSettings;
-use super::svo::SvoCpu;
+use super::svo::{unpack_unorm8, SvoCpu};
 use super::VoxelGrid;
 use glam::{IVec3, UVec3, Vec3, Vec4};
 
@@ -133,6 +135,93 @@ pub fn svo_sample(svo: &SvoCpu, grid: &VoxelGrid, p: Vec3, footprint: f32) -> Ve
         return a;
     }
     a.lerp(svo_sample_level(svo, depth, g, fine - 1), t)
+}
+
+/// Brick index + 1 of the node of level `d` at node coordinates `c` (0 where no node exists
+/// or it has no brick), found by walking down from the root.
+pub fn svo_node_brick(svo: &SvoCpu, c: IVec3, d: u32) -> u32 {
+    let size = 1i32 << d;
+    if c.cmplt(IVec3::ZERO).any() || c.cmpge(IVec3::splat(size)).any() {
+        return 0;
+    }
+    let c = c.as_uvec3();
+    let mut node = 0u32;
+    for l in 0..d {
+        let first = svo.child[node as usize];
+        if first == 0 {
+            return 0;
+        }
+        let s = d - 1 - l;
+        node = first + ((c.x >> s) & 1) + (((c.y >> s) & 1) << 1) + (((c.z >> s) & 1) << 2);
+    }
+    svo.brick_of[node as usize]
+}
+
+/// CPU twin of `svo_aniso_level`: node-centred trilinear sample of level `d`'s directional
+/// values `aniso` (per brick, [`super::svo_aniso::SvoAnisoValues::read_back`]) at grid
+/// position `g` (voxels), seen travelling along `dir`.
+pub fn svo_aniso_level(
+    svo: &SvoCpu,
+    aniso: &[[u32; 6]],
+    depth: u32,
+    g: Vec3,
+    d: u32,
+    dir: Vec3,
+) -> Vec4 {
+    let x = g / (1u32 << (depth - d)) as f32 - Vec3::splat(0.5);
+    if x.cmplt(Vec3::splat(-1.0)).any() || x.cmpgt(Vec3::splat((1u32 << d) as f32)).any() {
+        return Vec4::ZERO;
+    }
+    let a = dir.abs();
+    let w = a / (a.x + a.y + a.z).max(1e-20);
+    let faces = [
+        if dir.x >= 0.0 { 0 } else { 1 },
+        if dir.y >= 0.0 { 2 } else { 3 },
+        if dir.z >= 0.0 { 4 } else { 5 },
+    ];
+    let i0 = x.floor().as_ivec3();
+    let f = x - x.floor();
+    trilinear(f, |o| match svo_node_brick(svo, i0 + o.as_ivec3(), d) {
+        0 => Vec4::ZERO,
+        b => {
+            let v = &aniso[b as usize - 1];
+            w.x * unpack_unorm8(v[faces[0]])
+                + w.y * unpack_unorm8(v[faces[1]])
+                + w.z * unpack_unorm8(v[faces[2]])
+        }
+    })
+}
+
+/// CPU twin of `svo_sample_aniso` ([`super::svo_aniso::SVO_ANISO_SAMPLE_WGSL`]): the
+/// directional values of the level whose node size matches `footprint` (quadrilinear between
+/// two levels), seen travelling along `dir`; below two voxels a blend from the isotropic
+/// [`svo_sample`] (one voxel) to the finest directional level (two voxels).
+pub fn svo_sample_aniso(
+    svo: &SvoCpu,
+    aniso: &[[u32; 6]],
+    grid: &VoxelGrid,
+    p: Vec3,
+    footprint: f32,
+    dir: Vec3,
+) -> Vec4 {
+    let depth = grid.depth();
+    let g = (p - grid.origin) / grid.voxel_size;
+    let s = (footprint / grid.voxel_size).max(1.0).log2();
+    if s < 1.0 {
+        let iso = svo_sample(svo, grid, p, footprint);
+        if s <= 0.0 {
+            return iso;
+        }
+        return iso.lerp(svo_aniso_level(svo, aniso, depth, g, depth - 1, dir), s);
+    }
+    let lod = (s - 1.0).min((depth - 1) as f32);
+    let fine = depth - 1 - lod.floor() as u32;
+    let t = lod - lod.floor();
+    let a = svo_aniso_level(svo, aniso, depth, g, fine, dir);
+    if t <= 0.0 || fine == 0 {
+        return a;
+    }
+    a.lerp(svo_aniso_level(svo, aniso, depth, g, fine - 1, dir), t)
 }
 
 fn clip_voxel(voxels: &[u32], res: u32, l: u32, g: IVec3) -> Vec4 {

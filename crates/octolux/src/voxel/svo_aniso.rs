@@ -1,0 +1,294 @@
+//! Anisotropic (6-direction) voxels for the sparse voxel octree (Arnebäck 2017 §3.1.4), an
+//! option built on demand after the octree: every node is the voxel of its level (level `d` has
+//! `2^d` nodes per axis) and gets 6 RGBA8 values (premultiplied albedo, opacity), one per travel
+//! direction +x, -x, +y, -y, +z, -z, meaning what a cone travelling along that direction sees
+//! (the clipmap's convention, [`super::cpu::clipmap_aniso`]). Mipmapping them keeps a red wall
+//! in front of a green one red seen from the front and green from behind, where the isotropic
+//! bricks mix the two.
+//!
+//! - Finest level (nodes of 2x2x2 voxels): each voxel's isotropic value is the rounded integer
+//!   mean of its fragments' albedo from [`Svo::leaf_sums`], opacity 1 (`leaf_voxel` in
+//!   `svo_aniso.wgsl`); direction +x composites the two voxels met along x front to back
+//!   (`c = c_front + (1 - a_front) c_back`, rounded integer arithmetic) and averages the 4
+//!   pairs across y and z.
+//! - Coarser levels, bottom-up, one dispatch per level: the same rule over the 8 children's
+//!   values for the same direction (a child without a brick is transparent zero).
+//!
+//! Storage: 6 words per *brick* ([`SvoAnisoValues::buffer`], word
+//! `(brick_index[node] - 1) * 6 + direction`), 24 bytes per brick. A node without a brick is
+//! neither occupied nor next to an occupied node, so it contains no occupied voxel and all its
+//! values are zero.
+//!
+//! Sampling: [`SVO_ANISO_SAMPLE_WGSL`] (`svo_sample_aniso(p, footprint, dir)`), CPU twin
+//! [`super::sample::svo_sample_aniso`]. CPU twin of the values: [`super::cpu::svo_aniso`].
+
+use super::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use super::svo::{Svo, OWNER};
+use super::voxelize::{bind_buffers, dispatch_size};
+use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::{Error, Result};
+use glam::{Vec3, Vec4};
+
+/// WGSL: `svo_sample_aniso(p, footprint, dir)`; goes after [`SVO_SAMPLE_WGSL`], and the
+/// includer also declares `var<storage, read> svo_aniso: array<u32>` (the buffer of
+/// [`SvoAnisoValues`]).
+pub const SVO_ANISO_SAMPLE_WGSL: &str = include_str!("sample_svo_aniso.wgsl");
+
+/// Words per brick: one RGBA8 value per direction (+x, -x, +y, -y, +z, -z).
+pub const ANISO_WORDS: u32 = 6;
+/// Ledger label of the values buffer (owner [`OWNER`]).
+pub const LEDGER_LABEL: &str = "anisotropic values";
+const UNIFORM_STRIDE: u64 = 256;
+
+fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// The anisotropic values of one octree's nodes.
+pub struct SvoAnisoValues {
+    /// `array<u32>`: per brick `b` (node with `brick_index = b + 1`), [`ANISO_WORDS`] RGBA8
+    /// words (`pack4x8unorm`) for travel along +x, -x, +y, -y, +z, -z.
+    pub buffer: wgpu::Buffer,
+    /// Bricks covered (the octree's [`Svo::brick_count`] when built).
+    pub brick_count: u32,
+}
+
+impl SvoAnisoValues {
+    /// Bytes kept on the GPU: 24 per brick.
+    pub fn bytes(&self) -> u64 {
+        self.brick_count as u64 * ANISO_WORDS as u64 * 4
+    }
+
+    /// Reads the values back: per brick (order of [`super::svo::SvoCpu::bricks`]), the 6
+    /// RGBA8 words.
+    pub fn read_back(&self, ctx: &GpuContext) -> Result<Vec<[u32; 6]>> {
+        if self.brick_count == 0 {
+            return Ok(Vec::new());
+        }
+        let bytes = read_buffer(ctx, &self.buffer, 0, self.bytes())?;
+        Ok(bytemuck::cast_slice::<u8, u32>(&bytes)
+            .chunks_exact(ANISO_WORDS as usize)
+            .map(|w| std::array::from_fn(|d| w[d]))
+            .collect())
+    }
+}
+
+/// The kernels that build an octree's anisotropic values and the probe that samples them.
+pub struct SvoAniso {
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl SvoAniso {
+    /// Compiles the kernel.
+    pub fn new(ctx: &GpuContext) -> SvoAniso {
+        let module = ctx.shader("svo anisotropic", include_str!("svo_aniso.wgsl"));
+        SvoAniso {
+            pipeline: ctx.compute_pipeline("svo anisotropic", &module, "build_level"),
+        }
+    }
+
+    /// Records the build of `svo`'s anisotropic values as the timed pass `svo anisotropic`
+    /// (one dispatch per level, finest first); the values are ready once `timer`'s frame is
+    /// finished. After the octree is rebuilt, calling this again rebuilds them (the ledger
+    /// entry `svo / anisotropic values` is replaced, not added to).
+    pub fn build(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+    ) -> Result<SvoAnisoValues> {
+        let bytes = svo.brick_count as u64 * ANISO_WORDS as u64 * 4;
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(Error::InvalidArgument(format!(
+                "anisotropic values of {} bricks need {bytes} bytes, more than one storage \
+                 binding holds on this GPU ({limit})",
+                svo.brick_count
+            )));
+        }
+        let buffer = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some(LEDGER_LABEL),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        );
+        let values = SvoAnisoValues {
+            buffer,
+            brick_count: svo.brick_count,
+        };
+        let depth = svo.levels.len();
+        if depth == 0 {
+            return Ok(values);
+        }
+        let first_leaf = svo.levels[depth - 1].0;
+        let mut params = vec![0u8; UNIFORM_STRIDE as usize * depth];
+        for (d, &(start, end)) in svo.levels.iter().enumerate() {
+            let misc = [start, end - start, first_leaf, (d + 1 == depth) as u32];
+            let at = d * UNIFORM_STRIDE as usize;
+            params[at..at + 16].copy_from_slice(bytemuck::cast_slice(&misc));
+        }
+        let uniform = ctx.create_buffer_init(
+            OWNER,
+            "anisotropic params",
+            &params,
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let groups: Vec<wgpu::BindGroup> = (0..depth)
+            .map(|d| {
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("svo anisotropic"),
+                    layout: &layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &uniform,
+                                offset: d as u64 * UNIFORM_STRIDE,
+                                size: wgpu::BufferSize::new(16),
+                            }),
+                        },
+                        storage(1, &svo.child),
+                        storage(2, &svo.brick_index),
+                        storage(3, &svo.leaf_sums),
+                        storage(4, &values.buffer),
+                    ],
+                })
+            })
+            .collect();
+        timer.pass("svo anisotropic", |encoder, stamps| {
+            for (i, d) in (0..depth).rev().enumerate() {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("svo anisotropic level"),
+                    timestamp_writes: stamps.compute_part(i == 0, d == 0),
+                });
+                let (start, end) = svo.levels[d];
+                if end > start {
+                    pass.set_pipeline(&self.pipeline);
+                    pass.set_bind_group(0, &groups[d], &[]);
+                    let (x, y) = dispatch_size(end - start);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+            }
+        });
+        ctx.ledger.record(OWNER, "anisotropic params", 0);
+        Ok(values)
+    }
+
+    /// Evaluates `svo_sample_aniso` (with one travel direction per point) or, without `dirs`,
+    /// the isotropic `svo_sample` on the GPU at `points` (xyz position, w footprint). Blocks.
+    pub fn probe(
+        ctx: &GpuContext,
+        svo: &Svo,
+        values: &SvoAnisoValues,
+        points: &[Vec4],
+        dirs: Option<&[Vec3]>,
+    ) -> Result<Vec<Vec4>> {
+        let dir_words: Vec<Vec4> = match dirs {
+            Some(d) if d.len() != points.len() => {
+                return Err(Error::InvalidArgument(format!(
+                    "{} directions for {} points",
+                    d.len(),
+                    points.len()
+                )))
+            }
+            Some(d) => d.iter().map(|d| d.extend(1.0)).collect(),
+            None => vec![Vec4::ZERO; points.len()],
+        };
+        if points.is_empty() {
+            return Ok(Vec::new());
+        }
+        let owner = "svo probe";
+        let source = format!("{SVO_SAMPLE_WGSL}\n{SVO_ANISO_SAMPLE_WGSL}\n{PROBE_WGSL}");
+        let module = ctx.shader(owner, &source);
+        let pipeline = ctx.compute_pipeline(owner, &module, "probe");
+        let info = ctx.create_buffer_init(
+            owner,
+            "info",
+            bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let storage = wgpu::BufferUsages::STORAGE;
+        let input = ctx.create_buffer_init(owner, "points", bytemuck::cast_slice(points), storage);
+        let dir_buffer = ctx.create_buffer_init(
+            owner,
+            "directions",
+            bytemuck::cast_slice(&dir_words),
+            storage,
+        );
+        let n = points.len() as u64;
+        let out = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("samples"),
+                size: n * 16,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        );
+        let group = bind_buffers(
+            ctx,
+            &pipeline,
+            &[
+                (0, &info),
+                (1, &svo.child),
+                (2, &svo.bricks[0]),
+                (3, &svo.bricks[1]),
+                (4, &svo.bricks[2]),
+                (5, &svo.bricks[3]),
+                (6, &svo.brick_index),
+                (7, &values.buffer),
+                (8, &input),
+                (9, &dir_buffer),
+                (10, &out),
+            ],
+        );
+        let mut timer = PassTimer::new(ctx);
+        timer.pass(owner, |encoder, stamps| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(owner),
+                timestamp_writes: stamps.compute(),
+            });
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+        });
+        timer.finish_frame()?;
+        let bytes = read_buffer(ctx, &out, 0, n * 16)?;
+        Ok(bytemuck::cast_slice::<u8, Vec4>(&bytes).to_vec())
+    }
+}
+
+const PROBE_WGSL: &str = "
+@group(0) @binding(0) var<uniform> svo_info: SvoInfo;
+@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(2) var<storage, read> svo_bricks0: array<u32>;
+@group(0) @binding(3) var<storage, read> svo_bricks1: array<u32>;
+@group(0) @binding(4) var<storage, read> svo_bricks2: array<u32>;
+@group(0) @binding(5) var<storage, read> svo_bricks3: array<u32>;
+@group(0) @binding(6) var<storage, read> svo_brick_index: array<u32>;
+@group(0) @binding(7) var<storage, read> svo_aniso: array<u32>;
+@group(0) @binding(8) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> dirs: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> samples: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&points) {
+        return;
+    }
+    let q = points[id.x];
+    let d = dirs[id.x];
+    if d.w > 0.5 {
+        samples[id.x] = svo_sample_aniso(q.xyz, q.w, d.xyz);
+    } else {
+        samples[id.x] = svo_sample(q.xyz, q.w);
+    }
+}
+";

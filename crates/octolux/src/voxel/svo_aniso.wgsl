@@ -1,0 +1,106 @@
+// Anisotropic (6-direction) values of the sparse voxel octree's nodes (Arnebäck 2017 §3.1.4).
+// Every node is the voxel of its level; it gets 6 RGBA8 words (premultiplied albedo, opacity)
+// for travel along +x, -x, +y, -y, +z, -z, stored per brick: word (brick_index[node] - 1) * 6
+// + direction. Nodes without a brick hold no occupied voxel and are zero (they have no words).
+//
+// Direction +x composites the two finer values met one after the other along x, front to
+// back (c = c_front + (1 - a_front) c_back, rounded integer arithmetic), and averages the 4
+// pairs across y and z, as the clipmap's anisotropic voxels do (`clipmap_filter.wgsl`). On the
+// finest level the finer values are the node's 8 voxels (`leaf_voxel`, isotropic); above, its
+// 8 children's values for the same direction (a child without a brick is transparent zero).
+// One dispatch per level, finest first.
+
+struct AnisoParams {
+    // x: first node of the level, y: nodes on the level, z: first leaf node, w: 1 on the leaf
+    // level.
+    misc: vec4<u32>,
+}
+
+@group(0) @binding(0) var<uniform> P: AnisoParams;
+@group(0) @binding(1) var<storage, read> child: array<u32>;
+@group(0) @binding(2) var<storage, read> brick_index: array<u32>;
+@group(0) @binding(3) var<storage, read> leaf_sums: array<u32>;
+@group(0) @binding(4) var<storage, read_write> aniso: array<u32>;
+
+// Words per leaf voxel in `leaf_sums` (svo_inject.wgsl: albedo r, g, b x255 sums, fragment
+// count, then emission and normal sums).
+const SUM_WORDS: u32 = 10u;
+
+// The isotropic value of voxel `octant` (x + 2y + 4z) of leaf node `node`: the rounded
+// integer mean of its fragments' albedo, opacity 1; zero when no fragment touches it.
+fn leaf_voxel(node: u32, octant: u32) -> vec4<f32> {
+    let w = ((node - P.misc.z) * 8u + octant) * SUM_WORDS;
+    let count = leaf_sums[w + 3u];
+    if count == 0u {
+        return vec4<f32>(0.0);
+    }
+    let sums = vec3<u32>(leaf_sums[w], leaf_sums[w + 1u], leaf_sums[w + 2u]);
+    let rgb = (sums + vec3<u32>(count / 2u)) / count;
+    return vec4<f32>(vec3<f32>(rgb) / 255.0, 1.0);
+}
+
+fn unpack_u8(w: u32) -> vec4<u32> {
+    return vec4<u32>(w & 255u, (w >> 8u) & 255u, (w >> 16u) & 255u, w >> 24u);
+}
+
+fn pack_u8(v: vec4<u32>) -> u32 {
+    return v.x | (v.y << 8u) | (v.z << 16u) | (v.w << 24u);
+}
+
+// Front-to-back compositing of premultiplied RGBA8 values, rounded.
+fn over(front: vec4<u32>, back: vec4<u32>) -> vec4<u32> {
+    return front + ((255u - front.w) * back + vec4<u32>(127u)) / 255u;
+}
+
+@compute @workgroup_size(64)
+fn build_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+               @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    if i >= P.misc.y {
+        return;
+    }
+    let n = P.misc.x + i;
+    let b = brick_index[n];
+    if b == 0u {
+        return;
+    }
+    let leaf = P.misc.w == 1u;
+    let first = child[n];
+    var iso: array<vec4<u32>, 8>;
+    if leaf {
+        for (var o = 0u; o < 8u; o++) {
+            iso[o] = unpack_u8(pack4x8unorm(leaf_voxel(n, o)));
+        }
+    }
+    for (var d = 0u; d < 6u; d++) {
+        var fine: array<vec4<u32>, 8>;
+        for (var o = 0u; o < 8u; o++) {
+            if leaf {
+                fine[o] = iso[o];
+            } else {
+                fine[o] = vec4<u32>(0u);
+                if first != 0u {
+                    let cb = brick_index[first + o];
+                    if cb != 0u {
+                        fine[o] = unpack_u8(aniso[(cb - 1u) * 6u + d]);
+                    }
+                }
+            }
+        }
+        let a = d / 2u;
+        let bit = 1u << a;
+        var acc = vec4<u32>(0u);
+        for (var j = 0u; j < 4u; j++) {
+            // Octant with bit `a` cleared, the other two bits from j.
+            let k0 = ((j >> a) << (a + 1u)) | (j & (bit - 1u));
+            var front = fine[k0];
+            var back = fine[k0 | bit];
+            if (d & 1u) == 1u {
+                front = fine[k0 | bit];
+                back = fine[k0];
+            }
+            acc += over(front, back);
+        }
+        aniso[(b - 1u) * 6u + d] = pack_u8((acc + vec4<u32>(2u)) / 4u);
+    }
+}
