@@ -36,8 +36,7 @@ impl Rng {
     }
 }
 
-/// Random triangles; every third one emits (HDR values that round in fixed point and in the
-/// RGB9E5 storage).
+/// Random triangles, most of them emissive.
 fn scene() -> Vec<VoxelTriangle> {
     let mut rng = Rng(4242);
     (0..24)
@@ -49,8 +48,15 @@ fn scene() -> Vec<VoxelTriangle> {
                 c + rng.vec(-0.15, 0.15),
                 [(i * 10) as u8, 255 - (i * 9) as u8, (40 + i * 7) as u8],
             );
-            if i % 3 == 0 {
-                t.emission = Vec3::new(0.7 * i as f32, 0.013 * i as f32, 250.0 - 9.3 * i as f32);
+            // Small values (stored exactly, so the rounding of the mean shows) and, on every
+            // fifth triangle, large ones; every fourth emits nothing.
+            let scale = if i % 5 == 0 { 300.0 } else { 1.0 };
+            if i % 4 != 1 {
+                t.emission = Vec3::new(
+                    0.0137 * i as f32,
+                    0.21 + 0.0071 * i as f32,
+                    0.4 - 0.011 * i as f32,
+                ) * scale;
             }
             t
         })

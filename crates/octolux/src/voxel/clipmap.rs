@@ -854,6 +854,47 @@ mod tests {
     }
 
     #[test]
+    fn emission_format_is_exact_below_512_and_rounds_to_9_bits_above() {
+        assert_eq!(encode_emission([0; 3]), 0);
+        assert_eq!(decode_emission(0), Vec3::ZERO);
+        let mut rng = 0x9e3779b97f4a7c15u64;
+        let mut next = |bits: u32| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> (64 - bits)) as u32
+        };
+        for i in 0..20000 {
+            let bits = 1 + i % 27;
+            let q = [next(bits), next(bits), next(bits)].map(|v| v.min(511 << 17));
+            let w = encode_emission(q);
+            let back = decode_emission_fixed(w);
+            let m = q[0].max(q[1]).max(q[2]);
+            // The float decoding is the fixed-point one / 1024, exactly.
+            let f = decode_emission(w);
+            for c in 0..3 {
+                assert_eq!(f[c], back[c] as f32 / EMISSION_SCALE, "{q:?}");
+                if m < 512 {
+                    assert_eq!(back[c], q[c], "{q:?}");
+                } else {
+                    // Half a step of 9 bits under the largest channel's exponent: under
+                    // 1/511 of the largest channel.
+                    let err = (back[c] as i64 - q[c] as i64).unsigned_abs();
+                    assert!(err as f64 <= m as f64 / 511.0, "{q:?} -> {back:?}");
+                }
+            }
+            // Re-encoding a decoded word gives the same word (filtering is stable).
+            assert_eq!(encode_emission(back), w);
+        }
+        assert_eq!(emission_fixed(-1.0), 0);
+        assert_eq!(emission_fixed(1.5), 1536);
+        assert_eq!(
+            decode_emission(encode_emission([emission_fixed(1e9); 3])).x,
+            65408.0
+        );
+    }
+
+    #[test]
     fn bad_settings_are_rejected() {
         let ok = ClipmapSettings {
             resolution: 64,

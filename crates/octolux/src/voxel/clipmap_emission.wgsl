@@ -8,7 +8,7 @@
 // fixed-point mean with integer operations only, so the GPU and the CPU twin store the same bits
 // and filtering (decode to fixed point, integer mean, encode) stays order independent. Values
 // below 0.5 (fixed point < 512) are stored exactly; larger ones keep 9 bits of the largest
-// channel (relative rounding error at most 1/512 of it, against 1/2048 for f16).
+// channel (rounding error under 1/511 of it, against 1/2048 of each channel for f16).
 
 const EMISSION_SCALE: f32 = 1024.0;
 // Exponent field of the fixed-point unit: mantissa x 2^(EMISSION_E0 - 24) = mantissa / 1024.
