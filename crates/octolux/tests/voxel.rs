@@ -678,6 +678,7 @@ fn empty_input_gives_empty_structures() {
         clipmap.update(&ctx, &mut timer, &tris, Vec3::ZERO).unwrap();
         timer.finish_frame().unwrap();
         assert!(clipmap.read_voxels(&ctx).unwrap().iter().all(|&v| v == 0));
+        assert!(clipmap.read_emission(&ctx).unwrap().iter().all(|&v| v == 0));
     }
 }
 
