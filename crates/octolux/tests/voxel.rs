@@ -327,12 +327,25 @@ fn octree_equals_cpu_build_and_mip_filter() {
     }
 }
 
+/// `tris` with HDR emission on every other triangle (values that round in fixed point and in
+/// the RGB9E5 storage, one above the 9-bit range of the finest step).
+fn with_emission(mut tris: Vec<VoxelTriangle>) -> Vec<VoxelTriangle> {
+    for (i, t) in tris.iter_mut().enumerate().filter(|(i, _)| i % 2 == 0) {
+        t.emission = Vec3::new(
+            0.37 * i as f32,
+            3.3,
+            0.0123 * i as f32 + 700.0 * (i % 4) as f32,
+        );
+    }
+    tris
+}
+
 #[test]
 fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
     use octolux::gpu::PassTimer;
     use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
     let ctx = context();
-    let tris = small_scene();
+    let tris = with_emission(small_scene());
     let settings = ClipmapSettings {
         resolution: 16,
         levels: 3,
@@ -382,6 +395,15 @@ fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
         wrong, 0,
         "{wrong} clipmap voxels differ from the CPU reference"
     );
+    // Emission: the exposed slabs were cleared and rewritten too.
+    let emission = clipmap.read_emission(&ctx).unwrap();
+    assert!(emission.iter().filter(|&&e| e != 0).count() > 200);
+    assert_eq!(emission, fresh.read_emission(&ctx).unwrap());
+    assert_eq!(
+        emission,
+        cpu::clipmap_emission(&settings, &origins, &tris),
+        "emission differs from the CPU reference"
+    );
     // A large jump rebuilds whole levels and still matches.
     let far = moved + Vec3::new(0.9, 0.0, -0.7);
     clipmap.update(&ctx, &mut timer, &tris, far).unwrap();
@@ -391,6 +413,10 @@ fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
     assert_eq!(
         clipmap.read_voxels(&ctx).unwrap(),
         fresh.read_voxels(&ctx).unwrap()
+    );
+    assert_eq!(
+        clipmap.read_emission(&ctx).unwrap(),
+        fresh.read_emission(&ctx).unwrap()
     );
 }
 
@@ -562,7 +588,13 @@ fn clipmap_revoxelises_only_around_a_moving_object() {
         voxel_size: 1.0 / 32.0,
     };
     let still = small_scene();
-    let object = |at: Vec3| thin_box(at, at + Vec3::new(0.05, 0.13, 0.04), 0.04, [9, 9, 250]);
+    let object = |at: Vec3| {
+        let mut tris = thin_box(at, at + Vec3::new(0.05, 0.13, 0.04), 0.04, [9, 9, 250]);
+        for t in &mut tris {
+            t.emission = Vec3::new(4.0, 2.5, 0.3);
+        }
+        tris
+    };
     let (a, b) = (Vec3::new(0.31, 0.42, 0.37), Vec3::new(0.36, 0.47, 0.41));
     let bounds = |at: Vec3| (at - Vec3::splat(0.03), at + Vec3::new(0.08, 0.16, 0.07));
     let before: Vec<VoxelTriangle> = still.iter().copied().chain(object(a)).collect();
@@ -596,17 +628,23 @@ fn clipmap_revoxelises_only_around_a_moving_object() {
     fresh.update(&ctx, &mut timer, &after, camera).unwrap();
     timer.finish_frame().unwrap();
     let got = clipmap.read_voxels(&ctx).unwrap();
-    assert_ne!(got, {
-        let mut stale = Clipmap::new(&ctx, settings).unwrap();
-        stale.update(&ctx, &mut timer, &before, camera).unwrap();
-        timer.finish_frame().unwrap();
-        stale.read_voxels(&ctx).unwrap()
-    });
+    let got_emission = clipmap.read_emission(&ctx).unwrap();
+    let mut stale = Clipmap::new(&ctx, settings).unwrap();
+    stale.update(&ctx, &mut timer, &before, camera).unwrap();
+    timer.finish_frame().unwrap();
+    assert_ne!(got, stale.read_voxels(&ctx).unwrap());
+    assert_ne!(got_emission, stale.read_emission(&ctx).unwrap());
     assert_eq!(
         got,
         fresh.read_voxels(&ctx).unwrap(),
         "differs from a rebuild after the move"
     );
+    assert_eq!(
+        got_emission,
+        fresh.read_emission(&ctx).unwrap(),
+        "emission differs from a rebuild after the move"
+    );
+    assert!(got_emission.iter().any(|&e| e != 0));
 }
 
 #[test]
@@ -640,6 +678,7 @@ fn empty_input_gives_empty_structures() {
         clipmap.update(&ctx, &mut timer, &tris, Vec3::ZERO).unwrap();
         timer.finish_frame().unwrap();
         assert!(clipmap.read_voxels(&ctx).unwrap().iter().all(|&v| v == 0));
+        assert!(clipmap.read_emission(&ctx).unwrap().iter().all(|&v| v == 0));
     }
 }
 

@@ -3,7 +3,7 @@
 
 use glam::{IVec3, Vec3, Vec4};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
-use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
+use octolux::voxel::clipmap::{decode_emission, Clipmap, ClipmapOptions, ClipmapSettings};
 use octolux::voxel::clipmap_sample::{
     blend_choice, clip_sample_aniso, clip_sample_blend, clip_sample_blend_with, probe_blend,
 };
@@ -36,17 +36,29 @@ impl Rng {
     }
 }
 
+/// Random triangles, most of them emissive.
 fn scene() -> Vec<VoxelTriangle> {
     let mut rng = Rng(4242);
     (0..24)
         .map(|i| {
             let c = rng.vec(0.1, 0.9);
-            tri(
+            let mut t = tri(
                 c + rng.vec(-0.15, 0.15),
                 c + rng.vec(-0.15, 0.15),
                 c + rng.vec(-0.15, 0.15),
                 [(i * 10) as u8, 255 - (i * 9) as u8, (40 + i * 7) as u8],
-            )
+            );
+            // Small values (stored exactly, so the rounding of the mean shows) and, on every
+            // fifth triangle, large ones; every fourth emits nothing.
+            let scale = if i % 5 == 0 { 300.0 } else { 1.0 };
+            if i % 4 != 1 {
+                t.emission = Vec3::new(
+                    0.0137 * i as f32,
+                    0.21 + 0.0071 * i as f32,
+                    0.4 - 0.011 * i as f32,
+                ) * scale;
+            }
+            t
         })
         .collect()
 }
@@ -105,6 +117,17 @@ fn filtered_levels_equal_cpu_twin_and_incremental_equals_rebuild() {
             wrong, 0,
             "{wrong} directional values differ from the CPU twin"
         );
+        let mut emission = cpu::clipmap_emission(&SETTINGS, &o, &tris);
+        let unfiltered = emission.clone();
+        cpu::clipmap_filter_emission(&SETTINGS, &o, &mut emission);
+        assert_ne!(emission, unfiltered);
+        let got = c.read_emission(&ctx).unwrap();
+        let wrong = got.iter().zip(&emission).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            wrong, 0,
+            "{wrong} filtered emission words differ from the CPU twin"
+        );
+        assert!(got.iter().filter(|&&e| e != 0).count() > 100);
     };
     check(&clipmap);
     let mut timer = PassTimer::new(&ctx);
@@ -156,11 +179,35 @@ fn filtered_levels_equal_cpu_twin_and_incremental_equals_rebuild() {
         clipmap.read_aniso(&ctx).unwrap(),
         fresh.read_aniso(&ctx).unwrap()
     );
+    assert_eq!(
+        clipmap.read_emission(&ctx).unwrap(),
+        fresh.read_emission(&ctx).unwrap()
+    );
+    // Injection without lights: the radiance is the (coverage-weighted) emission, to f16
+    // rounding (relative 2^-11), with the filtered opacity.
+    clipmap.inject(&ctx, &mut timer, &[], 64).unwrap();
+    timer.finish_frame().unwrap();
+    let radiance = clipmap.read_radiance(&ctx).unwrap();
+    let voxels = clipmap.read_voxels(&ctx).unwrap();
+    let emission = clipmap.read_emission(&ctx).unwrap();
+    for ((r, &v), &e) in radiance.iter().zip(&voxels).zip(&emission) {
+        let want = decode_emission(e);
+        let err = (r.truncate() - want).abs().max_element();
+        assert!(err <= want.max_element() / 2048.0, "{r} vs {want}");
+        let alpha = (v >> 24) as f32 / 255.0;
+        assert!(
+            (r.w - alpha).abs() <= alpha / 2048.0,
+            "{r} vs opacity {alpha}"
+        );
+    }
     // The directional values cost 24 bytes per voxel of levels 1 and up, in the ledger.
     let bytes = clipmap.aniso.as_ref().unwrap().size();
     assert_eq!(bytes, 2 * 16 * 16 * 16 * 24);
     let plain = Clipmap::new(&ctx, SETTINGS).unwrap();
-    assert_eq!(clipmap.bytes() - plain.bytes(), bytes);
+    assert_eq!(
+        clipmap.bytes() - plain.bytes() - radiance.len() as u64 * 8,
+        bytes
+    );
     assert!(plain.aniso.is_none() && plain.read_aniso(&ctx).unwrap().is_empty());
 }
 
@@ -304,4 +351,128 @@ fn anisotropic_voxels_keep_the_front_colour() {
         (iso - Vec4::new(0.5, 0.5, 0.0, 1.0)).abs().max_element() < 0.01,
         "{iso}"
     );
+}
+
+fn quad(y: f32, lo: f32, hi: f32, albedo: [u8; 3], emission: Vec3) -> Vec<VoxelTriangle> {
+    let (a, b) = (Vec3::new(lo, y, lo), Vec3::new(lo, y, hi));
+    let (c, d) = (Vec3::new(hi, y, hi), Vec3::new(hi, y, lo));
+    let mut tris = vec![tri(a, b, c, albedo), tri(a, c, d, albedo)];
+    for t in &mut tris {
+        t.emission = emission;
+    }
+    tris
+}
+
+/// Slots of `tris`' voxels in the clipmap at `origins` (per-level voxelization).
+fn touched(o: &[IVec3], tris: &[VoxelTriangle]) -> Vec<bool> {
+    cpu::clipmap_voxels(&SETTINGS, o, tris)
+        .iter()
+        .map(|&w| w != 0)
+        .collect()
+}
+
+#[test]
+fn emission_is_injected_as_the_mean_of_the_voxel_fragments() {
+    let ctx = context();
+    // An emissive quad, a non-emissive one, and inside one finest voxel (whose level-1 and
+    // level-2 voxels hold nothing else) two triangles of different emission. Every value is a
+    // multiple of 1/1024 below 512/1024 x 2^s with few bits, so fixed point, RGB9E5 and f16
+    // hold it exactly: the radiance must equal it exactly.
+    let glow = Vec3::new(2.0, 0.5, 1.25);
+    let mut emissive = quad(0.4003, 0.2, 0.45, [200, 100, 50], glow);
+    emissive[1].emission = glow; // both halves
+    let plain = quad(0.7003, 0.55, 0.8, [255, 255, 255], Vec3::ZERO);
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    let mut mix = vec![
+        tri(
+            v(0.60, 0.51, 0.60),
+            v(0.615, 0.51, 0.60),
+            v(0.60, 0.52, 0.615),
+            [10, 20, 30],
+        ),
+        tri(
+            v(0.60, 0.515, 0.605),
+            v(0.62, 0.52, 0.61),
+            v(0.61, 0.525, 0.62),
+            [90, 90, 90],
+        ),
+    ];
+    mix[0].emission = Vec3::new(3.0, 0.0, 1.0);
+    mix[1].emission = Vec3::new(1.0, 2.0, 0.0);
+    let mean = Vec3::new(2.0, 1.0, 0.5);
+    // 80 tiny triangles of emission 60000 in one voxel: the 64-bit sums pass 2^32 (32-bit sums
+    // would wrap after 69 fragments).
+    let hot: Vec<VoxelTriangle> = (0..80)
+        .map(|i| {
+            let p = v(0.3, 0.6, 0.6) + Vec3::splat(0.0001 * i as f32);
+            let mut t = tri(
+                p,
+                p + v(0.004, 0.0, 0.0),
+                p + v(0.0, 0.004, 0.002),
+                [1, 2, 3],
+            );
+            t.emission = Vec3::new(60000.0, 1.0, 0.0);
+            t
+        })
+        .collect();
+    let tris: Vec<VoxelTriangle> =
+        [emissive.clone(), plain.clone(), mix.clone(), hot.clone()].concat();
+    let mut clipmap = build(&ctx, ClipmapOptions::default(), &tris, Vec3::splat(0.5));
+    let mut timer = PassTimer::new(&ctx);
+    clipmap.inject(&ctx, &mut timer, &[], 64).unwrap();
+    timer.finish_frame().unwrap();
+    let o = origins(&clipmap);
+    let emission = clipmap.read_emission(&ctx).unwrap();
+    assert_eq!(
+        emission,
+        cpu::clipmap_emission(&SETTINGS, &o, &tris),
+        "GPU emission differs from the CPU twin"
+    );
+    let radiance = clipmap.read_radiance(&ctx).unwrap();
+    let (e, p, m, h) = (
+        touched(&o, &emissive),
+        touched(&o, &plain),
+        touched(&o, &mix),
+        touched(&o, &hot),
+    );
+    let mut counts = [0; 4];
+    for (i, r) in radiance.iter().enumerate() {
+        assert!(
+            !(e[i] && (p[i] || m[i] || h[i])) && !(m[i] && h[i]),
+            "scene overlaps at {i}"
+        );
+        if e[i] {
+            assert_eq!(*r, glow.extend(1.0), "emissive quad voxel {i}");
+            counts[0] += 1;
+        } else if m[i] {
+            assert_eq!(*r, mean.extend(1.0), "mixed voxel {i}");
+            counts[1] += 1;
+        } else if h[i] {
+            // RGB9E5 keeps 9 bits under the exponent of the largest channel: 60000 becomes
+            // 469 x 128 = 60032 (also exact in f16), and the green 1.0 rounds to 0.
+            let want = Vec3::new(60000.0, 1.0, 0.0);
+            let err = (r.truncate() - want).abs().max_element();
+            assert!(err <= 60000.0 / 512.0 && r.w == 1.0, "hot voxel {i}: {r}");
+            counts[2] += 1;
+        } else if p[i] {
+            assert_eq!(*r, Vec4::new(0.0, 0.0, 0.0, 1.0), "non-emissive voxel {i}");
+            counts[3] += 1;
+        } else {
+            assert_eq!(*r, Vec4::ZERO, "empty voxel {i}");
+        }
+    }
+    // The mixed pair lies in one voxel of each level; the quads cover many.
+    assert_eq!(counts[1], 3);
+    assert!(
+        counts[0] > 60 && counts[3] > 50 && counts[2] >= 3,
+        "{counts:?}"
+    );
+    // Memory: the emission buffer is 4 bytes per voxel slot, in the ledger under "clipmap".
+    let slots = (SETTINGS.levels * SETTINGS.resolution.pow(3)) as u64;
+    assert!(ctx
+        .ledger
+        .entries()
+        .iter()
+        .any(|e| e.owner == "clipmap" && e.name == "emission" && e.bytes == slots * 4));
+    assert_eq!(clipmap.bytes(), slots * (12 + 8));
 }

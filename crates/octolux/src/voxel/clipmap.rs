@@ -9,8 +9,9 @@
 //! its full width. Each level is voxelized at its own resolution (per-level voxelization).
 //!
 //! Storage: one `array<u32>` of RGBA8 texels (averaged albedo, opacity 255 where any triangle
-//! touches the voxel), level after level, and the averaged normals in the same layout.
-//! [`Clipmap::inject`] adds RGBA16F radiance (direct light, visibility by voxel shadow rays).
+//! touches the voxel), level after level, and in the same layout the averaged normals and the
+//! mean emission (RGB9E5, [`encode_emission`]): 12 bytes per voxel. [`Clipmap::inject`] adds
+//! RGBA16F radiance (emission + reflected direct light, visibility by voxel shadow rays).
 //! Moving objects: revoxelise the boxes that their old and new bounds touch
 //! ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller decides what moved.
 //!
@@ -30,8 +31,64 @@ use glam::{IVec3, Vec3};
 
 /// Ledger owner of the clipmap's buffers.
 pub const OWNER: &str = "clipmap";
-/// Voxels the accumulation scratch holds; larger update boxes are processed in z slices.
-const ACCUM_VOXELS: u64 = 1 << 21;
+/// Scratch words per voxel of an update box (`ACCUM_WORDS` in `clipmap.wgsl`): albedo sums
+/// (3), fragment count, normal sums (3), emission sums (3 x 64 bits).
+const ACCUM_WORDS: u64 = 13;
+/// Bytes of the accumulation scratch; larger update boxes are processed in z slices.
+const ACCUM_BYTES: u64 = 64 << 20;
+/// Fixed-point units per W/(m^2 sr) of the emission sums (`EMISSION_SCALE` in
+/// `clipmap_emission.wgsl`).
+pub const EMISSION_SCALE: f32 = 1024.0;
+/// WGSL of the emission format (`emission_encode`, `emission_decode`, ...), put in front of
+/// every clipmap kernel that reads or writes [`Clipmap::emission`].
+pub const CLIPMAP_EMISSION_WGSL: &str = include_str!("clipmap_emission.wgsl");
+
+/// Fixed-point value (x [`EMISSION_SCALE`], rounded half to even like WGSL `round`) of one
+/// triangle's emission channel, clamped to `[0, 65504]` (`emission_fixed` in WGSL).
+pub fn emission_fixed(e: f32) -> u32 {
+    (e.clamp(0.0, 65504.0) * EMISSION_SCALE).round_ties_even() as u32
+}
+
+/// The RGB9E5 word (red bits 0-8, green 9-17, blue 18-26, exponent 27-31, value = mantissa x
+/// 2^(exponent - 24)) of a fixed-point colour (x [`EMISSION_SCALE`]), as `emission_encode` in
+/// `clipmap_emission.wgsl` computes it: the smallest shift that fits the largest channel in 9
+/// bits after rounding, each channel rounded half up; values under 512 (0.5 W/(m^2 sr)) are
+/// exact. Zero gives 0.
+pub fn encode_emission(q: [u32; 3]) -> u32 {
+    let m = q[0].max(q[1]).max(q[2]);
+    if m == 0 {
+        return 0;
+    }
+    let half = |s: u32| (1u64 << s) >> 1;
+    let mut s = 0;
+    while s < 17 && (m as u64 + half(s)) >> s > 511 {
+        s += 1;
+    }
+    let v = q.map(|c| (((c as u64 + half(s)) >> s) as u32).min(511));
+    v[0] | (v[1] << 9) | (v[2] << 18) | ((s + 14) << 27)
+}
+
+/// The fixed-point colour (x [`EMISSION_SCALE`]) of an RGB9E5 word (`emission_decode_fixed`).
+pub fn decode_emission_fixed(w: u32) -> [u32; 3] {
+    let e = w >> 27;
+    [w & 511, (w >> 9) & 511, (w >> 18) & 511].map(|v| {
+        if e >= 14 {
+            v << (e - 14)
+        } else {
+            v >> (14 - e)
+        }
+    })
+}
+
+/// Emitted radiance, W/(m^2 sr), of an RGB9E5 word (`emission_decode`; exact in f32).
+pub fn decode_emission(w: u32) -> Vec3 {
+    let scale = f32::from_bits(((w >> 27) + 103) << 23);
+    Vec3::new(
+        (w & 511) as f32,
+        ((w >> 9) & 511) as f32,
+        ((w >> 18) & 511) as f32,
+    ) * scale
+}
 
 /// Clipmap dimensions.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -206,6 +263,9 @@ pub struct Clipmap {
     pub voxels: wgpu::Buffer,
     /// Averaged unit normal per voxel (snorm8 x3), same layout as `voxels`.
     pub normals: wgpu::Buffer,
+    /// Mean emitted radiance per voxel (RGB9E5 words, [`decode_emission`]), same layout as
+    /// `voxels`; on filtered levels premultiplied by coverage like the albedo.
+    pub emission: wgpu::Buffer,
     /// Injected radiance (RGBA16F: radiance, opacity; 2 words per voxel slot), once
     /// [`Clipmap::inject`] has run.
     pub radiance: Option<wgpu::Buffer>,
@@ -267,12 +327,23 @@ impl Clipmap {
                 mapped_at_creation: false,
             },
         );
-        let accum_voxels = ACCUM_VOXELS.min(res * res * res).max(res * res);
+        let emission = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("emission"),
+                size: bytes,
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        let accum_voxels = (ACCUM_BYTES / (ACCUM_WORDS * 4))
+            .min(res * res * res)
+            .max(res * res);
         let accum = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("accumulation scratch"),
-                size: accum_voxels * 32,
+                size: accum_voxels * ACCUM_WORDS * 4,
                 usage,
                 mapped_at_creation: false,
             },
@@ -315,15 +386,22 @@ impl Clipmap {
                 mapped_at_creation: false,
             },
         );
-        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("clipmap.wgsl"));
+        let source = format!(
+            "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{}",
+            include_str!("clipmap.wgsl")
+        );
         let module = ctx.shader("clipmap", &source);
-        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("clipmap_filter.wgsl"));
+        let source = format!(
+            "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{}",
+            include_str!("clipmap_filter.wgsl")
+        );
         let filter_module = ctx.shader("clipmap filter", &source);
         Ok(Clipmap {
             settings,
             origins: vec![None; settings.levels as usize],
             voxels,
             normals,
+            emission,
             radiance: None,
             options,
             aniso,
@@ -338,13 +416,15 @@ impl Clipmap {
         })
     }
 
-    /// Bytes the clipmap keeps on the GPU: albedo/opacity and normals (4 + 4 bytes per voxel),
+    /// Bytes the clipmap keeps on the GPU: albedo/opacity, normals and emission (4 + 4 + 4
+    /// bytes per voxel),
     /// with anisotropic voxels 24 bytes per voxel of levels 1 and up, and, once light has been
     /// injected, radiance (8 bytes per voxel). The accumulation scratch is reported separately
     /// in the ledger.
     pub fn bytes(&self) -> u64 {
         self.voxels.size()
             + self.normals.size()
+            + self.emission.size()
             + self.aniso.as_ref().map_or(0, |a| a.size())
             + self.radiance.as_ref().map_or(0, |r| r.size())
     }
@@ -441,7 +521,7 @@ impl Clipmap {
         let triangles = upload_triangles(ctx, OWNER, tris);
         let res = self.settings.resolution as u64;
         let slice = (res * res).max(1);
-        let max_depth = (self.accum.size() / 32 / slice).max(1) as i32;
+        let max_depth = (self.accum.size() / (ACCUM_WORDS * 4) / slice).max(1) as i32;
         let mut item_bytes = 0u64;
         for b in boxes {
             let mut z = b.lo.z;
@@ -508,6 +588,7 @@ impl Clipmap {
                         (4, &self.voxels),
                         (5, &self.written),
                         (6, &self.normals),
+                        (7, &self.emission),
                     ],
                 );
                 dispatch(
@@ -555,9 +636,10 @@ impl Clipmap {
         );
         let aniso = self.aniso.as_ref().unwrap_or(&self.no_aniso);
         let mut buffers = vec![(0, &uniform), (1, &self.voxels), (3, aniso)];
-        // `replicate` has no normals binding.
+        // `replicate` has no normals or emission binding.
         if std::ptr::eq(pipeline, &self.filter) {
             buffers.push((2, &self.normals));
+            buffers.push((4, &self.emission));
         }
         let group = bind_buffers(ctx, pipeline, &buffers);
         dispatch(timer, name, pipeline, &group, b.volume() as u32);
@@ -592,7 +674,7 @@ impl Clipmap {
         Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
 
-    /// Injects direct light: every occupied voxel gets outgoing radiance albedo / pi x the
+    /// Injects light: every occupied voxel gets outgoing radiance emission + albedo / pi x the
     /// irradiance from `lights` (point, spot, directional), with visibility found by marching
     /// the clipmap's own opacity towards each light (at most `max_steps` samples, half a voxel
     /// of the voxel's level apart, per ray). Writes [`Clipmap::radiance`]; the pass is `clipmap inject`.
@@ -671,7 +753,7 @@ impl Clipmap {
             Some(p) => p.clone(),
             None => {
                 let source = format!(
-                    "{}\n{}",
+                    "{}\n{CLIPMAP_EMISSION_WGSL}\n{}",
                     super::sample::CLIPMAP_SAMPLE_WGSL,
                     include_str!("inject.wgsl")
                 );
@@ -691,6 +773,7 @@ impl Clipmap {
                 (3, &lights_buffer),
                 (4, &radiance),
                 (5, &params),
+                (6, &self.emission),
             ],
         );
         dispatch(timer, "clipmap inject", &pipeline, &group, slots);
@@ -725,6 +808,12 @@ impl Clipmap {
     /// Reads all voxels back (RGBA8 words, level after level, toroidal order). Blocks.
     pub fn read_voxels(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
         let bytes = read_buffer(ctx, &self.voxels, 0, self.voxels.size())?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+
+    /// Reads the emission back (RGB9E5 words, [`decode_emission`], layout of `voxels`). Blocks.
+    pub fn read_emission(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        let bytes = read_buffer(ctx, &self.emission, 0, self.emission.size())?;
         Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
 }
@@ -762,6 +851,47 @@ mod tests {
             }
         }
         assert_eq!(exposed_boxes(2, None, old, res).len(), 1);
+    }
+
+    #[test]
+    fn emission_format_is_exact_below_512_and_rounds_to_9_bits_above() {
+        assert_eq!(encode_emission([0; 3]), 0);
+        assert_eq!(decode_emission(0), Vec3::ZERO);
+        let mut rng = 0x9e3779b97f4a7c15u64;
+        let mut next = |bits: u32| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng >> (64 - bits)) as u32
+        };
+        for i in 0..20000 {
+            let bits = 1 + i % 27;
+            let q = [next(bits), next(bits), next(bits)].map(|v| v.min(511 << 17));
+            let w = encode_emission(q);
+            let back = decode_emission_fixed(w);
+            let m = q[0].max(q[1]).max(q[2]);
+            // The float decoding is the fixed-point one / 1024, exactly.
+            let f = decode_emission(w);
+            for c in 0..3 {
+                assert_eq!(f[c], back[c] as f32 / EMISSION_SCALE, "{q:?}");
+                if m < 512 {
+                    assert_eq!(back[c], q[c], "{q:?}");
+                } else {
+                    // Half a step of 9 bits under the largest channel's exponent: under
+                    // 1/511 of the largest channel.
+                    let err = (back[c] as i64 - q[c] as i64).unsigned_abs();
+                    assert!(err as f64 <= m as f64 / 511.0, "{q:?} -> {back:?}");
+                }
+            }
+            // Re-encoding a decoded word gives the same word (filtering is stable).
+            assert_eq!(encode_emission(back), w);
+        }
+        assert_eq!(emission_fixed(-1.0), 0);
+        assert_eq!(emission_fixed(1.5), 1536);
+        assert_eq!(
+            decode_emission(encode_emission([emission_fixed(1e9); 3])).x,
+            65408.0
+        );
     }
 
     #[test]

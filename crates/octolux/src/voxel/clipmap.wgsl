@@ -1,8 +1,14 @@
-// Clipmap voxelization of one box of one level: accumulate integer albedo sums and fragment
-// counts per voxel of the box (work items of at most CHUNK voxels), then resolve each voxel of
-// the box into its toroidal slot: RGBA8 (albedo averaged with rounding, opacity 255 when any
-// triangle touches the voxel, all zero otherwise).
+// Clipmap voxelization of one box of one level: accumulate integer albedo, normal and emission
+// sums and fragment counts per voxel of the box (work items of at most CHUNK voxels), then
+// resolve each voxel of the box into its toroidal slot: RGBA8 (albedo averaged with rounding,
+// opacity 255 when any triangle touches the voxel, all zero otherwise), the normalised normal
+// sum, and the mean emission (fixed-point sums divided with rounding, RGB9E5, see
+// `clipmap_emission.wgsl`, which comes before this file).
 // misc: x = work items, y = first voxel of the level in `voxels`, z = resolution per axis.
+
+// Scratch words per voxel (ACCUM_WORDS in clipmap.rs): albedo r, g, b sums, fragment count,
+// normal x, y, z sums, emission r, g, b sums as 64 bits (low words, then high words).
+const ACCUM_WORDS: u32 = 13u;
 
 @group(0) @binding(0) var<uniform> P: VoxParams;
 @group(0) @binding(1) var<storage, read> tris: array<Tri>;
@@ -12,6 +18,38 @@
 @group(0) @binding(5) var<storage, read_write> written: array<atomic<u32>>;
 // Per voxel: averaged unit normal, snorm8 x3 (same slots as `voxels`).
 @group(0) @binding(6) var<storage, read_write> normals: array<u32>;
+// Per voxel: mean emission, RGB9E5 (same slots as `voxels`).
+@group(0) @binding(7) var<storage, read_write> emission: array<u32>;
+
+// Adds `v` to the 64-bit sum in words (lo, hi). The high word counts the wraps of the low
+// one, so the total does not depend on the order of the additions (a voxel of a coarse level
+// may hold thousands of fragments of up to 65504 x 1024 each).
+fn add64(lo: u32, hi: u32, v: u32) {
+    let old = atomicAdd(&accum[lo], v);
+    if old > 0xffffffffu - v {
+        atomicAdd(&accum[hi], 1u);
+    }
+}
+
+// round((hi * 2^32 + lo) / d) for d > 0 and a quotient below 2^32 (restoring division).
+fn div64_rounded(hi_in: u32, lo_in: u32, d: u32) -> u32 {
+    let half = d / 2u;
+    let lo = lo_in + half;
+    var rem = hi_in + select(0u, 1u, lo < lo_in);
+    var q = 0u;
+    for (var i = 0u; i < 32u; i++) {
+        let top = rem >> 31u;
+        rem = (rem << 1u) | ((lo >> (31u - i)) & 1u);
+        q = q << 1u;
+        // With the top bit shifted out the true remainder is rem + 2^32 > d; the wrapping
+        // subtraction still gives the right (smaller than d) result.
+        if top == 1u || rem >= d {
+            rem -= d;
+            q |= 1u;
+        }
+    }
+    return q;
+}
 
 // Sign-extended byte `i` of a packed snorm8 word, in units of 1/127.
 fn snorm_byte(w: u32, i: u32) -> i32 {
@@ -42,7 +80,7 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         let cell = nth_cell(range, i);
         if tri_box_overlap(a, b, c, cell) {
             let l = vec3<u32>(cell - P.lo.xyz);
-            let k = 8u * (l.x + size.x * (l.y + size.y * l.z));
+            let k = ACCUM_WORDS * (l.x + size.x * (l.y + size.y * l.z));
             atomicAdd(&accum[k], albedo & 255u);
             atomicAdd(&accum[k + 1u], (albedo >> 8u) & 255u);
             atomicAdd(&accum[k + 2u], (albedo >> 16u) & 255u);
@@ -52,6 +90,9 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
             atomicAdd(&accum[k + 4u], bitcast<u32>(snorm_byte(nb, 0u)));
             atomicAdd(&accum[k + 5u], bitcast<u32>(snorm_byte(nb, 1u)));
             atomicAdd(&accum[k + 6u], bitcast<u32>(snorm_byte(nb, 2u)));
+            add64(k + 7u, k + 10u, emission_fixed(tri.p2.w));
+            add64(k + 8u, k + 11u, emission_fixed(tri.extra.x));
+            add64(k + 9u, k + 12u, emission_fixed(tri.extra.y));
         }
     }
 }
@@ -65,7 +106,7 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
         return;
     }
     let l = vec3<u32>(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
-    let k = 8u * i;
+    let k = ACCUM_WORDS * i;
     let count = atomicExchange(&accum[k + 3u], 0u);
     let r = atomicExchange(&accum[k], 0u);
     let g = atomicExchange(&accum[k + 1u], 0u);
@@ -73,8 +114,18 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
     let n = vec3<f32>(vec3<i32>(bitcast<i32>(atomicExchange(&accum[k + 4u], 0u)),
                                 bitcast<i32>(atomicExchange(&accum[k + 5u], 0u)),
                                 bitcast<i32>(atomicExchange(&accum[k + 6u], 0u))));
+    var e_lo: array<u32, 3>;
+    var e_hi: array<u32, 3>;
+    for (var c = 0u; c < 3u; c++) {
+        e_lo[c] = atomicExchange(&accum[k + 7u + c], 0u);
+        e_hi[c] = atomicExchange(&accum[k + 10u + c], 0u);
+    }
     var value = 0u;
+    var emitted = 0u;
     if count > 0u {
+        emitted = emission_encode(vec3<u32>(div64_rounded(e_hi[0], e_lo[0], count),
+                                            div64_rounded(e_hi[1], e_lo[1], count),
+                                            div64_rounded(e_hi[2], e_lo[2], count)));
         let half = count / 2u;
         value = ((r + half) / count) | (((g + half) / count) << 8u) | (((b + half) / count) << 16u)
             | (255u << 24u);
@@ -89,5 +140,6 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
         packed_normal = pack4x8snorm(vec4<f32>(normalize(n), 0.0));
     }
     normals[slot] = packed_normal;
+    emission[slot] = emitted;
     atomicAdd(&written[0], 1u);
 }

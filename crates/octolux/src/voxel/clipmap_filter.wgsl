@@ -1,7 +1,9 @@
 // Clipmap level filtering: the voxels of level l = misc.x that lie wholly inside level l - 1
 // are rebuilt from the 2x2x2 finer voxels instead of being voxelized on their own:
 // premultiplied colour and opacity are the rounded means of the eight (opacity becomes the
-// covered fraction), normals the normalised sum. With anisotropic voxels (misc.z = 1), each of
+// covered fraction), normals the normalised sum, emission the rounded integer mean of the
+// eight fixed-point values (empty voxels count as zero, so emission is premultiplied by
+// coverage like the colour; needs `clipmap_emission.wgsl` before this file). With anisotropic voxels (misc.z = 1), each of
 // the 6 directional values (travel +x, -x, +y, -y, +z, -z) composites the two finer voxels met
 // one after the other along that direction, front to back, and averages the 4 pairs across
 // the other two axes; the finer values are the finer level's directional values, or its
@@ -19,6 +21,7 @@ struct FilterParams {
 @group(0) @binding(1) var<storage, read_write> voxels: array<u32>;
 @group(0) @binding(2) var<storage, read_write> normals: array<u32>;
 @group(0) @binding(3) var<storage, read_write> aniso: array<u32>;
+@group(0) @binding(4) var<storage, read_write> emission: array<u32>;
 
 fn level_slots() -> u32 {
     return F.misc.y * F.misc.y * F.misc.y;
@@ -79,6 +82,8 @@ fn filter_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
     var fine: array<u32, 8>;
     var sum = vec4<u32>(0u);
     var nsum = vec3<i32>(0);
+    // At most 8 x (511 << 17) per channel: no overflow.
+    var esum = vec3<u32>(0u);
     for (var k = 0u; k < 8u; k++) {
         let o = vec3<i32>(vec3<u32>(k & 1u, (k >> 1u) & 1u, (k >> 2u) & 1u));
         let s = slot_in_level(2 * c + o);
@@ -86,6 +91,7 @@ fn filter_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
         sum += unpack_u8(voxels[fl * n + s]);
         let nw = normals[fl * n + s];
         nsum += vec3<i32>(snorm_part(nw, 0u), snorm_part(nw, 1u), snorm_part(nw, 2u));
+        esum += emission_decode_fixed(emission[fl * n + s]);
     }
     let cs = slot_in_level(c);
     voxels[l * n + cs] = pack_u8((sum + vec4<u32>(4u)) / 8u);
@@ -94,6 +100,7 @@ fn filter_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
         packed_normal = pack4x8snorm(vec4<f32>(normalize(vec3<f32>(nsum)), 0.0));
     }
     normals[l * n + cs] = packed_normal;
+    emission[l * n + cs] = emission_encode((esum + vec3<u32>(4u)) / 8u);
     if F.misc.z == 0u {
         return;
     }

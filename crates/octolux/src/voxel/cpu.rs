@@ -242,20 +242,25 @@ pub fn lattices(depth: u32, voxels: &BTreeMap<[u32; 3], Vec4>) -> Vec<Lattice> {
     out
 }
 
-/// The voxels of a clipmap whose levels start at `origins` (world-voxel coordinates), in the
-/// GPU's layout (level after level, toroidal slots, RGBA8: albedo averaged with rounding,
-/// alpha 255 where a triangle touches the voxel).
-pub fn clipmap_voxels(
+/// Integer sums of one clipmap voxel: albedo r, g, b and fragment count, and the fixed-point
+/// emission sums (64 bits, as the GPU's carry words).
+#[derive(Clone, Copy, Default)]
+struct ClipSums {
+    albedo: [u32; 4],
+    emission: [u64; 3],
+}
+
+/// Per level, the sums of every touched voxel of the level's extent (world-voxel coordinates).
+fn clipmap_sums(
     settings: &super::clipmap::ClipmapSettings,
     origins: &[IVec3],
     tris: &[VoxelTriangle],
-) -> Vec<u32> {
+) -> Vec<BTreeMap<[i32; 3], ClipSums>> {
     let res = settings.resolution as i32;
-    let r = res as usize;
-    let mut out = vec![0u32; origins.len() * r * r * r];
+    let mut out = Vec::new();
     for (l, &origin) in origins.iter().enumerate() {
         let inv = 1.0 / settings.level_voxel(l as u32);
-        let mut sums: BTreeMap<[i32; 3], [u32; 4]> = BTreeMap::new();
+        let mut sums: BTreeMap<[i32; 3], ClipSums> = BTreeMap::new();
         for tri in tris {
             let [a, b, c] = tri.positions.map(|p| (p - Vec3::ZERO) * inv);
             let big = Vec3::splat(1.0e6);
@@ -268,16 +273,40 @@ pub fn clipmap_voxels(
                     for x in first.x..=last.x {
                         if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
                             let s = sums.entry([x, y, z]).or_default();
-                            for (sum, a) in s.iter_mut().zip(tri.albedo) {
+                            for (sum, a) in s.albedo.iter_mut().zip(tri.albedo) {
                                 *sum += a as u32;
                             }
-                            s[3] += 1;
+                            s.albedo[3] += 1;
+                            for (sum, e) in s.emission.iter_mut().zip(tri.emission.to_array()) {
+                                *sum += super::clipmap::emission_fixed(e) as u64;
+                            }
                         }
                     }
                 }
             }
         }
+        out.push(sums);
+    }
+    out
+}
+
+/// The voxels of a clipmap whose levels start at `origins` (world-voxel coordinates), in the
+/// GPU's layout (level after level, toroidal slots, RGBA8: albedo averaged with rounding,
+/// alpha 255 where a triangle touches the voxel).
+pub fn clipmap_voxels(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    tris: &[VoxelTriangle],
+) -> Vec<u32> {
+    let res = settings.resolution as i32;
+    let r = res as usize;
+    let mut out = vec![0u32; origins.len() * r * r * r];
+    for (l, sums) in clipmap_sums(settings, origins, tris)
+        .into_iter()
+        .enumerate()
+    {
         for (g, s) in sums {
+            let s = s.albedo;
             let half = s[3] / 2;
             let word = ((s[0] + half) / s[3])
                 | (((s[1] + half) / s[3]) << 8)
@@ -288,6 +317,66 @@ pub fn clipmap_voxels(
         }
     }
     out
+}
+
+/// The emission of a clipmap whose levels start at `origins`, in the GPU's layout (CPU twin of
+/// `resolve` in `clipmap.wgsl`): per touched voxel the rounded integer mean of its fragments'
+/// fixed-point emission ([`super::clipmap::emission_fixed`]) as an RGB9E5 word
+/// ([`super::clipmap::encode_emission`]); 0 elsewhere.
+pub fn clipmap_emission(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    tris: &[VoxelTriangle],
+) -> Vec<u32> {
+    let res = settings.resolution as i32;
+    let n = (res * res * res) as usize;
+    let mut out = vec![0u32; origins.len() * n];
+    for (l, sums) in clipmap_sums(settings, origins, tris)
+        .into_iter()
+        .enumerate()
+    {
+        for (g, s) in sums {
+            let count = s.albedo[3] as u64;
+            let mean = s.emission.map(|e| ((e + count / 2) / count) as u32);
+            out[l * n + clip_slot(res, IVec3::from(g))] = super::clipmap::encode_emission(mean);
+        }
+    }
+    out
+}
+
+/// Level filtering of a clipmap's emission (CPU twin of the emission part of `filter_level`
+/// in `clipmap_filter.wgsl`), in place over [`clipmap_emission`]'s layout: level by level from
+/// level 1, the voxels wholly inside the finer level become the rounded integer mean of the
+/// fixed-point emission of their 2x2x2 finer voxels (empty ones count as zero), re-encoded.
+pub fn clipmap_filter_emission(
+    settings: &super::clipmap::ClipmapSettings,
+    origins: &[IVec3],
+    emission: &mut [u32],
+) {
+    use super::clipmap::{decode_emission_fixed, encode_emission};
+    let res = settings.resolution as i32;
+    let n = (res * res * res) as usize;
+    for l in 1..origins.len() {
+        let b = super::clipmap::covered_box(l as u32, origins[l - 1], res);
+        for z in b.lo.z..b.hi.z {
+            for y in b.lo.y..b.hi.y {
+                for x in b.lo.x..b.hi.x {
+                    let c = IVec3::new(x, y, z);
+                    let mut sum = [0u32; 3];
+                    for k in 0..8 {
+                        let o = IVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+                        let v = decode_emission_fixed(
+                            emission[(l - 1) * n + clip_slot(res, 2 * c + o)],
+                        );
+                        for (s, v) in sum.iter_mut().zip(v) {
+                            *s += v;
+                        }
+                    }
+                    emission[l * n + clip_slot(res, c)] = encode_emission(sum.map(|s| (s + 4) / 8));
+                }
+            }
+        }
+    }
 }
 
 fn unpack_u8(w: u32) -> [u32; 4] {

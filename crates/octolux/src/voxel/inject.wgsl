@@ -1,7 +1,9 @@
 // Light injection into the clipmap: every occupied voxel gets outgoing radiance
-// albedo / pi x direct irradiance from point, spot and directional lights, with visibility
+// emission + albedo / pi x direct irradiance from point, spot and directional lights (both
+// premultiplied by the voxel's opacity on filtered levels), with visibility
 // from marching the clipmap's own opacity towards the light (voxel shadow rays, no shadow
 // maps). Output: RGBA16F (radiance, opacity) per voxel slot, same layout as `clip_voxels`.
+// Needs `clipmap_emission.wgsl` before this file.
 
 struct InjectLight {
     // xyz position, w: kind (0 point, 1 spot, 2 directional)
@@ -23,6 +25,8 @@ struct InjectParams {
 @group(0) @binding(3) var<storage, read> lights: array<InjectLight>;
 @group(0) @binding(4) var<storage, read_write> radiance: array<u32>;
 @group(0) @binding(5) var<uniform> params: InjectParams;
+// Mean emission per voxel slot (RGB9E5).
+@group(0) @binding(6) var<storage, read> emission: array<u32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -107,7 +111,7 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let vis = transmittance(start, to_light, dist - 3.0 * v, v);
         e += el * cos_theta * vis;
     }
-    let out = value.rgb / PI * e;
+    let out = emission_decode(emission[i]) + value.rgb / PI * e;
     radiance[2u * i] = pack2x16float(out.rg);
     radiance[2u * i + 1u] = pack2x16float(vec2<f32>(out.b, value.a));
 }

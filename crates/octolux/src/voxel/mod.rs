@@ -17,9 +17,10 @@
 //! - [`cpu`]: CPU reference implementations the tests compare the GPU with.
 //! - [`debug`]: a ray-marched view of the stored albedo.
 //!
-//! What is stored: premultiplied albedo and opacity (RGBA) in both structures. Both can inject
-//! direct light into voxel radiance: the octree from the renderer's shadow maps, with emission
-//! ([`svo::SvoBuilder::inject`]), the clipmap with voxel shadow rays
+//! What is stored: premultiplied albedo and opacity (RGBA) in both structures, and per voxel
+//! the mean emission (the octree's leaf sums, the clipmap's RGB9E5 words). Both inject emission
+//! plus reflected direct light into voxel radiance: the octree with visibility from the
+//! renderer's shadow maps ([`svo::SvoBuilder::inject`]), the clipmap with voxel shadow rays
 //! ([`clipmap::Clipmap::inject`]). See `docs/voxels.md` for what is not done yet.
 
 pub mod clipmap;
