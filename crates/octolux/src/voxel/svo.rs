@@ -170,8 +170,9 @@ pub struct Svo {
     pub args: wgpu::Buffer,
     /// Per-level parameters (one 256-byte slot per level).
     pub level_params: wgpu::Buffer,
-    /// Per leaf voxel (leaf node - first leaf node) x 8 + octant: fragment sums of albedo,
-    /// emission and normal, [`super::svo_inject::LEAF_SUM_WORDS`] words.
+    /// Fragment sums of albedo, emission and normal of the static part's occupied leaf voxels
+    /// ([`super::svo_inject::LEAF_SUMS_WGSL`]: an index word per static leaf node, then
+    /// [`super::svo_inject::LEAF_SUM_WORDS`] words per occupied voxel).
     pub leaf_sums: wgpu::Buffer,
     /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
     /// 27 texels of RGBA16F (radiance, opacity). Zero until [`SvoBuilder::inject`].
@@ -312,7 +313,8 @@ impl SvoBuilder {
         });
         let dyn_layout = super::svo_dynamic::bind_group_layout(device);
         let source = format!(
-            "{OVERLAP_WGSL}\n{}\n{}",
+            "{OVERLAP_WGSL}\n{}\n{}\n{}",
+            super::svo_inject::LEAF_SUMS_WGSL,
             include_str!("svo.wgsl"),
             include_str!("svo_dynamic.wgsl")
         );
@@ -669,9 +671,10 @@ impl SvoBuilder {
             brick_count * 27,
         );
         let leaves = levels.last().copied().unwrap_or((0, 0));
-        let leaf_sums = self
+        let (leaf_sums, sum_timings) = self
             .light
-            .accumulate(ctx, &mut timer, list, &child, depth, leaves);
+            .accumulate(ctx, &mut timer, list, &child, depth, leaves)?;
+        timings.extend(sum_timings);
         let radiance = make_pools("radiance pool", BUILD_BRICK_WORDS as u64, brick_capacity);
         let voxel_radiance = scratch(
             "voxel radiance",

@@ -84,7 +84,12 @@ pub struct SvoAniso {
 impl SvoAniso {
     /// Compiles the kernel.
     pub fn new(ctx: &GpuContext) -> SvoAniso {
-        let module = ctx.shader("svo anisotropic", include_str!("svo_aniso.wgsl"));
+        let source = format!(
+            "{}\n{}",
+            super::svo_inject::LEAF_SUMS_WGSL,
+            include_str!("svo_aniso.wgsl")
+        );
+        let module = ctx.shader("svo anisotropic", &source);
         SvoAniso {
             pipeline: ctx.compute_pipeline("svo anisotropic", &module, "build_level"),
         }
@@ -129,9 +134,19 @@ impl SvoAniso {
         let first_leaf = svo.levels[depth - 1].0;
         let mut params = vec![0u8; UNIFORM_STRIDE as usize * depth];
         for (d, &(start, end)) in svo.levels.iter().enumerate() {
-            let misc = [start, end - start, first_leaf, (d + 1 == depth) as u32];
+            let leaf_count = svo.static_nodes - first_leaf;
+            let misc = [
+                start,
+                end - start,
+                first_leaf,
+                (d + 1 == depth) as u32,
+                leaf_count,
+                0,
+                0,
+                0,
+            ];
             let at = d * UNIFORM_STRIDE as usize;
-            params[at..at + 16].copy_from_slice(bytemuck::cast_slice(&misc));
+            params[at..at + 32].copy_from_slice(bytemuck::cast_slice(&misc));
         }
         let uniform = ctx.create_buffer_init(
             OWNER,
@@ -151,7 +166,7 @@ impl SvoAniso {
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                 buffer: &uniform,
                                 offset: d as u64 * UNIFORM_STRIDE,
-                                size: wgpu::BufferSize::new(16),
+                                size: wgpu::BufferSize::new(32),
                             }),
                         },
                         storage(1, &svo.child),

@@ -14,6 +14,8 @@ struct AnisoParams {
     // x: first node of the level, y: nodes on the level, z: first leaf node, w: 1 on the leaf
     // level.
     misc: vec4<u32>,
+    // x: static leaf nodes (the index words at the start of `leaf_sums`, leaf_sums.wgsl)
+    leaves: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> P: AnisoParams;
@@ -22,14 +24,14 @@ struct AnisoParams {
 @group(0) @binding(3) var<storage, read> leaf_sums: array<u32>;
 @group(0) @binding(4) var<storage, read_write> aniso: array<u32>;
 
-// Words per leaf voxel in `leaf_sums` (svo_inject.wgsl: albedo r, g, b x255 sums, fragment
-// count, then emission and normal sums).
-const SUM_WORDS: u32 = 10u;
 
 // The isotropic value of voxel `octant` (x + 2y + 4z) of leaf node `node`: the rounded
 // integer mean of its fragments' albedo, opacity 1; zero when no fragment touches it.
 fn leaf_voxel(node: u32, octant: u32) -> vec4<f32> {
-    let w = ((node - P.misc.z) * 8u + octant) * SUM_WORDS;
+    let w = leaf_sum_offset(leaf_sums[node - P.misc.z], octant, P.leaves.x);
+    if w == 0xffffffffu {
+        return vec4<f32>(0.0);
+    }
     let count = leaf_sums[w + 3u];
     if count == 0u {
         return vec4<f32>(0.0);

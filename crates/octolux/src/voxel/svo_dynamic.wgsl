@@ -50,7 +50,7 @@ const ARGS_DYN_NODES: u32 = 16u;
 const ARGS_OCC: u32 = 32u;
 const ARGS_NEED: u32 = 48u;
 const ARGS_ALL_NEEDED: u32 = 63u;
-const SUM_WORDS: u32 = 10u;
+const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 
 fn write_args(slot: u32, count: u32) {
     let groups = (count + 63u) / 64u;
@@ -341,8 +341,10 @@ fn voxel_albedo(v: vec3<i32>) -> vec4<f32> {
     let o = (u.x & 1u) | ((u.y & 1u) << 1u) | ((u.z & 1u) << 2u);
     var s = vec4<u32>(0u);
     if n >= D.leaves.x && n < D.sizes.x {
-        let w = ((n - D.leaves.x) * 8u + o) * SUM_WORDS;
-        s = vec4<u32>(static_sums[w], static_sums[w + 1u], static_sums[w + 2u], static_sums[w + 3u]);
+        let w = leaf_sum_offset(static_sums[n - D.leaves.x], o, D.sizes.x - D.leaves.x);
+        if w != 0xffffffffu {
+            s = vec4<u32>(static_sums[w], static_sums[w + 1u], static_sums[w + 2u], static_sums[w + 3u]);
+        }
     }
     let slot = atomicLoad(&state[n]) >> 2u;
     if slot != 0u {

@@ -11,8 +11,9 @@
 //! ([`LEAF_SUM_WORDS`] words), which is what injection reads.
 
 use super::voxelize::{bind_buffers, dispatch, FragmentList, OVERLAP_WGSL};
-use crate::gpu::{GpuContext, PassTimer};
+use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::render::LayerView;
+use crate::{Error, Result};
 
 /// WGSL: `svo_radiance_sample(p, footprint)`, the injected radiance filtered like
 /// `svo_sample` ([`super::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
@@ -20,9 +21,14 @@ use crate::render::LayerView;
 /// [`super::sample::svo_sample`] over the bricks of [`super::svo::Svo::read_radiance`].
 pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("svo_radiance_sample.wgsl");
 
-/// Words kept per leaf voxel: albedo sums (3), fragment count, emission sums (3, fixed point
-/// x1024), normal sums (3, snorm8 as two's complement).
+/// Words kept per occupied leaf voxel: albedo sums (3), fragment count, emission sums (3,
+/// fixed point x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
+
+/// WGSL: the layout of the compact leaf sums ([`super::svo::Svo::leaf_sums`]): one index word
+/// per static leaf node (first slot << 8 | occupancy mask), then [`LEAF_SUM_WORDS`] words per
+/// occupied voxel; `leaf_sum_offset` finds a voxel's words.
+pub const LEAF_SUMS_WGSL: &str = include_str!("leaf_sums.wgsl");
 
 /// Bytes of one light in the renderer's light buffer (`Light` in `render/direct.wgsl`).
 pub const LIGHT_BYTES: u64 = 64;
@@ -37,6 +43,8 @@ struct InjectParams {
 
 /// The accumulation and injection kernels.
 pub(crate) struct SvoLight {
+    leaf_mask: wgpu::ComputePipeline,
+    leaf_slots: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     inject: wgpu::ComputePipeline,
     sampler: wgpu::Sampler,
@@ -47,6 +55,7 @@ impl SvoLight {
         let source = [
             OVERLAP_WGSL,
             include_str!("../render/lights.wgsl"),
+            LEAF_SUMS_WGSL,
             include_str!("svo_inject.wgsl"),
         ]
         .join("\n");
@@ -59,14 +68,18 @@ impl SvoLight {
             ..Default::default()
         });
         SvoLight {
+            leaf_mask: ctx.compute_pipeline("svo leaf masks", &module, "leaf_mask"),
+            leaf_slots: ctx.compute_pipeline("svo leaf slots", &module, "leaf_slots"),
             accumulate: ctx.compute_pipeline("svo leaf sums", &module, "accumulate"),
             inject: ctx.compute_pipeline("svo inject", &module, "inject"),
             sampler,
         }
     }
 
-    /// Sums every fragment into its leaf voxel; returns the sums buffer
-    /// (leaf nodes x 8 voxels x [`LEAF_SUM_WORDS`]).
+    /// Sums every fragment into its leaf voxel; returns the compact sums buffer
+    /// ([`LEAF_SUMS_WGSL`]: an index word per leaf node, then [`LEAF_SUM_WORDS`] per occupied
+    /// voxel) and the times of the passes submitted so far (this reads back the number of
+    /// occupied voxels to size the buffer).
     pub(crate) fn accumulate(
         &self,
         ctx: &GpuContext,
@@ -75,39 +88,70 @@ impl SvoLight {
         child: &wgpu::Buffer,
         depth: u32,
         leaves: (u32, u32),
-    ) -> wgpu::Buffer {
+    ) -> Result<(wgpu::Buffer, Vec<PassTiming>)> {
+        let owner = super::svo::OWNER;
         let leaf_count = leaves.1 - leaves.0;
-        let sums = ctx.create_buffer(
-            super::svo::OWNER,
-            &wgpu::BufferDescriptor {
-                label: Some("leaf sums"),
-                size: (leaf_count as u64 * 8 * LEAF_SUM_WORDS as u64 * 4).max(16),
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            },
-        );
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let buffer = |label: &str, words: u64| {
+            ctx.create_buffer(
+                owner,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: (words * 4).max(16),
+                    usage,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        // Index words + the slot counter.
+        let index = buffer("leaf index (build)", leaf_count as u64 + 1);
         let params = ctx.create_buffer_init(
-            super::svo::OWNER,
+            owner,
             "leaf sum params",
             bytemuck::cast_slice(&[list.count, depth, leaves.0, leaf_count]),
             wgpu::BufferUsages::UNIFORM,
         );
-        let group = bind_buffers(
-            ctx,
-            &self.accumulate,
-            &[
-                (0, &params),
-                (1, &list.buffer),
-                (2, &list.triangles),
-                (3, child),
-                (4, &sums),
-            ],
+        let fragments_group = |pipeline: &wgpu::ComputePipeline, sums: &wgpu::Buffer| {
+            let mut buffers = vec![(0, &params), (1, &list.buffer)];
+            if std::ptr::eq(pipeline, &self.accumulate) {
+                buffers.push((2, &list.triangles));
+            }
+            buffers.extend([(3, child), (4, sums)]);
+            bind_buffers(ctx, pipeline, &buffers)
+        };
+        let group = fragments_group(&self.leaf_mask, &index);
+        dispatch(timer, "svo leaf masks", &self.leaf_mask, &group, list.count);
+        let group = bind_buffers(ctx, &self.leaf_slots, &[(0, &params), (4, &index)]);
+        dispatch(
+            timer,
+            "svo leaf slots",
+            &self.leaf_slots,
+            &group,
+            leaf_count,
         );
+        let timings = timer.finish_frame()?;
+        let counter = read_buffer(ctx, &index, leaf_count as u64 * 4, 4)?;
+        let occupied = bytemuck::cast_slice::<u8, u32>(&counter)[0] as u64;
+        let words = leaf_count as u64 + occupied * LEAF_SUM_WORDS as u64;
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        if words * 4 > limit || occupied >= 1 << 24 {
+            return Err(Error::InvalidArgument(format!(
+                "the octree's leaf sums ({occupied} occupied voxels, {} bytes) exceed what this \
+                 GPU can bind ({limit} bytes); use a lower resolution",
+                words * 4
+            )));
+        }
+        let sums = buffer("leaf sums", words);
+        timer.untimed(|encoder| {
+            encoder.copy_buffer_to_buffer(&index, 0, &sums, 0, Some(leaf_count as u64 * 4))
+        });
+        let group = fragments_group(&self.accumulate, &sums);
         dispatch(timer, "svo leaf sums", &self.accumulate, &group, list.count);
-        ctx.ledger.record(super::svo::OWNER, "leaf sum params", 0);
-        sums
+        ctx.ledger.record(owner, "leaf sum params", 0);
+        ctx.ledger.record(owner, "leaf index (build)", 0);
+        Ok((sums, timings))
     }
 
     /// Records the leaf injection of `svo` (before its transfer and mip passes).

@@ -6,12 +6,13 @@
 // and opacity) the way `leaf_fill` writes albedo. The transfer and mip kernels of `svo.wgsl`
 // then filter the pool upward.
 
-// Per leaf voxel (8 per leaf node, octant order): albedo r, g, b x255 sums, fragment count,
+// Per occupied leaf voxel (leaf_sums.wgsl): albedo r, g, b x255 sums, fragment count,
 // emission r, g, b sums x EMISSION_SCALE, normal x, y, z sums (snorm8, two's complement).
-const SUM_WORDS: u32 = 10u;
+const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 const EMISSION_SCALE: f32 = 1024.0;
 
-// x: fragments, y: depth, z: first leaf node, w: leaf nodes.
+// x: fragments, y: depth, z: first leaf node, w: leaf nodes. `sums` is the leaf sums buffer
+// (leaf_sums.wgsl) or, for `leaf_mask` and `leaf_slots`, its index part + 1 counter word.
 struct AccumulateParams {
     misc: vec4<u32>,
 }
@@ -26,6 +27,55 @@ fn unpack3(c: u32) -> vec3<u32> {
     return vec3<u32>(c & 1023u, (c >> 10u) & 1023u, (c >> 20u) & 1023u);
 }
 
+// The static leaf node (relative to the first) and octant of fragment f, or INVALID_LEAF.
+const INVALID_LEAF: u32 = 0xffffffffu;
+
+fn fragment_leaf(f: u32) -> vec2<u32> {
+    let v = unpack3(fragments[f].x);
+    let leaf = A.misc.y - 1u;
+    let c = v >> vec3<u32>(1u);
+    var node = 0u;
+    for (var l = 0u; l < leaf; l++) {
+        let first = child[node];
+        if first == 0u {
+            return vec2<u32>(INVALID_LEAF);
+        }
+        let s = leaf - 1u - l;
+        node = first + (((c.x >> s) & 1u) | (((c.y >> s) & 1u) << 1u) | (((c.z >> s) & 1u) << 2u));
+    }
+    if node < A.misc.z || node >= A.misc.z + A.misc.w {
+        return vec2<u32>(INVALID_LEAF);
+    }
+    return vec2<u32>(node - A.misc.z, (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u));
+}
+
+// Occupancy masks: every fragment marks its voxel in its leaf node's index word.
+@compute @workgroup_size(64)
+fn leaf_mask(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+             @builtin(local_invocation_index) li: u32) {
+    let f = linear_index(wg, nwg, li);
+    if f >= A.misc.x {
+        return;
+    }
+    let at = fragment_leaf(f);
+    if at.x != INVALID_LEAF {
+        atomicOr(&sums[at.x], 1u << at.y);
+    }
+}
+
+// Sum slots: every leaf node takes one per occupied voxel (counter after the index words).
+@compute @workgroup_size(64)
+fn leaf_slots(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) li: u32) {
+    let l = linear_index(wg, nwg, li);
+    if l >= A.misc.w {
+        return;
+    }
+    let mask = atomicLoad(&sums[l]);
+    let first = atomicAdd(&sums[A.misc.w], countOneBits(mask));
+    atomicStore(&sums[l], (first << 8u) | mask);
+}
+
 @compute @workgroup_size(64)
 fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
@@ -33,25 +83,12 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     if f >= A.misc.x {
         return;
     }
-    let frag = fragments[f];
-    let v = unpack3(frag.x);
-    let leaf = A.misc.y - 1u;
-    let c = v >> vec3<u32>(1u);
-    var node = 0u;
-    for (var l = 0u; l < leaf; l++) {
-        let first = child[node];
-        if first == 0u {
-            return;
-        }
-        let s = leaf - 1u - l;
-        node = first + (((c.x >> s) & 1u) | (((c.y >> s) & 1u) << 1u) | (((c.z >> s) & 1u) << 2u));
-    }
-    if node < A.misc.z || node >= A.misc.z + A.misc.w {
+    let at = fragment_leaf(f);
+    if at.x == INVALID_LEAF {
         return;
     }
-    let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
-    let w = ((node - A.misc.z) * 8u + o) * SUM_WORDS;
-    let terms = fragment_sum_terms(tris[frag.y]);
+    let w = leaf_sum_offset(atomicLoad(&sums[at.x]), at.y, A.misc.w);
+    let terms = fragment_sum_terms(tris[fragments[f].y]);
     for (var k = 0u; k < SUM_WORDS; k++) {
         atomicAdd(&sums[w + k], terms[k]);
     }
@@ -104,9 +141,12 @@ fn pool_store(b: u32, i: u32, v: u32) {
 fn leaf_voxel_sums(node: u32, o: u32) -> array<u32, 10> {
     var s: array<u32, 10>;
     if node >= P.part.y && node < P.part.x {
-        let w = ((node - P.part.y) * 8u + o) * SUM_WORDS;
-        for (var k = 0u; k < SUM_WORDS; k++) {
-            s[k] = leaf_sums[w + k];
+        let leaves = P.part.x - P.part.y;
+        let w = leaf_sum_offset(leaf_sums[node - P.part.y], o, leaves);
+        if w != 0xffffffffu {
+            for (var k = 0u; k < SUM_WORDS; k++) {
+                s[k] = leaf_sums[w + k];
+            }
         }
     }
     if P.part.w != 0u {
