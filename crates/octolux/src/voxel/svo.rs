@@ -912,8 +912,8 @@ impl SvoBuilder {
                 if groups.args {
                     pass.set_bind_group(1, args_group, &[]);
                 }
-                if groups.dynamic {
-                    pass.set_bind_group(2, dynamic.expect("dynamic kernels get group 2"), &[]);
+                if let (true, Some(dynamic)) = (groups.dynamic, dynamic) {
+                    pass.set_bind_group(2, dynamic, &[]);
                 }
                 match dispatch {
                     Dispatch::Fragments => {
