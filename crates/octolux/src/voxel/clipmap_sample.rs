@@ -12,8 +12,7 @@
 
 use super::clipmap::Clipmap;
 use super::sample::ClipInfo;
-use super::voxelize::bind_buffers;
-use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::gpu::GpuContext;
 use crate::{Error, Result};
 use glam::{IVec3, UVec3, Vec3, Vec4};
 
@@ -231,56 +230,13 @@ pub fn probe_blend(
         "{}\n{CLIPMAP_BLEND_WGSL}\n{PROBE_WGSL}",
         super::sample::CLIPMAP_SAMPLE_WGSL
     );
-    let module = ctx.shader(owner, &source);
-    let pipeline = ctx.compute_pipeline(owner, &module, "probe");
     let info = ctx.create_buffer_init(
         owner,
         "info",
         bytemuck::bytes_of(&ClipInfo::new(&clipmap.settings, &clipmap.origins)),
         wgpu::BufferUsages::UNIFORM,
     );
-    let storage = wgpu::BufferUsages::STORAGE;
-    let input = ctx.create_buffer_init(owner, "points", bytemuck::cast_slice(points), storage);
-    let dir_buffer = ctx.create_buffer_init(
-        owner,
-        "directions",
-        bytemuck::cast_slice(&dir_words),
-        storage,
-    );
-    let n = points.len() as u64;
-    let out = ctx.create_buffer(
-        owner,
-        &wgpu::BufferDescriptor {
-            label: Some("samples"),
-            size: n * 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        },
-    );
     let aniso = clipmap.aniso.as_ref().unwrap_or(&clipmap.voxels);
-    let group = bind_buffers(
-        ctx,
-        &pipeline,
-        &[
-            (0, &info),
-            (1, &clipmap.voxels),
-            (2, aniso),
-            (3, &input),
-            (4, &dir_buffer),
-            (5, &out),
-        ],
-    );
-    let mut timer = PassTimer::new(ctx);
-    timer.pass(owner, |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(owner),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-    });
-    timer.finish_frame()?;
-    let bytes = read_buffer(ctx, &out, 0, n * 16)?;
-    Ok(bytemuck::cast_slice::<u8, Vec4>(&bytes).to_vec())
+    let fixed = [(0, &info), (1, &clipmap.voxels), (2, aniso)];
+    super::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
 }

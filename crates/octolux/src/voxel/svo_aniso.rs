@@ -24,7 +24,7 @@
 
 use super::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use super::svo::{Svo, OWNER};
-use super::voxelize::{bind_buffers, dispatch_size};
+use super::voxelize::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};
@@ -221,62 +221,23 @@ impl SvoAniso {
         }
         let owner = "svo probe";
         let source = format!("{SVO_SAMPLE_WGSL}\n{SVO_ANISO_SAMPLE_WGSL}\n{PROBE_WGSL}");
-        let module = ctx.shader(owner, &source);
-        let pipeline = ctx.compute_pipeline(owner, &module, "probe");
         let info = ctx.create_buffer_init(
             owner,
             "info",
             bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
             wgpu::BufferUsages::UNIFORM,
         );
-        let storage = wgpu::BufferUsages::STORAGE;
-        let input = ctx.create_buffer_init(owner, "points", bytemuck::cast_slice(points), storage);
-        let dir_buffer = ctx.create_buffer_init(
-            owner,
-            "directions",
-            bytemuck::cast_slice(&dir_words),
-            storage,
-        );
-        let n = points.len() as u64;
-        let out = ctx.create_buffer(
-            owner,
-            &wgpu::BufferDescriptor {
-                label: Some("samples"),
-                size: n * 16,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            },
-        );
-        let group = bind_buffers(
-            ctx,
-            &pipeline,
-            &[
-                (0, &info),
-                (1, &svo.child),
-                (2, &svo.bricks[0]),
-                (3, &svo.bricks[1]),
-                (4, &svo.bricks[2]),
-                (5, &svo.bricks[3]),
-                (6, &svo.brick_index),
-                (7, &values.buffer),
-                (8, &input),
-                (9, &dir_buffer),
-                (10, &out),
-            ],
-        );
-        let mut timer = PassTimer::new(ctx);
-        timer.pass(owner, |encoder, stamps| {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some(owner),
-                timestamp_writes: stamps.compute(),
-            });
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
-        });
-        timer.finish_frame()?;
-        let bytes = read_buffer(ctx, &out, 0, n * 16)?;
-        Ok(bytemuck::cast_slice::<u8, Vec4>(&bytes).to_vec())
+        let fixed = [
+            (0, &info),
+            (1, &svo.child),
+            (2, &svo.bricks[0]),
+            (3, &svo.bricks[1]),
+            (4, &svo.bricks[2]),
+            (5, &svo.bricks[3]),
+            (6, &svo.brick_index),
+            (7, &values.buffer),
+        ];
+        super::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
     }
 }
 
