@@ -37,6 +37,9 @@ fn face_of(d: vec3<f32>) -> f32 {
     return select(5.0, 4.0, d.z > 0.0);
 }
 
+// Written without branches on the layer uniform: Mesa's lavapipe specialises (and recompiles,
+// keeping every variant) a shader per value of a uniform that decides a branch, so a branch on
+// the layer kind cost a compile and ~100 KB per draw there.
 @fragment
 fn fs_rsm(in: VertexOut) -> RsmOut {
     let color = base_color(in.uv);
@@ -45,40 +48,29 @@ fn fs_rsm(in: VertexOut) -> RsmOut {
     }
     let kind = layer.position_kind.w;
     let axis = layer.axis_tan.xyz;
-    var to_light = -axis;
-    var measure = layer.axis_tan.w;
-    var ratio = 1.0;
-    var radiant = layer.radiant_face.rgb;
-    var out: RsmOut;
-    if kind < 1.5 {
-        let d = in.world - layer.position_kind.xyz;
-        let r2 = max(dot(d, d), 1e-12);
-        let w = d * inverseSqrt(r2);
-        to_light = -w;
-        // Cube faces overlap slightly (widened shadow frusta): each direction belongs to
-        // exactly one face, so no flux is counted twice.
-        if layer.radiant_face.w >= 0.0 && face_of(w) != layer.radiant_face.w {
-            out.position = vec4<f32>(0.0);
-            out.normal = vec4<f32>(0.0);
-            out.flux = vec4<f32>(0.0);
-            return out;
-        }
-        let cos_axis = max(dot(w, axis), 1e-4);
-        let texel = 2.0 * layer.axis_tan.w / layer.cone.z;
-        measure = texel * texel * cos_axis * cos_axis * cos_axis;
-        ratio = r2;
-        if kind > 0.5 {
-            let x = clamp((dot(w, axis) - layer.cone.y) / max(layer.cone.x - layer.cone.y, 1e-6), 0.0, 1.0);
-            radiant *= x * x * (3.0 - 2.0 * x);
-        }
-    }
+    let perspective = kind < 1.5;
+    let spot = perspective & (kind > 0.5);
+    let d = in.world - layer.position_kind.xyz;
+    let r2 = max(dot(d, d), 1e-12);
+    let w = d * inverseSqrt(r2);
+    let to_light = select(-axis, -w, perspective);
+    // Perspective layers: solid angle of the texel; orthographic: its area across the beam.
+    let cos_axis = max(dot(w, axis), 1e-4);
+    let texel = 2.0 * layer.axis_tan.w / layer.cone.z;
+    let measure = select(layer.axis_tan.w, texel * texel * cos_axis * cos_axis * cos_axis, perspective);
+    let x = clamp((dot(w, axis) - layer.cone.y) / max(layer.cone.x - layer.cone.y, 1e-6), 0.0, 1.0);
+    let radiant = layer.radiant_face.rgb * select(1.0, x * x * (3.0 - 2.0 * x), spot);
+    // Cube faces overlap slightly (widened shadow frusta): each direction belongs to
+    // exactly one face, so no flux is counted twice.
+    let other_face = perspective & (layer.radiant_face.w >= 0.0) & (face_of(w) != layer.radiant_face.w);
     var n = normalize(in.normal);
     if dot(n, to_light) < 0.0 {
         n = -n;
     }
-    ratio /= max(dot(n, to_light), 0.05);
-    out.position = vec4<f32>(in.world, measure);
-    out.normal = vec4<f32>(n, ratio);
-    out.flux = vec4<f32>(color.rgb * radiant, 0.0);
+    let ratio = select(1.0, r2, perspective) / max(dot(n, to_light), 0.05);
+    var out: RsmOut;
+    out.position = select(vec4<f32>(in.world, measure), vec4<f32>(0.0), other_face);
+    out.normal = select(vec4<f32>(n, ratio), vec4<f32>(0.0), other_face);
+    out.flux = select(vec4<f32>(color.rgb * radiant, 0.0), vec4<f32>(0.0), other_face);
     return out;
 }
