@@ -9,7 +9,7 @@ use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Camera, Light, LightKind, Material, Mesh, Object, Scene};
 
 fn context() -> GpuContext {
-    GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
 }
 
 /// A square of side `2 * half` centred at `centre`, facing `normal`.
@@ -362,7 +362,7 @@ fn gpu_tone_map_matches_cpu() {
 fn timings_cover_every_pass_in_both_modes_and_memory_is_stable() {
     // `Always` exercises the timestamp path even on lavapipe (values unchecked there).
     for timestamps in [Timestamps::Always, Timestamps::Off, Timestamps::Auto] {
-        let ctx = GpuContext::new(&GpuOptions {
+        let ctx = GpuContext::shared(&GpuOptions {
             timestamps,
             ..GpuOptions::default()
         })
@@ -412,4 +412,29 @@ fn absurd_sizes_are_errors() {
             .expect("must fail");
         assert!(err.to_string().contains(&format!("{w}x{h}")), "{err}");
     }
+}
+
+#[test]
+fn renderers_on_threads_share_one_device_and_agree() {
+    // Several threads render at once on the process's shared device (what parallel tests do);
+    // each gets its own ledger, and all images are identical.
+    let images: Vec<Vec<u8>> = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..4)
+            .map(|_| {
+                s.spawn(|| {
+                    let ctx = context();
+                    let scene = octolux::scene::cornell::scene();
+                    let mut renderer = Renderer::new(&ctx, &scene, settings(24, 24)).unwrap();
+                    renderer.render(&scene, 0.0).unwrap();
+                    assert!(ctx.ledger.total() > 0, "each context has its own ledger");
+                    renderer.read_display().unwrap()
+                })
+            })
+            .collect();
+        workers.into_iter().map(|w| w.join().unwrap()).collect()
+    });
+    assert!(images.windows(2).all(|w| w[0] == w[1]));
+    let a = context();
+    let b = context();
+    assert_eq!(a.device, b.device, "one device per process and options");
 }

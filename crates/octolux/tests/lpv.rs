@@ -12,7 +12,7 @@ use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Keyframe, Track};
 
 fn context() -> GpuContext {
-    GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
 }
 
 /// Small deterministic pseudo-random numbers (xorshift).
@@ -474,7 +474,7 @@ fn measurements_octree_error_per_iteration_and_pass_time_ratio() {
     // Table 1 as ratios: per-pass times of olpv (n = 32, k = 4) against lpv (n = 32, k = 16)
     // on the Cornell box, best of 3 frames each. Passes are timed on their own (CPU submit +
     // wait): lavapipe's timestamps around multi-dispatch passes are not trustworthy.
-    let ctx = GpuContext::new(&GpuOptions {
+    let ctx = GpuContext::shared(&GpuOptions {
         timestamps: octolux::gpu::Timestamps::Off,
         ..GpuOptions::default()
     })

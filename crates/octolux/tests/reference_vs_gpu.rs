@@ -34,7 +34,7 @@ fn direct_light_of_the_animated_box_matches_the_reference_mid_animation() {
 
 fn check_direct_light(scene: &octolux::scene::Scene, t: f32) {
     let (w, h) = (64, 64);
-    let ctx = GpuContext::new(&GpuOptions::default()).unwrap();
+    let ctx = GpuContext::shared(&GpuOptions::default()).unwrap();
     let mut renderer = Renderer::new(
         &ctx,
         scene,

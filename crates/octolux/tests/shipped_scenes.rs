@@ -20,7 +20,7 @@ fn scene_files() -> Vec<PathBuf> {
 
 #[test]
 fn every_shipped_scene_renders_lit() {
-    let ctx = GpuContext::new(&GpuOptions::default()).unwrap();
+    let ctx = GpuContext::shared(&GpuOptions::default()).unwrap();
     let shared = scenes_dir().is_dir();
     let mut rendered = 0;
     for path in scene_files() {

@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex};
 pub const ADAPTER_ENV: &str = "OCTOLUX_ADAPTER";
 
 /// How to pick the adapter.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub enum AdapterChoice {
     /// The best adapter: discrete, then integrated, then virtual, then CPU (lavapipe).
     #[default]
@@ -19,7 +19,7 @@ pub enum AdapterChoice {
 }
 
 /// Options for [`GpuContext::new`].
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GpuOptions {
     /// Adapter choice; [`GpuOptions::from_env`] reads `OCTOLUX_ADAPTER`.
     pub adapter: AdapterChoice,
@@ -67,6 +67,8 @@ impl GpuOptions {
 /// cheap and shares everything.
 #[derive(Clone, Debug)]
 pub struct GpuContext {
+    /// The instance the adapter came from (for wgpu's own resource report).
+    pub instance: wgpu::Instance,
     /// The adapter in use.
     pub adapter: wgpu::Adapter,
     /// The logical device.
@@ -81,6 +83,41 @@ pub struct GpuContext {
     pub ledger: MemoryLedger,
     errors: Arc<Mutex<Vec<String>>>,
 }
+
+/// Live wgpu objects of one instance, from wgpu's own registry (not from the ledger): a count that
+/// grows from frame to frame is a leak the ledger cannot see.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ResourceCounts {
+    /// Buffers.
+    pub buffers: usize,
+    /// Textures.
+    pub textures: usize,
+    /// Texture views.
+    pub texture_views: usize,
+    /// Bind groups.
+    pub bind_groups: usize,
+    /// Bind group layouts.
+    pub bind_group_layouts: usize,
+    /// Render and compute pipelines.
+    pub pipelines: usize,
+    /// Shader modules.
+    pub shader_modules: usize,
+    /// Command encoders and command buffers not yet consumed.
+    pub command_buffers: usize,
+    /// Query sets.
+    pub query_sets: usize,
+    /// Samplers.
+    pub samplers: usize,
+}
+
+/// Serialises instance and device creation in the process. NVIDIA's Vulkan driver can crash the
+/// process when several threads create instances or devices at once (parallel tests did), and
+/// nothing is gained by doing it concurrently.
+static DEVICE_CREATION: Mutex<()> = Mutex::new(());
+
+/// Devices shared by [`GpuContext::shared`], one per distinct options, alive until the process
+/// exits.
+static SHARED: Mutex<Vec<(GpuOptions, GpuContext)>> = Mutex::new(Vec::new());
 
 fn type_rank(t: wgpu::DeviceType) -> u32 {
     match t {
@@ -100,7 +137,48 @@ Fedora";
 impl GpuContext {
     /// Creates a headless device according to `options`.
     pub fn new(options: &GpuOptions) -> Result<GpuContext> {
+        let _creating = DEVICE_CREATION.lock().unwrap_or_else(|p| p.into_inner());
         pollster::block_on(Self::new_async(options))
+    }
+
+    /// A context on a device shared by the whole process: created on the first call for these
+    /// `options` and reused by every later call, so many renderers (tests, tools) share one
+    /// device instead of each creating and destroying its own. Each call returns a context with
+    /// an empty memory ledger of its own; GPU errors are reported device-wide. The device lives
+    /// until the process exits.
+    pub fn shared(options: &GpuOptions) -> Result<GpuContext> {
+        let mut shared = SHARED.lock().unwrap_or_else(|p| p.into_inner());
+        let ctx = match shared.iter().find(|(o, _)| o == options) {
+            Some((_, ctx)) => ctx.clone(),
+            None => {
+                let ctx = GpuContext::new(options)?;
+                shared.push((options.clone(), ctx.clone()));
+                ctx
+            }
+        };
+        Ok(GpuContext {
+            ledger: MemoryLedger::default(),
+            ..ctx
+        })
+    }
+
+    /// Live wgpu objects of this context's instance, from wgpu's registry (None when the
+    /// backend keeps none).
+    pub fn resource_counts(&self) -> Option<ResourceCounts> {
+        let report = self.instance.generate_report()?;
+        let hub = &report.hub;
+        Some(ResourceCounts {
+            buffers: hub.buffers.num_allocated,
+            textures: hub.textures.num_allocated,
+            texture_views: hub.texture_views.num_allocated,
+            bind_groups: hub.bind_groups.num_allocated,
+            bind_group_layouts: hub.bind_group_layouts.num_allocated,
+            pipelines: hub.render_pipelines.num_allocated + hub.compute_pipelines.num_allocated,
+            shader_modules: hub.shader_modules.num_allocated,
+            command_buffers: hub.command_encoders.num_allocated + hub.command_buffers.num_allocated,
+            query_sets: hub.query_sets.num_allocated,
+            samplers: hub.samplers.num_allocated,
+        })
     }
 
     async fn new_async(options: &GpuOptions) -> Result<GpuContext> {
@@ -179,6 +257,7 @@ impl GpuContext {
             info.device_type
         );
         Ok(GpuContext {
+            instance,
             adapter,
             device,
             queue,

@@ -6,7 +6,7 @@ mod ledger;
 mod readback;
 mod timer;
 
-pub use context::{AdapterChoice, GpuContext, GpuOptions, Timestamps, ADAPTER_ENV};
+pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timestamps, ADAPTER_ENV};
 pub use ledger::{LedgerEntry, MemoryLedger};
 pub use readback::{read_buffer, read_texture};
 pub use timer::{PassTimer, PassTiming, TimingSource};

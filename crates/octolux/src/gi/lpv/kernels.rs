@@ -4,7 +4,7 @@
 use super::octree::{Octree, OctreeBuffers};
 use super::propagate::{Propagate, Volumes};
 use super::sh::{Cell, Sh};
-use super::{layouts, uniform, GpuGrid, FLAG_INJECT, FLAG_OCCLUSION, SLOT};
+use super::{layouts, GpuGrid, FLAG_INJECT, FLAG_OCCLUSION, SLOT};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::{Error, Result};
 
@@ -94,7 +94,7 @@ pub fn propagate(
         ctx.queue
             .write_buffer(&v.gv, 0, bytemuck::cast_slice(&floats));
     }
-    let slots = uniform(ctx, OWNER, "grid slots", 1);
+    let slots = super::param_slots(ctx, OWNER, "grid slots", 1);
     write_slots(
         ctx,
         &slots,
@@ -170,7 +170,7 @@ pub fn octree(
         injected.push(read_cells(ctx, &v.a, gl.offset, count)?);
         index.push(read_u32(ctx, &b.index, gl.offset, count)?);
     }
-    let slots = uniform(ctx, OWNER, "grid slots", l as u64);
+    let slots = super::param_slots(ctx, OWNER, "grid slots", l as u64);
     let grids: Vec<GpuGrid> = grid_layouts
         .iter()
         .map(|gl| GpuGrid {

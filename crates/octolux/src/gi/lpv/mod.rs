@@ -261,6 +261,23 @@ pub(crate) fn storage(ctx: &GpuContext, owner: &str, label: &str, bytes: u64) ->
     )
 }
 
+/// A read-only parameter buffer of `slots` 256-byte slots recorded in the ledger, for parameters
+/// that differ between dispatches of one pipeline (one slot per cascade or octree level).
+/// These are storage, not uniform, buffers: Mesa's lavapipe specialises a shader on the values
+/// of small uniform blocks that decide branches, compiling a new variant whenever they change
+/// between dispatches and keeping every variant, which grew memory by every frame.
+pub(crate) fn param_slots(ctx: &GpuContext, owner: &str, label: &str, slots: u64) -> wgpu::Buffer {
+    ctx.create_buffer(
+        owner,
+        &wgpu::BufferDescriptor {
+            label: Some(label),
+            size: slots.max(1) * SLOT,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        },
+    )
+}
+
 /// A uniform buffer of `slots` 256-byte slots recorded in the ledger.
 pub(crate) fn uniform(ctx: &GpuContext, owner: &str, label: &str, slots: u64) -> wgpu::Buffer {
     ctx.create_buffer(
@@ -411,7 +428,7 @@ impl LpvGi {
             gv_total,
             iterations,
             grids: uniform(ctx, owner, "grids", 2),
-            grid_slots: uniform(ctx, owner, "grid slots", sides.len() as u64),
+            grid_slots: param_slots(ctx, owner, "grid slots", sides.len() as u64),
             lookup_grids: uniform(ctx, owner, "lookup grids", 2),
             volumes: propagate::Volumes::new(ctx, owner, cells, gv_total),
             rsm: rsm::RsmTargets::new(ctx, owner, layer_count, s.rsm_size),

@@ -3,7 +3,7 @@
 //! volume of each level is injected directly (its level-0 part drives the occupancy).
 
 use super::propagate::Volumes;
-use super::{bind, groups, slot, storage, uniform, wgsl, CELL_BYTES};
+use super::{bind, groups, slot, storage, wgsl, CELL_BYTES};
 use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
 
@@ -36,7 +36,7 @@ impl OctreeBuffers {
     /// Allocates the buffers for an octree of side `n` whose levels hold `cells` cells.
     pub fn new(ctx: &GpuContext, owner: &str, n: u32, cells: u32) -> OctreeBuffers {
         let levels = n.trailing_zeros() + 1;
-        let params = uniform(ctx, owner, "octree params", levels as u64);
+        let params = super::param_slots(ctx, owner, "octree params", levels as u64);
         let data: Vec<u8> = (0..levels)
             .flat_map(|level| {
                 let mut slot = vec![0u8; super::SLOT as usize];

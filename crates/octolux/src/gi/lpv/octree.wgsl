@@ -12,7 +12,8 @@ struct OctreeParams {
     _pad: u32,
 };
 
-@group(0) @binding(0) var<uniform> params: OctreeParams;
+// Differs per dispatch (level): a storage buffer, see `param_slots` in mod.rs.
+@group(0) @binding(0) var<storage, read> params: OctreeParams;
 @group(0) @binding(1) var<storage, read_write> light: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> gv: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> occ: array<u32>;

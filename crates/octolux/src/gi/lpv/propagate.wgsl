@@ -3,7 +3,9 @@
 // attenuated by the geometry volume at the shared face, re-emits it as Lambertian lobes about
 // the face normals, writes the result and adds it to the accumulation buffer.
 
-@group(0) @binding(0) var<uniform> grid: Grid;
+// The grid differs from dispatch to dispatch (cascades, octree levels), so it is read from a
+// storage buffer: see `param_slots` in mod.rs.
+@group(0) @binding(0) var<storage, read> grid: Grid;
 @group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> dst: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> acc: array<vec4<f32>>;
