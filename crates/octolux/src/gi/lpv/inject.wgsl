@@ -3,7 +3,9 @@
 // pixels become surfels whose blocking potential A cos / s^2 goes into the geometry volumes
 // (cells at LPV cell corners). Float sums use compare-exchange loops on u32 bit patterns.
 
-@group(0) @binding(0) var<uniform> grids: Grids;
+// Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or
+// loop bounds depend on a small uniform block every time its pipeline is bound.
+@group(0) @binding(0) var<storage, read> grids: Grids;
 @group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
 @group(0) @binding(2) var rsm_normal: texture_2d_array<f32>;
 @group(0) @binding(3) var rsm_flux: texture_2d_array<f32>;

@@ -5,7 +5,9 @@
 // border.
 
 @group(0) @binding(0) var<uniform> cam: Camera;
-@group(0) @binding(1) var<uniform> grids: Grids;
+// Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or
+// loop bounds depend on a small uniform block every time its pipeline is bound.
+@group(0) @binding(1) var<storage, read> grids: Grids;
 @group(0) @binding(2) var depth_tex: texture_depth_2d;
 @group(0) @binding(3) var normal_tex: texture_2d<f32>;
 @group(0) @binding(4) var<storage, read> volume: array<vec4<f32>>;

@@ -427,9 +427,9 @@ impl LpvGi {
             clpv: settings.clpv.clone(),
             gv_total,
             iterations,
-            grids: uniform(ctx, owner, "grids", 2),
+            grids: param_slots(ctx, owner, "grids", 2),
             grid_slots: param_slots(ctx, owner, "grid slots", sides.len() as u64),
-            lookup_grids: uniform(ctx, owner, "lookup grids", 2),
+            lookup_grids: param_slots(ctx, owner, "lookup grids", 2),
             volumes: propagate::Volumes::new(ctx, owner, cells, gv_total),
             rsm: rsm::RsmTargets::new(ctx, owner, layer_count, s.rsm_size),
             octree: (variant == Variant::Octree)
