@@ -292,11 +292,11 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         run.frames
     )?;
     writeln!(out, "adapter: {}", run.adapter.line())?;
-    writeln!(
-        out,
+    let groups = format!(
         "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}",
         "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference"
-    )?;
+    );
+    writeln!(out, "{}", groups.trim_end())?;
     writeln!(
         out,
         "  {:<12} {:>8} {:>8} {:>8}  {:>8} {:>8} {:>8}  {:>9} {:>9}  {:>9} {:>11}  reference",
