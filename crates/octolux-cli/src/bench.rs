@@ -192,18 +192,26 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let json_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
     let quiet = json_stdout || !std::io::stdout().is_terminal();
-    let several = inputs.len() > 1;
+    let mut out_names: Vec<String> = Vec::new();
 
     let mut run: Option<BenchReport> = None;
     let mut json_names: Vec<String> = Vec::new();
     for input in &inputs {
+        // With several scenes, images go to one subfolder per scene.
+        let out_dir = args.out_dir.as_ref().map(|dir| {
+            if inputs.len() > 1 {
+                dir.join(unique_name(&input.scene.name, &mut out_names))
+            } else {
+                dir.clone()
+            }
+        });
         let (adapter, scene_report) = bench_scene(
             args,
             input,
             against,
             reference_settings.as_ref(),
             quiet,
-            several,
+            out_dir.as_deref(),
         )?;
         let run = run.get_or_insert_with(|| BenchReport {
             version: report::JSON_VERSION,
@@ -290,7 +298,7 @@ fn bench_scene(
     against: Option<Bounces>,
     reference_settings: Option<&ReferenceSettings>,
     quiet: bool,
-    several: bool,
+    out_dir: Option<&Path>,
 ) -> Result<(AdapterReport, SceneReport)> {
     let scene = &input.scene;
     let animated = scene.is_animated();
@@ -368,7 +376,7 @@ fn bench_scene(
                 .collect(),
             metrics: None,
         });
-        if reference_settings.is_some() || args.out_dir.is_some() {
+        if reference_settings.is_some() || out_dir.is_some() {
             images.push((name.clone(), bounces, renderer.read_hdr()?));
         }
     }
@@ -395,13 +403,8 @@ fn bench_scene(
             result.metrics = Some(metrics::compare(image, &reference.total, None)?);
         }
     }
-    if let Some(dir) = &args.out_dir {
-        let dir = if several {
-            dir.join(unique_name(&scene.name, &mut Vec::new()))
-        } else {
-            dir.clone()
-        };
-        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    if let Some(dir) = out_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (name, _, image) in &images {
             image.write_exr(&dir.join(format!("{name}.exr")))?;
             image.write_png(&dir.join(format!("{name}.png")), scene.exposure)?;

@@ -274,7 +274,7 @@ pub fn frame_stats(
 pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) -> io::Result<()> {
     let motion = if scene.animated {
         format!(
-            "animated, t = {}..{} s at {} fps",
+            "animated, t = {:.3}..{:.3} s at {} fps",
             scene.first_time, scene.last_time, run.fps
         )
     } else {
@@ -337,7 +337,7 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
     for r in &scene.references {
         writeln!(
             out,
-            "  reference ({}): {} spp in {:.2} s (CPU), t = {} s",
+            "  reference ({}): {} spp in {:.2} s (CPU), t = {:.3} s",
             r.bounces, r.spp, r.seconds, scene.last_time
         )?;
     }
