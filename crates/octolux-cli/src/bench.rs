@@ -1,24 +1,35 @@
-//! `octolux bench`: every listed technique and the matching reference on the same scene,
-//! camera and frame; one table of per-pass GPU time, memory and error against the reference.
+//! `octolux bench`: every listed technique on one or more scenes with the same camera and
+//! frames; per scene one table of frame-time statistics (per pass, GI total, whole frame), GPU
+//! memory and, unless `--no-reference`, error against the matching CPU reference.
+
+mod report;
 
 use crate::gi_args::GiArgs;
-use crate::render::{load_scene, reference_frame, GpuArgs, SamplingArgs};
-use crate::stats::{average_timings, mib};
+use crate::render::{load_scene, progress_bar, GpuArgs, SamplingArgs};
+use crate::stats::mib;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use octolux::gpu::{GpuContext, PassTiming};
+use indicatif::ProgressBar;
+use octolux::gi::{GiSettings, TECHNIQUES};
+use octolux::gpu::GpuContext;
 use octolux::image_io::HdrImage;
-use octolux::metrics::{self, Metrics};
-use octolux::reference::{Bounces, ReferenceImages};
+use octolux::metrics;
+use octolux::reference::{self, Bounces, ReferenceImages, ReferenceSettings};
 use octolux::render::{check_image_size, RenderSettings, Renderer};
-use serde::Serialize;
-use std::path::PathBuf;
+use octolux::scene::Scene;
+use report::{
+    frame_stats, AdapterReport, BenchReport, OwnerMemory, ReferenceReport, SceneReport,
+    TechniqueReport,
+};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Arguments of `octolux bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// Scene file or model (default: the built-in Cornell box).
-    pub scene: Option<PathBuf>,
+    /// Scene files or models, measured one after another (default: the built-in Cornell box).
+    pub scenes: Vec<PathBuf>,
     /// Comma-separated GPU techniques to measure (see `octolux render --help`).
     #[arg(long, value_delimiter = ',', default_value = "none")]
     pub gi: Vec<String>,
@@ -28,26 +39,39 @@ pub struct BenchArgs {
     /// Image height.
     #[arg(long, default_value_t = 180)]
     pub height: u32,
-    /// Scene time (s) of the benchmarked frame.
+    /// Scene time (s) of the first frame.
     #[arg(long, default_value_t = 0.0)]
     pub time: f32,
+    /// Frames per second of scene time: animated scenes advance 1/fps per frame (warm-up
+    /// included); static scenes render the same frame again.
+    #[arg(long, default_value_t = 30.0)]
+    pub fps: f32,
     /// Scene camera.
     #[arg(long, default_value_t = 0)]
     pub camera: usize,
-    /// Frames rendered before measuring (pipelines warm, caches filled).
-    #[arg(long, default_value_t = 2)]
+    /// Frames rendered before measuring (pipelines warm, caches filled), not measured.
+    #[arg(long, default_value_t = 3)]
     pub warmup: u32,
-    /// Frames measured; pass times are their mean.
-    #[arg(long, default_value_t = 8)]
+    /// Frames measured: per pass, GI total and whole frame, their mean, median and worst.
+    #[arg(long, default_value_t = 20)]
     pub frames: u32,
+    /// Skip the CPU reference: no error columns (shown as `-`, `null` in JSON).
+    #[arg(long, conflicts_with = "against")]
+    pub no_reference: bool,
     /// Judge every technique against this transport instead of the one it claims
     /// (`direct`, a number of bounces, `unlimited`); e.g. `1` to compare GI off and on.
     #[arg(long)]
     pub against: Option<String>,
-    /// Write the results as JSON to this file (`-` for standard output).
+    /// Write every scene's results into one JSON file (`-`: standard output, tables then go to
+    /// standard error).
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write every technique's image and every reference as EXR + PNG into this folder.
+    /// Write one JSON file per scene into this folder, named after the scene
+    /// (`<scene>.json`), each in the same layout as `--json` with one scene.
+    #[arg(long)]
+    pub json_dir: Option<PathBuf>,
+    /// Write every technique's image (last measured frame) and every reference as EXR + PNG
+    /// into this folder (with several scenes, into one subfolder per scene).
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
     /// Reference sampling (the transport is the one each technique claims, or `--against`).
@@ -61,141 +85,326 @@ pub struct BenchArgs {
     pub gi_args: GiArgs,
 }
 
-/// One technique's results.
-#[derive(Serialize)]
-pub struct TechniqueResult {
-    /// Technique name.
-    pub technique: String,
-    /// The reference it was judged against.
-    pub reference: String,
-    /// Mean per-pass times.
-    pub passes: Vec<PassTiming>,
-    /// Sum of the pass times.
-    pub total_ms: f64,
-    /// GPU memory the technique itself owns.
-    pub technique_mib: f64,
-    /// All GPU memory of the frame (scene, G-buffer, shadows, technique...).
-    pub total_mib: f64,
-    /// Error against the reference.
-    pub metrics: Metrics,
+/// A scene to measure.
+struct SceneInput {
+    file: Option<PathBuf>,
+    scene: Scene,
+    gi_settings: GiSettings,
 }
 
-/// One reference render.
-#[derive(Serialize)]
-pub struct ReferenceResult {
-    /// Light transport.
-    pub bounces: String,
-    /// Samples per pixel done.
-    pub spp: u32,
-    /// CPU wall time in seconds.
-    pub seconds: f64,
-}
-
-/// The whole report.
-#[derive(Serialize)]
-pub struct BenchReport {
-    /// Scene name.
-    pub scene: String,
-    /// Image size.
-    pub width: u32,
-    /// Image size.
-    pub height: u32,
-    /// Scene time of the frame.
-    pub time: f32,
-    /// GPU adapter and timing source.
-    pub adapter: String,
-    /// Per technique.
-    pub techniques: Vec<TechniqueResult>,
-    /// Per reference rendered.
-    pub references: Vec<ReferenceResult>,
+/// Checks every argument before any work starts, so a long run fails at once.
+fn validate(args: &BenchArgs) -> Result<()> {
+    check_image_size(args.width, args.height)?;
+    if args.frames == 0 {
+        bail!("--frames must be at least 1 (the measured frames)");
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0) {
+        bail!("--fps {}: must be a positive number", args.fps);
+    }
+    if !args.time.is_finite() {
+        bail!("--time {}: must be a finite number of seconds", args.time);
+    }
+    if args.gi.is_empty() || args.gi.iter().any(|g| g.trim().is_empty()) {
+        bail!("--gi: list at least one technique, e.g. --gi none,lpv");
+    }
+    for (i, name) in args.gi.iter().enumerate() {
+        if name == "reference" {
+            bail!(
+                "--gi lists GPU techniques; the reference is rendered for the error columns \
+                 unless --no-reference"
+            );
+        }
+        if !TECHNIQUES.contains(&name.as_str()) {
+            bail!(
+                "--gi: unknown technique '{name}' (available: {})",
+                TECHNIQUES.join(", ")
+            );
+        }
+        if args.gi[..i].contains(name) {
+            bail!("--gi: '{name}' is listed twice");
+        }
+    }
+    for path in &args.scenes {
+        if !path.is_file() {
+            bail!("scene file {}: no such file", path.display());
+        }
+    }
+    if let Some(json) = args.json.as_deref().filter(|p| p.as_os_str() != "-") {
+        let parent = json.parent().filter(|p| !p.as_os_str().is_empty());
+        if let Some(parent) = parent.filter(|p| !p.is_dir()) {
+            bail!(
+                "--json {}: folder {} does not exist",
+                json.display(),
+                parent.display()
+            );
+        }
+        if json.is_dir() {
+            bail!("--json {}: is a folder (use --json-dir)", json.display());
+        }
+    }
+    if let Some(against) = &args.against {
+        against.parse::<Bounces>()?;
+    }
+    if !args.no_reference {
+        args.sampling.settings(Bounces::Unlimited)?;
+    }
+    Ok(())
 }
 
 /// Runs `octolux bench`.
 pub fn run(args: &BenchArgs) -> Result<()> {
-    check_image_size(args.width, args.height)?;
-    if args.frames == 0 {
-        bail!("--frames must be at least 1");
-    }
-    if args.gi.iter().any(|g| g == "reference") {
-        bail!("--gi lists GPU techniques; the reference is always rendered");
-    }
+    validate(args)?;
     let against = args
         .against
         .as_deref()
         .map(str::parse::<Bounces>)
         .transpose()?;
-    let mut reference_settings = args.sampling.settings(Bounces::Unlimited)?;
-    let (scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
-    let options = args.gpu.options();
+    let reference_settings = if args.no_reference {
+        None
+    } else {
+        Some(args.sampling.settings(Bounces::Unlimited)?)
+    };
+    // Every scene is loaded before any is measured, so a bad file fails the run at once.
+    let inputs: Vec<SceneInput> = if args.scenes.is_empty() {
+        let (scene, gi_settings) = load_scene(None, &args.gi_args)?;
+        vec![SceneInput {
+            file: None,
+            scene,
+            gi_settings,
+        }]
+    } else {
+        args.scenes
+            .iter()
+            .map(|path| {
+                let (scene, gi_settings) = load_scene(Some(path), &args.gi_args)
+                    .with_context(|| format!("scene file {}", path.display()))?;
+                Ok(SceneInput {
+                    file: Some(path.clone()),
+                    scene,
+                    gi_settings,
+                })
+            })
+            .collect::<Result<_>>()?
+    };
+    if let Some(dir) = &args.json_dir {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--json-dir: creating {}", dir.display()))?;
+    }
+    let json_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
+    let quiet = json_stdout || !std::io::stdout().is_terminal();
+    let mut out_names: Vec<String> = Vec::new();
+
+    let mut run: Option<BenchReport> = None;
+    let mut json_names: Vec<String> = Vec::new();
+    for input in &inputs {
+        // With several scenes, images go to one subfolder per scene.
+        let out_dir = args.out_dir.as_ref().map(|dir| {
+            if inputs.len() > 1 {
+                dir.join(unique_name(&input.scene.name, &mut out_names))
+            } else {
+                dir.clone()
+            }
+        });
+        let (adapter, scene_report) = bench_scene(
+            args,
+            input,
+            against,
+            reference_settings.as_ref(),
+            quiet,
+            out_dir.as_deref(),
+        )?;
+        let run = run.get_or_insert_with(|| BenchReport {
+            version: report::JSON_VERSION,
+            adapter,
+            width: args.width,
+            height: args.height,
+            warmup: args.warmup,
+            frames: args.frames,
+            fps: args.fps,
+            time: args.time,
+            camera: args.camera,
+            reference: !args.no_reference,
+            scenes: Vec::new(),
+        });
+        {
+            let stdout = std::io::stdout();
+            let stderr = std::io::stderr();
+            let mut out: Box<dyn Write> = if json_stdout {
+                Box::new(stderr.lock())
+            } else {
+                Box::new(stdout.lock())
+            };
+            report::print_scene(&mut out, run, &scene_report)?;
+            out.flush()?;
+        }
+        if let Some(dir) = &args.json_dir {
+            let name = unique_name(&scene_report.scene, &mut json_names);
+            let one = BenchReport {
+                scenes: vec![scene_report.clone()],
+                ..run.clone()
+            };
+            write_json(&dir.join(format!("{name}.json")), &one)?;
+        }
+        run.scenes.push(scene_report);
+        // Rewritten after every scene, so a long run keeps what it measured if a later scene
+        // fails.
+        if let Some(path) = args.json.as_deref().filter(|_| !json_stdout) {
+            write_json(path, run)?;
+        }
+    }
+    if let (true, Some(run)) = (json_stdout, &run) {
+        println!("{}", serde_json::to_string_pretty(run)?);
+    }
+    Ok(())
+}
+
+/// A file name for `scene` not used before in this run (`name`, `name-2`, ...), made of
+/// characters that are safe in file names.
+fn unique_name(scene: &str, used: &mut Vec<String>) -> String {
+    let base: String = scene
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let base = if base.is_empty() {
+        "scene".into()
+    } else {
+        base
+    };
+    let mut name = base.clone();
+    let mut n = 1;
+    while used.contains(&name) {
+        n += 1;
+        name = format!("{base}-{n}");
+    }
+    used.push(name.clone());
+    name
+}
+
+fn write_json(path: &Path, report: &BenchReport) -> Result<()> {
+    let text = serde_json::to_string_pretty(report)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+}
+
+/// Measures every technique on one scene, then renders the references and measures error.
+fn bench_scene(
+    args: &BenchArgs,
+    input: &SceneInput,
+    against: Option<Bounces>,
+    reference_settings: Option<&ReferenceSettings>,
+    quiet: bool,
+    out_dir: Option<&Path>,
+) -> Result<(AdapterReport, SceneReport)> {
+    let scene = &input.scene;
+    let animated = scene.is_animated();
+    let total_frames = args.warmup + args.frames;
+    let frame_time = |i: u32| {
+        if animated {
+            args.time + i as f32 / args.fps
+        } else {
+            args.time
+        }
+    };
+    let last_time = frame_time(total_frames - 1);
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        progress_bar(
+            (args.gi.len() as u64) * total_frames as u64,
+            &format!("frames of '{}'", scene.name),
+        )
+    };
+    let mut adapter = None;
     let mut techniques = Vec::new();
     let mut images: Vec<(String, Bounces, HdrImage)> = Vec::new();
-    let mut adapter = String::new();
     for name in &args.gi {
         // A fresh device per technique keeps its memory ledger to itself.
-        let ctx = GpuContext::new(&options)?;
-        adapter = ctx.describe();
+        let ctx = GpuContext::new(&args.gpu.options())?;
+        adapter.get_or_insert_with(|| AdapterReport::of(&ctx));
         let settings = RenderSettings {
             width: args.width,
             height: args.height,
             shadow_map_size: args.gpu.shadow_map_size,
             camera: args.camera,
             gi: name.clone(),
-            gi_settings: gi_settings.clone(),
+            gi_settings: input.gi_settings.clone(),
         };
-        let mut renderer = Renderer::new(&ctx, &scene, settings)
-            .with_context(|| format!("setting up '{name}'"))?;
-        for _ in 0..args.warmup {
-            renderer.render(&scene, args.time)?;
-        }
-        let mut frames = Vec::new();
-        for _ in 0..args.frames {
-            frames.push(renderer.render(&scene, args.time)?);
+        let mut renderer = Renderer::new(&ctx, scene, settings)
+            .with_context(|| format!("scene '{}': setting up '{name}'", scene.name))?;
+        let mut frames = Vec::with_capacity(args.frames as usize);
+        let mut wall_ms = Vec::with_capacity(args.frames as usize);
+        for i in 0..total_frames {
+            let start = Instant::now();
+            let timings = renderer
+                .render(scene, frame_time(i))
+                .with_context(|| format!("scene '{}': rendering '{name}'", scene.name))?;
+            if i >= args.warmup {
+                wall_ms.push(start.elapsed().as_secs_f64() * 1e3);
+                frames.push(timings);
+            }
+            bar.inc(1);
         }
         let bounces = against.unwrap_or_else(|| renderer.technique().reference_bounces());
-        let passes = average_timings(&frames);
-        let technique_bytes: u64 = ctx
-            .ledger
-            .by_owner()
+        let (passes, gi_total, frame_total, frame_wall) = frame_stats(&frames, &wall_ms);
+        let by_owner = ctx.ledger.by_owner();
+        let technique_bytes: u64 = by_owner
             .iter()
             .filter(|(o, _)| o == name)
             .map(|(_, b)| b)
             .sum();
-        techniques.push(TechniqueResult {
+        techniques.push(TechniqueReport {
+            scene: scene.name.clone(),
             technique: name.clone(),
-            reference: bounces.to_string(),
-            total_ms: passes.iter().map(|p| p.ms).sum(),
+            reference: reference_settings.map(|_| bounces.to_string()),
             passes,
+            gi_total,
+            frame_total,
+            frame_wall,
             technique_mib: mib(technique_bytes),
             total_mib: mib(ctx.ledger.total()),
-            metrics: Metrics::default(),
+            memory: by_owner
+                .into_iter()
+                .map(|(owner, bytes)| OwnerMemory {
+                    owner,
+                    mib: mib(bytes),
+                })
+                .collect(),
+            metrics: None,
         });
-        images.push((name.clone(), bounces, renderer.read_hdr()?));
+        if reference_settings.is_some() || out_dir.is_some() {
+            images.push((name.clone(), bounces, renderer.read_hdr()?));
+        }
     }
+    bar.finish_and_clear();
 
     let mut references: Vec<(Bounces, ReferenceImages, f64)> = Vec::new();
-    for (_, bounces, _) in &images {
-        if references.iter().any(|(b, _, _)| b == bounces) {
-            continue;
+    if let Some(settings) = reference_settings {
+        for (_, bounces, _) in &images {
+            if references.iter().any(|(b, _, _)| b == bounces) {
+                continue;
+            }
+            let settings = ReferenceSettings {
+                bounces: *bounces,
+                ..settings.clone()
+            };
+            let start = Instant::now();
+            let images = reference_frame(scene, last_time, args, &settings, quiet)?;
+            references.push((*bounces, images, start.elapsed().as_secs_f64()));
         }
-        reference_settings.bounces = *bounces;
-        let start = std::time::Instant::now();
-        let images = reference_frame(
-            &scene,
-            args.time,
-            args.camera,
-            args.width,
-            args.height,
-            &reference_settings,
-        )?;
-        references.push((*bounces, images, start.elapsed().as_secs_f64()));
+        for (result, (name, bounces, image)) in techniques.iter_mut().zip(&images) {
+            let Some((_, reference, _)) = references.iter().find(|(b, _, _)| b == bounces) else {
+                bail!("no reference rendered for '{name}'");
+            };
+            result.metrics = Some(metrics::compare(image, &reference.total, None)?);
+        }
     }
-    for (result, (name, bounces, image)) in techniques.iter_mut().zip(&images) {
-        let Some((_, reference, _)) = references.iter().find(|(b, _, _)| b == bounces) else {
-            bail!("no reference rendered for '{name}'");
-        };
-        result.metrics = metrics::compare(image, &reference.total, None)?;
-    }
-    if let Some(dir) = &args.out_dir {
+    if let Some(dir) = out_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         for (name, _, image) in &images {
             image.write_exr(&dir.join(format!("{name}.exr")))?;
             image.write_png(&dir.join(format!("{name}.png")), scene.exposure)?;
@@ -210,68 +419,60 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 .write_png(&dir.join(format!("{stem}.png")), scene.exposure)?;
         }
     }
-    let report = BenchReport {
-        scene: scene.name.clone(),
-        width: args.width,
-        height: args.height,
-        time: args.time,
-        adapter,
-        techniques,
-        references: references
-            .iter()
-            .map(|(b, r, s)| ReferenceResult {
-                bounces: b.to_string(),
-                spp: r.spp_done,
-                seconds: *s,
-            })
-            .collect(),
+    let Some(adapter) = adapter else {
+        bail!("--gi: no technique to measure");
     };
-    print_report(&report);
-    if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&report)?;
-        if path.as_os_str() == "-" {
-            println!("{text}");
-        } else {
-            std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
-        }
-    }
-    Ok(())
+    Ok((
+        adapter,
+        SceneReport {
+            scene: scene.name.clone(),
+            file: input.file.as_ref().map(|p| p.display().to_string()),
+            triangles: scene.triangle_count(),
+            animated,
+            first_time: frame_time(0),
+            last_time,
+            techniques,
+            references: references
+                .iter()
+                .map(|(b, r, s)| ReferenceReport {
+                    bounces: b.to_string(),
+                    spp: r.spp_done,
+                    seconds: *s,
+                })
+                .collect(),
+        },
+    ))
 }
 
-fn print_report(report: &BenchReport) {
-    println!(
-        "bench: '{}' at {}x{}, t = {} s; adapter: {}",
-        report.scene, report.width, report.height, report.time, report.adapter
-    );
-    println!(
-        "  {:<16} {:>10} {:>10} {:>10} {:>9} {:>11}  reference",
-        "technique", "GPU ms", "tech MiB", "total MiB", "FLIP", "relMSE"
-    );
-    for t in &report.techniques {
-        println!(
-            "  {:<16} {:>10.3} {:>10.3} {:>10.3} {:>9.4} {:>11.4e}  {}",
-            t.technique,
-            t.total_ms,
-            t.technique_mib,
-            t.total_mib,
-            t.metrics.flip,
-            t.metrics.rel_mse,
-            t.reference
-        );
-    }
-    for r in &report.references {
-        println!(
-            "  reference ({}): {} spp in {:.2} s (CPU)",
-            r.bounces, r.spp, r.seconds
-        );
-    }
-    println!("per-pass ms:");
-    for t in &report.techniques {
-        let passes: Vec<String> = t
-            .passes
-            .iter()
-            .map(|p| format!("{} {:.3}", p.name, p.ms))
-            .collect();
-        println!("  {:<16} {}", t.technique, passes.join(", "));
-    }
+/// The reference of the frame at `t`, with a progress bar over samples per pixel unless quiet.
+fn reference_frame(
+    scene: &Scene,
+    t: f32,
+    args: &BenchArgs,
+    settings: &ReferenceSettings,
+    quiet: bool,
+) -> Result<ReferenceImages> {
+    let frame = scene.frame(t, args.camera);
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        progress_bar(
+            settings.spp as u64,
+            &format!(
+                "spp of the '{}' reference ({})",
+                scene.name, settings.bounces
+            ),
+        )
+    };
+    let images = reference::render(
+        scene,
+        &frame,
+        args.width,
+        args.height,
+        settings,
+        &|done, _| bar.set_position(done as u64),
+    )
+    .with_context(|| format!("scene '{}': reference", scene.name))?;
+    bar.finish_and_clear();
+    Ok(images)
 }

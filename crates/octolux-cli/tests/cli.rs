@@ -234,7 +234,8 @@ fn bench_prints_a_table_and_json() {
     );
     for needle in [
         "technique",
-        "GPU ms",
+        "GI total ms",
+        "frame ms",
         "FLIP",
         "relMSE",
         "none",
@@ -248,7 +249,7 @@ fn bench_prints_a_table_and_json() {
     }
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let technique = &report["techniques"][0];
+    let technique = &report["scenes"][0]["techniques"][0];
     assert_eq!(technique["technique"], "none");
     assert_eq!(technique["reference"], "direct");
     assert!(technique["metrics"]["flip"].as_f64().unwrap() >= 0.0);

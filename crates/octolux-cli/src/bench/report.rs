@@ -1,0 +1,414 @@
+//! The bench report: frame-time statistics, the JSON layout and the printed tables.
+
+use octolux::gpu::{GpuContext, PassTiming};
+use octolux::metrics::Metrics;
+use serde::Serialize;
+use std::io::{self, Write};
+
+/// Version of the JSON layout; raised when a field changes meaning or disappears.
+pub const JSON_VERSION: u32 = 2;
+
+/// Passes the renderer records around every technique (`Renderer::render`): shadow maps,
+/// G-buffer and direct light before the GI update, compose after it.
+const FRAME_PASSES: &[&str] = &["shadow maps", "gbuffer", "direct light", "compose"];
+/// The last frame pass recorded before the technique's passes.
+const BEFORE_GI: &str = "direct light";
+/// The first frame pass recorded after the technique's passes.
+const AFTER_GI: &str = "compose";
+
+/// Statistics of one time over the measured frames, in milliseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    /// Arithmetic mean.
+    pub mean_ms: f64,
+    /// Median (mean of the two middle values for an even count).
+    pub median_ms: f64,
+    /// Fastest frame.
+    pub min_ms: f64,
+    /// Slowest frame (the worst case).
+    pub max_ms: f64,
+}
+
+impl Stats {
+    /// Statistics of `samples` (all zero when empty).
+    pub fn of(samples: &[f64]) -> Stats {
+        if samples.is_empty() {
+            return Stats::default();
+        }
+        let mut sorted = samples.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let n = sorted.len();
+        let median = if n % 2 == 1 {
+            sorted[n / 2]
+        } else {
+            0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+        };
+        Stats {
+            mean_ms: sorted.iter().sum::<f64>() / n as f64,
+            median_ms: median,
+            min_ms: sorted[0],
+            max_ms: sorted[n - 1],
+        }
+    }
+}
+
+/// Statistics of one named pass.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassStats {
+    /// Pass name, as the renderer or technique records it.
+    pub name: String,
+    /// Whether the pass belongs to the technique (counted in the GI total).
+    pub gi: bool,
+    /// Its times over the measured frames it ran in.
+    #[serde(flatten)]
+    pub stats: Stats,
+}
+
+/// GPU memory of one ledger owner.
+#[derive(Clone, Debug, Serialize)]
+pub struct OwnerMemory {
+    /// Ledger owner (a technique name, `gbuffer`, `shadow-maps`, `scene`, ...).
+    pub owner: String,
+    /// MiB.
+    pub mib: f64,
+}
+
+/// One technique's results on one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct TechniqueReport {
+    /// Scene name.
+    pub scene: String,
+    /// Technique name.
+    pub technique: String,
+    /// The reference transport it was judged against; `null` with `--no-reference`.
+    pub reference: Option<String>,
+    /// Per-pass statistics in recording order.
+    pub passes: Vec<PassStats>,
+    /// Sum of the technique's own passes per frame.
+    pub gi_total: Stats,
+    /// Sum of all passes per frame.
+    pub frame_total: Stats,
+    /// CPU wall time of a whole frame (record, submit, wait, read the timers back).
+    pub frame_wall: Stats,
+    /// GPU memory the technique itself owns, MiB.
+    pub technique_mib: f64,
+    /// All GPU memory of the frame (scene, G-buffer, shadows, technique...), MiB.
+    pub total_mib: f64,
+    /// GPU memory per ledger owner.
+    pub memory: Vec<OwnerMemory>,
+    /// Error of the last measured frame against the reference; `null` with `--no-reference`.
+    pub metrics: Option<Metrics>,
+}
+
+/// One reference render.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReferenceReport {
+    /// Light transport.
+    pub bounces: String,
+    /// Samples per pixel done.
+    pub spp: u32,
+    /// CPU wall time in seconds.
+    pub seconds: f64,
+}
+
+/// One scene's results.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneReport {
+    /// Scene name (from the scene file, or the model's file name).
+    pub scene: String,
+    /// The file given on the command line; `null` for the built-in Cornell box.
+    pub file: Option<String>,
+    /// Triangles over all object instances.
+    pub triangles: usize,
+    /// Whether anything in the scene moves (then time advances by `1/fps` per frame).
+    pub animated: bool,
+    /// Scene time of the first warm-up frame, s.
+    pub first_time: f32,
+    /// Scene time of the last measured frame, s (the frame compared with the reference).
+    pub last_time: f32,
+    /// Per technique, in `--gi` order.
+    pub techniques: Vec<TechniqueReport>,
+    /// Per reference rendered (empty with `--no-reference`).
+    pub references: Vec<ReferenceReport>,
+}
+
+/// The GPU adapter and how passes were timed.
+#[derive(Clone, Debug, Serialize)]
+pub struct AdapterReport {
+    /// Adapter name.
+    pub name: String,
+    /// Graphics API (`Vulkan`, `Metal`, `Dx12`, ...).
+    pub backend: String,
+    /// `DiscreteGpu`, `IntegratedGpu`, `VirtualGpu`, `Cpu` or `Other`.
+    pub device_type: String,
+    /// PCI vendor id.
+    pub vendor: u32,
+    /// PCI device id.
+    pub device: u32,
+    /// Driver name (`AdapterInfo::driver`).
+    pub driver: String,
+    /// Driver version and details (`AdapterInfo::driver_info`).
+    pub driver_info: String,
+    /// `GPU timestamps` or `CPU submit+wait`.
+    pub timing_source: String,
+}
+
+impl AdapterReport {
+    /// The adapter of `ctx`.
+    pub fn of(ctx: &GpuContext) -> AdapterReport {
+        let info = &ctx.info;
+        AdapterReport {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            vendor: info.vendor,
+            device: info.device,
+            driver: info.driver.clone(),
+            driver_info: info.driver_info.clone(),
+            timing_source: if ctx.timestamps {
+                "GPU timestamps"
+            } else {
+                "CPU submit+wait"
+            }
+            .to_string(),
+        }
+    }
+
+    /// One line: name, backend, type, driver, timing source.
+    pub fn line(&self) -> String {
+        let driver = match (self.driver.is_empty(), self.driver_info.is_empty()) {
+            (true, true) => "unknown".to_string(),
+            (false, true) => self.driver.clone(),
+            (true, false) => self.driver_info.clone(),
+            (false, false) => format!("{}, {}", self.driver, self.driver_info),
+        };
+        format!(
+            "{} ({}, {}; driver: {}); pass times from {}",
+            self.name, self.backend, self.device_type, driver, self.timing_source
+        )
+    }
+}
+
+/// The whole run: one document for every scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    /// Version of this layout.
+    pub version: u32,
+    /// The adapter every technique ran on.
+    pub adapter: AdapterReport,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Frames rendered before measuring.
+    pub warmup: u32,
+    /// Frames measured.
+    pub frames: u32,
+    /// Frames per second of scene time (animated scenes).
+    pub fps: f32,
+    /// Scene time of the first frame, s.
+    pub time: f32,
+    /// Scene camera.
+    pub camera: usize,
+    /// Whether the reference was rendered and error measured.
+    pub reference: bool,
+    /// Per scene, in command-line order.
+    pub scenes: Vec<SceneReport>,
+}
+
+/// Which passes of a frame belong to the technique: those recorded between direct light and
+/// compose. If a frame lacks those markers, every pass the renderer does not record itself.
+pub fn gi_passes(frame: &[PassTiming]) -> Vec<bool> {
+    let before = frame.iter().position(|p| p.name == BEFORE_GI);
+    let after = frame.iter().rposition(|p| p.name == AFTER_GI);
+    match (before, after) {
+        (Some(b), Some(a)) if b < a => (0..frame.len()).map(|i| b < i && i < a).collect(),
+        _ => frame
+            .iter()
+            .map(|p| !FRAME_PASSES.contains(&p.name.as_str()))
+            .collect(),
+    }
+}
+
+/// Per-pass, GI-total and frame-total statistics of the measured frames (`wall_ms`: CPU wall
+/// time per frame).
+pub fn frame_stats(
+    frames: &[Vec<PassTiming>],
+    wall_ms: &[f64],
+) -> (Vec<PassStats>, Stats, Stats, Stats) {
+    let mut names: Vec<(String, bool, Vec<f64>)> = Vec::new();
+    let mut gi_totals = Vec::with_capacity(frames.len());
+    let mut frame_totals = Vec::with_capacity(frames.len());
+    for frame in frames {
+        let gi = gi_passes(frame);
+        let mut gi_total = 0.0;
+        for (pass, &is_gi) in frame.iter().zip(&gi) {
+            if is_gi {
+                gi_total += pass.ms;
+            }
+            match names.iter_mut().find(|(n, _, _)| *n == pass.name) {
+                Some((_, _, samples)) => samples.push(pass.ms),
+                None => names.push((pass.name.clone(), is_gi, vec![pass.ms])),
+            }
+        }
+        gi_totals.push(gi_total);
+        frame_totals.push(frame.iter().map(|p| p.ms).sum());
+    }
+    let passes = names
+        .into_iter()
+        .map(|(name, gi, samples)| PassStats {
+            name,
+            gi,
+            stats: Stats::of(&samples),
+        })
+        .collect();
+    (
+        passes,
+        Stats::of(&gi_totals),
+        Stats::of(&frame_totals),
+        Stats::of(wall_ms),
+    )
+}
+
+/// Prints one scene's table.
+pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) -> io::Result<()> {
+    let motion = if scene.animated {
+        format!(
+            "animated, t = {:.3}..{:.3} s at {} fps",
+            scene.first_time, scene.last_time, run.fps
+        )
+    } else {
+        format!("static, t = {} s", scene.first_time)
+    };
+    writeln!(
+        out,
+        "bench: '{}' ({}, {} triangles, {motion}) at {}x{}; {} warm-up + {} measured frames",
+        scene.scene,
+        scene.file.as_deref().unwrap_or("built-in"),
+        scene.triangles,
+        run.width,
+        run.height,
+        run.warmup,
+        run.frames
+    )?;
+    writeln!(out, "adapter: {}", run.adapter.line())?;
+    let groups = format!(
+        "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}",
+        "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference"
+    );
+    writeln!(out, "{}", groups.trim_end())?;
+    writeln!(
+        out,
+        "  {:<12} {:>8} {:>8} {:>8}  {:>8} {:>8} {:>8}  {:>9} {:>9}  {:>9} {:>11}  reference",
+        "technique",
+        "mean",
+        "median",
+        "max",
+        "mean",
+        "median",
+        "max",
+        "technique",
+        "frame",
+        "FLIP",
+        "relMSE"
+    )?;
+    for t in &scene.techniques {
+        let (flip, rel_mse) = match &t.metrics {
+            Some(m) => (format!("{:.4}", m.flip), format!("{:.4e}", m.rel_mse)),
+            None => ("-".to_string(), "-".to_string()),
+        };
+        writeln!(
+            out,
+            "  {:<12} {:>8.3} {:>8.3} {:>8.3}  {:>8.3} {:>8.3} {:>8.3}  {:>9.3} {:>9.3}  {:>9} {:>11}  {}",
+            t.technique,
+            t.gi_total.mean_ms,
+            t.gi_total.median_ms,
+            t.gi_total.max_ms,
+            t.frame_total.mean_ms,
+            t.frame_total.median_ms,
+            t.frame_total.max_ms,
+            t.technique_mib,
+            t.total_mib,
+            flip,
+            rel_mse,
+            t.reference.as_deref().unwrap_or("-")
+        )?;
+    }
+    for r in &scene.references {
+        writeln!(
+            out,
+            "  reference ({}): {} spp in {:.2} s (CPU), t = {:.3} s",
+            r.bounces, r.spp, r.seconds, scene.last_time
+        )?;
+    }
+    writeln!(
+        out,
+        "per-pass ms ({} frames; * = the technique's own passes, summed in GI total):",
+        run.frames
+    )?;
+    writeln!(
+        out,
+        "  {:<26} {:>9} {:>9} {:>9} {:>9}",
+        "", "mean", "median", "min", "max"
+    )?;
+    for t in &scene.techniques {
+        writeln!(out, "  {}", t.technique)?;
+        for p in &t.passes {
+            let label = format!("{} {}", if p.gi { "*" } else { " " }, p.name);
+            writeln!(
+                out,
+                "    {:<24} {:>9.3} {:>9.3} {:>9.3} {:>9.3}",
+                label, p.stats.mean_ms, p.stats.median_ms, p.stats.min_ms, p.stats.max_ms
+            )?;
+        }
+    }
+    writeln!(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use octolux::gpu::TimingSource;
+
+    fn pass(name: &str, ms: f64) -> PassTiming {
+        PassTiming {
+            name: name.to_string(),
+            ms,
+            source: TimingSource::CpuSubmitWait,
+        }
+    }
+
+    #[test]
+    fn stats_of_odd_and_even_counts() {
+        let s = Stats::of(&[3.0, 1.0, 2.0]);
+        assert_eq!(
+            (s.mean_ms, s.median_ms, s.min_ms, s.max_ms),
+            (2.0, 2.0, 1.0, 3.0)
+        );
+        let s = Stats::of(&[4.0, 1.0, 2.0, 9.0]);
+        assert_eq!(
+            (s.mean_ms, s.median_ms, s.min_ms, s.max_ms),
+            (4.0, 3.0, 1.0, 9.0)
+        );
+        assert_eq!(Stats::of(&[]), Stats::default());
+    }
+
+    #[test]
+    fn gi_passes_lie_between_direct_light_and_compose() {
+        let frame = [
+            pass("shadow maps", 1.0),
+            pass("gbuffer", 1.0),
+            pass("direct light", 1.0),
+            pass("olpv rsm", 2.0),
+            pass("olpv downsample", 3.0),
+            pass("compose", 1.0),
+        ];
+        assert_eq!(gi_passes(&frame), [false, false, false, true, true, false]);
+        // Without the markers, everything the renderer does not record itself.
+        assert_eq!(gi_passes(&frame[3..]), [true, true, false]);
+        let (passes, gi, total, _) = frame_stats(&[frame.to_vec(), frame.to_vec()], &[9.0, 9.0]);
+        assert_eq!(passes.len(), 6);
+        assert_eq!(gi.mean_ms, 5.0);
+        assert_eq!(total.max_ms, 9.0);
+    }
+}

@@ -1,0 +1,296 @@
+//! End-to-end tests of `octolux bench` as a performance run: `--no-reference`, several scenes,
+//! frame-time statistics, the adapter and the JSON layout (`--json`, `--json -`, `--json-dir`),
+//! and clear errors (exit code 1, an `error:` line naming the problem, no panic).
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn octolux(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_octolux"))
+        .args(args)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .expect("run octolux")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("octolux-bench-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A scene file that ships with the project.
+fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+        .to_str()
+        .unwrap()
+        .to_string()
+}
+
+/// `octolux bench --no-reference` at 24 x 16 with 1 warm-up + 2 measured frames and a small
+/// LPV, on `scenes` (none: the built-in Cornell box), with extra arguments.
+fn bench(scenes: &[&str], extra: &[&str]) -> Output {
+    let mut args = vec!["bench"];
+    args.extend(scenes);
+    args.extend([
+        "--no-reference",
+        "--gi",
+        "none,lpv",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--shadow-map-size",
+        "64",
+        "--warmup",
+        "1",
+        "--frames",
+        "2",
+        "--lpv-size",
+        "8",
+        "--lpv-iterations",
+        "2",
+        "--rsm-size",
+        "64",
+    ]);
+    args.extend(extra);
+    octolux(&args)
+}
+
+fn assert_succeeds(output: &Output) {
+    assert!(
+        output.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// Asserts a clean failure: exit code 1, every `needle` in stderr, no panic.
+fn assert_fails_with(output: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    assert!(stderr.contains("error:"), "no error line: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "'{needle}' not in: {stderr}");
+    }
+}
+
+fn f(v: &Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("'{key}' is not a number in {v}"))
+}
+
+/// Mean, median, min and max of one statistic are consistent and non-negative.
+fn check_stats(v: &Value, what: &str) {
+    let (mean, median, min, max) = (
+        f(v, "mean_ms"),
+        f(v, "median_ms"),
+        f(v, "min_ms"),
+        f(v, "max_ms"),
+    );
+    assert!(min >= 0.0, "{what}: {v}");
+    assert!(
+        min <= mean && mean <= max,
+        "{what}: mean outside min..max: {v}"
+    );
+    assert!(
+        min <= median && median <= max,
+        "{what}: median outside min..max: {v}"
+    );
+}
+
+/// The run header: adapter, size and frame counts.
+fn check_run(report: &Value) {
+    assert_eq!(report["width"], 24);
+    assert_eq!(report["height"], 16);
+    assert_eq!(report["warmup"], 1);
+    assert_eq!(report["frames"], 2);
+    assert_eq!(report["reference"], false);
+    let adapter = &report["adapter"];
+    assert!(!adapter["name"].as_str().unwrap().is_empty(), "{adapter}");
+    assert!(
+        !adapter["backend"].as_str().unwrap().is_empty(),
+        "{adapter}"
+    );
+    assert!(!adapter["device_type"].as_str().unwrap().is_empty());
+    assert!(adapter["driver"].is_string() && adapter["driver_info"].is_string());
+    let source = adapter["timing_source"].as_str().unwrap();
+    assert!(
+        source == "GPU timestamps" || source == "CPU submit+wait",
+        "{source}"
+    );
+}
+
+/// One scene's results for `--gi none,lpv` without a reference.
+fn check_scene(scene: &Value, name: &str) {
+    assert_eq!(scene["scene"], name);
+    assert!(scene["triangles"].as_u64().unwrap() > 0);
+    assert_eq!(scene["references"].as_array().unwrap().len(), 0);
+    let techniques = scene["techniques"].as_array().unwrap();
+    let names: Vec<&str> = techniques
+        .iter()
+        .map(|t| t["technique"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["none", "lpv"]);
+    for t in techniques {
+        let technique = t["technique"].as_str().unwrap();
+        assert_eq!(t["scene"], name);
+        assert!(t["metrics"].is_null() && t["reference"].is_null(), "{t}");
+        check_stats(&t["gi_total"], "gi_total");
+        check_stats(&t["frame_total"], "frame_total");
+        check_stats(&t["frame_wall"], "frame_wall");
+        assert!(f(&t["frame_total"], "mean_ms") > 0.0);
+        assert!(f(&t["frame_total"], "mean_ms") >= f(&t["gi_total"], "mean_ms"));
+        let passes = t["passes"].as_array().unwrap();
+        let mut gi_sum = 0.0;
+        let mut frame_sum = 0.0;
+        for p in passes {
+            let pass = p["name"].as_str().unwrap();
+            check_stats(p, pass);
+            // The renderer's own passes are outside the GI total; the technique's inside.
+            let own = pass.starts_with(&format!("{technique} "));
+            assert_eq!(p["gi"], own, "{technique}: {p}");
+            if own {
+                gi_sum += f(p, "mean_ms");
+            }
+            frame_sum += f(p, "mean_ms");
+        }
+        let pass_names: Vec<&str> = passes.iter().map(|p| p["name"].as_str().unwrap()).collect();
+        for frame_pass in ["shadow maps", "gbuffer", "direct light", "compose"] {
+            assert!(pass_names.contains(&frame_pass), "{pass_names:?}");
+        }
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b.max(1.0);
+        assert!(close(gi_sum, f(&t["gi_total"], "mean_ms")), "{t}");
+        assert!(close(frame_sum, f(&t["frame_total"], "mean_ms")), "{t}");
+        let total_mib = f(t, "total_mib");
+        let technique_mib = f(t, "technique_mib");
+        assert!(total_mib > 0.0 && technique_mib > 0.0 && technique_mib < total_mib);
+        let owners: Vec<&str> = t["memory"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| m["owner"].as_str().unwrap())
+            .collect();
+        assert!(owners.contains(&technique), "{owners:?}");
+        if technique == "lpv" {
+            assert_eq!(
+                pass_names.iter().filter(|n| n.starts_with("lpv ")).count(),
+                4,
+                "{pass_names:?}"
+            );
+            assert!(f(&t["gi_total"], "min_ms") > 0.0);
+        } else {
+            assert_eq!(f(&t["gi_total"], "max_ms"), 0.0);
+        }
+    }
+}
+
+#[test]
+fn no_reference_on_the_built_in_cornell_box() {
+    let dir = temp_dir("builtin");
+    let json = dir.join("perf.json");
+    let output = bench(&[], &["--json", json.to_str().unwrap()]);
+    assert_succeeds(&output);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    for needle in [
+        "'cornell-box' (built-in",
+        "at 24x16; 1 warm-up + 2 measured frames",
+        "adapter: ",
+        "pass times from ",
+        "GI total ms",
+        "frame ms",
+        "* lpv propagate",
+        "per-pass ms (2 frames",
+    ] {
+        assert!(stdout.contains(needle), "'{needle}' missing:\n{stdout}");
+    }
+    assert!(!stdout.contains("reference ("), "{stdout}");
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    check_run(&report);
+    let scenes = report["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 1);
+    assert!(scenes[0]["file"].is_null());
+    assert_eq!(scenes[0]["animated"], false);
+    check_scene(&scenes[0], "cornell-box");
+}
+
+#[test]
+fn two_scene_files_in_one_run() {
+    let dir = temp_dir("two");
+    let json_dir = dir.join("per-scene");
+    let (a, b) = (scene("cornell-box.toml"), scene("cornell-animated.toml"));
+    let output = bench(
+        &[&a, &b],
+        &["--json", "-", "--json-dir", json_dir.to_str().unwrap()],
+    );
+    assert_succeeds(&output);
+    // With `--json -` standard output is the JSON document alone; the tables go to stderr.
+    let report: Value = serde_json::from_slice(&output.stdout).expect("stdout is JSON");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("'cornell-box'") && stderr.contains("'cornell-animated'"),
+        "{stderr}"
+    );
+    check_run(&report);
+    let scenes = report["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), 2);
+    check_scene(&scenes[0], "cornell-box");
+    check_scene(&scenes[1], "cornell-animated");
+    assert_eq!(scenes[0]["file"], a.as_str());
+    assert_eq!(scenes[0]["animated"], false);
+    assert_eq!(scenes[0]["last_time"], 0.0);
+    // Animated: 1 warm-up + 2 measured frames at 30 fps, the last at 2/30 s.
+    assert_eq!(scenes[1]["animated"], true);
+    let last = f(&scenes[1], "last_time");
+    assert!((last - 2.0 / 30.0).abs() < 1e-6, "{last}");
+    // --json-dir: one file per scene in the same layout, with that scene alone.
+    for name in ["cornell-box", "cornell-animated"] {
+        let path = json_dir.join(format!("{name}.json"));
+        let one: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        check_run(&one);
+        assert_eq!(one["scenes"].as_array().unwrap().len(), 1);
+        check_scene(&one["scenes"][0], name);
+    }
+}
+
+#[test]
+fn missing_scene_file_is_an_error_before_any_work() {
+    let output = bench(&[&scene("cornell-box.toml"), "no-such-scene.toml"], &[]);
+    assert_fails_with(&output, &["no-such-scene.toml", "no such file"]);
+    assert!(
+        output.stdout.is_empty(),
+        "measured before failing: {}",
+        String::from_utf8_lossy(&output.stdout)
+    );
+}
+
+#[test]
+fn zero_frames_is_an_error() {
+    assert_fails_with(
+        &octolux(&["bench", "--no-reference", "--frames", "0"]),
+        &["--frames", "at least 1"],
+    );
+}
+
+#[test]
+fn unknown_technique_is_an_error() {
+    assert_fails_with(
+        &octolux(&["bench", "--no-reference", "--gi", "none,lpvv"]),
+        &["lpvv", "unknown technique", "olpv"],
+    );
+}
+
+#[test]
+fn bad_fps_and_json_folder_are_errors() {
+    assert_fails_with(&bench(&[], &["--fps", "0"]), &["--fps"]);
+    let missing = temp_dir("json").join("no-such-folder").join("perf.json");
+    assert_fails_with(
+        &bench(&[], &["--json", missing.to_str().unwrap()]),
+        &["no-such-folder", "does not exist"],
+    );
+}
