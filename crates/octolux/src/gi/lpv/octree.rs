@@ -15,7 +15,12 @@ struct Params {
     levels: u32,
     level: u32,
     _pad: u32,
+    /// First cell of each level.
+    offsets: [u32; 8],
 }
+
+/// Bytes of `Params`.
+const PARAMS_BYTES: u64 = std::mem::size_of::<Params>() as u64;
 
 /// GPU memory of the octree beyond the shared light buffers.
 pub struct OctreeBuffers {
@@ -40,12 +45,19 @@ impl OctreeBuffers {
         let data: Vec<u8> = (0..levels)
             .flat_map(|level| {
                 let mut slot = vec![0u8; super::SLOT as usize];
-                slot[..16].copy_from_slice(bytemuck::bytes_of(&Params {
+                let mut offsets = [0u32; 8];
+                for i in 1..levels.min(8) as usize {
+                    let m = n >> (i - 1);
+                    offsets[i] = offsets[i - 1] + m * m * m;
+                }
+                let params = Params {
                     n,
                     levels,
                     level,
                     _pad: 0,
-                }));
+                    offsets,
+                };
+                slot[..std::mem::size_of::<Params>()].copy_from_slice(bytemuck::bytes_of(&params));
                 slot
             })
             .collect();
@@ -91,7 +103,7 @@ impl Octree {
         let per_level = |pipeline: &wgpu::ComputePipeline, extra: &[(u32, &wgpu::Buffer)]| {
             (0..b.levels as u64)
                 .map(|l| {
-                    let mut entries = vec![(0, slot(&b.params, l, 16))];
+                    let mut entries = vec![(0, slot(&b.params, l, PARAMS_BYTES))];
                     entries.extend(extra.iter().map(|(i, buf)| (*i, buf.as_entire_binding())));
                     bind(ctx, pipeline, &entries)
                 })
@@ -104,7 +116,7 @@ impl Octree {
             ctx,
             &merge,
             &[
-                (0, slot(&b.params, 0, 16)),
+                (0, slot(&b.params, 0, PARAMS_BYTES)),
                 (4, b.index.as_entire_binding()),
                 (5, v.acc.as_entire_binding()),
                 (6, b.merged.as_entire_binding()),

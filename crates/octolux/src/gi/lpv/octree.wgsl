@@ -10,6 +10,9 @@ struct OctreeParams {
     // the level this dispatch works on
     level: u32,
     _pad: u32,
+    // first cell of each level (computed on the CPU: the loop it replaces ran per cell and
+    // per level)
+    offsets: array<vec4<u32>, 2>,
 };
 
 // Differs per dispatch (level): a storage buffer, see `param_slots` in mod.rs.
@@ -22,12 +25,7 @@ struct OctreeParams {
 @group(0) @binding(6) var<storage, read_write> merged: array<vec4<f32>>;
 
 fn level_offset(i: u32) -> u32 {
-    var o = 0u;
-    for (var j = 0u; j < i; j++) {
-        let m = params.n >> j;
-        o += m * m * m;
-    }
-    return o;
+    return params.offsets[i / 4u][i % 4u];
 }
 
 fn cell_of(level: u32, c: vec3<u32>) -> u32 {
