@@ -1,15 +1,26 @@
 //! Injection of VPLs into the light volumes and of surfels into the geometry volumes.
 
 use super::propagate::Volumes;
-use super::rsm::RsmTargets;
+use super::rsm::{RsmLayer, RsmTargets};
 use super::{bind, groups, wgsl, GiFrame, CELL_BYTES};
 use crate::gpu::{GpuContext, PassTimer};
+
+/// At most this many G-buffer samples per side feed the camera's geometry volume: larger
+/// outputs are sampled in square blocks (see `inject_gv_camera`), so injection costs the same at
+/// any output size.
+pub const CAMERA_SAMPLES: u32 = 256;
+
+/// G-buffer pixels per side of one camera surfel for a `width` x `height` output.
+pub fn camera_stride(width: u32, height: u32) -> u32 {
+    width.max(height).div_ceil(CAMERA_SAMPLES).max(1)
+}
 
 /// The injection pipelines and bind groups.
 pub struct Inject {
     light: (wgpu::ComputePipeline, wgpu::BindGroup),
     gv_rsm: (wgpu::ComputePipeline, wgpu::BindGroup),
     gv_camera: (wgpu::ComputePipeline, wgpu::BindGroup),
+    resolve: (wgpu::ComputePipeline, wgpu::BindGroup),
     combine: (wgpu::ComputePipeline, wgpu::BindGroup),
     rsm_size: u32,
     rsm_layers: u32,
@@ -46,7 +57,7 @@ impl Inject {
                 (1, tex(&rsm.position_array)),
                 (2, tex(&rsm.normal_array)),
                 (3, tex(&rsm.flux_array)),
-                (4, v.a.as_entire_binding()),
+                (4, v.light_fixed.as_entire_binding()),
             ],
         );
         let gv_rsm = ctx.compute_pipeline("lpv inject gv rsm", &module, "inject_gv_rsm");
@@ -58,7 +69,7 @@ impl Inject {
                 (1, tex(&rsm.position_array)),
                 (2, tex(&rsm.normal_array)),
                 (3, tex(&rsm.flux_array)),
-                (5, v.gv_both.as_entire_binding()),
+                (5, v.gv_fixed.as_entire_binding()),
             ],
         );
         let gv_camera = ctx.compute_pipeline("lpv inject gv camera", &module, "inject_gv_camera");
@@ -67,10 +78,20 @@ impl Inject {
             &gv_camera,
             &[
                 (0, grids.as_entire_binding()),
-                (5, v.gv_both.as_entire_binding()),
+                (5, v.gv_fixed.as_entire_binding()),
                 (6, frame.camera_uniform.as_entire_binding()),
                 (7, tex(&frame.gbuffer.depth_view)),
                 (8, tex(&frame.gbuffer.normal_view)),
+            ],
+        );
+        let resolve = ctx.compute_pipeline("lpv resolve light", &module, "resolve_light");
+        let resolve_group = bind(
+            ctx,
+            &resolve,
+            &[
+                (0, grids.as_entire_binding()),
+                (9, v.light_fixed.as_entire_binding()),
+                (11, v.a.as_entire_binding()),
             ],
         );
         let combine = ctx.compute_pipeline("lpv combine gv", &module, "combine_gv");
@@ -79,7 +100,7 @@ impl Inject {
             &combine,
             &[
                 (0, grids.as_entire_binding()),
-                (9, v.gv_both.as_entire_binding()),
+                (9, v.gv_fixed.as_entire_binding()),
                 (10, v.gv.as_entire_binding()),
             ],
         );
@@ -87,6 +108,7 @@ impl Inject {
             light: (light, light_group),
             gv_rsm: (gv_rsm, gv_rsm_group),
             gv_camera: (gv_camera, gv_camera_group),
+            resolve: (resolve, resolve_group),
             combine: (combine, combine_group),
             rsm_size: rsm.size,
             rsm_layers: rsm.layers,
@@ -95,11 +117,12 @@ impl Inject {
         }
     }
 
-    /// Records the clears and the four injection dispatches as one named pass.
+    /// Records the clears, the three injection dispatches and the two resolves as one named
+    /// pass.
     pub(crate) fn record(&self, timer: &mut PassTimer, name: &str, v: &Volumes, stride: u32) {
         timer.pass(name, |encoder, stamps| {
-            encoder.clear_buffer(&v.a, 0, Some(v.cells as u64 * CELL_BYTES));
-            encoder.clear_buffer(&v.gv_both, 0, None);
+            encoder.clear_buffer(&v.light_fixed, 0, Some(v.cells as u64 * CELL_BYTES * 2));
+            encoder.clear_buffer(&v.gv_fixed, 0, None);
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(name),
                 timestamp_writes: stamps.compute(),
@@ -114,13 +137,32 @@ impl Inject {
                 pass.set_bind_group(0, &self.gv_rsm.1, &[]);
                 pass.dispatch_workgroups(texels, texels, self.rsm_layers);
             }
+            let s = camera_stride(self.width, self.height);
             pass.set_pipeline(&self.gv_camera.0);
             pass.set_bind_group(0, &self.gv_camera.1, &[]);
-            pass.dispatch_workgroups(groups(self.width, 8), groups(self.height, 8), 1);
-            pass.set_pipeline(&self.combine.0);
-            pass.set_bind_group(0, &self.combine.1, &[]);
-            let g = groups(v.gv_cells, 64);
-            pass.dispatch_workgroups(g.min(65535), g.div_ceil(65535), 1);
+            pass.dispatch_workgroups(
+                groups(self.width.div_ceil(s), 8),
+                groups(self.height.div_ceil(s), 8),
+                1,
+            );
+            for (pipeline, count) in [(&self.resolve, v.cells * 12), (&self.combine, v.gv_cells)] {
+                pass.set_pipeline(&pipeline.0);
+                pass.set_bind_group(0, &pipeline.1, &[]);
+                let g = groups(count, 64);
+                pass.dispatch_workgroups(g.min(65535), g.div_ceil(65535), 1);
+            }
         });
     }
+}
+
+/// The fixed-point scale of the injected light sums for RSM layers `layers`: a power of two that
+/// leaves the largest possible sum (all reflected flux in one cell) 2^58 units, well inside the
+/// signed 64-bit range, so the smallest unit is 2^-58 of the light's total reflected flux.
+pub fn light_scale(layers: &[RsmLayer]) -> f32 {
+    let bound = super::rsm::reflected_flux_bound(layers);
+    if !(bound.is_finite() && bound > 0.0) {
+        return 1.0;
+    }
+    let exponent = (58 - bound.log2().ceil() as i32).clamp(-100, 100);
+    2f32.powi(exponent)
 }

@@ -1,7 +1,14 @@
 // Injection: RSM texels become VPLs (one per stride x stride block, carrying the block's flux)
 // injected as Lambertian SH lobes half a cell along their normal; RSM texels and G-buffer
-// pixels become surfels whose blocking potential A cos / s^2 goes into the geometry volumes
-// (cells at LPV cell corners). Float sums use compare-exchange loops on u32 bit patterns.
+// samples become surfels whose blocking potential A cos / s^2 goes into the geometry volumes
+// (cells at LPV cell corners).
+//
+// Sums are 64-bit fixed point, two u32 words per value added with integer atomics and a carry:
+// a float sum by compare-exchange loops serialises when thousands of threads hit the same few
+// cells (a wall's texels all land in a handful of cells), and its result depends on the order.
+// Integer atomics cost the same under contention as without, and integer sums do not depend on
+// their order, so every adapter gets the same volume. `resolve_light` and `combine_gv` turn the
+// sums back into floats for propagation.
 
 // Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or
 // loop bounds depend on a small uniform block every time its pipeline is bound.
@@ -9,40 +16,63 @@
 @group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
 @group(0) @binding(2) var rsm_normal: texture_2d_array<f32>;
 @group(0) @binding(3) var rsm_flux: texture_2d_array<f32>;
-@group(0) @binding(4) var<storage, read_write> light_acc: array<atomic<u32>>;
-@group(0) @binding(5) var<storage, read_write> gv_acc: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read_write> light_fixed: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> gv_fixed: array<atomic<u32>>;
 @group(0) @binding(6) var<uniform> cam: Camera;
 @group(0) @binding(7) var depth_tex: texture_depth_2d;
 @group(0) @binding(8) var normal_tex: texture_2d<f32>;
-@group(0) @binding(9) var<storage, read> gv_both: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> sums: array<vec2<u32>>;
 @group(0) @binding(10) var<storage, read_write> gv_out: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read_write> light_out: array<f32>;
 
+// Fixed-point scale of the geometry sums: one surfel blocks at most |1.0233| per coefficient,
+// so 2^31 surfels fit the signed 64-bit range.
+const GV_SCALE: f32 = 4294967296.0;
+const TWO_32: f32 = 4294967296.0;
+
+// x rounded to an integer, as a two's complement 64-bit (lo, hi). Every step is exact for
+// |x| < 2^63: floor(m / 2^32) and m - hi 2^32 only drop or keep bits of m.
+fn to_fixed(x: f32) -> vec2<u32> {
+    let m = round(abs(x));
+    let hi = floor(m / TWO_32);
+    let lo = u32(m - hi * TWO_32);
+    let h = u32(hi);
+    if x >= 0.0 {
+        return vec2<u32>(lo, h);
+    }
+    // Two's complement negation of (lo, h).
+    let nlo = ~lo + 1u;
+    return vec2<u32>(nlo, ~h + select(0u, 1u, nlo == 0u));
+}
+
+// The 64-bit value (lo, hi) as a float.
+fn from_fixed(v: vec2<u32>) -> f32 {
+    if (v.y & 0x80000000u) == 0u {
+        return f32(v.y) * TWO_32 + f32(v.x);
+    }
+    let nlo = ~v.x + 1u;
+    let nhi = ~v.y + select(0u, 1u, nlo == 0u);
+    return -(f32(nhi) * TWO_32 + f32(nlo));
+}
+
+// Adds a 64-bit value to words (2 i, 2 i + 1): the low word first, then the high word with the
+// carry out of the low one. Exact once every addition of the pass is done.
 fn add_light(i: u32, v: f32) {
-    if v == 0.0 {
+    let f = to_fixed(v * grids.light_scale);
+    if f.x == 0u && f.y == 0u {
         return;
     }
-    var old = atomicLoad(&light_acc[i]);
-    loop {
-        let r = atomicCompareExchangeWeak(&light_acc[i], old, bitcast<u32>(bitcast<f32>(old) + v));
-        if r.exchanged {
-            break;
-        }
-        old = r.old_value;
-    }
+    let old = atomicAdd(&light_fixed[2u * i], f.x);
+    atomicAdd(&light_fixed[2u * i + 1u], f.y + select(0u, 1u, old + f.x < old));
 }
 
 fn add_gv(i: u32, v: f32) {
-    if v == 0.0 {
+    let f = to_fixed(v * GV_SCALE);
+    if f.x == 0u && f.y == 0u {
         return;
     }
-    var old = atomicLoad(&gv_acc[i]);
-    loop {
-        let r = atomicCompareExchangeWeak(&gv_acc[i], old, bitcast<u32>(bitcast<f32>(old) + v));
-        if r.exchanged {
-            break;
-        }
-        old = r.old_value;
-    }
+    let old = atomicAdd(&gv_fixed[2u * i], f.x);
+    atomicAdd(&gv_fixed[2u * i + 1u], f.y + select(0u, 1u, old + f.x < old));
 }
 
 // RSM texel: world position, unit normal facing the light, reflected flux (W) and surfel
@@ -175,30 +205,49 @@ fn inject_gv_rsm(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// The G-buffer is sampled on a grid of at most CAMERA_SAMPLES^2 points: one pixel per square
+// block of `grids.camera_stride`^2 pixels stands for the whole block (its footprint times the
+// block's pixel count), so the pass costs the same at any output size.
 @compute @workgroup_size(8, 8, 1)
 fn inject_gv_camera(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = vec2<u32>(cam.size.xy);
-    if id.x >= size.x || id.y >= size.y {
+    let s = max(grids.camera_stride, 1u);
+    let first = id.xy * s;
+    if first.x >= size.x || first.y >= size.y {
         return;
     }
-    let depth = textureLoad(depth_tex, id.xy, 0);
+    let last = min(first + vec2<u32>(s), size);
+    let block = last - first;
+    let px = first + block / 2u;
+    let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 {
         return;
     }
-    let p = world_from_depth(cam, id.xy, depth);
-    let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
+    let p = world_from_depth(cam, px, depth);
+    let n = normalize(textureLoad(normal_tex, px, 0).xyz);
     // Pixel footprint on the plane of constant view depth (spanned by the neighbouring
     // pixels at the same depth), tilted onto the surface.
-    let dx = world_from_depth(cam, id.xy + vec2<u32>(1u, 0u), depth) - p;
-    let dy = world_from_depth(cam, id.xy + vec2<u32>(0u, 1u), depth) - p;
+    let dx = world_from_depth(cam, px + vec2<u32>(1u, 0u), depth) - p;
+    let dy = world_from_depth(cam, px + vec2<u32>(0u, 1u), depth) - p;
     let across = cross(dx, dy);
     let plane_area = length(across);
     let ray = normalize(p - cam.position.xyz);
     let axis = across / max(plane_area, 1e-20);
-    let area = plane_area * abs(dot(axis, ray)) / max(abs(dot(n, ray)), 0.1);
+    let pixel_area = plane_area * abs(dot(axis, ray)) / max(abs(dot(n, ray)), 0.1);
+    let area = pixel_area * f32(block.x * block.y);
     for (var gi = 0u; gi < grids.count; gi++) {
         inject_blocking(grids.grids[gi], p, n, area, grids.gv_total);
     }
+}
+
+// The injected light as floats (cell-major, 12 values per cell), for propagation.
+@compute @workgroup_size(64, 1, 1)
+fn resolve_light(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x + id.y * 65535u * 64u;
+    if i >= arrayLength(&light_out) {
+        return;
+    }
+    light_out[i] = from_fixed(sums[i]) / grids.light_scale;
 }
 
 // Max-combination of the two geometry sources: per cell, the one with the larger band-0
@@ -209,7 +258,10 @@ fn combine_gv(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= grids.gv_total {
         return;
     }
-    let a = gv_both[i];
-    let b = gv_both[i + grids.gv_total];
+    let j = i + grids.gv_total;
+    let a = vec4<f32>(from_fixed(sums[4u * i]), from_fixed(sums[4u * i + 1u]),
+        from_fixed(sums[4u * i + 2u]), from_fixed(sums[4u * i + 3u])) / GV_SCALE;
+    let b = vec4<f32>(from_fixed(sums[4u * j]), from_fixed(sums[4u * j + 1u]),
+        from_fixed(sums[4u * j + 2u]), from_fixed(sums[4u * j + 3u])) / GV_SCALE;
     gv_out[i] = select(a, b, b.x > a.x);
 }

@@ -169,11 +169,11 @@ pub(crate) struct GpuGrids {
     pub count: u32,
     pub gv_total: u32,
     pub stride: u32,
-    pub _pad0: u32,
+    pub camera_stride: u32,
     pub gain: f32,
     pub damping: f32,
     pub blend: f32,
-    pub _pad1: f32,
+    pub light_scale: f32,
     pub grids: [GpuGrid; MAX_GRIDS],
 }
 
@@ -473,16 +473,19 @@ impl LpvGi {
             .collect()
     }
 
-    fn gpu_grids(&self, grids: &[GpuGrid]) -> GpuGrids {
+    fn gpu_grids(&self, grids: &[GpuGrid], light_scale: f32) -> GpuGrids {
         let mut g = GpuGrids {
             count: grids.len() as u32,
             gv_total: self.gv_total,
             stride: self.settings.rsm_stride,
-            _pad0: 0,
+            camera_stride: inject::camera_stride(
+                self.output.texture.width(),
+                self.output.texture.height(),
+            ),
             gain: self.settings.gain,
             damping: self.settings.damping,
             blend: 2.0,
-            _pad1: 0.0,
+            light_scale,
             grids: [GpuGrid::default(); MAX_GRIDS],
         };
         for (dst, src) in g.grids.iter_mut().zip(grids) {
@@ -547,7 +550,8 @@ impl GiTechnique for LpvGi {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         let name = self.variant.name();
         let placed = self.place(frame);
-        let grids = self.gpu_grids(&placed);
+        let layers = rsm::rsm_layers(frame, self.rsm.size);
+        let grids = self.gpu_grids(&placed, inject::light_scale(&layers));
         ctx.queue
             .write_buffer(&self.grids, 0, bytemuck::bytes_of(&grids));
         for (i, g) in placed.iter().enumerate() {

@@ -16,8 +16,11 @@ pub struct Volumes {
     pub b: wgpu::Buffer,
     /// Accumulated light.
     pub acc: wgpu::Buffer,
-    /// Geometry volumes from the RSMs (first half) and the camera (second half), as injected.
-    pub gv_both: wgpu::Buffer,
+    /// Injected light as 64-bit fixed-point sums (two u32 words per value).
+    pub light_fixed: wgpu::Buffer,
+    /// Geometry volumes from the RSMs (first half) and the camera (second half), as injected:
+    /// 64-bit fixed-point sums (two u32 words per value).
+    pub gv_fixed: wgpu::Buffer,
     /// Max-combined geometry volumes.
     pub gv: wgpu::Buffer,
 }
@@ -33,7 +36,8 @@ impl Volumes {
             a: storage(ctx, owner, "light a", light),
             b: storage(ctx, owner, "light b", light),
             acc: storage(ctx, owner, "light accumulated", light),
-            gv_both: storage(ctx, owner, "geometry injected", gv * 2),
+            light_fixed: storage(ctx, owner, "light injected (fixed point)", light * 2),
+            gv_fixed: storage(ctx, owner, "geometry injected (fixed point)", gv * 4),
             gv: storage(ctx, owner, "geometry", gv),
         }
     }

@@ -321,3 +321,24 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
     }
     out
 }
+
+/// An upper bound of the flux (W, any channel) the RSM layers can reflect: perspective layers
+/// see at most the solid angle of their frustum, (2 tan(half fov))^2, orthographic ones the area
+/// across the beam, texel area x side^2; albedo is taken as at most 4 (a margin over the
+/// physical 1 for unvalidated material factors).
+pub fn reflected_flux_bound(layers: &[RsmLayer]) -> f32 {
+    layers
+        .iter()
+        .map(|l| {
+            let radiant = l.radiant_face[0]
+                .max(l.radiant_face[1])
+                .max(l.radiant_face[2]);
+            let measure = if l.position_kind[3] > 1.5 {
+                l.axis_tan[3] * l.cone[2] * l.cone[2]
+            } else {
+                4.0 * l.axis_tan[3] * l.axis_tan[3]
+            };
+            4.0 * radiant.max(0.0) * measure
+        })
+        .sum()
+}

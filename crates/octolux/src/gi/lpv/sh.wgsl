@@ -31,12 +31,14 @@ struct Grids {
     gv_total: u32,
     // RSM injection stride (texels per VPL side)
     stride: u32,
-    _pad0: u32,
+    // G-buffer pixels per camera surfel side (see `inject_gv_camera`)
+    camera_stride: u32,
     gain: f32,
     damping: f32,
     // cascade blend width in cells
     blend: f32,
-    _pad1: f32,
+    // fixed-point scale of the injected light sums (a power of two chosen per frame)
+    light_scale: f32,
     grids: array<Grid, 8>,
 };
 
