@@ -1075,3 +1075,160 @@ fn lit_plane_lights_itself_and_fades_with_height() {
         );
     }
 }
+
+/// The Cornell box with its spot light, plus a point light (six RSM layers) and a sun.
+fn cornell_three_lights() -> octolux::scene::Scene {
+    use octolux::scene::LightKind;
+    let mut scene = octolux::scene::cornell::scene();
+    let spot = scene.lights[0].clone();
+    scene.lights.push(octolux::scene::Light {
+        name: "point".into(),
+        kind: LightKind::Point,
+        intensity: 0.3,
+        position: Vec3::new(0.35, 0.42, 0.25),
+        ..spot.clone()
+    });
+    scene.lights.push(octolux::scene::Light {
+        name: "sun".into(),
+        kind: LightKind::Directional,
+        intensity: 0.4,
+        direction: Vec3::new(0.3, -1.0, 0.5).normalize(),
+        ..spot
+    });
+    scene
+}
+
+#[test]
+fn injection_equals_the_cpu_twin_for_every_variant() {
+    // The fixed-point GPU injection against `inject_cpu` (the maths of the earlier
+    // float-atomic kernel, summed in f64) for every variant, with the camera geometry taken from
+    // every pixel (40x40) and from 3x3 blocks (600x200 > 256 samples per side).
+    // Tolerances: each light term is a handful of f32 operations whose rounding another compiler
+    // may change (< 1e-6 of its magnitude) plus one fixed-point rounding of 2^-58 of the light's
+    // flux; 2e-5 of the summed magnitudes bounds both with a margin. Camera surfels take their
+    // footprint from differences of neighbouring pixels' world positions, which cancels about
+    // three of f32's seven digits: 1e-3. Terms whose cell decision lies within 1e-3 cells of a
+    // boundary may land in a neighbour on another adapter: their magnitude is allowed on top.
+    use octolux::gi::lpv::inject_cpu::{self, CameraInput, GBufferInput};
+    let ctx = context();
+    let scene = cornell_three_lights();
+    for (w, h) in [(40, 40), (600, 200)] {
+        for technique in ["lpv", "clpv", "olpv"] {
+            let mut s = lpv_settings(technique, w, h);
+            s.gi_settings.lpv.iterations = 0;
+            s.gi_settings.clpv.iterations = 0;
+            s.gi_settings.olpv.iterations = 0;
+            s.gi_settings.lpv.rsm_stride = 4;
+            let mut r = Renderer::new(&ctx, &scene, s).unwrap();
+            r.render(&scene, 0.0).unwrap();
+            let lpv = r
+                .technique()
+                .as_any()
+                .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
+                .unwrap();
+            let grids = *lpv.last_grids().unwrap();
+            let gpu_light = lpv.read_accumulated(&ctx).unwrap();
+            let gpu_gv = lpv.read_geometry(&ctx).unwrap();
+            let rsm = lpv.read_rsm(&ctx).unwrap();
+            assert_eq!(rsm.len(), 8, "spot + 6 point faces + sun");
+            let gb = r.read_gbuffer().unwrap();
+            let view = r.last_view().unwrap();
+            let camera = CameraInput {
+                inv_view_proj: view.inv_view_proj,
+                position: view.position,
+                width: w,
+                height: h,
+            };
+            let cpu = inject_cpu::inject(
+                &grids,
+                gpu_light.len(),
+                &rsm,
+                &camera,
+                &GBufferInput {
+                    depth: &gb.depth,
+                    normal: &gb.normal,
+                },
+            );
+            let label = format!("{technique} at {w}x{h}");
+            let floor = |sums: &[f64]| sums.iter().fold(0.0f64, |a, &b| a.max(b)) * 1e-9;
+            let light_floor = floor(
+                &cpu.light
+                    .iter()
+                    .flat_map(|c| c.map(|s| s.magnitude))
+                    .collect::<Vec<_>>(),
+            );
+            let (mut lit, mut magnitude, mut slack) = (0, 0.0, 0.0);
+            // Only grids that receive light (olpv's coarser levels are downsampled from level 0
+            // before this buffer is read; `octree_downsample_index_and_merge_match_cpu` covers
+            // them).
+            let injected_cells = lpv
+                .layouts()
+                .iter()
+                .filter(|l| l.flags & octolux::gi::lpv::FLAG_INJECT != 0)
+                .map(|l| l.offset as usize..(l.offset + l.n * l.n * l.n) as usize)
+                .collect::<Vec<_>>();
+            for (i, (g, c)) in gpu_light.iter().zip(&cpu.light).enumerate() {
+                if !injected_cells.iter().any(|r| r.contains(&i)) {
+                    continue;
+                }
+                lit += (c[0].magnitude > 0.0) as usize;
+                magnitude += c[0].magnitude;
+                slack += c[0].slack;
+                for ch in 0..3 {
+                    for k in 0..4 {
+                        let s = c[ch * 4 + k];
+                        let tol = 2e-5 * s.magnitude + s.slack + light_floor;
+                        let diff = (g[ch][k] as f64 - s.value).abs();
+                        assert!(
+                            diff <= tol,
+                            "{label}: light cell {i} channel {ch} coefficient {k}: GPU {} CPU {} \
+                             (tolerance {tol:e})",
+                            g[ch][k],
+                            s.value
+                        );
+                    }
+                }
+            }
+            let gv_floor = 1e-9;
+            let mut blocked = 0;
+            for (i, g) in gpu_gv.iter().enumerate() {
+                let (a, b) = (&cpu.gv_rsm[i], &cpu.gv_camera[i]);
+                let close = |sums: &[inject_cpu::Sum; 4], rel: f64| {
+                    (0..4).all(|k| {
+                        let s = sums[k];
+                        (g[k] as f64 - s.value).abs() <= rel * s.magnitude + s.slack + gv_floor
+                    })
+                };
+                let ta = 2e-5 * a[0].magnitude + a[0].slack + gv_floor;
+                let tb = 1e-3 * b[0].magnitude + b[0].slack + gv_floor;
+                let ok = if (a[0].value - b[0].value).abs() > ta + tb {
+                    // The CPU's max-combination choice is clear: the GPU must agree.
+                    if b[0].value > a[0].value {
+                        close(b, 1e-3)
+                    } else {
+                        close(a, 2e-5)
+                    }
+                } else {
+                    close(a, 2e-5) || close(b, 1e-3)
+                };
+                blocked += (g[0] > 0.0) as usize;
+                assert!(
+                    ok,
+                    "{label}: geometry cell {i}: GPU {g:?} RSM {a:?} camera {b:?}"
+                );
+            }
+            let loose = slack / magnitude.max(1e-30);
+            println!(
+                "{label}: {lit} lit cells ({:.2}% of the light allowed to move by ambiguous \
+                 decisions), {blocked} blocking geometry cells, camera stride {}",
+                100.0 * loose,
+                grids.camera_stride
+            );
+            assert!(
+                lit >= 20 && blocked >= 50,
+                "{label}: the test sees real injection"
+            );
+            assert!(loose < 0.05, "{label}: almost all light is checked tightly");
+        }
+    }
+}

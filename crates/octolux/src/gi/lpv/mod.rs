@@ -16,6 +16,7 @@
 
 pub mod cascades;
 pub mod inject;
+pub mod inject_cpu;
 pub mod kernels;
 pub mod lookup;
 pub mod octree;
@@ -162,18 +163,27 @@ pub const FLAG_OCCLUSION: u32 = 1;
 /// Flag: the grid receives injected VPLs.
 pub const FLAG_INJECT: u32 = 2;
 
-/// `Grids` of `sh.wgsl`.
+/// `Grids` of `sh.wgsl`: every grid of a technique and the settings of injection and lookup.
 #[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-pub(crate) struct GpuGrids {
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuGrids {
+    /// Number of grids in use.
     pub count: u32,
+    /// Cells of all geometry volumes together.
     pub gv_total: u32,
+    /// RSM texels per VPL side.
     pub stride: u32,
+    /// G-buffer pixels per camera surfel side ([`inject::camera_stride`]).
     pub camera_stride: u32,
+    /// Scale of the indirect irradiance.
     pub gain: f32,
+    /// Damping at lookup.
     pub damping: f32,
+    /// Cascade blend width in cells.
     pub blend: f32,
+    /// Fixed-point scale of the injected light sums ([`inject::light_scale`]).
     pub light_scale: f32,
+    /// The grids, `count` of them in use.
     pub grids: [GpuGrid; MAX_GRIDS],
 }
 
@@ -312,6 +322,8 @@ pub struct LpvGi {
     /// Pipelines and bind groups, built on the first frame (they bind the G-buffer and the
     /// scene's raster layouts, which the renderer hands over per frame).
     passes: Option<Passes>,
+    /// The grids of the last frame.
+    last_grids: Option<GpuGrids>,
 }
 
 struct Passes {
@@ -436,6 +448,7 @@ impl LpvGi {
                 .then(|| octree::OctreeBuffers::new(ctx, owner, settings.olpv.size, cells)),
             output: lookup::Output::new(ctx, owner, width, height),
             passes: None,
+            last_grids: None,
             layouts,
             settings: s,
         })
@@ -500,6 +513,32 @@ impl LpvGi {
         kernels::read_cells(ctx, &self.volumes.acc, 0, self.volumes.cells)
     }
 
+    /// The grids and injection settings of the last frame (None before the first).
+    pub fn last_grids(&self) -> Option<&GpuGrids> {
+        self.last_grids.as_ref()
+    }
+
+    /// Reads the combined geometry volumes of the last frame (4 SH coefficients per cell, all
+    /// grids one after another).
+    pub fn read_geometry(&self, ctx: &GpuContext) -> Result<Vec<sh::Sh>> {
+        let bytes = crate::gpu::read_buffer(ctx, &self.volumes.gv, 0, self.gv_total as u64 * 16)?;
+        Ok(bytes
+            .chunks_exact(16)
+            .map(|c| {
+                std::array::from_fn(|k| {
+                    f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])
+                })
+            })
+            .collect())
+    }
+
+    /// Reads the reflective shadow maps of the last frame, one image per layer.
+    pub fn read_rsm(&self, ctx: &GpuContext) -> Result<Vec<rsm::RsmImage>> {
+        (0..self.rsm.layers)
+            .map(|layer| rsm::RsmImage::read(ctx, &self.rsm, layer))
+            .collect()
+    }
+
     /// The indirect-irradiance texture (`Rgba16Float`).
     pub fn indirect_texture(&self) -> &wgpu::Texture {
         &self.output.texture
@@ -552,6 +591,7 @@ impl GiTechnique for LpvGi {
         let placed = self.place(frame);
         let layers = rsm::rsm_layers(frame, self.rsm.size);
         let grids = self.gpu_grids(&placed, inject::light_scale(&layers));
+        self.last_grids = Some(grids);
         ctx.queue
             .write_buffer(&self.grids, 0, bytemuck::bytes_of(&grids));
         for (i, g) in placed.iter().enumerate() {

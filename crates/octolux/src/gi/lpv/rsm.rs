@@ -342,3 +342,48 @@ pub fn reflected_flux_bound(layers: &[RsmLayer]) -> f32 {
         })
         .sum()
 }
+
+/// One RSM layer read back to the CPU (row-major, `size`^2 texels), as the injection reads it.
+#[derive(Clone, Debug)]
+pub struct RsmImage {
+    /// Side in texels.
+    pub size: u32,
+    /// World position (xyz) and texel measure (w, 0 where nothing was rasterised).
+    pub position: Vec<[f32; 4]>,
+    /// Light-facing normal (xyz) and area / measure (w).
+    pub normal: Vec<[f32; 4]>,
+    /// Albedo x radiant intensity or irradiance (rgb).
+    pub flux: Vec<[f32; 4]>,
+}
+
+impl RsmImage {
+    /// Reads layer `layer` of `targets`.
+    pub fn read(ctx: &GpuContext, targets: &RsmTargets, layer: u32) -> crate::Result<RsmImage> {
+        let f32s = |bytes: Vec<u8>| -> Vec<[f32; 4]> {
+            bytes
+                .chunks_exact(16)
+                .map(|c| {
+                    std::array::from_fn(|k| {
+                        f32::from_le_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]])
+                    })
+                })
+                .collect()
+        };
+        let halves = |bytes: Vec<u8>| -> Vec<[f32; 4]> {
+            bytes
+                .chunks_exact(8)
+                .map(|c| {
+                    std::array::from_fn(|k| {
+                        crate::render::f16_to_f32(u16::from_le_bytes([c[2 * k], c[2 * k + 1]]))
+                    })
+                })
+                .collect()
+        };
+        Ok(RsmImage {
+            size: targets.size,
+            position: f32s(crate::gpu::read_texture(ctx, &targets.position, layer)?),
+            normal: halves(crate::gpu::read_texture(ctx, &targets.normal, layer)?),
+            flux: halves(crate::gpu::read_texture(ctx, &targets.flux, layer)?),
+        })
+    }
+}
