@@ -249,8 +249,11 @@ fn boundary_triangles() -> Vec<VoxelTriangle> {
             [7, 7, 7],
         ),
     ];
-    // Many tiny triangles around one voxel corner, offsets of 0, 1/32 and 1/16 voxel.
-    for (i, d) in [0.0f32, 1.0 / 32.0, 1.0 / 16.0].into_iter().enumerate() {
+    // Many tiny triangles around one voxel corner, offsets of 0, 1/128, 1/64 and 1/16 voxel.
+    for (i, d) in [0.0f32, 1.0 / 128.0, 1.0 / 64.0, 1.0 / 16.0]
+        .into_iter()
+        .enumerate()
+    {
         for s in [-1.0f32, 1.0] {
             let c = v(7.0 + s * d, 5.0 - s * d, 3.0 + d);
             tris.push(tri(

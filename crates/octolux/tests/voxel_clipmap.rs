@@ -383,7 +383,7 @@ fn emission_is_injected_as_the_mean_of_the_voxel_fragments() {
     emissive[1].emission = glow; // both halves
     let plain = quad(0.7003, 0.55, 0.8, [255, 255, 255], Vec3::ZERO);
     let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
-    // The pair keeps more than 3/32 voxel (the voxelizer's snapping margin) from the faces of
+    // The pair keeps more than 3/32 voxel (above the voxelizer's 3/128 snapping margin) from the faces of
     // its voxel on every level: x, z in [0.600, 0.609], y in [0.516, 0.527].
     let m = |x: f32, y: f32, z: f32| {
         v(

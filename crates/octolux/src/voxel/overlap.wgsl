@@ -37,8 +37,9 @@ struct VoxParams {
 
 // ---- Exact overlap on the snapping lattice (CPU twin: snap.rs) ------------------------------
 // Triangles reach the GPU snapped on the CPU to a lattice of SNAP steps per voxel edge and split
-// into pieces of at most 512 steps per axis, in coordinates relative to the box's first voxel.
-// Everything below is integer arithmetic whose intermediates stay below 2^30 in magnitude, so
+// into pieces of at most 2048 steps (32 voxels) per axis, in coordinates relative to the box's
+// first voxel. Everything below is integer arithmetic whose intermediates stay below
+// 1.7 x 10^9 in magnitude (bounds in snap.rs), so
 // no compiler choice (fused multiply-add, evaluation order) can change a decision: every
 // adapter and the CPU mark exactly the same voxels. A voxel's box is dilated by DILATE steps on
 // every side, which covers the snapping error: conservative for the original triangle.
@@ -51,9 +52,11 @@ struct Piece {
     c: vec4<i32>,
 }
 
-const SNAP: i32 = 16;
-const SNAP_SHIFT: u32 = 4u;
+const SNAP: i32 = 64;
+const SNAP_SHIFT: u32 = 6u;
 const DILATE: i32 = 1;
+// n . v0 (up to 2^36) is summed as (n >> NORMAL_SPLIT) . v0 x 2^NORMAL_SPLIT + (n & mask) . v0.
+const NORMAL_SPLIT: u32 = 12u;
 
 fn ceil_snap(x: i32) -> i32 {
     return -((-x) >> SNAP_SHIFT);
@@ -132,11 +135,16 @@ fn piece_test(p: Piece, first: vec3<i32>) -> PieceTest {
     s.e1 = v2 - v1;
     s.e2 = v0 - v2;
     s.n = cross_i(s.e0, s.e1);
-    let t = dot_i(s.n, v0);
+    // t = n . v0 = a 2^NORMAL_SPLIT + b; ceil((t - x) / SNAP) = a 2^(NORMAL_SPLIT - SNAP_SHIFT)
+    // + ceil((b - x) / SNAP), every term within i32.
+    let nh = s.n >> vec3<u32>(NORMAL_SPLIT);
+    let nl = s.n & vec3<i32>(4095); // 2^NORMAL_SPLIT - 1
+    let a = dot_i(nh, v0) << (NORMAL_SPLIT - SNAP_SHIFT);
+    let b = dot_i(nl, v0);
     let pos = dot_i(max(s.n, vec3<i32>(0)), vec3<i32>(1));
     let neg = dot_i(max(-s.n, vec3<i32>(0)), vec3<i32>(1));
-    s.n_range = vec2<i32>(ceil_snap(t - (SNAP + DILATE) * pos - DILATE * neg),
-                          floor_snap(t + DILATE * pos + (SNAP + DILATE) * neg));
+    s.n_range = vec2<i32>(a + ceil_snap(b - (SNAP + DILATE) * pos - DILATE * neg),
+                          a + floor_snap(b + DILATE * pos + (SNAP + DILATE) * neg));
     let r0 = edge_range(s.e0, v0, v1, v2);
     let r1 = edge_range(s.e1, v0, v1, v2);
     let r2 = edge_range(s.e2, v0, v1, v2);
