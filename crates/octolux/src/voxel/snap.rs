@@ -123,9 +123,9 @@ pub fn snap_triangle(
     // Pieces whose bounding box keeps more than DILATE + 1/2 steps away from the box cannot
     // touch a dilated voxel of it once snapped.
     let reach = DILATE as f64 + 1.0;
-    let box_lo = (region.lo * SNAP).as_dvec3() - DVec3::splat(reach);
-    let box_hi = (region.hi * SNAP).as_dvec3() + DVec3::splat(reach);
-    let offset = (region.lo.as_i64vec3()) * SNAP as i64;
+    let offset = region.lo.as_i64vec3() * SNAP as i64;
+    let box_lo = offset.as_dvec3() - DVec3::splat(reach);
+    let box_hi = (region.hi.as_i64vec3() * SNAP as i64).as_dvec3() + DVec3::splat(reach);
     // Depth first, first half first; most triangles need no split (and no allocation).
     let mut stack = Vec::new();
     let mut next = Some(v);
