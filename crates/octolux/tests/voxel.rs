@@ -157,6 +157,184 @@ fn voxelization_equals_cpu_conservative_rasteriser() {
     }
 }
 
+/// Triangles on voxel faces, edges and corners, and near them (see
+/// [`boundary_configurations_equal_cpu_exactly`]); triangle 12 is much larger than the grid.
+fn boundary_triangles() -> Vec<VoxelTriangle> {
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) / 16.0;
+    let mut tris = vec![
+        // In the face plane z = 4, corners on voxel corners and inside voxels.
+        tri(
+            v(2.0, 2.0, 4.0),
+            v(6.0, 2.0, 4.0),
+            v(2.0, 6.0, 4.0),
+            [10, 20, 30],
+        ),
+        tri(
+            v(2.5, 2.5, 4.0),
+            v(5.5, 2.5, 4.0),
+            v(2.5, 5.5, 4.0),
+            [10, 20, 30],
+        ),
+        // An edge along a voxel edge line, and a plane through voxel corners (x + y = 8).
+        tri(
+            v(3.0, 3.0, 1.0),
+            v(3.0, 3.0, 7.0),
+            v(6.0, 5.0, 4.0),
+            [40, 50, 60],
+        ),
+        tri(
+            v(2.0, 6.0, 9.0),
+            v(6.0, 2.0, 9.0),
+            v(4.0, 4.0, 13.0),
+            [40, 50, 60],
+        ),
+        // Vertices on corners only; a point on a corner; a segment along a voxel edge.
+        tri(
+            v(8.0, 8.0, 8.0),
+            v(10.0, 9.0, 8.0),
+            v(9.0, 10.0, 11.0),
+            [70, 80, 90],
+        ),
+        tri(
+            v(12.0, 12.0, 12.0),
+            v(12.0, 12.0, 12.0),
+            v(12.0, 12.0, 12.0),
+            [1, 1, 1],
+        ),
+        tri(
+            v(1.0, 13.0, 2.0),
+            v(1.0, 13.0, 6.0),
+            v(1.0, 13.0, 4.0),
+            [2, 2, 2],
+        ),
+        // On the grid's outer faces.
+        tri(
+            v(0.0, 0.0, 0.0),
+            v(16.0, 0.0, 0.0),
+            v(0.0, 0.0, 16.0),
+            [3, 3, 3],
+        ),
+        tri(
+            v(16.0, 3.0, 3.0),
+            v(16.0, 9.0, 3.0),
+            v(16.0, 3.0, 9.0),
+            [3, 3, 3],
+        ),
+        // Decimal coordinates close to (not on) lattice lines: the emissive triangle whose
+        // hypotenuse x + z = 12.8 + 3.2 passes a hair from voxel edges, the degenerate
+        // (collinear) triangle and the slanted triangle of the octree tests.
+        tri(
+            Vec3::new(0.2, 0.53, 0.2),
+            Vec3::new(0.8, 0.53, 0.2),
+            Vec3::new(0.2, 0.53, 0.8),
+            [4, 4, 4],
+        ),
+        tri(
+            Vec3::new(0.21, 0.22, 0.23),
+            Vec3::new(0.61, 0.52, 0.43),
+            Vec3::new(0.41, 0.37, 0.33),
+            [5, 5, 5],
+        ),
+        tri(
+            Vec3::new(0.3, 0.2, 0.4),
+            Vec3::new(0.7, 0.8, 0.5),
+            Vec3::new(0.4, 0.6, 0.8),
+            [6, 6, 6],
+        ),
+        // A triangle much larger than the grid (split into pieces on the CPU).
+        tri(
+            Vec3::new(-30.0, 0.4, -20.0),
+            Vec3::new(40.0, 0.45, -25.0),
+            Vec3::new(5.0, 0.5, 60.0),
+            [7, 7, 7],
+        ),
+    ];
+    // Many tiny triangles around one voxel corner, offsets of 0, 1/128, 1/64 and 1/16 voxel.
+    for (i, d) in [0.0f32, 1.0 / 128.0, 1.0 / 64.0, 1.0 / 16.0]
+        .into_iter()
+        .enumerate()
+    {
+        for s in [-1.0f32, 1.0] {
+            let c = v(7.0 + s * d, 5.0 - s * d, 3.0 + d);
+            tris.push(tri(
+                c,
+                c + v(0.01, 0.0, 0.0),
+                c + v(0.0, 0.01, 0.02),
+                [8, 8, i as u8],
+            ));
+        }
+    }
+    tris
+}
+
+/// Configurations that a float overlap test decides by rounding (and that a GPU compiler's
+/// fused multiply-adds decided differently from the CPU): triangles in voxel face planes, edges
+/// through voxel edges and corners, vertices on corners, degenerate triangles, planes touching
+/// corners, and the same with world coordinates that are not exact in binary. The integer test
+/// on the snapping lattice must give exactly the CPU's fragments on every adapter.
+#[test]
+fn boundary_configurations_equal_cpu_exactly() {
+    let ctx = context();
+    let tris = boundary_triangles();
+    for res in [16, 32] {
+        let grid = unit_grid(res);
+        let gpu = gpu_fragments(&ctx, &grid, &tris);
+        let reference = cpu::voxelize(&grid, &tris);
+        assert_same(&gpu, &reference, &format!("{res}^3"));
+        // Coverage of everything but the triangle larger than the grid (whose points outside the
+        // grid `assert_covers` would clamp to the border).
+        let marked: BTreeSet<[u32; 3]> = gpu.iter().filter(|f| f.1 != 12).map(|f| f.0).collect();
+        let inside: Vec<VoxelTriangle> = [&tris[..12], &tris[13..]].concat();
+        assert_covers(&grid, &inside, &marked);
+        let of = |t: u32| -> BTreeSet<[u32; 3]> {
+            gpu.iter().filter(|f| f.1 == t).map(|f| f.0).collect()
+        };
+        if res == 16 {
+            // A triangle in a face plane marks both layers; a point on a corner its 8 voxels.
+            assert!(of(0).iter().any(|c| c[2] == 3) && of(0).iter().any(|c| c[2] == 4));
+            assert_eq!(of(5).len(), 8);
+        }
+    }
+}
+
+/// The clipmap's voxelization of the boundary configurations equals the CPU twin bit for bit
+/// (albedo and emission) on every level, and a rebuild after a move equals an update.
+#[test]
+fn clipmap_boundary_configurations_equal_cpu_exactly() {
+    use octolux::gpu::PassTimer;
+    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
+    let ctx = context();
+    let tris = with_emission(boundary_triangles());
+    let settings = ClipmapSettings {
+        resolution: 16,
+        levels: 3,
+        voxel_size: 1.0 / 32.0,
+    };
+    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    for centre in [Vec3::splat(0.5), Vec3::new(0.59, 0.43, 0.5)] {
+        clipmap.update(&ctx, &mut timer, &tris, centre).unwrap();
+        timer.finish_frame().unwrap();
+        let origins: Vec<_> = clipmap.origins.iter().map(|o| o.unwrap()).collect();
+        let voxels = clipmap.read_voxels(&ctx).unwrap();
+        assert!(voxels.iter().filter(|&&v| v != 0).count() > 100);
+        let reference = cpu::clipmap_voxels(&settings, &origins, &tris);
+        let wrong = voxels
+            .iter()
+            .zip(&reference)
+            .filter(|(x, y)| x != y)
+            .count();
+        assert_eq!(
+            wrong, 0,
+            "{wrong} clipmap voxels differ from the CPU reference"
+        );
+        assert_eq!(
+            clipmap.read_emission(&ctx).unwrap(),
+            cpu::clipmap_emission(&settings, &origins, &tris)
+        );
+    }
+}
+
 #[test]
 fn thin_geometry_is_fully_covered() {
     let ctx = context();

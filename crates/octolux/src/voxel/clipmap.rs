@@ -23,7 +23,10 @@
 //! back from the finer level along each axis. Sampling with blending by distance to a level's
 //! border and with directional values: [`super::clipmap_sample`].
 
-use super::voxelize::{bind_buffers, dispatch, upload_triangles, work_items, OVERLAP_WGSL};
+use super::snap::{snap_triangles, SnapRegion};
+use super::voxelize::{
+    bind_buffers, dispatch, upload_pieces, upload_triangles, work_items, OVERLAP_WGSL,
+};
 use super::VoxelTriangle;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::{Error, Result};
@@ -535,13 +538,18 @@ impl Clipmap {
                 if part.volume() == 0 {
                     continue;
                 }
-                let inv = 1.0 / self.settings.level_voxel(part.level);
-                let items = work_items(tris, Vec3::ZERO, inv, part.lo, part.hi);
-                item_bytes = item_bytes.max(items.len() as u64 * 8);
+                let region = SnapRegion {
+                    origin: Vec3::ZERO,
+                    voxel_size: self.settings.level_voxel(part.level),
+                    lo: part.lo,
+                    hi: part.hi,
+                };
+                let pieces = snap_triangles(&region, tris);
+                let items = work_items(&pieces, region.size());
+                item_bytes = item_bytes.max(items.len() as u64 * 8 + pieces.len() as u64 * 48);
                 let params = super::voxelize::VoxParams {
                     lo: part.lo.extend(0).to_array(),
                     hi: part.hi.extend(0).to_array(),
-                    origin: [0.0, 0.0, 0.0, inv],
                     misc: [
                         items.len() as u32,
                         (part.level as u64 * res * res * res) as u32,
@@ -561,6 +569,7 @@ impl Clipmap {
                     bytemuck::cast_slice(&items),
                     wgpu::BufferUsages::STORAGE,
                 );
+                let pieces_buffer = upload_pieces(ctx, OWNER, &pieces);
                 let name = format!("clipmap L{}", part.level);
                 let group = bind_buffers(
                     ctx,
@@ -570,6 +579,7 @@ impl Clipmap {
                         (1, &triangles),
                         (2, &items_buffer),
                         (3, &self.accum),
+                        (8, &pieces_buffer),
                     ],
                 );
                 dispatch(
@@ -601,6 +611,7 @@ impl Clipmap {
             }
         }
         ctx.ledger.record(OWNER, "work items", item_bytes);
+        ctx.ledger.record(OWNER, "triangle pieces", 0);
         if self.options.filters() {
             self.filter_levels(ctx, timer, boxes);
         }

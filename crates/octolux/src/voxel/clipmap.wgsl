@@ -20,6 +20,8 @@ const ACCUM_WORDS: u32 = 13u;
 @group(0) @binding(6) var<storage, read_write> normals: array<u32>;
 // Per voxel: mean emission, RGB9E5 (same slots as `voxels`).
 @group(0) @binding(7) var<storage, read_write> emission: array<u32>;
+// The triangles snapped to the box's lattice (`Piece`, see overlap.wgsl); items[w].x indexes it.
+@group(0) @binding(8) var<storage, read> pieces: array<Piece>;
 
 // Adds `v` to the 64-bit sum in words (lo, hi). The high word counts the wraps of the low
 // one, so the total does not depend on the order of the additions (a voxel of a coarse level
@@ -67,19 +69,17 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     if w >= P.misc.x {
         return;
     }
-    let t = items[w].x;
-    let tri = tris[t];
-    let a = to_grid(tri.p0.xyz, P.origin);
-    let b = to_grid(tri.p1.xyz, P.origin);
-    let c = to_grid(tri.p2.xyz, P.origin);
-    let range = tri_cells(a, b, c, P.lo.xyz, P.hi.xyz);
+    let piece = pieces[items[w].x];
+    let tri = tris[u32(piece.a.w)];
+    let size = box_size();
+    let range = piece_cells(piece, vec3<i32>(size));
+    let test = piece_test(piece, range[0]);
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
     let albedo = bitcast<u32>(tri.p0.w);
-    let size = box_size();
     for (var i = items[w].y * CHUNK; i < cells; i++) {
-        let cell = nth_cell(range, i);
-        if tri_box_overlap(a, b, c, cell) {
-            let l = vec3<u32>(cell - P.lo.xyz);
+        let off = nth_offset(range, i);
+        if piece_touches(test, off) {
+            let l = vec3<u32>(range[0] + off);
             let k = ACCUM_WORDS * (l.x + size.x * (l.y + size.y * l.z));
             atomicAdd(&accum[k], albedo & 255u);
             atomicAdd(&accum[k + 1u], (albedo >> 8u) & 255u);

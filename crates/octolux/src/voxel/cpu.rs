@@ -1,11 +1,13 @@
 //! CPU reference implementations of the voxel kernels, written for clarity; the tests compare
 //! the GPU structures with them.
 
+use super::snap::{piece_voxels, snap_triangles, SnapRegion};
 use super::{VoxelGrid, VoxelTriangle};
 use glam::{IVec3, Vec3, Vec4};
 use std::collections::{BTreeMap, BTreeSet};
 
-/// Grid coordinates of `p`: the same two f32 operations per axis as `to_grid` in WGSL.
+/// Grid coordinates of `p` in `f32` (for tests that sample the geometry; the voxelizer snaps in
+/// `f64`, [`super::snap`]).
 pub fn to_grid(p: Vec3, grid: &VoxelGrid) -> Vec3 {
     let inv = 1.0 / grid.voxel_size;
     Vec3::new(
@@ -15,69 +17,24 @@ pub fn to_grid(p: Vec3, grid: &VoxelGrid) -> Vec3 {
     )
 }
 
-fn dot3(a: Vec3, b: Vec3) -> f32 {
-    a.x * b.x + a.y * b.y + a.z * b.z
-}
-
-fn separated(axis: Vec3, v: [Vec3; 3]) -> bool {
-    let p = v.map(|v| dot3(axis, v));
-    let r = 0.5 * (axis.x.abs() + axis.y.abs() + axis.z.abs());
-    p[0].min(p[1]).min(p[2]) > r || p[0].max(p[1]).max(p[2]) < -r
-}
-
-fn edge_separates(e: Vec3, v: [Vec3; 3]) -> bool {
-    separated(Vec3::new(0.0, -e.z, e.y), v)
-        || separated(Vec3::new(e.z, 0.0, -e.x), v)
-        || separated(Vec3::new(-e.y, e.x, 0.0), v)
-}
-
-/// Exact overlap of a triangle (grid coordinates) with the closed unit voxel `cell`, by the
-/// separating axis theorem: 3 box normals, the triangle normal and the 9 edge cross products.
-pub fn tri_box_overlap(a: Vec3, b: Vec3, c: Vec3, cell: IVec3) -> bool {
-    let centre = cell.as_vec3() + Vec3::splat(0.5);
-    let v = [a - centre, b - centre, c - centre];
-    let mn = v[0].min(v[1]).min(v[2]);
-    let mx = v[0].max(v[1]).max(v[2]);
-    if mn.cmpgt(Vec3::splat(0.5)).any() || mx.cmplt(Vec3::splat(-0.5)).any() {
-        return false;
-    }
-    let e0 = v[1] - v[0];
-    let e1 = v[2] - v[1];
-    let e2 = v[0] - v[2];
-    let n = Vec3::new(
-        e0.y * e1.z - e0.z * e1.y,
-        e0.z * e1.x - e0.x * e1.z,
-        e0.x * e1.y - e0.y * e1.x,
-    );
-    if separated(n, [v[0]; 3]) {
-        return false;
-    }
-    !(edge_separates(e0, v) || edge_separates(e1, v) || edge_separates(e2, v))
-}
-
-/// The voxel fragment list the GPU voxelizer produces, in the same order: per triangle, the
-/// touched voxels of its bounding box in z, y, x loop order.
+/// The voxel fragment list the GPU voxelizer produces, in the same order: per snapped piece
+/// of each triangle ([`snap_triangles`]), the touched voxels of its cell range in z, y, x loop
+/// order, by the same integer test ([`super::snap::PieceTest`]).
 pub fn voxelize(grid: &VoxelGrid, tris: &[VoxelTriangle]) -> Vec<([u32; 3], u32)> {
-    let res = grid.resolution as i32;
-    let mut out = Vec::new();
-    for (t, tri) in tris.iter().enumerate() {
-        let [a, b, c] = tri.positions.map(|p| to_grid(p, grid));
-        let big = Vec3::splat(1.0e6);
-        let mn = a.min(b).min(c).clamp(-big, big);
-        let mx = a.max(b).max(c).clamp(-big, big);
-        let first = (mn.ceil().as_ivec3() - IVec3::ONE).max(IVec3::ZERO);
-        let last = mx.floor().as_ivec3().min(IVec3::splat(res - 1));
-        for z in first.z..=last.z {
-            for y in first.y..=last.y {
-                for x in first.x..=last.x {
-                    if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
-                        out.push(([x as u32, y as u32, z as u32], t as u32));
-                    }
-                }
-            }
-        }
-    }
-    out
+    let region = SnapRegion {
+        origin: grid.origin,
+        voxel_size: grid.voxel_size,
+        lo: IVec3::ZERO,
+        hi: IVec3::splat(grid.resolution as i32),
+    };
+    snap_triangles(&region, tris)
+        .iter()
+        .flat_map(|p| {
+            piece_voxels(p, region.size())
+                .into_iter()
+                .map(move |v| (v.as_uvec3().to_array(), p.triangle))
+        })
+        .collect()
 }
 
 /// Premultiplied albedo and opacity of every occupied voxel: the mean of the albedo of the
@@ -259,29 +216,23 @@ fn clipmap_sums(
     let res = settings.resolution as i32;
     let mut out = Vec::new();
     for (l, &origin) in origins.iter().enumerate() {
-        let inv = 1.0 / settings.level_voxel(l as u32);
+        let region = SnapRegion {
+            origin: Vec3::ZERO,
+            voxel_size: settings.level_voxel(l as u32),
+            lo: origin,
+            hi: origin + IVec3::splat(res),
+        };
         let mut sums: BTreeMap<[i32; 3], ClipSums> = BTreeMap::new();
-        for tri in tris {
-            let [a, b, c] = tri.positions.map(|p| (p - Vec3::ZERO) * inv);
-            let big = Vec3::splat(1.0e6);
-            let mn = a.min(b).min(c).clamp(-big, big);
-            let mx = a.max(b).max(c).clamp(-big, big);
-            let first = (mn.ceil().as_ivec3() - IVec3::ONE).max(origin);
-            let last = mx.floor().as_ivec3().min(origin + IVec3::splat(res - 1));
-            for z in first.z..=last.z {
-                for y in first.y..=last.y {
-                    for x in first.x..=last.x {
-                        if tri_box_overlap(a, b, c, IVec3::new(x, y, z)) {
-                            let s = sums.entry([x, y, z]).or_default();
-                            for (sum, a) in s.albedo.iter_mut().zip(tri.albedo) {
-                                *sum += a as u32;
-                            }
-                            s.albedo[3] += 1;
-                            for (sum, e) in s.emission.iter_mut().zip(tri.emission.to_array()) {
-                                *sum += super::clipmap::emission_fixed(e) as u64;
-                            }
-                        }
-                    }
+        for piece in snap_triangles(&region, tris) {
+            let tri = &tris[piece.triangle as usize];
+            for v in piece_voxels(&piece, region.size()) {
+                let s = sums.entry((v + origin).to_array()).or_default();
+                for (sum, a) in s.albedo.iter_mut().zip(tri.albedo) {
+                    *sum += a as u32;
+                }
+                s.albedo[3] += 1;
+                for (sum, e) in s.emission.iter_mut().zip(tri.emission.to_array()) {
+                    *sum += super::clipmap::emission_fixed(e) as u64;
                 }
             }
         }
@@ -606,38 +557,6 @@ fn weight(o: i32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn overlap_is_closed_and_exact() {
-        let c = IVec3::new(2, 3, 4);
-        // Touching a corner counts; a hair further does not.
-        let t = |d: f32| {
-            let p = Vec3::new(3.0 + d, 4.0 + d, 5.0 + d);
-            tri_box_overlap(
-                p,
-                p + Vec3::new(1.0, 2.0, 1.0),
-                p + Vec3::new(2.0, 0.5, 1.0),
-                c,
-            )
-        };
-        assert!(t(0.0));
-        assert!(!t(1e-3));
-        // A plane through the box diagonal, whose vertices are all far outside the box.
-        let a = Vec3::new(-10.0, -10.0, 4.5);
-        assert!(tri_box_overlap(
-            a,
-            Vec3::new(20.0, -10.0, 4.5),
-            Vec3::new(-10.0, 20.0, 4.5),
-            c
-        ));
-        // A triangle whose bounding box overlaps but which passes beside the box.
-        assert!(!tri_box_overlap(
-            Vec3::new(0.0, 0.0, 4.5),
-            Vec3::new(3.0, 0.0, 4.5),
-            Vec3::new(0.0, 3.0, 4.5),
-            c
-        ));
-    }
 
     #[test]
     fn mip_filter_preserves_a_full_lattice() {

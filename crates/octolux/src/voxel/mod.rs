@@ -1,9 +1,11 @@
 //! Voxel scene representations that cone tracing, VPL visibility and probe placement stand on
 //! (Arnebäck 2017, chapters 3 and 4):
 //!
-//! - [`voxelize`]: a conservative compute-shader voxelizer (exact triangle/box overlap by the
-//!   separating axis theorem; no geometry shaders), producing a voxel fragment list or filling a
-//!   dense region directly. Deterministic: every accumulation is an integer atomic sum.
+//! - [`voxelize`]: a conservative compute-shader voxelizer (no geometry shaders), producing a
+//!   voxel fragment list or filling a dense region directly. Triangles are snapped to a
+//!   fixed-point lattice on the CPU and tested against the voxels in integer arithmetic
+//!   ([`snap`]), so every adapter marks exactly the voxels the CPU reference marks.
+//!   Deterministic: every accumulation is an integer atomic sum.
 //! - [`svo`]: a sparse voxel octree built level by level on the GPU (flag, subdivide/allocate
 //!   with an atomic counter, neighbour links) with a 3x3x3 corner-sampled brick pool, neighbour
 //!   transfer and bottom-up mipmapping; [`svo_dynamic`] gives it a static part built once and
@@ -28,6 +30,7 @@ pub mod clipmap_sample;
 pub mod cpu;
 pub mod debug;
 pub mod sample;
+pub mod snap;
 pub mod svo;
 pub mod svo_aniso;
 pub mod svo_dynamic;

@@ -1,5 +1,6 @@
 // Shared by every voxelization kernel: the triangle layout, the region parameters and the exact
-// triangle/box overlap test (separating axis theorem, closed boxes: touching counts).
+// integer triangle/box overlap test on the snapping lattice (separating axis theorem, closed
+// dilated boxes: touching counts).
 
 struct Tri {
     p0: vec4<f32>,
@@ -27,70 +28,151 @@ fn fragment_sum_terms(tri: Tri) -> array<u32, 10> {
     return t;
 }
 
-// A box of voxels [lo, hi) of a grid whose voxel (0,0,0) starts at `origin.xyz` and whose voxels
-// have edge 1 / origin.w; misc.x = triangle count, misc.y/z/w are kernel specific.
+// A box of voxels [lo, hi) of a grid; misc.x = work items, misc.y/z/w are kernel specific.
 struct VoxParams {
     lo: vec4<i32>,
     hi: vec4<i32>,
-    origin: vec4<f32>,
     misc: vec4<u32>,
 }
 
-// Grid coordinates of a world position; the CPU reference does the same two operations.
-fn to_grid(p: vec3<f32>, origin: vec4<f32>) -> vec3<f32> {
-    return (p - origin.xyz) * origin.w;
+// ---- Exact overlap on the snapping lattice (CPU twin: snap.rs) ------------------------------
+// Triangles reach the GPU snapped on the CPU to a lattice of SNAP steps per voxel edge and split
+// into pieces of at most 2048 steps (32 voxels) per axis, in coordinates relative to the box's
+// first voxel. Everything below is integer arithmetic whose intermediates stay below
+// 1.7 x 10^9 in magnitude (bounds in snap.rs), so
+// no compiler choice (fused multiply-add, evaluation order) can change a decision: every
+// adapter and the CPU mark exactly the same voxels. A voxel's box is dilated by DILATE steps on
+// every side, which covers the snapping error: conservative for the original triangle.
+
+// A snapped triangle or piece of one: vertices in lattice steps relative to the corner of the
+// box's first voxel; a.w = the triangle's index.
+struct Piece {
+    a: vec4<i32>,
+    b: vec4<i32>,
+    c: vec4<i32>,
 }
 
-fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+const SNAP: i32 = 64;
+const SNAP_SHIFT: u32 = 6u;
+const DILATE: i32 = 1;
+// n . v0 (up to 2^36) is summed as (n >> NORMAL_SPLIT) . v0 x 2^NORMAL_SPLIT + (n & mask) . v0.
+const NORMAL_SPLIT: u32 = 12u;
+
+fn ceil_snap(x: i32) -> i32 {
+    return -((-x) >> SNAP_SHIFT);
+}
+
+fn floor_snap(x: i32) -> i32 {
+    return x >> SNAP_SHIFT;
+}
+
+fn ceil_snap3(x: vec3<i32>) -> vec3<i32> {
+    return -((-x) >> vec3<u32>(SNAP_SHIFT));
+}
+
+fn floor_snap3(x: vec3<i32>) -> vec3<i32> {
+    return x >> vec3<u32>(SNAP_SHIFT);
+}
+
+fn cross_i(a: vec3<i32>, b: vec3<i32>) -> vec3<i32> {
+    return a.yzx * b.zxy - a.zxy * b.yzx;
+}
+
+fn dot_i(a: vec3<i32>, b: vec3<i32>) -> i32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
-// True if the projections of the triangle and the box on `axis` are disjoint.
-fn separated(axis: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) -> bool {
-    let p0 = dot3(axis, v0);
-    let p1 = dot3(axis, v1);
-    let p2 = dot3(axis, v2);
-    let r = 0.5 * (abs(axis.x) + abs(axis.y) + abs(axis.z));
-    return min(min(p0, p1), p2) > r || max(max(p0, p1), p2) < -r;
-}
-
-fn edge_separates(e: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) -> bool {
-    return separated(vec3<f32>(0.0, -e.z, e.y), v0, v1, v2)
-        || separated(vec3<f32>(e.z, 0.0, -e.x), v0, v1, v2)
-        || separated(vec3<f32>(-e.y, e.x, 0.0), v0, v1, v2);
-}
-
-// Exact overlap of triangle (a, b, c) (grid coordinates) with the closed voxel `cell`.
-fn tri_box_overlap(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, cell: vec3<i32>) -> bool {
-    let centre = vec3<f32>(cell) + vec3<f32>(0.5);
-    let v0 = a - centre;
-    let v1 = b - centre;
-    let v2 = c - centre;
-    let mn = min(min(v0, v1), v2);
-    let mx = max(max(v0, v1), v2);
-    if any(mn > vec3<f32>(0.5)) || any(mx < vec3<f32>(-0.5)) {
-        return false;
-    }
-    let e0 = v1 - v0;
-    let e1 = v2 - v1;
-    let e2 = v0 - v2;
-    let n = vec3<f32>(e0.y * e1.z - e0.z * e1.y, e0.z * e1.x - e0.x * e1.z, e0.x * e1.y - e0.y * e1.x);
-    if separated(n, v0, v0, v0) {
-        return false;
-    }
-    return !(edge_separates(e0, v0, v1, v2) || edge_separates(e1, v0, v1, v2)
-        || edge_separates(e2, v0, v1, v2));
-}
-
-// Voxels [first, last] (inclusive) that the triangle's bounding box touches, clipped to the
-// region; empty when last < first on some axis.
-fn tri_cells(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, lo: vec3<i32>, hi: vec3<i32>) -> array<vec3<i32>, 2> {
-    let big = vec3<f32>(1.0e6);
-    let mn = clamp(min(min(a, b), c), -big, big);
-    let mx = clamp(max(max(a, b), c), -big, big);
-    let first = max(vec3<i32>(ceil(mn)) - vec3<i32>(1), lo);
-    let last = min(vec3<i32>(floor(mx)), hi - vec3<i32>(1));
+// Voxels [first, last] (inclusive, relative to the box's first voxel) whose dilated boxes the
+// piece's bounding box touches, clipped to [0, size); empty when last < first on some axis.
+fn piece_cells(p: Piece, size: vec3<i32>) -> array<vec3<i32>, 2> {
+    let mn = min(min(p.a.xyz, p.b.xyz), p.c.xyz);
+    let mx = max(max(p.a.xyz, p.b.xyz), p.c.xyz);
+    let first = max(ceil_snap3(mn - vec3<i32>(SNAP + DILATE)), vec3<i32>(0));
+    let last = min(floor_snap3(mx + vec3<i32>(DILATE)), size - vec3<i32>(1));
     return array<vec3<i32>, 2>(first, last);
+}
+
+// The separating-axis test of a piece, set up once per work item: per axis a, the range of
+// a . l (l = voxel offset from the range's first voxel) where the projections overlap,
+// ceil((tmin - bmax) / SNAP) ..= floor((tmax - bmin) / SNAP). Per voxel: one dot product (the
+// triangle normal) and one cross product per edge (the axes edge x unit axis); the box normals
+// are the cell range.
+struct PieceTest {
+    n: vec3<i32>,
+    n_range: vec2<i32>,
+    e0: vec3<i32>,
+    e1: vec3<i32>,
+    e2: vec3<i32>,
+    lo0: vec3<i32>,
+    hi0: vec3<i32>,
+    lo1: vec3<i32>,
+    hi1: vec3<i32>,
+    lo2: vec3<i32>,
+    hi2: vec3<i32>,
+}
+
+// Ranges of cross(e, l) for the three axes (0, -e.z, e.y), (e.z, 0, -e.x), (-e.y, e.x, 0).
+fn edge_range(e: vec3<i32>, v0: vec3<i32>, v1: vec3<i32>, v2: vec3<i32>) -> array<vec3<i32>, 2> {
+    let p0 = cross_i(e, v0);
+    let p1 = cross_i(e, v1);
+    let p2 = cross_i(e, v2);
+    let ep = max(e, vec3<i32>(0));
+    let en = max(-e, vec3<i32>(0));
+    let pos = en.zxy + ep.yzx;
+    let neg = ep.zxy + en.yzx;
+    let lo = ceil_snap3(min(min(p0, p1), p2) - (SNAP + DILATE) * pos - DILATE * neg);
+    let hi = floor_snap3(max(max(p0, p1), p2) + DILATE * pos + (SNAP + DILATE) * neg);
+    return array<vec3<i32>, 2>(lo, hi);
+}
+
+fn piece_test(p: Piece, first: vec3<i32>) -> PieceTest {
+    let o = first * SNAP;
+    let v0 = p.a.xyz - o;
+    let v1 = p.b.xyz - o;
+    let v2 = p.c.xyz - o;
+    var s: PieceTest;
+    s.e0 = v1 - v0;
+    s.e1 = v2 - v1;
+    s.e2 = v0 - v2;
+    s.n = cross_i(s.e0, s.e1);
+    // t = n . v0 = a 2^NORMAL_SPLIT + b; ceil((t - x) / SNAP) = a 2^(NORMAL_SPLIT - SNAP_SHIFT)
+    // + ceil((b - x) / SNAP), every term within i32.
+    let nh = s.n >> vec3<u32>(NORMAL_SPLIT);
+    let nl = s.n & vec3<i32>(4095); // 2^NORMAL_SPLIT - 1
+    let a = dot_i(nh, v0) << (NORMAL_SPLIT - SNAP_SHIFT);
+    let b = dot_i(nl, v0);
+    let pos = dot_i(max(s.n, vec3<i32>(0)), vec3<i32>(1));
+    let neg = dot_i(max(-s.n, vec3<i32>(0)), vec3<i32>(1));
+    s.n_range = vec2<i32>(a + ceil_snap(b - (SNAP + DILATE) * pos - DILATE * neg),
+                          a + floor_snap(b + DILATE * pos + (SNAP + DILATE) * neg));
+    let r0 = edge_range(s.e0, v0, v1, v2);
+    let r1 = edge_range(s.e1, v0, v1, v2);
+    let r2 = edge_range(s.e2, v0, v1, v2);
+    s.lo0 = r0[0];
+    s.hi0 = r0[1];
+    s.lo1 = r1[0];
+    s.hi1 = r1[1];
+    s.lo2 = r2[0];
+    s.hi2 = r2[1];
+    return s;
+}
+
+// Whether the piece touches the dilated voxel at offset l from the range's first voxel.
+fn piece_touches(s: PieceTest, l: vec3<i32>) -> bool {
+    let d = dot_i(s.n, l);
+    if d < s.n_range.x || d > s.n_range.y {
+        return false;
+    }
+    let c0 = cross_i(s.e0, l);
+    if any(c0 < s.lo0) || any(c0 > s.hi0) {
+        return false;
+    }
+    let c1 = cross_i(s.e1, l);
+    if any(c1 < s.lo1) || any(c1 > s.hi1) {
+        return false;
+    }
+    let c2 = cross_i(s.e2, l);
+    return all(c2 >= s.lo2) && all(c2 <= s.hi2);
 }
 
 // Linear invocation index over a 2D dispatch of 64-wide workgroups.
@@ -101,7 +183,7 @@ fn linear_index(wg: vec3<u32>, nwg: vec3<u32>, local: u32) -> u32 {
 // Bounding-box voxels visited by one work item.
 const CHUNK: u32 = 4096u;
 
-// Number of voxels in an inclusive range from `tri_cells` (0 when empty).
+// Number of voxels in an inclusive range from `piece_cells` (0 when empty).
 fn cell_count(range: array<vec3<i32>, 2>) -> u32 {
     let size = range[1] - range[0] + vec3<i32>(1);
     if any(size <= vec3<i32>(0)) {
@@ -110,11 +192,12 @@ fn cell_count(range: array<vec3<i32>, 2>) -> u32 {
     return u32(size.x) * u32(size.y) * u32(size.z);
 }
 
-// The i-th voxel of an inclusive range, x fastest (the CPU reference's loop order).
-fn nth_cell(range: array<vec3<i32>, 2>, i: u32) -> vec3<i32> {
+// Offset from the range's first voxel of its i-th voxel, x fastest (the CPU reference's loop
+// order).
+fn nth_offset(range: array<vec3<i32>, 2>, i: u32) -> vec3<i32> {
     let size = vec3<u32>(range[1] - range[0] + vec3<i32>(1));
     let x = i % size.x;
     let y = (i / size.x) % size.y;
     let z = i / (size.x * size.y);
-    return range[0] + vec3<i32>(vec3<u32>(x, y, z));
+    return vec3<i32>(vec3<u32>(x, y, z));
 }

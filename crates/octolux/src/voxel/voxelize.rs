@@ -1,16 +1,21 @@
 //! Conservative voxelization in compute shaders (wgpu has no geometry shaders): one invocation
-//! per triangle visits the voxels of its bounding box and keeps those the triangle touches,
-//! decided by the exact separating-axis triangle/box test (`overlap.wgsl`). Thin poles and
-//! 45-degree planes are therefore never lost, unlike rasterisation-based voxelization.
+//! per work item (a triangle piece and a chunk of its bounding box) visits the voxels of its
+//! chunk and keeps those the triangle touches, decided by an exact integer separating-axis
+//! test on a fixed-point lattice ([`super::snap`], `overlap.wgsl`): the CPU snaps and splits the
+//! triangles before upload, the GPU decides in integers, so the result is the same on every
+//! adapter. Thin poles and 45-degree planes are never lost, unlike rasterisation-based
+//! voxelization.
 //!
 //! [`Voxelizer::fragments`] builds a voxel fragment list whose memory is bounded by a count
-//! pass: the list holds exactly one 8-byte fragment per (triangle, voxel) pair.
+//! pass: the list holds one 8-byte fragment per (piece, voxel) pair (one per (triangle,
+//! voxel) pair, except on the seams of triangles split into pieces).
 
+use super::snap::{snap_triangles, GpuPiece, Piece, SnapRegion};
 use super::{GpuTriangle, VoxelGrid, VoxelTriangle};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::{Error, Result};
 
-/// WGSL shared by every voxelization kernel (triangle layout, overlap test).
+/// WGSL shared by every voxelization kernel (triangle and piece layouts, overlap test).
 pub const OVERLAP_WGSL: &str = include_str!("overlap.wgsl");
 
 /// Uniform block `VoxParams` of `overlap.wgsl`.
@@ -21,9 +26,7 @@ pub struct VoxParams {
     pub lo: [i32; 4],
     /// One past the last voxel of the region (xyz).
     pub hi: [i32; 4],
-    /// Grid origin (xyz) and 1 / voxel size (w).
-    pub origin: [f32; 4],
-    /// Triangle count, then kernel-specific values.
+    /// Work-item count, then kernel-specific values.
     pub misc: [u32; 4],
 }
 
@@ -53,39 +56,21 @@ pub fn upload_triangles(ctx: &GpuContext, owner: &str, tris: &[VoxelTriangle]) -
     )
 }
 
-/// Bounding-box voxels one invocation visits (`CHUNK` in `overlap.wgsl`).
-pub const CHUNK: u32 = 4096;
-
-/// Work items (triangle, chunk) covering every triangle's bounding box clipped to the voxel
-/// box `[lo, hi)` of the grid with origin `origin` and voxel size `1 / inv`. The boxes are
-/// computed with one voxel of margin per side, so that they are never smaller than the GPU's
-/// (which may round differently); surplus chunks visit nothing.
-pub fn work_items(
-    tris: &[VoxelTriangle],
-    origin: glam::Vec3,
-    inv: f32,
-    lo: glam::IVec3,
-    hi: glam::IVec3,
-) -> Vec<[u32; 2]> {
-    let mut items = Vec::new();
-    for (t, tri) in tris.iter().enumerate() {
-        let g = tri.positions.map(|p| (p - origin) * inv);
-        let big = glam::Vec3::splat(1.0e6);
-        let mn = g[0].min(g[1]).min(g[2]).clamp(-big, big);
-        let mx = g[0].max(g[1]).max(g[2]).clamp(-big, big);
-        let first = (mn.floor().as_ivec3() - glam::IVec3::splat(2)).max(lo);
-        let last = (mx.floor().as_ivec3() + glam::IVec3::ONE).min(hi - glam::IVec3::ONE);
-        let size = last - first + glam::IVec3::ONE;
-        if size.cmple(glam::IVec3::ZERO).any() {
-            continue;
-        }
-        let cells = size.x as u64 * size.y as u64 * size.z as u64;
-        for chunk in 0..cells.div_ceil(CHUNK as u64) {
-            items.push([t as u32, chunk as u32]);
-        }
+/// Uploads snapped pieces ([`super::snap`]) in the GPU layout under `owner`.
+pub fn upload_pieces(ctx: &GpuContext, owner: &str, pieces: &[Piece]) -> wgpu::Buffer {
+    let mut gpu: Vec<GpuPiece> = pieces.iter().map(Piece::to_gpu).collect();
+    if gpu.is_empty() {
+        gpu.push(bytemuck::Zeroable::zeroed());
     }
-    items
+    ctx.create_buffer_init(
+        owner,
+        "triangle pieces",
+        bytemuck::cast_slice(&gpu),
+        wgpu::BufferUsages::STORAGE,
+    )
 }
+
+pub use super::snap::{work_items, CHUNK};
 
 /// A voxel fragment list on the GPU: `count` fragments of two words, (packed voxel coordinate
 /// as in [`super::pack_coord`], triangle index).
@@ -170,24 +155,19 @@ impl Voxelizer {
         let n = u32::try_from(tris.len())
             .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
         let res = grid.resolution as i32;
-        let items = work_items(
-            tris,
-            grid.origin,
-            1.0 / grid.voxel_size,
-            glam::IVec3::ZERO,
-            glam::IVec3::splat(res),
-        );
+        let region = SnapRegion {
+            origin: grid.origin,
+            voxel_size: grid.voxel_size,
+            lo: glam::IVec3::ZERO,
+            hi: glam::IVec3::splat(res),
+        };
+        let pieces = snap_triangles(&region, tris);
+        let items = work_items(&pieces, region.size());
         let n_items = u32::try_from(items.len())
             .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
         let params = VoxParams {
             lo: [0; 4],
             hi: [res, res, res, 0],
-            origin: [
-                grid.origin.x,
-                grid.origin.y,
-                grid.origin.z,
-                1.0 / grid.voxel_size,
-            ],
             misc: [n_items, 0, 0, 0],
         };
         let uniform = ctx.create_buffer_init(
@@ -197,6 +177,7 @@ impl Voxelizer {
             wgpu::BufferUsages::UNIFORM,
         );
         let triangles = upload_triangles(ctx, owner, tris);
+        let pieces_buffer = upload_pieces(ctx, owner, &pieces);
         let items_buffer = ctx.create_buffer_init(
             owner,
             "work items",
@@ -220,7 +201,7 @@ impl Voxelizer {
             &self.count,
             &[
                 (0, &uniform),
-                (1, &triangles),
+                (1, &pieces_buffer),
                 (2, &counts),
                 (4, &items_buffer),
             ],
@@ -262,7 +243,7 @@ impl Voxelizer {
             &self.emit,
             &[
                 (0, &uniform),
-                (1, &triangles),
+                (1, &pieces_buffer),
                 (2, &counts),
                 (3, &buffer),
                 (4, &items_buffer),
@@ -273,6 +254,7 @@ impl Voxelizer {
         // The counts are scratch: forget them in the ledger once the list exists.
         ctx.ledger.record(owner, "fragment counts", 0);
         ctx.ledger.record(owner, "work items", 0);
+        ctx.ledger.record(owner, "triangle pieces", 0);
         Ok(FragmentList {
             buffer,
             count: total as u32,

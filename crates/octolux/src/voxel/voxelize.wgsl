@@ -1,14 +1,14 @@
-// Voxel fragment list: a count pass (voxels touched per triangle), an exclusive scan of the
-// counts (on the CPU, which also sizes the list), then an emit pass writing each triangle's
+// Voxel fragment list: a count pass (voxels touched per work item), an exclusive scan of the
+// counts (on the CPU, which also sizes the list), then an emit pass writing each work item's
 // fragments at its offset in a fixed loop order: the list is identical from run to run.
 // A fragment is (packed voxel coordinate relative to lo, triangle index); albedo, normal and
 // emission are read from the triangle.
 
 @group(0) @binding(0) var<uniform> P: VoxParams;
-@group(0) @binding(1) var<storage, read> tris: array<Tri>;
+@group(0) @binding(1) var<storage, read> pieces: array<Piece>;
 @group(0) @binding(2) var<storage, read_write> counts: array<u32>;
 @group(0) @binding(3) var<storage, read_write> fragments: array<vec2<u32>>;
-// Work items: (triangle, chunk of CHUNK bounding-box voxels), so that no invocation loops more
+// Work items: (piece, chunk of CHUNK bounding-box voxels), so that no invocation loops more
 // than CHUNK times (lavapipe stops any invocation after 65535 loop iterations in total).
 @group(0) @binding(4) var<storage, read> items: array<vec2<u32>>;
 
@@ -24,16 +24,13 @@ fn count_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
     if w >= P.misc.x {
         return;
     }
-    let t = items[w].x;
-    let tri = tris[t];
-    let a = to_grid(tri.p0.xyz, P.origin);
-    let b = to_grid(tri.p1.xyz, P.origin);
-    let c = to_grid(tri.p2.xyz, P.origin);
-    let range = tri_cells(a, b, c, P.lo.xyz, P.hi.xyz);
+    let piece = pieces[items[w].x];
+    let range = piece_cells(piece, P.hi.xyz - P.lo.xyz);
+    let test = piece_test(piece, range[0]);
     var n = 0u;
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
     for (var i = items[w].y * CHUNK; i < cells; i++) {
-        if tri_box_overlap(a, b, c, nth_cell(range, i)) {
+        if piece_touches(test, nth_offset(range, i)) {
             n += 1u;
         }
     }
@@ -47,19 +44,17 @@ fn emit_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
     if w >= P.misc.x {
         return;
     }
-    let t = items[w].x;
-    let tri = tris[t];
-    let a = to_grid(tri.p0.xyz, P.origin);
-    let b = to_grid(tri.p1.xyz, P.origin);
-    let c = to_grid(tri.p2.xyz, P.origin);
-    let range = tri_cells(a, b, c, P.lo.xyz, P.hi.xyz);
+    let piece = pieces[items[w].x];
+    let t = u32(piece.a.w);
+    let range = piece_cells(piece, P.hi.xyz - P.lo.xyz);
+    let test = piece_test(piece, range[0]);
     var at = counts[w];
     let total = arrayLength(&fragments);
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
     for (var i = items[w].y * CHUNK; i < cells; i++) {
-        let cell = nth_cell(range, i);
-        if tri_box_overlap(a, b, c, cell) && at < total {
-            fragments[at] = vec2<u32>(pack_cell(cell - P.lo.xyz), t);
+        let l = nth_offset(range, i);
+        if piece_touches(test, l) && at < total {
+            fragments[at] = vec2<u32>(pack_cell(range[0] + l), t);
             at += 1u;
         }
     }
