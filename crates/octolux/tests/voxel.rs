@@ -10,7 +10,7 @@ use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
 use std::collections::BTreeSet;
 
 fn context() -> GpuContext {
-    GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
 }
 
 fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3]) -> VoxelTriangle {

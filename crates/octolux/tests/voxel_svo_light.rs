@@ -12,7 +12,7 @@ use octolux::voxel::{cpu, scene_triangles, VoxelGrid, VoxelTriangle};
 use std::collections::BTreeMap;
 
 fn context() -> GpuContext {
-    GpuContext::new(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
 }
 
 /// Node indices of level `d`, static then dynamic.
