@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Packs what a check on another machine with a GPU needs, so that machine needs no toolchain:
+# the release `octolux` binary, every test binary (stripped), the shared scenes, and `run.sh`,
+# which runs the whole test suite (default thread count) and the performance bench there.
+#
+#   scripts/gpu-kit.sh [KIT_DIR]          # default: gpu-kit/ (ignored by git)
+#   # copy the repository checkout with KIT_DIR inside to the GPU machine, then there:
+#   KIT_DIR/run.sh [RESULTS_DIR]          # default: KIT_DIR/results/
+#   (BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3" for a quick try)
+#
+# The test binaries find the repository's `scenes/` through the path the repository had when
+# they were built; `run.sh` links that path to the checkout it runs in when it is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+kit="${1:-gpu-kit}"
+scenes="${OCTOLUX_SCENES:-../shared/scenes}"
+
+cargo build --release -p octolux-cli
+mapfile -t tests < <(cargo test --workspace --no-run --message-format=json 2>/dev/null |
+  grep -o '"executable":"[^"]*"' | sed 's/"executable":"\(.*\)"/\1/')
+[ "${#tests[@]}" -gt 0 ] || { echo "gpu-kit: no test binaries were built" >&2; exit 1; }
+
+rm -rf "$kit"
+mkdir -p "$kit/stage/tests" "$kit/stage/bin"
+for t in "${tests[@]}"; do
+  strip -o "$kit/stage/tests/$(basename "$t")" "$t"
+done
+strip -o "$kit/stage/bin/octolux" target/release/octolux
+if [ -d "$scenes" ]; then
+  mkdir -p "$kit/stage/shared-scenes"
+  cp -r "$scenes"/. "$kit/stage/shared-scenes/"
+else
+  echo "gpu-kit: no shared scenes at $scenes (set OCTOLUX_SCENES); tests that need them will say so" >&2
+fi
+pwd >"$kit/stage/repo-root"
+tar -C "$kit/stage" -cf - . | zstd -q -19 --long=27 -T0 -o "$kit/kit.tar.zst"
+rm -rf "$kit/stage"
+
+cat >"$kit/run.sh" <<'EOF'
+#!/usr/bin/env bash
+# Runs the packed test binaries and the bench on this machine's GPU; results in RESULTS_DIR.
+set -uo pipefail
+kit="$(cd "$(dirname "$0")" && pwd)"
+repo="$(cd "$kit/.." && pwd)"
+results="${1:-$kit/results}"
+mkdir -p "$results" /tmp/octolux-kit
+zstd -dc --long=27 "$kit/kit.tar.zst" | tar -C /tmp/octolux-kit -xf -
+root="$(cat /tmp/octolux-kit/repo-root)"
+if [ ! -e "$root" ]; then mkdir -p "$(dirname "$root")" && ln -s "$repo" "$root"; fi
+export OCTOLUX_SCENES=/tmp/octolux-kit/shared-scenes XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+bin=/tmp/octolux-kit/bin/octolux
+"$bin" render --gi none --width 64 --height 64 --out /tmp/octolux-kit/probe.png -v 2>&1 |
+  tee "$results/adapter.txt"
+failed=0
+for t in /tmp/octolux-kit/tests/*; do
+  log="$results/test-$(basename "$t").log"
+  (cd "$root/crates/octolux" && "$t") >"$log" 2>&1
+  rc=$?
+  echo "== $(basename "$t"): exit $rc; $(grep -E "^test result" "$log" | tail -1)"
+  grep -E "panicked|FAILED" "$log" | head -5
+  [ "$rc" -eq 0 ] || failed=$((failed + 1))
+done
+# BENCH_ARGS replaces the size and frame counts (e.g. for a quick try on a CPU adapter).
+read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 5 --frames 20}"
+(cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/crytek-sponza.toml \
+  --gi none,lpv,clpv,olpv --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
+  tee "$results/bench.txt"
+echo "test binaries failed: $failed"
+exit "$failed"
+EOF
+chmod +x "$kit/run.sh"
+du -sh "$kit"
