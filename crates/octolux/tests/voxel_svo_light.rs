@@ -433,7 +433,7 @@ fn gpu_radiance_samples_equal_the_cpu_twin() {
     let mut cpu_svo = svo.read_back(&ctx).unwrap();
     cpu_svo.bricks = svo.read_radiance(&ctx).unwrap();
     let source = format!(
-        "@group(0) @binding(0) var<uniform> svo_info: SvoInfo;
+        "@group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
 @group(0) @binding(1) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(2) var<storage, read> svo_brick_index: array<u32>;
 @group(0) @binding(3) var<storage, read> svo_bricks0: array<u32>;
@@ -474,7 +474,7 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
         "test",
         "svo info",
         bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
-        wgpu::BufferUsages::UNIFORM,
+        wgpu::BufferUsages::STORAGE,
     );
     let input = ctx.create_buffer_init(
         "test",

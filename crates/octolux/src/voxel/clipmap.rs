@@ -557,11 +557,11 @@ impl Clipmap {
                         0,
                     ],
                 };
-                let uniform = ctx.create_buffer_init(
+                let params_buffer = ctx.create_buffer_init(
                     OWNER,
                     "box params",
                     bytemuck::bytes_of(&params),
-                    wgpu::BufferUsages::UNIFORM,
+                    wgpu::BufferUsages::STORAGE,
                 );
                 let items_buffer = ctx.create_buffer_init(
                     OWNER,
@@ -575,7 +575,7 @@ impl Clipmap {
                     ctx,
                     &self.accumulate,
                     &[
-                        (0, &uniform),
+                        (0, &params_buffer),
                         (1, &triangles),
                         (2, &items_buffer),
                         (3, &self.accum),
@@ -593,7 +593,7 @@ impl Clipmap {
                     ctx,
                     &self.resolve,
                     &[
-                        (0, &uniform),
+                        (0, &params_buffer),
                         (3, &self.accum),
                         (4, &self.voxels),
                         (5, &self.written),
@@ -639,14 +639,14 @@ impl Clipmap {
                 0,
             ],
         };
-        let uniform = ctx.create_buffer_init(
+        let params_buffer = ctx.create_buffer_init(
             OWNER,
             "filter params",
             bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let aniso = self.aniso.as_ref().unwrap_or(&self.no_aniso);
-        let mut buffers = vec![(0, &uniform), (1, &self.voxels), (3, aniso)];
+        let mut buffers = vec![(0, &params_buffer), (1, &self.voxels), (3, aniso)];
         // `replicate` has no normals or emission binding.
         if std::ptr::eq(pipeline, &self.filter) {
             buffers.push((2, &self.normals));
@@ -740,13 +740,13 @@ impl Clipmap {
             OWNER,
             "inject params",
             bytemuck::cast_slice(&[count, max_steps.clamp(1, 4096), slots, 0]),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let info = ctx.create_buffer_init(
             OWNER,
             "inject info",
             bytemuck::bytes_of(&super::sample::ClipInfo::new(&self.settings, &self.origins)),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let radiance = match self.radiance.take() {
             Some(r) => r,

@@ -10,7 +10,8 @@
 // normal x, y, z sums, emission r, g, b sums as 64 bits (low words, then high words).
 const ACCUM_WORDS: u32 = 13u;
 
-@group(0) @binding(0) var<uniform> P: VoxParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> P: VoxParams;
 @group(0) @binding(1) var<storage, read> tris: array<Tri>;
 @group(0) @binding(2) var<storage, read> items: array<vec2<u32>>;
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;

@@ -17,7 +17,8 @@ struct FilterParams {
     misc: vec4<u32>,
 }
 
-@group(0) @binding(0) var<uniform> F: FilterParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> F: FilterParams;
 @group(0) @binding(1) var<storage, read_write> voxels: array<u32>;
 @group(0) @binding(2) var<storage, read_write> normals: array<u32>;
 @group(0) @binding(3) var<storage, read_write> aniso: array<u32>;

@@ -176,7 +176,7 @@ pub fn clip_sample_aniso(
 }
 
 const PROBE_WGSL: &str = "
-@group(0) @binding(0) var<uniform> clip_info: ClipInfo;
+@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
 @group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
 @group(0) @binding(2) var<storage, read> clip_aniso: array<u32>;
 @group(0) @binding(3) var<storage, read> points: array<vec4<f32>>;
@@ -234,7 +234,7 @@ pub fn probe_blend(
         owner,
         "info",
         bytemuck::bytes_of(&ClipInfo::new(&clipmap.settings, &clipmap.origins)),
-        wgpu::BufferUsages::UNIFORM,
+        wgpu::BufferUsages::STORAGE,
     );
     let aniso = clipmap.aniso.as_ref().unwrap_or(&clipmap.voxels);
     let fixed = [(0, &info), (1, &clipmap.voxels), (2, aniso)];

@@ -26,7 +26,7 @@ pub enum Structure<'a> {
 }
 
 const SVO_HEADER: &str = "
-@group(0) @binding(1) var<uniform> svo_info: SvoInfo;
+@group(0) @binding(1) var<storage, read> svo_info: SvoInfo;
 @group(0) @binding(2) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(3) var<storage, read> svo_bricks0: array<u32>;
 @group(0) @binding(8) var<storage, read> svo_bricks1: array<u32>;
@@ -37,14 +37,14 @@ fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return svo_samp
 ";
 
 const RADIANCE_HEADER: &str = "
-@group(0) @binding(1) var<uniform> clip_info: ClipInfo;
+@group(0) @binding(1) var<storage, read> clip_info: ClipInfo;
 @group(0) @binding(2) var<storage, read> clip_voxels: array<u32>;
 @group(0) @binding(3) var<storage, read> clip_radiance: array<u32>;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_radiance_sample(p, footprint); }
 ";
 
 const CLIP_HEADER: &str = "
-@group(0) @binding(1) var<uniform> clip_info: ClipInfo;
+@group(0) @binding(1) var<storage, read> clip_info: ClipInfo;
 @group(0) @binding(2) var<storage, read> clip_voxels: array<u32>;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_sample(p, footprint); }
 ";
@@ -91,7 +91,7 @@ impl Structure<'_> {
                 bytemuck::bytes_of(&ClipInfo::new(&c.settings, &c.origins)).to_vec()
             }
         };
-        ctx.create_buffer_init("voxel debug", "info", &bytes, wgpu::BufferUsages::UNIFORM)
+        ctx.create_buffer_init("voxel debug", "info", &bytes, wgpu::BufferUsages::STORAGE)
     }
 
     /// World-space box the structure covers (the coarsest clipmap level).
@@ -191,7 +191,7 @@ pub fn probe(ctx: &GpuContext, structure: Structure, points: &[Vec4]) -> Result<
         "voxel debug",
         "view",
         bytemuck::bytes_of(&block),
-        wgpu::BufferUsages::UNIFORM,
+        wgpu::BufferUsages::STORAGE,
     );
     let info = structure.info(ctx);
     let input = ctx.create_buffer_init(
@@ -250,11 +250,11 @@ pub fn render_view(
     block.hi = hi.extend(0.0).to_array();
     let module = ctx.shader("voxel debug view", &structure.source());
     let pipeline = ctx.compute_pipeline("voxel debug view", &module, "raymarch");
-    let uniform = ctx.create_buffer_init(
+    let view_buffer = ctx.create_buffer_init(
         "voxel debug",
         "view",
         bytemuck::bytes_of(&block),
-        wgpu::BufferUsages::UNIFORM,
+        wgpu::BufferUsages::STORAGE,
     );
     let info = structure.info(ctx);
     let pixels = view.width as u64 * view.height as u64;
@@ -267,7 +267,7 @@ pub fn render_view(
             mapped_at_creation: false,
         },
     );
-    let group = structure.bind(ctx, &pipeline, &uniform, &info, &[(6, &image)]);
+    let group = structure.bind(ctx, &pipeline, &view_buffer, &info, &[(6, &image)]);
     let mut timer = PassTimer::new(ctx);
     timer.pass("voxel debug view", |encoder, stamps| {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -12,7 +12,8 @@ struct View {
     step: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> view: View;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> view: View;
 @group(0) @binding(4) var<storage, read> points: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> out: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> image: array<u32>;

@@ -19,12 +19,13 @@ struct InjectParams {
     misc: vec4<u32>,
 }
 
-@group(0) @binding(0) var<uniform> clip_info: ClipInfo;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
 @group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
 @group(0) @binding(2) var<storage, read> normals: array<u32>;
 @group(0) @binding(3) var<storage, read> lights: array<InjectLight>;
 @group(0) @binding(4) var<storage, read_write> radiance: array<u32>;
-@group(0) @binding(5) var<uniform> params: InjectParams;
+@group(0) @binding(5) var<storage, read> params: InjectParams;
 // Mean emission per voxel slot (RGB9E5).
 @group(0) @binding(6) var<storage, read> emission: array<u32>;
 

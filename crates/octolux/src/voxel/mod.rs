@@ -24,6 +24,16 @@
 //! plus reflected direct light into voxel radiance: the octree with visibility from the
 //! renderer's shadow maps ([`svo::SvoBuilder::inject`]), the clipmap with voxel shadow rays
 //! ([`clipmap::Clipmap::inject`]). See `docs/voxels.md` for what is not done yet.
+//!
+//! Parameter blocks (levels, boxes, counts, grid and clipmap descriptions) are read-only
+//! storage buffers (`var<storage, read>`), never uniform buffers: Mesa's lavapipe specialises a
+//! compute shader on the values of a small uniform block that decides its branches or loop
+//! bounds, compiling a new variant every time the pipeline is bound and keeping every variant
+//! until the pipeline is destroyed. The octree's update and injection and the clipmap's
+//! update and injection run every frame, one dispatch per level or box, so a uniform block
+//! there costs a compile per dispatch and memory that grows without bound
+//! (`tests/voxel_growth.rs`). Slots bound at offsets stay 256 bytes apart, the largest
+//! `min_storage_buffer_offset_alignment` wgpu allows.
 
 pub mod clipmap;
 pub mod clipmap_sample;

@@ -1,6 +1,6 @@
 //! The common sampling interface of the voxel structures: "filtered value and opacity at
 //! position `p` with footprint `d`", as WGSL that later techniques paste in front of their own
-//! shaders ([`SVO_SAMPLE_WGSL`], [`CLIPMAP_SAMPLE_WGSL`]), with the uniform blocks it reads
+//! shaders ([`SVO_SAMPLE_WGSL`], [`CLIPMAP_SAMPLE_WGSL`]), with the parameter blocks it reads
 //! ([`SvoInfo`], [`ClipInfo`]) and CPU twins ([`svo_sample`], [`clip_sample`]) for tests.
 //!
 //! Both return premultiplied RGB and opacity; the RGB is albedo. For the clipmap,
@@ -28,7 +28,7 @@ pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
 /// [`CLIPMAP_SAMPLE_WGSL`]; the includer also declares `clip_radiance`.
 pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("sample_radiance.wgsl");
 
-/// Uniform block `SvoInfo` of [`SVO_SAMPLE_WGSL`].
+/// Parameter block `SvoInfo` of [`SVO_SAMPLE_WGSL`] (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SvoInfo {
@@ -49,7 +49,7 @@ impl SvoInfo {
     }
 }
 
-/// Uniform block `ClipInfo` of [`CLIPMAP_SAMPLE_WGSL`].
+/// Parameter block `ClipInfo` of [`CLIPMAP_SAMPLE_WGSL`] (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ClipInfo {

@@ -3,7 +3,8 @@
 // `footprint` and which contains `p` with its whole trilinear neighbourhood (a level that does
 // not contain the point is never read), blended with the next level by the fractional level.
 // The includer declares:
-//   var<uniform> clip_info: ClipInfo;
+//   var<storage, read> clip_info: ClipInfo; (storage, not uniform: "Parameter blocks" in
+//   voxel/mod.rs)
 //   var<storage, read> clip_voxels: array<u32>;
 
 struct ClipInfo {

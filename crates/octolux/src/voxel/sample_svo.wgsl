@@ -2,7 +2,8 @@
 // premultiplied albedo and opacity at world position `p`, filtered over a footprint of
 // `footprint` metres (the lattice spacing of the chosen level; quadrilinear between levels).
 // The includer declares:
-//   var<uniform> svo_info: SvoInfo;
+//   var<storage, read> svo_info: SvoInfo; (storage, not uniform: "Parameter blocks" in
+//   voxel/mod.rs)
 //   var<storage, read> svo_child: array<u32>;
 //   var<storage, read> svo_bricks0: array<u32>; (and svo_bricks1..3: the pool's 4 buffers)
 //   var<storage, read> svo_brick_index: array<u32>;

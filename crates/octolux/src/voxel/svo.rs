@@ -43,11 +43,14 @@ pub const BUILD_BRICK_WORDS: u32 = 54;
 pub const BRICK_WORDS: u32 = 27;
 /// Bytes per node: child, 3 neighbours, brick index.
 pub const NODE_BYTES: u64 = 20;
-const UNIFORM_STRIDE: u64 = 256;
+/// Bytes between parameter slots bound at offsets (a multiple of any adapter's
+/// `min_storage_buffer_offset_alignment`).
+pub(crate) const PARAM_STRIDE: u64 = 256;
 
 /// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
 const PACK_WGSL: &str = "
-@group(0) @binding(0) var<uniform> count: vec4<u32>;
+// Storage, not uniform: see \"Parameter blocks\" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> count: vec4<u32>;
 @group(0) @binding(1) var<storage, read> wide0: array<u32>;
 @group(0) @binding(2) var<storage, read> wide1: array<u32>;
 @group(0) @binding(3) var<storage, read> wide2: array<u32>;
@@ -107,8 +110,8 @@ pub(crate) struct LevelParams {
     pub pad: [u32; 2],
 }
 
-/// Uniform block of one [`LevelParams`] per slot (256 bytes apart): slot `d` walks level
-/// `d`'s static nodes, slot `depth + d` its dynamic ones.
+/// Read-only storage buffer of one [`LevelParams`] per slot ([`PARAM_STRIDE`] bytes apart):
+/// slot `d` walks level `d`'s static nodes, slot `depth + d` its dynamic ones.
 pub(crate) fn level_params(
     ctx: &GpuContext,
     label: &str,
@@ -117,7 +120,7 @@ pub(crate) fn level_params(
     capacity: u32,
     pool_bricks: u32,
 ) -> wgpu::Buffer {
-    let mut params = vec![0u8; UNIFORM_STRIDE as usize * 2 * depth as usize];
+    let mut params = vec![0u8; PARAM_STRIDE as usize * 2 * depth as usize];
     for slot in 0..2 * depth {
         let p = LevelParams {
             d: slot % depth,
@@ -128,10 +131,10 @@ pub(crate) fn level_params(
             range: slot / depth,
             pad: [0; 2],
         };
-        let at = slot as usize * UNIFORM_STRIDE as usize;
+        let at = slot as usize * PARAM_STRIDE as usize;
         params[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
     }
-    ctx.create_buffer_init(OWNER, label, &params, wgpu::BufferUsages::UNIFORM)
+    ctx.create_buffer_init(OWNER, label, &params, wgpu::BufferUsages::STORAGE)
 }
 
 /// Most buffers a brick pool is split over (one storage binding each).
@@ -294,7 +297,8 @@ impl SvoBuilder {
             binding: 0,
             visibility: wgpu::ShaderStages::COMPUTE,
             ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
+                // Per-level slots, read-only storage: "Parameter blocks" in voxel/mod.rs.
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
                 has_dynamic_offset: true,
                 min_binding_size: wgpu::BufferSize::new(32),
             },
@@ -508,7 +512,7 @@ impl SvoBuilder {
             .write_buffer(&control, 0, bytemuck::cast_slice(&init));
         ctx.queue
             .write_buffer(&args, 0, bytemuck::cast_slice(&[1u32, 1, 1]));
-        let uniform = level_params(
+        let params = level_params(
             ctx,
             "level params",
             depth,
@@ -522,7 +526,7 @@ impl SvoBuilder {
         let group = |pools: [&wgpu::Buffer; 4]| {
             self.group0(
                 ctx,
-                &uniform,
+                &params,
                 [
                     &list.buffer,
                     &list.triangles,
@@ -646,7 +650,7 @@ impl SvoBuilder {
             OWNER,
             "pack params",
             bytemuck::cast_slice(&[brick_count * 27, pool_bricks, 0, 0]),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let pack_group = super::voxelize::bind_buffers(
             ctx,
@@ -732,7 +736,7 @@ impl SvoBuilder {
             coord: coord_exact,
             control,
             args,
-            level_params: uniform,
+            level_params: params,
             leaf_sums,
             radiance,
             voxel_radiance,
@@ -814,7 +818,7 @@ impl SvoBuilder {
         );
         let args_group = self.args_group(ctx, &svo.args);
         let depth = svo.levels.len() as u32;
-        // Every level's static nodes, then its dynamic ones (uniform slot depth + d).
+        // Every level's static nodes, then its dynamic ones (parameter slot depth + d).
         let ranges = |d: u32| {
             let dynamic = !svo.dynamic_levels.is_empty();
             [(d, d)]
@@ -843,7 +847,7 @@ impl SvoBuilder {
         Ok(())
     }
 
-    /// Group 0 of the octree kernels: `uniform` (per-level slots) and the 11 storage buffers
+    /// Group 0 of the octree kernels: `params` (per-level slots) and the 11 storage buffers
     /// of `svo.wgsl` (fragments, triangles, child, neighbours, coordinates, flags / brick
     /// index, control, the 4 brick pool buffers).
     /// Group 1: the dispatch arguments, written by the `finish` kernels.
@@ -861,13 +865,13 @@ impl SvoBuilder {
     pub(super) fn group0(
         &self,
         ctx: &GpuContext,
-        uniform: &wgpu::Buffer,
+        params: &wgpu::Buffer,
         buffers: [&wgpu::Buffer; 11],
     ) -> wgpu::BindGroup {
         let mut entries = vec![wgpu::BindGroupEntry {
             binding: 0,
             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: uniform,
+                buffer: params,
                 offset: 0,
                 size: wgpu::BufferSize::new(32),
             }),
@@ -885,7 +889,7 @@ impl SvoBuilder {
         })
     }
 
-    /// Records `steps` (entry point, uniform slot, dispatch) as one timed pass; kernels that
+    /// Records `steps` (entry point, parameter slot, dispatch) as one timed pass; kernels that
     /// write dispatch arguments get `args_group` (group 1, over `args`), those of the dynamic
     /// part `dynamic` (group 2).
     #[allow(clippy::too_many_arguments)]
@@ -908,7 +912,7 @@ impl SvoBuilder {
                 });
                 let (pipeline, groups) = &self.pipelines[entry];
                 pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, group, &[*d * UNIFORM_STRIDE as u32]);
+                pass.set_bind_group(0, group, &[*d * PARAM_STRIDE as u32]);
                 if groups.args {
                     pass.set_bind_group(1, args_group, &[]);
                 }

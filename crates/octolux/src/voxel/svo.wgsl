@@ -19,7 +19,8 @@ struct LevelParams {
     pad2: u32,
 }
 
-@group(0) @binding(0) var<uniform> L: LevelParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> L: LevelParams;
 @group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
 @group(0) @binding(2) var<storage, read> tris: array<Tri>;
 @group(0) @binding(3) var<storage, read_write> child: array<u32>;

@@ -23,7 +23,7 @@
 //! [`super::sample::svo_sample_aniso`]. CPU twin of the values: [`super::cpu::svo_aniso`].
 
 use super::sample::{SvoInfo, SVO_SAMPLE_WGSL};
-use super::svo::{Svo, OWNER};
+use super::svo::{Svo, OWNER, PARAM_STRIDE};
 use super::voxelize::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::{Error, Result};
@@ -38,7 +38,6 @@ pub const SVO_ANISO_SAMPLE_WGSL: &str = include_str!("sample_svo_aniso.wgsl");
 pub const ANISO_WORDS: u32 = 6;
 /// Ledger label of the values buffer (owner [`OWNER`]).
 pub const LEDGER_LABEL: &str = "anisotropic values";
-const UNIFORM_STRIDE: u64 = 256;
 
 fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
@@ -132,7 +131,7 @@ impl SvoAniso {
             return Ok(values);
         }
         let first_leaf = svo.levels[depth - 1].0;
-        let mut params = vec![0u8; UNIFORM_STRIDE as usize * depth];
+        let mut params = vec![0u8; PARAM_STRIDE as usize * depth];
         for (d, &(start, end)) in svo.levels.iter().enumerate() {
             let leaf_count = svo.static_nodes - first_leaf;
             let misc = [
@@ -145,14 +144,14 @@ impl SvoAniso {
                 0,
                 0,
             ];
-            let at = d * UNIFORM_STRIDE as usize;
+            let at = d * PARAM_STRIDE as usize;
             params[at..at + 32].copy_from_slice(bytemuck::cast_slice(&misc));
         }
-        let uniform = ctx.create_buffer_init(
+        let params_buffer = ctx.create_buffer_init(
             OWNER,
             "anisotropic params",
             &params,
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let layout = self.pipeline.get_bind_group_layout(0);
         let groups: Vec<wgpu::BindGroup> = (0..depth)
@@ -164,8 +163,8 @@ impl SvoAniso {
                         wgpu::BindGroupEntry {
                             binding: 0,
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &uniform,
-                                offset: d as u64 * UNIFORM_STRIDE,
+                                buffer: &params_buffer,
+                                offset: d as u64 * PARAM_STRIDE,
                                 size: wgpu::BufferSize::new(32),
                             }),
                         },
@@ -225,7 +224,7 @@ impl SvoAniso {
             owner,
             "info",
             bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let fixed = [
             (0, &info),
@@ -242,7 +241,7 @@ impl SvoAniso {
 }
 
 const PROBE_WGSL: &str = "
-@group(0) @binding(0) var<uniform> svo_info: SvoInfo;
+@group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
 @group(0) @binding(1) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(2) var<storage, read> svo_bricks0: array<u32>;
 @group(0) @binding(3) var<storage, read> svo_bricks1: array<u32>;

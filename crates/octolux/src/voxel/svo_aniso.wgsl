@@ -18,7 +18,8 @@ struct AnisoParams {
     leaves: vec4<u32>,
 }
 
-@group(0) @binding(0) var<uniform> P: AnisoParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> P: AnisoParams;
 @group(0) @binding(1) var<storage, read> child: array<u32>;
 @group(0) @binding(2) var<storage, read> brick_index: array<u32>;
 @group(0) @binding(3) var<storage, read> leaf_sums: array<u32>;

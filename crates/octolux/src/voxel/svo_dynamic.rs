@@ -200,7 +200,8 @@ pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
         binding: 1,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
+            // Read-only storage: "Parameter blocks" in voxel/mod.rs.
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
             has_dynamic_offset: false,
             min_binding_size: None,
         },
@@ -271,13 +272,13 @@ impl SvoBuilder {
         for (d, &(start, end)) in svo.dynamic_levels.iter().enumerate() {
             params.last_nodes[d] = [start, end, 0, 0];
         }
-        let uniform = ctx.create_buffer_init(
+        let params_buffer = ctx.create_buffer_init(
             OWNER,
             "dynamic params",
             bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
-        let level_uniform = level_params(
+        let level_params_buffer = level_params(
             ctx,
             "dynamic level params",
             depth,
@@ -306,7 +307,7 @@ impl SvoBuilder {
         let (this, last) = (1 - dynamic.last, dynamic.last);
         let group0 = self.group0(
             ctx,
-            &level_uniform,
+            &level_params_buffer,
             [
                 &list.buffer,
                 &list.triangles,
@@ -325,7 +326,7 @@ impl SvoBuilder {
             label: Some("svo dynamic"),
             layout: &self.dyn_layout,
             entries: &[
-                (1, &uniform),
+                (1, &params_buffer),
                 (2, &dynamic.state),
                 (3, &dynamic.occupied),
                 (4, &dynamic.needed[this]),

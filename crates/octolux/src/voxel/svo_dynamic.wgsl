@@ -26,7 +26,8 @@ struct DynParams {
     last_nodes: array<vec4<u32>, 16>,
 }
 
-@group(2) @binding(1) var<uniform> D: DynParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(2) @binding(1) var<storage, read> D: DynParams;
 @group(2) @binding(2) var<storage, read_write> state: array<atomic<u32>>;
 @group(2) @binding(3) var<storage, read_write> occ_list: array<u32>;
 @group(2) @binding(4) var<storage, read_write> need_list: array<u32>;

@@ -111,7 +111,7 @@ impl SvoLight {
             owner,
             "leaf sum params",
             bytemuck::cast_slice(&[list.count, depth, leaves.0, leaf_count]),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let fragments_group = |pipeline: &wgpu::ComputePipeline, sums: &wgpu::Buffer| {
             let mut buffers = vec![(0, &params), (1, &list.buffer)];
@@ -213,11 +213,11 @@ impl SvoLight {
                 misc: [node, count, light_count, svo.pool_bricks],
                 part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
             };
-            let uniform = ctx.create_buffer_init(
+            let params_buffer = ctx.create_buffer_init(
                 owner,
                 "inject params",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::STORAGE,
             );
             let name = if i == 0 {
                 "svo inject"
@@ -228,7 +228,7 @@ impl SvoLight {
                 ctx,
                 timer,
                 svo,
-                [&uniform, &matrices, lights, dyn_sums, dyn_state],
+                [&params_buffer, &matrices, lights, dyn_sums, dyn_state],
                 &view,
                 (name, count),
             );
@@ -249,12 +249,12 @@ impl SvoLight {
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &super::svo::Svo,
-        [uniform, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
+        [params_buffer, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
         view: &wgpu::TextureView,
         (name, count): (&str, u32),
     ) {
         let buffers: [(u32, &wgpu::Buffer); 13] = [
-            (10, uniform),
+            (10, params_buffer),
             (11, &svo.leaf_sums),
             (12, &svo.coord),
             (13, &svo.brick_index),

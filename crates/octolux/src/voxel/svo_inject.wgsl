@@ -17,7 +17,8 @@ struct AccumulateParams {
     misc: vec4<u32>,
 }
 
-@group(0) @binding(0) var<uniform> A: AccumulateParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> A: AccumulateParams;
 @group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
 @group(0) @binding(2) var<storage, read> tris: array<Tri>;
 @group(0) @binding(3) var<storage, read> child: array<u32>;
@@ -106,7 +107,8 @@ struct InjectParams {
     part: vec4<u32>,
 }
 
-@group(0) @binding(10) var<uniform> P: InjectParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(10) var<storage, read> P: InjectParams;
 @group(0) @binding(11) var<storage, read> leaf_sums: array<u32>;
 @group(0) @binding(12) var<storage, read> node_coord: array<u32>;
 @group(0) @binding(13) var<storage, read> brick_index: array<u32>;

@@ -18,7 +18,7 @@ use crate::{Error, Result};
 /// WGSL shared by every voxelization kernel (triangle and piece layouts, overlap test).
 pub const OVERLAP_WGSL: &str = include_str!("overlap.wgsl");
 
-/// Uniform block `VoxParams` of `overlap.wgsl`.
+/// Parameter block `VoxParams` of `overlap.wgsl` (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct VoxParams {
@@ -170,11 +170,11 @@ impl Voxelizer {
             hi: [res, res, res, 0],
             misc: [n_items, 0, 0, 0],
         };
-        let uniform = ctx.create_buffer_init(
+        let params_buffer = ctx.create_buffer_init(
             owner,
             "voxelize params",
             bytemuck::bytes_of(&params),
-            wgpu::BufferUsages::UNIFORM,
+            wgpu::BufferUsages::STORAGE,
         );
         let triangles = upload_triangles(ctx, owner, tris);
         let pieces_buffer = upload_pieces(ctx, owner, &pieces);
@@ -200,7 +200,7 @@ impl Voxelizer {
             ctx,
             &self.count,
             &[
-                (0, &uniform),
+                (0, &params_buffer),
                 (1, &pieces_buffer),
                 (2, &counts),
                 (4, &items_buffer),
@@ -242,7 +242,7 @@ impl Voxelizer {
             ctx,
             &self.emit,
             &[
-                (0, &uniform),
+                (0, &params_buffer),
                 (1, &pieces_buffer),
                 (2, &counts),
                 (3, &buffer),

@@ -4,7 +4,8 @@
 // A fragment is (packed voxel coordinate relative to lo, triangle index); albedo, normal and
 // emission are read from the triangle.
 
-@group(0) @binding(0) var<uniform> P: VoxParams;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> P: VoxParams;
 @group(0) @binding(1) var<storage, read> pieces: array<Piece>;
 @group(0) @binding(2) var<storage, read_write> counts: array<u32>;
 @group(0) @binding(3) var<storage, read_write> fragments: array<vec2<u32>>;

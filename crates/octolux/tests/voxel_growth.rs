@@ -1,0 +1,346 @@
+//! No per-frame growth of the voxel structures' per-frame work: the octree's dynamic update
+//! with moving geometry, its light injection, an octree rebuild, and the clipmap's incremental
+//! update for a moving camera with its light injection, repeated many times. After warm-up the
+//! process's resident memory, wgpu's count of live objects and the memory ledger stay flat.
+//!
+//! This binary holds one test on purpose: resident memory is a property of the process, so no
+//! other test may run beside it.
+
+use glam::{Mat4, Vec3};
+use octolux::gpu::{GpuContext, GpuOptions, PassTimer, ResourceCounts};
+use octolux::render::LayerView;
+use octolux::scene::{Light, LightKind};
+use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
+use octolux::voxel::svo::SvoBuilder;
+use octolux::voxel::svo_dynamic::DynamicReserve;
+use octolux::voxel::{VoxelGrid, VoxelTriangle};
+use std::f32::consts::TAU;
+
+/// Frames of one period of the motion (camera, moving block, lights): the work of frame `f`
+/// and of frame `f + PERIOD` is the same, so the ledger (which keeps the size of the last
+/// update's scratch) can be compared exactly.
+const PERIOD: usize = 4;
+/// Frames run before the baseline is taken (pipelines, caches and allocator pools fill).
+const WARMUP: usize = PERIOD;
+/// Frames run after the baseline.
+const MEASURED: usize = 3 * PERIOD;
+/// Allowed growth of resident memory over the measured frames of one part. Mesa's lavapipe
+/// compiles and keeps a shader variant whenever a pipeline whose branches or loop bounds depend
+/// on a small uniform block is bound: with its parameters in a uniform block, the octree's
+/// light injection (two dispatches per frame, a loop over the lights) grew by 16.3 MiB over 12
+/// frames here. With every parameter block in a storage buffer no part moves by 0.1 MiB.
+const RSS_SLACK_MIB: f64 = 1.0;
+
+/// Resident set size of this process in MiB (Linux), None elsewhere.
+fn resident_mib() -> Option<f64> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: f64 = statm.split_whitespace().nth(1)?.parse().ok()?;
+    Some(pages * 4096.0 / (1024.0 * 1024.0))
+}
+
+struct Snapshot {
+    rss: Option<f64>,
+    counts: Option<ResourceCounts>,
+    ledger: u64,
+}
+
+fn snapshot(ctx: &GpuContext) -> Snapshot {
+    Snapshot {
+        rss: resident_mib(),
+        counts: ctx.resource_counts(),
+        ledger: ctx.ledger.total(),
+    }
+}
+
+fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3], emission: Vec3) -> VoxelTriangle {
+    VoxelTriangle {
+        positions: [a, b, c],
+        albedo,
+        normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
+        emission,
+    }
+}
+
+/// An axis-aligned box from `lo` to `hi` (12 triangles).
+fn cube(lo: Vec3, hi: Vec3, albedo: [u8; 3]) -> Vec<VoxelTriangle> {
+    let p = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    let faces = [
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+    ];
+    faces
+        .iter()
+        .flat_map(|f| {
+            [
+                tri(p(f[0]), p(f[1]), p(f[2]), albedo, Vec3::ZERO),
+                tri(p(f[0]), p(f[2]), p(f[3]), albedo, Vec3::ZERO),
+            ]
+        })
+        .collect()
+}
+
+/// A floor, an emissive back wall and a slanted triangle in the unit cube.
+fn static_scene() -> Vec<VoxelTriangle> {
+    let grey = [200, 200, 200];
+    let mut tris = vec![
+        tri(
+            Vec3::new(0.05, 0.1, 0.05),
+            Vec3::new(0.95, 0.1, 0.05),
+            Vec3::new(0.95, 0.1, 0.95),
+            grey,
+            Vec3::ZERO,
+        ),
+        tri(
+            Vec3::new(0.05, 0.1, 0.05),
+            Vec3::new(0.95, 0.1, 0.95),
+            Vec3::new(0.05, 0.1, 0.95),
+            grey,
+            Vec3::ZERO,
+        ),
+        tri(
+            Vec3::new(0.3, 0.2, 0.4),
+            Vec3::new(0.7, 0.8, 0.5),
+            Vec3::new(0.4, 0.6, 0.8),
+            [30, 220, 40],
+            Vec3::new(0.5, 0.2, 0.1),
+        ),
+    ];
+    tris.extend(cube(
+        Vec3::new(0.05, 0.1, 0.9),
+        Vec3::new(0.95, 0.9, 0.93),
+        [220, 30, 30],
+    ));
+    tris
+}
+
+/// Phase of frame `f` in the motion, in [0, 1).
+fn phase(f: usize) -> f32 {
+    (f % PERIOD) as f32 / PERIOD as f32
+}
+
+/// The moving block of frame `f`.
+fn moving(f: usize) -> Vec<VoxelTriangle> {
+    let a = TAU * phase(f);
+    let at = Vec3::new(
+        0.4 + 0.2 * a.cos(),
+        0.3 + 0.1 * a.sin(),
+        0.4 + 0.2 * a.sin(),
+    );
+    cube(at, at + Vec3::new(0.17, 0.13, 0.11), [40, 90, 250])
+}
+
+/// A spot light (shadow layer 0) and a sun (layer 1) as the renderer uploads them
+/// (`Light` in `render/lights.wgsl`), the spot moving with the frame.
+fn gpu_lights(f: usize) -> [f32; 32] {
+    let a = TAU * phase(f);
+    let p = Vec3::new(0.5 + 0.1 * a.cos(), 1.2, 0.5 + 0.1 * a.sin());
+    let (cos_inner, cos_outer) = (0.5f32.cos(), 0.7f32.cos());
+    let sun = Vec3::new(0.2, -1.0, 0.3).normalize();
+    [
+        p.x, p.y, p.z, 1.0, 0.0, -1.0, 0.0, cos_inner, 2.0, 2.0, 2.0, cos_outer, 0.0, 0.004, 0.0,
+        0.0, 0.0, 0.0, 0.0, 2.0, sun.x, sun.y, sun.z, 1.0, 0.5, 0.5, 0.5, -1.0, 1.0, 0.003, 1.0,
+        0.0,
+    ]
+}
+
+/// The same lights for the clipmap's injection.
+fn scene_lights(f: usize) -> Vec<Light> {
+    let g = gpu_lights(f);
+    let v = |i: usize| Vec3::new(g[i], g[i + 1], g[i + 2]);
+    vec![
+        Light {
+            name: "spot".into(),
+            kind: LightKind::Spot {
+                inner_angle: 0.5,
+                outer_angle: 0.7,
+            },
+            color: Vec3::ONE,
+            intensity: 2.0,
+            position: v(0),
+            direction: Vec3::NEG_Y,
+            animation: None,
+        },
+        Light {
+            name: "sun".into(),
+            kind: LightKind::Directional,
+            color: Vec3::ONE,
+            intensity: 0.5,
+            position: Vec3::ZERO,
+            direction: v(20),
+            animation: None,
+        },
+    ]
+}
+
+/// The clipmap's camera in frame `f`: a circle of about 2.5 finest voxels per frame.
+fn camera(f: usize) -> Vec3 {
+    let a = TAU * phase(f);
+    Vec3::new(0.5 + 0.2 * a.cos(), 0.45, 0.5 + 0.2 * a.sin())
+}
+
+/// The parts of a frame's voxel work, measured one after the other.
+#[derive(Clone, Copy, Debug)]
+enum Part {
+    OctreeUpdate,
+    OctreeInject,
+    OctreeRebuild,
+    ClipmapUpdate,
+    ClipmapInject,
+}
+
+impl Part {
+    const ALL: [Part; 5] = [
+        Part::OctreeUpdate,
+        Part::OctreeInject,
+        Part::OctreeRebuild,
+        Part::ClipmapUpdate,
+        Part::ClipmapInject,
+    ];
+}
+
+#[test]
+fn voxel_updates_do_not_grow_from_frame_to_frame() {
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    assert!(
+        ctx.resource_counts().is_some(),
+        "wgpu reports its live objects"
+    );
+    let builder = SvoBuilder::new(&ctx);
+    let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / 32.0, 32).unwrap();
+    let statics = static_scene();
+    let (mut svo, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(20_000))
+        .unwrap();
+    // Shadow maps stand-in: two cleared depth layers with fixed matrices (what is sampled
+    // does not matter here, only that injection runs as in a frame).
+    let shadow = ctx.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("test shadow maps"),
+        size: wgpu::Extent3d {
+            width: 64,
+            height: 64,
+            depth_or_array_layers: 2,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Depth32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    let layers = [
+        LayerView {
+            view_proj: Mat4::perspective_rh(1.5, 1.0, 0.05, 3.0)
+                * Mat4::look_at_rh(Vec3::new(0.5, 1.2, 0.5), Vec3::new(0.5, 0.0, 0.5), Vec3::Z),
+            texel: 0.004,
+            orthographic: false,
+        },
+        LayerView {
+            view_proj: Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 4.0)
+                * Mat4::look_at_rh(Vec3::new(0.2, 2.0, 0.8), Vec3::splat(0.5), Vec3::Z),
+            texel: 0.003,
+            orthographic: true,
+        },
+    ];
+    let lights = ctx.create_buffer_init(
+        "test",
+        "lights",
+        bytemuck::cast_slice(&gpu_lights(0)),
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    );
+    let settings = ClipmapSettings {
+        resolution: 16,
+        levels: 3,
+        voxel_size: 1.0 / 32.0,
+    };
+    let options = ClipmapOptions {
+        filtered: true,
+        anisotropic: true,
+    };
+    let mut clipmap = Clipmap::with_options(&ctx, settings, options).unwrap();
+
+    // The per-frame work, part by part.
+    let mut run = |part: Part, f: usize| {
+        let block = moving(f);
+        let all: Vec<VoxelTriangle> = statics.iter().chain(&block).copied().collect();
+        let mut timer = PassTimer::new(&ctx);
+        match part {
+            Part::OctreeUpdate => {
+                builder.update_dynamic(&ctx, &mut svo, &block).unwrap();
+            }
+            Part::OctreeInject => {
+                ctx.queue
+                    .write_buffer(&lights, 0, bytemuck::cast_slice(&gpu_lights(f)));
+                builder
+                    .inject(&ctx, &mut timer, &svo, &shadow, &layers, &lights, 2)
+                    .unwrap();
+            }
+            Part::OctreeRebuild => {
+                builder.build(&ctx, &grid, &all).unwrap();
+            }
+            Part::ClipmapUpdate => {
+                clipmap.update(&ctx, &mut timer, &all, camera(f)).unwrap();
+            }
+            Part::ClipmapInject => {
+                clipmap
+                    .inject(&ctx, &mut timer, &scene_lights(f), 64)
+                    .unwrap();
+            }
+        }
+        timer.finish_frame().unwrap();
+    };
+    for f in 0..WARMUP {
+        for part in Part::ALL {
+            run(part, f);
+        }
+    }
+    let mut failures = Vec::new();
+    for part in Part::ALL {
+        let start = std::time::Instant::now();
+        let before = snapshot(&ctx);
+        for f in WARMUP..WARMUP + MEASURED {
+            run(part, f);
+        }
+        let after = snapshot(&ctx);
+        let rss = match (before.rss, after.rss) {
+            (Some(a), Some(b)) => format!("resident {a:.1} -> {b:.1} MiB"),
+            _ => "resident memory unknown".into(),
+        };
+        println!(
+            "{part:?}: {rss} over {MEASURED} frames ({:.2} s); {:?}",
+            start.elapsed().as_secs_f64(),
+            after.counts
+        );
+        if before.counts != after.counts {
+            failures.push(format!(
+                "{part:?}: wgpu objects alive {:?} -> {:?}",
+                before.counts, after.counts
+            ));
+        }
+        if before.ledger != after.ledger {
+            failures.push(format!(
+                "{part:?}: ledger {} -> {} bytes",
+                before.ledger, after.ledger
+            ));
+        }
+        if let (Some(a), Some(b)) = (before.rss, after.rss) {
+            if b - a > RSS_SLACK_MIB {
+                failures.push(format!(
+                    "{part:?}: resident memory grew by {:.1} MiB over {MEASURED} frames",
+                    b - a
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
