@@ -17,7 +17,7 @@ scenes="${OCTOLUX_SCENES:-../shared/scenes}"
 
 cargo build --release -p octolux-cli
 mapfile -t tests < <(cargo test --workspace --no-run --message-format=json 2>/dev/null |
-  grep -o '"executable":"[^"]*"' | sed 's/"executable":"\(.*\)"/\1/')
+  grep '"profile":{[^}]*"test":true' | grep -o '"executable":"[^"]*"' | sed 's/"executable":"\(.*\)"/\1/')
 [ "${#tests[@]}" -gt 0 ] || { echo "gpu-kit: no test binaries were built" >&2; exit 1; }
 
 rm -rf "$kit"
@@ -26,6 +26,8 @@ for t in "${tests[@]}"; do
   strip -o "$kit/stage/tests/$(basename "$t")" "$t"
 done
 strip -o "$kit/stage/bin/octolux" target/release/octolux
+# The CLI tests run the debug binary cargo built for them, by its build-time path.
+strip -o "$kit/stage/bin/octolux-test" target/debug/octolux
 if [ -d "$scenes" ]; then
   mkdir -p "$kit/stage/shared-scenes"
   cp -r "$scenes"/. "$kit/stage/shared-scenes/"
@@ -47,6 +49,8 @@ mkdir -p "$results" /tmp/octolux-kit
 zstd -dc --long=27 "$kit/kit.tar.zst" | tar -C /tmp/octolux-kit -xf -
 root="$(cat /tmp/octolux-kit/repo-root)"
 if [ ! -e "$root" ]; then mkdir -p "$(dirname "$root")" && ln -s "$repo" "$root"; fi
+mkdir -p "$root/target/debug"
+[ -e "$root/target/debug/octolux" ] || cp /tmp/octolux-kit/bin/octolux-test "$root/target/debug/octolux"
 export OCTOLUX_SCENES=/tmp/octolux-kit/shared-scenes XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 bin=/tmp/octolux-kit/bin/octolux
 "$bin" render --gi none --width 64 --height 64 --out /tmp/octolux-kit/probe.png -v 2>&1 |
