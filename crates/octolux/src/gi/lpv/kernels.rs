@@ -4,7 +4,7 @@
 use super::octree::{Octree, OctreeBuffers};
 use super::propagate::{Propagate, Volumes};
 use super::sh::{Cell, Sh};
-use super::{layouts, GpuGrid, FLAG_INJECT, FLAG_OCCLUSION, SLOT};
+use super::{layouts, GpuGrid, FLAG_INJECT, FLAG_OCCLUSION};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::{Error, Result};
 
@@ -54,10 +54,8 @@ fn read_u32(ctx: &GpuContext, buffer: &wgpu::Buffer, first: u32, count: u32) -> 
 }
 
 fn write_slots(ctx: &GpuContext, buffer: &wgpu::Buffer, grids: &[GpuGrid]) {
-    for (i, g) in grids.iter().enumerate() {
-        ctx.queue
-            .write_buffer(buffer, i as u64 * SLOT, bytemuck::bytes_of(g));
-    }
+    ctx.queue
+        .write_buffer(buffer, 0, &super::propagate::slot_data(grids));
 }
 
 /// Result of [`propagate`].
@@ -107,7 +105,7 @@ pub fn propagate(
             flags: grid_layouts[0].flags,
         }],
     );
-    let p = Propagate::new(ctx, &slots, 1, &v);
+    let p = Propagate::new(ctx, &slots, &v);
     let mut timer = PassTimer::new(ctx);
     p.record(&mut timer, "propagate", &v, &grid_layouts, iterations);
     timer.finish_frame()?;
@@ -183,7 +181,7 @@ pub fn octree(
         })
         .collect();
     write_slots(ctx, &slots, &grids);
-    let p = Propagate::new(ctx, &slots, grids.len(), &v);
+    let p = Propagate::new(ctx, &slots, &v);
     p.record(&mut timer, "propagate", &v, &grid_layouts, iterations);
     o.record_merge(&mut timer);
     timer.finish_frame()?;

@@ -561,12 +561,7 @@ impl LpvGi {
         Passes {
             rsm: rsm::RsmPass::new(ctx, frame.scene_gpu, &self.rsm),
             inject: inject::Inject::new(ctx, &self.grids, &self.rsm, &self.volumes, frame),
-            propagate: propagate::Propagate::new(
-                ctx,
-                &self.grid_slots,
-                self.layouts.len(),
-                &self.volumes,
-            ),
+            propagate: propagate::Propagate::new(ctx, &self.grid_slots, &self.volumes),
             octree,
             lookup: lookup::Lookup::new(ctx, lookup_grids, volume, &self.output, frame),
         }
@@ -594,10 +589,8 @@ impl GiTechnique for LpvGi {
         self.last_grids = Some(grids);
         ctx.queue
             .write_buffer(&self.grids, 0, bytemuck::bytes_of(&grids));
-        for (i, g) in placed.iter().enumerate() {
-            ctx.queue
-                .write_buffer(&self.grid_slots, i as u64 * SLOT, bytemuck::bytes_of(g));
-        }
+        ctx.queue
+            .write_buffer(&self.grid_slots, 0, &propagate::slot_data(&placed));
         if self.variant == Variant::Octree {
             // The lookup reads the merged volume: one grid of level 0's placement.
             let mut merged = grids;

@@ -1,7 +1,7 @@
 //! Propagation: `iterations` gather steps on every grid, ping-ponging between two light buffers
 //! and adding each step to the accumulation buffer (which starts as the injected light).
 
-use super::{bind, groups, slot, storage, wgsl, Layout, CELL_BYTES};
+use super::{bind, groups, storage, wgsl, GpuGrid, Layout, CELL_BYTES, SLOT};
 use crate::gpu::{GpuContext, PassTimer};
 
 /// The light and geometry buffers every pass of the family shares.
@@ -43,11 +43,24 @@ impl Volumes {
     }
 }
 
-/// The propagation pipeline and its bind groups (per grid, A->B and B->A).
+/// The propagation pipeline and its bind groups (A->B and B->A, every grid at once).
 pub struct Propagate {
     pipeline: wgpu::ComputePipeline,
-    /// Per grid: [A->B, B->A].
-    groups: Vec<[wgpu::BindGroup; 2]>,
+    groups: [wgpu::BindGroup; 2],
+}
+
+/// The contents of the grid slot buffer for `grids` (`GridSlot` of `propagate.wgsl`): per
+/// 256-byte slot the grid and the first of its 4x4x4-cell bricks in the dispatch.
+pub fn slot_data(grids: &[GpuGrid]) -> Vec<u8> {
+    let mut data = vec![0u8; grids.len().max(1) * SLOT as usize];
+    let mut first = 0u32;
+    for (i, g) in grids.iter().enumerate() {
+        let at = i * SLOT as usize;
+        data[at..at + 32].copy_from_slice(bytemuck::bytes_of(g));
+        data[at + 32..at + 36].copy_from_slice(&first.to_le_bytes());
+        first += groups(g.n, 4).pow(3);
+    }
+    data
 }
 
 /// WGSL source of the propagation step.
@@ -56,38 +69,30 @@ pub fn source() -> String {
 }
 
 impl Propagate {
-    /// Builds the pipeline; `grid_slots` holds one `Grid` per 256-byte slot.
-    pub fn new(
-        ctx: &GpuContext,
-        grid_slots: &wgpu::Buffer,
-        grid_count: usize,
-        v: &Volumes,
-    ) -> Propagate {
+    /// Builds the pipeline; `grid_slots` holds one `Grid` per 256-byte slot, one slot per grid
+    /// and nothing more.
+    pub fn new(ctx: &GpuContext, grid_slots: &wgpu::Buffer, v: &Volumes) -> Propagate {
         let module = ctx.shader("lpv propagate", &source());
         let pipeline = ctx.compute_pipeline("lpv propagate", &module, "main");
-        let groups = (0..grid_count as u64)
-            .map(|g| {
-                let make = |src: &wgpu::Buffer, dst: &wgpu::Buffer| {
-                    bind(
-                        ctx,
-                        &pipeline,
-                        &[
-                            (0, slot(grid_slots, g, 32)),
-                            (1, src.as_entire_binding()),
-                            (2, dst.as_entire_binding()),
-                            (3, v.acc.as_entire_binding()),
-                            (4, v.gv.as_entire_binding()),
-                        ],
-                    )
-                };
-                [make(&v.a, &v.b), make(&v.b, &v.a)]
-            })
-            .collect();
+        let make = |src: &wgpu::Buffer, dst: &wgpu::Buffer| {
+            bind(
+                ctx,
+                &pipeline,
+                &[
+                    (0, grid_slots.as_entire_binding()),
+                    (1, src.as_entire_binding()),
+                    (2, dst.as_entire_binding()),
+                    (3, v.acc.as_entire_binding()),
+                    (4, v.gv.as_entire_binding()),
+                ],
+            )
+        };
+        let groups = [make(&v.a, &v.b), make(&v.b, &v.a)];
         Propagate { pipeline, groups }
     }
 
-    /// Records: acc = A, then `iterations` steps on every grid. The last state ends in A or B;
-    /// only `acc` is used afterwards.
+    /// Records: acc = A, then `iterations` steps, each one dispatch over every grid. The last
+    /// state ends in A or B; only `acc` is used afterwards.
     pub fn record(
         &self,
         timer: &mut PassTimer,
@@ -96,6 +101,7 @@ impl Propagate {
         layouts: &[Layout],
         iterations: u32,
     ) {
+        let bricks: u32 = layouts.iter().map(|l| groups(l.n, 4).pow(3)).sum();
         timer.pass(name, |encoder, stamps| {
             encoder.copy_buffer_to_buffer(&v.a, 0, &v.acc, 0, v.cells as u64 * CELL_BYTES);
             if iterations == 0 {
@@ -113,11 +119,8 @@ impl Propagate {
                     timestamp_writes: stamps.compute_part(it == 0, it + 1 == iterations),
                 });
                 pass.set_pipeline(&self.pipeline);
-                for (g, l) in layouts.iter().enumerate() {
-                    pass.set_bind_group(0, &self.groups[g][(it % 2) as usize], &[]);
-                    let d = groups(l.n, 4);
-                    pass.dispatch_workgroups(d, d, d);
-                }
+                pass.set_bind_group(0, &self.groups[(it % 2) as usize], &[]);
+                pass.dispatch_workgroups(bricks.min(65535), bricks.div_ceil(65535), 1);
             }
         });
     }

@@ -3,9 +3,20 @@
 // attenuated by the geometry volume at the shared face, re-emits it as Lambertian lobes about
 // the face normals, writes the result and adds it to the accumulation buffer.
 
-// The grid differs from dispatch to dispatch (cascades, octree levels), so it is read from a
-// storage buffer: see `param_slots` in mod.rs.
-@group(0) @binding(0) var<storage, read> grid: Grid;
+// Every grid (cascade, octree level) in one 256-byte slot each (`param_slots` in mod.rs), with
+// the first of its 4x4x4-cell bricks; one dispatch steps all of them (`propagate::slot_data`).
+struct GridSlot {
+    grid: Grid,
+    first_brick: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+    _pad: array<vec4<u32>, 13>,
+};
+@group(0) @binding(0) var<storage, read> slots: array<GridSlot>;
+
+// The grid of this invocation.
+var<private> grid: Grid;
 @group(0) @binding(1) var<storage, read> src: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> dst: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> acc: array<vec4<f32>>;
@@ -37,8 +48,27 @@ fn transmittance(c: vec3<i32>, dir: vec3<i32>) -> f32 {
     return 1.0 - clamp(dot(b, sh_basis(-vec3<f32>(dir))), 0.0, 1.0);
 }
 
+// One workgroup per brick of 4x4x4 cells of every grid, the grids' bricks one after another.
 @compute @workgroup_size(4, 4, 4)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+fn main(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let brick = wg.x + wg.y * groups.x;
+    var which = 0u;
+    for (var k = 1u; k < arrayLength(&slots); k++) {
+        if brick >= slots[k].first_brick {
+            which = k;
+        }
+    }
+    grid = slots[which].grid;
+    let per = (grid.n + 3u) / 4u;
+    let own = brick - slots[which].first_brick;
+    if own >= per * per * per {
+        return;
+    }
+    let id = vec3<u32>(own % per, (own / per) % per, own / (per * per)) * 4u + local;
     let n = i32(grid.n);
     if any(id >= vec3<u32>(grid.n)) {
         return;
