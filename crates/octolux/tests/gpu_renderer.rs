@@ -438,3 +438,39 @@ fn renderers_on_threads_share_one_device_and_agree() {
     let b = context();
     assert_eq!(a.device, b.device, "one device per process and options");
 }
+
+#[test]
+fn pipelined_frames_report_earlier_frames_without_waiting() {
+    // With timestamps (lavapipe has the feature; its values are not checked here) the
+    // pipelined path returns nothing until a frame's timestamps are back, then whole frames
+    // with every pass; without them it returns this frame's CPU times. The image is the same.
+    let scene = octolux::scene::cornell::scene();
+    for timestamps in [Timestamps::Always, Timestamps::Off] {
+        let ctx = GpuContext::shared(&GpuOptions {
+            timestamps,
+            ..GpuOptions::default()
+        })
+        .unwrap();
+        let mut renderer = Renderer::new(&ctx, &scene, settings(32, 32)).unwrap();
+        let mut reported = 0;
+        for frame in 0..8 {
+            if let Some(times) = renderer.render_pipelined(&scene, 0.0).unwrap() {
+                let names: Vec<&str> = times.iter().map(|t| t.name.as_str()).collect();
+                assert_eq!(names, ["shadow maps", "gbuffer", "direct light", "compose"]);
+                reported += 1;
+            } else {
+                assert!(
+                    ctx.timestamps,
+                    "frame {frame}: CPU timing reports every frame"
+                );
+            }
+        }
+        assert!(
+            reported >= 5,
+            "{timestamps:?}: {reported} of 8 frames reported"
+        );
+        let pipelined = renderer.read_display().unwrap();
+        renderer.render(&scene, 0.0).unwrap();
+        assert_eq!(pipelined, renderer.read_display().unwrap());
+    }
+}

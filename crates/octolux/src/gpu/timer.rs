@@ -4,6 +4,7 @@
 
 use super::GpuContext;
 use crate::{Error, Result};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Where pass times come from.
@@ -91,6 +92,16 @@ struct Queries {
     capacity: u32,
 }
 
+/// Timestamps of a frame on their way back to the CPU (see [`PassTimer::finish_frame_pipelined`]).
+struct InFlight {
+    staging: wgpu::Buffer,
+    names: Vec<String>,
+    mapped: Arc<Mutex<Option<std::result::Result<(), wgpu::BufferAsyncError>>>>,
+}
+
+/// Frames whose timestamps may be in flight at once; a fourth frame waits for the first.
+const FRAMES_IN_FLIGHT: usize = 3;
+
 /// Records named passes into command encoders and measures them.
 pub struct PassTimer {
     ctx: GpuContext,
@@ -98,6 +109,8 @@ pub struct PassTimer {
     encoder: Option<wgpu::CommandEncoder>,
     names: Vec<String>,
     cpu: Vec<PassTiming>,
+    in_flight: std::collections::VecDeque<InFlight>,
+    spare: Vec<wgpu::Buffer>,
 }
 
 impl PassTimer {
@@ -132,6 +145,8 @@ impl PassTimer {
             encoder: None,
             names: Vec::new(),
             cpu: Vec::new(),
+            in_flight: Default::default(),
+            spare: Vec::new(),
         }
     }
 
@@ -254,5 +269,90 @@ impl PassTimer {
                 source: TimingSource::GpuTimestamps,
             })
             .collect())
+    }
+
+    /// Submits everything recorded without waiting for the GPU, and returns the pass times of
+    /// the most recent earlier frame whose timestamps have come back (None while none has):
+    /// a real-time loop keeps recording frames while the GPU works. At most three frames are
+    /// in flight; a fourth waits for the oldest. Without GPU timestamps every pass was already
+    /// waited for (CPU submit + wait), so this frame's times are returned.
+    pub fn finish_frame_pipelined(&mut self) -> Result<Option<Vec<PassTiming>>> {
+        if self.queries.is_none() {
+            return self.finish_frame().map(Some);
+        }
+        let names = std::mem::take(&mut self.names);
+        if names.is_empty() {
+            self.flush();
+        } else {
+            if self.in_flight.len() >= FRAMES_IN_FLIGHT {
+                self.ctx.wait_idle()?;
+            }
+            let Some(q) = &self.queries else {
+                return Ok(None);
+            };
+            let bytes = names.len() as u64 * 16;
+            let staging = self.spare.pop().unwrap_or_else(|| {
+                self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("timestamp readback"),
+                    size: q.capacity as u64 * 8,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            });
+            if let Some(mut encoder) = self.encoder.take() {
+                encoder.resolve_query_set(&q.set, 0..names.len() as u32 * 2, &q.resolve, 0);
+                encoder.copy_buffer_to_buffer(&q.resolve, 0, &staging, 0, bytes);
+                self.ctx.queue.submit([encoder.finish()]);
+            }
+            let mapped: Arc<Mutex<_>> = Arc::default();
+            let sink = mapped.clone();
+            staging.map_async(wgpu::MapMode::Read, ..bytes, move |r| {
+                *sink.lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
+            });
+            self.in_flight.push_back(InFlight {
+                staging,
+                names,
+                mapped,
+            });
+        }
+        let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+        self.ctx.check_errors()?;
+        let period_ns = self.ctx.queue.get_timestamp_period() as f64;
+        let mut latest = None;
+        while let Some(front) = self.in_flight.front() {
+            let state = front
+                .mapped
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .take();
+            let Some(state) = state else { break };
+            let Some(frame) = self.in_flight.pop_front() else {
+                break;
+            };
+            state.map_err(|e| Error::Gpu(format!("timestamp readback: {e}")))?;
+            let bytes = frame.names.len() as u64 * 16;
+            let ticks: Vec<u64> = {
+                let view = frame
+                    .staging
+                    .get_mapped_range(..bytes)
+                    .map_err(|e| Error::Gpu(format!("timestamp readback: {e}")))?;
+                bytemuck::pod_collect_to_vec(&view)
+            };
+            frame.staging.unmap();
+            self.spare.push(frame.staging);
+            latest = Some(
+                frame
+                    .names
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, name)| PassTiming {
+                        name,
+                        ms: ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period_ns * 1e-6,
+                        source: TimingSource::GpuTimestamps,
+                    })
+                    .collect(),
+            );
+        }
+        Ok(latest)
     }
 }

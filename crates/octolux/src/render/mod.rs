@@ -195,9 +195,23 @@ impl Renderer {
         &self.shadows
     }
 
-    /// Renders `scene` (the one given to [`Renderer::new`]) at time `t` seconds and returns the
-    /// per-pass times of this frame.
+    /// Renders `scene` (the one given to [`Renderer::new`]) at time `t` seconds, waits for the
+    /// GPU, and returns the per-pass times of this frame.
     pub fn render(&mut self, scene: &Scene, t: f32) -> Result<Vec<PassTiming>> {
+        self.record(scene, t)?;
+        self.timer.finish_frame()
+    }
+
+    /// Like [`Renderer::render`] but without waiting for the GPU (for real-time loops): returns
+    /// the pass times of the most recent earlier frame whose GPU timestamps have come back, or
+    /// None while none has. Reading an image back still waits for its frame.
+    pub fn render_pipelined(&mut self, scene: &Scene, t: f32) -> Result<Option<Vec<PassTiming>>> {
+        self.record(scene, t)?;
+        self.timer.finish_frame_pipelined()
+    }
+
+    /// Records every pass of one frame into the timer.
+    fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
         let frame = scene.frame(t, self.settings.camera);
         let view = frame.camera.view(w, h);
@@ -264,7 +278,7 @@ impl Renderer {
         self.gi.update(&self.ctx, &gi_frame, &mut self.timer)?;
         self.compose.render(&mut self.timer, w, h);
         self.last_view = Some(view);
-        self.timer.finish_frame()
+        Ok(())
     }
 
     /// The camera matrices of the last frame rendered.
