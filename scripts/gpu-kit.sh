@@ -45,6 +45,7 @@ set -uo pipefail
 kit="$(cd "$(dirname "$0")" && pwd)"
 repo="$(cd "$kit/.." && pwd)"
 results="${1:-$kit/results}"
+rm -rf /tmp/octolux-kit
 mkdir -p "$results" /tmp/octolux-kit
 zstd -dc --long=27 "$kit/kit.tar.zst" | tar -C /tmp/octolux-kit -xf -
 root="$(cat /tmp/octolux-kit/repo-root)"
