@@ -192,6 +192,8 @@ fn camera(f: usize) -> Vec3 {
 #[derive(Clone, Copy, Debug)]
 enum Part {
     OctreeUpdate,
+    /// The wait-free form of the update, recorded into the frame's timer.
+    OctreeRecord,
     OctreeInject,
     OctreeRebuild,
     ClipmapUpdate,
@@ -199,8 +201,9 @@ enum Part {
 }
 
 impl Part {
-    const ALL: [Part; 5] = [
+    const ALL: [Part; 6] = [
         Part::OctreeUpdate,
+        Part::OctreeRecord,
         Part::OctreeInject,
         Part::OctreeRebuild,
         Part::ClipmapUpdate,
@@ -277,6 +280,11 @@ fn voxel_updates_do_not_grow_from_frame_to_frame() {
         match part {
             Part::OctreeUpdate => {
                 builder.update_dynamic(&ctx, &mut svo, &block).unwrap();
+            }
+            Part::OctreeRecord => {
+                builder
+                    .record_dynamic(&ctx, &mut timer, &mut svo, &block)
+                    .unwrap();
             }
             Part::OctreeInject => {
                 ctx.queue

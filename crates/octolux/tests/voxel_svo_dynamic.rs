@@ -5,7 +5,7 @@
 //! update must not voxelize the static geometry again.
 
 use glam::Vec3;
-use octolux::gpu::{GpuContext, GpuOptions};
+use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::svo::{SvoBuilder, SvoCpu};
 use octolux::voxel::svo_dynamic::DynamicReserve;
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
@@ -268,6 +268,122 @@ fn updates_need_a_reserve_large_enough() {
         &grid,
         &statics,
         "after overflow",
+    );
+}
+
+/// The per-frame form: every update is recorded into its frame's timer with no sync in
+/// between (the GPU alone carries each update's ranges to the next), the last frame holding
+/// two updates; one sync at the end gives the counts of the last update, and the octree
+/// equals a rebuild of the final state.
+#[test]
+fn recorded_updates_without_waits_equal_a_rebuild() {
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let grid = unit_grid(32);
+    let statics = static_scene();
+    let (mut svo, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(20_000))
+        .unwrap();
+    let block = |x: f32, y: f32| {
+        let p = Vec3::new(x, y, 0.35);
+        cube(p, p + Vec3::new(0.17, 0.13, 0.11), [40, 90, 250])
+    };
+    // A block sliding over the floor and rising (one voxel is 1/32 = 0.031).
+    let path: Vec<Vec<VoxelTriangle>> = (0..6)
+        .map(|k| block(0.2 + 0.045 * k as f32, 0.08 + 0.07 * k as f32))
+        .collect();
+    let mut numbers = Vec::new();
+    let (frames, last_frame) = path.split_at(path.len() - 2);
+    for moving in frames {
+        let mut timer = PassTimer::new(&ctx);
+        numbers.push(
+            builder
+                .record_dynamic(&ctx, &mut timer, &mut svo, moving)
+                .unwrap(),
+        );
+        timer.finish_frame().unwrap();
+    }
+    let mut timer = PassTimer::new(&ctx);
+    for moving in last_frame {
+        numbers.push(
+            builder
+                .record_dynamic(&ctx, &mut timer, &mut svo, moving)
+                .unwrap(),
+        );
+    }
+    timer.finish_frame().unwrap();
+    assert_eq!(numbers, (1..=path.len() as u64).collect::<Vec<_>>());
+    let counts = svo
+        .sync_dynamic(&ctx)
+        .unwrap()
+        .expect("counts of the last update");
+    let moving = path.last().unwrap();
+    assert_eq!(counts.update, path.len() as u64);
+    assert_eq!(
+        counts.fragments as usize,
+        cpu::voxelize(&grid, moving).len()
+    );
+    let all = with(&statics, moving);
+    let worst = check(&svo.read_back(&ctx).unwrap(), &grid, &all, "recorded");
+    let (rebuilt, _) = builder.build(&ctx, &grid, &all).unwrap();
+    assert_eq!(svo.node_count, rebuilt.node_count, "nodes");
+    assert_eq!(svo.brick_count, rebuilt.brick_count, "bricks");
+    assert_eq!(svo.node_count - svo.static_nodes, counts.nodes);
+    println!(
+        "after {} recorded updates: {counts:?}, worst texel error {worst:.2e}",
+        path.len()
+    );
+}
+
+/// An update that exhausts the reserve is reported by a later update or by the sync, naming
+/// the update and what ran out, and the octree recovers at the next update that fits.
+#[test]
+fn an_exhausted_reserve_is_reported_after_the_frame() {
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let grid = unit_grid(16);
+    let statics = static_scene();
+    let reserve = DynamicReserve::new(16);
+    let (mut small, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, reserve)
+        .unwrap();
+    let big = cube(Vec3::splat(0.2), Vec3::splat(0.8), [255, 0, 0]);
+    assert!(cpu::voxelize(&grid, &big).len() > reserve.fragments as usize);
+    let mut timer = PassTimer::new(&ctx);
+    // Nothing is known yet when the overflowing update is recorded.
+    assert_eq!(
+        builder
+            .record_dynamic(&ctx, &mut timer, &mut small, &big)
+            .unwrap(),
+        1
+    );
+    timer.finish_frame().unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    let next = builder.record_dynamic(&ctx, &mut timer, &mut small, &[]);
+    timer.finish_frame().unwrap();
+    let err = match next {
+        Err(e) => e,
+        Ok(n) => {
+            assert_eq!(n, 2);
+            small.sync_dynamic(&ctx).unwrap_err()
+        }
+    };
+    let text = err.to_string();
+    assert!(text.contains("reserve is too small"), "{text}");
+    assert!(text.contains("update 1"), "{text}");
+    assert!(text.contains("ran out of fragments"), "{text}");
+    println!("{text}");
+    // The second update (nothing moving) restored the static octree.
+    small.sync_dynamic(&ctx).unwrap();
+    assert_eq!(
+        (small.node_count, small.brick_count),
+        (small.static_nodes, small.static_bricks)
+    );
+    check(
+        &small.read_back(&ctx).unwrap(),
+        &grid,
+        &statics,
+        "after a reported overflow",
     );
 }
 

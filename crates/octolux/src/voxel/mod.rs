@@ -230,7 +230,7 @@ pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> 
 
 /// The voxel triangles of `frame`, split into those of objects without animation (static:
 /// an octree's static part, built once) and those of animated objects (moving: its dynamic
-/// part, [`svo::SvoBuilder::update_dynamic`] every frame).
+/// part, [`svo::SvoBuilder::record_dynamic`] every frame).
 pub fn scene_triangles_split(
     scene: &Scene,
     frame: &SceneFrame,

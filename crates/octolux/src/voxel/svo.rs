@@ -26,8 +26,8 @@
 //!
 //! Moving geometry goes into a dynamic part ([`super::svo_dynamic`], Arnebäck 2017 §3.1.7):
 //! an octree built with [`SvoBuilder::build_with_reserve`] keeps room for dynamic nodes and
-//! bricks after its static ones, and [`SvoBuilder::update_dynamic`] replaces the dynamic part
-//! each frame without voxelizing or rebuilding the static one.
+//! bricks after its static ones, and [`SvoBuilder::record_dynamic`] replaces the dynamic part
+//! each frame without voxelizing or rebuilding the static one, and without waiting for the GPU.
 
 use super::svo_dynamic::DynamicReserve;
 use super::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
@@ -91,8 +91,9 @@ fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
 pub(crate) const CONTROL_WORDS: u64 = 128;
 /// Word of `control` counting bricks (`BRICK_COUNTER` in `svo.wgsl`).
 pub(crate) const BRICK_COUNTER: usize = 60;
-/// Indirect dispatch slots (3 words each): static levels, dynamic levels, dynamic lists.
-pub(crate) const ARGS_SLOTS: u64 = 64;
+/// Indirect dispatch slots (3 words each): static levels, dynamic levels, dynamic lists and
+/// the dynamic update's own sizes (`svo_dynamic.wgsl`).
+pub(crate) const ARGS_SLOTS: u64 = 96;
 /// First indirect slot of the dynamic node ranges (`ARGS_DYN_NODES` in `svo_dynamic.wgsl`).
 pub(crate) const ARGS_DYN_NODES: u32 = 16;
 
@@ -144,7 +145,8 @@ pub const POOLS: u32 = 4;
 pub struct Svo {
     /// The voxel grid the finest level resolves.
     pub grid: VoxelGrid,
-    /// Number of nodes (all levels).
+    /// Number of nodes (all levels). With a dynamic part, as of the latest dynamic update
+    /// read back ([`Svo::poll_dynamic`], [`Svo::sync_dynamic`]).
     pub node_count: u32,
     /// `array<u32>`: first child index, 0 = none.
     pub child: wgpu::Buffer,
@@ -158,11 +160,12 @@ pub struct Svo {
     pub pool_bricks: u32,
     /// `array<u32>`: per node, its brick index + 1 (0 = no brick, an all-zero lattice).
     pub brick_index: wgpu::Buffer,
-    /// Number of bricks.
+    /// Number of bricks (with a dynamic part: as [`Svo::node_count`]).
     pub brick_count: u32,
     /// Node index range of every level.
     pub levels: Vec<(u32, u32)>,
-    /// Voxel fragments the octree was built from.
+    /// Voxel fragments the octree was built from; after a dynamic update, those of its
+    /// dynamic triangles (as [`Svo::node_count`]).
     pub fragment_count: u32,
     /// `array<u32>`: per node, its packed coordinates on its level (10 bits per axis).
     pub coord: wgpu::Buffer,
@@ -187,7 +190,8 @@ pub struct Svo {
     pub static_nodes: u32,
     /// Bricks of the static part; dynamic bricks follow.
     pub static_bricks: u32,
-    /// Node index range of every level's dynamic nodes (empty without a dynamic part).
+    /// Node index range of every level's dynamic nodes (empty without a dynamic part; as
+    /// [`Svo::node_count`]).
     pub dynamic_levels: Vec<(u32, u32)>,
     /// Room for the dynamic part, `None` for an octree built without a reserve.
     pub(crate) dynamic: Option<super::svo_dynamic::SvoDynamic>,
@@ -358,7 +362,7 @@ impl SvoBuilder {
             "mip",
         ]) {
             let groups = Groups {
-                args: entry.contains("finish"),
+                args: entry.contains("finish") || entry == "dyn_begin",
                 dynamic: entry.starts_with("dyn_"),
             };
             let layout = match (groups.args, groups.dynamic) {
@@ -411,7 +415,7 @@ impl SvoBuilder {
 
     /// Builds the static part of an octree from `tris` (as [`SvoBuilder::build`]) with room
     /// for a dynamic part of up to `reserve` nodes and bricks, which
-    /// [`SvoBuilder::update_dynamic`] fills each frame.
+    /// [`SvoBuilder::record_dynamic`] fills each frame.
     pub fn build_with_reserve(
         &self,
         ctx: &GpuContext,
@@ -746,8 +750,14 @@ impl SvoBuilder {
             dynamic: super::svo_dynamic::SvoDynamic::new(
                 ctx,
                 reserve,
-                node_capacity as u32,
-                brick_capacity as u32,
+                super::svo_dynamic::StaticPart {
+                    node_capacity: node_capacity as u32,
+                    brick_capacity: brick_capacity as u32,
+                    depth,
+                    pool_bricks,
+                    first_leaf: leaves.0,
+                    control: control_cpu,
+                },
             ),
         }))
     }
@@ -819,8 +829,9 @@ impl SvoBuilder {
         let args_group = self.args_group(ctx, &svo.args);
         let depth = svo.levels.len() as u32;
         // Every level's static nodes, then its dynamic ones (parameter slot depth + d).
+        // Dynamic ranges are read on the GPU (empty before the first update).
         let ranges = |d: u32| {
-            let dynamic = !svo.dynamic_levels.is_empty();
+            let dynamic = svo.dynamic.is_some();
             [(d, d)]
                 .into_iter()
                 .chain(dynamic.then_some((depth + d, ARGS_DYN_NODES + d)))

@@ -15,15 +15,14 @@
 struct DynParams {
     // x: static nodes S, y: static bricks B, z: node capacity, w: brick capacity
     sizes: vec4<u32>,
-    // x: previous update's node count, y: previous needed-list length, z: occupied-list
-    // capacity, w: needed-list capacity
+    // x: fragment-list capacity, y: unused, z: occupied-list capacity, w: needed-list capacity
     lists: vec4<u32>,
     // x: first static leaf node, y: whether dyn_sums holds data (1) or not (0)
     leaves: vec4<u32>,
-    // previous update's needed-list range per level (x: start, y: end)
-    last_need: array<vec4<u32>, 16>,
-    // previous update's dynamic node range per level (x: start, y: end)
-    last_nodes: array<vec4<u32>, 16>,
+    // The control block as the previous update left it, copied on the GPU before this update
+    // resets it (its node count, dynamic node ranges and needed-list ranges): nothing of the
+    // previous update passes through the CPU.
+    last: array<u32, 128>,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -45,12 +44,19 @@ const NEED_RANGE: u32 = 104u;
 const OCC_COUNT: u32 = 124u;
 const NEED_COUNT: u32 = 125u;
 const DYN_OVERFLOW: u32 = 126u;
+// Dynamic fragments appended by the voxelization (may exceed the list's capacity).
+const DYN_FRAGMENTS: u32 = 127u;
 // Indirect argument slots (3 words each): static levels 0.., dynamic nodes 16.., occupied
-// list 32.., needed list 48...
+// list 32.., needed list 48.., all needed nodes 63, fragments 64, the previous update's
+// dynamic nodes 65 and needed list 66, its needed list per level 67...
 const ARGS_DYN_NODES: u32 = 16u;
 const ARGS_OCC: u32 = 32u;
 const ARGS_NEED: u32 = 48u;
 const ARGS_ALL_NEEDED: u32 = 63u;
+const ARGS_FRAGMENTS: u32 = 64u;
+const ARGS_UNLINK: u32 = 65u;
+const ARGS_RESET: u32 = 66u;
+const ARGS_LAST_NEED: u32 = 67u;
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 
 fn write_args(slot: u32, count: u32) {
@@ -69,6 +75,47 @@ fn range_entry(wg: vec3<u32>, nwg: vec3<u32>, li: u32, base: u32) -> u32 {
     return i;
 }
 
+// Dynamic fragments of this update that the list holds.
+fn fragment_count() -> u32 {
+    return min(atomicLoad(&control[DYN_FRAGMENTS]), D.lists.x);
+}
+
+// The previous update's node count (its dynamic nodes are [S, this)).
+fn last_node_count() -> u32 {
+    return max(min(D.last[0], D.sizes.z), D.sizes.x);
+}
+
+// The previous update's needed-list length (where its finest level's range ends).
+fn last_need_count() -> u32 {
+    return min(D.last[NEED_RANGE + 2u * L.depth - 1u], D.lists.w);
+}
+
+// ---- Sizing from the GPU's own counters ------------------------------------------------------
+
+// Sizes the undo of the previous update (its dynamic nodes, its needed list, and per level
+// its needed nodes, whose bricks are gathered again) from the control block it left.
+@compute @workgroup_size(1)
+fn dyn_begin() {
+    write_args(ARGS_UNLINK, last_node_count() - D.sizes.x);
+    write_args(ARGS_RESET, last_need_count());
+    for (var d = 0u; d < L.depth; d++) {
+        let r = last_need_range(d);
+        write_args(ARGS_LAST_NEED + d, r.y - r.x);
+    }
+}
+
+// Sizes the passes over this update's fragments once the voxelization has appended them.
+@compute @workgroup_size(1)
+fn dyn_finish_fragments() {
+    write_args(ARGS_FRAGMENTS, fragment_count());
+}
+
+// The previous update's needed-list range of level d.
+fn last_need_range(d: u32) -> vec2<u32> {
+    let end = min(D.last[NEED_RANGE + 2u * d + 1u], D.lists.w);
+    return vec2<u32>(min(D.last[NEED_RANGE + 2u * d], end), end);
+}
+
 // ---- Clearing the previous update -------------------------------------------------------
 
 // Previous dynamic nodes [S, previous count): the static node below each of them on every
@@ -77,7 +124,7 @@ fn range_entry(wg: vec3<u32>, nwg: vec3<u32>, li: u32, base: u32) -> u32 {
 fn dyn_unlink(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     let n = D.sizes.x + linear_index(wg, nwg, li);
-    if n >= D.lists.x {
+    if n >= last_node_count() {
         return;
     }
     let c = unpack3(coord[n]);
@@ -98,7 +145,7 @@ fn dyn_unlink(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
 // The level of dynamic node n in the previous update.
 fn node_level(n: u32) -> u32 {
     for (var d = 1u; d < L.depth; d++) {
-        if n < D.last_nodes[d].y {
+        if n < D.last[DYN_NODES + 2u * d + 1u] {
             return d;
         }
     }
@@ -111,7 +158,7 @@ fn node_level(n: u32) -> u32 {
 fn dyn_reset(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
              @builtin(local_invocation_index) li: u32) {
     let i = linear_index(wg, nwg, li);
-    if i >= D.lists.y {
+    if i >= last_need_count() {
         return;
     }
     let n = last_need_list[i];
@@ -134,7 +181,7 @@ fn dyn_reset(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
 fn dyn_flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                      @builtin(local_invocation_index) li: u32) {
     let f = linear_index(wg, nwg, li);
-    if f >= L.fragments {
+    if f >= fragment_count() {
         return;
     }
     let v = unpack3(fragments[f].x);
@@ -306,7 +353,7 @@ fn dyn_assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgrou
 fn dyn_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) li: u32) {
     let f = linear_index(wg, nwg, li);
-    if f >= L.fragments {
+    if f >= fragment_count() {
         return;
     }
     let frag = fragments[f];
@@ -425,7 +472,7 @@ fn store_shared(block: array<u32, 27>, t: vec3<u32>, v: vec4<f32>) {
 // L.range == 1) the previous update's, whose static nodes must return to their static values.
 fn dirty_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
     if L.range == 1u {
-        let r = D.last_need[L.d];
+        let r = last_need_range(L.d);
         let i = r.x + linear_index(wg, nwg, li);
         if i >= r.y {
             return INVALID;

@@ -30,6 +30,10 @@ pub const LEAF_SUM_WORDS: u32 = 10;
 /// occupied voxel; `leaf_sum_offset` finds a voxel's words.
 pub const LEAF_SUMS_WGSL: &str = include_str!("leaf_sums.wgsl");
 
+/// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
+/// `svo_dynamic.wgsl`).
+const DYN_NODES: u32 = 64;
+
 /// Bytes of one light in the renderer's light buffer (`Light` in `render/direct.wgsl`).
 pub const LIGHT_BYTES: u64 = 64;
 
@@ -39,6 +43,7 @@ struct InjectParams {
     origin_voxel: [f32; 4],
     misc: [u32; 4],
     part: [u32; 4],
+    range: [u32; 4],
 }
 
 /// The accumulation and injection kernels.
@@ -169,12 +174,18 @@ impl SvoLight {
         let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
         let grid = &svo.grid;
         let dynamic = svo.dynamic.as_ref();
-        // Static leaves, then the dynamic part's leaves (their radiance slots follow).
-        let mut parts = vec![(first, end - first, 0)];
-        if let (Some(_), Some(&(d0, d1))) = (dynamic, svo.dynamic_levels.last()) {
-            if d1 > d0 {
-                parts.push((d0, d1 - d0, end - first));
-            }
+        // Static leaves, then the dynamic part's leaves (their radiance slots follow), whose
+        // range and dispatch size the last dynamic update left on the GPU.
+        let depth = svo.levels.len() as u32;
+        let mut parts = vec![(first, end - first, 0, None)];
+        if dynamic.is_some() && depth > 0 {
+            let leaf = depth - 1;
+            parts.push((
+                DYN_NODES + 2 * leaf,
+                0,
+                end - first,
+                Some(super::svo::ARGS_DYN_NODES + leaf),
+            ));
         }
         let owner = super::svo::OWNER;
         let mut matrices: Vec<[f32; 16]> = shadow_layers
@@ -207,11 +218,12 @@ impl SvoLight {
             Some(d) => (&d.sums, d.state()),
             None => (&placeholder, &placeholder),
         };
-        for (i, &(node, count, slot)) in parts.iter().enumerate() {
+        for (i, &(node, count, slot, indirect)) in parts.iter().enumerate() {
             let params = InjectParams {
                 origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
                 misc: [node, count, light_count, svo.pool_bricks],
                 part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
+                range: [indirect.is_some() as u32, node, 0, 0],
             };
             let params_buffer = ctx.create_buffer_init(
                 owner,
@@ -230,7 +242,7 @@ impl SvoLight {
                 svo,
                 [&params_buffer, &matrices, lights, dyn_sums, dyn_state],
                 &view,
-                (name, count),
+                (name, count, indirect),
             );
         }
         for label in [
@@ -242,8 +254,9 @@ impl SvoLight {
         }
     }
 
-    /// One injection dispatch over `count` leaves; `buffers` are the parameters, the shadow
-    /// matrices, the lights and the dynamic part's sums and state.
+    /// One injection dispatch over `count` leaves, or indirectly from slot `indirect` of the
+    /// octree's dispatch arguments; `buffers` are the parameters, the shadow matrices, the
+    /// lights and the dynamic part's sums and state.
     fn inject_part(
         &self,
         ctx: &GpuContext,
@@ -251,9 +264,9 @@ impl SvoLight {
         svo: &super::svo::Svo,
         [params_buffer, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
         view: &wgpu::TextureView,
-        (name, count): (&str, u32),
+        (name, count, indirect): (&str, u32, Option<u32>),
     ) {
-        let buffers: [(u32, &wgpu::Buffer); 13] = [
+        let buffers: [(u32, &wgpu::Buffer); 14] = [
             (10, params_buffer),
             (11, &svo.leaf_sums),
             (12, &svo.coord),
@@ -267,6 +280,7 @@ impl SvoLight {
             (22, &svo.radiance[3]),
             (23, dyn_sums),
             (24, dyn_state),
+            (25, &svo.control),
         ];
         let mut entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -288,6 +302,18 @@ impl SvoLight {
             layout: &self.inject.get_bind_group_layout(0),
             entries: &entries,
         });
-        dispatch(timer, name, &self.inject, &group, count);
+        let Some(slot) = indirect else {
+            dispatch(timer, name, &self.inject, &group, count);
+            return;
+        };
+        timer.pass(name, |encoder, stamps| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(name),
+                timestamp_writes: stamps.compute(),
+            });
+            pass.set_pipeline(&self.inject);
+            pass.set_bind_group(0, &group, &[]);
+            pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
+        });
     }
 }

@@ -105,6 +105,9 @@ struct InjectParams {
     // x: static nodes, y: first static leaf node, z: `voxel_radiance` slot of this dispatch's
     // first leaf, w: 1 when the octree has a dynamic part (`dyn_sums`, `dyn_state`)
     part: vec4<u32>,
+    // x: 1 when this dispatch's leaves are the range [control[y], control[y + 1]) that the
+    // octree's last dynamic update left on the GPU (misc.x and misc.y unused), 0 otherwise
+    range: vec4<u32>,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -125,6 +128,8 @@ struct InjectParams {
 // dynamic fragments' sums per slot.
 @group(0) @binding(23) var<storage, read> dyn_sums: array<u32>;
 @group(0) @binding(24) var<storage, read> dyn_state: array<u32>;
+// The octree's control block (`svo.wgsl`), for the dynamic leaves' range.
+@group(0) @binding(25) var<storage, read> control: array<u32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -206,10 +211,16 @@ fn octant(o: u32) -> vec3<u32> {
 fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
     let l = linear_index(wg, nwg, li);
-    if l >= P.misc.y {
+    var first = P.misc.x;
+    var count = P.misc.y;
+    if P.range.x != 0u {
+        first = control[P.range.y];
+        count = control[P.range.y + 1u] - first;
+    }
+    if l >= count {
         return;
     }
-    let n = P.misc.x + l;
+    let n = first + l;
     let b1 = brick_index[n];
     let c = unpack3(node_coord[n]);
     var voxels: array<vec4<f32>, 8>;

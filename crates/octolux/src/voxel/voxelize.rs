@@ -89,6 +89,7 @@ pub struct FragmentList {
 pub struct Voxelizer {
     count: wgpu::ComputePipeline,
     emit: wgpu::ComputePipeline,
+    append: wgpu::ComputePipeline,
 }
 
 pub(crate) fn bind_buffers(
@@ -138,6 +139,7 @@ impl Voxelizer {
         Voxelizer {
             count: ctx.compute_pipeline("voxelize count", &module, "count_fragments"),
             emit: ctx.compute_pipeline("voxelize emit", &module, "emit_fragments"),
+            append: ctx.compute_pipeline("voxelize append", &module, "append_fragments"),
         }
     }
 
@@ -261,6 +263,76 @@ impl Voxelizer {
             triangles,
             triangle_count: n,
         })
+    }
+}
+
+impl Voxelizer {
+    /// Records the voxelization of `tris` into `grid` as one pass (`name`) that appends to
+    /// `fragments` (a list of fixed capacity, 8 bytes per fragment) without waiting for the
+    /// GPU: each work item reserves its range with an atomic add on word `word` of `counter`,
+    /// which must be zero before the pass and ends at the number of fragments
+    /// (also when they exceed the capacity; those past it are dropped). Fragment order varies
+    /// from run to run. Returns the uploaded triangles, which the fragments refer to.
+    pub(crate) fn append(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        (owner, name): (&str, &str),
+        grid: &VoxelGrid,
+        tris: &[VoxelTriangle],
+        (fragments, counter, word): (&wgpu::Buffer, &wgpu::Buffer, u32),
+    ) -> Result<wgpu::Buffer> {
+        u32::try_from(tris.len())
+            .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
+        let res = grid.resolution as i32;
+        let region = SnapRegion {
+            origin: grid.origin,
+            voxel_size: grid.voxel_size,
+            lo: glam::IVec3::ZERO,
+            hi: glam::IVec3::splat(res),
+        };
+        let pieces = snap_triangles(&region, tris);
+        let items = work_items(&pieces, region.size());
+        let n_items = u32::try_from(items.len())
+            .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
+        let triangles = upload_triangles(ctx, owner, tris);
+        if n_items == 0 {
+            return Ok(triangles);
+        }
+        let params = VoxParams {
+            lo: [0; 4],
+            hi: [res, res, res, 0],
+            misc: [n_items, word, 0, 0],
+        };
+        let params_buffer = ctx.create_buffer_init(
+            owner,
+            "voxelize params",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let pieces_buffer = upload_pieces(ctx, owner, &pieces);
+        let items_buffer = ctx.create_buffer_init(
+            owner,
+            "work items",
+            bytemuck::cast_slice(&items),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let group = bind_buffers(
+            ctx,
+            &self.append,
+            &[
+                (0, &params_buffer),
+                (1, &pieces_buffer),
+                (3, fragments),
+                (4, &items_buffer),
+                (5, counter),
+            ],
+        );
+        dispatch(timer, name, &self.append, &group, n_items);
+        for label in ["voxelize params", "work items", "triangle pieces"] {
+            ctx.ledger.record(owner, label, 0);
+        }
+        Ok(triangles)
     }
 }
 
