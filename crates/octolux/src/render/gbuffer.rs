@@ -145,7 +145,7 @@ impl GBuffer {
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &scene_gpu.view_group, &[0]);
-            scene_gpu.draw(&mut pass);
+            scene_gpu.draw(&mut pass, 0);
         });
     }
 }

@@ -6,7 +6,7 @@ use crate::gpu::GpuContext;
 use crate::scene::{AlphaMode, Scene};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec4};
+use glam::{Mat4, Vec3, Vec4};
 
 const OWNER: &str = "scene";
 /// Uniform-buffer dynamic offsets must be multiples of this on every adapter we target.
@@ -54,6 +54,8 @@ pub(crate) struct GpuMesh {
     pub indices: wgpu::Buffer,
     pub index_count: u32,
     pub material: usize,
+    /// Bounding box of the positions in model space (for culling).
+    pub bounds: (Vec3, Vec3),
 }
 
 /// Bind group layouts shared by every rasterisation pass.
@@ -132,6 +134,9 @@ pub struct SceneGpu {
     pub(crate) object_group: wgpu::BindGroup,
     pub(crate) views: wgpu::Buffer,
     pub(crate) view_group: wgpu::BindGroup,
+    /// This frame's object transforms and view matrices, as uploaded (for culling).
+    transforms: Vec<Mat4>,
+    view_projs: Vec<Mat4>,
 }
 
 impl SceneGpu {
@@ -172,6 +177,10 @@ impl SceneGpu {
                 ),
                 index_count: mesh.indices.len() as u32,
                 material: mesh.material as usize,
+                bounds: mesh.positions.iter().fold(
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                    |(lo, hi), &p| (lo.min(p), hi.max(p)),
+                ),
             });
         }
 
@@ -281,11 +290,14 @@ impl SceneGpu {
             object_group,
             views,
             view_group,
+            transforms: Vec::new(),
+            view_projs: Vec::new(),
         })
     }
 
     /// Uploads this frame's object transforms.
-    pub(crate) fn update_objects(&self, queue: &wgpu::Queue, transforms: &[Mat4]) {
+    pub(crate) fn update_objects(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
+        self.transforms = transforms.to_vec();
         let mut data = vec![0u8; transforms.len() * UNIFORM_STRIDE as usize];
         for (i, m) in transforms.iter().enumerate() {
             let u = ObjectUniform {
@@ -301,7 +313,8 @@ impl SceneGpu {
     }
 
     /// Uploads view uniforms (index 0 = camera, then shadow layers).
-    pub(crate) fn update_views(&self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
+    pub(crate) fn update_views(&mut self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
+        self.view_projs = views.iter().map(|v| v.0).collect();
         let mut data = vec![0u8; views.len() * UNIFORM_STRIDE as usize];
         for (i, (view_proj, position)) in views.iter().enumerate() {
             let u = ViewUniform {
@@ -314,11 +327,25 @@ impl SceneGpu {
         queue.write_buffer(&self.views, 0, &data);
     }
 
-    /// Draws every object with the bound pipeline; view group 0 must already be set.
-    pub(crate) fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>) {
+    /// Draws every object with the bound pipeline; view group 0 must already be set to view
+    /// uniform `view`. Meshes whose bounds lie wholly outside that view's clip volume are not
+    /// drawn (they would produce no fragment).
+    pub(crate) fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, view: usize) {
+        let view_proj = self.view_projs.get(view);
         for (o, meshes) in self.object_meshes.iter().enumerate() {
+            let model = self.transforms.get(o).copied().unwrap_or(Mat4::IDENTITY);
+            let visible: Vec<usize> = meshes
+                .iter()
+                .copied()
+                .filter(|&m| {
+                    view_proj.is_none_or(|vp| !outside(*vp * model, self.meshes[m].bounds))
+                })
+                .collect();
+            if visible.is_empty() {
+                continue;
+            }
             pass.set_bind_group(2, &self.object_group, &[(o as u64 * UNIFORM_STRIDE) as u32]);
-            for &m in meshes {
+            for m in visible {
                 let mesh = &self.meshes[m];
                 pass.set_bind_group(1, &self.materials[mesh.material], &[]);
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
@@ -499,5 +526,68 @@ mod tests {
             &[10, 10, 10, 255, 10, 10, 10, 255, 200, 200, 200, 255],
         );
         assert_eq!((w, h, out), (1, 1, vec![10, 10, 10, 255]));
+    }
+}
+
+/// Whether the box `(lo, hi)` transformed by `clip_from_model` lies wholly outside the clip
+/// volume (-w <= x, y <= w, 0 <= z <= w): all eight corners beyond one of its planes. Each plane
+/// is linear in homogeneous coordinates, so this holds for corners behind the eye too.
+fn outside(clip_from_model: Mat4, (lo, hi): (Vec3, Vec3)) -> bool {
+    if !(lo.is_finite() && hi.is_finite()) {
+        return false;
+    }
+    let corners = (0..8).map(|i| {
+        let p = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        clip_from_model * p.extend(1.0)
+    });
+    let planes: [fn(Vec4) -> f32; 6] = [
+        |c| c.x + c.w,
+        |c| c.w - c.x,
+        |c| c.y + c.w,
+        |c| c.w - c.y,
+        |c| c.z,
+        |c| c.w - c.z,
+    ];
+    let corners: Vec<Vec4> = corners.collect();
+    planes
+        .iter()
+        .any(|plane| corners.iter().all(|&c| plane(c) < 0.0))
+}
+
+#[cfg(test)]
+mod culling_tests {
+    use super::*;
+
+    #[test]
+    fn culling_keeps_what_touches_the_view_and_drops_what_cannot() {
+        let proj = Mat4::perspective_rh(1.0, 1.0, 0.1, 10.0);
+        let view = Mat4::look_at_rh(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y);
+        let vp = proj * view;
+        let unit = (Vec3::splat(-0.5), Vec3::splat(0.5));
+        let at = |p: Vec3| vp * Mat4::from_translation(p);
+        assert!(!outside(at(Vec3::new(0.0, 0.0, -5.0)), unit), "in front");
+        assert!(
+            outside(at(Vec3::new(0.0, 0.0, 5.0)), unit),
+            "behind the eye"
+        );
+        assert!(outside(at(Vec3::new(0.0, 0.0, -20.0)), unit), "beyond far");
+        assert!(
+            outside(at(Vec3::new(30.0, 0.0, -5.0)), unit),
+            "far to the side"
+        );
+        // Straddling the eye (corners in front and behind) is kept.
+        assert!(!outside(
+            at(Vec3::ZERO),
+            (Vec3::splat(-2.0), Vec3::splat(2.0))
+        ));
+        // Just touching the side plane from outside is kept (the test is strict).
+        let edge = (1.0f32 * 0.5).tan() * 5.0;
+        assert!(!outside(at(Vec3::new(edge + 0.5, 0.0, -5.0)), unit));
+        // Degenerate bounds (empty mesh) are never culled.
+        assert!(!outside(vp, (Vec3::INFINITY, Vec3::NEG_INFINITY)));
     }
 }

@@ -237,7 +237,7 @@ impl ShadowMaps {
                 pass.set_pipeline(&self.pipeline);
                 let offset = ((i as u64 + 1) * super::scene_gpu::UNIFORM_STRIDE) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[offset]);
-                scene_gpu.draw(&mut pass);
+                scene_gpu.draw(&mut pass, i + 1);
             }
         });
     }

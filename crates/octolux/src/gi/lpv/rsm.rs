@@ -252,7 +252,7 @@ impl RsmPass {
                 let view_offset = ((i as u64 + 1) * UNIFORM_STRIDE) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
                 pass.set_bind_group(3, &self.group, &[(i as u64 * super::SLOT) as u32]);
-                scene_gpu.draw(&mut pass);
+                scene_gpu.draw(&mut pass, i + 1);
             }
         });
     }
