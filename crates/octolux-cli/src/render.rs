@@ -426,6 +426,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             all_timings.len(),
         );
         crate::stats::print_memory(&ctx.ledger);
+        crate::stats::print_objects(&ctx);
     }
     Ok(())
 }

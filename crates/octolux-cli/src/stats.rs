@@ -47,6 +47,18 @@ pub fn print_memory(ledger: &MemoryLedger) {
     println!("  {:<24} {:>10.3}", "total", mib(ledger.total()));
 }
 
+/// Prints wgpu's own count of live objects (what the ledger cannot see: bind groups, views,
+/// pipelines, command buffers), so a count that grows with `--frames` shows a leak.
+pub fn print_objects(ctx: &octolux::gpu::GpuContext) {
+    if let Some(c) = ctx.resource_counts() {
+        println!(
+            "wgpu objects alive: {} buffers, {} textures, {} views, {} bind groups, {} pipelines, \
+             {} command buffers",
+            c.buffers, c.textures, c.texture_views, c.bind_groups, c.pipelines, c.command_buffers
+        );
+    }
+}
+
 /// Bytes to MiB.
 pub fn mib(bytes: u64) -> f64 {
     bytes as f64 / (1024.0 * 1024.0)
