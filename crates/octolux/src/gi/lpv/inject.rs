@@ -2,7 +2,7 @@
 
 use super::propagate::Volumes;
 use super::rsm::{RsmLayer, RsmTargets};
-use super::{bind, groups, wgsl, GiFrame, CELL_BYTES};
+use super::{bind, groups, wgsl, GiFrame};
 use crate::gpu::{GpuContext, PassTimer};
 
 /// At most this many G-buffer samples per side feed the camera's geometry volume: larger
@@ -57,7 +57,8 @@ impl Inject {
                 (1, tex(&rsm.position_array)),
                 (2, tex(&rsm.normal_array)),
                 (3, tex(&rsm.flux_array)),
-                (4, v.light_fixed.as_entire_binding()),
+                (4, v.light_lo.as_entire_binding()),
+                (12, v.light_hi.as_entire_binding()),
             ],
         );
         let gv_rsm = ctx.compute_pipeline("lpv inject gv rsm", &module, "inject_gv_rsm");
@@ -69,7 +70,8 @@ impl Inject {
                 (1, tex(&rsm.position_array)),
                 (2, tex(&rsm.normal_array)),
                 (3, tex(&rsm.flux_array)),
-                (5, v.gv_fixed.as_entire_binding()),
+                (5, v.gv_lo.as_entire_binding()),
+                (13, v.gv_hi.as_entire_binding()),
             ],
         );
         let gv_camera = ctx.compute_pipeline("lpv inject gv camera", &module, "inject_gv_camera");
@@ -78,7 +80,8 @@ impl Inject {
             &gv_camera,
             &[
                 (0, grids.as_entire_binding()),
-                (5, v.gv_fixed.as_entire_binding()),
+                (5, v.gv_lo.as_entire_binding()),
+                (13, v.gv_hi.as_entire_binding()),
                 (6, frame.camera_uniform.as_entire_binding()),
                 (7, tex(&frame.gbuffer.depth_view)),
                 (8, tex(&frame.gbuffer.normal_view)),
@@ -90,7 +93,8 @@ impl Inject {
             &resolve,
             &[
                 (0, grids.as_entire_binding()),
-                (9, v.light_fixed.as_entire_binding()),
+                (9, v.light_lo.as_entire_binding()),
+                (14, v.light_hi.as_entire_binding()),
                 (11, v.a.as_entire_binding()),
             ],
         );
@@ -100,7 +104,8 @@ impl Inject {
             &combine,
             &[
                 (0, grids.as_entire_binding()),
-                (9, v.gv_fixed.as_entire_binding()),
+                (9, v.gv_lo.as_entire_binding()),
+                (14, v.gv_hi.as_entire_binding()),
                 (10, v.gv.as_entire_binding()),
             ],
         );
@@ -121,8 +126,9 @@ impl Inject {
     /// pass.
     pub(crate) fn record(&self, timer: &mut PassTimer, name: &str, v: &Volumes, stride: u32) {
         timer.pass(name, |encoder, stamps| {
-            encoder.clear_buffer(&v.light_fixed, 0, Some(v.cells as u64 * CELL_BYTES * 2));
-            encoder.clear_buffer(&v.gv_fixed, 0, None);
+            for sums in [&v.light_lo, &v.light_hi, &v.gv_lo, &v.gv_hi] {
+                encoder.clear_buffer(sums, 0, None);
+            }
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(name),
                 timestamp_writes: stamps.compute(),

@@ -16,12 +16,17 @@
 @group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
 @group(0) @binding(2) var rsm_normal: texture_2d_array<f32>;
 @group(0) @binding(3) var rsm_flux: texture_2d_array<f32>;
-@group(0) @binding(4) var<storage, read_write> light_fixed: array<atomic<u32>>;
-@group(0) @binding(5) var<storage, read_write> gv_fixed: array<atomic<u32>>;
+// Low and high words of the 64-bit sums in separate buffers, so each is no larger than a float
+// volume (adapters limit the size of one binding).
+@group(0) @binding(4) var<storage, read_write> light_lo: array<atomic<u32>>;
+@group(0) @binding(12) var<storage, read_write> light_hi: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> gv_lo: array<atomic<u32>>;
+@group(0) @binding(13) var<storage, read_write> gv_hi: array<atomic<u32>>;
 @group(0) @binding(6) var<uniform> cam: Camera;
 @group(0) @binding(7) var depth_tex: texture_depth_2d;
 @group(0) @binding(8) var normal_tex: texture_2d<f32>;
-@group(0) @binding(9) var<storage, read> sums: array<vec2<u32>>;
+@group(0) @binding(9) var<storage, read> sums_lo: array<u32>;
+@group(0) @binding(14) var<storage, read> sums_hi: array<u32>;
 @group(0) @binding(10) var<storage, read_write> gv_out: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read_write> light_out: array<f32>;
 
@@ -55,15 +60,15 @@ fn from_fixed(v: vec2<u32>) -> f32 {
     return -(f32(nhi) * TWO_32 + f32(nlo));
 }
 
-// Adds a 64-bit value to words (2 i, 2 i + 1): the low word first, then the high word with the
-// carry out of the low one. Exact once every addition of the pass is done.
+// Adds a 64-bit value to sum i: the low word first, then the high word with the carry out of
+// the low one. Exact once every addition of the pass is done.
 fn add_light(i: u32, v: f32) {
     let f = to_fixed(v * grids.light_scale);
     if f.x == 0u && f.y == 0u {
         return;
     }
-    let old = atomicAdd(&light_fixed[2u * i], f.x);
-    atomicAdd(&light_fixed[2u * i + 1u], f.y + select(0u, 1u, old + f.x < old));
+    let old = atomicAdd(&light_lo[i], f.x);
+    atomicAdd(&light_hi[i], f.y + select(0u, 1u, old + f.x < old));
 }
 
 fn add_gv(i: u32, v: f32) {
@@ -71,8 +76,8 @@ fn add_gv(i: u32, v: f32) {
     if f.x == 0u && f.y == 0u {
         return;
     }
-    let old = atomicAdd(&gv_fixed[2u * i], f.x);
-    atomicAdd(&gv_fixed[2u * i + 1u], f.y + select(0u, 1u, old + f.x < old));
+    let old = atomicAdd(&gv_lo[i], f.x);
+    atomicAdd(&gv_hi[i], f.y + select(0u, 1u, old + f.x < old));
 }
 
 // RSM texel: world position, unit normal facing the light, reflected flux (W) and surfel
@@ -240,6 +245,11 @@ fn inject_gv_camera(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// Sum i of the resolve passes' input, as (lo, hi).
+fn sum(i: u32) -> vec2<u32> {
+    return vec2<u32>(sums_lo[i], sums_hi[i]);
+}
+
 // The injected light as floats (cell-major, 12 values per cell), for propagation.
 @compute @workgroup_size(64, 1, 1)
 fn resolve_light(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -247,7 +257,7 @@ fn resolve_light(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= arrayLength(&light_out) {
         return;
     }
-    light_out[i] = from_fixed(sums[i]) / grids.light_scale;
+    light_out[i] = from_fixed(sum(i)) / grids.light_scale;
 }
 
 // Max-combination of the two geometry sources: per cell, the one with the larger band-0
@@ -259,9 +269,9 @@ fn combine_gv(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let j = i + grids.gv_total;
-    let a = vec4<f32>(from_fixed(sums[4u * i]), from_fixed(sums[4u * i + 1u]),
-        from_fixed(sums[4u * i + 2u]), from_fixed(sums[4u * i + 3u])) / GV_SCALE;
-    let b = vec4<f32>(from_fixed(sums[4u * j]), from_fixed(sums[4u * j + 1u]),
-        from_fixed(sums[4u * j + 2u]), from_fixed(sums[4u * j + 3u])) / GV_SCALE;
+    let a = vec4<f32>(from_fixed(sum(4u * i)), from_fixed(sum(4u * i + 1u)),
+        from_fixed(sum(4u * i + 2u)), from_fixed(sum(4u * i + 3u))) / GV_SCALE;
+    let b = vec4<f32>(from_fixed(sum(4u * j)), from_fixed(sum(4u * j + 1u)),
+        from_fixed(sum(4u * j + 2u)), from_fixed(sum(4u * j + 3u))) / GV_SCALE;
     gv_out[i] = select(a, b, b.x > a.x);
 }

@@ -411,6 +411,9 @@ impl LpvGi {
                 }
         });
         let limits = ctx.device.limits();
+        // The largest buffers: a light volume (48 bytes per cell; the fixed-point sums' low and
+        // high words are two buffers of that size) and one word of the geometry sums of both
+        // sources (2 x 16 bytes per geometry cell).
         let largest = (cells as u64 * CELL_BYTES).max(gv_total as u64 * 32);
         if largest > limits.max_storage_buffer_binding_size || largest > limits.max_buffer_size {
             return Err(Error::InvalidArgument(format!(

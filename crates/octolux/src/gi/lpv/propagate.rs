@@ -16,11 +16,15 @@ pub struct Volumes {
     pub b: wgpu::Buffer,
     /// Accumulated light.
     pub acc: wgpu::Buffer,
-    /// Injected light as 64-bit fixed-point sums (two u32 words per value).
-    pub light_fixed: wgpu::Buffer,
+    /// Injected light as 64-bit fixed-point sums: low words (one u32 per value).
+    pub light_lo: wgpu::Buffer,
+    /// High words of the injected light's sums.
+    pub light_hi: wgpu::Buffer,
     /// Geometry volumes from the RSMs (first half) and the camera (second half), as injected:
-    /// 64-bit fixed-point sums (two u32 words per value).
-    pub gv_fixed: wgpu::Buffer,
+    /// low words of 64-bit fixed-point sums.
+    pub gv_lo: wgpu::Buffer,
+    /// High words of the geometry sums.
+    pub gv_hi: wgpu::Buffer,
     /// Max-combined geometry volumes.
     pub gv: wgpu::Buffer,
 }
@@ -36,8 +40,10 @@ impl Volumes {
             a: storage(ctx, owner, "light a", light),
             b: storage(ctx, owner, "light b", light),
             acc: storage(ctx, owner, "light accumulated", light),
-            light_fixed: storage(ctx, owner, "light injected (fixed point)", light * 2),
-            gv_fixed: storage(ctx, owner, "geometry injected (fixed point)", gv * 4),
+            light_lo: storage(ctx, owner, "light injected (low words)", light),
+            light_hi: storage(ctx, owner, "light injected (high words)", light),
+            gv_lo: storage(ctx, owner, "geometry injected (low words)", gv * 2),
+            gv_hi: storage(ctx, owner, "geometry injected (high words)", gv * 2),
             gv: storage(ctx, owner, "geometry", gv),
         }
     }
