@@ -256,6 +256,36 @@ pub fn exposed_boxes(level: u32, old: Option<IVec3>, new: IVec3, res: i32) -> Ve
     out
 }
 
+/// CPU cost and size of the last [`Clipmap::update`] or [`Clipmap::revoxelise`] (zero when it
+/// revoxelised nothing). Times are wall-clock milliseconds on the calling thread; GPU times
+/// are the passes in the [`PassTimer`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UpdateStats {
+    /// Boxes revoxelised, after splitting into z slices that fit the accumulation scratch.
+    pub parts: u32,
+    /// Triangles snapped (summed over the parts).
+    pub triangles_snapped: u64,
+    /// Triangle pieces uploaded.
+    pub pieces: u64,
+    /// Work items uploaded.
+    pub work_items: u64,
+    /// Bytes written to the GPU (triangles, pieces, work items, parameters).
+    pub upload_bytes: u64,
+    /// Finding, snapping and splitting triangles and making work items.
+    pub snap_ms: f64,
+    /// Creating or writing GPU buffers.
+    pub upload_ms: f64,
+    /// Creating bind groups and recording the passes.
+    pub record_ms: f64,
+}
+
+impl UpdateStats {
+    /// All CPU time of the update.
+    pub fn cpu_ms(&self) -> f64 {
+        self.snap_ms + self.upload_ms + self.record_ms
+    }
+}
+
 /// A voxel clipmap on the GPU.
 pub struct Clipmap {
     /// Dimensions.
@@ -285,6 +315,7 @@ pub struct Clipmap {
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
     resolve: wgpu::ComputePipeline,
+    stats: UpdateStats,
 }
 
 impl Clipmap {
@@ -416,6 +447,7 @@ impl Clipmap {
             written,
             accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
             resolve: ctx.compute_pipeline("clipmap resolve", &module, "resolve"),
+            stats: UpdateStats::default(),
         })
     }
 
@@ -512,16 +544,21 @@ impl Clipmap {
     /// region a moving object left and entered ([`Clipmap::boxes_touching`]). A filtered
     /// clipmap then rebuilds every coarser level's voxels inside the finer level, finest first.
     pub fn revoxelise(
-        &self,
+        &mut self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
         tris: &[VoxelTriangle],
         boxes: &[UpdateBox],
     ) -> Result<()> {
+        let mut stats = UpdateStats::default();
+        self.stats = stats;
         if boxes.is_empty() {
             return Ok(());
         }
+        let clock = std::time::Instant::now();
         let triangles = upload_triangles(ctx, OWNER, tris);
+        stats.upload_bytes += tris.len().max(1) as u64 * 64;
+        stats.upload_ms += clock.elapsed().as_secs_f64() * 1e3;
         let res = self.settings.resolution as u64;
         let slice = (res * res).max(1);
         let max_depth = (self.accum.size() / (ACCUM_WORDS * 4) / slice).max(1) as i32;
@@ -544,8 +581,16 @@ impl Clipmap {
                     lo: part.lo,
                     hi: part.hi,
                 };
+                let clock = std::time::Instant::now();
                 let pieces = snap_triangles(&region, tris);
                 let items = work_items(&pieces, region.size());
+                stats.snap_ms += clock.elapsed().as_secs_f64() * 1e3;
+                stats.parts += 1;
+                stats.triangles_snapped += tris.len() as u64;
+                stats.pieces += pieces.len() as u64;
+                stats.work_items += items.len() as u64;
+                stats.upload_bytes += 48 + items.len() as u64 * 8 + pieces.len() as u64 * 48;
+                let clock = std::time::Instant::now();
                 item_bytes = item_bytes.max(items.len() as u64 * 8 + pieces.len() as u64 * 48);
                 let params = super::voxelize::VoxParams {
                     lo: part.lo.extend(0).to_array(),
@@ -570,6 +615,8 @@ impl Clipmap {
                     wgpu::BufferUsages::STORAGE,
                 );
                 let pieces_buffer = upload_pieces(ctx, OWNER, &pieces);
+                stats.upload_ms += clock.elapsed().as_secs_f64() * 1e3;
+                let clock = std::time::Instant::now();
                 let name = format!("clipmap L{}", part.level);
                 let group = bind_buffers(
                     ctx,
@@ -608,13 +655,17 @@ impl Clipmap {
                     &group,
                     part.volume() as u32,
                 );
+                stats.record_ms += clock.elapsed().as_secs_f64() * 1e3;
             }
         }
         ctx.ledger.record(OWNER, "work items", item_bytes);
         ctx.ledger.record(OWNER, "triangle pieces", 0);
         if self.options.filters() {
+            let clock = std::time::Instant::now();
             self.filter_levels(ctx, timer, boxes);
+            stats.record_ms += clock.elapsed().as_secs_f64() * 1e3;
         }
+        self.stats = stats;
         Ok(())
     }
 
@@ -674,6 +725,11 @@ impl Clipmap {
             let name = format!("clipmap L{l} filter");
             self.filter_pass(ctx, timer, &self.filter, &name, &covered_box(l, fine, res));
         }
+    }
+
+    /// CPU cost and size of the last [`Clipmap::update`] or [`Clipmap::revoxelise`].
+    pub fn last_update_stats(&self) -> UpdateStats {
+        self.stats
     }
 
     /// Reads the directional values back ([`Clipmap::aniso`]; empty without them). Blocks.
