@@ -12,8 +12,13 @@
 //! touches the voxel), level after level, and in the same layout the averaged normals and the
 //! mean emission (RGB9E5, [`encode_emission`]): 12 bytes per voxel. [`Clipmap::inject`] adds
 //! RGBA16F radiance (emission + reflected direct light, visibility by voxel shadow rays).
-//! Moving objects: revoxelise the boxes that their old and new bounds touch
-//! ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller decides what moved.
+//! The scene stays resident ([`Clipmap::set_scene`]: triangles uploaded once, their bounds
+//! indexed on the CPU by [`super::clipmap_index`]), so a per-frame [`Clipmap::follow`] snaps
+//! and uploads only the triangles near the boxes it revoxelises, into scratch buffers kept
+//! across updates. Moving objects: [`Clipmap::replace_triangles`] replaces an object's own
+//! triangles and queues the boxes around its old and new bounds for the next update; or
+//! revoxelise boxes explicitly ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]). The
+//! caller decides what moved.
 //!
 //! Options ([`ClipmapOptions`], [`Clipmap::with_options`]): `filtered` rebuilds the voxels of
 //! every coarser level that lie wholly inside the next finer level from the 2x2x2 finer voxels

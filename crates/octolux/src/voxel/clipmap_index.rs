@@ -29,6 +29,8 @@ fn bounds(t: &VoxelTriangle) -> (Vec3, Vec3) {
 /// The grid and the per-triangle bounds.
 #[derive(Clone, Debug, Default)]
 pub struct TriangleIndex {
+    /// Bounds of every finite triangle (empty, `lo > hi`, when there is none).
+    all: (Vec3, Vec3),
     lo: Vec3,
     inv_cell: Vec3,
     dims: IVec3,
@@ -54,6 +56,7 @@ impl TriangleIndex {
             lo = lo.min(a);
             hi = hi.max(b);
         }
+        let all = (lo, hi);
         if !lo.cmple(hi).all() {
             lo = Vec3::ZERO;
             hi = Vec3::ONE;
@@ -66,6 +69,7 @@ impl TriangleIndex {
             .as_ivec3()
             .clamp(IVec3::ONE, IVec3::splat(1024));
         let mut index = TriangleIndex {
+            all,
             lo,
             inv_cell: dims.as_vec3() / extent,
             dims,
@@ -158,6 +162,14 @@ impl TriangleIndex {
     /// order, each once.
     pub fn query(&self, lo: Vec3, hi: Vec3, out: &mut Vec<u32>) {
         out.clear();
+        if self.moved_list.is_empty() && lo.cmple(self.all.0).all() && hi.cmpge(self.all.1).all() {
+            // The box holds the whole scene (a first build): every finite triangle.
+            out.extend((0..self.len() as u32).filter(|&t| {
+                let (a, b) = self.bounds[t as usize];
+                a.cmple(b).all()
+            }));
+            return;
+        }
         let meets = |t: u32| {
             let (a, b) = self.bounds[t as usize];
             a.cmple(hi).all() && b.cmpge(lo).all()
