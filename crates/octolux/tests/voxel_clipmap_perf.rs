@@ -159,6 +159,23 @@ fn sponza_update_cost_for_a_moving_camera() {
             mean.cpu_ms() - gpu_sum / n
         );
     }
+    // Memory the updates keep: the resident triangles and the scratch (the first build's
+    // one-off buffers are gone from the ledger).
+    let kept: Vec<String> = ctx
+        .ledger
+        .entries()
+        .iter()
+        .filter(|e| e.owner == "clipmap" && e.bytes > 0)
+        .filter(|e| {
+            ["triangles", "triangle pieces", "work items", "box params"].contains(&e.name.as_str())
+                || e.name.ends_with("(one update)")
+        })
+        .map(|e| {
+            assert!(!e.name.ends_with("(one update)"), "{} kept", e.name);
+            format!("{} {:.2} MB", e.name, e.bytes as f64 / 1e6)
+        })
+        .collect();
+    println!("kept between updates: {}", kept.join(", "));
     // The incremental clipmap equals a fresh build at the final position.
     let mut fresh = Clipmap::new(&ctx, SETTINGS).unwrap();
     fresh.set_scene(&ctx, &tris);

@@ -49,7 +49,7 @@ const ACCUM_WORDS: u64 = 13;
 const ACCUM_BYTES: u64 = 64 << 20;
 /// Largest scratch buffer (triangle pieces, work items, box parameters) a clipmap keeps
 /// between updates; an update that needs more (a first build, a jump) uses buffers of its own.
-pub const SCRATCH_KEEP: u64 = 16 << 20;
+pub const SCRATCH_KEEP: u64 = 4 << 20;
 /// Bytes between the parameter blocks of an update's boxes (storage binding offsets stay 256
 /// bytes apart, the largest `min_storage_buffer_offset_alignment` wgpu allows).
 const PARAM_STRIDE: u64 = 256;
@@ -789,10 +789,16 @@ impl Clipmap {
         self.revoxelise_boxes(ctx, timer, boxes)
     }
 
-    /// A scratch buffer of at least `bytes` for `name`: the kept one (grown when needed) up to
-    /// [`SCRATCH_KEEP`], a buffer of this update's own above.
+    /// A scratch buffer of at least `bytes` for `which`: the kept one (grown when needed) up to
+    /// [`SCRATCH_KEEP`], a buffer of this update's own above (in the ledger as `... (one
+    /// update)` until the next update).
     fn scratch(&mut self, ctx: &GpuContext, which: usize, bytes: u64) -> wgpu::Buffer {
         const NAMES: [&str; 3] = ["triangle pieces", "work items", "box params"];
+        const ONE_OFF: [&str; 3] = [
+            "triangle pieces (one update)",
+            "work items (one update)",
+            "box params (one update)",
+        ];
         let bytes = bytes.max(256).next_multiple_of(256);
         let desc = |size| wgpu::BufferDescriptor {
             label: Some(NAMES[which]),
@@ -800,10 +806,18 @@ impl Clipmap {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         };
+        // Recorded while it lives (until the next update).
+        let one_off = ONE_OFF[which];
         if bytes > SCRATCH_KEEP {
-            let buffer = ctx.device.create_buffer(&desc(bytes));
-            return buffer;
+            return ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(one_off),
+                    ..desc(bytes)
+                },
+            );
         }
+        ctx.ledger.record(OWNER, one_off, 0);
         match &self.scratch[which] {
             Some(b) if b.size() >= bytes => b.clone(),
             _ => {
