@@ -289,7 +289,9 @@ pub struct UpdateStats {
     pub work_items: u64,
     /// Bytes written to the GPU (triangles, pieces, work items, parameters).
     pub upload_bytes: u64,
-    /// Finding, snapping and splitting triangles and making work items.
+    /// Finding (index queries), snapping and splitting triangles, making work items and
+    /// packing them for upload; with [`Clipmap::update`] or [`Clipmap::revoxelise`] also the
+    /// comparison of the given triangles with the scene.
     pub snap_ms: f64,
     /// Creating or writing GPU buffers.
     pub upload_ms: f64,

@@ -15,6 +15,8 @@ use glam::{IVec3, Vec3};
 
 /// Most cells a triangle is listed in; larger triangles are scanned by every query.
 pub const MAX_CELLS: u64 = 64;
+/// Most cells of the grid.
+pub const MAX_GRID_CELLS: u64 = 1 << 21;
 
 /// Bounds of a triangle; empty (`lo > hi`) when a position is not finite, so that it never
 /// meets a box (the snapping skips such triangles too).
@@ -62,12 +64,19 @@ impl TriangleIndex {
             hi = Vec3::ONE;
         }
         let extent = (hi - lo).max(Vec3::splat((hi - lo).max_element() / 1024.0 + 1e-6));
-        let cells = (n as f64).clamp(1.0, (1u64 << 21) as f64);
-        let cell = ((extent.x as f64 * extent.y as f64 * extent.z as f64) / cells).cbrt() as f32;
-        let dims = (extent / cell)
-            .ceil()
-            .as_ivec3()
-            .clamp(IVec3::ONE, IVec3::splat(1024));
+        let cells = (n as f64).clamp(1.0, MAX_GRID_CELLS as f64);
+        let mut cell = ((extent.x as f64 * extent.y as f64 * extent.z as f64) / cells).cbrt();
+        let dims = loop {
+            let dims = (extent.as_dvec3() / cell)
+                .ceil()
+                .as_ivec3()
+                .clamp(IVec3::ONE, IVec3::splat(1024));
+            // Clamping an axis to 1024 cells can leave more cells than wanted.
+            if dims.as_i64vec3().element_product() <= MAX_GRID_CELLS as i64 {
+                break dims;
+            }
+            cell *= 1.25;
+        };
         let mut index = TriangleIndex {
             all,
             lo,
@@ -223,6 +232,31 @@ mod tests {
             albedo: [1, 2, 3],
             normal: Vec3::Y,
             emission: Vec3::ZERO,
+        }
+    }
+
+    /// A scene of one point (every extent zero) or of one long line still gets a small grid.
+    #[test]
+    fn degenerate_scenes_get_a_bounded_grid() {
+        let p = Vec3::new(1.0, 2.0, 3.0);
+        let point = vec![tri(p, p, p); 5000];
+        let line: Vec<VoxelTriangle> = (0..5000)
+            .map(|i| {
+                let a = Vec3::new(i as f32 * 0.01, 0.0, 0.0);
+                tri(a, a + Vec3::X * 0.001, a)
+            })
+            .collect();
+        for tris in [point, line] {
+            let index = TriangleIndex::new(&tris);
+            assert!(index.starts.len() as u64 <= MAX_GRID_CELLS + 1);
+            let mut out = Vec::new();
+            index.query(Vec3::splat(-1.0), Vec3::splat(0.5), &mut out);
+            let want = tris
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| t.positions[0].cmple(Vec3::splat(0.5)).all())
+                .count();
+            assert_eq!(out.len(), want);
         }
     }
 
