@@ -12,8 +12,13 @@
 //! touches the voxel), level after level, and in the same layout the averaged normals and the
 //! mean emission (RGB9E5, [`encode_emission`]): 12 bytes per voxel. [`Clipmap::inject`] adds
 //! RGBA16F radiance (emission + reflected direct light, visibility by voxel shadow rays).
-//! Moving objects: revoxelise the boxes that their old and new bounds touch
-//! ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]); the caller decides what moved.
+//! The scene stays resident ([`Clipmap::set_scene`]: triangles uploaded once, their bounds
+//! indexed on the CPU by [`super::clipmap_index`]), so a per-frame [`Clipmap::follow`] snaps
+//! and uploads only the triangles near the boxes it revoxelises, into scratch buffers kept
+//! across updates. Moving objects: [`Clipmap::replace_triangles`] replaces an object's own
+//! triangles and queues the boxes around its old and new bounds for the next update; or
+//! revoxelise boxes explicitly ([`Clipmap::boxes_touching`], [`Clipmap::revoxelise`]). The
+//! caller decides what moved.
 //!
 //! Options ([`ClipmapOptions`], [`Clipmap::with_options`]): `filtered` rebuilds the voxels of
 //! every coarser level that lie wholly inside the next finer level from the 2x2x2 finer voxels
@@ -23,14 +28,17 @@
 //! back from the finer level along each axis. Sampling with blending by distance to a level's
 //! border and with directional values: [`super::clipmap_sample`].
 
-use super::snap::{snap_triangles, SnapRegion};
+use super::clipmap_index::TriangleIndex;
+use super::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
 use super::voxelize::{
-    bind_buffers, dispatch, upload_pieces, upload_triangles, work_items, OVERLAP_WGSL,
+    bind_buffers, dispatch, upload_triangles, work_items, VoxParams, OVERLAP_WGSL,
 };
 use super::VoxelTriangle;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::{Error, Result};
-use glam::{IVec3, Vec3};
+use bytemuck::Zeroable;
+use glam::{DVec3, IVec3, Vec3};
+use rayon::prelude::*;
 
 /// Ledger owner of the clipmap's buffers.
 pub const OWNER: &str = "clipmap";
@@ -39,6 +47,16 @@ pub const OWNER: &str = "clipmap";
 const ACCUM_WORDS: u64 = 13;
 /// Bytes of the accumulation scratch; larger update boxes are processed in z slices.
 const ACCUM_BYTES: u64 = 64 << 20;
+/// Largest scratch buffer (triangle pieces, work items, box parameters) a clipmap keeps
+/// between updates; an update that needs more (a first build, a jump) uses buffers of its own.
+pub const SCRATCH_KEEP: u64 = 4 << 20;
+/// Bytes between the parameter blocks of an update's boxes (storage binding offsets stay 256
+/// bytes apart, the largest `min_storage_buffer_offset_alignment` wgpu allows).
+const PARAM_STRIDE: u64 = 256;
+/// Pieces (48 bytes) per 768-byte alignment step of a box's block of pieces.
+const PIECE_ALIGN: u64 = 16;
+/// Work items (8 bytes) per 256-byte alignment step of a box's block of work items.
+const ITEM_ALIGN: u64 = 32;
 /// Fixed-point units per W/(m^2 sr) of the emission sums (`EMISSION_SCALE` in
 /// `clipmap_emission.wgsl`).
 pub const EMISSION_SCALE: f32 = 1024.0;
@@ -256,6 +274,38 @@ pub fn exposed_boxes(level: u32, old: Option<IVec3>, new: IVec3, res: i32) -> Ve
     out
 }
 
+/// CPU cost and size of the last [`Clipmap::update`] or [`Clipmap::revoxelise`] (zero when it
+/// revoxelised nothing). Times are wall-clock milliseconds on the calling thread; GPU times
+/// are the passes in the [`PassTimer`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UpdateStats {
+    /// Boxes revoxelised, after splitting into z slices that fit the accumulation scratch.
+    pub parts: u32,
+    /// Triangles snapped (summed over the parts).
+    pub triangles_snapped: u64,
+    /// Triangle pieces uploaded.
+    pub pieces: u64,
+    /// Work items uploaded.
+    pub work_items: u64,
+    /// Bytes written to the GPU (triangles, pieces, work items, parameters).
+    pub upload_bytes: u64,
+    /// Finding (index queries), snapping and splitting triangles, making work items and
+    /// packing them for upload; with [`Clipmap::update`] or [`Clipmap::revoxelise`] also the
+    /// comparison of the given triangles with the scene.
+    pub snap_ms: f64,
+    /// Creating or writing GPU buffers.
+    pub upload_ms: f64,
+    /// Creating bind groups and recording the passes.
+    pub record_ms: f64,
+}
+
+impl UpdateStats {
+    /// All CPU time of the update.
+    pub fn cpu_ms(&self) -> f64 {
+        self.snap_ms + self.upload_ms + self.record_ms
+    }
+}
+
 /// A voxel clipmap on the GPU.
 pub struct Clipmap {
     /// Dimensions.
@@ -285,6 +335,64 @@ pub struct Clipmap {
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
     resolve: wgpu::ComputePipeline,
+    stats: UpdateStats,
+    /// Statistics of the work done since the last revoxelisation (scene uploads).
+    acc: UpdateStats,
+    scene: Vec<VoxelTriangle>,
+    has_scene: bool,
+    index: TriangleIndex,
+    /// The scene's triangles on the GPU (at least one element).
+    triangles: wgpu::Buffer,
+    /// Kept scratch: triangle pieces, work items, box parameters.
+    scratch: [Option<wgpu::Buffer>; 3],
+    /// Boxes queued by [`Clipmap::replace_triangles`].
+    pending: Vec<UpdateBox>,
+}
+
+/// A whole buffer as a binding range.
+fn whole(b: &wgpu::Buffer) -> (&wgpu::Buffer, u64, u64) {
+    (b, 0, b.size())
+}
+
+/// A bind group of buffer ranges `(binding, (buffer, offset, size))`.
+fn bind_ranges(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[(u32, (&wgpu::Buffer, u64, u64))],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .map(|&(binding, (buffer, offset, size))| wgpu::BindGroupEntry {
+            binding,
+            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer,
+                offset,
+                size: wgpu::BufferSize::new(size),
+            }),
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Whether two triangles are the same bit for bit (so that a NaN equals itself).
+fn same_triangle(a: &VoxelTriangle, b: &VoxelTriangle) -> bool {
+    let bits = |t: &VoxelTriangle| {
+        let mut w = [0u32; 16];
+        for (i, p) in t.positions.iter().enumerate() {
+            w[3 * i] = p.x.to_bits();
+            w[3 * i + 1] = p.y.to_bits();
+            w[3 * i + 2] = p.z.to_bits();
+        }
+        w[9] = t.albedo[0] as u32 | (t.albedo[1] as u32) << 8 | (t.albedo[2] as u32) << 16;
+        w[10..13].copy_from_slice(&t.normal.to_array().map(f32::to_bits));
+        w[13..16].copy_from_slice(&t.emission.to_array().map(f32::to_bits));
+        w
+    };
+    bits(a) == bits(b)
 }
 
 impl Clipmap {
@@ -416,6 +524,14 @@ impl Clipmap {
             written,
             accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
             resolve: ctx.compute_pipeline("clipmap resolve", &module, "resolve"),
+            stats: UpdateStats::default(),
+            acc: UpdateStats::default(),
+            scene: Vec::new(),
+            has_scene: false,
+            index: TriangleIndex::default(),
+            triangles: upload_triangles(ctx, OWNER, &[]),
+            scratch: [None, None, None],
+            pending: Vec::new(),
         })
     }
 
@@ -435,11 +551,34 @@ impl Clipmap {
     /// Brings every level to the camera position `camera`, revoxelising only the voxels the
     /// levels did not cover before (everything on the first call). Passes are recorded into
     /// `timer` as `clipmap L<l>`. Returns the boxes revoxelised.
+    ///
+    /// `tris` becomes the clipmap's scene ([`Clipmap::set_scene`]) when it differs from it; a
+    /// scene that differs in a few triangles only has those replaced (as
+    /// [`Clipmap::replace_triangles`] does, but without revoxelising the regions they left and
+    /// entered). Comparing costs one pass over `tris`; [`Clipmap::follow`] skips it.
     pub fn update(
         &mut self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
         tris: &[VoxelTriangle],
+        camera: Vec3,
+    ) -> Result<Vec<UpdateBox>> {
+        if !camera.is_finite() {
+            return Err(Error::InvalidArgument(format!("camera position {camera}")));
+        }
+        self.sync_scene(ctx, tris);
+        self.follow(ctx, timer, camera)
+    }
+
+    /// [`Clipmap::update`] with the clipmap's own scene ([`Clipmap::set_scene`],
+    /// [`Clipmap::replace_triangles`]): the per-frame call for a moving camera. Also
+    /// revoxelises the boxes that [`Clipmap::replace_triangles`] queued since the last
+    /// revoxelisation (clipped to the levels' new extents). Returns the boxes revoxelised for
+    /// the camera's motion.
+    pub fn follow(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
         camera: Vec3,
     ) -> Result<Vec<UpdateBox>> {
         if !camera.is_finite() {
@@ -478,13 +617,134 @@ impl Clipmap {
                 boxes.extend(box_minus(clipped, covered_box(l as u32, now, res)));
             }
         }
-        self.revoxelise(ctx, timer, tris, &boxes)?;
+        self.revoxelise_boxes(ctx, timer, &boxes)?;
         Ok(boxes)
+    }
+
+    /// Makes `tris` the clipmap's scene: uploads them once into a GPU buffer that stays
+    /// resident (ledger: `clipmap / triangles`, 64 bytes per triangle) and indexes their bounds
+    /// on the CPU ([`super::clipmap_index`]), so that an update snaps and uploads only the
+    /// triangles near the boxes it revoxelises. Voxels already built are left as they are
+    /// until revoxelised; pending boxes of [`Clipmap::replace_triangles`] are dropped.
+    pub fn set_scene(&mut self, ctx: &GpuContext, tris: &[VoxelTriangle]) {
+        let clock = std::time::Instant::now();
+        self.scene = tris.to_vec();
+        self.index = TriangleIndex::new(tris);
+        // A new buffer, so that passes recorded earlier keep reading the triangles they saw.
+        self.triangles = upload_triangles(ctx, OWNER, tris);
+        self.pending.clear();
+        self.has_scene = true;
+        self.acc.upload_bytes += tris.len() as u64 * 64;
+        self.acc.upload_ms += clock.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// The clipmap's scene ([`Clipmap::set_scene`]).
+    pub fn scene(&self) -> &[VoxelTriangle] {
+        &self.scene
+    }
+
+    /// Moving objects: replaces triangles `first..first + tris.len()` of the clipmap's scene
+    /// (an object's own triangles, in the same order and number) with `tris`, uploading only
+    /// those, and queues for revoxelisation the boxes of every level around their old and
+    /// their new bounds ([`Clipmap::boxes_touching`]). The next [`Clipmap::follow`],
+    /// [`Clipmap::update`] or [`Clipmap::revoxelise`] revoxelises them, so a frame with a
+    /// moving camera and moving objects needs one revoxelisation. Returns the boxes queued.
+    ///
+    /// The triangles' attributes (albedo, normal, emission) are written to the resident buffer
+    /// with [`wgpu::Queue::write_buffer`], which takes effect at the next submission: passes
+    /// recorded but not yet submitted read the new attributes (their positions are in the
+    /// snapped pieces and stay as they were).
+    pub fn replace_triangles(
+        &mut self,
+        ctx: &GpuContext,
+        first: usize,
+        tris: &[VoxelTriangle],
+    ) -> Result<Vec<UpdateBox>> {
+        if first
+            .checked_add(tris.len())
+            .is_none_or(|end| end > self.scene.len())
+        {
+            return Err(Error::InvalidArgument(format!(
+                "replacing triangles {first}..{} of a clipmap scene of {}",
+                first.saturating_add(tris.len()),
+                self.scene.len()
+            )));
+        }
+        let union = |tris: &[VoxelTriangle]| {
+            let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for t in tris {
+                if t.positions.iter().all(|p| p.is_finite()) {
+                    for p in t.positions {
+                        lo = lo.min(p);
+                        hi = hi.max(p);
+                    }
+                }
+            }
+            (lo, hi)
+        };
+        let (old_lo, old_hi) = union(&self.scene[first..first + tris.len()]);
+        let (new_lo, new_hi) = union(tris);
+        self.replace_range(ctx, first, tris);
+        let mut boxes = Vec::new();
+        for (lo, hi) in [(old_lo, old_hi), (new_lo, new_hi)] {
+            if lo.cmple(hi).all() {
+                boxes.extend(self.boxes_touching(lo, hi));
+            }
+        }
+        self.pending.extend_from_slice(&boxes);
+        Ok(boxes)
+    }
+
+    /// Writes triangles `first..` of the scene on the CPU, in the index and on the GPU.
+    fn replace_range(&mut self, ctx: &GpuContext, first: usize, tris: &[VoxelTriangle]) {
+        if tris.is_empty() {
+            return;
+        }
+        let clock = std::time::Instant::now();
+        self.scene[first..first + tris.len()].copy_from_slice(tris);
+        self.index.replace(first, tris);
+        let gpu: Vec<super::GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
+        ctx.queue.write_buffer(
+            &self.triangles,
+            first as u64 * 64,
+            bytemuck::cast_slice(&gpu),
+        );
+        self.acc.upload_bytes += tris.len() as u64 * 64;
+        self.acc.upload_ms += clock.elapsed().as_secs_f64() * 1e3;
+    }
+
+    /// Makes `tris` the scene: nothing when it is the scene already, the differing range when
+    /// that is at most a quarter of it, else [`Clipmap::set_scene`].
+    fn sync_scene(&mut self, ctx: &GpuContext, tris: &[VoxelTriangle]) {
+        if self.has_scene && tris.len() == self.scene.len() {
+            let clock = std::time::Instant::now();
+            let same = |(a, b): (&VoxelTriangle, &VoxelTriangle)| same_triangle(a, b);
+            let first = self.scene.iter().zip(tris).position(|p| !same(p));
+            self.acc.snap_ms += clock.elapsed().as_secs_f64() * 1e3;
+            let Some(first) = first else {
+                return;
+            };
+            let last = tris.len()
+                - 1
+                - self
+                    .scene
+                    .iter()
+                    .rev()
+                    .zip(tris.iter().rev())
+                    .position(|p| !same(p))
+                    .unwrap_or(0);
+            if last + 1 - first <= tris.len() / 4 {
+                self.replace_range(ctx, first, &tris[first..=last]);
+                return;
+            }
+        }
+        self.set_scene(ctx, tris);
     }
 
     /// The boxes of every level that cover the world-space box `[lo, hi]` (with one voxel of
     /// margin, since touching counts), clipped to each level's current extent. For a moving
-    /// object, revoxelise the boxes of its old and of its new bounds.
+    /// object, revoxelise the boxes of its old and of its new bounds (or use
+    /// [`Clipmap::replace_triangles`], which does).
     pub fn boxes_touching(&self, lo: Vec3, hi: Vec3) -> Vec<UpdateBox> {
         let res = IVec3::splat(self.settings.resolution as i32);
         let mut out = Vec::new();
@@ -509,23 +769,101 @@ impl Clipmap {
     }
 
     /// Revoxelises the given boxes (each inside its level's current extent), for example the
-    /// region a moving object left and entered ([`Clipmap::boxes_touching`]). A filtered
-    /// clipmap then rebuilds every coarser level's voxels inside the finer level, finest first.
+    /// region a moving object left and entered ([`Clipmap::boxes_touching`]), with `tris` as
+    /// the scene (see [`Clipmap::update`]), and the boxes [`Clipmap::replace_triangles`]
+    /// queued. A filtered clipmap then rebuilds every coarser level's voxels inside the finer
+    /// level, finest first.
+    ///
+    /// An update writes its triangle pieces, work items and box parameters into scratch
+    /// buffers kept across updates (ledger: `clipmap / triangle pieces`, `work items`, `box
+    /// params`; grown on demand up to [`SCRATCH_KEEP`] bytes each, larger updates such as a
+    /// first build use buffers of their own) with [`wgpu::Queue::write_buffer`], which takes
+    /// effect at the next submission: submit the frame (e.g. [`PassTimer::finish_frame`])
+    /// between two revoxelising calls on the same clipmap.
     pub fn revoxelise(
-        &self,
+        &mut self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
         tris: &[VoxelTriangle],
         boxes: &[UpdateBox],
     ) -> Result<()> {
+        self.sync_scene(ctx, tris);
+        self.revoxelise_boxes(ctx, timer, boxes)
+    }
+
+    /// A scratch buffer of at least `bytes` for `which`: the kept one (grown when needed) up to
+    /// [`SCRATCH_KEEP`], a buffer of this update's own above (in the ledger as `... (one
+    /// update)` until the next update).
+    fn scratch(&mut self, ctx: &GpuContext, which: usize, bytes: u64) -> wgpu::Buffer {
+        const NAMES: [&str; 3] = ["triangle pieces", "work items", "box params"];
+        const ONE_OFF: [&str; 3] = [
+            "triangle pieces (one update)",
+            "work items (one update)",
+            "box params (one update)",
+        ];
+        let bytes = bytes.max(256).next_multiple_of(256);
+        let desc = |size| wgpu::BufferDescriptor {
+            label: Some(NAMES[which]),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        };
+        // Recorded while it lives (until the next update).
+        let one_off = ONE_OFF[which];
+        if bytes > SCRATCH_KEEP {
+            return ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(one_off),
+                    ..desc(bytes)
+                },
+            );
+        }
+        ctx.ledger.record(OWNER, one_off, 0);
+        match &self.scratch[which] {
+            Some(b) if b.size() >= bytes => b.clone(),
+            _ => {
+                // Room for growth: a quarter more, within the cap.
+                let size = (bytes + bytes / 4).next_multiple_of(256).min(SCRATCH_KEEP);
+                let buffer = ctx.create_buffer(OWNER, &desc(size));
+                self.scratch[which] = Some(buffer.clone());
+                buffer
+            }
+        }
+    }
+
+    fn revoxelise_boxes(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        boxes: &[UpdateBox],
+    ) -> Result<()> {
+        let res = self.settings.resolution as u64;
+        let resi = res as i32;
+        // Boxes queued by moving objects, clipped to the levels' current extents.
+        let mut all = boxes.to_vec();
+        for b in std::mem::take(&mut self.pending) {
+            let Some(o) = self.origins[b.level as usize] else {
+                continue;
+            };
+            let c = UpdateBox {
+                level: b.level,
+                lo: b.lo.max(o),
+                hi: b.hi.min(o + IVec3::splat(resi)),
+            };
+            if (c.hi - c.lo).cmpgt(IVec3::ZERO).all() {
+                all.push(c);
+            }
+        }
+        let boxes = &all[..];
+        let mut stats = std::mem::take(&mut self.acc);
         if boxes.is_empty() {
+            self.stats = stats;
             return Ok(());
         }
-        let triangles = upload_triangles(ctx, OWNER, tris);
-        let res = self.settings.resolution as u64;
         let slice = (res * res).max(1);
         let max_depth = (self.accum.size() / (ACCUM_WORDS * 4) / slice).max(1) as i32;
-        let mut item_bytes = 0u64;
+        let mut parts = Vec::new();
         for b in boxes {
             let mut z = b.lo.z;
             while z < b.hi.z {
@@ -535,89 +873,144 @@ impl Clipmap {
                     hi: IVec3::new(b.hi.x, b.hi.y, (z + max_depth).min(b.hi.z)),
                 };
                 z = part.hi.z;
-                if part.volume() == 0 {
-                    continue;
+                if part.volume() > 0 {
+                    parts.push(part);
                 }
+            }
+        }
+        // Find (index), snap and split the triangles near each part, in parallel; pieces come
+        // triangle after triangle in increasing order, as snapping all triangles gives them.
+        let clock = std::time::Instant::now();
+        let (scene, index, settings) = (&self.scene, &self.index, &self.settings);
+        let snapped: Vec<(Vec<Piece>, Vec<[u32; 2]>, usize)> = parts
+            .par_iter()
+            .map(|part| {
                 let region = SnapRegion {
                     origin: Vec3::ZERO,
-                    voxel_size: self.settings.level_voxel(part.level),
+                    voxel_size: settings.level_voxel(part.level),
                     lo: part.lo,
                     hi: part.hi,
                 };
-                let pieces = snap_triangles(&region, tris);
+                // A voxel of margin (snapping drops whatever keeps 2/64 voxel away), widened
+                // for the rounding of the bounds to f32.
+                let v = region.voxel_size as f64;
+                let (lo, hi) = (part.lo.as_dvec3() * v, part.hi.as_dvec3() * v);
+                let margin = DVec3::splat(v) + lo.abs().max(hi.abs()) * 1e-6;
+                let mut ids = Vec::new();
+                index.query((lo - margin).as_vec3(), (hi + margin).as_vec3(), &mut ids);
+                let mut pieces = Vec::new();
+                for &t in &ids {
+                    snap_triangle(&region, scene[t as usize].positions, t, &mut pieces);
+                }
                 let items = work_items(&pieces, region.size());
-                item_bytes = item_bytes.max(items.len() as u64 * 8 + pieces.len() as u64 * 48);
-                let params = super::voxelize::VoxParams {
-                    lo: part.lo.extend(0).to_array(),
-                    hi: part.hi.extend(0).to_array(),
-                    misc: [
-                        items.len() as u32,
-                        (part.level as u64 * res * res * res) as u32,
-                        res as u32,
-                        0,
-                    ],
-                };
-                let params_buffer = ctx.create_buffer_init(
-                    OWNER,
-                    "box params",
-                    bytemuck::bytes_of(&params),
-                    wgpu::BufferUsages::STORAGE,
-                );
-                let items_buffer = ctx.create_buffer_init(
-                    OWNER,
-                    "work items",
-                    bytemuck::cast_slice(&items),
-                    wgpu::BufferUsages::STORAGE,
-                );
-                let pieces_buffer = upload_pieces(ctx, OWNER, &pieces);
-                let name = format!("clipmap L{}", part.level);
-                let group = bind_buffers(
-                    ctx,
-                    &self.accumulate,
-                    &[
-                        (0, &params_buffer),
-                        (1, &triangles),
-                        (2, &items_buffer),
-                        (3, &self.accum),
-                        (8, &pieces_buffer),
-                    ],
-                );
-                dispatch(
-                    timer,
-                    &format!("{name} voxelize"),
-                    &self.accumulate,
-                    &group,
-                    items.len() as u32,
-                );
-                let group = bind_buffers(
-                    ctx,
-                    &self.resolve,
-                    &[
-                        (0, &params_buffer),
-                        (3, &self.accum),
-                        (4, &self.voxels),
-                        (5, &self.written),
-                        (6, &self.normals),
-                        (7, &self.emission),
-                    ],
-                );
-                dispatch(
-                    timer,
-                    &format!("{name} resolve"),
-                    &self.resolve,
-                    &group,
-                    part.volume() as u32,
-                );
-            }
+                (pieces, items, ids.len())
+            })
+            .collect();
+        // One block per part in each scratch buffer, at offsets a storage binding accepts.
+        let mut layout = Vec::with_capacity(parts.len());
+        let (mut n_pieces, mut n_items) = (0u64, 0u64);
+        for (pieces, items, _) in &snapped {
+            layout.push((n_pieces, n_items));
+            n_pieces += (pieces.len().max(1) as u64).next_multiple_of(PIECE_ALIGN);
+            n_items += (items.len().max(1) as u64).next_multiple_of(ITEM_ALIGN);
         }
-        ctx.ledger.record(OWNER, "work items", item_bytes);
-        ctx.ledger.record(OWNER, "triangle pieces", 0);
+        let mut gpu_pieces = vec![GpuPiece::zeroed(); n_pieces as usize];
+        let mut gpu_items = vec![[0u32; 2]; n_items as usize];
+        let mut gpu_params = vec![0u8; parts.len() * PARAM_STRIDE as usize];
+        for (i, (part, (pieces, items, candidates))) in parts.iter().zip(&snapped).enumerate() {
+            let (p0, i0) = layout[i];
+            for (k, p) in pieces.iter().enumerate() {
+                gpu_pieces[p0 as usize + k] = p.to_gpu();
+            }
+            gpu_items[i0 as usize..i0 as usize + items.len()].copy_from_slice(items);
+            let params = VoxParams {
+                lo: part.lo.extend(0).to_array(),
+                hi: part.hi.extend(0).to_array(),
+                misc: [
+                    items.len() as u32,
+                    (part.level as u64 * res * res * res) as u32,
+                    res as u32,
+                    0,
+                ],
+            };
+            let at = i * PARAM_STRIDE as usize;
+            gpu_params[at..at + std::mem::size_of::<VoxParams>()]
+                .copy_from_slice(bytemuck::bytes_of(&params));
+            stats.parts += 1;
+            stats.triangles_snapped += *candidates as u64;
+            stats.pieces += pieces.len() as u64;
+            stats.work_items += items.len() as u64;
+        }
+        stats.snap_ms += clock.elapsed().as_secs_f64() * 1e3;
+        let clock = std::time::Instant::now();
+        let piece_bytes: &[u8] = bytemuck::cast_slice(&gpu_pieces);
+        let item_bytes: &[u8] = bytemuck::cast_slice(&gpu_items);
+        let pieces_buffer = self.scratch(ctx, 0, piece_bytes.len() as u64);
+        let items_buffer = self.scratch(ctx, 1, item_bytes.len() as u64);
+        let params_buffer = self.scratch(ctx, 2, gpu_params.len() as u64);
+        ctx.queue.write_buffer(&pieces_buffer, 0, piece_bytes);
+        ctx.queue.write_buffer(&items_buffer, 0, item_bytes);
+        ctx.queue.write_buffer(&params_buffer, 0, &gpu_params);
+        stats.upload_bytes += (piece_bytes.len() + item_bytes.len() + gpu_params.len()) as u64;
+        stats.upload_ms += clock.elapsed().as_secs_f64() * 1e3;
+        let clock = std::time::Instant::now();
+        let piece_size = std::mem::size_of::<GpuPiece>() as u64;
+        for (i, (part, (pieces, items, _))) in parts.iter().zip(&snapped).enumerate() {
+            let (p0, i0) = layout[i];
+            let params = (&params_buffer, i as u64 * PARAM_STRIDE, PARAM_STRIDE);
+            let name = format!("clipmap L{}", part.level);
+            let group = bind_ranges(
+                ctx,
+                &self.accumulate,
+                &[
+                    (0, params),
+                    (1, whole(&self.triangles)),
+                    (2, (&items_buffer, i0 * 8, items.len().max(1) as u64 * 8)),
+                    (3, whole(&self.accum)),
+                    (
+                        8,
+                        (
+                            &pieces_buffer,
+                            p0 * piece_size,
+                            pieces.len().max(1) as u64 * piece_size,
+                        ),
+                    ),
+                ],
+            );
+            dispatch(
+                timer,
+                &format!("{name} voxelize"),
+                &self.accumulate,
+                &group,
+                items.len() as u32,
+            );
+            let group = bind_ranges(
+                ctx,
+                &self.resolve,
+                &[
+                    (0, params),
+                    (3, whole(&self.accum)),
+                    (4, whole(&self.voxels)),
+                    (5, whole(&self.written)),
+                    (6, whole(&self.normals)),
+                    (7, whole(&self.emission)),
+                ],
+            );
+            dispatch(
+                timer,
+                &format!("{name} resolve"),
+                &self.resolve,
+                &group,
+                part.volume() as u32,
+            );
+        }
         if self.options.filters() {
             self.filter_levels(ctx, timer, boxes);
         }
+        stats.record_ms += clock.elapsed().as_secs_f64() * 1e3;
+        self.stats = stats;
         Ok(())
     }
-
     fn filter_pass(
         &self,
         ctx: &GpuContext,
@@ -674,6 +1067,11 @@ impl Clipmap {
             let name = format!("clipmap L{l} filter");
             self.filter_pass(ctx, timer, &self.filter, &name, &covered_box(l, fine, res));
         }
+    }
+
+    /// CPU cost and size of the last [`Clipmap::update`] or [`Clipmap::revoxelise`].
+    pub fn last_update_stats(&self) -> UpdateStats {
+        self.stats
     }
 
     /// Reads the directional values back ([`Clipmap::aniso`]; empty without them). Blocks.

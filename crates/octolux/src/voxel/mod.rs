@@ -36,6 +36,7 @@
 //! `min_storage_buffer_offset_alignment` wgpu allows.
 
 pub mod clipmap;
+pub mod clipmap_index;
 pub mod clipmap_sample;
 pub mod cpu;
 pub mod debug;
