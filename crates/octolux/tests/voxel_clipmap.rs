@@ -589,3 +589,53 @@ fn replaced_triangles_are_revoxelised_by_the_next_follow() {
     assert_eq!(clipmap.voxels_written(&ctx).unwrap(), written);
     assert_eq!(clipmap.last_update_stats().parts, 0);
 }
+
+#[test]
+fn several_updates_recorded_into_one_frame_equal_a_rebuild() {
+    // With GPU timestamps every pass of a frame goes into one command buffer, submitted at the
+    // end (lavapipe has the feature, so this runs everywhere): three camera moves and a moving
+    // object recorded into the same frame must not overwrite each other's uploads.
+    let ctx = GpuContext::shared(&GpuOptions {
+        timestamps: octolux::gpu::Timestamps::Always,
+        ..GpuOptions::default()
+    })
+    .unwrap();
+    let options = ClipmapOptions::default();
+    let tris = scene();
+    let start = Vec3::new(0.5, 0.5, 0.5);
+    let mut clipmap = build(&ctx, options, &tris, start);
+    let mut moved = tris.clone();
+    for t in moved.iter_mut().take(3) {
+        for p in t.positions.iter_mut() {
+            *p += Vec3::new(0.03, -0.02, 0.01);
+        }
+    }
+    let mut timer = PassTimer::new(&ctx);
+    let mut at = start;
+    for step in [
+        Vec3::new(2.0, -1.0, 1.0),
+        Vec3::new(-3.0, 4.0, 2.0),
+        Vec3::new(5.0, 1.0, -4.0),
+    ] {
+        at += step * SETTINGS.voxel_size;
+        clipmap.update(&ctx, &mut timer, &tris, at).unwrap();
+    }
+    clipmap.replace_triangles(&ctx, 0, &moved[..3]).unwrap();
+    clipmap.follow(&ctx, &mut timer, at).unwrap();
+    timer.finish_frame().unwrap();
+    let fresh = build(&ctx, options, &moved, at);
+    let (got, want) = (
+        clipmap.read_voxels(&ctx).unwrap(),
+        fresh.read_voxels(&ctx).unwrap(),
+    );
+    assert_eq!(got.len(), want.len());
+    let wrong = got.iter().zip(&want).filter(|(a, b)| a != b).count();
+    assert!(
+        want.iter().filter(|&&v| v != 0).count() > 100,
+        "the scene is voxelized"
+    );
+    assert_eq!(
+        wrong, 0,
+        "{wrong} voxels differ from a rebuild after updates in one frame"
+    );
+}

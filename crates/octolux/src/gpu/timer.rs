@@ -111,6 +111,7 @@ pub struct PassTimer {
     cpu: Vec<PassTiming>,
     in_flight: std::collections::VecDeque<InFlight>,
     spare: Vec<wgpu::Buffer>,
+    submissions: u64,
 }
 
 impl PassTimer {
@@ -147,7 +148,15 @@ impl PassTimer {
             cpu: Vec::new(),
             in_flight: Default::default(),
             spare: Vec::new(),
+            submissions: 0,
         }
+    }
+
+    /// How many command buffers this timer has submitted. Data written with
+    /// `Queue::write_buffer` lands at the next submission, so a pass that reuses a buffer it
+    /// wrote can tell from this whether its earlier write is still pending.
+    pub fn submissions(&self) -> u64 {
+        self.submissions
     }
 
     /// How this timer measures.
@@ -206,6 +215,7 @@ impl PassTimer {
                     },
                 );
                 self.ctx.queue.submit([encoder.finish()]);
+                self.submissions += 1;
                 let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
                 self.cpu.push(PassTiming {
                     name: name.to_string(),
@@ -232,6 +242,7 @@ impl PassTimer {
     fn flush(&mut self) {
         if let Some(encoder) = self.encoder.take() {
             self.ctx.queue.submit([encoder.finish()]);
+            self.submissions += 1;
         }
     }
 
@@ -255,6 +266,7 @@ impl PassTimer {
         if let Some(mut encoder) = self.encoder.take() {
             encoder.resolve_query_set(&q.set, 0..count, &q.resolve, 0);
             self.ctx.queue.submit([encoder.finish()]);
+            self.submissions += 1;
         }
         let bytes = super::read_buffer(&self.ctx, &q.resolve, 0, count as u64 * 8)?;
         let ticks: &[u64] = bytemuck::try_cast_slice(&bytes)
@@ -303,6 +315,7 @@ impl PassTimer {
                 encoder.resolve_query_set(&q.set, 0..names.len() as u32 * 2, &q.resolve, 0);
                 encoder.copy_buffer_to_buffer(&q.resolve, 0, &staging, 0, bytes);
                 self.ctx.queue.submit([encoder.finish()]);
+                self.submissions += 1;
             }
             let mapped: Arc<Mutex<_>> = Arc::default();
             let sink = mapped.clone();

@@ -345,6 +345,10 @@ pub struct Clipmap {
     triangles: wgpu::Buffer,
     /// Kept scratch: triangle pieces, work items, box parameters.
     scratch: [Option<wgpu::Buffer>; 3],
+    /// The timer submission the kept scratch was last written for, and the bytes of each
+    /// used since: writes land at the next submission, so later updates recorded before it
+    /// take the space after them instead of overwriting data earlier passes still read.
+    scratch_use: (Option<u64>, [u64; 3]),
     /// Boxes queued by [`Clipmap::replace_triangles`].
     pending: Vec<UpdateBox>,
 }
@@ -531,6 +535,7 @@ impl Clipmap {
             index: TriangleIndex::default(),
             triangles: upload_triangles(ctx, OWNER, &[]),
             scratch: [None, None, None],
+            scratch_use: (None, [0; 3]),
             pending: Vec::new(),
         })
     }
@@ -778,8 +783,8 @@ impl Clipmap {
     /// buffers kept across updates (ledger: `clipmap / triangle pieces`, `work items`, `box
     /// params`; grown on demand up to [`SCRATCH_KEEP`] bytes each, larger updates such as a
     /// first build use buffers of their own) with [`wgpu::Queue::write_buffer`], which takes
-    /// effect at the next submission: submit the frame (e.g. [`PassTimer::finish_frame`])
-    /// between two revoxelising calls on the same clipmap.
+    /// effect at the next submission. Several updates recorded into one frame (`timer`) use
+    /// successive regions, so none overwrites data an earlier one's passes still read.
     pub fn revoxelise(
         &mut self,
         ctx: &GpuContext,
@@ -791,10 +796,17 @@ impl Clipmap {
         self.revoxelise_boxes(ctx, timer, boxes)
     }
 
-    /// A scratch buffer of at least `bytes` for `which`: the kept one (grown when needed) up to
-    /// [`SCRATCH_KEEP`], a buffer of this update's own above (in the ledger as `... (one
-    /// update)` until the next update).
-    fn scratch(&mut self, ctx: &GpuContext, which: usize, bytes: u64) -> wgpu::Buffer {
+    /// A scratch region of `bytes` for `which`, and its offset: in the kept buffer after what
+    /// updates since the last submission of `timer` took (a new, larger kept buffer when that
+    /// does not fit, up to [`SCRATCH_KEEP`]); a buffer of this update's own above (in the
+    /// ledger as `... (one update)` until the next update).
+    fn scratch(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &PassTimer,
+        which: usize,
+        bytes: u64,
+    ) -> (wgpu::Buffer, u64) {
         const NAMES: [&str; 3] = ["triangle pieces", "work items", "box params"];
         const ONE_OFF: [&str; 3] = [
             "triangle pieces (one update)",
@@ -811,23 +823,33 @@ impl Clipmap {
         // Recorded while it lives (until the next update).
         let one_off = ONE_OFF[which];
         if bytes > SCRATCH_KEEP {
-            return ctx.create_buffer(
+            let buffer = ctx.create_buffer(
                 OWNER,
                 &wgpu::BufferDescriptor {
                     label: Some(one_off),
                     ..desc(bytes)
                 },
             );
+            return (buffer, 0);
         }
         ctx.ledger.record(OWNER, one_off, 0);
+        if self.scratch_use.0 != Some(timer.submissions()) {
+            self.scratch_use = (Some(timer.submissions()), [0; 3]);
+        }
+        let used = self.scratch_use.1[which];
         match &self.scratch[which] {
-            Some(b) if b.size() >= bytes => b.clone(),
+            Some(b) if b.size() >= used + bytes => {
+                self.scratch_use.1[which] = used + bytes;
+                (b.clone(), used)
+            }
             _ => {
-                // Room for growth: a quarter more, within the cap.
+                // A new buffer (the old one lives on while recorded passes use it), with room
+                // for growth: a quarter more, within the cap.
                 let size = (bytes + bytes / 4).next_multiple_of(256).min(SCRATCH_KEEP);
                 let buffer = ctx.create_buffer(OWNER, &desc(size));
                 self.scratch[which] = Some(buffer.clone());
-                buffer
+                self.scratch_use.1[which] = bytes;
+                (buffer, 0)
             }
         }
     }
@@ -945,19 +967,25 @@ impl Clipmap {
         let clock = std::time::Instant::now();
         let piece_bytes: &[u8] = bytemuck::cast_slice(&gpu_pieces);
         let item_bytes: &[u8] = bytemuck::cast_slice(&gpu_items);
-        let pieces_buffer = self.scratch(ctx, 0, piece_bytes.len() as u64);
-        let items_buffer = self.scratch(ctx, 1, item_bytes.len() as u64);
-        let params_buffer = self.scratch(ctx, 2, gpu_params.len() as u64);
-        ctx.queue.write_buffer(&pieces_buffer, 0, piece_bytes);
-        ctx.queue.write_buffer(&items_buffer, 0, item_bytes);
-        ctx.queue.write_buffer(&params_buffer, 0, &gpu_params);
+        let (pieces_buffer, pieces_at) = self.scratch(ctx, timer, 0, piece_bytes.len() as u64);
+        let (items_buffer, items_at) = self.scratch(ctx, timer, 1, item_bytes.len() as u64);
+        let (params_buffer, params_at) = self.scratch(ctx, timer, 2, gpu_params.len() as u64);
+        ctx.queue
+            .write_buffer(&pieces_buffer, pieces_at, piece_bytes);
+        ctx.queue.write_buffer(&items_buffer, items_at, item_bytes);
+        ctx.queue
+            .write_buffer(&params_buffer, params_at, &gpu_params);
         stats.upload_bytes += (piece_bytes.len() + item_bytes.len() + gpu_params.len()) as u64;
         stats.upload_ms += clock.elapsed().as_secs_f64() * 1e3;
         let clock = std::time::Instant::now();
         let piece_size = std::mem::size_of::<GpuPiece>() as u64;
         for (i, (part, (pieces, items, _))) in parts.iter().zip(&snapped).enumerate() {
             let (p0, i0) = layout[i];
-            let params = (&params_buffer, i as u64 * PARAM_STRIDE, PARAM_STRIDE);
+            let params = (
+                &params_buffer,
+                params_at + i as u64 * PARAM_STRIDE,
+                PARAM_STRIDE,
+            );
             let name = format!("clipmap L{}", part.level);
             let group = bind_ranges(
                 ctx,
@@ -965,13 +993,20 @@ impl Clipmap {
                 &[
                     (0, params),
                     (1, whole(&self.triangles)),
-                    (2, (&items_buffer, i0 * 8, items.len().max(1) as u64 * 8)),
+                    (
+                        2,
+                        (
+                            &items_buffer,
+                            items_at + i0 * 8,
+                            items.len().max(1) as u64 * 8,
+                        ),
+                    ),
                     (3, whole(&self.accum)),
                     (
                         8,
                         (
                             &pieces_buffer,
-                            p0 * piece_size,
+                            pieces_at + p0 * piece_size,
                             pieces.len().max(1) as u64 * piece_size,
                         ),
                     ),
