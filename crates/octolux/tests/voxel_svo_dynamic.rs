@@ -277,7 +277,21 @@ fn updates_need_a_reserve_large_enough() {
 /// equals a rebuild of the final state.
 #[test]
 fn recorded_updates_without_waits_equal_a_rebuild() {
-    let ctx = context();
+    // Without timestamps (lavapipe's default) every pass is its own submission; with them a
+    // frame is one command buffer, so two updates in one frame must not overwrite each
+    // other's uploads.
+    recorded_updates(&context());
+    recorded_updates(
+        &GpuContext::shared(&GpuOptions {
+            timestamps: octolux::gpu::Timestamps::Always,
+            ..GpuOptions::default()
+        })
+        .unwrap(),
+    );
+}
+
+fn recorded_updates(ctx: &GpuContext) {
+    let ctx = ctx.clone();
     let builder = SvoBuilder::new(&ctx);
     let grid = unit_grid(32);
     let statics = static_scene();
