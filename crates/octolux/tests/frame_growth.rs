@@ -5,9 +5,11 @@
 //! This binary holds one test on purpose: resident memory is a property of the process, so no
 //! other test may run beside it.
 
+mod growth;
 use glam::Vec3;
+use growth::snapshot;
 use octolux::gi::GiSettings;
-use octolux::gpu::{GpuContext, GpuOptions, ResourceCounts};
+use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{LightKind, Scene};
 
@@ -21,13 +23,6 @@ const MEASURED: usize = 10;
 /// scene and by ~80 MiB per frame on Sponza; with them gone, resident memory here does not
 /// move by a single page.
 const RSS_SLACK_MIB: f64 = 1.0;
-
-/// Resident set size of this process in MiB (Linux), None elsewhere.
-fn resident_mib() -> Option<f64> {
-    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
-    let pages: f64 = statm.split_whitespace().nth(1)?.parse().ok()?;
-    Some(pages * 4096.0 / (1024.0 * 1024.0))
-}
 
 /// The animated Cornell box (moving spot, moving block) plus a point and a directional light.
 fn scene() -> Scene {
@@ -66,20 +61,6 @@ fn small_settings() -> GiSettings {
     s.olpv.size = 16;
     s.olpv.iterations = 4;
     s
-}
-
-struct Snapshot {
-    rss: Option<f64>,
-    counts: Option<ResourceCounts>,
-    ledger: u64,
-}
-
-fn snapshot(ctx: &GpuContext) -> Snapshot {
-    Snapshot {
-        rss: resident_mib(),
-        counts: ctx.resource_counts(),
-        ledger: ctx.ledger.total(),
-    }
 }
 
 #[test]

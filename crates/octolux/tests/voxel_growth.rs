@@ -6,8 +6,10 @@
 //! This binary holds one test on purpose: resident memory is a property of the process, so no
 //! other test may run beside it.
 
+mod growth;
 use glam::{Mat4, Vec3};
-use octolux::gpu::{GpuContext, GpuOptions, PassTimer, ResourceCounts};
+use growth::snapshot;
+use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::render::LayerView;
 use octolux::scene::{Light, LightKind};
 use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
@@ -30,27 +32,6 @@ const MEASURED: usize = 3 * PERIOD;
 /// light injection (two dispatches per frame, a loop over the lights) grew by 16.3 MiB over 12
 /// frames here. With every parameter block in a storage buffer no part moves by 0.1 MiB.
 const RSS_SLACK_MIB: f64 = 1.0;
-
-/// Resident set size of this process in MiB (Linux), None elsewhere.
-fn resident_mib() -> Option<f64> {
-    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
-    let pages: f64 = statm.split_whitespace().nth(1)?.parse().ok()?;
-    Some(pages * 4096.0 / (1024.0 * 1024.0))
-}
-
-struct Snapshot {
-    rss: Option<f64>,
-    counts: Option<ResourceCounts>,
-    ledger: u64,
-}
-
-fn snapshot(ctx: &GpuContext) -> Snapshot {
-    Snapshot {
-        rss: resident_mib(),
-        counts: ctx.resource_counts(),
-        ledger: ctx.ledger.total(),
-    }
-}
 
 fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3], emission: Vec3) -> VoxelTriangle {
     VoxelTriangle {

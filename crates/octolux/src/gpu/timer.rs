@@ -271,8 +271,13 @@ impl PassTimer {
         let bytes = super::read_buffer(&self.ctx, &q.resolve, 0, count as u64 * 8)?;
         let ticks: &[u64] = bytemuck::try_cast_slice(&bytes)
             .map_err(|e| Error::Gpu(format!("timestamp readback: {e}")))?;
+        Ok(self.timings(names, ticks))
+    }
+
+    /// Pass times from the begin and end timestamps of each named pass.
+    fn timings(&self, names: Vec<String>, ticks: &[u64]) -> Vec<PassTiming> {
         let period_ns = self.ctx.queue.get_timestamp_period() as f64;
-        Ok(names
+        names
             .into_iter()
             .enumerate()
             .map(|(i, name)| PassTiming {
@@ -280,7 +285,7 @@ impl PassTimer {
                 ms: ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period_ns * 1e-6,
                 source: TimingSource::GpuTimestamps,
             })
-            .collect())
+            .collect()
     }
 
     /// Submits everything recorded without waiting for the GPU, and returns the pass times of
@@ -330,7 +335,6 @@ impl PassTimer {
         }
         let _ = self.ctx.device.poll(wgpu::PollType::Poll);
         self.ctx.check_errors()?;
-        let period_ns = self.ctx.queue.get_timestamp_period() as f64;
         let mut latest = None;
         while let Some(front) = self.in_flight.front() {
             let state = front
@@ -353,18 +357,7 @@ impl PassTimer {
             };
             frame.staging.unmap();
             self.spare.push(frame.staging);
-            latest = Some(
-                frame
-                    .names
-                    .into_iter()
-                    .enumerate()
-                    .map(|(i, name)| PassTiming {
-                        name,
-                        ms: ticks[2 * i + 1].saturating_sub(ticks[2 * i]) as f64 * period_ns * 1e-6,
-                        source: TimingSource::GpuTimestamps,
-                    })
-                    .collect(),
-            );
+            latest = Some(self.timings(frame.names, &ticks));
         }
         Ok(latest)
     }

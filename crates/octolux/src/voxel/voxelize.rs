@@ -156,17 +156,8 @@ impl Voxelizer {
     ) -> Result<FragmentList> {
         let n = u32::try_from(tris.len())
             .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
+        let (pieces, items, n_items) = snap_grid(grid, tris)?;
         let res = grid.resolution as i32;
-        let region = SnapRegion {
-            origin: grid.origin,
-            voxel_size: grid.voxel_size,
-            lo: glam::IVec3::ZERO,
-            hi: glam::IVec3::splat(res),
-        };
-        let pieces = snap_triangles(&region, tris);
-        let items = work_items(&pieces, region.size());
-        let n_items = u32::try_from(items.len())
-            .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
         let params = VoxParams {
             lo: [0; 4],
             hi: [res, res, res, 0],
@@ -284,17 +275,8 @@ impl Voxelizer {
     ) -> Result<wgpu::Buffer> {
         u32::try_from(tris.len())
             .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
+        let (pieces, items, n_items) = snap_grid(grid, tris)?;
         let res = grid.resolution as i32;
-        let region = SnapRegion {
-            origin: grid.origin,
-            voxel_size: grid.voxel_size,
-            lo: glam::IVec3::ZERO,
-            hi: glam::IVec3::splat(res),
-        };
-        let pieces = snap_triangles(&region, tris);
-        let items = work_items(&pieces, region.size());
-        let n_items = u32::try_from(items.len())
-            .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
         let triangles = upload_triangles(ctx, owner, tris);
         if n_items == 0 {
             return Ok(triangles);
@@ -347,4 +329,23 @@ pub fn read_fragments(ctx: &GpuContext, list: &FragmentList) -> Result<Vec<([u32
         .chunks_exact(2)
         .map(|w| (super::unpack_coord(w[0]), w[1]))
         .collect())
+}
+
+/// `tris` snapped to the whole grid and split into pieces, their work items and the item
+/// count.
+fn snap_grid(
+    grid: &VoxelGrid,
+    tris: &[VoxelTriangle],
+) -> Result<(Vec<super::snap::Piece>, Vec<[u32; 2]>, u32)> {
+    let region = SnapRegion {
+        origin: grid.origin,
+        voxel_size: grid.voxel_size,
+        lo: glam::IVec3::ZERO,
+        hi: glam::IVec3::splat(grid.resolution as i32),
+    };
+    let pieces = snap_triangles(&region, tris);
+    let items = work_items(&pieces, region.size());
+    let n_items = u32::try_from(items.len())
+        .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
+    Ok((pieces, items, n_items))
 }
