@@ -6,7 +6,8 @@
 #   scripts/gpu-kit.sh [KIT_DIR]          # default: gpu-kit/ (ignored by git)
 #   # copy the repository checkout with KIT_DIR inside to the GPU machine, then there:
 #   KIT_DIR/run.sh [RESULTS_DIR]          # default: KIT_DIR/results/
-#   (BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3" for a quick try)
+#   (BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3" for a quick try;
+#    LOADER_DEBS=DIR: .deb packages of the Vulkan loader to unpack first on a machine without one)
 #
 # The test binaries find the repository's `scenes/` through the path the repository had when
 # they were built; `run.sh` links that path to the checkout it runs in when it is missing.
@@ -45,6 +46,13 @@ set -uo pipefail
 kit="$(cd "$(dirname "$0")" && pwd)"
 repo="$(cd "$kit/.." && pwd)"
 results="${1:-$kit/results}"
+if ! ldconfig -p | grep -q 'libvulkan\.so\.1' && [ -n "${LOADER_DEBS:-}" ]; then
+  for f in "$LOADER_DEBS"/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
+# Driver manifests outside the loader's search path (some container layouts).
+nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ -z "${VK_DRIVER_FILES:-}" ] && [ -f "$nvidia_icd" ]; then export VK_DRIVER_FILES="$nvidia_icd"; fi
 rm -rf /tmp/octolux-kit
 mkdir -p "$results" /tmp/octolux-kit
 zstd -dc --long=27 "$kit/kit.tar.zst" | tar -C /tmp/octolux-kit -xf -
