@@ -338,7 +338,11 @@ fn bench_scene(
             .with_context(|| format!("scene '{}': setting up '{name}'", scene.name))?;
         let mut frames = Vec::with_capacity(args.frames as usize);
         let mut wall_ms = Vec::with_capacity(args.frames as usize);
+        let mut after_warmup = None;
         for i in 0..total_frames {
+            if i == args.warmup {
+                after_warmup = ctx.resource_counts();
+            }
             let start = Instant::now();
             let timings = renderer
                 .render(scene, frame_time(i))
@@ -348,6 +352,14 @@ fn bench_scene(
                 frames.push(timings);
             }
             bar.inc(1);
+        }
+        let objects = after_warmup.zip(ctx.resource_counts()).map(|(a, b)| [a, b]);
+        if let Some([a, b]) = objects.filter(|[a, b]| a != b) {
+            eprintln!(
+                "warning: scene '{}', {name}: wgpu objects alive changed during the measured \
+                 frames: {a:?} -> {b:?}",
+                scene.name
+            );
         }
         let bounces = against.unwrap_or_else(|| renderer.technique().reference_bounces());
         let (passes, gi_total, frame_total, frame_wall) = frame_stats(&frames, &wall_ms);
@@ -374,6 +386,7 @@ fn bench_scene(
                     mib: mib(bytes),
                 })
                 .collect(),
+            objects,
             metrics: None,
         });
         if reference_settings.is_some() || out_dir.is_some() {

@@ -170,6 +170,10 @@ fn check_scene(scene: &Value, name: &str) {
         let total_mib = f(t, "total_mib");
         let technique_mib = f(t, "technique_mib");
         assert!(total_mib > 0.0 && technique_mib > 0.0 && technique_mib < total_mib);
+        let objects = t["objects"].as_array().expect("wgpu object counts");
+        assert_eq!(objects.len(), 2);
+        assert!(objects[0]["buffers"].as_u64().unwrap() > 0);
+        assert_eq!(objects[0], objects[1], "no objects created per frame: {t}");
         let owners: Vec<&str> = t["memory"]
             .as_array()
             .unwrap()

@@ -96,6 +96,9 @@ pub struct TechniqueReport {
     pub total_mib: f64,
     /// GPU memory per ledger owner.
     pub memory: Vec<OwnerMemory>,
+    /// wgpu's count of live objects after the warm-up frames and after the measured ones
+    /// (equal unless something leaks per frame); `null` where wgpu keeps no count.
+    pub objects: Option<[octolux::gpu::ResourceCounts; 2]>,
     /// Error of the last measured frame against the reference; `null` with `--no-reference`.
     pub metrics: Option<Metrics>,
 }
