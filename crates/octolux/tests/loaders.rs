@@ -894,3 +894,29 @@ fn mutated_inputs_never_panic() {
     println!("mutated inputs: {ok} loaded, {err} rejected");
     assert!(err > 0);
 }
+
+#[test]
+fn obj_tga_texture_is_read_by_its_extension() {
+    // TGA files carry no signature: the format comes from the extension.
+    let dir = temp_dir("obj-tga");
+    write(&dir.join("quad.obj"), QUAD_OBJ);
+    write(
+        &dir.join("quad.mtl"),
+        "newmtl textured\nKd 1 1 1\nmap_Kd tex.tga\nnewmtl same_texture\nKd 1 1 1\n",
+    );
+    let image = image::RgbaImage::from_raw(2, 2, TEX.to_vec()).unwrap();
+    image
+        .save_with_format(dir.join("tex.tga"), image::ImageFormat::Tga)
+        .unwrap();
+    let scene = Scene::load(dir.join("quad.obj")).unwrap();
+    assert_eq!(scene.textures.len(), 1, "the TGA texture is loaded");
+    let tex = &scene.textures[0];
+    assert_eq!((tex.width, tex.height), (2, 2));
+    assert_eq!(tex.rgba, TEX.to_vec());
+    // A PNG named .tga still loads (content second).
+    image
+        .save_with_format(dir.join("tex.tga"), image::ImageFormat::Png)
+        .unwrap();
+    let scene = Scene::load(dir.join("quad.obj")).unwrap();
+    assert_eq!(scene.textures[0].rgba, TEX.to_vec());
+}

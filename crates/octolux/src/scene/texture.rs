@@ -32,11 +32,19 @@ impl Texture {
     /// Largest texture edge accepted, to turn absurd files into errors rather than allocations.
     pub const MAX_SIZE: u32 = 16384;
 
-    /// Loads an image file (PNG, JPEG, TGA, BMP) as an RGBA8 texture.
+    /// Loads an image file (PNG, JPEG, TGA, BMP) as an RGBA8 texture. The format comes from
+    /// the file extension first (TGA has no signature to recognise it by), then from the
+    /// content.
     pub fn load(path: &Path) -> Result<Texture> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        let image = image::load_from_memory(&bytes)
-            .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))?;
+        let by_extension = image::ImageFormat::from_path(path)
+            .ok()
+            .and_then(|format| image::load_from_memory_with_format(&bytes, format).ok());
+        let image = match by_extension {
+            Some(image) => image,
+            None => image::load_from_memory(&bytes)
+                .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))?,
+        };
         if image.width() > Self::MAX_SIZE || image.height() > Self::MAX_SIZE {
             return Err(Error::parse(
                 path,
