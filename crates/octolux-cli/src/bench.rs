@@ -46,9 +46,9 @@ pub struct BenchArgs {
     /// included); static scenes render the same frame again.
     #[arg(long, default_value_t = 30.0)]
     pub fps: f32,
-    /// Scene camera.
-    #[arg(long, default_value_t = 0)]
-    pub camera: usize,
+    /// Scene camera: its index or its name (in every scene).
+    #[arg(long, default_value = "0")]
+    pub camera: String,
     /// Frames rendered before measuring (pipelines warm, caches filled), not measured.
     #[arg(long, default_value_t = 3)]
     pub warmup: u32,
@@ -186,6 +186,18 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             })
             .collect::<Result<_>>()?
     };
+    for input in &inputs {
+        input.scene.camera_index(&args.camera).with_context(|| {
+            format!(
+                "--camera {}: {}",
+                args.camera,
+                input
+                    .file
+                    .as_ref()
+                    .map_or("the built-in scene".into(), |f| f.display().to_string())
+            )
+        })?;
+    }
     if let Some(dir) = &args.json_dir {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--json-dir: creating {}", dir.display()))?;
@@ -222,7 +234,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             frames: args.frames,
             fps: args.fps,
             time: args.time,
-            camera: args.camera,
+            camera: args.camera.clone(),
             reference: !args.no_reference,
             scenes: Vec::new(),
         });
@@ -330,7 +342,7 @@ fn bench_scene(
             width: args.width,
             height: args.height,
             shadow_map_size: args.gpu.shadow_map_size,
-            camera: args.camera,
+            camera: scene.camera_index(&args.camera)?,
             gi: name.clone(),
             gi_settings: input.gi_settings.clone(),
         };
@@ -465,7 +477,7 @@ fn reference_frame(
     settings: &ReferenceSettings,
     quiet: bool,
 ) -> Result<ReferenceImages> {
-    let frame = scene.frame(t, args.camera);
+    let frame = scene.frame(t, scene.camera_index(&args.camera)?);
     let bar = if quiet {
         ProgressBar::hidden()
     } else {

@@ -48,9 +48,9 @@ pub struct RenderArgs {
     /// CPU path tracer).
     #[arg(long, default_value = "none")]
     pub gi: String,
-    /// Which of the scene's cameras to use.
-    #[arg(long, default_value_t = 0)]
-    pub camera: usize,
+    /// Which of the scene's cameras to use: its index or its name.
+    #[arg(long, default_value = "0")]
+    pub camera: String,
     /// Print per-pass times and GPU memory per owner.
     #[arg(long)]
     pub stats: bool,
@@ -216,7 +216,8 @@ fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
     let mut spp_done = 0;
     for i in 0..args.frames {
         let t = args.start_time() + i as f32 / args.fps;
-        let images = reference_frame(scene, t, args.camera, args.width, args.height, &settings)?;
+        let camera = scene.camera_index(&args.camera)?;
+        let images = reference_frame(scene, t, camera, args.width, args.height, &settings)?;
         spp_done = images.spp_done;
         write_image(
             &frame_path(&args.out, i, args.frames),
@@ -264,7 +265,7 @@ fn run_voxel_view(args: &RenderArgs, scene: &Scene) -> Result<()> {
         &ctx,
         scene,
         args.start_time(),
-        args.camera,
+        scene.camera_index(&args.camera)?,
         args.width,
         args.height,
         args.voxel_structure.parse()?,
@@ -365,6 +366,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         check_output(path)?;
     }
     let (scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
+    scene.camera_index(&args.camera)?;
     match args.view.as_str() {
         "shaded" => {}
         "voxels" => return run_voxel_view(args, &scene),
@@ -379,7 +381,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         width: args.width,
         height: args.height,
         shadow_map_size: args.gpu.shadow_map_size,
-        camera: args.camera,
+        camera: scene.camera_index(&args.camera)?,
         gi: args.gi.clone(),
         gi_settings,
     };

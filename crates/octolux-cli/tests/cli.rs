@@ -112,6 +112,33 @@ fn absurd_size_is_an_error() {
 }
 
 #[test]
+fn cameras_are_chosen_by_index_or_name_and_others_are_errors() {
+    let dir = temp_dir("camera");
+    let out = dir.join("c.png");
+    let out = out.to_str().unwrap();
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    for camera in ["0", "front"] {
+        let output = octolux(&[
+            "render", scene, "--camera", camera, "--width", "8", "--height", "8", "--out", out,
+        ]);
+        assert!(output.status.success(), "--camera {camera}: {output:?}");
+    }
+    for camera in ["1", "top"] {
+        assert_fails_with(
+            &octolux(&["render", scene, "--camera", camera, "--out", out]),
+            &[&format!("no camera '{camera}'"), "0 'front'"],
+        );
+    }
+    assert_fails_with(
+        &octolux(&["bench", "--camera", "3", "--no-reference"]),
+        &["--camera 3", "no camera '3'"],
+    );
+}
+
+#[test]
 fn missing_scene_file_is_an_error() {
     assert_fails_with(
         &octolux(&["render", "/nonexistent/scene.toml"]),

@@ -225,3 +225,38 @@ fn scene_file_errors_name_the_file() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn camera_index_takes_an_index_or_a_name_and_rejects_others() {
+    let mut scene = octolux::scene::cornell::scene();
+    let first = scene.cameras[0].clone();
+    scene.cameras.push(octolux::scene::Camera {
+        name: "top".into(),
+        ..first.clone()
+    });
+    assert_eq!(scene.camera_index("0").unwrap(), 0);
+    assert_eq!(scene.camera_index("1").unwrap(), 1);
+    assert_eq!(scene.camera_index(&first.name).unwrap(), 0);
+    assert_eq!(scene.camera_index("top").unwrap(), 1);
+    for bad in ["2", "side", "-1"] {
+        let err = scene.camera_index(bad).unwrap_err().to_string();
+        assert!(err.contains(&format!("no camera '{bad}'")), "{err}");
+        assert!(err.contains("1 'top'"), "{err}");
+    }
+    // A scene without cameras is framed automatically: camera 0 only.
+    scene.cameras.clear();
+    assert_eq!(scene.camera_index("0").unwrap(), 0);
+    assert!(scene.camera_index("1").is_err());
+    // The renderer refuses a camera the scene does not have.
+    let ctx = octolux::gpu::GpuContext::shared(&Default::default()).unwrap();
+    let settings = octolux::render::RenderSettings {
+        width: 8,
+        height: 8,
+        camera: 3,
+        ..Default::default()
+    };
+    let err = octolux::render::Renderer::new(&ctx, &octolux::scene::cornell::scene(), settings)
+        .err()
+        .expect("camera 3 of a one-camera scene");
+    assert!(err.to_string().contains("no camera '3'"), "{err}");
+}

@@ -211,8 +211,8 @@ pub struct BenchReport {
     pub fps: f32,
     /// Scene time of the first frame, s.
     pub time: f32,
-    /// Scene camera.
-    pub camera: usize,
+    /// Scene camera as given (`--camera`: an index or a name).
+    pub camera: String,
     /// Whether the reference was rendered and error measured.
     pub reference: bool,
     /// Per scene, in command-line order.

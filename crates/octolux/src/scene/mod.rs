@@ -321,6 +321,36 @@ impl Scene {
 
     /// The scene at time `t` seconds, seen through camera `camera` (clamped to the last one; a
     /// default camera framing the scene bounds if there is none).
+    /// The index of camera `which`: a camera's index or its name. A scene without cameras is
+    /// framed automatically and has only camera 0. Anything else is an error that lists the
+    /// scene's cameras.
+    pub fn camera_index(&self, which: &str) -> Result<usize> {
+        let which = which.trim();
+        let found = match which.parse::<usize>() {
+            Ok(i) if i < self.cameras.len().max(1) => Some(i),
+            Ok(_) => None,
+            Err(_) => self.cameras.iter().position(|c| c.name == which),
+        };
+        found.ok_or_else(|| {
+            let list = if self.cameras.is_empty() {
+                "none (it is framed automatically: camera 0)".to_string()
+            } else {
+                self.cameras
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| format!("{i} '{}'", c.name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            Error::InvalidArgument(format!(
+                "scene '{}' has no camera '{which}'; its cameras: {list}",
+                self.name
+            ))
+        })
+    }
+
+    /// The scene at time `t` seen from camera `camera` (the last camera when `camera` is out
+    /// of range; [`Scene::camera_index`] checks a user's choice first).
     pub fn frame(&self, t: f32, camera: usize) -> SceneFrame {
         let camera = match self
             .cameras
