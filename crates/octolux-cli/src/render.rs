@@ -54,6 +54,9 @@ pub struct RenderArgs {
     /// Print per-pass times and GPU memory per owner.
     #[arg(long)]
     pub stats: bool,
+    /// Exposure in EV (stops), replacing the scene's: the display image is scaled by 2^EV.
+    #[arg(long, allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
     /// What to show: `shaded` (the rendered image) or `voxels` (the voxel structure's albedo,
     /// ray-marched; see --voxel-structure, --voxel-res and --level).
     #[arg(long, default_value = "shaded", help_heading = "Voxel debug view")]
@@ -365,15 +368,32 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     {
         check_output(path)?;
     }
-    let (scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
+    let load_start = std::time::Instant::now();
+    let (mut scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
+    let load_s = load_start.elapsed().as_secs_f64();
+    log::info!(
+        "loaded '{}' ({} triangles) in {load_s:.2} s",
+        scene.name,
+        scene.triangle_count()
+    );
     scene.camera_index(&args.camera)?;
+    if let Some(ev) = args.exposure {
+        if !ev.is_finite() || ev.abs() > 64.0 {
+            bail!("--exposure {ev}: expected a finite EV within -64..=64");
+        }
+        scene.exposure = ev;
+    }
     match args.view.as_str() {
         "shaded" => {}
         "voxels" => return run_voxel_view(args, &scene),
         other => bail!("--view {other}: expected shaded or voxels"),
     }
     if args.gi == "reference" {
-        return run_reference(args, &scene);
+        run_reference(args, &scene)?;
+        if args.stats {
+            println!("scene load: {load_s:.3} s");
+        }
+        return Ok(());
     }
     let ctx = GpuContext::new(&args.gpu.options())?;
     log::info!("adapter: {}", ctx.describe());
@@ -422,6 +442,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         args.out.display()
     );
     if args.stats {
+        println!("scene load: {load_s:.3} s");
         println!("adapter: {}", ctx.describe());
         crate::stats::print_timings(
             &crate::stats::average_timings(&all_timings),

@@ -139,6 +139,35 @@ fn cameras_are_chosen_by_index_or_name_and_others_are_errors() {
 }
 
 #[test]
+fn exposure_flag_replaces_the_scene_exposure() {
+    // +2 EV makes the display image brighter, -2 EV darker; a non-finite EV is an error.
+    let dir = temp_dir("exposure");
+    let mean = |ev: &str| {
+        let out = dir.join(format!("e{ev}.png"));
+        let output = octolux(&[
+            "render",
+            "--exposure",
+            ev,
+            "--width",
+            "24",
+            "--height",
+            "24",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(output.status.success(), "{output:?}");
+        let image = octolux::metrics::load_image(&out).unwrap();
+        image.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>()
+    };
+    let (dark, normal, bright) = (mean("-2"), mean("0"), mean("2"));
+    assert!(dark < normal && normal < bright, "{dark} {normal} {bright}");
+    assert_fails_with(
+        &octolux(&["render", "--exposure", "inf", "--out", "x.png"]),
+        &["--exposure", "finite"],
+    );
+}
+
+#[test]
 fn missing_scene_file_is_an_error() {
     assert_fails_with(
         &octolux(&["render", "/nonexistent/scene.toml"]),
