@@ -1232,3 +1232,58 @@ fn injection_equals_the_cpu_twin_for_every_variant() {
         }
     }
 }
+
+#[test]
+fn volume_bounds_can_be_set_instead_of_fitted() {
+    // `[settings.lpv] bounds` places the uniform and octree volumes (and the cascades' focus and
+    // size) on the given box instead of the scene's bounds; bad boxes are errors.
+    use octolux::gi::lpv::cascades;
+    let table: toml::Table =
+        toml::from_str("[lpv]\nbounds = [[0.1, 0.0, 0.1], [0.4, 0.3, 0.5]]\n").unwrap();
+    let s = GiSettings::from_table(&table, std::path::Path::new("x.toml")).unwrap();
+    assert_eq!(s.lpv.bounds, Some([[0.1, 0.0, 0.1], [0.4, 0.3, 0.5]]));
+    let ctx = context();
+    let scene = octolux::scene::cornell::scene();
+    let (lo, hi) = (Vec3::new(0.1, 0.0, 0.1), Vec3::new(0.4, 0.3, 0.5));
+    for technique in ["lpv", "olpv", "clpv"] {
+        let mut settings = lpv_settings(technique, 8, 8);
+        settings.gi_settings.lpv.bounds = Some([lo.to_array(), hi.to_array()]);
+        let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        let lpv = r
+            .technique()
+            .as_any()
+            .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
+            .unwrap();
+        let g = lpv.last_grids().unwrap().grids[0];
+        if technique == "clpv" {
+            // The finest cascade is 1.25 x the box's largest side wide.
+            let width = g.cell * g.n as f32;
+            assert!((width - 1.25 * 0.4).abs() < 1e-5, "{technique}: {width}");
+        } else {
+            let (origin, cell) = cascades::fit((lo, hi), g.n);
+            assert_eq!(
+                (Vec3::from(g.origin), g.cell),
+                (origin, cell),
+                "{technique}"
+            );
+            let fitted = cascades::fit(scene.bounds_at(0.0), g.n);
+            assert!(
+                cell < fitted.1 * 0.8,
+                "{technique}: the box is smaller than the scene"
+            );
+        }
+    }
+    for bad in [
+        [[0.0, 0.0, 0.0], [0.0, 1.0, 1.0]],
+        [[1.0, 0.0, 0.0], [0.0, 1.0, 1.0]],
+        [[f32::NAN, 0.0, 0.0], [1.0, 1.0, 1.0]],
+    ] {
+        let mut settings = lpv_settings("lpv", 8, 8);
+        settings.gi_settings.lpv.bounds = Some(bad);
+        let err = Renderer::new(&ctx, &scene, settings)
+            .err()
+            .expect("bad bounds");
+        assert!(err.to_string().contains("lpv bounds"), "{err}");
+    }
+}

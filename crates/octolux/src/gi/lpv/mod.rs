@@ -50,6 +50,11 @@ pub struct LpvSettings {
     pub gain: f32,
     /// Occlusion of propagation by the geometry volume (default true).
     pub occlusion: bool,
+    /// The box `[[x0, y0, z0], [x1, y1, z1]]` (m) the volume covers instead of the scene's
+    /// bounds (default: none, fitted to the scene each frame). For `clpv` it replaces the scene
+    /// bounds that place the cascades and size the finest one. Useful when a large ground plane
+    /// or sky dome would spread the cells over space nothing interesting happens in.
+    pub bounds: Option<[[f32; 3]; 2]>,
 }
 
 impl Default for LpvSettings {
@@ -62,6 +67,7 @@ impl Default for LpvSettings {
             damping: 0.0,
             gain: 1.0,
             occlusion: true,
+            bounds: None,
         }
     }
 }
@@ -367,6 +373,14 @@ impl LpvGi {
             "lpv damping",
             "finite, >= 0",
         )?;
+        if let Some([lo, hi]) = s.bounds {
+            let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
+            check(
+                lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all(),
+                "lpv bounds",
+                "[[x0, y0, z0], [x1, y1, z1]], finite, with x0 < x1, y0 < y1 and z0 < z1",
+            )?;
+        }
         let occlusion = if s.occlusion { FLAG_OCCLUSION } else { 0 };
         let (sides, iterations, inject_level0_only) = match variant {
             Variant::Uniform => {
@@ -459,7 +473,10 @@ impl LpvGi {
 
     /// The grids of this frame, placed in the world.
     fn place(&self, frame: &GiFrame) -> Vec<GpuGrid> {
-        let bounds = frame.scene.bounds_at(frame.frame.time);
+        let bounds = match self.settings.bounds {
+            Some([lo, hi]) => (Vec3::from(lo), Vec3::from(hi)),
+            None => frame.scene.bounds_at(frame.frame.time),
+        };
         let placements: Vec<(Vec3, f32)> = match self.variant {
             Variant::Uniform | Variant::Octree => {
                 let (origin, cell) = cascades::fit(bounds, self.layouts[0].n);
