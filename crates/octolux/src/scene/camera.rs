@@ -14,8 +14,11 @@ pub struct Camera {
     pub target: Vec3,
     /// Up hint.
     pub up: Vec3,
-    /// Vertical field of view, radians.
+    /// Vertical field of view, radians (unused when `hfov` is set).
     pub vfov: f32,
+    /// Horizontal field of view, radians, when the camera is specified that way (as Mitsuba
+    /// scenes are by default): the vertical one then follows from the image's aspect ratio.
+    pub hfov: Option<f32>,
     /// Near clip distance (m).
     pub near: f32,
     /// Far clip distance (m).
@@ -32,6 +35,7 @@ impl Default for Camera {
             target: Vec3::ZERO,
             up: Vec3::Y,
             vfov: 45f32.to_radians(),
+            hfov: None,
             near: 0.01,
             far: 100.0,
             animation: None,
@@ -103,7 +107,11 @@ impl Camera {
             self.up
         };
         let view = Mat4::look_at_rh(self.position, self.target, up);
-        let proj = Mat4::perspective_rh(self.vfov, aspect, self.near, self.far);
+        let vfov = match self.hfov {
+            Some(h) => 2.0 * ((h * 0.5).tan() / aspect).atan(),
+            None => self.vfov,
+        };
+        let proj = Mat4::perspective_rh(vfov, aspect, self.near, self.far);
         let view_proj = proj * view;
         CameraView {
             view,

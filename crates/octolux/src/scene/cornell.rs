@@ -177,6 +177,7 @@ pub fn camera() -> Camera {
         target: Vec3::new(278.0, 273.0, 0.0) * MM,
         up: Vec3::Y,
         vfov: 39.3f32.to_radians(),
+        hfov: None,
         near: 0.05,
         far: 5.0,
         animation: None,

@@ -35,7 +35,7 @@
 //! [[camera]]
 //! position = [0.278, 0.273, -0.8]
 //! target = [0.278, 0.273, 0.0]
-//! fov = 39.3                          # vertical, degrees
+//! fov = 39.3                          # degrees, vertical unless fov_axis = "horizontal"
 //! ```
 //!
 //! Keyframe rotations of a light or camera turn it about its own position; those of a model
@@ -280,6 +280,7 @@ struct RawCamera {
     target: [f32; 3],
     up: Option<[f32; 3]>,
     fov: Option<f32>,
+    fov_axis: Option<String>,
     near: Option<f32>,
     far: Option<f32>,
     #[serde(default, rename = "loop")]
@@ -779,6 +780,16 @@ fn describe_camera(index: usize, c: &RawCamera, path: &Path) -> Result<Camera> {
             format!("{what}.fov must lie in (0, 180) degrees, got {fov}"),
         ));
     }
+    let horizontal = match c.fov_axis.as_deref() {
+        None | Some("vertical") | Some("y") => false,
+        Some("horizontal") | Some("x") => true,
+        Some(other) => {
+            return Err(bad(
+                path,
+                format!("{what}.fov_axis must be \"vertical\" or \"horizontal\", got {other:?}"),
+            ))
+        }
+    };
     let near = finite(
         c.near.unwrap_or(defaults.near),
         &format!("{what}.near"),
@@ -807,7 +818,12 @@ fn describe_camera(index: usize, c: &RawCamera, path: &Path) -> Result<Camera> {
             target
         },
         up,
-        vfov: fov.to_radians(),
+        vfov: if horizontal {
+            defaults.vfov
+        } else {
+            fov.to_radians()
+        },
+        hfov: horizontal.then(|| fov.to_radians()),
         near,
         far,
         animation,
@@ -1211,6 +1227,29 @@ mod tests {
         }
         let err = parse_err(&camera("40.0", "200.0"));
         assert!(err.contains("near"), "{err}");
+    }
+
+    #[test]
+    fn horizontal_field_of_view() {
+        let text = |axis: &str| {
+            format!(
+                "{BOX}[[camera]]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0]\n\
+                 fov = 60.0\nfov_axis = \"{axis}\"\n"
+            )
+        };
+        let scene = parse(&text("horizontal"), Path::new(PATH)).unwrap();
+        let camera = &scene.cameras[0];
+        assert_eq!(camera.hfov, Some(60f32.to_radians()));
+        // 200x100: the horizontal 60 degrees span 2 tan(30) across, so half as much vertically.
+        let view = camera.view(200, 100);
+        let vfov = 2.0 * (30f32.to_radians().tan() / 2.0).atan();
+        let expected = glam::Mat4::perspective_rh(vfov, 2.0, camera.near, camera.far);
+        assert!(view.proj.abs_diff_eq(expected, 1e-6), "{:?}", view.proj);
+        let vertical = parse(&text("vertical"), Path::new(PATH)).unwrap();
+        assert_eq!(vertical.cameras[0].hfov, None);
+        assert_eq!(vertical.cameras[0].vfov, 60f32.to_radians());
+        let err = parse_err(&text("diagonal"));
+        assert!(err.contains("fov_axis"), "{err}");
     }
 
     #[test]

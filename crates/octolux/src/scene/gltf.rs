@@ -267,6 +267,7 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
                         target: position + forward,
                         up: world.transform_vector3(Vec3::Y).normalize_or(Vec3::Y),
                         vfov: p.yfov(),
+                        hfov: None,
                         near,
                         far: p.zfar().unwrap_or(near * 1e5),
                         animation: None,
