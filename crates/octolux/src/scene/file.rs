@@ -15,6 +15,8 @@
 //! rotate = [0.0, 90.0, 0.0]           # degrees, about x then y then z; or { axis = [..], angle = .. }
 //! translate = [0.0, 0.0, 0.0]
 //! pivot = [0.0, 0.0, 0.0]             # model-space point placed at `translate`
+//! # transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+//! #                                   # rows of an affine matrix, instead of the four above
 //! objects = ["room"]                  # keep only these objects of the model
 //! material = { albedo = [0.8, 0.8, 0.8], emission = [0.0, 0.0, 0.0] }
 //! loop = true
@@ -180,6 +182,7 @@ struct RawModel {
     rotate: Option<RawRotation>,
     translate: Option<[f32; 3]>,
     pivot: Option<[f32; 3]>,
+    transform: Option<[[f32; 4]; 4]>,
     objects: Option<Vec<String>>,
     size: Option<RawScale2>,
     material: Option<RawMaterial>,
@@ -307,6 +310,8 @@ struct ModelSpec {
     scale: Vec3,
     translate: Vec3,
     pivot: Vec3,
+    /// A whole placement given as a matrix, replacing the four above.
+    matrix: Option<Mat4>,
     objects: Option<Vec<String>>,
     albedo: Option<Vec3>,
     emission: Option<Vec3>,
@@ -539,6 +544,42 @@ fn in_scenes_dir(rel: &str, dir: &Path, what: &str, path: &Path) -> Result<PathB
     Ok(dir.join(rel.trim_start_matches(['/', '\\'])))
 }
 
+/// A model's `transform`: four rows of an affine matrix (as scene formats write them), finite,
+/// invertible, with the last row [0, 0, 0, 1]; it replaces `translate`, `rotate`, `scale` and
+/// `pivot` and takes no animation.
+fn placement_matrix(m: &RawModel, rows: [[f32; 4]; 4], what: &str, path: &Path) -> Result<Mat4> {
+    let clash = [
+        ("translate", m.translate.is_some()),
+        ("rotate", m.rotate.is_some()),
+        ("scale", m.scale.is_some()),
+        ("pivot", m.pivot.is_some()),
+        ("animation", !m.animation.is_empty()),
+    ];
+    if let Some((name, _)) = clash.iter().find(|(_, given)| *given) {
+        return Err(bad(
+            path,
+            format!("{what}: `transform` replaces the placement; it cannot take `{name}` too"),
+        ));
+    }
+    let matrix = Mat4::from_cols_array_2d(&rows).transpose();
+    if !matrix.is_finite() {
+        return Err(bad(path, format!("{what}.transform is not finite")));
+    }
+    if rows[3] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(bad(
+            path,
+            format!(
+                "{what}.transform must be affine: its last row must be [0, 0, 0, 1], got {:?}",
+                rows[3]
+            ),
+        ));
+    }
+    if matrix.determinant().abs() < 1e-12 {
+        return Err(bad(path, format!("{what}.transform is singular")));
+    }
+    Ok(matrix)
+}
+
 fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Result<ModelSpec> {
     let what = format!("model[{index}] ({})", m.path);
     let source = resolve_source(m, &what, base, path)?;
@@ -597,6 +638,10 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
             (albedo, emission)
         }
     };
+    let matrix = match m.transform {
+        None => None,
+        Some(rows) => Some(placement_matrix(m, rows, &what, path)?),
+    };
     let animation = track(&m.animation, m.looping, translate, &what, path)?;
     Ok(ModelSpec {
         label: what,
@@ -606,6 +651,7 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
         scale,
         translate,
         pivot,
+        matrix,
         objects: m.objects.clone(),
         albedo,
         emission,
@@ -888,9 +934,10 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
     } else {
         model.translate
     };
-    let placement =
+    let placement = model.matrix.unwrap_or_else(|| {
         Mat4::from_scale_rotation_translation(model.scale, model.rotation, rest_translation)
-            * Mat4::from_translation(-model.pivot);
+            * Mat4::from_translation(-model.pivot)
+    });
     let single = part.objects.len() == 1;
     for object in &mut part.objects {
         if animated && object.animation.is_some() {
@@ -1227,6 +1274,40 @@ mod tests {
         }
         let err = parse_err(&camera("40.0", "200.0"));
         assert!(err.contains("near"), "{err}");
+    }
+
+    #[test]
+    fn model_transform_as_a_matrix() {
+        // Rows as written: translate (0.1, 0.2, 0.3), 90 degrees about y, scale 2.
+        let rows = "[[0.0, 0.0, 2.0, 0.1], [0.0, 2.0, 0.0, 0.2], [-2.0, 0.0, 0.0, 0.3], \
+                    [0.0, 0.0, 0.0, 1.0]]";
+        let scene = parse(&format!("{BOX}transform = {rows}\n"), Path::new(PATH)).unwrap();
+        let same = parse(
+            &format!("{BOX}scale = 2.0\nrotate = [0.0, 90.0, 0.0]\ntranslate = [0.1, 0.2, 0.3]\n"),
+            Path::new(PATH),
+        )
+        .unwrap();
+        for (a, b) in scene.objects.iter().zip(&same.objects) {
+            assert!(
+                a.transform.abs_diff_eq(b.transform, 1e-6),
+                "{}",
+                a.transform
+            );
+        }
+        let err = parse_err(&format!(
+            "{BOX}transform = {rows}\ntranslate = [0.0, 0.0, 0.0]\n"
+        ));
+        assert!(err.contains("translate"), "{err}");
+        let err = parse_err(&format!(
+            "{BOX}transform = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], \
+             [0.0, 0.0, 1.0, 1.0]]\n"
+        ));
+        assert!(err.contains("affine"), "{err}");
+        let err = parse_err(&format!(
+            "{BOX}transform = [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], \
+             [0.0, 0.0, 0.0, 1.0]]\n"
+        ));
+        assert!(err.contains("singular"), "{err}");
     }
 
     #[test]
