@@ -4,6 +4,8 @@
 //! ```toml
 //! name = "cornell-box"
 //! exposure = 0.0                      # stops
+//! unit = 1.0                          # metres per scene unit (0.3048 for feet); the
+//!                                     # `[settings]` tables stay in metres
 //!
 //! [settings]                          # kept as a raw table for GI technique settings
 //!
@@ -98,7 +100,11 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene> {
 pub fn parse_with_settings(text: &str, path: &Path) -> Result<(Scene, toml::Table)> {
     let description = describe(text, path)?;
     let settings = description.settings.clone();
+    let unit = description.unit;
     let mut scene = build(description, path)?;
+    if unit != 1.0 {
+        scene.scale_world(unit);
+    }
     super::validate(&mut scene)?;
     Ok((scene, settings))
 }
@@ -163,6 +169,7 @@ struct RawFile {
     name: Option<String>,
     #[serde(default)]
     exposure: f32,
+    unit: Option<f32>,
     #[serde(default)]
     settings: toml::Table,
     #[serde(default, rename = "model")]
@@ -321,6 +328,8 @@ struct ModelSpec {
 struct Description {
     name: String,
     exposure: f32,
+    /// Metres per scene unit.
+    unit: f32,
     settings: toml::Table,
     models: Vec<ModelSpec>,
     lights: Vec<Light>,
@@ -437,6 +446,13 @@ fn describe(text: &str, path: &Path) -> Result<Description> {
             .unwrap_or_else(|| "scene".into()),
     };
     let exposure = finite(raw.exposure, "exposure", path)?;
+    let unit = finite(raw.unit.unwrap_or(1.0), "unit", path)?;
+    if unit <= 0.0 {
+        return Err(bad(
+            path,
+            format!("unit (metres per scene unit) must be positive, got {unit}"),
+        ));
+    }
     let base = path.parent().unwrap_or(Path::new("."));
     let models = raw
         .models
@@ -459,6 +475,7 @@ fn describe(text: &str, path: &Path) -> Result<Description> {
     Ok(Description {
         name,
         exposure,
+        unit,
         settings: raw.settings,
         models,
         lights,
@@ -1308,6 +1325,47 @@ mod tests {
              [0.0, 0.0, 0.0, 1.0]]\n"
         ));
         assert!(err.contains("singular"), "{err}");
+    }
+
+    #[test]
+    fn unit_scales_the_whole_world() {
+        // The same scene in units of half a metre and in metres.
+        let scene = |unit: &str, k: f32| {
+            let text = format!(
+                "{unit}[[model]]\npath = \"builtin:cornell-box\"\nscale = {s}\n\
+                 translate = [{t}, 0.0, 0.0]\n\
+                 [[light]]\ntype = \"point\"\nintensity = 1.0\nposition = [{p}, {p}, {p}]\nloop = true\n\
+                 [[light.animation]]\ntime = 0.0\n\
+                 [[light.animation]]\ntime = 1.0\ntranslate = [{t}, 0.0, 0.0]\n\
+                 [[camera]]\nposition = [0.0, 0.0, {c}]\ntarget = [0.0, 0.0, 0.0]\n\
+                 near = {n}\nfar = {f}\n",
+                s = 2.0 * k,
+                t = 1.0 * k,
+                p = 0.5 * k,
+                c = 4.0 * k,
+                n = 0.1 * k,
+                f = 20.0 * k,
+            );
+            parse(&text, Path::new(PATH)).unwrap()
+        };
+        let feet = scene("unit = 0.5\n", 1.0);
+        let metres = scene("", 0.5);
+        for (a, b) in feet.objects.iter().zip(&metres.objects) {
+            assert!(a.transform.abs_diff_eq(b.transform, 1e-6));
+        }
+        for t in [0.0, 0.5] {
+            let (a, b) = (feet.lights[0].at_time(t), metres.lights[0].at_time(t));
+            assert!(a.position.abs_diff_eq(b.position, 1e-6), "{t}: {a:?} {b:?}");
+        }
+        let (a, b) = (&feet.cameras[0], &metres.cameras[0]);
+        assert!(a.position.abs_diff_eq(b.position, 1e-6));
+        assert!((a.near - b.near).abs() < 1e-7 && (a.far - b.far).abs() < 1e-5);
+        let bounds = |s: &Scene| s.bounds_at(0.0);
+        assert!(bounds(&feet).1.abs_diff_eq(bounds(&metres).1, 1e-5));
+        for bad in ["0.0", "-1.0", "nan"] {
+            let err = parse_err(&format!("unit = {bad}\n{BOX}"));
+            assert!(err.contains("unit"), "{err}");
+        }
     }
 
     #[test]

@@ -321,6 +321,34 @@ impl Scene {
 
     /// The scene at time `t` seconds, seen through camera `camera` (clamped to the last one; a
     /// default camera framing the scene bounds if there is none).
+    /// Scales the whole world by `s` about the origin (a scene authored in other units: feet
+    /// are 0.3048): object placements, light and camera positions, near and far planes, and the
+    /// translations of their animations. Light intensities and directions are unchanged.
+    pub fn scale_world(&mut self, s: f32) {
+        let scale_track = |track: &mut Option<Track>| {
+            if let Some(track) = track {
+                for key in &mut track.keys {
+                    key.translation *= s;
+                }
+            }
+        };
+        for object in &mut self.objects {
+            object.transform = Mat4::from_scale(Vec3::splat(s)) * object.transform;
+            scale_track(&mut object.animation);
+        }
+        for light in &mut self.lights {
+            light.position *= s;
+            scale_track(&mut light.animation);
+        }
+        for camera in &mut self.cameras {
+            camera.position *= s;
+            camera.target *= s;
+            camera.near *= s;
+            camera.far *= s;
+            scale_track(&mut camera.animation);
+        }
+    }
+
     /// The index of camera `which`: a camera's index or its name. A scene without cameras is
     /// framed automatically and has only camera 0. Anything else is an error that lists the
     /// scene's cameras.
