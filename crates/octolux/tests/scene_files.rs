@@ -260,3 +260,48 @@ fn camera_index_takes_an_index_or_a_name_and_rejects_others() {
         .expect("camera 3 of a one-camera scene");
     assert!(err.to_string().contains("no camera '3'"), "{err}");
 }
+
+#[test]
+fn a_material_override_can_take_a_texture() {
+    let dir = std::env::temp_dir().join(format!("octolux-override-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let rgba = vec![
+        255u8, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255,
+    ];
+    image::RgbaImage::from_raw(2, 2, rgba.clone())
+        .unwrap()
+        .save(dir.join("wood.png"))
+        .unwrap();
+    let write = |name: &str, material: &str| {
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            format!("[[model]]\npath = \"builtin:cornell-box\"\nmaterial = {material}\n"),
+        )
+        .unwrap();
+        path
+    };
+    let scene = Scene::load(write("t.toml", "{ texture = \"wood.png\" }")).unwrap();
+    assert_eq!(scene.textures.len(), 1);
+    assert_eq!(scene.textures[0].rgba, rgba);
+    for m in &scene.materials {
+        assert_eq!((m.base_color_texture, m.base_color), (Some(0), Vec3::ONE));
+    }
+    let tinted = Scene::load(write(
+        "a.toml",
+        "{ albedo = [0.5, 0.5, 0.5], texture = \"wood.png\" }",
+    ))
+    .unwrap();
+    assert!(tinted
+        .materials
+        .iter()
+        .all(|m| m.base_color == Vec3::splat(0.5) && m.base_color_texture == Some(0)));
+    let err = Scene::load(write("m.toml", "{ texture = \"missing.png\" }"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("missing.png") && err.contains("not found"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

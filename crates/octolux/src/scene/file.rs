@@ -21,6 +21,7 @@
 //! #                                   # rows of an affine matrix, instead of the four above
 //! objects = ["room"]                  # keep only these objects of the model
 //! material = { albedo = [0.8, 0.8, 0.8], emission = [0.0, 0.0, 0.0] }
+//! # material.texture = "wood.png"     # base-colour texture (albedo, or white, modulates it)
 //! loop = true
 //! [[model.animation]]
 //! time = 0.0
@@ -235,6 +236,7 @@ struct RawAxisAngle {
 struct RawMaterial {
     albedo: Option<[f32; 3]>,
     emission: Option<[f32; 3]>,
+    texture: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -322,6 +324,8 @@ struct ModelSpec {
     objects: Option<Vec<String>>,
     albedo: Option<Vec3>,
     emission: Option<Vec3>,
+    /// Base-colour texture replacing the model's (the albedo, or white, modulates it).
+    texture: Option<PathBuf>,
     animation: Option<Track>,
 }
 
@@ -623,6 +627,25 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
         Some(p) => vec3(p, &format!("{what}.pivot"), path)?,
         None => Vec3::ZERO,
     };
+    let texture = match m.material.as_ref().and_then(|mat| mat.texture.as_deref()) {
+        None => None,
+        Some(t) => {
+            let file = match t.strip_prefix(SCENES_PREFIX) {
+                Some(rel) => in_scenes_dir(rel, &super::scenes_dir(), &what, path)?,
+                None => base.join(t),
+            };
+            if !file.is_file() {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{what}.material.texture '{t}' not found (looked for {})",
+                        file.display()
+                    ),
+                ));
+            }
+            Some(file)
+        }
+    };
     let (albedo, emission) = match &m.material {
         None => (None, None),
         Some(mat) => {
@@ -672,6 +695,7 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
         objects: m.objects.clone(),
         albedo,
         emission,
+        texture,
         animation,
     })
 }
@@ -934,11 +958,24 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
     if let Some(names) = &model.objects {
         select_objects(&mut part, names, &model.label, path)?;
     }
+    let texture = match &model.texture {
+        Some(file) => {
+            part.textures.push(super::Texture::load(file)?);
+            Some(part.textures.len() as u32 - 1)
+        }
+        None => None,
+    };
     for material in &mut part.materials {
         if let Some(albedo) = model.albedo {
-            // The override is the colour; a texture would still modulate it.
+            // The override is the colour, modulated by the override's texture if it has one.
             material.base_color = albedo;
             material.base_color_texture = None;
+        }
+        if let Some(t) = texture {
+            if model.albedo.is_none() {
+                material.base_color = Vec3::ONE;
+            }
+            material.base_color_texture = Some(t);
         }
         if let Some(emission) = model.emission {
             material.emission = emission;
