@@ -15,6 +15,14 @@ fn context() -> GpuContext {
     GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
 }
 
+/// The LPV technique of a renderer set up with `lpv`, `clpv` or `olpv`.
+fn lpv_of(r: &Renderer) -> &octolux::gi::LpvGi {
+    r.technique()
+        .as_any()
+        .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
+        .expect("an LPV-family renderer")
+}
+
 /// Small deterministic pseudo-random numbers (xorshift).
 struct Rng(u64);
 impl Rng {
@@ -623,11 +631,7 @@ fn injected_vpl_flux_is_the_reflected_flux_for_every_light_type() {
         s.gi_settings.lpv.rsm_stride = 4;
         let mut r = Renderer::new(&ctx, &scene, s).unwrap();
         r.render(&scene, 0.0).unwrap();
-        let lpv = r
-            .technique()
-            .as_any()
-            .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
-            .unwrap();
+        let lpv = lpv_of(&r);
         let flux = sh::total_flux(&lpv.read_accumulated(&ctx).unwrap());
         println!(
             "{name}: injected {:.5} W, expected {expected:.5} W",
@@ -723,11 +727,7 @@ fn gpu_lookup_matches_cpu_lookup_of_the_accumulated_volume() {
     s.gi_settings.lpv.iterations = 3;
     let mut r = Renderer::new(&ctx, &scene, s).unwrap();
     r.render(&scene, 0.0).unwrap();
-    let lpv = r
-        .technique()
-        .as_any()
-        .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
-        .unwrap();
+    let lpv = lpv_of(&r);
     let volume = lpv.read_accumulated(&ctx).unwrap();
     let bytes = octolux::gpu::read_texture(&ctx, lpv.indirect_texture(), 0).unwrap();
     let gpu: Vec<f32> = bytes
@@ -769,11 +769,7 @@ fn gpu_lookup_matches_cpu_lookup_of_the_accumulated_volume() {
 
 /// Indirect irradiance E of the technique's output texture (f16 RGBA), per pixel.
 fn technique_irradiance(ctx: &GpuContext, r: &Renderer) -> Vec<Vec3> {
-    let lpv = r
-        .technique()
-        .as_any()
-        .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
-        .unwrap();
+    let lpv = lpv_of(r);
     let bytes = octolux::gpu::read_texture(ctx, lpv.indirect_texture(), 0).unwrap();
     bytes
         .chunks_exact(8)
@@ -1121,11 +1117,7 @@ fn injection_equals_the_cpu_twin_for_every_variant() {
             s.gi_settings.lpv.rsm_stride = 4;
             let mut r = Renderer::new(&ctx, &scene, s).unwrap();
             r.render(&scene, 0.0).unwrap();
-            let lpv = r
-                .technique()
-                .as_any()
-                .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
-                .unwrap();
+            let lpv = lpv_of(&r);
             let grids = *lpv.last_grids().unwrap();
             let gpu_light = lpv.read_accumulated(&ctx).unwrap();
             let gpu_gv = lpv.read_geometry(&ctx).unwrap();
@@ -1250,11 +1242,7 @@ fn volume_bounds_can_be_set_instead_of_fitted() {
         settings.gi_settings.lpv.bounds = Some([lo.to_array(), hi.to_array()]);
         let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
         r.render(&scene, 0.0).unwrap();
-        let lpv = r
-            .technique()
-            .as_any()
-            .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
-            .unwrap();
+        let lpv = lpv_of(&r);
         let g = lpv.last_grids().unwrap().grids[0];
         if technique == "clpv" {
             // The finest cascade is 1.25 x the box's largest side wide.

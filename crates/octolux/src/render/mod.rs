@@ -121,7 +121,7 @@ impl Renderer {
     /// Uploads `scene` and builds every stage for images of the configured size.
     pub fn new(ctx: &GpuContext, scene: &Scene, settings: RenderSettings) -> Result<Renderer> {
         check_image_size(settings.width, settings.height)?;
-        scene.camera_index(&settings.camera.to_string())?;
+        scene.check_camera(settings.camera)?;
         let max_dim = ctx.device.limits().max_texture_dimension_2d;
         if settings.width > max_dim || settings.height > max_dim {
             return Err(Error::InvalidArgument(format!(

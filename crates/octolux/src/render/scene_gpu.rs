@@ -334,19 +334,18 @@ impl SceneGpu {
         let view_proj = self.view_projs.get(view);
         for (o, meshes) in self.object_meshes.iter().enumerate() {
             let model = self.transforms.get(o).copied().unwrap_or(Mat4::IDENTITY);
-            let visible: Vec<usize> = meshes
-                .iter()
-                .copied()
-                .filter(|&m| {
-                    view_proj.is_none_or(|vp| !outside(*vp * model, self.meshes[m].bounds))
-                })
-                .collect();
-            if visible.is_empty() {
-                continue;
-            }
-            pass.set_bind_group(2, &self.object_group, &[(o as u64 * UNIFORM_STRIDE) as u32]);
-            for m in visible {
+            let clip_from_model = view_proj.map(|vp| *vp * model);
+            let mut object_bound = false;
+            for &m in meshes {
                 let mesh = &self.meshes[m];
+                if clip_from_model.is_some_and(|c| outside(c, mesh.bounds)) {
+                    continue;
+                }
+                if !object_bound {
+                    let offset = (o as u64 * UNIFORM_STRIDE) as u32;
+                    pass.set_bind_group(2, &self.object_group, &[offset]);
+                    object_bound = true;
+                }
                 pass.set_bind_group(1, &self.materials[mesh.material], &[]);
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -536,7 +535,7 @@ fn outside(clip_from_model: Mat4, (lo, hi): (Vec3, Vec3)) -> bool {
     if !(lo.is_finite() && hi.is_finite()) {
         return false;
     }
-    let corners = (0..8).map(|i| {
+    let corners: [Vec4; 8] = std::array::from_fn(|i| {
         let p = Vec3::new(
             if i & 1 == 0 { lo.x } else { hi.x },
             if i & 2 == 0 { lo.y } else { hi.y },
@@ -552,7 +551,6 @@ fn outside(clip_from_model: Mat4, (lo, hi): (Vec3, Vec3)) -> bool {
         |c| c.z,
         |c| c.w - c.z,
     ];
-    let corners: Vec<Vec4> = corners.collect();
     planes
         .iter()
         .any(|plane| corners.iter().all(|&c| plane(c) < 0.0))

@@ -355,26 +355,39 @@ impl Scene {
     pub fn camera_index(&self, which: &str) -> Result<usize> {
         let which = which.trim();
         let found = match which.parse::<usize>() {
-            Ok(i) if i < self.cameras.len().max(1) => Some(i),
-            Ok(_) => None,
+            Ok(i) => Some(i),
             Err(_) => self.cameras.iter().position(|c| c.name == which),
         };
-        found.ok_or_else(|| {
-            let list = if self.cameras.is_empty() {
-                "none (it is framed automatically: camera 0)".to_string()
-            } else {
-                self.cameras
-                    .iter()
-                    .enumerate()
-                    .map(|(i, c)| format!("{i} '{}'", c.name))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            };
-            Error::InvalidArgument(format!(
-                "scene '{}' has no camera '{which}'; its cameras: {list}",
-                self.name
-            ))
-        })
+        match found {
+            Some(i) => self.check_camera(i).map(|()| i),
+            None => Err(self.no_camera(which)),
+        }
+    }
+
+    /// Ok when the scene has camera `index` (a scene without cameras has camera 0 only).
+    pub fn check_camera(&self, index: usize) -> Result<()> {
+        if index < self.cameras.len().max(1) {
+            Ok(())
+        } else {
+            Err(self.no_camera(&index.to_string()))
+        }
+    }
+
+    fn no_camera(&self, which: &str) -> Error {
+        let list = if self.cameras.is_empty() {
+            "none (it is framed automatically: camera 0)".to_string()
+        } else {
+            self.cameras
+                .iter()
+                .enumerate()
+                .map(|(i, c)| format!("{i} '{}'", c.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        Error::InvalidArgument(format!(
+            "scene '{}' has no camera '{which}'; its cameras: {list}",
+            self.name
+        ))
     }
 
     /// The scene at time `t` seen from camera `camera` (the last camera when `camera` is out

@@ -10,8 +10,8 @@
 //! pass: the list holds one 8-byte fragment per (piece, voxel) pair (one per (triangle,
 //! voxel) pair, except on the seams of triangles split into pieces).
 
-use super::snap::{snap_triangles, GpuPiece, Piece, SnapRegion};
-use super::{GpuTriangle, VoxelGrid, VoxelTriangle};
+use super::snap::{snap_triangles, Piece, SnapRegion};
+use super::{VoxelGrid, VoxelTriangle};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::{Error, Result};
 
@@ -43,29 +43,39 @@ pub fn dispatch_size(n: u32) -> (u32, u32) {
 
 /// Uploads triangles in the GPU layout under `owner`.
 pub fn upload_triangles(ctx: &GpuContext, owner: &str, tris: &[VoxelTriangle]) -> wgpu::Buffer {
-    let mut gpu: Vec<GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
-    if gpu.is_empty() {
-        // A binding must hold at least one element; kernels are told the real count.
-        gpu.push(bytemuck::Zeroable::zeroed());
-    }
-    ctx.create_buffer_init(
+    upload_storage(
+        ctx,
         owner,
         "triangles",
-        bytemuck::cast_slice(&gpu),
-        wgpu::BufferUsages::STORAGE,
+        tris.iter().map(VoxelTriangle::to_gpu).collect(),
     )
 }
 
 /// Uploads snapped pieces ([`super::snap`]) in the GPU layout under `owner`.
 pub fn upload_pieces(ctx: &GpuContext, owner: &str, pieces: &[Piece]) -> wgpu::Buffer {
-    let mut gpu: Vec<GpuPiece> = pieces.iter().map(Piece::to_gpu).collect();
-    if gpu.is_empty() {
-        gpu.push(bytemuck::Zeroable::zeroed());
+    upload_storage(
+        ctx,
+        owner,
+        "triangle pieces",
+        pieces.iter().map(Piece::to_gpu).collect(),
+    )
+}
+
+/// A storage buffer holding `items`; an empty list gets one zero element, since a binding
+/// must hold at least one (kernels are told the real count).
+fn upload_storage<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    owner: &str,
+    label: &str,
+    mut items: Vec<T>,
+) -> wgpu::Buffer {
+    if items.is_empty() {
+        items.push(bytemuck::Zeroable::zeroed());
     }
     ctx.create_buffer_init(
         owner,
-        "triangle pieces",
-        bytemuck::cast_slice(&gpu),
+        label,
+        bytemuck::cast_slice(&items),
         wgpu::BufferUsages::STORAGE,
     )
 }

@@ -625,7 +625,7 @@ impl GiTechnique for LpvGi {
         let Some(p) = &self.passes else {
             return Ok(());
         };
-        p.rsm.update(ctx, &self.rsm, frame);
+        p.rsm.update(ctx, &self.rsm, &layers);
         p.rsm
             .record(timer, frame.scene_gpu, &self.rsm, &format!("{name} rsm"));
         p.inject.record(

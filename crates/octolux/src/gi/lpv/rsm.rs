@@ -196,8 +196,7 @@ impl RsmPass {
     }
 
     /// Uploads the per-layer light parameters of this frame.
-    pub(crate) fn update(&self, ctx: &GpuContext, targets: &RsmTargets, frame: &GiFrame) {
-        let layers = rsm_layers(frame, targets.size);
+    pub(crate) fn update(&self, ctx: &GpuContext, targets: &RsmTargets, layers: &[RsmLayer]) {
         let mut data = vec![0u8; targets.layers as usize * super::SLOT as usize];
         for (i, l) in layers.iter().enumerate().take(targets.layers as usize) {
             let start = i * super::SLOT as usize;
