@@ -564,6 +564,7 @@ fn floor_scene(a: f32, light: octolux::scene::Light) -> octolux::scene::Scene {
             ..Camera::default()
         }],
         exposure: 0.0,
+        sky: None,
     }
 }
 

@@ -149,6 +149,7 @@ fn shadow_scene() -> Scene {
             ..Camera::default()
         }],
         exposure: 0.0,
+        sky: None,
     }
 }
 

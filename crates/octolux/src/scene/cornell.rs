@@ -242,6 +242,7 @@ pub fn geometry() -> Scene {
         lights: vec![],
         cameras: vec![],
         exposure: 0.0,
+        sky: None,
     }
 }
 

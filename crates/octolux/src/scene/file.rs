@@ -21,6 +21,7 @@
 //! #                                   # rows of an affine matrix, instead of the four above
 //! objects = ["room"]                  # keep only these objects of the model
 //! material = { albedo = [0.8, 0.8, 0.8], emission = [0.0, 0.0, 0.0] }
+//! # material.two_sided = true         # emission from both faces (default: the front face)
 //! # material.texture = "wood.png"     # base-colour texture (albedo, or white, modulates it)
 //! loop = true
 //! [[model.animation]]
@@ -36,6 +37,12 @@
 //! intensity = 1.0                     # W/sr (point, spot) or W/m^2 (directional)
 //! inner_angle = 55.0                  # half-angles, degrees (spot only)
 //! outer_angle = 70.0
+//!
+//! [sky]                               # environment light (optional)
+//! color = [0.5, 0.6, 0.8]             # constant radiance, W/(m^2 sr); or:
+//! # map = "sky.hdr"                   # equirectangular .hdr or .exr (Mitsuba's orientation)
+//! intensity = 1.0                     # scales the radiance
+//! rotate = [0.0, 90.0, 0.0]           # turns the map, like a model's rotate
 //!
 //! [[camera]]
 //! position = [0.278, 0.273, -0.8]
@@ -53,9 +60,12 @@
 //! Unknown keys, out-of-range values and missing files are errors that name the scene file
 //! (and the line, for syntax and type errors).
 
-use super::{cornell, Camera, Keyframe, Light, LightKind, Material, Mesh, Object, Scene, Track};
+use super::{
+    cornell, Camera, EnvironmentMap, Keyframe, Light, LightKind, Material, Mesh, Object, Scene,
+    Sky, Track,
+};
 use crate::{Error, Result};
-use glam::{Mat4, Quat, Vec2, Vec3};
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -179,6 +189,16 @@ struct RawFile {
     lights: Vec<RawLight>,
     #[serde(default, rename = "camera")]
     cameras: Vec<RawCamera>,
+    sky: Option<RawSky>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSky {
+    color: Option<[f32; 3]>,
+    map: Option<String>,
+    intensity: Option<f32>,
+    rotate: Option<RawRotation>,
 }
 
 #[derive(Deserialize)]
@@ -236,6 +256,7 @@ struct RawAxisAngle {
 struct RawMaterial {
     albedo: Option<[f32; 3]>,
     emission: Option<[f32; 3]>,
+    two_sided: Option<bool>,
     texture: Option<String>,
 }
 
@@ -324,6 +345,8 @@ struct ModelSpec {
     objects: Option<Vec<String>>,
     albedo: Option<Vec3>,
     emission: Option<Vec3>,
+    /// Whether the emission leaves both faces.
+    two_sided: Option<bool>,
     /// Base-colour texture replacing the model's (the albedo, or white, modulates it).
     texture: Option<PathBuf>,
     animation: Option<Track>,
@@ -338,6 +361,7 @@ struct Description {
     models: Vec<ModelSpec>,
     lights: Vec<Light>,
     cameras: Vec<Camera>,
+    sky: Option<Sky>,
 }
 
 /// An error about `path` with a message.
@@ -476,6 +500,10 @@ fn describe(text: &str, path: &Path) -> Result<Description> {
         .enumerate()
         .map(|(i, c)| describe_camera(i, c, path))
         .collect::<Result<Vec<_>>>()?;
+    let sky = match &raw.sky {
+        Some(sky) => Some(describe_sky(sky, base, path)?),
+        None => None,
+    };
     Ok(Description {
         name,
         exposure,
@@ -484,7 +512,63 @@ fn describe(text: &str, path: &Path) -> Result<Description> {
         models,
         lights,
         cameras,
+        sky,
     })
+}
+
+fn describe_sky(raw: &RawSky, base: &Path, path: &Path) -> Result<Sky> {
+    let mut sky = match (&raw.color, &raw.map) {
+        (Some(c), None) => {
+            let c = vec3(*c, "sky.color", path)?;
+            if c.min_element() < 0.0 {
+                return Err(bad(
+                    path,
+                    format!("sky.color must not be negative, got {c}"),
+                ));
+            }
+            Sky::constant(c)
+        }
+        (None, Some(map)) => {
+            let file = resolve_file(map, "sky.map", base, path)?;
+            Sky::map(EnvironmentMap::load(&file)?)
+        }
+        _ => {
+            return Err(bad(
+                path,
+                "sky: give either `color` (constant radiance) or `map` (an equirectangular \
+                 .hdr or .exr file)",
+            ))
+        }
+    };
+    if let Some(i) = raw.intensity {
+        let i = finite(i, "sky.intensity", path)?;
+        if i < 0.0 {
+            return Err(bad(
+                path,
+                format!("sky.intensity must not be negative, got {i}"),
+            ));
+        }
+        sky.intensity = i;
+    }
+    if let Some(r) = &raw.rotate {
+        sky.to_world = Mat3::from_quat(rotation(r, "sky.rotate", path)?);
+    }
+    Ok(sky)
+}
+
+/// A file named in the scene file: relative to the scene file's folder, or `scenes:...`.
+fn resolve_file(name: &str, what: &str, base: &Path, path: &Path) -> Result<PathBuf> {
+    let file = match name.strip_prefix(SCENES_PREFIX) {
+        Some(rel) => in_scenes_dir(rel, &super::scenes_dir(), what, path)?,
+        None => base.join(name),
+    };
+    if !file.is_file() {
+        return Err(bad(
+            path,
+            format!("{what} '{name}' not found (looked for {})", file.display()),
+        ));
+    }
+    Ok(file)
 }
 
 fn resolve_source(model: &RawModel, what: &str, base: &Path, path: &Path) -> Result<Source> {
@@ -629,22 +713,12 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
     };
     let texture = match m.material.as_ref().and_then(|mat| mat.texture.as_deref()) {
         None => None,
-        Some(t) => {
-            let file = match t.strip_prefix(SCENES_PREFIX) {
-                Some(rel) => in_scenes_dir(rel, &super::scenes_dir(), &what, path)?,
-                None => base.join(t),
-            };
-            if !file.is_file() {
-                return Err(bad(
-                    path,
-                    format!(
-                        "{what}.material.texture '{t}' not found (looked for {})",
-                        file.display()
-                    ),
-                ));
-            }
-            Some(file)
-        }
+        Some(t) => Some(resolve_file(
+            t,
+            &format!("{what}.material.texture"),
+            base,
+            path,
+        )?),
     };
     let (albedo, emission) = match &m.material {
         None => (None, None),
@@ -695,6 +769,7 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
         objects: m.objects.clone(),
         albedo,
         emission,
+        two_sided: m.material.as_ref().and_then(|mat| mat.two_sided),
         texture,
         animation,
     })
@@ -932,6 +1007,9 @@ fn build(description: Description, path: &Path) -> Result<Scene> {
     }
     scene.lights.extend(description.lights);
     scene.cameras.extend(description.cameras);
+    if description.sky.is_some() {
+        scene.sky = description.sky;
+    }
     Ok(scene)
 }
 
@@ -979,6 +1057,9 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
         }
         if let Some(emission) = model.emission {
             material.emission = emission;
+        }
+        if let Some(two_sided) = model.two_sided {
+            material.emission_two_sided = two_sided;
         }
     }
     let animated = model.animation.is_some();

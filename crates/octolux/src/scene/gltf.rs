@@ -62,7 +62,12 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
     let mut texture_sets: Vec<u32> = Vec::new();
     for material in document.materials() {
         let pbr = material.pbr_metallic_roughness();
-        let [r, g, b, _] = pbr.base_color_factor();
+        let [r, g, b, a] = pbr.base_color_factor();
+        // Transmission is not modelled: a transmissive surface counts as clear where it
+        // transmits at least half (see `Material::opacity`).
+        let transmission = material
+            .transmission()
+            .map_or(0.0, |t| t.transmission_factor());
         let mut texture = None;
         let mut set = 0;
         if let Some(info) = pbr.base_color_texture() {
@@ -88,12 +93,18 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
             base_color: Vec3::new(r, g, b),
             base_color_texture: texture,
             emission: Vec3::from(material.emissive_factor()) * strength,
+            emission_two_sided: false,
+            opacity: match material.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => 1.0 - transmission,
+                _ => a * (1.0 - transmission),
+            },
             alpha_mode: match material.alpha_mode() {
-                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
                 gltf::material::AlphaMode::Mask => {
                     AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5))
                 }
                 gltf::material::AlphaMode::Blend => AlphaMode::Mask(0.5),
+                gltf::material::AlphaMode::Opaque if transmission > 0.0 => AlphaMode::Mask(0.5),
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
             },
         });
     }

@@ -15,12 +15,14 @@ pub mod gltf;
 pub mod obj;
 pub mod ply;
 mod scenes_dir;
+mod sky;
 mod texture;
 mod validate;
 
 pub use animation::{Keyframe, Track};
 pub use camera::{Camera, CameraView};
 pub use scenes_dir::scenes_dir;
+pub use sky::{direction_to_uv, uv_to_direction, EnvironmentMap, Sky, SkyRadiance};
 pub use texture::{srgb_to_linear, Texture};
 pub use validate::validate;
 
@@ -90,6 +92,13 @@ pub struct Material {
     pub base_color_texture: Option<u32>,
     /// Emitted radiance, W/(m^2 sr), linear RGB.
     pub emission: Vec3,
+    /// Whether the back face emits too. By default only the front face does (the side the
+    /// vertex normals point to), as glTF and Mitsuba define emission.
+    pub emission_two_sided: bool,
+    /// Coverage factor multiplied with the texture's alpha (1 = opaque). With
+    /// [`AlphaMode::Mask`] a surface whose coverage is below the cutoff is a hole for every
+    /// pass: this is how transmissive surfaces (glass, MTL `d`/`Tr`, glTF blend) are treated.
+    pub opacity: f32,
     /// How alpha is used.
     pub alpha_mode: AlphaMode,
 }
@@ -101,6 +110,8 @@ impl Default for Material {
             base_color: Vec3::splat(0.8),
             base_color_texture: None,
             emission: Vec3::ZERO,
+            emission_two_sided: false,
+            opacity: 1.0,
             alpha_mode: AlphaMode::Opaque,
         }
     }
@@ -228,6 +239,8 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Exposure in stops: pixel values are scaled by 2^exposure before tone mapping.
     pub exposure: f32,
+    /// Environment light arriving from infinitely far away (none: the background is black).
+    pub sky: Option<Sky>,
 }
 
 /// One world-space triangle of a [`SceneFrame`], with everything shading needs.
@@ -463,10 +476,12 @@ impl Scene {
                 .materials
                 .iter()
                 .any(|m| m.emission.max_element() > 0.0)
+            || self.sky.as_ref().is_some_and(|s| !s.is_black())
     }
 
     /// Appends `other`'s meshes, materials and textures, re-indexing, and returns the indices
-    /// of `other`'s meshes in `self`. Objects, lights and cameras of `other` are also appended.
+    /// of `other`'s meshes in `self`. Objects, lights and cameras of `other` are also appended,
+    /// and its sky is taken when `self` has none.
     pub fn merge(&mut self, other: Scene) -> Vec<u32> {
         let material_base = self.materials.len() as u32;
         let texture_base = self.textures.len() as u32;
@@ -490,6 +505,9 @@ impl Scene {
         }));
         self.lights.extend(other.lights);
         self.cameras.extend(other.cameras);
+        if self.sky.is_none() {
+            self.sky = other.sky;
+        }
         mesh_ids
     }
 }

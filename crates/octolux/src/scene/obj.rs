@@ -308,12 +308,25 @@ fn convert_materials(mtl: &[tobj::Material]) -> (Vec<Material>, Vec<Texture>) {
         .zip(&keys)
         .map(|(m, key)| {
             let (texture, masked) = index.get(key).copied().unwrap_or((None, false));
+            // `d` (dissolve) or `Tr` (= 1 - d): transmissive surfaces are not modelled, so a
+            // surface that lets through more than half is clear (see `Material::opacity`).
+            let opacity = m.dissolve.or_else(|| {
+                m.unknown_param
+                    .get("Tr")
+                    .and_then(|t| t.trim().parse::<f32>().ok())
+                    .map(|t| 1.0 - t)
+            });
+            let opacity = opacity
+                .filter(|o| o.is_finite())
+                .map_or(1.0, |o| o.clamp(0.0, 1.0));
             Material {
                 name: m.name.clone(),
                 base_color: m.diffuse.map(Vec3::from).unwrap_or(Vec3::splat(0.8)),
                 base_color_texture: texture,
                 emission: m.emissive.map(Vec3::from).unwrap_or(Vec3::ZERO),
-                alpha_mode: if masked {
+                emission_two_sided: false,
+                opacity,
+                alpha_mode: if masked || opacity < 1.0 {
                     AlphaMode::Mask(0.5)
                 } else {
                     AlphaMode::Opaque

@@ -1,0 +1,270 @@
+//! Sky (environment) light: radiance arriving from infinitely far away in every direction,
+//! either one constant colour or an equirectangular map (`.hdr` or `.exr`).
+//!
+//! Map convention (the same as Mitsuba 3's `envmap`, so imported scenes match): for a
+//! direction `d` in the map's frame (y up), `u = atan2(d.x, -d.z) / 2pi` wrapped to [0, 1)
+//! and `v = acos(d.y) / pi`; the top row is straight up, the centre column looks along -z
+//! and a quarter of the width to the right looks along +x. [`Sky::to_world`] turns the map's
+//! frame into the world's.
+//!
+//! Radiance is in W/(m^2 sr) like emission, scaled by [`Sky::intensity`].
+
+use crate::image_io::HdrImage;
+use crate::{Error, Result};
+use glam::{Mat3, Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
+use std::path::Path;
+use std::sync::Arc;
+
+/// Where a sky's radiance comes from.
+#[derive(Clone, Debug)]
+pub enum SkyRadiance {
+    /// The same radiance from every direction (linear RGB).
+    Constant(Vec3),
+    /// An equirectangular map of linear RGB radiance.
+    Map(Arc<EnvironmentMap>),
+}
+
+/// A sky light.
+#[derive(Clone, Debug)]
+pub struct Sky {
+    /// Constant colour or map.
+    pub radiance: SkyRadiance,
+    /// Multiplies the radiance.
+    pub intensity: f32,
+    /// Rotation from the map's frame to the world (orthonormal).
+    pub to_world: Mat3,
+}
+
+impl Sky {
+    /// A constant sky of radiance `color`.
+    pub fn constant(color: Vec3) -> Sky {
+        Sky {
+            radiance: SkyRadiance::Constant(color),
+            intensity: 1.0,
+            to_world: Mat3::IDENTITY,
+        }
+    }
+
+    /// A sky from an equirectangular map.
+    pub fn map(map: EnvironmentMap) -> Sky {
+        Sky {
+            radiance: SkyRadiance::Map(Arc::new(map)),
+            intensity: 1.0,
+            to_world: Mat3::IDENTITY,
+        }
+    }
+
+    /// Radiance arriving from world direction `dir` (unit; the light travels along `-dir`).
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        match &self.radiance {
+            SkyRadiance::Constant(c) => *c * self.intensity,
+            SkyRadiance::Map(map) => {
+                let local = self.to_world.transpose() * dir;
+                map.lookup(direction_to_uv(local)) * self.intensity
+            }
+        }
+    }
+
+    /// Whether the sky adds no light at all.
+    pub fn is_black(&self) -> bool {
+        let peak = match &self.radiance {
+            SkyRadiance::Constant(c) => c.max_element(),
+            SkyRadiance::Map(map) => map
+                .image
+                .pixels
+                .iter()
+                .fold(0.0f32, |m, p| m.max(p.max_element())),
+        };
+        peak * self.intensity <= 0.0
+    }
+
+    /// Total radiance x solid angle (W/m^2 per unit area facing all directions, i.e. the
+    /// irradiance a sphere's point would get from the whole sphere with cosine = 1): used to
+    /// bound the flux the sky can bring.
+    pub fn power(&self) -> Vec3 {
+        match &self.radiance {
+            SkyRadiance::Constant(c) => *c * self.intensity * (4.0 * PI),
+            SkyRadiance::Map(map) => map.power() * self.intensity,
+        }
+    }
+}
+
+/// Equirectangular map coordinates of a unit direction in the map's frame.
+pub fn direction_to_uv(d: Vec3) -> Vec2 {
+    let u = d.x.atan2(-d.z) / TAU;
+    let v = d.y.clamp(-1.0, 1.0).acos() / PI;
+    Vec2::new(u - u.floor(), v)
+}
+
+/// The unit direction (map frame) at equirectangular coordinates `uv`.
+pub fn uv_to_direction(uv: Vec2) -> Vec3 {
+    let phi = uv.x * TAU;
+    let theta = uv.y * PI;
+    let s = theta.sin();
+    Vec3::new(s * phi.sin(), theta.cos(), -s * phi.cos())
+}
+
+/// An equirectangular radiance map.
+#[derive(Clone, Debug)]
+pub struct EnvironmentMap {
+    /// File name for diagnostics.
+    pub name: String,
+    /// Linear RGB radiance, top row = straight up.
+    pub image: HdrImage,
+}
+
+impl EnvironmentMap {
+    /// Largest accepted edge, to turn absurd files into errors rather than allocations.
+    pub const MAX_SIZE: u32 = 16384;
+
+    /// Loads a Radiance `.hdr` or OpenEXR `.exr` map. Negative or non-finite texels and sizes
+    /// that are not 2:1-ish are errors naming the file.
+    pub fn load(path: &Path) -> Result<EnvironmentMap> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_lowercase())
+            .unwrap_or_default();
+        let image = match ext.as_str() {
+            "exr" => HdrImage::read_exr(path)?,
+            "hdr" => read_radiance_hdr(path)?,
+            _ => {
+                return Err(Error::parse(
+                    path,
+                    "environment map: expected an equirectangular .hdr or .exr file",
+                ))
+            }
+        };
+        let name = path
+            .file_name()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        EnvironmentMap::from_image(name, image).map_err(|e| Error::parse(path, e))
+    }
+
+    /// Checks and wraps an image as a map (the message says what is wrong).
+    pub fn from_image(name: String, image: HdrImage) -> std::result::Result<Self, String> {
+        let (w, h) = (image.width, image.height);
+        if w < 2 || h < 1 || w > Self::MAX_SIZE || h > Self::MAX_SIZE {
+            return Err(format!(
+                "environment map is {w}x{h}; expected between 2x1 and {0}x{0}",
+                Self::MAX_SIZE
+            ));
+        }
+        if let Some(i) = image
+            .pixels
+            .iter()
+            .position(|p| !p.is_finite() || p.min_element() < 0.0)
+        {
+            return Err(format!(
+                "environment map texel ({}, {}) is {:?}: radiance must be finite and not negative",
+                i as u32 % w,
+                i as u32 / w,
+                image.pixels[i]
+            ));
+        }
+        Ok(EnvironmentMap { name, image })
+    }
+
+    /// Bilinear lookup at `uv` (u wraps around, v clamps at the poles).
+    pub fn lookup(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.image.width as i64, self.image.height as i64);
+        let x = uv.x * w as f32 - 0.5;
+        let y = uv.y * h as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let texel = |tx: i64, ty: i64| {
+            let tx = tx.rem_euclid(w);
+            let ty = ty.clamp(0, h - 1);
+            self.image.pixels[(ty * w + tx) as usize]
+        };
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
+        let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
+        top.lerp(bottom, fy)
+    }
+
+    /// Solid angle of a texel in row `y` (sr).
+    pub fn texel_solid_angle(&self, y: u32) -> f32 {
+        let h = self.image.height as f32;
+        let w = self.image.width as f32;
+        let t0 = y as f32 / h * PI;
+        let t1 = (y + 1) as f32 / h * PI;
+        (t0.cos() - t1.cos()) * TAU / w
+    }
+
+    /// Sum of radiance x texel solid angle over the map.
+    pub fn power(&self) -> Vec3 {
+        let w = self.image.width as usize;
+        let mut sum = glam::DVec3::ZERO;
+        for (y, row) in self.image.pixels.chunks_exact(w).enumerate() {
+            let row_sum: glam::DVec3 = row.iter().map(|p| p.as_dvec3()).sum();
+            sum += row_sum * self.texel_solid_angle(y as u32) as f64;
+        }
+        sum.as_vec3()
+    }
+}
+
+/// Reads a Radiance RGBE (`.hdr`) file.
+fn read_radiance_hdr(path: &Path) -> Result<HdrImage> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let decoder = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
+        .map_err(|e| Error::parse(path, format!("cannot read Radiance HDR: {e}")))?;
+    let image = image::DynamicImage::from_decoder(decoder)
+        .map_err(|e| Error::parse(path, format!("cannot read Radiance HDR: {e}")))?
+        .to_rgb32f();
+    let (width, height) = image.dimensions();
+    Ok(HdrImage {
+        width,
+        height,
+        pixels: image
+            .pixels()
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uv_and_direction_round_trip() {
+        for &d in &[
+            Vec3::new(0.3, 0.5, -0.8).normalize(),
+            Vec3::new(-0.6, -0.2, 0.7).normalize(),
+            Vec3::X,
+            Vec3::NEG_Z,
+        ] {
+            let back = uv_to_direction(direction_to_uv(d));
+            assert!((back - d).length() < 1e-5, "{d} -> {back}");
+        }
+        // Mitsuba's convention: -z at u = 0, +x at u = 1/4, up at v = 0.
+        assert!(direction_to_uv(Vec3::NEG_Z).x.abs() < 1e-6);
+        assert!((direction_to_uv(Vec3::X).x - 0.25).abs() < 1e-6);
+        assert!(direction_to_uv(Vec3::Y).y.abs() < 1e-6);
+    }
+
+    #[test]
+    fn map_power_of_a_constant_map_is_4_pi() {
+        let mut image = HdrImage::new(64, 32);
+        image.pixels.fill(Vec3::ONE);
+        let map = EnvironmentMap::from_image("c".into(), image).unwrap();
+        assert!((map.power() - Vec3::splat(4.0 * PI)).abs().max_element() < 1e-3);
+        assert!(
+            (map.lookup(Vec2::new(0.99, 0.01)) - Vec3::ONE)
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+    }
+
+    #[test]
+    fn bad_maps_are_errors() {
+        let mut image = HdrImage::new(4, 2);
+        image.pixels[5] = Vec3::new(f32::NAN, 0.0, 0.0);
+        let e = EnvironmentMap::from_image("x".into(), image).unwrap_err();
+        assert!(e.contains("(1, 1)"), "{e}");
+        assert!(EnvironmentMap::from_image("x".into(), HdrImage::new(1, 1)).is_err());
+    }
+}
