@@ -507,6 +507,13 @@ fn alpha_masked_texels_are_holes_for_every_ray() {
     let r2 = (point_light().position - hit).length_squared();
     let want = 0.8 / std::f32::consts::PI * 5.0 * (0.5 / r2.sqrt()) / r2;
     assert!((centre - want).abs() < 0.02 * want, "{centre} vs {want}");
+    // Opacity multiplies the texel's alpha: a clear (transmissive) material is a hole too,
+    // with or without a texture.
+    let mut glass = solid.clone();
+    glass.materials[1].opacity = 0.1;
+    assert_eq!(render_scene(&glass, 16, &s).total, reference.total);
+    glass.materials[1].base_color_texture = None;
+    assert_eq!(render_scene(&glass, 16, &s).total, reference.total);
 }
 
 #[test]

@@ -1,5 +1,5 @@
 //! World-space triangles of one frame in a BVH (obvhs' compressed wide BVH), with closest-hit
-//! and any-hit queries that treat alpha-masked texels as holes.
+//! and any-hit queries that treat alpha-masked texels (and clear materials) as holes.
 
 use crate::scene::{AlphaMode, Scene, SceneFrame, Texture};
 use crate::{Error, Result};
@@ -12,8 +12,20 @@ pub(crate) struct ShadeMaterial<'a> {
     pub base_color: Vec3,
     pub texture: Option<&'a Texture>,
     pub emission: Vec3,
+    /// Whether the back face emits too.
+    pub emission_two_sided: bool,
+    /// Coverage factor multiplied with the texture's alpha.
+    pub opacity: f32,
     /// Alpha cutoff for masked materials.
     pub cutoff: Option<f32>,
+}
+
+impl ShadeMaterial<'_> {
+    /// Whether every point of the surface is a hole (a clear, transmissive material).
+    fn always_hole(&self) -> bool {
+        self.cutoff
+            .is_some_and(|c| (self.opacity < c && self.texture.is_none()) || self.opacity <= 0.0)
+    }
 }
 
 /// A triangle prepared for intersection and shading.
@@ -93,6 +105,8 @@ impl<'a> Accel<'a> {
                     base_color: m.base_color,
                     texture,
                     emission: m.emission,
+                    emission_two_sided: m.emission_two_sided,
+                    opacity: m.opacity,
                     cutoff: match m.alpha_mode {
                         AlphaMode::Mask(c) => Some(c),
                         AlphaMode::Opaque => None,
@@ -107,6 +121,9 @@ impl<'a> Accel<'a> {
                     &scene.name,
                     format!("triangle refers to missing material {}", w.material),
                 ));
+            }
+            if materials[w.material as usize].always_hole() {
+                continue;
             }
             let [a, b, c] = w.positions;
             let (e1, e2) = (b - a, c - a);
@@ -163,9 +180,12 @@ impl<'a> Accel<'a> {
     #[inline]
     fn is_hole(&self, tri: &Tri, u: f32, v: f32) -> bool {
         let m = &self.materials[tri.material as usize];
-        match (m.cutoff, m.texture) {
-            (Some(cutoff), Some(tex)) => tex.sample(tri.uv(u, v)).w < cutoff,
-            _ => false,
+        match m.cutoff {
+            Some(cutoff) => {
+                let alpha = m.texture.map_or(1.0, |tex| tex.sample(tri.uv(u, v)).w);
+                alpha * m.opacity < cutoff
+            }
+            None => false,
         }
     }
 

@@ -2,29 +2,36 @@
 //!
 //! It renders exactly what the GPU renderer models, from the same [`Scene`] and [`SceneFrame`]:
 //! Lambertian surfaces (BRDF albedo/pi, albedo = `base_color` x base colour texture), emissive
-//! surfaces (radiance, seen from both sides), punctual point and spot lights (W/sr,
-//! inverse-square falloff, [`Light::spot_factor`](crate::scene::Light::spot_factor)) and
-//! directional lights (irradiance `radiant()` arriving from `-direction`). The background is
-//! black. Primary rays go through [`CameraView::ray_direction`](crate::scene::CameraView) so the
-//! images line up with the GPU's pixel for pixel.
+//! surfaces (radiance from the front face, the side the vertex normals point to, or from both
+//! with `emission_two_sided`), punctual point and spot lights (W/sr, inverse-square falloff,
+//! [`Light::spot_factor`](crate::scene::Light::spot_factor)), directional lights (irradiance
+//! `radiant()` arriving from `-direction`) and the sky ([`Scene::sky`]; black without one),
+//! which is also what the camera sees where its rays leave the scene. Primary rays go through
+//! [`CameraView::ray_direction`](crate::scene::CameraView) so the images line up with the
+//! GPU's pixel for pixel.
 //!
 //! Light transport:
-//! - surfaces are two-sided: the geometric and shading normals are turned towards the arriving
-//!   ray; the shading normal is used for cosines, the geometric one for ray offsets and to
-//!   reject light from below the true surface;
+//! - surfaces are two-sided for reflection: the geometric and shading normals are turned
+//!   towards the arriving ray; the shading normal is used for cosines, the geometric one for
+//!   ray offsets and to reject light from below the true surface;
 //! - punctual lights are sampled by next-event estimation with any-hit shadow rays; emissive
 //!   surfaces are reached by BSDF (cosine-weighted) sampling only, so there is no double
 //!   counting and no need for multiple importance sampling;
-//! - alpha-masked materials are holes (for every ray) where texture alpha < cutoff;
+//! - the sky is sampled both ways: next-event estimation with importance sampling of the map
+//!   (`sky.rs`) and the escape of the cosine-sampled continuation ray, combined with the power
+//!   heuristic; the last vertex of a bounce-limited path takes its next-event sample in full;
+//! - alpha-masked materials are holes (for every ray) where texture alpha x opacity < cutoff,
+//!   so a clear (transmissive) material lets every ray through;
 //! - Russian roulette from [`ReferenceSettings::roulette_start`] on, with survival probability
 //!   equal to the surface albedo's largest channel (at most 0.95), which is unbiased and keeps
 //!   the path weight constant in a grey furnace; unlimited paths are cut at
 //!   [`MAX_PATH_VERTICES`] vertices, where the remaining energy is below 0.95^256.
 //!
 //! Output split ([`ReferenceImages`]), with path vertices x1 (primary hit), x2, ...:
-//! - `direct` = emission of x1 + punctual light reflected at x1;
-//! - `indirect` = for each bounce k = 1..=n: emission of x(k+1) + punctual light reflected at
-//!   x(k+1), carried back to the eye;
+//! - `direct` = emission of x1 + punctual and sky light reflected at x1 (or the sky itself
+//!   where the primary ray escapes);
+//! - `indirect` = for each bounce k = 1..=n: emission of x(k+1) + punctual and sky light
+//!   reflected at x(k+1), carried back to the eye;
 //! - `total` = `direct` + `indirect`;
 //! - `indirect_irradiance` E = irradiance (W/m^2) arriving at x1 over the shading-normal
 //!   hemisphere from the indirect paths, so that `indirect` = albedo/pi x E at every primary
@@ -35,6 +42,7 @@
 
 mod accel;
 mod sampling;
+mod sky;
 
 use crate::image_io::HdrImage;
 use crate::scene::{LightKind, Scene, SceneFrame};
@@ -43,6 +51,7 @@ use accel::{Accel, Hit};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use sampling::{cosine_hemisphere, r2, Rng};
+use sky::{power_heuristic, SkySampler};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::time::{Duration, Instant};
 
@@ -172,6 +181,11 @@ pub fn render(
     let accel = Accel::build(scene, frame)?;
     let tracer = Tracer {
         accel,
+        sky: scene
+            .sky
+            .as_ref()
+            .filter(|s| !s.is_black())
+            .map(SkySampler::new),
         frame,
         max_indirect: settings.bounces.max_indirect(),
         roulette_start: settings.roulette_start,
@@ -273,6 +287,7 @@ struct Surface {
 
 struct Tracer<'a> {
     accel: Accel<'a>,
+    sky: Option<SkySampler<'a>>,
     frame: &'a SceneFrame,
     max_indirect: u32,
     roulette_start: u32,
@@ -288,16 +303,22 @@ impl Tracer<'_> {
         let tri = &self.accel.tris[hit.tri as usize];
         let material = &self.accel.materials[tri.material as usize];
         let (u, v) = (hit.u, hit.v);
-        let mut geometric = tri.e1.cross(tri.e2).normalize_or(Vec3::Y);
-        if geometric.dot(dir) > 0.0 {
-            geometric = -geometric;
-        }
-        let mut shading =
+        let winding = tri.e1.cross(tri.e2).normalize_or(Vec3::Y);
+        let interpolated =
             (tri.normals[0] * (1.0 - u - v) + tri.normals[1] * u + tri.normals[2] * v)
-                .normalize_or(geometric);
-        if shading.dot(geometric) < 0.0 {
-            shading = -shading;
-        }
+                .normalize_or(winding);
+        // The front face is the side the vertex normals point to (as glTF and Mitsuba have it).
+        let front = interpolated.dot(dir) < 0.0;
+        let geometric = if winding.dot(dir) > 0.0 {
+            -winding
+        } else {
+            winding
+        };
+        let shading = if interpolated.dot(geometric) < 0.0 {
+            -interpolated
+        } else {
+            interpolated
+        };
         let albedo = match material.texture {
             Some(tex) => material.base_color * tex.sample(tri.uv(u, v)).truncate(),
             None => material.base_color,
@@ -307,17 +328,24 @@ impl Tracer<'_> {
             geometric,
             shading,
             albedo,
-            emission: material.emission,
+            emission: if front || material.emission_two_sided {
+                material.emission
+            } else {
+                Vec3::ZERO
+            },
         }
     }
 
-    /// Reflected radiance from all punctual lights at `s` (towards any viewer: Lambertian).
-    fn direct_light(&self, s: &Surface) -> Vec3 {
+    /// Reflected radiance from all punctual lights and the sky at `s` (towards any viewer:
+    /// Lambertian). The sky is sampled by next-event estimation; with `mis` its sample carries
+    /// the power-heuristic weight against cosine sampling, and the caller adds the other half
+    /// when the continuing path escapes ([`Tracer::escaped`]); without, it counts in full.
+    fn direct_light(&self, s: &Surface, rng: &mut Rng, mis: bool) -> Vec3 {
         if s.albedo == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let origin = offset(s.position, s.geometric);
-        let mut irradiance = Vec3::ZERO;
+        let mut irradiance = self.sky_irradiance_sample(s, origin, rng, mis);
         for light in &self.frame.lights {
             let (wi, distance, arriving) = match light.kind {
                 LightKind::Directional => {
@@ -353,15 +381,53 @@ impl Tracer<'_> {
         s.albedo * FRAC_1_PI * irradiance
     }
 
+    /// One next-event sample of the sky's irradiance at `s` (W/m^2, shadowed).
+    fn sky_irradiance_sample(&self, s: &Surface, origin: Vec3, rng: &mut Rng, mis: bool) -> Vec3 {
+        let Some(sky) = &self.sky else {
+            return Vec3::ZERO;
+        };
+        let (wi, radiance, pdf) = sky.sample(rng.next_vec2());
+        let cos = s.shading.dot(wi);
+        if pdf <= 0.0 || cos <= 0.0 || s.geometric.dot(wi) <= 0.0 || radiance == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        if !self.accel.unoccluded(origin, wi, f32::INFINITY) {
+            return Vec3::ZERO;
+        }
+        let weight = if mis {
+            power_heuristic(pdf, cos * FRAC_1_PI)
+        } else {
+            1.0
+        };
+        radiance * (cos * weight / pdf)
+    }
+
+    /// Sky radiance along a cosine-sampled direction `dir` from `s` that left the scene,
+    /// weighted against the sky's next-event sample taken at `s`.
+    fn escaped(&self, s: &Surface, dir: Vec3) -> Vec3 {
+        let Some(sky) = &self.sky else {
+            return Vec3::ZERO;
+        };
+        let pdf_cos = s.shading.dot(dir).max(0.0) * FRAC_1_PI;
+        sky.sky.radiance(dir) * power_heuristic(pdf_cos, sky.pdf(dir))
+    }
+
     fn trace(&self, origin: Vec3, dir: Vec3, rng: &mut Rng) -> PathSample {
         let mut out = PathSample::default();
         let Some(hit) = self.accel.closest(origin, dir, f32::INFINITY) else {
+            // The camera sees the sky.
+            if let Some(sky) = &self.sky {
+                out.direct = sky.sky.radiance(dir);
+            }
             return out;
         };
         let first = self.surface(&hit, origin, dir);
         out.albedo = first.albedo;
-        out.direct = first.emission + self.direct_light(&first);
-        if self.max_indirect == 0 {
+        // Light reflected at x1 is direct; the sky's share of it is sampled both ways (next
+        // event here, and the escape of the first indirect ray below) unless no ray follows.
+        let follow = self.max_indirect > 0;
+        out.direct = first.emission + self.direct_light(&first, rng, follow);
+        if !follow {
             return out;
         }
         // Radiance arriving at the primary hit along the sampled direction, from >= 1 bounce.
@@ -377,11 +443,22 @@ impl Tracer<'_> {
             }
             let origin = offset(s.position, s.geometric);
             let Some(hit) = self.accel.closest(origin, dir, f32::INFINITY) else {
+                // Sky light reflected at s: direct light at the primary hit, else part of the
+                // bounce that s's own light belongs to.
+                let sky = self.escaped(&s, dir);
+                if bounce == 1 {
+                    out.direct += s.albedo * sky;
+                } else {
+                    incoming += weight * sky;
+                }
                 break;
             };
             let next = self.surface(&hit, origin, dir);
-            incoming += weight * (next.emission + self.direct_light(&next));
-            if bounce >= self.max_indirect {
+            // No ray leaves the last vertex of a bounce-limited path: its sky sample counts in
+            // full. (Russian roulette ends paths at random, which the 1/survival weight pays.)
+            let last = bounce >= self.max_indirect;
+            incoming += weight * (next.emission + self.direct_light(&next, rng, !last));
+            if last {
                 break;
             }
             // Lambertian with cosine sampling: BRDF x cos / pdf = albedo.
