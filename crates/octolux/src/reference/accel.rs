@@ -20,14 +20,6 @@ pub(crate) struct ShadeMaterial<'a> {
     pub cutoff: Option<f32>,
 }
 
-impl ShadeMaterial<'_> {
-    /// Whether every point of the surface is a hole (a clear, transmissive material).
-    fn always_hole(&self) -> bool {
-        self.cutoff
-            .is_some_and(|c| (self.opacity < c && self.texture.is_none()) || self.opacity <= 0.0)
-    }
-}
-
 /// A triangle prepared for intersection and shading.
 #[derive(Clone, Copy)]
 pub(crate) struct Tri {
@@ -122,7 +114,7 @@ impl<'a> Accel<'a> {
                     format!("triangle refers to missing material {}", w.material),
                 ));
             }
-            if materials[w.material as usize].always_hole() {
+            if scene.materials[w.material as usize].is_clear() {
                 continue;
             }
             let [a, b, c] = w.positions;

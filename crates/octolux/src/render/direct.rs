@@ -1,8 +1,9 @@
 //! Deferred direct lighting (`direct.wgsl`): emission plus the Lambertian response to every
-//! light, shadowed through the shadow-map array.
+//! light and the sky, shadowed through the shadow-map array; the sky where nothing was drawn.
 
 use super::gbuffer::{target, GBuffer};
 use super::shadow::ShadowMaps;
+use super::sky::SkyGpu;
 use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
 
@@ -34,6 +35,7 @@ impl DirectLight {
         camera: &wgpu::Buffer,
         gbuffer: &GBuffer,
         shadows: &ShadowMaps,
+        sky: &SkyGpu,
         width: u32,
         height: u32,
     ) -> DirectLight {
@@ -93,6 +95,14 @@ impl DirectLight {
                     resource: wgpu::BindingResource::Sampler(&shadows.sampler),
                 },
                 tex(9, &output_view),
+                wgpu::BindGroupEntry {
+                    binding: 10,
+                    resource: sky.params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: sky.map.as_entire_binding(),
+                },
             ],
         });
         DirectLight {

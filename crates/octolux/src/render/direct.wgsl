@@ -1,5 +1,9 @@
 // Deferred direct lighting: Lambertian (albedo/pi) response to point, spot and directional
-// lights with PCF-filtered shadow maps, plus emission. Output: outgoing radiance per pixel.
+// lights with PCF-filtered shadow maps and to the sky, plus emission; the sky's radiance where
+// nothing was drawn. Output: outgoing radiance per pixel.
+//
+// Sky: unshadowed irradiance from the sky's spherical-harmonic irradiance coefficients, times
+// the visible fraction of the directional lights that stand in for the sky (`render/sky.rs`).
 
 // `Light`, `light_incidence` and `shadow_visibility` come from `lights.wgsl`.
 
@@ -14,6 +18,68 @@
 @group(0) @binding(8) var shadow_sampler: sampler_comparison;
 @group(0) @binding(9) var out_direct: texture_storage_2d<rgba16float, write>;
 
+struct SkyParams {
+    // irradiance coefficients (rgb) of the nine band 0-2 basis functions
+    sh: array<vec4<f32>, 9>,
+    // rows of the world-to-map rotation
+    to_map: array<vec4<f32>, 3>,
+    // rgb: constant radiance, w: 0 no sky, 1 constant, 2 map
+    color_kind: vec4<f32>,
+    // map width, height, intensity
+    map_size: vec4<f32>,
+};
+@group(0) @binding(10) var<storage, read> sky: SkyParams;
+@group(0) @binding(11) var<storage, read> sky_map: array<vec4<f32>>;
+
+fn sky_texel(x: i32, y: i32) -> vec3<f32> {
+    let w = i32(sky.map_size.x);
+    let h = i32(sky.map_size.y);
+    let tx = ((x % w) + w) % w;
+    let ty = clamp(y, 0, h - 1);
+    return sky_map[ty * w + tx].rgb;
+}
+
+// Radiance arriving from world direction `d`: bilinear in the map like `Sky::radiance`.
+fn sky_radiance(d: vec3<f32>) -> vec3<f32> {
+    if sky.color_kind.w < 0.5 {
+        return vec3<f32>(0.0);
+    }
+    if sky.color_kind.w < 1.5 {
+        return sky.color_kind.rgb;
+    }
+    let local = vec3<f32>(dot(sky.to_map[0].xyz, d), dot(sky.to_map[1].xyz, d), dot(sky.to_map[2].xyz, d));
+    var u = atan2(local.x, -local.z) / (2.0 * PI);
+    u = u - floor(u);
+    let v = acos(clamp(local.y, -1.0, 1.0)) / PI;
+    let x = u * sky.map_size.x - 0.5;
+    let y = v * sky.map_size.y - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let f = vec2<f32>(x - x0, y - y0);
+    let ix = i32(x0);
+    let iy = i32(y0);
+    let top = mix(sky_texel(ix, iy), sky_texel(ix + 1, iy), f.x);
+    let bottom = mix(sky_texel(ix, iy + 1), sky_texel(ix + 1, iy + 1), f.x);
+    return mix(top, bottom, f.y) * sky.map_size.z;
+}
+
+// Unshadowed sky irradiance for unit normal `n` (`sh_irradiance` on the CPU).
+fn sky_irradiance(n: vec3<f32>) -> vec3<f32> {
+    let x = n.x;
+    let y = n.y;
+    let z = n.z;
+    var e = sky.sh[0].rgb * 0.282095;
+    e += sky.sh[1].rgb * (0.488603 * y);
+    e += sky.sh[2].rgb * (0.488603 * z);
+    e += sky.sh[3].rgb * (0.488603 * x);
+    e += sky.sh[4].rgb * (1.092548 * x * y);
+    e += sky.sh[5].rgb * (1.092548 * y * z);
+    e += sky.sh[6].rgb * (0.315392 * (3.0 * z * z - 1.0));
+    e += sky.sh[7].rgb * (1.092548 * x * z);
+    e += sky.sh[8].rgb * (0.546274 * (x * x - y * y));
+    return max(e, vec3<f32>(0.0));
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = vec2<u32>(cam.size.xy);
@@ -23,13 +89,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let px = id.xy;
     let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 {
-        textureStore(out_direct, px, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        let far = world_from_depth(cam, px, 1.0);
+        let background = sky_radiance(normalize(far - cam.position.xyz));
+        textureStore(out_direct, px, vec4<f32>(background, 1.0));
         return;
     }
     let p = world_from_depth(cam, px, depth);
     let n = normalize(textureLoad(normal_tex, px, 0).xyz);
     let albedo = textureLoad(albedo_tex, px, 0).rgb;
     var irradiance = vec3<f32>(0.0);
+    // The sky's directional lights, unshadowed and shadowed.
+    var sky_all = vec3<f32>(0.0);
+    var sky_seen = vec3<f32>(0.0);
     let count = u32(cam.params.y);
     for (var i = 0u; i < count; i++) {
         let light = lights[i];
@@ -38,8 +109,17 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if cos_theta <= 0.0 || all(inc.irradiance <= vec3<f32>(0.0)) {
             continue;
         }
-        irradiance += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
+        let e = inc.irradiance * cos_theta;
+        let seen = e * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
+        if light.shadow.w > 0.5 {
+            sky_all += e;
+            sky_seen += seen;
+        } else {
+            irradiance += seen;
+        }
     }
+    let visible = select(vec3<f32>(0.0), sky_seen / max(sky_all, vec3<f32>(1e-30)), sky_all > vec3<f32>(0.0));
+    irradiance += sky_irradiance(n) * visible;
     let emission = textureLoad(emission_tex, px, 0).rgb;
     textureStore(out_direct, px, vec4<f32>(emission + albedo / PI * irradiance, 1.0));
 }

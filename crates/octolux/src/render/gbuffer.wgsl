@@ -13,15 +13,18 @@ fn fs_gbuffer(in: VertexOut) -> GBufferOut {
     if material.base_color.a >= 0.0 && color.a < material.base_color.a {
         discard;
     }
-    // Surfaces are two-sided: the shading normal faces the viewer.
+    // Surfaces reflect on both sides: the shading normal faces the viewer. They emit from the
+    // front face (the side the vertex normals point to) unless marked two-sided.
     var n = normalize(in.normal);
-    if dot(n, view.position.xyz - in.world) < 0.0 {
+    let front = dot(n, view.position.xyz - in.world) > 0.0;
+    if !front {
         n = -n;
     }
     var out: GBufferOut;
     out.albedo = vec4<f32>(color.rgb, 1.0);
     out.normal = vec4<f32>(n, 1.0);
-    out.emission = vec4<f32>(material.emission.rgb, 1.0);
+    let emits = front || material.params.y > 0.5;
+    out.emission = vec4<f32>(select(vec3<f32>(0.0), material.emission.rgb, emits), 1.0);
     return out;
 }
 

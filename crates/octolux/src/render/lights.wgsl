@@ -12,7 +12,8 @@ struct Light {
     // rgb radiant intensity (W/sr) or irradiance (W/m^2), w: cos(outer half-angle)
     radiant_cos_outer: vec4<f32>,
     // x: first shadow layer (negative = no shadow), y: world size of a shadow texel per metre
-    // of distance (perspective) or absolute (orthographic), z: 1 if orthographic, w unused
+    // of distance (perspective) or absolute (orthographic), z: 1 if orthographic, w: 1 if the
+    // light is one of the directional lights that stand in for the sky (`render/sky.rs`)
     shadow: vec4<f32>,
 };
 

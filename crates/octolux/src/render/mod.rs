@@ -9,16 +9,18 @@ mod direct;
 mod gbuffer;
 pub(crate) mod scene_gpu;
 mod shadow;
+mod sky;
 
 pub(crate) use gbuffer::target as render_target;
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub use scene_gpu::SceneGpu;
 pub use shadow::{LayerView, ShadowMaps};
+pub use sky::{sh_irradiance, sh_irradiance_coefficients, sky_lights};
 
 use crate::gi::{self, GiFrame, GiTechnique};
 use crate::gpu::{read_texture, GpuContext, PassTimer, PassTiming};
 use crate::image_io::HdrImage;
-use crate::scene::{CameraView, LightKind, Scene};
+use crate::scene::{CameraView, Light, LightKind, Scene};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 use direct::GpuLight;
@@ -102,6 +104,31 @@ pub struct GBufferImages {
     pub depth: Vec<f32>,
 }
 
+/// The lights the GPU renderer lights `scene` with: the scene's own, then the directional
+/// lights that stand in for its sky ([`sky_lights`]), which every technique sees like any sun.
+pub fn render_lights(scene: &Scene) -> Vec<Light> {
+    let mut lights = scene.lights.clone();
+    lights.extend(sky_lights_of(scene));
+    lights
+}
+
+fn sky_lights_of(scene: &Scene) -> Vec<Light> {
+    scene
+        .sky
+        .as_ref()
+        .filter(|s| !s.is_black())
+        .map(sky::sky_lights)
+        .unwrap_or_default()
+}
+
+/// Shadow-map layers `lights` need: one per spot or directional light, six per point light.
+pub fn shadow_layer_count(lights: &[Light]) -> u32 {
+    lights
+        .iter()
+        .map(|l| if l.kind == LightKind::Point { 6 } else { 1 })
+        .sum()
+}
+
 /// The GPU renderer for one scene and output size.
 pub struct Renderer {
     ctx: GpuContext,
@@ -112,6 +139,8 @@ pub struct Renderer {
     direct: direct::DirectLight,
     compose: compose::Compose,
     gi: Box<dyn GiTechnique>,
+    /// Directional lights standing in for the sky, appended to each frame's lights.
+    sky_lights: Vec<Light>,
     camera_uniform: wgpu::Buffer,
     timer: PassTimer,
     last_view: Option<CameraView>,
@@ -136,13 +165,11 @@ impl Renderer {
             )));
         }
         let (w, h) = (settings.width, settings.height);
-        let layer_count: u32 = scene
-            .lights
-            .iter()
-            .map(|l| if l.kind == LightKind::Point { 6 } else { 1 })
-            .sum();
-        let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + layer_count)?;
-        let shadows = ShadowMaps::new(ctx, &scene_gpu, &scene.lights, settings.shadow_map_size);
+        let sky_lights = sky_lights_of(scene);
+        let lights = render_lights(scene);
+        let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
+        let shadows = ShadowMaps::new(ctx, &scene_gpu, &lights, settings.shadow_map_size);
+        let sky = sky::SkyGpu::new(ctx, scene.sky.as_ref());
         let gbuffer = GBuffer::new(ctx, &scene_gpu, w, h);
         let camera_uniform = ctx.create_buffer_init(
             "frame",
@@ -150,7 +177,7 @@ impl Renderer {
             bytemuck::bytes_of(&CameraUniform::zeroed()),
             wgpu::BufferUsages::UNIFORM,
         );
-        let direct = direct::DirectLight::new(ctx, &camera_uniform, &gbuffer, &shadows, w, h);
+        let direct = direct::DirectLight::new(ctx, &camera_uniform, &gbuffer, &shadows, &sky, w, h);
         let gi = gi::create(&settings.gi, ctx, scene, &settings.gi_settings, w, h)?;
         let mut compose = compose::Compose::new(ctx, w, h);
         compose.bind(
@@ -170,6 +197,7 @@ impl Renderer {
             direct,
             compose,
             gi,
+            sky_lights,
             camera_uniform,
             timer: PassTimer::new(ctx),
             last_view: None,
@@ -214,7 +242,9 @@ impl Renderer {
     /// Records every pass of one frame into the timer.
     fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
-        let frame = scene.frame(t, self.settings.camera);
+        let mut frame = scene.frame(t, self.settings.camera);
+        let scene_lights = frame.lights.len();
+        frame.lights.extend(self.sky_lights.iter().cloned());
         let view = frame.camera.view(w, h);
         let layers = self.shadows.layer_views(&frame.lights, scene.bounds_at(t));
 
@@ -247,7 +277,9 @@ impl Renderer {
                         .extend(cos_inner)
                         .to_array(),
                     radiant_cos_outer: light.radiant().extend(cos_outer).to_array(),
-                    shadow: shadow::shadow_params(slot, first).to_array(),
+                    shadow: shadow::shadow_params(slot, first)
+                        .with_w(if i >= scene_lights { 1.0 } else { 0.0 })
+                        .to_array(),
                 }
             })
             .collect();

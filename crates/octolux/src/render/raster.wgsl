@@ -13,6 +13,8 @@ struct Material {
     base_color: vec4<f32>,
     // rgb emitted radiance, w: 1 if the base colour texture is used
     emission: vec4<f32>,
+    // x: opacity (multiplies the texture's alpha), y: 1 if the back face emits too
+    params: vec4<f32>,
 };
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_texture: texture_2d<f32>;
@@ -44,7 +46,7 @@ fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @locatio
 
 fn base_color(uv: vec2<f32>) -> vec4<f32> {
     let texel = textureSample(base_texture, base_sampler, uv);
-    let factor = vec4<f32>(material.base_color.rgb, 1.0);
+    let factor = vec4<f32>(material.base_color.rgb, material.params.x);
     return select(factor, factor * texel, material.emission.w > 0.5);
 }
 

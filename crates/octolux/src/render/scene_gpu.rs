@@ -32,6 +32,7 @@ pub(crate) const VERTEX_LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::Vertex
 struct MaterialUniform {
     base_color: [f32; 4],
     emission: [f32; 4],
+    params: [f32; 4],
 }
 
 #[repr(C)]
@@ -227,6 +228,12 @@ impl SceneGpu {
                         .emission
                         .extend(if texture.is_some() { 1.0 } else { 0.0 })
                         .to_array(),
+                    params: [
+                        m.opacity,
+                        if m.emission_two_sided { 1.0 } else { 0.0 },
+                        0.0,
+                        0.0,
+                    ],
                 };
                 let buffer = ctx.create_buffer_init(
                     OWNER,

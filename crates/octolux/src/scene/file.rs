@@ -43,6 +43,7 @@
 //! # map = "sky.hdr"                   # equirectangular .hdr or .exr (Mitsuba's orientation)
 //! intensity = 1.0                     # scales the radiance
 //! rotate = [0.0, 90.0, 0.0]           # turns the map, like a model's rotate
+//! directions = 8                      # shadowed sky lights of the GPU renderer (1..=64)
 //!
 //! [[camera]]
 //! position = [0.278, 0.273, -0.8]
@@ -199,6 +200,7 @@ struct RawSky {
     map: Option<String>,
     intensity: Option<f32>,
     rotate: Option<RawRotation>,
+    directions: Option<u32>,
 }
 
 #[derive(Deserialize)]
@@ -552,6 +554,18 @@ fn describe_sky(raw: &RawSky, base: &Path, path: &Path) -> Result<Sky> {
     }
     if let Some(r) = &raw.rotate {
         sky.to_world = Mat3::from_quat(rotation(r, "sky.rotate", path)?);
+    }
+    if let Some(n) = raw.directions {
+        if n == 0 || n > Sky::MAX_DIRECTIONS {
+            return Err(bad(
+                path,
+                format!(
+                    "sky.directions must be within 1..={}, got {n}",
+                    Sky::MAX_DIRECTIONS
+                ),
+            ));
+        }
+        sky.directions = n;
     }
     Ok(sky)
 }

@@ -103,6 +103,17 @@ pub struct Material {
     pub alpha_mode: AlphaMode,
 }
 
+impl Material {
+    /// Whether the surface is a hole everywhere, whatever its texture (a clear material:
+    /// masked, with an opacity below the cutoff).
+    pub fn is_clear(&self) -> bool {
+        match self.alpha_mode {
+            AlphaMode::Mask(cutoff) => self.opacity < cutoff,
+            AlphaMode::Opaque => false,
+        }
+    }
+}
+
 impl Default for Material {
     fn default() -> Self {
         Material {

@@ -34,6 +34,17 @@ pub struct Sky {
     pub intensity: f32,
     /// Rotation from the map's frame to the world (orthonormal).
     pub to_world: Mat3,
+    /// How many directional lights with shadow maps stand in for the sky in the GPU renderer
+    /// (regions of equal light; see `render/sky.rs`). More give softer, truer sky shadows at
+    /// one shadow-map layer each. The reference path tracer ignores it.
+    pub directions: u32,
+}
+
+impl Sky {
+    /// Default of [`Sky::directions`].
+    pub const DEFAULT_DIRECTIONS: u32 = 8;
+    /// Largest accepted [`Sky::directions`].
+    pub const MAX_DIRECTIONS: u32 = 64;
 }
 
 impl Sky {
@@ -43,6 +54,7 @@ impl Sky {
             radiance: SkyRadiance::Constant(color),
             intensity: 1.0,
             to_world: Mat3::IDENTITY,
+            directions: Sky::DEFAULT_DIRECTIONS,
         }
     }
 
@@ -52,6 +64,7 @@ impl Sky {
             radiance: SkyRadiance::Map(Arc::new(map)),
             intensity: 1.0,
             to_world: Mat3::IDENTITY,
+            directions: Sky::DEFAULT_DIRECTIONS,
         }
     }
 

@@ -48,9 +48,9 @@ pub mod svo_dynamic;
 pub mod svo_inject;
 pub mod voxelize;
 
-use crate::scene::{Scene, SceneFrame};
+use crate::scene::{AlphaMode, Scene, SceneFrame};
 use crate::{Error, Result};
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 /// Largest grid edge accepted by the voxel structures (1024^3 voxels).
 pub const MAX_RESOLUTION: u32 = 1024;
@@ -177,12 +177,19 @@ impl VoxelTriangle {
 /// The scene's triangles at one frame with their voxel surface data. Albedo is the material
 /// factor times the texture averaged over seven points of the triangle (vertices, edge
 /// midpoints and centroid): one colour per triangle, which is what the voxelizer stores.
+/// Alpha-masked triangles whose coverage (texture alpha x opacity) averaged over the same
+/// points is below the cutoff are holes, and clear materials are left out altogether, so the
+/// voxels block light where the rasterised passes and the reference do (at triangle rather
+/// than texel resolution).
 pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> {
     scene
         .world_triangles(frame)
         .iter()
-        .map(|t| {
+        .filter_map(|t| {
             let material = scene.materials.get(t.material as usize);
+            if material.is_some_and(|m| m.is_clear()) {
+                return None;
+            }
             let (factor, emission, texture) = match material {
                 Some(m) => (
                     m.base_color,
@@ -204,18 +211,21 @@ pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> 
                         (c + a) * 0.5,
                         (a + b + c) / 3.0,
                     ];
-                    points
-                        .iter()
-                        .map(|&uv| tex.sample(uv).truncate())
-                        .sum::<Vec3>()
-                        / 7.0
+                    points.iter().map(|&uv| tex.sample(uv)).sum::<Vec4>() / 7.0
                 }
-                None => Vec3::ONE,
+                None => Vec4::ONE,
             };
-            let albedo = (factor * tex).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
+            if let Some(m) = material {
+                if let AlphaMode::Mask(cutoff) = m.alpha_mode {
+                    if tex.w * m.opacity < cutoff {
+                        return None;
+                    }
+                }
+            }
+            let albedo = (factor * tex.truncate()).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
             let [p0, p1, p2] = t.positions;
             let normal = (p1 - p0).cross(p2 - p0).normalize_or(t.normals[0]);
-            VoxelTriangle {
+            Some(VoxelTriangle {
                 positions: t.positions,
                 albedo: [
                     albedo.x.round() as u8,
@@ -224,7 +234,7 @@ pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> 
                 ],
                 normal,
                 emission,
-            }
+            })
         })
         .collect()
 }

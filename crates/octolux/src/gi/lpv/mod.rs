@@ -440,17 +440,7 @@ impl LpvGi {
                     >> 20
             )));
         }
-        let layer_count: u32 = scene
-            .lights
-            .iter()
-            .map(|l| {
-                if l.kind == crate::scene::LightKind::Point {
-                    6
-                } else {
-                    1
-                }
-            })
-            .sum();
+        let layer_count = crate::render::shadow_layer_count(&crate::render::render_lights(scene));
         Ok(LpvGi {
             variant,
             clpv: settings.clpv.clone(),
