@@ -222,18 +222,26 @@ fn voxel_updates_do_not_grow_from_frame_to_frame() {
         usage: wgpu::TextureUsages::TEXTURE_BINDING,
         view_formats: &[],
     });
+    let spot = Mat4::perspective_rh(1.5, 1.0, 0.05, 3.0)
+        * Mat4::look_at_rh(Vec3::new(0.5, 1.2, 0.5), Vec3::new(0.5, 0.0, 0.5), Vec3::Z);
+    let sun = Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 4.0)
+        * Mat4::look_at_rh(Vec3::new(0.2, 2.0, 0.8), Vec3::splat(0.5), Vec3::Z);
     let layers = [
         LayerView {
-            view_proj: Mat4::perspective_rh(1.5, 1.0, 0.05, 3.0)
-                * Mat4::look_at_rh(Vec3::new(0.5, 1.2, 0.5), Vec3::new(0.5, 0.0, 0.5), Vec3::Z),
+            view_proj: spot,
+            raster_view_proj: spot,
             texel: 0.004,
+            extent: 0.004 * 64.0,
             orthographic: false,
+            sky_layer: None,
         },
         LayerView {
-            view_proj: Mat4::orthographic_rh(-1.0, 1.0, -1.0, 1.0, 0.1, 4.0)
-                * Mat4::look_at_rh(Vec3::new(0.2, 2.0, 0.8), Vec3::splat(0.5), Vec3::Z),
+            view_proj: sun,
+            raster_view_proj: sun,
             texel: 0.003,
+            extent: 0.003 * 64.0,
             orthographic: true,
+            sky_layer: None,
         },
     ];
     let lights = ctx.create_buffer_init(

@@ -176,8 +176,11 @@ fn point_layers(light: Vec3, bounds: (Vec3, Vec3), size: u32) -> Vec<LayerView> 
             let proj = Mat4::perspective_rh(2.0 * half, 1.0, near, far);
             LayerView {
                 view_proj: proj * view,
+                raster_view_proj: proj * view,
                 texel: 2.0 * half.tan() / size as f32,
+                extent: 2.0 * half.tan(),
                 orthographic: false,
+                sky_layer: None,
             }
         })
         .collect()

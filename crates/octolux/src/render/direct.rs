@@ -49,7 +49,7 @@ impl DirectLight {
         let shadow_matrices = ctx.create_buffer_init(
             OWNER,
             "shadow matrices",
-            &vec![0u8; shadows.layer_count.max(1) as usize * 64],
+            &vec![0u8; shadows.view_count.max(1) as usize * 64],
             storage,
         );
         let source = [

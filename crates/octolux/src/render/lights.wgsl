@@ -11,9 +11,10 @@ struct Light {
     direction_cos_inner: vec4<f32>,
     // rgb radiant intensity (W/sr) or irradiance (W/m^2), w: cos(outer half-angle)
     radiant_cos_outer: vec4<f32>,
-    // x: first shadow layer (negative = no shadow), y: world size of a shadow texel per metre
-    // of distance (perspective) or absolute (orthographic), z: 1 if orthographic, w: 1 if the
-    // light is one of the directional lights that stand in for the sky (`render/sky.rs`)
+    // x: first shadow view, its matrix (negative = no shadow), y: world size of a shadow texel
+    // per metre of distance (perspective) or absolute (orthographic), z: 1 if orthographic,
+    // w: for the directional lights that stand in for the sky (`render/sky.rs`), 1 + the
+    // texture layer that holds their tile, else 0
     shadow: vec4<f32>,
 };
 
@@ -71,14 +72,16 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     if light.shadow.x < 0.0 {
         return 1.0;
     }
-    var layer = u32(light.shadow.x);
+    var view = u32(light.shadow.x);
     if light.position_kind.w < 0.5 {
-        layer += cube_face(p - light.position_kind.xyz);
+        view += cube_face(p - light.position_kind.xyz);
     }
+    // A sky light's map is a tile of a shared layer; its matrix maps into the tile.
+    let layer = select(view, u32(light.shadow.w - 1.0), light.shadow.w > 0.5);
     let texel_world = select(light.shadow.y * dist, light.shadow.y, light.shadow.z > 0.5);
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
     let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * texel_world * 0.5;
-    let clip = shadow_matrices[layer] * vec4<f32>(offset_p, 1.0);
+    let clip = shadow_matrices[view] * vec4<f32>(offset_p, 1.0);
     let ndc = clip.xyz / clip.w;
     let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
     if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {

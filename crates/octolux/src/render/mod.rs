@@ -121,7 +121,8 @@ fn sky_lights_of(scene: &Scene) -> Vec<Light> {
         .unwrap_or_default()
 }
 
-/// Shadow-map layers `lights` need: one per spot or directional light, six per point light.
+/// Shadow views (matrices, and reflective shadow maps) `lights` need: one per spot or
+/// directional light, six per point light.
 pub fn shadow_layer_count(lights: &[Light]) -> u32 {
     lights
         .iter()
@@ -168,7 +169,13 @@ impl Renderer {
         let sky_lights = sky_lights_of(scene);
         let lights = render_lights(scene);
         let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
-        let shadows = ShadowMaps::new(ctx, &scene_gpu, &lights, settings.shadow_map_size);
+        let shadows = ShadowMaps::new(
+            ctx,
+            &scene_gpu,
+            &lights,
+            sky_lights.len(),
+            settings.shadow_map_size,
+        );
         let sky = sky::SkyGpu::new(ctx, scene.sky.as_ref());
         let gbuffer = GBuffer::new(ctx, &scene_gpu, w, h);
         let camera_uniform = ctx.create_buffer_init(
@@ -243,7 +250,6 @@ impl Renderer {
     fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
         let mut frame = scene.frame(t, self.settings.camera);
-        let scene_lights = frame.lights.len();
         frame.lights.extend(self.sky_lights.iter().cloned());
         let view = frame.camera.view(w, h);
         let layers = self.shadows.layer_views(&frame.lights, scene.bounds_at(t));
@@ -252,7 +258,7 @@ impl Renderer {
         self.scene_gpu
             .update_objects(queue, &frame.object_transforms);
         let mut views = vec![(view.view_proj, view.position.extend(1.0))];
-        views.extend(layers.iter().map(|l| (l.view_proj, Vec4::ZERO)));
+        views.extend(layers.iter().map(|l| (l.raster_view_proj, Vec4::ZERO)));
         self.scene_gpu.update_views(queue, &views);
         let gpu_lights: Vec<GpuLight> = frame
             .lights
@@ -277,9 +283,7 @@ impl Renderer {
                         .extend(cos_inner)
                         .to_array(),
                     radiant_cos_outer: light.radiant().extend(cos_outer).to_array(),
-                    shadow: shadow::shadow_params(slot, first)
-                        .with_w(if i >= scene_lights { 1.0 } else { 0.0 })
-                        .to_array(),
+                    shadow: shadow::shadow_params(slot, first).to_array(),
                 }
             })
             .collect();

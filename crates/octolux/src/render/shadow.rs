@@ -3,6 +3,10 @@
 //! uniformly. Directional maps are orthographic and fitted to the scene bounds; spot maps cover
 //! the outer cone; point faces are 90-degree frusta widened slightly so filtering never reads
 //! past a face edge.
+//!
+//! The directional lights that stand in for the sky (`render/sky.rs`) share layers: each gets
+//! a tile of a quarter of the side (16 per layer), drawn through a viewport, so dozens of sky
+//! lights cost a few layers. Their lookup matrices map into the tile.
 
 use super::scene_gpu::{raster_pipeline, SceneGpu};
 use crate::gpu::{GpuContext, PassTimer};
@@ -14,24 +18,41 @@ const OWNER: &str = "shadow-maps";
 /// Per-light placement in the shadow array.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct ShadowSlot {
+    /// Index of the light's first view (its matrix; a point light has six).
     pub first_layer: u32,
+    /// For a sky light: the texture layer and the tile in it.
+    pub tile: Option<(u32, u32)>,
 }
 
-/// View-projection and texel footprint of one shadow layer.
+/// View-projection and texel footprint of one shadow view (a layer, or a sky light's tile).
 #[derive(Clone, Copy, Debug)]
 pub struct LayerView {
-    /// World to clip of this layer.
+    /// World to the clip space that shadow lookups use: for a tile, into the tile.
     pub view_proj: Mat4,
+    /// World to clip for drawing the view (through its viewport, for a tile).
+    pub raster_view_proj: Mat4,
     /// World size of a texel per metre of distance (perspective) or absolute (orthographic).
     pub texel: f32,
+    /// Full width of the frustum at unit distance (perspective) or in metres (orthographic).
+    pub extent: f32,
     /// Orthographic (directional light) or perspective.
     pub orthographic: bool,
+    /// Texture layer of a sky light's tile (None: the layer with the view's own index).
+    pub sky_layer: Option<u32>,
 }
+
+/// Tiles per side of a sky layer.
+const SKY_TILES: u32 = 4;
 
 /// The shadow-map array and its rasterisation pipeline.
 pub struct ShadowMaps {
     pub(crate) slots: Vec<ShadowSlot>,
+    /// Views (matrices): one per spot, directional or sky light, six per point light.
+    pub(crate) view_count: u32,
+    /// Texture layers: the punctual lights' views, then the sky tiles' layers.
     pub(crate) layer_count: u32,
+    /// Views that own a texture layer (the punctual lights' views come first).
+    punctual_views: u32,
     pub(crate) size: u32,
     texture: wgpu::Texture,
     pub(crate) array_view: wgpu::TextureView,
@@ -59,21 +80,34 @@ fn any_perpendicular(d: Vec3) -> Vec3 {
 }
 
 impl ShadowMaps {
+    /// Shadow maps for `lights`, whose last `sky_lights` are sky lights (directional).
     pub(crate) fn new(
         ctx: &GpuContext,
         scene_gpu: &SceneGpu,
         lights: &[Light],
+        sky_lights: usize,
         size: u32,
     ) -> ShadowMaps {
         let mut slots = Vec::with_capacity(lights.len());
-        let mut layer_count = 0;
-        for light in lights {
-            let layers = if light.kind == LightKind::Point { 6 } else { 1 };
+        let punctual = lights.len() - sky_lights.min(lights.len());
+        let mut view_count = 0;
+        for light in &lights[..punctual] {
             slots.push(ShadowSlot {
-                first_layer: layer_count,
+                first_layer: view_count,
+                tile: None,
             });
-            layer_count += layers;
+            view_count += if light.kind == LightKind::Point { 6 } else { 1 };
         }
+        let punctual_views = view_count;
+        let per_layer = SKY_TILES * SKY_TILES;
+        for k in 0..(lights.len() - punctual) as u32 {
+            slots.push(ShadowSlot {
+                first_layer: view_count,
+                tile: Some((punctual_views + k / per_layer, k % per_layer)),
+            });
+            view_count += 1;
+        }
+        let layer_count = punctual_views + (view_count - punctual_views).div_ceil(per_layer);
         // A texture array needs at least one layer; the lighting shader never reads it then.
         let texture = ctx.create_texture(
             OWNER,
@@ -137,7 +171,9 @@ impl ShadowMaps {
         });
         ShadowMaps {
             slots,
+            view_count,
             layer_count,
+            punctual_views,
             size,
             texture,
             array_view,
@@ -147,37 +183,50 @@ impl ShadowMaps {
         }
     }
 
-    /// The depth array (one layer per spot/directional light, six per point light).
+    /// The depth array (one layer per spot/directional light, six per point light, then the
+    /// sky lights' tiled layers).
     pub fn texture(&self) -> &wgpu::Texture {
         &self.texture
     }
 
-    /// Layer views for the lights of one frame, fitted to the scene bounds.
+    /// Views for the lights of one frame (the lights given to [`ShadowMaps::new`], in order),
+    /// fitted to the scene bounds.
     pub(crate) fn layer_views(&self, lights: &[Light], bounds: (Vec3, Vec3)) -> Vec<LayerView> {
         let (lo, hi) = bounds;
         let centre = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(1e-3);
-        let mut views = Vec::with_capacity(self.layer_count as usize);
+        let mut views = Vec::with_capacity(self.view_count as usize);
         let size = self.size as f32;
-        for light in lights {
+        let plain = |view_proj: Mat4, texel: f32, extent: f32, orthographic: bool| LayerView {
+            view_proj,
+            raster_view_proj: view_proj,
+            texel,
+            extent,
+            orthographic,
+            sky_layer: None,
+        };
+        for (light, slot) in lights.iter().zip(&self.slots) {
             match light.kind {
                 LightKind::Directional => {
                     let d = light.direction.normalize_or(Vec3::NEG_Y);
+                    // A tile keeps the scene a few texels from its edges, so filtering never
+                    // reads the neighbouring tile.
+                    let (side, r) = match slot.tile {
+                        Some(_) => {
+                            let side = (self.size / SKY_TILES) as f32;
+                            (side, radius * (1.0 + 8.0 / side))
+                        }
+                        None => (size, radius),
+                    };
                     let eye = centre - d * radius * 2.0;
                     let view = Mat4::look_at_rh(eye, centre, any_perpendicular(d));
-                    let proj = Mat4::orthographic_rh(
-                        -radius,
-                        radius,
-                        -radius,
-                        radius,
-                        radius * 0.5,
-                        radius * 3.5,
-                    );
-                    views.push(LayerView {
-                        view_proj: proj * view,
-                        texel: 2.0 * radius / size,
-                        orthographic: true,
-                    });
+                    let proj = Mat4::orthographic_rh(-r, r, -r, r, radius * 0.5, radius * 3.5);
+                    let mut v = plain(proj * view, 2.0 * r / side, 2.0 * r, true);
+                    if let Some((layer, tile)) = slot.tile {
+                        v.view_proj = tile_matrix(tile) * v.raster_view_proj;
+                        v.sky_layer = Some(layer);
+                    }
+                    views.push(v);
                 }
                 LightKind::Spot { outer_angle, .. } => {
                     let d = light.direction.normalize_or(Vec3::NEG_Y);
@@ -186,11 +235,8 @@ impl ShadowMaps {
                     let view =
                         Mat4::look_at_rh(light.position, light.position + d, any_perpendicular(d));
                     let proj = Mat4::perspective_rh(fov, 1.0, near, far);
-                    views.push(LayerView {
-                        view_proj: proj * view,
-                        texel: 2.0 * (fov * 0.5).tan() / size,
-                        orthographic: false,
-                    });
+                    let extent = 2.0 * (fov * 0.5).tan();
+                    views.push(plain(proj * view, extent / size, extent, false));
                 }
                 LightKind::Point => {
                     let (near, far) = near_far(light.position, centre, radius);
@@ -199,11 +245,8 @@ impl ShadowMaps {
                     for (dir, up) in CUBE_FACES {
                         let view = Mat4::look_at_rh(light.position, light.position + dir, up);
                         let proj = Mat4::perspective_rh(2.0 * half, 1.0, near, far);
-                        views.push(LayerView {
-                            view_proj: proj * view,
-                            texel: 2.0 * half.tan() / size,
-                            orthographic: false,
-                        });
+                        let extent = 2.0 * half.tan();
+                        views.push(plain(proj * view, extent / size, extent, false));
                     }
                 }
             }
@@ -211,36 +254,73 @@ impl ShadowMaps {
         views
     }
 
-    /// Renders every layer. View uniforms 1.. must hold the layer matrices.
+    /// Pixel rectangle (x, y, side) of sky tile `tile` in its layer.
+    fn tile_rect(&self, tile: u32) -> (f32, f32, f32) {
+        let side = (self.size / SKY_TILES) as f32;
+        let (i, j) = (tile % SKY_TILES, tile / SKY_TILES);
+        (i as f32 * side, j as f32 * side, side)
+    }
+
+    /// Renders every view. View uniforms 1.. must hold the views' raster matrices.
     pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu) {
         if self.layer_count == 0 {
             return;
         }
         timer.pass("shadow maps", |encoder, stamps| {
             let n = self.layer_views.len();
-            for (i, view) in self.layer_views.iter().enumerate() {
+            for (layer, target) in self.layer_views.iter().enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("shadow layer"),
                     color_attachments: &[],
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view,
+                        view: target,
                         depth_ops: Some(wgpu::Operations {
                             load: wgpu::LoadOp::Clear(1.0),
                             store: wgpu::StoreOp::Store,
                         }),
                         stencil_ops: None,
                     }),
-                    timestamp_writes: stamps.render_part(i == 0, i + 1 == n),
+                    timestamp_writes: stamps.render_part(layer == 0, layer + 1 == n),
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
                 pass.set_pipeline(&self.pipeline);
-                let offset = ((i as u64 + 1) * super::scene_gpu::UNIFORM_STRIDE) as u32;
-                pass.set_bind_group(0, &scene_gpu.view_group, &[offset]);
-                scene_gpu.draw(&mut pass, i + 1);
+                let layer = layer as u32;
+                if layer < self.punctual_views {
+                    draw_view(&mut pass, scene_gpu, layer);
+                    continue;
+                }
+                for slot in &self.slots {
+                    if let Some((tile_layer, tile)) = slot.tile {
+                        if tile_layer == layer {
+                            let (x, y, side) = self.tile_rect(tile);
+                            pass.set_viewport(x, y, side, side, 0.0, 1.0);
+                            draw_view(&mut pass, scene_gpu, slot.first_layer);
+                        }
+                    }
+                }
             }
         });
     }
+}
+
+/// Draws the scene through view `view` (uniform slot `view + 1`).
+fn draw_view<'a>(pass: &mut wgpu::RenderPass<'a>, scene_gpu: &'a SceneGpu, view: u32) {
+    let offset = ((view as u64 + 1) * super::scene_gpu::UNIFORM_STRIDE) as u32;
+    pass.set_bind_group(0, &scene_gpu.view_group, &[offset]);
+    scene_gpu.draw(pass, view as usize + 1);
+}
+
+/// Clip-space map from the whole [-1, 1]^2 square into sky tile `tile` (column-major tiles of
+/// a [`SKY_TILES`]^2 grid, row 0 at the top where texture v = 0).
+fn tile_matrix(tile: u32) -> Mat4 {
+    let n = SKY_TILES as f32;
+    let (i, j) = ((tile % SKY_TILES) as f32, (tile / SKY_TILES) as f32);
+    Mat4::from_translation(Vec3::new(
+        (2.0 * i + 1.0) / n - 1.0,
+        1.0 - (2.0 * j + 1.0) / n,
+        0.0,
+    )) * Mat4::from_scale(Vec3::new(1.0 / n, 1.0 / n, 1.0))
 }
 
 /// Near and far planes for a perspective shadow frustum at `eye` enclosing the bounding sphere.
@@ -249,15 +329,45 @@ fn near_far(eye: Vec3, centre: Vec3, radius: f32) -> (f32, f32) {
     ((far * 1e-3).max(1e-3), far * 1.01)
 }
 
-/// The light's shadow parameters as the lighting shader wants them (see `direct.wgsl`).
+/// The light's shadow parameters as the lighting shader wants them (see `lights.wgsl`): first
+/// view, texel size, orthographic flag, and 1 + the texture layer for a sky light (else 0).
 pub(crate) fn shadow_params(slot: Option<&ShadowSlot>, first: Option<&LayerView>) -> Vec4 {
     match (slot, first) {
         (Some(s), Some(v)) => Vec4::new(
             s.first_layer as f32,
             v.texel,
             if v.orthographic { 1.0 } else { 0.0 },
-            0.0,
+            v.sky_layer.map_or(0.0, |l| l as f32 + 1.0),
         ),
         _ => Vec4::new(-1.0, 0.0, 0.0, 0.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A point drawn through a tile's viewport lands on the texel its lookup matrix reads:
+    /// the viewport maps clip x, y in [-1, 1] to the tile's pixels (y down), the lookup maps
+    /// them through `tile_matrix` and the shader's uv = (x/2 + 1/2, 1/2 - y/2) x layer side.
+    #[test]
+    fn tile_lookup_matches_the_viewport() {
+        let size = 1024.0;
+        let side = size / SKY_TILES as f32;
+        for tile in 0..SKY_TILES * SKY_TILES {
+            let (i, j) = ((tile % SKY_TILES) as f32, (tile / SKY_TILES) as f32);
+            for (x, y) in [(-1.0, -1.0), (1.0, 1.0), (0.3, -0.7), (0.0, 0.0)] {
+                let viewport = glam::Vec2::new(
+                    i * side + (x + 1.0) * 0.5 * side,
+                    j * side + (1.0 - y) * 0.5 * side,
+                );
+                let clip = tile_matrix(tile) * Vec4::new(x, y, 0.5, 1.0);
+                let uv = glam::Vec2::new(clip.x * 0.5 + 0.5, 0.5 - clip.y * 0.5) * size;
+                assert!(
+                    (uv - viewport).length() < 1e-3,
+                    "tile {tile}: {uv} vs {viewport}"
+                );
+            }
+        }
     }
 }

@@ -25,7 +25,7 @@ const OWNER: &str = "sky";
 const MAX_GPU_TEXELS: usize = 2048 * 1024;
 
 /// Size of the grid a constant sky is cut on (any grid gives equal solid angles).
-const CONSTANT_GRID: (usize, usize) = (64, 32);
+const CONSTANT_GRID: (usize, usize) = (256, 128);
 
 /// The sky as a grid of radiance x solid angle (the light each texel brings), in map space.
 struct LightGrid {

@@ -43,7 +43,7 @@
 //! # map = "sky.hdr"                   # equirectangular .hdr or .exr (Mitsuba's orientation)
 //! intensity = 1.0                     # scales the radiance
 //! rotate = [0.0, 90.0, 0.0]           # turns the map, like a model's rotate
-//! directions = 8                      # shadowed sky lights of the GPU renderer (1..=64)
+//! directions = 32                     # shadowed sky lights of the GPU renderer (1..=64)
 //!
 //! [[camera]]
 //! position = [0.278, 0.273, -0.8]

@@ -42,7 +42,7 @@ pub struct Sky {
 
 impl Sky {
     /// Default of [`Sky::directions`].
-    pub const DEFAULT_DIRECTIONS: u32 = 8;
+    pub const DEFAULT_DIRECTIONS: u32 = 32;
     /// Largest accepted [`Sky::directions`].
     pub const MAX_DIRECTIONS: u32 = 64;
 }

@@ -270,7 +270,6 @@ const FACE_AXES: [Vec3; 6] = [
 /// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow layers'
 /// matrices.
 pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
-    let shadow_size = frame.shadows.size as f32;
     let mut out = Vec::new();
     for light in &frame.frame.lights {
         let radiant = light.radiant();
@@ -279,9 +278,8 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
         let Some(view) = frame.shadow_layers.get(first) else {
             break;
         };
-        // The layer's texel footprint times the shadow-map side is the frustum's full width
-        // at unit distance (perspective) or in metres (orthographic).
-        let width = view.texel * shadow_size;
+        // The frustum's full width at unit distance (perspective) or in metres (orthographic).
+        let width = view.extent;
         match light.kind {
             LightKind::Directional => {
                 let side = width / rsm_size as f32;
@@ -306,7 +304,7 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
                     let tan = frame
                         .shadow_layers
                         .get(first + face)
-                        .map_or(width, |v| v.texel * shadow_size)
+                        .map_or(width, |v| v.extent)
                         * 0.5;
                     out.push(RsmLayer {
                         position_kind: light.position.extend(0.0).to_array(),
