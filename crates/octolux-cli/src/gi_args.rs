@@ -27,6 +27,9 @@ pub struct GiArgs {
     /// LPV family: occlusion by the geometry volume (default true).
     #[arg(long)]
     pub lpv_occlusion: Option<bool>,
+    /// LPV family: sky lights that get a reflective shadow map (default 8).
+    #[arg(long)]
+    pub lpv_sky_rsms: Option<u32>,
     /// Cascaded LPV: number of cascades (default 3).
     #[arg(long)]
     pub lpv_cascades: Option<u32>,
@@ -55,6 +58,7 @@ impl GiArgs {
         set(&mut lpv.damping, self.lpv_damping);
         set(&mut lpv.gain, self.lpv_gain);
         set(&mut lpv.occlusion, self.lpv_occlusion);
+        set(&mut lpv.sky_rsms, self.lpv_sky_rsms);
         let clpv = &mut settings.clpv;
         set(&mut clpv.cascades, self.lpv_cascades);
         set(&mut clpv.size, self.clpv_size);

@@ -34,8 +34,12 @@ pub struct GiFrame<'a> {
     pub shadows: &'a ShadowMaps,
     /// Per shadow layer: view-projection and texel footprint, in layer order.
     pub shadow_layers: &'a [LayerView],
-    /// The lights as `render/direct.wgsl` reads them (`array<Light>`), one per scene light.
+    /// The lights as `render/direct.wgsl` reads them (`array<Light>`), one per light of
+    /// `frame.lights`.
     pub lights: &'a wgpu::Buffer,
+    /// How many of `frame.lights`, at its end, are the directional lights that stand in for
+    /// the sky ([`crate::render::sky_lights`]).
+    pub sky_lights: usize,
 }
 
 /// A GI technique: owns its GPU state, updates it each frame and outputs indirect irradiance.

@@ -121,6 +121,15 @@ fn sky_lights_of(scene: &Scene) -> Vec<Light> {
         .unwrap_or_default()
 }
 
+/// The number of directional lights [`render_lights`] adds for `scene`'s sky.
+pub fn sky_light_count(scene: &Scene) -> usize {
+    scene
+        .sky
+        .as_ref()
+        .filter(|s| !s.is_black())
+        .map_or(0, |s| s.directions.max(1) as usize)
+}
+
 /// Shadow views (matrices, and reflective shadow maps) `lights` need: one per spot or
 /// directional light, six per point light.
 pub fn shadow_layer_count(lights: &[Light]) -> u32 {
@@ -311,6 +320,7 @@ impl Renderer {
             shadows: &self.shadows,
             shadow_layers: &layers,
             lights: &self.direct.lights,
+            sky_lights: self.sky_lights.len(),
         };
         self.gi.update(&self.ctx, &gi_frame, &mut self.timer)?;
         self.compose.render(&mut self.timer, w, h);

@@ -50,6 +50,9 @@ pub struct LpvSettings {
     pub gain: f32,
     /// Occlusion of propagation by the geometry volume (default true).
     pub occlusion: bool,
+    /// Sky lights that get an RSM (default 8): an evenly spread subset of the renderer's sky
+    /// lights, scaled to carry the whole sky's light (each RSM costs `rsm_size`^2 texels).
+    pub sky_rsms: u32,
     /// The box `[[x0, y0, z0], [x1, y1, z1]]` (m) the volume covers instead of the scene's
     /// bounds (default: none, fitted to the scene each frame). For `clpv` it replaces the scene
     /// bounds that place the cascades and size the finest one. Useful when a large ground plane
@@ -67,6 +70,7 @@ impl Default for LpvSettings {
             damping: 0.0,
             gain: 1.0,
             occlusion: true,
+            sky_rsms: 8,
             bounds: None,
         }
     }
@@ -364,6 +368,11 @@ impl LpvGi {
             "1..=16",
         )?;
         check(
+            s.sky_rsms >= 1 && s.sky_rsms <= crate::scene::Sky::MAX_DIRECTIONS,
+            "lpv sky_rsms",
+            "1..=64",
+        )?;
+        check(
             s.gain.is_finite() && s.gain >= 0.0,
             "lpv gain",
             "finite, >= 0",
@@ -440,7 +449,11 @@ impl LpvGi {
                     >> 20
             )));
         }
-        let layer_count = crate::render::shadow_layer_count(&crate::render::render_lights(scene));
+        let layer_count = rsm::rsm_layer_count(
+            &crate::render::render_lights(scene),
+            crate::render::sky_light_count(scene),
+            s.sky_rsms,
+        );
         Ok(LpvGi {
             variant,
             clpv: settings.clpv.clone(),
@@ -594,7 +607,7 @@ impl GiTechnique for LpvGi {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         let name = self.variant.name();
         let placed = self.place(frame);
-        let layers = rsm::rsm_layers(frame, self.rsm.size);
+        let layers = rsm::rsm_layers(frame, self.rsm.size, self.settings.sky_rsms);
         let grids = self.gpu_grids(&placed, inject::light_scale(&layers));
         self.last_grids = Some(grids);
         ctx.queue
@@ -616,8 +629,13 @@ impl GiTechnique for LpvGi {
             return Ok(());
         };
         p.rsm.update(ctx, &self.rsm, &layers);
-        p.rsm
-            .record(timer, frame.scene_gpu, &self.rsm, &format!("{name} rsm"));
+        p.rsm.record(
+            timer,
+            frame.scene_gpu,
+            &self.rsm,
+            &layers,
+            &format!("{name} rsm"),
+        );
         p.inject.record(
             timer,
             &format!("{name} inject"),

@@ -25,7 +25,7 @@ pub struct RsmLayer {
     pub axis_tan: [f32; 4],
     /// rgb radiant intensity or irradiance, w cube face or -1.
     pub radiant_face: [f32; 4],
-    /// cos inner, cos outer, RSM side, unused.
+    /// cos inner, cos outer, RSM side, the shadow view the layer is drawn through.
     pub cone: [f32; 4],
 }
 
@@ -207,12 +207,13 @@ impl RsmPass {
         }
     }
 
-    /// Rasterises every layer.
+    /// Rasterises every layer through its shadow view (`layers[i].cone[3]`).
     pub(crate) fn record(
         &self,
         timer: &mut PassTimer,
         scene_gpu: &SceneGpu,
         targets: &RsmTargets,
+        layers: &[RsmLayer],
         name: &str,
     ) {
         if targets.layers == 0 {
@@ -248,10 +249,11 @@ impl RsmPass {
                     multiview_mask: None,
                 });
                 pass.set_pipeline(&self.pipeline);
-                let view_offset = ((i as u64 + 1) * UNIFORM_STRIDE) as u32;
+                let view = layers.get(i).map_or(i, |l| l.cone[3] as usize);
+                let view_offset = ((view as u64 + 1) * UNIFORM_STRIDE) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
                 pass.set_bind_group(3, &self.group, &[(i as u64 * super::SLOT) as u32]);
-                scene_gpu.draw(&mut pass, i + 1);
+                scene_gpu.draw(&mut pass, view + 1);
             }
         });
     }
@@ -267,17 +269,54 @@ const FACE_AXES: [Vec3; 6] = [
     Vec3::NEG_Z,
 ];
 
-/// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow layers'
-/// matrices.
-pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
+/// Which of `sky` sky lights get an RSM when at most `sky_rsms` may: evenly spread indices
+/// (the lights hold about equal shares of the sky, being median-cut regions).
+pub fn sky_subset(sky: usize, sky_rsms: u32) -> Vec<usize> {
+    let m = sky.min(sky_rsms as usize);
+    (0..m).map(|j| (2 * j + 1) * sky / (2 * m)).collect()
+}
+
+/// RSM layers for `lights` (of which the last `sky_lights` are sky lights) when at most
+/// `sky_rsms` sky lights get one: every view of the other lights, then the chosen sky lights.
+pub fn rsm_layer_count(lights: &[crate::scene::Light], sky_lights: usize, sky_rsms: u32) -> u32 {
+    let punctual = &lights[..lights.len() - sky_lights.min(lights.len())];
+    crate::render::shadow_layer_count(punctual) + sky_subset(sky_lights, sky_rsms).len() as u32
+}
+
+/// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow views'
+/// matrices: every light's views except the sky's, of which only [`sky_subset`] is drawn,
+/// with the flux scaled so that the chosen ones carry the whole sky's (an unbiased choice of
+/// an equal-share sample). `cone.w` holds the shadow view each layer is drawn through.
+pub fn rsm_layers(frame: &GiFrame, rsm_size: u32, sky_rsms: u32) -> Vec<RsmLayer> {
+    let lights = &frame.frame.lights;
+    let first_sky = lights.len() - frame.sky_lights.min(lights.len());
+    let chosen: Vec<usize> = sky_subset(lights.len() - first_sky, sky_rsms)
+        .into_iter()
+        .map(|k| first_sky + k)
+        .collect();
+    let sky_total: Vec3 = lights[first_sky..].iter().map(|l| l.radiant()).sum();
+    let chosen_total: Vec3 = chosen.iter().map(|&i| lights[i].radiant()).sum();
+    let sky_scale = (sky_total / chosen_total.max(Vec3::splat(1e-30))).min(Vec3::splat(1e30));
     let mut out = Vec::new();
-    for light in &frame.frame.lights {
-        let radiant = light.radiant();
+    let mut first = 0usize;
+    for (index, light) in lights.iter().enumerate() {
+        let views = if light.kind == LightKind::Point { 6 } else { 1 };
+        let first_view = first;
+        first += views;
+        let is_sky = index >= first_sky;
+        if is_sky && !chosen.contains(&index) {
+            continue;
+        }
+        let radiant = if is_sky {
+            light.radiant() * sky_scale
+        } else {
+            light.radiant()
+        };
         let dir = light.direction.normalize_or(Vec3::NEG_Y);
-        let first = out.len();
-        let Some(view) = frame.shadow_layers.get(first) else {
+        let Some(view) = frame.shadow_layers.get(first_view) else {
             break;
         };
+        let view_slot = first_view as f32;
         // The frustum's full width at unit distance (perspective) or in metres (orthographic).
         let width = view.extent;
         match light.kind {
@@ -287,7 +326,7 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
                     position_kind: light.position.extend(2.0).to_array(),
                     axis_tan: dir.extend(side * side).to_array(),
                     radiant_face: radiant.extend(-1.0).to_array(),
-                    cone: [1.0, -1.0, rsm_size as f32, 0.0],
+                    cone: [1.0, -1.0, rsm_size as f32, view_slot],
                 });
             }
             LightKind::Spot {
@@ -297,20 +336,20 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32) -> Vec<RsmLayer> {
                 position_kind: light.position.extend(1.0).to_array(),
                 axis_tan: dir.extend(width * 0.5).to_array(),
                 radiant_face: radiant.extend(-1.0).to_array(),
-                cone: [inner_angle.cos(), outer_angle.cos(), rsm_size as f32, 0.0],
+                cone: [inner_angle.cos(), outer_angle.cos(), rsm_size as f32, view_slot],
             }),
             LightKind::Point => {
                 for (face, axis) in FACE_AXES.iter().enumerate() {
                     let tan = frame
                         .shadow_layers
-                        .get(first + face)
+                        .get(first_view + face)
                         .map_or(width, |v| v.extent)
                         * 0.5;
                     out.push(RsmLayer {
                         position_kind: light.position.extend(0.0).to_array(),
                         axis_tan: axis.extend(tan).to_array(),
                         radiant_face: radiant.extend(face as f32).to_array(),
-                        cone: [1.0, -1.0, rsm_size as f32, 0.0],
+                        cone: [1.0, -1.0, rsm_size as f32, view_slot + face as f32],
                     });
                 }
             }
@@ -382,5 +421,18 @@ impl RsmImage {
             normal: halves(crate::gpu::read_texture(ctx, &targets.normal, layer)?),
             flux: halves(crate::gpu::read_texture(ctx, &targets.flux, layer)?),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sky_subset_spreads_evenly_and_keeps_small_skies_whole() {
+        assert_eq!(sky_subset(32, 8), vec![2, 6, 10, 14, 18, 22, 26, 30]);
+        assert_eq!(sky_subset(5, 8), vec![0, 1, 2, 3, 4]);
+        assert_eq!(sky_subset(0, 8), Vec::<usize>::new());
+        assert_eq!(sky_subset(3, 1), vec![1]);
     }
 }
