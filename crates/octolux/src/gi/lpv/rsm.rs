@@ -336,7 +336,12 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32, sky_rsms: u32) -> Vec<RsmLayer
                 position_kind: light.position.extend(1.0).to_array(),
                 axis_tan: dir.extend(width * 0.5).to_array(),
                 radiant_face: radiant.extend(-1.0).to_array(),
-                cone: [inner_angle.cos(), outer_angle.cos(), rsm_size as f32, view_slot],
+                cone: [
+                    inner_angle.cos(),
+                    outer_angle.cos(),
+                    rsm_size as f32,
+                    view_slot,
+                ],
             }),
             LightKind::Point => {
                 for (face, axis) in FACE_AXES.iter().enumerate() {
