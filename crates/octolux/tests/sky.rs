@@ -375,3 +375,64 @@ fn gpu_emission_leaves_the_front_face_only() {
     assert_eq!(emission_seen(false, false), 0.0);
     assert_eq!(emission_seen(false, true), 3.0);
 }
+
+/// The sky's shadow maps are drawn once while nothing moves and every frame when an object
+/// does: a renderer that went through earlier frames gives the image a fresh one gives.
+#[test]
+fn sky_shadows_follow_moving_objects() {
+    use octolux::scene::{Keyframe, Track};
+    let mut scene = cornell::geometry();
+    scene.cameras = vec![cornell::camera()];
+    scene.sky = Some(Sky::constant(Vec3::new(0.6, 0.7, 0.9)));
+    let block = scene
+        .objects
+        .iter_mut()
+        .find(|o| o.name == "short-block")
+        .unwrap();
+    block.animation = Track::new(
+        vec![
+            Keyframe {
+                time: 0.0,
+                translation: Vec3::ZERO,
+                rotation: glam::Quat::IDENTITY,
+            },
+            Keyframe {
+                time: 1.0,
+                translation: Vec3::new(0.0, 0.0, -0.15),
+                rotation: glam::Quat::IDENTITY,
+            },
+        ],
+        false,
+    );
+    let (w, h) = (32, 32);
+    let mut running = gpu(&scene, w, h, "none");
+    let first = running.read_direct().unwrap();
+    running.render(&scene, 1.0).unwrap();
+    let moved = running.read_direct().unwrap();
+    let fresh = gpu_at(&scene, w, h, 1.0).read_direct().unwrap();
+    assert_eq!(moved, fresh);
+    assert_ne!(moved, first, "the block moved into the light");
+    // A still scene keeps its first frame's maps: the same image again.
+    scene.objects.iter_mut().for_each(|o| o.animation = None);
+    let mut still = gpu(&scene, w, h, "none");
+    let once = still.read_direct().unwrap();
+    still.render(&scene, 0.5).unwrap();
+    assert_eq!(still.read_direct().unwrap(), once);
+}
+
+fn gpu_at(scene: &Scene, w: u32, h: u32, t: f32) -> Renderer {
+    let ctx = GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter");
+    let mut renderer = Renderer::new(
+        &ctx,
+        scene,
+        RenderSettings {
+            width: w,
+            height: h,
+            shadow_map_size: 1024,
+            ..RenderSettings::default()
+        },
+    )
+    .unwrap();
+    renderer.render(scene, t).unwrap();
+    renderer
+}

@@ -151,6 +151,8 @@ pub struct Renderer {
     gi: Box<dyn GiTechnique>,
     /// Directional lights standing in for the sky, appended to each frame's lights.
     sky_lights: Vec<Light>,
+    /// Whether the sky lights' shadow maps are drawn and still valid (no object moves).
+    sky_shadows_valid: bool,
     camera_uniform: wgpu::Buffer,
     timer: PassTimer,
     last_view: Option<CameraView>,
@@ -214,6 +216,7 @@ impl Renderer {
             compose,
             gi,
             sky_lights,
+            sky_shadows_valid: false,
             camera_uniform,
             timer: PassTimer::new(ctx),
             last_view: None,
@@ -307,7 +310,12 @@ impl Renderer {
         };
         queue.write_buffer(&self.camera_uniform, 0, bytemuck::bytes_of(&camera));
 
-        self.shadows.render(&mut self.timer, &self.scene_gpu);
+        // The sky's maps depend on the geometry only: drawn once for a scene whose objects
+        // stand still, every frame otherwise.
+        let with_sky = !self.sky_shadows_valid;
+        self.shadows
+            .render(&mut self.timer, &self.scene_gpu, with_sky);
+        self.sky_shadows_valid = !scene.objects.iter().any(|o| o.animation.is_some());
         self.gbuffer.render(&mut self.timer, &self.scene_gpu);
         self.direct.render(&mut self.timer, w, h);
         let gi_frame = GiFrame {

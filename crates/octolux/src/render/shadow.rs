@@ -261,14 +261,21 @@ impl ShadowMaps {
         (i as f32 * side, j as f32 * side, side)
     }
 
-    /// Renders every view. View uniforms 1.. must hold the views' raster matrices.
-    pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu) {
-        if self.layer_count == 0 {
+    /// Renders every view, or with `with_sky = false` only the punctual lights' (the sky
+    /// lights never move, so their maps stay valid while no object moves). View uniforms 1..
+    /// must hold the views' raster matrices.
+    pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu, with_sky: bool) {
+        let layers = if with_sky {
+            self.layer_count
+        } else {
+            self.punctual_views
+        };
+        if layers == 0 {
             return;
         }
         timer.pass("shadow maps", |encoder, stamps| {
-            let n = self.layer_views.len();
-            for (layer, target) in self.layer_views.iter().enumerate() {
+            let n = layers as usize;
+            for (layer, target) in self.layer_views.iter().take(n).enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("shadow layer"),
                     color_attachments: &[],
