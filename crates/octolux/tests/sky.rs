@@ -436,3 +436,43 @@ fn gpu_at(scene: &Scene, w: u32, h: u32, t: f32) -> Renderer {
     renderer.render(scene, t).unwrap();
     renderer
 }
+
+/// Maps load from OpenEXR and Radiance HDR files; other files and broken ones are errors that
+/// name the file.
+#[test]
+fn sky_maps_load_from_exr_and_hdr() {
+    let dir = std::env::temp_dir().join(format!("octolux-sky-maps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut image = HdrImage::new(8, 4);
+    image.set(3, 1, Vec3::new(5.0, 0.25, 1e4));
+    image.write_exr(&dir.join("m.exr")).unwrap();
+    let map = EnvironmentMap::load(&dir.join("m.exr")).unwrap();
+    assert_eq!(map.image, image);
+    let shipped = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/skies/afternoon.hdr"
+    );
+    let hdr = EnvironmentMap::load(std::path::Path::new(shipped)).unwrap();
+    assert_eq!((hdr.image.width, hdr.image.height), (128, 64));
+    // The sun disc is the brightest texel, 25 degrees above the horizon.
+    let (i, _) = hdr
+        .image
+        .pixels
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.x.total_cmp(&b.1.x))
+        .unwrap();
+    let v = ((i / 128) as f32 + 0.5) / 64.0;
+    assert!((90.0 - v * 180.0 - 25.0).abs() < 3.0, "sun at v = {v}");
+    std::fs::write(dir.join("m.png"), b"not a map").unwrap();
+    let e = EnvironmentMap::load(&dir.join("m.png"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("m.png") && e.contains(".hdr or .exr"), "{e}");
+    std::fs::write(dir.join("bad.hdr"), b"#?RADIANCE\ngarbage").unwrap();
+    let e = EnvironmentMap::load(&dir.join("bad.hdr"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bad.hdr"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1180,6 +1180,36 @@ mod tests {
     const BOX: &str = "[[model]]\npath = \"builtin:cornell-box\"\n";
 
     #[test]
+    fn sky_table() {
+        let scene = parse(
+            &format!("{BOX}[sky]\ncolor = [0.5, 0.6, 0.7]\nintensity = 2.0\nrotate = [0, 90, 0]\ndirections = 12\n"),
+            Path::new(PATH),
+        )
+        .unwrap();
+        let sky = scene.sky.as_ref().unwrap();
+        assert_eq!(sky.radiance(Vec3::Y), Vec3::new(1.0, 1.2, 1.4));
+        assert_eq!(sky.directions, 12);
+        assert!((sky.to_world * Vec3::X - Vec3::NEG_Z).length() < 1e-6);
+        assert!(scene.has_light(), "a sky lights the scene");
+        for (text, needle) in [
+            ("color = [1, 1, 1]\nmap = \"x.hdr\"", "either `color`"),
+            ("intensity = 1.0", "either `color`"),
+            ("color = [-1, 1, 1]", "must not be negative"),
+            (
+                "color = [1, 1, 1]\nintensity = -2.0",
+                "must not be negative",
+            ),
+            ("color = [1, 1, 1]\ndirections = 0", "1..=64"),
+            ("color = [1, 1, 1]\ndirections = 65", "1..=64"),
+            ("map = \"nowhere.hdr\"", "not found"),
+            ("colour = [1, 1, 1]", "unknown field"),
+        ] {
+            let e = parse_err(&format!("{BOX}[sky]\n{text}\n"));
+            assert!(e.contains(needle), "{text}: {e}");
+        }
+    }
+
+    #[test]
     fn minimal_builtin_scene() {
         let scene = parse(BOX, Path::new(PATH)).unwrap();
         assert_eq!(scene.name, "test-scene");
@@ -1575,12 +1605,22 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("octolux-doc-example-{}", std::process::id()));
         std::fs::create_dir_all(dir.join("models")).unwrap();
         std::fs::write(dir.join("models/statue.obj"), "").unwrap();
+        std::fs::create_dir_all(dir.join("skies")).unwrap();
+        std::fs::copy(
+            concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../scenes/skies/afternoon.hdr"
+            ),
+            dir.join("skies/afternoon.hdr"),
+        )
+        .unwrap();
         let description = describe(&example, &dir.join("example.toml"));
         std::fs::remove_dir_all(&dir).ok();
         let description = description.unwrap();
         assert_eq!(description.models.len(), 5);
         assert_eq!(description.lights.len(), 3);
         assert_eq!(description.cameras.len(), 1);
+        assert_eq!(description.sky.as_ref().map(|s| s.directions), Some(32));
         assert_eq!(description.settings["technique"].as_str(), Some("lpv"));
     }
 }
