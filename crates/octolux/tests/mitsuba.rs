@@ -528,6 +528,16 @@ fn errors_name_the_file_and_position() {
         "badmesh.xml",
     );
     assert!(msg.contains("bad.ply"), "{msg}");
+    // A bsdf that contains itself.
+    let msg = expect_parse_error(
+        load(
+            "loop.xml",
+            "<scene version=\"3.0.0\"><bsdf type=\"twosided\" id=\"a\"><ref id=\"a\"/></bsdf>\
+             <shape type=\"cube\"><ref id=\"a\"/></shape></scene>",
+        ),
+        "loop.xml",
+    );
+    assert!(msg.contains("contains itself"), "{msg}");
     // A missing include.
     let msg = expect_parse_error(
         load(

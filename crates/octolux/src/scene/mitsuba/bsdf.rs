@@ -16,6 +16,20 @@ impl<'a> Loader<'a> {
         if let Some(s) = self.surfaces.get(&key) {
             return Ok(s.clone());
         }
+        if self.converting.contains(&key) {
+            return Err(self
+                .doc
+                .error(el, format!("{} contains itself", el.describe())));
+        }
+        self.converting.push(key.clone());
+        let surface = self.convert_surface(el, key.clone());
+        self.converting.pop();
+        let surface = surface?;
+        self.surfaces.insert(key, surface.clone());
+        Ok(surface)
+    }
+
+    fn convert_surface(&mut self, el: &'a Element, key: String) -> Result<Surface> {
         let name = el.attr("id").unwrap_or(el.kind()).to_string();
         let doc = self.doc;
         let what = el.describe();
@@ -103,8 +117,7 @@ impl<'a> Loader<'a> {
                 Surface::grey(key.clone(), name.clone())
             }
         };
-        surface.key = key.clone();
-        self.surfaces.insert(key, surface.clone());
+        surface.key = key;
         Ok(surface)
     }
 

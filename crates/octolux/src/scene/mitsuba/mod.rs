@@ -62,6 +62,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             ..Scene::default()
         },
         surfaces: HashMap::new(),
+        converting: Vec::new(),
         materials: HashMap::new(),
         textures: HashMap::new(),
         shapes: 0,
@@ -132,6 +133,8 @@ struct Loader<'a> {
     scene: Scene,
     /// Converted bsdfs by key.
     surfaces: HashMap<String, Surface>,
+    /// Keys of the bsdfs being converted (a bsdf that contains itself is an error).
+    converting: Vec<String>,
     /// Material index by (surface key, emission bits).
     materials: HashMap<(String, [u32; 3]), u32>,
     /// Texture index by (colour file, mask file, raw).
