@@ -272,8 +272,8 @@ pub struct SceneFrame {
 
 impl Scene {
     /// Loads a scene or model file, choosing the loader by extension: `.toml` (scene file),
-    /// `.xml` (Mitsuba 3 scene), `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is validated, and a scene that
-    /// nothing lights gets a warning (it renders black).
+    /// `.xml` (Mitsuba 3 scene), `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is
+    /// validated, and a scene that nothing lights gets a warning (it renders black).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let scene = Self::load_model(path)?;
         if !scene.has_light() {
