@@ -16,8 +16,8 @@ use std::time::Duration;
 /// Arguments of `octolux render`.
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// Scene file (.toml), or a model (.gltf, .glb, .obj, .ply, .ply.gz). Default: the
-    /// built-in Cornell box.
+    /// Scene file (.toml), Mitsuba 3 scene (.xml), or a model (.gltf, .glb, .obj, .ply,
+    /// .ply.gz). Default: the built-in Cornell box.
     pub scene: Option<PathBuf>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]

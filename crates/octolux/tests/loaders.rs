@@ -143,8 +143,12 @@ fn obj_quad_with_texture_and_mask() {
     let scene = Scene::load(dir.join("quad.obj")).unwrap();
     assert_eq!(scene.triangle_count(), 3);
     assert_eq!(scene.meshes.len(), 2);
-    assert_eq!(scene.objects.len(), 1);
-    assert_eq!(scene.objects[0].meshes, vec![0, 1]);
+    // One object per group.
+    assert_eq!(scene.objects.len(), 2);
+    assert_eq!(scene.objects[0].name, "quad");
+    assert_eq!(scene.objects[0].meshes, vec![0]);
+    assert_eq!(scene.objects[1].name, "second");
+    assert_eq!(scene.objects[1].meshes, vec![1]);
     assert_eq!(scene.objects[0].transform, glam::Mat4::IDENTITY);
     // One texture shared by both materials.
     assert_eq!(scene.textures.len(), 1);
@@ -170,6 +174,68 @@ fn obj_quad_with_texture_and_mask() {
         assert!((*uv - expected_uv).length() < 1e-6, "{p} -> {uv}");
     }
     assert!(quad.normals.iter().all(|n| *n == Vec3::Z));
+}
+
+/// Faces before any name, two `o`/`g` names (one used twice, with two materials).
+const GROUPS_OBJ: &str = "mtllib groups.mtl
+v 0 0 0
+v 1 0 0
+v 0 1 0
+v 0 0 1
+f 1 2 3
+o table
+usemtl wood
+f 1 2 4
+usemtl metal
+f 1 3 4
+g lamp
+usemtl metal
+f 2 3 4
+g table
+usemtl wood
+f 3 2 1
+";
+
+#[test]
+fn obj_groups_are_objects() {
+    let dir = temp_dir("obj-groups");
+    write(&dir.join("groups.obj"), GROUPS_OBJ);
+    write(
+        &dir.join("groups.mtl"),
+        "newmtl wood\nKd 0.6 0.4 0.2\nnewmtl metal\nKd 0.9 0.9 0.9\n",
+    );
+    let scene = octolux::scene::obj::load(&dir.join("groups.obj")).unwrap();
+    let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+    // Faces before the first name belong to an object named after the file.
+    assert_eq!(names, ["groups.obj", "table", "lamp"]);
+    // Meshes are per (name, material): the second `g table` joins the first table mesh.
+    let mesh_names = |o: usize| -> Vec<(String, usize)> {
+        scene.objects[o]
+            .meshes
+            .iter()
+            .map(|&m| {
+                let mesh = &scene.meshes[m as usize];
+                (mesh.name.clone(), mesh.triangle_count())
+            })
+            .collect()
+    };
+    assert_eq!(mesh_names(0), [("unnamed_object".to_string(), 1)]);
+    assert_eq!(
+        mesh_names(1),
+        [("table".to_string(), 2), ("table".to_string(), 1)]
+    );
+    assert_eq!(mesh_names(2), [("lamp".to_string(), 1)]);
+    assert_eq!(scene.meshes.len(), 4);
+    assert_eq!(scene.triangle_count(), 5);
+
+    // A file with a single name (or none) is one object named after the file.
+    write(
+        &dir.join("one.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\ng only\nf 1 2 3\n",
+    );
+    let scene = Scene::load(dir.join("one.obj")).unwrap();
+    assert_eq!(scene.objects.len(), 1);
+    assert_eq!(scene.objects[0].name, "one.obj");
 }
 
 #[test]

@@ -305,3 +305,98 @@ fn a_material_override_can_take_a_texture() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn obj_groups_and_materials_are_selectable_by_name() {
+    let dir = std::env::temp_dir().join(format!("octolux-obj-select-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A floor and a vase (glass body, clay foot) as OBJ groups, plus 25 small groups to show
+    // that long name lists are cut short in errors.
+    let mut obj = String::from(
+        "mtllib parts.mtl\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n\
+         v 0 0.1 0\nv 0.1 0.1 0\nv 0 0.5 0\nv 0.1 0.5 0\n\
+         g floor\nusemtl clay\nf 1 4 3 2\n\
+         g vase\nusemtl glass\nf 5 6 8 7\nusemtl clay\nf 5 6 7\n",
+    );
+    for i in 0..25 {
+        obj.push_str(&format!("g pebble{i}\nusemtl clay\nf 5 7 6\n"));
+    }
+    std::fs::write(dir.join("parts.obj"), obj).unwrap();
+    std::fs::write(
+        dir.join("parts.mtl"),
+        "newmtl clay\nKd 0.6 0.3 0.2\nnewmtl glass\nKd 0.9 0.9 0.9\nd 0.1\n",
+    )
+    .unwrap();
+    let load = |name: &str, selection: &str| {
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            format!(
+                "[[model]]\nname = \"shop\"\npath = \"parts.obj\"\n{selection}\n\
+                 [[light]]\ntype = \"point\"\nposition = [0.0, 2.0, 0.0]\nintensity = 1.0\n"
+            ),
+        )
+        .unwrap();
+        Scene::load(&path)
+    };
+    let names =
+        |scene: &Scene| -> Vec<String> { scene.objects.iter().map(|o| o.name.clone()).collect() };
+    let materials = |scene: &Scene| -> Vec<String> {
+        scene
+            .meshes
+            .iter()
+            .map(|m| scene.materials[m.material as usize].name.clone())
+            .collect()
+    };
+
+    let all = load("all.toml", "").unwrap();
+    assert_eq!(all.objects.len(), 27);
+    assert_eq!(all.objects[0].name, "shop/floor");
+    assert_eq!(all.objects[1].name, "shop/vase");
+
+    // The vase only: one object named as the model.
+    let vase = load("vase.toml", "objects = [\"vase\"]").unwrap();
+    assert_eq!(names(&vase), ["shop"]);
+    assert_eq!(materials(&vase), ["glass", "clay"]);
+
+    // Drop the glass: the vase keeps its foot.
+    let no_glass = load("no-glass.toml", "exclude_materials = [\"glass\"]").unwrap();
+    assert_eq!(no_glass.objects.len(), 27);
+    assert!(materials(&no_glass).iter().all(|m| m == "clay"));
+    assert_eq!(no_glass.triangle_count(), all.triangle_count() - 2);
+
+    // Only the glass: one object (the vase) with one mesh.
+    let glass = load("glass.toml", "materials = [\"glass\"]").unwrap();
+    assert_eq!(names(&glass), ["shop"]);
+    assert_eq!(materials(&glass), ["glass"]);
+
+    // Everything but the pebbles and the floor.
+    let exclude: Vec<String> = (0..25).map(|i| format!("\"pebble{i}\"")).collect();
+    let bare = load(
+        "bare.toml",
+        &format!("exclude_objects = [\"floor\", {}]", exclude.join(", ")),
+    )
+    .unwrap();
+    assert_eq!(names(&bare), ["shop"]);
+    assert_eq!(bare.triangle_count(), 3);
+
+    // Unknown names: the error names the scene file and lists the model's names, cut short.
+    let err = load("bad.toml", "objects = [\"chair\"]")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("bad.toml"), "{err}");
+    assert!(
+        err.contains("no object named 'chair'")
+            && err.contains("'floor', 'vase', 'pebble0'")
+            && err.contains("and 7 more"),
+        "{err}"
+    );
+    let err = load("bad-material.toml", "exclude_materials = [\"steel\"]")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("no material named 'steel'") && err.contains("'clay', 'glass'"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

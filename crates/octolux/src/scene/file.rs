@@ -19,7 +19,11 @@
 //! pivot = [0.0, 0.0, 0.0]             # model-space point placed at `translate`
 //! # transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
 //! #                                   # rows of an affine matrix, instead of the four above
-//! objects = ["room"]                  # keep only these objects of the model
+//! objects = ["room"]                  # keep only these objects of the model (OBJ: o/g
+//!                                     # names; glTF: node names)
+//! # materials = ["white"]             # keep only meshes with these materials
+//! # exclude_objects = ["tall-block"]  # then drop these objects
+//! # exclude_materials = ["glass"]     # and the meshes with these materials
 //! material = { albedo = [0.8, 0.8, 0.8], emission = [0.0, 0.0, 0.0] }
 //! # material.two_sided = true         # emission from both faces (default: the front face)
 //! # material.texture = "wood.png"     # base-colour texture (albedo, or white, modulates it)
@@ -214,6 +218,9 @@ struct RawModel {
     pivot: Option<[f32; 3]>,
     transform: Option<[[f32; 4]; 4]>,
     objects: Option<Vec<String>>,
+    materials: Option<Vec<String>>,
+    exclude_objects: Option<Vec<String>>,
+    exclude_materials: Option<Vec<String>>,
     size: Option<RawScale2>,
     material: Option<RawMaterial>,
     #[serde(default, rename = "loop")]
@@ -344,7 +351,8 @@ struct ModelSpec {
     pivot: Vec3,
     /// A whole placement given as a matrix, replacing the four above.
     matrix: Option<Mat4>,
-    objects: Option<Vec<String>>,
+    /// Which objects and meshes of the model to keep.
+    selection: Selection,
     albedo: Option<Vec3>,
     emission: Option<Vec3>,
     /// Whether the emission leaves both faces.
@@ -641,7 +649,7 @@ fn resolve_source(model: &RawModel, what: &str, base: &Path, path: &Path) -> Res
         return Err(bad(
             path,
             format!(
-                "{what}: '{p}' is a scene file; models must be .obj, .ply, .ply.gz, .gltf or .glb"
+                "{what}: '{p}' is a scene file; models must be .obj, .ply, .ply.gz, .gltf, .glb or .xml"
             ),
         ));
     }
@@ -780,7 +788,12 @@ fn describe_model(index: usize, m: &RawModel, base: &Path, path: &Path) -> Resul
         translate,
         pivot,
         matrix,
-        objects: m.objects.clone(),
+        selection: Selection {
+            objects: m.objects.clone(),
+            materials: m.materials.clone(),
+            exclude_objects: m.exclude_objects.clone().unwrap_or_default(),
+            exclude_materials: m.exclude_materials.clone().unwrap_or_default(),
+        },
         albedo,
         emission,
         two_sided: m.material.as_ref().and_then(|mat| mat.two_sided),
@@ -1047,9 +1060,7 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
             animation: None,
         });
     }
-    if let Some(names) = &model.objects {
-        select_objects(&mut part, names, &model.label, path)?;
-    }
+    select_parts(&mut part, &model.selection, &model.label, path)?;
     let texture = match &model.texture {
         Some(file) => {
             part.textures.push(super::Texture::load(file)?);
@@ -1127,40 +1138,171 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
     Ok(part)
 }
 
-/// Keeps only the named objects of `part` and the meshes they use.
-fn select_objects(part: &mut Scene, names: &[String], label: &str, path: &Path) -> Result<()> {
+/// The parts of a model a `[[model]]` keeps: `objects` and `materials` keep only what they
+/// name, `exclude_objects` and `exclude_materials` then drop what they name.
+#[derive(Default)]
+struct Selection {
+    objects: Option<Vec<String>>,
+    materials: Option<Vec<String>>,
+    exclude_objects: Vec<String>,
+    exclude_materials: Vec<String>,
+}
+
+impl Selection {
+    fn is_everything(&self) -> bool {
+        self.objects.is_none()
+            && self.materials.is_none()
+            && self.exclude_objects.is_empty()
+            && self.exclude_materials.is_empty()
+    }
+}
+
+/// Names for an error message: the first 20, then how many more.
+fn name_list<'a>(names: impl IntoIterator<Item = &'a str>) -> String {
+    const SHOWN: usize = 20;
+    let mut unique: Vec<&str> = Vec::new();
     for name in names {
-        if !part.objects.iter().any(|o| &o.name == name) {
-            let known: Vec<&str> = part.objects.iter().map(|o| o.name.as_str()).collect();
-            return Err(bad(
-                path,
-                format!(
-                    "{label}.objects: no object named '{name}' (the model has: {})",
-                    known.join(", ")
-                ),
-            ));
+        if !unique.contains(&name) {
+            unique.push(name);
         }
     }
-    part.objects.retain(|o| names.contains(&o.name));
+    if unique.is_empty() {
+        return "none".into();
+    }
+    let mut list = unique
+        .iter()
+        .take(SHOWN)
+        .map(|n| format!("'{n}'"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if unique.len() > SHOWN {
+        list.push_str(&format!(" and {} more", unique.len() - SHOWN));
+    }
+    list
+}
+
+/// Applies a [`Selection`] to `part`: keeps the chosen objects and, in them, the meshes whose
+/// material is chosen; objects left without meshes are dropped, and only the meshes still used
+/// are kept. Every name must exist in the model (the error lists the names it has), and the
+/// selection must leave something.
+fn select_parts(part: &mut Scene, selection: &Selection, label: &str, path: &Path) -> Result<()> {
+    if selection.is_everything() {
+        return Ok(());
+    }
+    let object_names: Vec<String> = part.objects.iter().map(|o| o.name.clone()).collect();
+    // Materials the model's objects use (a material no mesh uses is not a choice).
+    let mut used = vec![false; part.materials.len()];
+    for object in &part.objects {
+        for &m in &object.meshes {
+            if let Some(mesh) = part.meshes.get(m as usize) {
+                if let Some(u) = used.get_mut(mesh.material as usize) {
+                    *u = true;
+                }
+            }
+        }
+    }
+    let material_names: Vec<String> = part
+        .materials
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(m, _)| m.name.clone())
+        .collect();
+    let check = |key: &str, names: &[String], known: &[String], what: &str| -> Result<()> {
+        for name in names {
+            if !known.contains(name) {
+                return Err(bad(
+                    path,
+                    format!(
+                        "{label}.{key}: no {what} named '{name}' (the model has: {})",
+                        name_list(known.iter().map(|s| s.as_str()))
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    };
+    let no_names = Vec::new();
+    let keep_objects = selection.objects.as_ref();
+    let keep_materials = selection.materials.as_ref();
+    check(
+        "objects",
+        keep_objects.unwrap_or(&no_names),
+        &object_names,
+        "object",
+    )?;
+    check(
+        "exclude_objects",
+        &selection.exclude_objects,
+        &object_names,
+        "object",
+    )?;
+    check(
+        "materials",
+        keep_materials.unwrap_or(&no_names),
+        &material_names,
+        "material",
+    )?;
+    check(
+        "exclude_materials",
+        &selection.exclude_materials,
+        &material_names,
+        "material",
+    )?;
+
+    let material_kept: Vec<bool> = part
+        .materials
+        .iter()
+        .map(|m| {
+            keep_materials.is_none_or(|keep| keep.contains(&m.name))
+                && !selection.exclude_materials.contains(&m.name)
+        })
+        .collect();
+    part.objects.retain(|o| {
+        keep_objects.is_none_or(|keep| keep.contains(&o.name))
+            && !selection.exclude_objects.contains(&o.name)
+    });
     let mut remap = vec![u32::MAX; part.meshes.len()];
     let mut meshes = Vec::new();
     for object in &mut part.objects {
-        for m in &mut object.meshes {
-            let old = *m as usize;
+        let mut kept = Vec::with_capacity(object.meshes.len());
+        for &m in &object.meshes {
+            let old = m as usize;
             let Some(slot) = remap.get_mut(old) else {
                 return Err(bad(
                     path,
                     format!("{label}: object '{}' refers to a missing mesh", object.name),
                 ));
             };
+            let mesh = &part.meshes[old];
+            if !material_kept
+                .get(mesh.material as usize)
+                .copied()
+                .unwrap_or(true)
+            {
+                continue;
+            }
             if *slot == u32::MAX {
                 *slot = meshes.len() as u32;
-                meshes.push(part.meshes[old].clone());
+                meshes.push(mesh.clone());
             }
-            *m = *slot;
+            kept.push(*slot);
         }
+        object.meshes = kept;
     }
+    part.objects.retain(|o| !o.meshes.is_empty());
     part.meshes = meshes;
+    if part.objects.is_empty() {
+        return Err(bad(
+            path,
+            format!(
+                "{label}: the object and material selection leaves nothing of the model \
+                 (objects: {}; materials: {})",
+                name_list(object_names.iter().map(|s| s.as_str())),
+                name_list(material_names.iter().map(|s| s.as_str()))
+            ),
+        ));
+    }
     Ok(())
 }
 
@@ -1281,6 +1423,63 @@ mod tests {
             err.contains("teapot") && err.contains("short-block"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn material_selection_and_exclusion() {
+        // The room's red and green walls only.
+        let text = "[[model]]\npath = \"builtin:cornell-box\"\nmaterials = [\"red\", \"green\"]\n";
+        let scene = parse(text, Path::new(PATH)).unwrap();
+        let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["room"]);
+        let meshes: Vec<&str> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(meshes, ["red-wall", "green-wall"]);
+        // Everything but the tall block and the green wall.
+        let text = "[[model]]\npath = \"builtin:cornell-box\"\n\
+                    exclude_objects = [\"tall-block\"]\nexclude_materials = [\"green\"]\n";
+        let scene = parse(text, Path::new(PATH)).unwrap();
+        let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["room", "short-block"]);
+        let meshes: Vec<&str> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(meshes, ["walls", "red-wall", "short-block"]);
+        // Keep and drop together: the blocks but not the short one.
+        let text = "[[model]]\npath = \"builtin:cornell-box\"\n\
+                    objects = [\"short-block\", \"tall-block\"]\n\
+                    exclude_objects = [\"short-block\"]\n";
+        let scene = parse(text, Path::new(PATH)).unwrap();
+        assert_eq!(scene.objects.len(), 1);
+        assert_eq!(scene.objects[0].name, "tall-block");
+        assert_eq!(scene.meshes.len(), 1);
+        // Unknown names are errors listing the model's names.
+        let err = parse_err("[[model]]\npath = \"builtin:cornell-box\"\nmaterials = [\"glass\"]\n");
+        assert!(
+            err.contains("materials: no material named 'glass'")
+                && err.contains("'white', 'red', 'green'"),
+            "{err}"
+        );
+        let err = parse_err(
+            "[[model]]\npath = \"builtin:cornell-box\"\nexclude_objects = [\"teapot\"]\n",
+        );
+        assert!(
+            err.contains("exclude_objects: no object named 'teapot'") && err.contains("'room'"),
+            "{err}"
+        );
+        // A selection that leaves nothing.
+        let err = parse_err(
+            "[[model]]\npath = \"builtin:cornell-box\"\nobjects = [\"tall-block\"]\n\
+             exclude_materials = [\"white\"]\n",
+        );
+        assert!(err.contains("leaves nothing"), "{err}");
+    }
+
+    #[test]
+    fn long_name_lists_are_cut() {
+        let names: Vec<String> = (0..25).map(|i| format!("g{i}")).collect();
+        let list = name_list(names.iter().map(|s| s.as_str()));
+        assert!(list.starts_with("'g0', 'g1'"), "{list}");
+        assert!(list.contains("'g19'") && !list.contains("'g20'"), "{list}");
+        assert!(list.ends_with(" and 5 more"), "{list}");
+        assert_eq!(name_list(["a", "a", "b"]), "'a', 'b'");
     }
 
     #[test]

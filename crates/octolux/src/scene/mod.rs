@@ -12,6 +12,7 @@ mod camera;
 pub mod cornell;
 pub mod file;
 pub mod gltf;
+pub mod mitsuba;
 pub mod obj;
 pub mod ply;
 mod scenes_dir;
@@ -282,8 +283,8 @@ pub struct SceneFrame {
 
 impl Scene {
     /// Loads a scene or model file, choosing the loader by extension: `.toml` (scene file),
-    /// `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is validated, and a scene that
-    /// nothing lights gets a warning (it renders black).
+    /// `.xml` (Mitsuba 3 scene), `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is
+    /// validated, and a scene that nothing lights gets a warning (it renders black).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let scene = Self::load_model(path)?;
         if !scene.has_light() {
@@ -311,6 +312,8 @@ impl Scene {
             .unwrap_or_default();
         let mut scene = if name.ends_with(".toml") {
             file::load(path)?
+        } else if name.ends_with(".xml") {
+            mitsuba::load(path)?
         } else if name.ends_with(".gltf") || name.ends_with(".glb") {
             gltf::load(path)?
         } else if name.ends_with(".obj") {
@@ -320,7 +323,7 @@ impl Scene {
         } else {
             return Err(Error::parse(
                 path,
-                "unknown scene format (expected .toml, .gltf, .glb, .obj, .ply or .ply.gz)",
+                "unknown scene format (expected .toml, .xml, .gltf, .glb, .obj, .ply or .ply.gz)",
             ));
         };
         validate(&mut scene)?;

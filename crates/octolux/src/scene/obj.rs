@@ -1,8 +1,11 @@
 //! Wavefront OBJ + MTL loader (via `tobj`).
 //!
 //! - Polygons are triangulated; points and lines are ignored.
-//! - One [`Mesh`] per (group/object, material); all meshes go into one [`Object`] with the
-//!   identity transform. Units are whatever the file uses (no scaling).
+//! - One [`Mesh`] per (group/object, material) and one [`Object`] per `o`/`g` name (in the
+//!   order the names first appear; a name used twice is one object), all with the identity
+//!   transform, so that scene files can select or drop parts by name. A file with no names or
+//!   a single name is one object named after the file; faces before the first name belong to
+//!   an object named after the file too. Units are whatever the file uses (no scaling).
 //! - Normals come from the file when every vertex has one, otherwise they are computed.
 //! - OBJ puts v = 0 at the bottom of a texture; our convention (glTF, wgpu) puts it at the
 //!   top, so v is flipped.
@@ -22,7 +25,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// Loads an OBJ file (and the MTL files it references) as a one-object scene.
+/// Loads an OBJ file (and the MTL files it references): one object per `o`/`g` name.
 pub fn load(path: &Path) -> Result<Scene> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
@@ -145,13 +148,39 @@ pub fn load(path: &Path) -> Result<Scene> {
             mesh.compute_normals_checked();
         }
     }
-    scene.objects.push(Object {
-        name: scene.name.clone(),
-        meshes: (0..scene.meshes.len() as u32).collect(),
-        transform: Mat4::IDENTITY,
-        animation: None,
-    });
+    scene.objects = group_objects(&scene.meshes, &scene.name);
     Ok(scene)
+}
+
+/// Name tobj gives to faces that come before any `o` or `g` statement.
+const UNNAMED: &str = "unnamed_object";
+
+/// One object per distinct mesh name (`o`/`g` name), in order of first appearance; a single
+/// name (or none) gives one object named `file_name`.
+fn group_objects(meshes: &[Mesh], file_name: &str) -> Vec<Object> {
+    let mut objects: Vec<Object> = Vec::new();
+    let mut by_name: HashMap<&str, usize> = HashMap::new();
+    for (i, mesh) in meshes.iter().enumerate() {
+        let name = if mesh.name == UNNAMED {
+            file_name
+        } else {
+            mesh.name.as_str()
+        };
+        let slot = *by_name.entry(name).or_insert_with(|| {
+            objects.push(Object {
+                name: name.to_string(),
+                meshes: Vec::new(),
+                transform: Mat4::IDENTITY,
+                animation: None,
+            });
+            objects.len() - 1
+        });
+        objects[slot].meshes.push(i as u32);
+    }
+    if objects.len() == 1 {
+        objects[0].name = file_name.to_string();
+    }
+    objects
 }
 
 /// Reads an MTL file, repairing what `tobj` would reject or choke on (colours with fewer than
@@ -339,7 +368,7 @@ fn convert_materials(mtl: &[tobj::Material]) -> (Vec<Material>, Vec<Texture>) {
 
 /// Loads a colour texture and/or a mask; returns the texture and whether it carries a mask.
 /// Failures are warnings.
-fn build_texture(color: Option<&Path>, mask: Option<&Path>) -> (Option<Texture>, bool) {
+pub(crate) fn build_texture(color: Option<&Path>, mask: Option<&Path>) -> (Option<Texture>, bool) {
     let load = |p: &Path| -> Option<Texture> {
         let found = find_file(p).unwrap_or(p.to_path_buf());
         match Texture::load(&found) {
