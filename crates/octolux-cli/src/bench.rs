@@ -345,6 +345,7 @@ fn bench_scene(
             camera: scene.camera_index(&args.camera)?,
             gi: name.clone(),
             gi_settings: input.gi_settings.clone(),
+            soft_sky_shadows: args.gpu.soft_sky_shadows,
         };
         let mut renderer = Renderer::new(&ctx, scene, settings)
             .with_context(|| format!("scene '{}': setting up '{name}'", scene.name))?;

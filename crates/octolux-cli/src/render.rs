@@ -141,6 +141,9 @@ pub struct GpuArgs {
     /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
     #[arg(long)]
     pub no_timestamps: bool,
+    /// Soft shadows for the sky's lights (percentage-closer, by each light's angular size).
+    #[arg(long)]
+    pub soft_sky_shadows: bool,
 }
 
 impl GpuArgs {
@@ -404,6 +407,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         camera: scene.camera_index(&args.camera)?,
         gi: args.gi.clone(),
         gi_settings,
+        soft_sky_shadows: args.gpu.soft_sky_shadows,
     };
     let start = std::time::Instant::now();
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;

@@ -234,6 +234,7 @@ fn voxel_updates_do_not_grow_from_frame_to_frame() {
             extent: 0.004 * 64.0,
             orthographic: false,
             sky_layer: None,
+            depth_range: 0.0,
         },
         LayerView {
             view_proj: sun,
@@ -242,6 +243,7 @@ fn voxel_updates_do_not_grow_from_frame_to_frame() {
             extent: 0.003 * 64.0,
             orthographic: true,
             sky_layer: None,
+            depth_range: 0.0,
         },
     ];
     let lights = ctx.create_buffer_init(

@@ -181,6 +181,7 @@ fn point_layers(light: Vec3, bounds: (Vec3, Vec3), size: u32) -> Vec<LayerView> 
                 extent: 2.0 * half.tan(),
                 orthographic: false,
                 sky_layer: None,
+                depth_range: 0.0,
             }
         })
         .collect()

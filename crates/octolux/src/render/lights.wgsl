@@ -65,6 +65,67 @@ fn light_incidence(light: Light, p: vec3<f32>) -> Incidence {
     return out;
 }
 
+// Point `i` of `count` on a Vogel (golden-angle) spiral filling the unit disk evenly.
+fn vogel_disk(i: u32, count: u32) -> vec2<f32> {
+    let r = sqrt((f32(i) + 0.5) / f32(count));
+    let theta = f32(i) * 2.39996323;
+    return r * vec2<f32>(cos(theta), sin(theta));
+}
+
+// Soft visibility of a sky light (percentage-closer soft shadows): the light stands for a
+// region of the sky of angular radius atan(position_kind.x), so a receiver d metres behind
+// its occluder sees a penumbra of radius d x tan. The blockers' mean depth within the largest
+// possible penumbra gives d; 16 filtered comparisons over that radius give the visible
+// fraction. Depths are linear (orthographic): world distance = depth x range (position_kind.y).
+// Radii are capped at the tile's free margin (position_kind.z texels). Every tap compares
+// against the receiver's own plane at that tap (receiver-plane depth bias), or wide filters
+// would find the receiver itself in front of it under grazing light.
+fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f32>, depth: f32) -> f32 {
+    let size = vec2<f32>(textureDimensions(shadow_maps));
+    let tan_a = light.position_kind.x;
+    let range = light.position_kind.y;
+    let cap = light.position_kind.z;
+    let texel_world = light.shadow.y;
+    // Depth change of the receiver's tangent plane per texel in x and y: the tangent t with
+    // given clip x, y steps and t.n = 0 (Cramer's rule on the rows of the affine matrix).
+    let m = shadow_matrices[view];
+    let r0 = vec3<f32>(m[0].x, m[1].x, m[2].x);
+    let r1 = vec3<f32>(m[0].y, m[1].y, m[2].y);
+    let r2 = vec3<f32>(m[0].z, m[1].z, m[2].z);
+    let c0 = cross(r1, n);
+    let c1 = cross(n, r0);
+    let det = dot(r0, c0);
+    var slope = vec2<f32>(0.0);
+    if abs(det) > 1e-8 {
+        // uv = clip / 2 + 1/2 with v flipped: one texel is 2 / size in clip x and -2 / size in y.
+        slope = vec2<f32>(dot(r2, c0), -dot(r2, c1)) / det * (2.0 / size);
+        slope = clamp(slope, vec2<f32>(-0.01), vec2<f32>(0.01));
+    }
+    let search = clamp(tan_a * depth * range / texel_world, 1.0, cap);
+    var blockers = 0.0;
+    var blocker_gap = 0.0;
+    for (var i = 0u; i < 16u; i++) {
+        let o = vogel_disk(i, 16u) * search;
+        let at = vec2<i32>(floor(uv * size + o));
+        let d = textureLoad(shadow_maps, at, layer, 0);
+        let receiver = depth + dot(slope, o);
+        if d < receiver {
+            blockers += 1.0;
+            blocker_gap += receiver - d;
+        }
+    }
+    if blockers == 0.0 {
+        return 1.0;
+    }
+    let radius = clamp(tan_a * (blocker_gap / blockers) * range / texel_world, 1.0, cap);
+    var sum = 0.0;
+    for (var i = 0u; i < 16u; i++) {
+        let o = vogel_disk(i, 16u) * radius;
+        sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o / size, layer, depth + dot(slope, o));
+    }
+    return sum / 16.0;
+}
+
 // Fraction of the light reaching `p` (normal `n`): 3x3 bilinear comparison taps (a 4x4-texel
 // footprint), looked up `lift` metres plus ~1.5 shadow texels along the normal; the texel-scaled
 // normal offset removes acne without the light leaking of large constant biases.
@@ -86,6 +147,9 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
     if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
         return 1.0;
+    }
+    if light.shadow.w > 0.5 && light.position_kind.x > 0.0 {
+        return sky_visibility(light, view, layer, n, uv, ndc.z);
     }
     let texel = 1.0 / vec2<f32>(textureDimensions(shadow_maps));
     var sum = 0.0;

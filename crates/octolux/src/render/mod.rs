@@ -65,6 +65,10 @@ pub struct RenderSettings {
     pub gi: String,
     /// Settings of the GI techniques.
     pub gi_settings: gi::GiSettings,
+    /// Soft shadows for the sky's directional lights (percentage-closer soft shadows with
+    /// each light's angular size; `lights.wgsl`), else the 3x3 filter of every light. Off by
+    /// default: smoother, but measured further from the reference (docs/scene-format.md).
+    pub soft_sky_shadows: bool,
 }
 
 impl Default for RenderSettings {
@@ -76,6 +80,7 @@ impl Default for RenderSettings {
             camera: 0,
             gi: "none".into(),
             gi_settings: gi::GiSettings::default(),
+            soft_sky_shadows: false,
         }
     }
 }
@@ -151,6 +156,8 @@ pub struct Renderer {
     gi: Box<dyn GiTechnique>,
     /// Directional lights standing in for the sky, appended to each frame's lights.
     sky_lights: Vec<Light>,
+    /// Per sky light, the tangent of its angular radius (how soft its shadows are).
+    sky_spread: Vec<f32>,
     /// Whether the sky lights' shadow maps are drawn and still valid (no object moves).
     sky_shadows_valid: bool,
     camera_uniform: wgpu::Buffer,
@@ -177,8 +184,16 @@ impl Renderer {
             )));
         }
         let (w, h) = (settings.width, settings.height);
-        let sky_lights = sky_lights_of(scene);
-        let lights = render_lights(scene);
+        let (sky_lights, sky_spread): (Vec<Light>, Vec<f32>) = scene
+            .sky
+            .as_ref()
+            .filter(|s| !s.is_black())
+            .map(sky::sky_regions)
+            .unwrap_or_default()
+            .into_iter()
+            .unzip();
+        let mut lights = scene.lights.clone();
+        lights.extend(sky_lights.iter().cloned());
         let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
         let shadows = ShadowMaps::new(
             ctx,
@@ -216,6 +231,7 @@ impl Renderer {
             compose,
             gi,
             sky_lights,
+            sky_spread,
             sky_shadows_valid: false,
             camera_uniform,
             timer: PassTimer::new(ctx),
@@ -262,6 +278,7 @@ impl Renderer {
     fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
         let mut frame = scene.frame(t, self.settings.camera);
+        let first_sky = frame.lights.len();
         frame.lights.extend(self.sky_lights.iter().cloned());
         let view = frame.camera.view(w, h);
         let layers = self.shadows.layer_views(&frame.lights, scene.bounds_at(t));
@@ -287,8 +304,22 @@ impl Renderer {
                     } => (1.0, inner_angle.cos(), outer_angle.cos()),
                     LightKind::Directional => (2.0, 1.0, -1.0),
                 };
+                // Sky lights: x the tangent of the angular radius, y the shadow view's depth
+                // range, z the largest soft-shadow filter radius in texels (lights.wgsl).
+                let position = match i.checked_sub(first_sky) {
+                    Some(k) => Vec3::new(
+                        match self.settings.soft_sky_shadows {
+                            true => self.sky_spread.get(k).copied().unwrap_or(0.0),
+                            false => 0.0,
+                        },
+                        first.map_or(0.0, |v| v.depth_range),
+                        shadow::sky_tile_margin(self.shadows.size / shadow::SKY_TILES)
+                            .saturating_sub(2) as f32,
+                    ),
+                    None => light.position,
+                };
                 GpuLight {
-                    position_kind: light.position.extend(kind).to_array(),
+                    position_kind: position.extend(kind).to_array(),
                     direction_cos_inner: light
                         .direction
                         .normalize_or(Vec3::NEG_Y)

@@ -39,10 +39,21 @@ pub struct LayerView {
     pub orthographic: bool,
     /// Texture layer of a sky light's tile (None: the layer with the view's own index).
     pub sky_layer: Option<u32>,
+    /// Orthographic views: world depth between the near and far planes (0 for perspective).
+    pub depth_range: f32,
+}
+
+/// Texels kept free around the scene in a sky tile, at most: soft-shadow filters reach this
+/// far without reading the neighbouring tile.
+const SKY_TILE_MARGIN: u32 = 32;
+
+/// The margin of a sky tile of `side` texels.
+pub(crate) fn sky_tile_margin(side: u32) -> u32 {
+    SKY_TILE_MARGIN.min(side / 8)
 }
 
 /// Tiles per side of a sky layer.
-const SKY_TILES: u32 = 4;
+pub(crate) const SKY_TILES: u32 = 4;
 
 /// The shadow-map array and its rasterisation pipeline.
 pub struct ShadowMaps {
@@ -204,17 +215,22 @@ impl ShadowMaps {
             extent,
             orthographic,
             sky_layer: None,
+            depth_range: if orthographic { 3.0 * radius } else { 0.0 },
         };
         for (light, slot) in lights.iter().zip(&self.slots) {
             match light.kind {
                 LightKind::Directional => {
                     let d = light.direction.normalize_or(Vec3::NEG_Y);
-                    // A tile keeps the scene a few texels from its edges, so filtering never
-                    // reads the neighbouring tile.
+                    // A tile keeps the scene a margin from its edges, so filtering never reads
+                    // the neighbouring tile.
                     let (side, r) = match slot.tile {
                         Some(_) => {
-                            let side = (self.size / SKY_TILES) as f32;
-                            (side, radius * (1.0 + 8.0 / side))
+                            let side = self.size / SKY_TILES;
+                            let margin = sky_tile_margin(side);
+                            (
+                                side as f32,
+                                radius * side as f32 / (side - 2 * margin) as f32,
+                            )
                         }
                         None => (size, radius),
                     };

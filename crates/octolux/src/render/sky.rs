@@ -173,6 +173,17 @@ impl Region {
 /// of about equal light (the brightest region is split next, so any count works), each with
 /// its total irradiance arriving from its light-weighted mean direction (world space).
 pub fn sky_lights(sky: &Sky) -> Vec<Light> {
+    sky_regions(sky)
+        .into_iter()
+        .map(|(light, _)| light)
+        .collect()
+}
+
+/// [`sky_lights`] with the tangent of each light's angular radius: the half-angle of a cap
+/// with the same mean cosine about the mean direction as the region's light (a cap of
+/// half-angle a has mean cosine (1 + cos a) / 2), so a region whose light is one small sun
+/// casts hard shadows and an evenly lit one soft shadows.
+pub(crate) fn sky_regions(sky: &Sky) -> Vec<(Light, f32)> {
     let grid = LightGrid::new(sky);
     let whole = Region {
         x0: 0,
@@ -202,15 +213,21 @@ pub fn sky_lights(sky: &Sky) -> Vec<Light> {
         .map(|(k, (_, r))| {
             let mut sum = Vec3::ZERO;
             let mut centre = DVec3::ZERO;
+            let mut total = 0.0f64;
             for y in r.y0..r.y1 {
                 for x in r.x0..r.x1 {
                     let p = grid.power[y * grid.width + x];
+                    let w = weight(p).max(1e-12);
                     sum += p;
-                    centre += grid.direction(x, y).as_dvec3() * weight(p).max(1e-12);
+                    centre += grid.direction(x, y).as_dvec3() * w;
+                    total += w;
                 }
             }
             let direction = sky.to_world * centre.as_vec3().normalize_or(Vec3::Y);
-            Light {
+            let mean_cos = (centre.length() / total).clamp(0.0, 1.0);
+            let cos_a = (2.0 * mean_cos - 1.0).clamp(-1.0, 1.0);
+            let tan_a = ((1.0 - cos_a * cos_a).sqrt() / cos_a.max(1e-3)).min(10.0) as f32;
+            let light = Light {
                 name: format!("sky-{k}"),
                 kind: LightKind::Directional,
                 color: sum,
@@ -218,7 +235,8 @@ pub fn sky_lights(sky: &Sky) -> Vec<Light> {
                 position: Vec3::ZERO,
                 direction: -direction,
                 animation: None,
-            }
+            };
+            (light, tan_a)
         })
         .collect()
 }
