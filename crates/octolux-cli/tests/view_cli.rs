@@ -192,6 +192,7 @@ fn bad_view_flags_are_errors_before_any_window() {
         (vec!["view", "--screenshot", "a.exr"], "expected a .png"),
         (vec!["view", "--then-gi", "lpv"], "--frames 2 or more"),
         (vec!["view", "--output", "depth"], "--output depth"),
+        (vec!["view", "--compare-view", "x"], "--compare-view x"),
     ] {
         let output = octolux(&args, None);
         let stderr = String::from_utf8_lossy(&output.stderr);

@@ -11,7 +11,7 @@ use super::{parse_output, parse_size, ViewArgs, NO_DISPLAY_HINT};
 use crate::gi_args::GiArgs;
 use anyhow::{anyhow, bail, Context, Result};
 use octolux::gi::{GiSettings, TECHNIQUES};
-use octolux::gpu::{GpuContext, GpuOptions};
+use octolux::gpu::{GpuContext, GpuOptions, ResourceCounts};
 use octolux::reference::Bounces;
 use octolux::render::{check_image_size, Output, RenderSettings, Renderer};
 use octolux::scene::{Camera, Scene};
@@ -43,6 +43,7 @@ pub struct Config {
     size: Option<(u32, u32)>,
     scale: f32,
     compare: bool,
+    compare_view: Shown,
     spp: u32,
     screenshot: Option<PathBuf>,
     screenshot_window: Option<PathBuf>,
@@ -126,6 +127,12 @@ impl Config {
             size,
             scale: args.scale,
             compare: args.compare,
+            compare_view: match args.compare_view.as_str() {
+                "technique" => Shown::Technique,
+                "reference" => Shown::Reference,
+                "error" => Shown::ErrorMap,
+                other => bail!("--compare-view {other}: expected technique, reference or error"),
+            },
             spp: args.spp,
             screenshot: args.screenshot.clone(),
             screenshot_window: args.screenshot_window.clone(),
@@ -176,6 +183,20 @@ pub fn run(config: Config, verbose: bool) -> Result<()> {
     }
     if verbose {
         println!("{}", app.history.summary());
+        if let Some((bytes, objects)) = app.after_first_frame {
+            println!(
+                "GPU memory (ledger) after the first frame {:.3} MiB, at exit {:.3} MiB",
+                crate::stats::mib(bytes),
+                crate::stats::mib(app.ctx.ledger.total())
+            );
+            if let (Some(a), Some(b)) = (objects, app.ctx.resource_counts()) {
+                println!(
+                    "wgpu objects after the first frame: {} buffers, {} textures, {} bind groups; \
+                     at exit: {} buffers, {} textures, {} bind groups",
+                    a.buffers, a.textures, a.bind_groups, b.buffers, b.textures, b.bind_groups
+                );
+            }
+        }
         println!("adapter: {}", app.ctx.describe());
         crate::stats::print_memory(&app.ctx.ledger);
         crate::stats::print_objects(&app.ctx);
@@ -210,6 +231,8 @@ struct App {
     scene_size: f32,
     fly: FlyCamera,
     controls: Controls,
+    /// The technique settings in use: the last ones the technique accepted.
+    applied: GiSettings,
     compare: Compare,
     history: TimingHistory,
     gfx: Option<Gfx>,
@@ -224,6 +247,9 @@ struct App {
     judged_generation: u64,
     /// The area of the window the image is shown in, in pixels (0 until the first frame).
     view_area: (u32, u32),
+    /// GPU memory (ledger total) and wgpu's live objects after the first frame, to compare
+    /// with those at exit.
+    after_first_frame: Option<(u64, Option<ResourceCounts>)>,
 }
 
 fn animation_length(scene: &Scene) -> f32 {
@@ -252,7 +278,7 @@ impl App {
         let fly = FlyCamera::new(&scene_camera.at_time(config.time), scene_size);
         let controls = Controls {
             technique: config.gi.clone(),
-            settings: gi_settings,
+            settings: gi_settings.clone(),
             settings_dirty: false,
             output: config.output,
             playing: config.play,
@@ -262,7 +288,8 @@ impl App {
             scale: config.scale,
             status: String::new(),
         };
-        let compare = Compare::new(Arc::new(scene.clone()), config.compare, config.spp);
+        let mut compare = Compare::new(Arc::new(scene.clone()), config.compare, config.spp);
+        compare.shown = config.compare_view;
         let now = Instant::now();
         App {
             config,
@@ -273,6 +300,7 @@ impl App {
             scene_size,
             fly,
             controls,
+            applied: gi_settings,
             compare,
             history: TimingHistory::default(),
             gfx: None,
@@ -284,6 +312,7 @@ impl App {
             image_generation: 0,
             judged_generation: 0,
             view_area: (0, 0),
+            after_first_frame: None,
         }
     }
 
@@ -375,17 +404,11 @@ impl App {
             shadow_map_size: self.config.shadow_map_size,
             camera: self.camera_index,
             gi: self.controls.technique.clone(),
-            gi_settings: self.controls.settings.clone(),
+            // Not the edited settings: the panel may hold some the technique rejected.
+            gi_settings: self.applied.clone(),
         };
-        let mut renderer = match Renderer::new(&self.ctx, &self.scene, settings) {
-            Ok(r) => r,
-            // Settings edited in the panel that the technique rejects: fall back to the last
-            // ones that worked rather than closing the window.
-            Err(e) if gfx.view.is_some() => {
-                return Err(anyhow!(e).context("rebuilding the renderer for the new size"))
-            }
-            Err(e) => return Err(anyhow!(e).context("setting up the renderer")),
-        };
+        let mut renderer =
+            Renderer::new(&self.ctx, &self.scene, settings).context("setting up the renderer")?;
         renderer.set_output(self.controls.output);
         let texture = self.ctx.create_texture(
             "viewer",
@@ -440,6 +463,7 @@ impl App {
         match renderer.set_technique(&self.scene, name, &self.controls.settings) {
             Ok(()) => {
                 self.controls.technique = name.to_string();
+                self.applied = self.controls.settings.clone();
                 self.controls.status = format!(
                     "switched to {name} in {:.0} ms",
                     start.elapsed().as_secs_f64() * 1e3
@@ -538,6 +562,9 @@ impl App {
         let now = Instant::now();
         let dt = (now - self.last_frame).as_secs_f32();
         self.last_frame = now;
+        if self.minimised() {
+            return Ok(());
+        }
         if self.controls.playing && self.controls.animation_length > 0.0 {
             self.controls.time = (self.controls.time + dt) % self.controls.animation_length;
         }
@@ -674,6 +701,9 @@ impl App {
 
         self.present(full_output, &freed)?;
         self.frames_done += 1;
+        if self.frames_done == 1 {
+            self.after_first_frame = Some((self.ctx.ledger.total(), self.ctx.resource_counts()));
+        }
         self.history.push_wall(dt);
         if now - self.title_at > Duration::from_millis(500) {
             self.title_at = now;
@@ -694,6 +724,9 @@ impl App {
         let window_shot = self.is_last_frame() && self.config.screenshot_window.is_some();
         let gfx = self.gfx.as_mut().context("no window")?;
         let Some(frame) = acquire(&self.ctx, gfx)? else {
+            if window_shot {
+                log::warn!("the window could not be drawn in the last frame: no window screenshot");
+            }
             // Nothing to draw into this time; free what egui asked to free all the same.
             for id in freed {
                 gfx.egui_renderer.free_texture(id);
@@ -761,6 +794,13 @@ impl App {
         queue.present(frame);
         self.ctx.check_errors()?;
         Ok(())
+    }
+
+    /// A minimised window is 0x0: nothing is rendered until it is back.
+    fn minimised(&self) -> bool {
+        self.gfx
+            .as_ref()
+            .is_some_and(|g| g.surface_config.width == 0 || g.surface_config.height == 0)
     }
 
     fn is_last_frame(&self) -> bool {
@@ -896,8 +936,14 @@ impl ApplicationHandler for App {
         }
     }
 
-    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
-        if let Some(gfx) = &self.gfx {
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if self.minimised() {
+            // Nothing to draw: wake up now and then instead of spinning until restored.
+            event_loop.set_control_flow(ControlFlow::WaitUntil(
+                Instant::now() + Duration::from_millis(100),
+            ));
+        } else if let Some(gfx) = &self.gfx {
+            event_loop.set_control_flow(ControlFlow::Poll);
             gfx.window.request_redraw();
         }
     }

@@ -61,6 +61,10 @@ pub struct ViewArgs {
     /// error map and FLIP / relMSE against it.
     #[arg(long)]
     pub compare: bool,
+    /// What the view shows in compare mode: `technique`, `reference` or `error` (the FLIP
+    /// error map).
+    #[arg(long, default_value = "technique")]
+    pub compare_view: String,
     /// Samples per pixel the reference refines to in compare mode.
     #[arg(long, default_value_t = 256)]
     pub spp: u32,

@@ -78,28 +78,27 @@ impl TimingHistory {
     }
 
     /// Frame-rate summary of the whole run: frames, mean and worst frame time, and the frame
-    /// rate over the first and the last 100 frames (a run that holds its rate has the two
-    /// close).
+    /// rate over the first and the last k frames, k = 100 or half the run if shorter (a run
+    /// that holds its rate has the two close).
     pub fn summary(&self) -> String {
         let n = self.count;
         if n == 0 {
             return "no frames rendered".into();
         }
+        let k = ENDS.min(n / 2).max(1);
         let rate = |s: &mut dyn Iterator<Item = &f32>| {
             let (k, sum) = s.fold((0usize, 0f32), |(k, sum), x| (k + 1, sum + x));
             k as f32 / sum.max(1e-9)
         };
         format!(
-            "{n} frames in {:.1} s: mean {:.1} ms ({:.2} fps), worst {:.1} ms; first {} frames \
-             {:.2} fps, last {} frames {:.2} fps",
+            "{n} frames in {:.1} s: mean {:.1} ms ({:.2} fps), worst {:.1} ms; first {k} frames \
+             {:.2} fps, last {k} frames {:.2} fps",
             self.total,
             self.total / n as f64 * 1e3,
             n as f64 / self.total.max(1e-9),
             self.worst * 1e3,
-            self.first.len(),
-            rate(&mut self.first.iter()),
-            self.last.len(),
-            rate(&mut self.last.iter()),
+            rate(&mut self.first.iter().take(k)),
+            rate(&mut self.last.iter().rev().take(k)),
         )
     }
 
@@ -209,6 +208,14 @@ mod tests {
     fn summary_reports_first_and_last_rates() {
         let mut h = TimingHistory::default();
         assert_eq!(h.summary(), "no frames rendered");
+        h.push_wall(0.5);
+        h.push_wall(0.25);
+        let s = h.summary();
+        assert!(
+            s.contains("first 1 frames 2.00 fps, last 1 frames 4.00 fps"),
+            "{s}"
+        );
+        let mut h = TimingHistory::default();
         for _ in 0..100 {
             h.push_wall(0.1);
         }
