@@ -23,6 +23,6 @@ view() {
     xvfb-run -a -s "-screen 0 1400x900x24" "$bin" view "$@"
   fi
 }
-view --window 1100x620 --frames 8 --screenshot-window "$out/viewer.png"
-view --window 1100x620 --gi lpv --scale 0.5 --compare --compare-view error --spp 64 --frames 40 \
+view --window 1100x620 --split none --frames 8 --screenshot-window "$out/viewer.png"
+view --window 780x570 --gi lpv --scale 0.5 --compare --compare-view error --spp 256 --frames 60 \
   --screenshot-window "$out/viewer-compare.png"

@@ -174,6 +174,42 @@ fn switched_view_screenshot_matches_render_of_the_same_technique() {
 }
 
 #[test]
+fn split_screen_renders_a_second_technique_with_its_own_memory() {
+    let x = XServer::get();
+    let dir = temp_dir("split");
+    let window = dir.join("window.png");
+    let output = octolux(
+        &[
+            "view",
+            "--gi",
+            "olpv",
+            "--split",
+            "none",
+            "--frames",
+            "3",
+            "--size",
+            "48x32",
+            "--window",
+            "480x320",
+            "--screenshot-window",
+            window.to_str().unwrap(),
+            "-v",
+        ],
+        Some(&x.display),
+    );
+    assert_success(&output);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    // The second renderer's memory is counted apart from the first one's, which keeps its own.
+    assert!(
+        stdout.contains("split screen (none), its own renderer"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("olpv"), "{stdout}");
+    assert!(stdout.contains("3 frames in"), "{stdout}");
+    assert!(std::fs::read(&window).unwrap().starts_with(b"\x89PNG"));
+}
+
+#[test]
 fn view_without_a_display_fails_and_names_render() {
     let output = octolux(&["view", "--frames", "1"], None);
     let stderr = String::from_utf8_lossy(&output.stderr);
@@ -193,6 +229,7 @@ fn bad_view_flags_are_errors_before_any_window() {
         (vec!["view", "--then-gi", "lpv"], "--frames 2 or more"),
         (vec!["view", "--output", "depth"], "--output depth"),
         (vec!["view", "--compare-view", "x"], "--compare-view x"),
+        (vec!["view", "--split", "magic"], "--split magic"),
     ] {
         let output = octolux(&args, None);
         let stderr = String::from_utf8_lossy(&output.stderr);

@@ -50,6 +50,7 @@ pub struct Config {
     frames: Option<u32>,
     seconds: Option<f64>,
     then_gi: Option<String>,
+    split: Option<String>,
     gpu: GpuOptions,
     shadow_map_size: u32,
     gi_args: GiArgs,
@@ -72,6 +73,9 @@ impl Config {
         check_technique(&args.gi, "--gi")?;
         if let Some(then) = &args.then_gi {
             check_technique(then, "--then-gi")?;
+        }
+        if let Some(split) = &args.split {
+            check_technique(split, "--split")?;
         }
         let window = parse_size(&args.window, "--window")?;
         let size = match &args.size {
@@ -139,6 +143,7 @@ impl Config {
             frames: args.frames,
             seconds: args.seconds,
             then_gi: args.then_gi.clone(),
+            split: args.split.clone(),
             gpu: args.gpu.options(),
             shadow_map_size: args.gpu.shadow_map_size,
             gi_args: args.gi_args.clone(),
@@ -199,9 +204,28 @@ pub fn run(config: Config, verbose: bool) -> Result<()> {
         }
         println!("adapter: {}", app.ctx.describe());
         crate::stats::print_memory(&app.ctx.ledger);
+        if let Some(split) = app.gfx.as_ref().and_then(|g| g.split.as_ref()) {
+            println!(
+                "split screen ({}), its own renderer: {:.3} MiB",
+                split.renderer.settings().gi,
+                crate::stats::mib(split.ctx.ledger.total())
+            );
+        }
         crate::stats::print_objects(&app.ctx);
     }
     Ok(())
+}
+
+/// The split screen's second technique: a renderer of its own, whose memory is counted in a
+/// ledger of its own (its resources have the same owners and names as the first one's), and
+/// the copy of its image that egui shows.
+struct Split {
+    ctx: GpuContext,
+    renderer: Renderer,
+    texture: wgpu::Texture,
+    id: egui::TextureId,
+    /// `App::settings_generation` when its technique was last built.
+    settings_generation: u64,
 }
 
 /// What exists only while the window does.
@@ -218,6 +242,9 @@ struct Gfx {
     view: Option<(wgpu::Texture, egui::TextureId)>,
     reference_texture: Option<egui::TextureHandle>,
     error_texture: Option<egui::TextureHandle>,
+    split: Option<Split>,
+    /// The egui id of the last split-screen image, reused by the next one.
+    split_id: Option<egui::TextureId>,
 }
 
 struct App {
@@ -233,6 +260,8 @@ struct App {
     controls: Controls,
     /// The technique settings in use: the last ones the technique accepted.
     applied: GiSettings,
+    /// Bumped when `applied` changes, so the split screen's technique follows.
+    settings_generation: u64,
     compare: Compare,
     history: TimingHistory,
     gfx: Option<Gfx>,
@@ -250,6 +279,8 @@ struct App {
     /// GPU memory (ledger total) and wgpu's live objects after the first frame, to compare
     /// with those at exit.
     after_first_frame: Option<(u64, Option<ResourceCounts>)>,
+    /// The panels' first layout pass is done.
+    laid_out: bool,
 }
 
 fn animation_length(scene: &Scene) -> f32 {
@@ -287,6 +318,7 @@ impl App {
             exposure: scene.exposure,
             scale: config.scale,
             status: String::new(),
+            split: config.split.clone(),
         };
         let mut compare = Compare::new(Arc::new(scene.clone()), config.compare, config.spp);
         compare.shown = config.compare_view;
@@ -301,6 +333,7 @@ impl App {
             fly,
             controls,
             applied: gi_settings,
+            settings_generation: 0,
             compare,
             history: TimingHistory::default(),
             gfx: None,
@@ -313,6 +346,7 @@ impl App {
             judged_generation: 0,
             view_area: (0, 0),
             after_first_frame: None,
+            laid_out: false,
         }
     }
 
@@ -368,6 +402,8 @@ impl App {
             view: None,
             reference_texture: None,
             error_texture: None,
+            split: None,
+            split_id: None,
         })
     }
 
@@ -410,45 +446,69 @@ impl App {
         let mut renderer =
             Renderer::new(&self.ctx, &self.scene, settings).context("setting up the renderer")?;
         renderer.set_output(self.controls.output);
-        let texture = self.ctx.create_texture(
-            "viewer",
-            &wgpu::TextureDescriptor {
-                label: Some("view"),
-                size: wgpu::Extent3d {
-                    width: size.0,
-                    height: size.1,
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                // egui samples textures as gamma-encoded Rgba8Unorm: the display image as is.
-                format: wgpu::TextureFormat::Rgba8Unorm,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            },
-        );
-        let view = texture.create_view(&Default::default());
-        let filter = wgpu::FilterMode::Linear;
-        let id = match &gfx.view {
-            Some((_, id)) => {
-                gfx.egui_renderer.update_egui_texture_from_wgpu_texture(
-                    &self.ctx.device,
-                    &view,
-                    filter,
-                    *id,
-                );
-                *id
-            }
-            None => gfx
-                .egui_renderer
-                .register_native_texture(&self.ctx.device, &view, filter),
-        };
-        gfx.view = Some((texture, id));
+        let reuse = gfx.view.as_ref().map(|(_, id)| *id);
+        gfx.view = Some(view_texture(&self.ctx, &mut gfx.egui_renderer, size, reuse));
         gfx.renderer = Some(renderer);
         self.history.clear_passes();
         self.image_generation += 1;
         Ok(())
+    }
+
+    /// Builds, updates or drops the split screen's renderer to match the panel.
+    fn ensure_split(&mut self, size: (u32, u32)) {
+        let Some(gfx) = self.gfx.as_mut() else {
+            return;
+        };
+        let wanted = self.controls.split.clone();
+        let stale = gfx.split.as_ref().is_some_and(|s| {
+            wanted.is_none() || (s.renderer.settings().width, s.renderer.settings().height) != size
+        });
+        if stale {
+            // Its egui id is kept for the next split screen: this frame's panels may still
+            // draw it.
+            gfx.split_id = gfx.split.take().map(|old| old.id).or(gfx.split_id);
+        }
+        let Some(technique) = wanted else {
+            return;
+        };
+        let result = match gfx.split.as_mut() {
+            Some(split)
+                if split.renderer.settings().gi == technique
+                    && split.settings_generation == self.settings_generation =>
+            {
+                Ok(())
+            }
+            Some(split) => split
+                .renderer
+                .set_technique(&self.scene, &technique, &self.applied)
+                .map(|()| split.settings_generation = self.settings_generation),
+            None => {
+                let ctx = self.ctx.with_own_ledger();
+                let settings = RenderSettings {
+                    width: size.0,
+                    height: size.1,
+                    shadow_map_size: self.config.shadow_map_size,
+                    camera: self.camera_index,
+                    gi: technique.clone(),
+                    gi_settings: self.applied.clone(),
+                };
+                Renderer::new(&ctx, &self.scene, settings).map(|renderer| {
+                    let (texture, id) =
+                        view_texture(&ctx, &mut gfx.egui_renderer, size, gfx.split_id);
+                    gfx.split = Some(Split {
+                        ctx,
+                        renderer,
+                        texture,
+                        id,
+                        settings_generation: self.settings_generation,
+                    });
+                })
+            }
+        };
+        if let Err(e) = result {
+            self.controls.status = format!("split screen with {technique}: {e}");
+            self.controls.split = None;
+        }
     }
 
     /// Switches the technique: the one function the panel's technique menu and `--then-gi`
@@ -464,6 +524,7 @@ impl App {
             Ok(()) => {
                 self.controls.technique = name.to_string();
                 self.applied = self.controls.settings.clone();
+                self.settings_generation += 1;
                 self.controls.status = format!(
                     "switched to {name} in {:.0} ms",
                     start.elapsed().as_secs_f64() * 1e3
@@ -591,6 +652,19 @@ impl App {
             }
             _ => None,
         };
+        let showing_reference = self.compare.enabled && self.compare.shown != Shown::Technique;
+        let split = match (&gfx.split, showing_reference) {
+            (Some(s), false) => Some(panels::SplitView {
+                right: s.id,
+                left_name: self.controls.technique.clone(),
+                right_name: s.renderer.settings().gi.clone(),
+            }),
+            _ => None,
+        };
+        let split_memory = gfx
+            .split
+            .as_ref()
+            .map(|s| (s.renderer.settings().gi.clone(), s.ctx.ledger.total()));
         let shown = shown.or_else(|| Some((gfx.view.as_ref()?.1, renderer_size?)));
         let title = format!(
             "{} ({} triangles)",
@@ -606,6 +680,7 @@ impl App {
             speed: self.fly.speed,
             history: &self.history,
             ledger: &self.ctx.ledger,
+            split_memory,
             ctx: &self.ctx,
         };
         let mut actions = Vec::new();
@@ -616,7 +691,7 @@ impl App {
         let compare = &mut self.compare;
         let full_output = gfx.egui_ctx.run_ui(raw_input, |ui| {
             actions = panels::side_panel(ui, controls, compare, progress.as_ref(), &facts);
-            let (response, central) = panels::central_view(ui, shown);
+            let (response, central) = panels::central_view(ui, shown, split.as_ref());
             area = central;
             if let Some(r) = response {
                 let ppp = ui.ctx().pixels_per_point();
@@ -655,9 +730,12 @@ impl App {
             }
         }
 
-        // The renderer, at the size the view area asks for.
-        if let Some(size) = self.render_size() {
+        // The renderer, at the size the view area asks for, once the panels have settled their
+        // layout (the first pass only lays them out; it does not count as a frame).
+        let rendering = self.laid_out;
+        if let Some(size) = self.render_size().filter(|_| rendering) {
             self.ensure_renderer(size)?;
+            self.ensure_split(size);
         }
         for action in actions {
             self.apply(action);
@@ -672,6 +750,10 @@ impl App {
         if let Some(renderer) = gfx.renderer.as_mut() {
             if let Some(timings) = renderer.render_pipelined(&self.scene, t)? {
                 self.history.push(timings);
+            }
+            if let Some(split) = gfx.split.as_mut() {
+                split.renderer.set_output(self.controls.output);
+                split.renderer.render_pipelined(&self.scene, t)?;
             }
             let bounces = if self.compare.unlimited {
                 Bounces::Unlimited
@@ -700,6 +782,10 @@ impl App {
         }
 
         self.present(full_output, &freed)?;
+        if !rendering {
+            self.laid_out = true;
+            return Ok(());
+        }
         self.frames_done += 1;
         if self.frames_done == 1 {
             self.after_first_frame = Some((self.ctx.ledger.total(), self.ctx.resource_counts()));
@@ -747,6 +833,13 @@ impl App {
                 renderer.display_texture().as_image_copy(),
                 texture.as_image_copy(),
                 texture.size(),
+            );
+        }
+        if let Some(split) = &gfx.split {
+            encoder.copy_texture_to_texture(
+                split.renderer.display_texture().as_image_copy(),
+                split.texture.as_image_copy(),
+                split.texture.size(),
             );
         }
         let extra = gfx
@@ -829,6 +922,44 @@ impl App {
         }
         event_loop.exit();
     }
+}
+
+/// A texture of `size` that egui shows, for a copy of a renderer's display image; `reuse`
+/// keeps an egui id that already names the previous one.
+fn view_texture(
+    ctx: &GpuContext,
+    egui_renderer: &mut egui_wgpu::Renderer,
+    size: (u32, u32),
+    reuse: Option<egui::TextureId>,
+) -> (wgpu::Texture, egui::TextureId) {
+    let texture = ctx.create_texture(
+        "viewer",
+        &wgpu::TextureDescriptor {
+            label: Some("view"),
+            size: wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            // egui samples textures as gamma-encoded Rgba8Unorm: the display image as is.
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        },
+    );
+    let view = texture.create_view(&Default::default());
+    let filter = wgpu::FilterMode::Linear;
+    let id = match reuse {
+        Some(id) => {
+            egui_renderer.update_egui_texture_from_wgpu_texture(&ctx.device, &view, filter, id);
+            id
+        }
+        None => egui_renderer.register_native_texture(&ctx.device, &view, filter),
+    };
+    (texture, id)
 }
 
 /// A surface configuration for the window: a gamma-space (non-sRGB) format as egui prefers,

@@ -57,6 +57,10 @@ pub struct ViewArgs {
     /// Render resolution relative to the view area when --size is not given (0.1..=2).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f32,
+    /// Split screen: the right half of the view shows this technique (a second renderer on the
+    /// same view), the left half the one chosen with --gi.
+    #[arg(long)]
+    pub split: Option<String>,
     /// Start in compare mode: the CPU reference refines while the camera rests, with the FLIP
     /// error map and FLIP / relMSE against it.
     #[arg(long)]

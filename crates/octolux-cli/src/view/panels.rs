@@ -31,6 +31,8 @@ pub struct Controls {
     pub scale: f32,
     /// The last status line (saved files, errors).
     pub status: String,
+    /// The technique of the split screen's right half (None: no split screen).
+    pub split: Option<String>,
 }
 
 /// What the window must do after the panels ran.
@@ -64,6 +66,8 @@ pub struct Facts<'a> {
     pub history: &'a TimingHistory,
     /// The memory ledger.
     pub ledger: &'a MemoryLedger,
+    /// The split screen's technique and the bytes of its renderer (a ledger of its own).
+    pub split_memory: Option<(String, u64)>,
     /// The device (for wgpu's count of live objects).
     pub ctx: &'a GpuContext,
 }
@@ -130,6 +134,7 @@ fn technique_section(ui: &mut Ui, controls: &mut Controls, actions: &mut Vec<Act
     if chosen != controls.technique {
         actions.push(Action::SwitchTechnique(chosen));
     }
+    split_widgets(ui, controls);
     let changed = settings_widgets(ui, &controls.technique, &mut controls.settings);
     controls.settings_dirty |= changed;
     // Rebuild once a drag ends, not at every step of it.
@@ -137,6 +142,32 @@ fn technique_section(ui: &mut Ui, controls: &mut Controls, actions: &mut Vec<Act
         controls.settings_dirty = false;
         actions.push(Action::ApplySettings);
     }
+}
+
+/// The split screen: on or off, and the right half's technique.
+fn split_widgets(ui: &mut Ui, controls: &mut Controls) {
+    ui.horizontal(|ui| {
+        let mut on = controls.split.is_some();
+        if ui.checkbox(&mut on, "split screen, right:").changed() {
+            controls.split = on.then(|| {
+                let other = if controls.technique == "none" {
+                    "lpv"
+                } else {
+                    "none"
+                };
+                other.to_string()
+            });
+        }
+        if let Some(split) = &mut controls.split {
+            ComboBox::from_id_salt("split technique")
+                .selected_text(split.as_str())
+                .show_ui(ui, |ui| {
+                    for name in TECHNIQUES {
+                        ui.selectable_value(split, name.to_string(), *name);
+                    }
+                });
+        }
+    });
 }
 
 /// The settings of `technique` as widgets; returns whether one changed.
@@ -278,6 +309,11 @@ fn memory_section(ui: &mut Ui, facts: &Facts) {
             crate::stats::mib(facts.ledger.total())
         ));
         ui.end_row();
+        if let Some((technique, bytes)) = &facts.split_memory {
+            ui.label(format!("split screen ({technique}), all owners"));
+            ui.monospace(format!("{:>9.3} MiB", crate::stats::mib(*bytes)));
+            ui.end_row();
+        }
     });
     if let Some(c) = facts.ctx.resource_counts() {
         ui.small(format!(
@@ -287,11 +323,23 @@ fn memory_section(ui: &mut Ui, facts: &Facts) {
     }
 }
 
+/// The split screen as drawn: the main image's left half beside the second image's right half.
+pub struct SplitView {
+    /// The second renderer's image (same size as the main one).
+    pub right: egui::TextureId,
+    /// Technique of the left half.
+    pub left_name: String,
+    /// Technique of the right half.
+    pub right_name: String,
+}
+
 /// Draws `texture` (of `size` pixels) as large as fits in the central area, keeping its aspect
-/// ratio; returns the response of the image for dragging and the area's size in pixels.
+/// ratio, with the right half from `split` when given; returns the response of the image for
+/// dragging and the area's size in pixels.
 pub fn central_view(
     ui: &mut Ui,
     texture: Option<(egui::TextureId, (u32, u32))>,
+    split: Option<&SplitView>,
 ) -> (Option<egui::Response>, (u32, u32)) {
     let mut result = (None, (0, 0));
     egui::CentralPanel::no_frame().show(ui, |ui| {
@@ -309,8 +357,40 @@ pub fn central_view(
                 rect,
                 egui::Image::new((id, size)).sense(egui::Sense::click_and_drag()),
             );
+            if let Some(split) = split {
+                draw_split(ui, rect, split);
+            }
             result.0 = Some(response);
         }
     });
     result
+}
+
+/// Paints the second image's right half over the main one, a divider and the two names.
+fn draw_split(ui: &Ui, rect: egui::Rect, split: &SplitView) {
+    let painter = ui.painter_at(rect);
+    let half = egui::Rect::from_min_max(rect.center_top(), rect.max);
+    let uv = egui::Rect::from_min_max(egui::pos2(0.5, 0.0), egui::pos2(1.0, 1.0));
+    painter.image(split.right, half, uv, egui::Color32::WHITE);
+    painter.line_segment(
+        [rect.center_top(), rect.center_bottom()],
+        egui::Stroke::new(1.0, egui::Color32::from_gray(220)),
+    );
+    let font = egui::FontId::proportional(14.0);
+    let colour = egui::Color32::from_gray(230);
+    let margin = egui::vec2(6.0, 4.0);
+    painter.text(
+        rect.left_top() + margin,
+        egui::Align2::LEFT_TOP,
+        &split.left_name,
+        font.clone(),
+        colour,
+    );
+    painter.text(
+        rect.right_top() + egui::vec2(-margin.x, margin.y),
+        egui::Align2::RIGHT_TOP,
+        &split.right_name,
+        font,
+        colour,
+    );
 }
