@@ -320,7 +320,7 @@ impl App {
             status: String::new(),
             split: config.split.clone(),
         };
-        let mut compare = Compare::new(Arc::new(scene.clone()), config.compare, config.spp);
+        let mut compare = Compare::new(config.compare, config.spp);
         compare.shown = config.compare_view;
         let now = Instant::now();
         App {
@@ -769,7 +769,7 @@ impl App {
             };
             let scene = &self.scene;
             let index = self.camera_index;
-            let started = self.compare.update(key, || scene.frame(t, index));
+            let started = self.compare.update(key, scene, || scene.frame(t, index));
             if self.compare.active() && (started || self.judged_generation != self.image_generation)
             {
                 self.judged_generation = self.image_generation;

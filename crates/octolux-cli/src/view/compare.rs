@@ -122,9 +122,10 @@ pub struct Compare {
     pub target_spp: u32,
     /// Judge against full transport instead of what the technique claims to compute.
     pub unlimited: bool,
-    /// The scene the reference traces (the window's scene never changes its geometry, so one
-    /// copy serves every job; the camera comes with each frame).
-    scene: Arc<Scene>,
+    /// The scene the reference traces, copied when the first job starts (the window's scene
+    /// never changes its geometry, so one copy serves every job; the camera comes with each
+    /// frame).
+    scene: Option<Arc<Scene>>,
     job: Option<Job>,
     /// Jobs cancelled but still finishing their last pass; a new one waits for them.
     retiring: Vec<JoinHandle<()>>,
@@ -134,14 +135,14 @@ pub struct Compare {
 }
 
 impl Compare {
-    /// Compare mode for `scene`, off unless `enabled`.
-    pub fn new(scene: Arc<Scene>, enabled: bool, target_spp: u32) -> Compare {
+    /// Compare mode, off unless `enabled`.
+    pub fn new(enabled: bool, target_spp: u32) -> Compare {
         Compare {
             enabled,
             shown: Shown::Technique,
             target_spp: target_spp.max(1),
             unlimited: false,
-            scene,
+            scene: None,
             job: None,
             retiring: Vec::new(),
             still: None,
@@ -149,10 +150,10 @@ impl Compare {
         }
     }
 
-    /// Called every frame with the view's key. Cancels a reference whose view changed and
-    /// starts one when the view has rested. Returns true when a new job started (the caller
-    /// then hands it the technique's image with [`Compare::set_test`]).
-    pub fn update(&mut self, key: Key, frame: impl FnOnce() -> SceneFrame) -> bool {
+    /// Called every frame with the view's key and the scene. Cancels a reference whose view
+    /// changed and starts one when the view has rested. Returns true when a new job started
+    /// (the caller then hands it the technique's image with [`Compare::set_test`]).
+    pub fn update(&mut self, key: Key, scene: &Scene, frame: impl FnOnce() -> SceneFrame) -> bool {
         self.retiring.retain(|h| !h.is_finished());
         if !self.enabled {
             self.stop();
@@ -184,8 +185,12 @@ impl Compare {
             test_changed: AtomicBool::new(false),
             cancel: AtomicBool::new(false),
         });
+        let traced = self
+            .scene
+            .get_or_insert_with(|| Arc::new(scene.clone()))
+            .clone();
         let worker = Worker {
-            scene: self.scene.clone(),
+            scene: traced,
             frame: frame(),
             key: key.clone(),
             target: self.target_spp,
@@ -398,13 +403,13 @@ mod tests {
     fn refines_after_the_view_rests_and_measures_the_test_image() {
         let scene = cornell::scene();
         let frame = scene.frame(0.0, 0);
-        let mut compare = Compare::new(Arc::new(scene.clone()), true, 4);
+        let mut compare = Compare::new(true, 4);
         let size = (24, 16);
         // The first call only notes the view; nothing starts before it has rested.
-        assert!(!compare.update(key(size), || frame.clone()));
+        assert!(!compare.update(key(size), &scene, || frame.clone()));
         assert!(!compare.active());
         std::thread::sleep(REST);
-        assert!(compare.update(key(size), || frame.clone()));
+        assert!(compare.update(key(size), &scene, || frame.clone()));
         // Judge a black image: every lit pixel is wrong, so FLIP is well above zero.
         compare.set_test(TestImage {
             image: HdrImage::new(size.0, size.1),
@@ -428,7 +433,7 @@ mod tests {
             (size.0 * size.1 * 3) as usize
         );
         // A new view cancels it.
-        assert!(!compare.update(key((8, 8)), || frame.clone()));
+        assert!(!compare.update(key((8, 8)), &scene, || frame.clone()));
         assert!(!compare.active());
     }
 }
