@@ -64,6 +64,9 @@ export OCTOLUX_SCENES=/tmp/octolux-kit/shared-scenes XDG_RUNTIME_DIR="${XDG_RUNT
 bin=/tmp/octolux-kit/bin/octolux
 "$bin" render --gi none --width 64 --height 64 --out /tmp/octolux-kit/probe.png -v 2>&1 |
   tee "$results/adapter.txt"
+if [ -z "${DISPLAY:-}" ] && ! command -v Xvfb >/dev/null; then
+  echo "note: no DISPLAY and no Xvfb here: view_cli (the viewer's window tests) fails saying so"
+fi
 failed=0
 for t in /tmp/octolux-kit/tests/*; do
   log="$results/test-$(basename "$t").log"

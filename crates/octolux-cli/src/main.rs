@@ -6,6 +6,7 @@ mod diff;
 mod gi_args;
 mod render;
 mod stats;
+mod view;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -29,6 +30,9 @@ enum Command {
     Bench(bench::BenchArgs),
     /// Compare two images (MSE, relMSE, PSNR, SSIM, FLIP) and optionally write an error map.
     Diff(diff::DiffArgs),
+    /// Open a window that renders a scene in real time: fly camera, technique switch and
+    /// settings, pass times, GPU memory, and comparison with the CPU reference.
+    View(view::ViewArgs),
 }
 
 fn main() -> ExitCode {
@@ -56,6 +60,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Diff(args) => diff::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::View(args) => view::run(args, cli.verbose > 0),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

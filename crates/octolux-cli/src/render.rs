@@ -46,7 +46,7 @@ pub struct RenderArgs {
     pub exr: Option<PathBuf>,
     /// GI technique: `none` (direct light only), `lpv`, `clpv`, `olpv`, or `reference` (the
     /// CPU path tracer).
-    #[arg(long, default_value = "none")]
+    #[arg(long, default_value = crate::gi_args::DEFAULT_GI)]
     pub gi: String,
     /// Which of the scene's cameras to use: its index or its name.
     #[arg(long, default_value = "0")]

@@ -156,10 +156,16 @@ impl GpuContext {
                 ctx
             }
         };
-        Ok(GpuContext {
+        Ok(ctx.with_own_ledger())
+    }
+
+    /// The same device with an empty memory ledger of its own: for a second renderer whose
+    /// resources (with the same owner and names as the first one's) must be counted apart.
+    pub fn with_own_ledger(&self) -> GpuContext {
+        GpuContext {
             ledger: MemoryLedger::default(),
-            ..ctx
-        })
+            ..self.clone()
+        }
     }
 
     /// Live wgpu objects of this context's instance, from wgpu's registry (None when the

@@ -9,7 +9,7 @@ struct Camera {
     position: vec4<f32>,
     // width, height, 1/width, 1/height
     size: vec4<f32>,
-    // x: exposure scale 2^ev, y: light count, z: time (s), w unused
+    // x: exposure scale 2^ev, y: light count, z: time (s), w: output (compose.wgsl)
     params: vec4<f32>,
 };
 

@@ -1,5 +1,6 @@
-// Compose: outgoing radiance = direct + albedo/pi x indirect irradiance; then exposure, the
-// filmic curve (same as image_io::filmic) and the sRGB transfer function for display.
+// Compose: outgoing radiance = direct + albedo/pi x indirect irradiance (or one of its parts,
+// see below); then exposure, the filmic curve (same as image_io::filmic) and the sRGB transfer
+// function for display.
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var direct_tex: texture_2d<f32>;
@@ -29,7 +30,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let direct = textureLoad(direct_tex, px, 0).rgb;
     let albedo = textureLoad(albedo_tex, px, 0).rgb;
     let indirect = textureLoad(indirect_tex, px, 0).rgb;
-    let radiance = direct + albedo / PI * indirect;
+    // cam.params.w picks what is shown (render::Output): 0 the frame, 1 direct light only,
+    // 2 the indirect irradiance as the radiance a white Lambertian surface would reflect.
+    let output = u32(cam.params.w);
+    var radiance = direct + albedo / PI * indirect;
+    if output == 1u {
+        radiance = direct;
+    } else if output == 2u {
+        radiance = indirect / PI;
+    }
     textureStore(out_hdr, px, vec4<f32>(radiance, 1.0));
     textureStore(out_ldr, px, vec4<f32>(linear_to_srgb(filmic(radiance * cam.params.x)), 1.0));
 }

@@ -85,6 +85,34 @@ impl Default for RenderSettings {
     }
 }
 
+/// What the HDR and display images of a frame hold (the G-buffer, direct light and GI passes
+/// run the same whatever is chosen).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Output {
+    /// The frame: direct light plus albedo/pi x indirect irradiance.
+    #[default]
+    Final = 0,
+    /// Direct light (and emission) only.
+    Direct = 1,
+    /// The technique's indirect irradiance E, shown as E/pi: the radiance a white Lambertian
+    /// surface would reflect, so it reads on the same exposure as the frame.
+    IndirectIrradiance = 2,
+}
+
+impl Output {
+    /// Every output, in menu order.
+    pub const ALL: [Output; 3] = [Output::Final, Output::Direct, Output::IndirectIrradiance];
+
+    /// Short name for menus and file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Output::Final => "final",
+            Output::Direct => "direct",
+            Output::IndirectIrradiance => "indirect irradiance",
+        }
+    }
+}
+
 /// `Camera` of `common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -163,6 +191,7 @@ pub struct Renderer {
     camera_uniform: wgpu::Buffer,
     timer: PassTimer,
     last_view: Option<CameraView>,
+    output: Output,
 }
 
 impl Renderer {
@@ -236,7 +265,57 @@ impl Renderer {
             camera_uniform,
             timer: PassTimer::new(ctx),
             last_view: None,
+            output: Output::Final,
         })
+    }
+
+    /// Replaces the GI technique with `name` built from `gi_settings`, keeping everything else
+    /// (scene upload, shadow maps, G-buffer, direct light): what a run-time technique switch or
+    /// a settings change needs. On error the current technique stays. The old technique's
+    /// entries leave the memory ledger.
+    pub fn set_technique(
+        &mut self,
+        scene: &Scene,
+        name: &str,
+        gi_settings: &gi::GiSettings,
+    ) -> Result<()> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        // Let the GPU finish with the old technique's resources before they are replaced.
+        self.ctx.wait_idle()?;
+        let technique = gi::create(name, &self.ctx, scene, gi_settings, w, h)?;
+        let old = std::mem::replace(&mut self.gi, technique);
+        if old.name() != self.gi.name() {
+            // Same owner name: the new technique's entries have already replaced the old ones.
+            self.ctx.ledger.release_owner(old.name());
+        }
+        drop(old);
+        self.compose.bind(
+            &self.ctx,
+            &self.camera_uniform,
+            &self.direct.output_view,
+            &self.gbuffer,
+            self.gi.indirect_view(),
+        );
+        self.settings.gi = name.to_string();
+        self.settings.gi_settings = gi_settings.clone();
+        self.ctx.check_errors()
+    }
+
+    /// Chooses what the next frames' images hold (default [`Output::Final`]).
+    pub fn set_output(&mut self, output: Output) {
+        self.output = output;
+    }
+
+    /// What the frames' images hold.
+    pub fn output(&self) -> Output {
+        self.output
+    }
+
+    /// The tone-mapped display image of the last frame on the GPU: `Rgba8Unorm` holding
+    /// sRGB-encoded values, usable as a copy source (e.g. into an `Rgba8UnormSrgb` texture that
+    /// a window samples).
+    pub fn display_texture(&self) -> &wgpu::Texture {
+        &self.compose.ldr
     }
 
     /// The settings in use.
@@ -337,7 +416,12 @@ impl Renderer {
             inv_view_proj: view.inv_view_proj.to_cols_array_2d(),
             position: view.position.extend(1.0).to_array(),
             size: [w as f32, h as f32, 1.0 / w as f32, 1.0 / h as f32],
-            params: [scene.exposure.exp2(), frame.lights.len() as f32, t, 0.0],
+            params: [
+                scene.exposure.exp2(),
+                frame.lights.len() as f32,
+                t,
+                self.output as u32 as f32,
+            ],
         };
         queue.write_buffer(&self.camera_uniform, 0, bytemuck::bytes_of(&camera));
 
