@@ -53,6 +53,7 @@ pub struct Config {
     split: Option<String>,
     gpu: GpuOptions,
     shadow_map_size: u32,
+    soft_sky_shadows: bool,
     gi_args: GiArgs,
 }
 
@@ -146,6 +147,7 @@ impl Config {
             split: args.split.clone(),
             gpu: args.gpu.options(),
             shadow_map_size: args.gpu.shadow_map_size,
+            soft_sky_shadows: args.gpu.soft_sky_shadows,
             gi_args: args.gi_args.clone(),
         })
     }
@@ -438,6 +440,7 @@ impl App {
             width: size.0,
             height: size.1,
             shadow_map_size: self.config.shadow_map_size,
+            soft_sky_shadows: self.config.soft_sky_shadows,
             camera: self.camera_index,
             gi: self.controls.technique.clone(),
             // Not the edited settings: the panel may hold some the technique rejected.
@@ -488,6 +491,7 @@ impl App {
                     width: size.0,
                     height: size.1,
                     shadow_map_size: self.config.shadow_map_size,
+                    soft_sky_shadows: self.config.soft_sky_shadows,
                     camera: self.camera_index,
                     gi: technique.clone(),
                     gi_settings: self.applied.clone(),
