@@ -211,6 +211,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
     // Reflective shadow maps, injection and lookup, shared by the LPV family.
     changed |= drag(ui, "RSM side", &mut s.lpv.rsm_size, 16, 2048);
     changed |= drag(ui, "RSM stride", &mut s.lpv.rsm_stride, 1, 16);
+    changed |= drag(ui, "sky RSMs", &mut s.lpv.sky_rsms, 1, 64);
     changed |= ui
         .add(Slider::new(&mut s.lpv.damping, 0.0..=1.0).text("damping"))
         .changed();
