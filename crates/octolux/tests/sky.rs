@@ -229,10 +229,11 @@ fn emission_leaves_the_front_face_only_unless_two_sided() {
 }
 
 fn gpu(scene: &Scene, w: u32, h: u32, gi: &str) -> Renderer {
-    gpu_with_shadows(scene, w, h, gi, 1024)
+    gpu_frame(scene, w, h, gi, 1024, 0.0)
 }
 
-fn gpu_with_shadows(scene: &Scene, w: u32, h: u32, gi: &str, shadow_map_size: u32) -> Renderer {
+/// A renderer for `scene` that has rendered the frame at time `t`.
+fn gpu_frame(scene: &Scene, w: u32, h: u32, gi: &str, shadow_map_size: u32, t: f32) -> Renderer {
     let ctx = GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter");
     let mut renderer = Renderer::new(
         &ctx,
@@ -246,7 +247,7 @@ fn gpu_with_shadows(scene: &Scene, w: u32, h: u32, gi: &str, shadow_map_size: u3
         },
     )
     .unwrap();
-    renderer.render(scene, 0.0).unwrap();
+    renderer.render(scene, t).unwrap();
     renderer
 }
 
@@ -329,7 +330,7 @@ fn sky_lit_cornell_box_matches_the_reference_and_renders_with_every_technique() 
     scene.sky = Some(Sky::constant(Vec3::new(0.6, 0.7, 0.9)));
     let (w, h) = (48, 48);
     let reference_images = reference(&scene, w, h, &settings(512, Bounces::Indirect(1)));
-    let direct = gpu_with_shadows(&scene, w, h, "none", 2048)
+    let direct = gpu_frame(&scene, w, h, "none", 2048, 0.0)
         .read_direct()
         .unwrap();
     let m = metrics::compare(&direct, &reference_images.direct, None).unwrap();
@@ -418,7 +419,9 @@ fn sky_shadows_follow_moving_objects() {
     let first = running.read_direct().unwrap();
     running.render(&scene, 1.0).unwrap();
     let moved = running.read_direct().unwrap();
-    let fresh = gpu_at(&scene, w, h, 1.0).read_direct().unwrap();
+    let fresh = gpu_frame(&scene, w, h, "none", 1024, 1.0)
+        .read_direct()
+        .unwrap();
     assert_eq!(moved, fresh);
     assert_ne!(moved, first, "the block moved into the light");
     // A still scene keeps its first frame's maps: the same image again.
@@ -427,23 +430,6 @@ fn sky_shadows_follow_moving_objects() {
     let once = still.read_direct().unwrap();
     still.render(&scene, 0.5).unwrap();
     assert_eq!(still.read_direct().unwrap(), once);
-}
-
-fn gpu_at(scene: &Scene, w: u32, h: u32, t: f32) -> Renderer {
-    let ctx = GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter");
-    let mut renderer = Renderer::new(
-        &ctx,
-        scene,
-        RenderSettings {
-            width: w,
-            height: h,
-            shadow_map_size: 1024,
-            ..RenderSettings::default()
-        },
-    )
-    .unwrap();
-    renderer.render(scene, t).unwrap();
-    renderer
 }
 
 /// Maps load from OpenEXR and Radiance HDR files; other files and broken ones are errors that

@@ -57,6 +57,28 @@ pub struct Config {
     gi_args: GiArgs,
 }
 
+impl Config {
+    /// Renderer settings for an image of `size` with technique `gi` and technique settings
+    /// `applied` (the last ones a technique accepted, not the panel's edits).
+    fn render_settings(
+        &self,
+        size: (u32, u32),
+        camera: usize,
+        gi: &str,
+        applied: &GiSettings,
+    ) -> RenderSettings {
+        RenderSettings {
+            width: size.0,
+            height: size.1,
+            shadow_map_size: self.shadow_map_size,
+            soft_sky_shadows: self.soft_sky_shadows,
+            camera,
+            gi: gi.to_string(),
+            gi_settings: applied.clone(),
+        }
+    }
+}
+
 fn check_technique(name: &str, flag: &str) -> Result<()> {
     if !TECHNIQUES.contains(&name) {
         bail!(
@@ -436,16 +458,12 @@ impl App {
         // Free the old renderer's GPU memory before the new one allocates.
         gfx.renderer = None;
         self.ctx.wait_idle()?;
-        let settings = RenderSettings {
-            width: size.0,
-            height: size.1,
-            shadow_map_size: self.config.shadow_map_size,
-            soft_sky_shadows: self.config.soft_sky_shadows,
-            camera: self.camera_index,
-            gi: self.controls.technique.clone(),
-            // Not the edited settings: the panel may hold some the technique rejected.
-            gi_settings: self.applied.clone(),
-        };
+        let settings = self.config.render_settings(
+            size,
+            self.camera_index,
+            &self.controls.technique,
+            &self.applied,
+        );
         let mut renderer =
             Renderer::new(&self.ctx, &self.scene, settings).context("setting up the renderer")?;
         renderer.set_output(self.controls.output);
@@ -487,15 +505,9 @@ impl App {
                 .map(|()| split.settings_generation = self.settings_generation),
             None => {
                 let ctx = self.ctx.with_own_ledger();
-                let settings = RenderSettings {
-                    width: size.0,
-                    height: size.1,
-                    shadow_map_size: self.config.shadow_map_size,
-                    soft_sky_shadows: self.config.soft_sky_shadows,
-                    camera: self.camera_index,
-                    gi: technique.clone(),
-                    gi_settings: self.applied.clone(),
-                };
+                let settings =
+                    self.config
+                        .render_settings(size, self.camera_index, &technique, &self.applied);
                 Renderer::new(&ctx, &self.scene, settings).map(|renderer| {
                     let (texture, id) =
                         view_texture(&ctx, &mut gfx.egui_renderer, size, gfx.split_id);
