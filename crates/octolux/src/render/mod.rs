@@ -146,11 +146,16 @@ pub fn render_lights(scene: &Scene) -> Vec<Light> {
 }
 
 fn sky_lights_of(scene: &Scene) -> Vec<Light> {
+    sky_regions_of(scene).into_iter().map(|(l, _)| l).collect()
+}
+
+/// The sky lights of `scene` with the tangents of their angular radii (none without a sky).
+fn sky_regions_of(scene: &Scene) -> Vec<(Light, f32)> {
     scene
         .sky
         .as_ref()
         .filter(|s| !s.is_black())
-        .map(sky::sky_lights)
+        .map(sky::sky_regions)
         .unwrap_or_default()
 }
 
@@ -213,14 +218,8 @@ impl Renderer {
             )));
         }
         let (w, h) = (settings.width, settings.height);
-        let (sky_lights, sky_spread): (Vec<Light>, Vec<f32>) = scene
-            .sky
-            .as_ref()
-            .filter(|s| !s.is_black())
-            .map(sky::sky_regions)
-            .unwrap_or_default()
-            .into_iter()
-            .unzip();
+        let (sky_lights, sky_spread): (Vec<Light>, Vec<f32>) =
+            sky_regions_of(scene).into_iter().unzip();
         let mut lights = scene.lights.clone();
         lights.extend(sky_lights.iter().cloned());
         let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
