@@ -83,6 +83,9 @@ pub struct BenchArgs {
     /// Technique settings.
     #[command(flatten, next_help_heading = "Technique settings")]
     pub gi_args: GiArgs,
+    /// Sky light.
+    #[command(flatten, next_help_heading = "Sky")]
+    pub sky_args: crate::sky_args::SkyArgs,
 }
 
 /// A scene to measure.
@@ -166,7 +169,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     };
     // Every scene is loaded before any is measured, so a bad file fails the run at once.
     let inputs: Vec<SceneInput> = if args.scenes.is_empty() {
-        let (scene, gi_settings) = load_scene(None, &args.gi_args)?;
+        let (scene, gi_settings) = load_scene(None, &args.gi_args, &args.sky_args)?;
         vec![SceneInput {
             file: None,
             scene,
@@ -176,7 +179,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         args.scenes
             .iter()
             .map(|path| {
-                let (scene, gi_settings) = load_scene(Some(path), &args.gi_args)
+                let (scene, gi_settings) = load_scene(Some(path), &args.gi_args, &args.sky_args)
                     .with_context(|| format!("scene file {}", path.display()))?;
                 Ok(SceneInput {
                     file: Some(path.clone()),

@@ -5,6 +5,7 @@ mod bench;
 mod diff;
 mod gi_args;
 mod render;
+mod sky_args;
 mod stats;
 mod view;
 

@@ -1,6 +1,7 @@
 //! `octolux render`.
 
 use crate::gi_args::GiArgs;
+use crate::sky_args::SkyArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -82,6 +83,9 @@ pub struct RenderArgs {
     /// Technique settings.
     #[command(flatten, next_help_heading = "Technique settings")]
     pub gi_args: GiArgs,
+    /// Sky light.
+    #[command(flatten, next_help_heading = "Sky")]
+    pub sky_args: SkyArgs,
 }
 
 impl RenderArgs {
@@ -284,9 +288,14 @@ fn run_voxel_view(args: &RenderArgs, scene: &Scene) -> Result<()> {
 }
 
 /// Loads the scene named on the command line (default: the built-in Cornell box) and the GI
-/// settings of its scene file, with the command-line flags applied on top.
-pub fn load_scene(path: Option<&Path>, flags: &GiArgs) -> Result<(Scene, GiSettings)> {
-    let (scene, mut settings) = match path {
+/// settings of its scene file, with the command-line flags (technique settings, sky) applied
+/// on top.
+pub fn load_scene(
+    path: Option<&Path>,
+    flags: &GiArgs,
+    sky: &SkyArgs,
+) -> Result<(Scene, GiSettings)> {
+    let (mut scene, mut settings) = match path {
         None => (cornell::scene(), GiSettings::default()),
         Some(p)
             if p.extension()
@@ -298,6 +307,7 @@ pub fn load_scene(path: Option<&Path>, flags: &GiArgs) -> Result<(Scene, GiSetti
         Some(p) => (Scene::load(p)?, GiSettings::default()),
     };
     flags.apply(&mut settings);
+    sky.apply(&mut scene)?;
     Ok((scene, settings))
 }
 
@@ -372,7 +382,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         check_output(path)?;
     }
     let load_start = std::time::Instant::now();
-    let (mut scene, gi_settings) = load_scene(args.scene.as_deref(), &args.gi_args)?;
+    let (mut scene, gi_settings) =
+        load_scene(args.scene.as_deref(), &args.gi_args, &args.sky_args)?;
     let load_s = load_start.elapsed().as_secs_f64();
     log::info!(
         "loaded '{}' ({} triangles) in {load_s:.2} s",

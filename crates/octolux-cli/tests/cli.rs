@@ -547,3 +547,44 @@ fn voxel_debug_view_renders_and_rejects_bad_input() {
         &["100000"],
     );
 }
+
+/// `--sky` lights any scene without a scene file: the camera sees it where nothing is drawn,
+/// on the GPU and in the reference; a bad value is an error naming it.
+#[test]
+fn sky_flags_light_a_scene_and_bad_ones_are_errors() {
+    let dir = temp_dir("sky");
+    for gi in ["none", "reference"] {
+        let exr = dir.join(format!("{gi}.exr"));
+        let output = octolux(&[
+            "render",
+            "--gi",
+            gi,
+            "--spp",
+            "1",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--sky",
+            "0.25,0.5,1",
+            "--sky-intensity",
+            "2",
+            "--out",
+            exr.to_str().unwrap(),
+        ]);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        // The top-left corner looks past the box's open front at the sky.
+        let image = octolux::image_io::HdrImage::read_exr(&exr).unwrap();
+        let corner = image.get(0, 0);
+        let want = glam::Vec3::new(0.5, 1.0, 2.0);
+        assert!((corner - want).abs().max_element() < 2e-3, "{gi}: {corner}");
+    }
+    let output = octolux(&["render", "--sky", "missing-sky.hdr"]);
+    assert_fails_with(&output, &["missing-sky.hdr"]);
+    let output = octolux(&["render", "--sky-intensity", "2"]);
+    assert_fails_with(&output, &["--sky-intensity", "need a sky"]);
+}

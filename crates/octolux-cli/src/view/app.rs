@@ -55,6 +55,7 @@ pub struct Config {
     shadow_map_size: u32,
     soft_sky_shadows: bool,
     gi_args: GiArgs,
+    sky_args: crate::sky_args::SkyArgs,
 }
 
 impl Config {
@@ -171,6 +172,7 @@ impl Config {
             shadow_map_size: args.gpu.shadow_map_size,
             soft_sky_shadows: args.gpu.soft_sky_shadows,
             gi_args: args.gi_args.clone(),
+            sky_args: args.sky_args.clone(),
         })
     }
 
@@ -187,7 +189,7 @@ impl Config {
 /// Opens the window and runs until it is closed or a scripted run ends.
 pub fn run(config: Config, verbose: bool) -> Result<()> {
     let (mut scene, gi_settings) =
-        crate::render::load_scene(config.scene.as_deref(), &config.gi_args)?;
+        crate::render::load_scene(config.scene.as_deref(), &config.gi_args, &config.sky_args)?;
     let camera_index = scene.camera_index(&config.camera)?;
     if let Some(ev) = config.exposure {
         scene.exposure = ev;

@@ -97,6 +97,9 @@ pub struct ViewArgs {
     /// Technique settings (also editable in the window).
     #[command(flatten, next_help_heading = "Technique settings")]
     pub gi_args: GiArgs,
+    /// Sky light.
+    #[command(flatten, next_help_heading = "Sky")]
+    pub sky_args: crate::sky_args::SkyArgs,
 }
 
 /// Parses `WIDTHxHEIGHT`.
