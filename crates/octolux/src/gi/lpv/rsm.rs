@@ -276,6 +276,15 @@ pub fn sky_subset(sky: usize, sky_rsms: u32) -> Vec<usize> {
     (0..m).map(|j| (2 * j + 1) * sky / (2 * m)).collect()
 }
 
+/// Per channel, the factor that makes the `chosen` sky lights (indices into the whole light
+/// list, whose sky part starts at `first_sky`) carry the flux of all of `sky`. A channel none
+/// of the chosen carries is lost rather than blown up.
+pub fn sky_scale(sky: &[crate::scene::Light], chosen: &[usize], first_sky: usize) -> Vec3 {
+    let total: Vec3 = sky.iter().map(|l| l.radiant()).sum();
+    let carried: Vec3 = chosen.iter().map(|&i| sky[i - first_sky].radiant()).sum();
+    Vec3::select(carried.cmpgt(Vec3::ZERO), total / carried, Vec3::ZERO)
+}
+
 /// RSM layers for `lights` (of which the last `sky_lights` are sky lights) when at most
 /// `sky_rsms` sky lights get one: every view of the other lights, then the chosen sky lights.
 pub fn rsm_layer_count(lights: &[crate::scene::Light], sky_lights: usize, sky_rsms: u32) -> u32 {
@@ -294,9 +303,7 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32, sky_rsms: u32) -> Vec<RsmLayer
         .into_iter()
         .map(|k| first_sky + k)
         .collect();
-    let sky_total: Vec3 = lights[first_sky..].iter().map(|l| l.radiant()).sum();
-    let chosen_total: Vec3 = chosen.iter().map(|&i| lights[i].radiant()).sum();
-    let sky_scale = (sky_total / chosen_total.max(Vec3::splat(1e-30))).min(Vec3::splat(1e30));
+    let sky_scale = sky_scale(&lights[first_sky..], &chosen, first_sky);
     let mut out = Vec::new();
     let mut first = 0usize;
     for (index, light) in lights.iter().enumerate() {
@@ -439,5 +446,32 @@ mod tests {
         assert_eq!(sky_subset(5, 8), vec![0, 1, 2, 3, 4]);
         assert_eq!(sky_subset(0, 8), Vec::<usize>::new());
         assert_eq!(sky_subset(3, 1), vec![1]);
+    }
+
+    #[test]
+    fn chosen_sky_lights_carry_the_whole_sky() {
+        let light = |c: Vec3| crate::scene::Light {
+            name: "sky".into(),
+            kind: LightKind::Directional,
+            color: c,
+            intensity: 1.0,
+            position: Vec3::ZERO,
+            direction: Vec3::NEG_Y,
+            animation: None,
+        };
+        let sky = [
+            light(Vec3::new(1.0, 0.0, 2.0)),
+            light(Vec3::new(1.0, 0.5, 0.0)),
+            light(Vec3::new(2.0, 0.0, 2.0)),
+        ];
+        // Lights 5 and 7 of a list whose sky starts at 5.
+        let scale = sky_scale(&sky, &[5, 7], 5);
+        let carried = (sky[0].radiant() + sky[2].radiant()) * scale;
+        assert_eq!(carried.x, 4.0);
+        assert_eq!(carried.z, 4.0);
+        assert_eq!(
+            scale.y, 0.0,
+            "green is carried by no chosen light: lost, not infinite"
+        );
     }
 }
