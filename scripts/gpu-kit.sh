@@ -78,7 +78,7 @@ for t in /tmp/octolux-kit/tests/*; do
 done
 # BENCH_ARGS replaces the size and frame counts (e.g. for a quick try on a CPU adapter).
 read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 5 --frames 20}"
-(cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/crytek-sponza.toml \
+(cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/cornell-afternoon.toml scenes/crytek-sponza.toml \
   --gi none,lpv,clpv,olpv --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
   tee "$results/bench.txt"
 echo "test binaries failed: $failed"
