@@ -50,7 +50,9 @@ fn cumulative(weights: impl Iterator<Item = f64>, n: usize) -> Option<Vec<f32>> 
         return None;
     }
     cdf.extend(partial.iter().map(|&s| (s / sum) as f32));
-    *cdf.last_mut().unwrap() = 1.0;
+    if let Some(last) = cdf.last_mut() {
+        *last = 1.0;
+    }
     Some(cdf)
 }
 

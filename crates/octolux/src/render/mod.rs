@@ -160,12 +160,13 @@ fn sky_regions_of(scene: &Scene) -> Vec<(Light, f32)> {
 }
 
 /// The number of directional lights [`render_lights`] adds for `scene`'s sky.
+/// (Counted without cutting the sky.)
 pub fn sky_light_count(scene: &Scene) -> usize {
     scene
         .sky
         .as_ref()
         .filter(|s| !s.is_black())
-        .map_or(0, |s| s.directions.max(1) as usize)
+        .map_or(0, sky::sky_light_count)
 }
 
 /// Shadow views (matrices, and reflective shadow maps) `lights` need: one per spot or

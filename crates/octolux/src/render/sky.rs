@@ -169,6 +169,16 @@ impl Region {
     }
 }
 
+/// How many lights [`sky_lights`] gives: [`Sky::directions`], unless the sky has fewer texels
+/// (median cut stops at single texels).
+pub fn sky_light_count(sky: &Sky) -> usize {
+    let texels = match &sky.radiance {
+        SkyRadiance::Constant(_) => CONSTANT_GRID.0 * CONSTANT_GRID.1,
+        SkyRadiance::Map(map) => map.image.width as usize * map.image.height as usize,
+    };
+    (sky.directions.max(1) as usize).min(texels)
+}
+
 /// The directional lights that stand in for `sky` in shadowing: [`Sky::directions`] regions
 /// of about equal light (the brightest region is split next, so any count works), each with
 /// its total irradiance arriving from its light-weighted mean direction (world space).
@@ -192,7 +202,7 @@ pub(crate) fn sky_regions(sky: &Sky) -> Vec<(Light, f32)> {
         y1: grid.height,
     };
     let mut regions = vec![(whole.energy(&grid), whole)];
-    while regions.len() < sky.directions.max(1) as usize {
+    while regions.len() < sky_light_count(sky) {
         // Split the region with the most light that can still be split.
         let Some((i, _)) = regions
             .iter()
@@ -202,8 +212,11 @@ pub(crate) fn sky_regions(sky: &Sky) -> Vec<(Light, f32)> {
         else {
             break;
         };
-        let (_, region) = regions.swap_remove(i);
-        let (a, b) = region.split(&grid).expect("splittable region");
+        let (energy, region) = regions.swap_remove(i);
+        let Some((a, b)) = region.split(&grid) else {
+            regions.push((energy, region));
+            break;
+        };
         regions.push((a.energy(&grid), a));
         regions.push((b.energy(&grid), b));
     }
@@ -420,6 +433,17 @@ mod tests {
             }
         }
         sum.as_vec3()
+    }
+
+    /// A map with fewer texels than directions gives one light per texel, as counted.
+    #[test]
+    fn tiny_maps_give_the_counted_lights() {
+        let mut image = HdrImage::new(2, 1);
+        image.pixels.fill(Vec3::ONE);
+        let sky = Sky::map(EnvironmentMap::from_image("tiny".into(), image).unwrap());
+        assert_eq!(sky_light_count(&sky), 2);
+        assert_eq!(sky_lights(&sky).len(), 2);
+        assert_eq!(sky_light_count(&map_sky()), 12);
     }
 
     /// The region lights carry all of the sky's light, each about an equal share.

@@ -450,7 +450,7 @@ impl LpvGi {
             )));
         }
         let layer_count = rsm::rsm_layer_count(
-            &crate::render::render_lights(scene),
+            &scene.lights,
             crate::render::sky_light_count(scene),
             s.sky_rsms,
         );

@@ -285,11 +285,10 @@ pub fn sky_scale(sky: &[crate::scene::Light], chosen: &[usize], first_sky: usize
     Vec3::select(carried.cmpgt(Vec3::ZERO), total / carried, Vec3::ZERO)
 }
 
-/// RSM layers for `lights` (of which the last `sky_lights` are sky lights) when at most
-/// `sky_rsms` sky lights get one: every view of the other lights, then the chosen sky lights.
+/// RSM layers for the scene's own `lights` and `sky_lights` sky lights when at most
+/// `sky_rsms` of those get one: every view of the scene's lights, then the chosen sky lights.
 pub fn rsm_layer_count(lights: &[crate::scene::Light], sky_lights: usize, sky_rsms: u32) -> u32 {
-    let punctual = &lights[..lights.len() - sky_lights.min(lights.len())];
-    crate::render::shadow_layer_count(punctual) + sky_subset(sky_lights, sky_rsms).len() as u32
+    crate::render::shadow_layer_count(lights) + sky_subset(sky_lights, sky_rsms).len() as u32
 }
 
 /// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow views'
