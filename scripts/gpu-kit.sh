@@ -36,7 +36,7 @@ else
   echo "gpu-kit: no shared scenes at $scenes (set OCTOLUX_SCENES); tests that need them will say so" >&2
 fi
 pwd >"$kit/stage/repo-root"
-tar -C "$kit/stage" -cf - . | zstd -q -19 --long=27 -T0 -o "$kit/kit.tar.zst"
+tar -C "$kit/stage" -cf - . | xz -9e -T0 >"$kit/kit.tar.xz"
 rm -rf "$kit/stage"
 
 cat >"$kit/run.sh" <<'EOF'
@@ -55,7 +55,7 @@ nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 if [ -z "${VK_DRIVER_FILES:-}" ] && [ -f "$nvidia_icd" ]; then export VK_DRIVER_FILES="$nvidia_icd"; fi
 rm -rf /tmp/octolux-kit
 mkdir -p "$results" /tmp/octolux-kit
-zstd -dc --long=27 "$kit/kit.tar.zst" | tar -C /tmp/octolux-kit -xf -
+xz -dc "$kit/kit.tar.xz" | tar -C /tmp/octolux-kit -xf -
 root="$(cat /tmp/octolux-kit/repo-root)"
 if [ ! -e "$root" ]; then mkdir -p "$(dirname "$root")" && ln -s "$repo" "$root"; fi
 mkdir -p "$root/target/debug"
@@ -70,7 +70,8 @@ fi
 failed=0
 for t in /tmp/octolux-kit/tests/*; do
   log="$results/test-$(basename "$t").log"
-  (cd "$root/crates/octolux" && "$t") >"$log" 2>&1
+  # A hung binary must not take the bench's time: TEST_TIMEOUT seconds each (default 180).
+  (cd "$root/crates/octolux" && timeout "${TEST_TIMEOUT:-180}" "$t") >"$log" 2>&1
   rc=$?
   echo "== $(basename "$t"): exit $rc; $(grep -E "^test result" "$log" | tail -1)"
   grep -E "panicked|FAILED" "$log" | head -5

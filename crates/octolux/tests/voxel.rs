@@ -719,6 +719,13 @@ fn measure_memory_and_build_time() {
                     let mb = svo.bytes() as f64 / 1e6;
                     assert!(mb < thesis_mb / 3.0, "{res}^3 octree: {mb:.1} MB");
                     let gpu_ms: f64 = timings.iter().map(|t| t.ms).sum();
+                    if std::env::var_os(octolux::gpu::PROFILE_STEPS_ENV).is_some() {
+                        println!(
+                            "octree build of {} at {res}^3:\n{}",
+                            scene.name,
+                            octolux::gpu::slowest_first(&timings)
+                        );
+                    }
                     (
                         format!(
                             "{} | {} | {:.1}",

@@ -469,6 +469,12 @@ fn measure_update_against_rebuild() {
             let (rebuilt, timings) = builder.build(&ctx, &grid, &all).unwrap();
             let rebuild_wall = start.elapsed().as_secs_f64() * 1e3;
             let rebuild_gpu: f64 = timings.iter().map(|t| t.ms).sum();
+            if std::env::var_os(octolux::gpu::PROFILE_STEPS_ENV).is_some() {
+                println!(
+                    "{name} at {res}^3, update:\n{}",
+                    octolux::gpu::slowest_first(&update.timings)
+                );
+            }
             assert_eq!(svo.node_count, rebuilt.node_count, "{name} at {res}^3");
             assert_eq!(svo.brick_count, rebuilt.brick_count, "{name} at {res}^3");
             println!(

@@ -9,4 +9,4 @@ mod timer;
 pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timestamps, ADAPTER_ENV};
 pub use ledger::{LedgerEntry, MemoryLedger};
 pub use readback::{read_buffer, read_texture};
-pub use timer::{PassTimer, PassTiming, TimingSource};
+pub use timer::{slowest_first, PassTimer, PassTiming, TimingSource, PROFILE_STEPS_ENV};

@@ -37,6 +37,16 @@ pub struct PassTiming {
     pub source: TimingSource,
 }
 
+/// The passes of `timings` as lines `name: ms`, slowest first (for profiling output).
+pub fn slowest_first(timings: &[PassTiming]) -> String {
+    let mut sorted: Vec<&PassTiming> = timings.iter().collect();
+    sorted.sort_by(|a, b| b.ms.total_cmp(&a.ms));
+    sorted
+        .iter()
+        .map(|t| format!("  {:>8.3} ms  {}\n", t.ms, t.name))
+        .collect()
+}
+
 /// Timestamp-write slots for the pass being recorded; hand them to the pass descriptor(s).
 #[derive(Clone, Copy)]
 pub struct PassStamps<'a> {
@@ -99,6 +109,10 @@ struct InFlight {
     mapped: Arc<Mutex<Option<std::result::Result<(), wgpu::BufferAsyncError>>>>,
 }
 
+/// Environment variable that makes multi-step passes time each step (see
+/// [`PassTimer::profile_steps`]).
+pub const PROFILE_STEPS_ENV: &str = "OCTOLUX_PROFILE_STEPS";
+
 /// Frames whose timestamps may be in flight at once; a fourth frame waits for the first.
 const FRAMES_IN_FLIGHT: usize = 3;
 
@@ -157,6 +171,15 @@ impl PassTimer {
     /// wrote can tell from this whether its earlier write is still pending.
     pub fn submissions(&self) -> u64 {
         self.submissions
+    }
+
+    /// Whether passes made of several dispatches should time each dispatch as a pass of its
+    /// own (`OCTOLUX_PROFILE_STEPS=1`): for finding the expensive step of a multi-step pass
+    /// such as the octree build. Off by default, because each extra pass boundary costs a
+    /// little GPU time and the per-frame pass list gets long.
+    pub fn profile_steps(&self) -> bool {
+        static STEPS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        *STEPS.get_or_init(|| std::env::var(PROFILE_STEPS_ENV).is_ok_and(|v| v == "1"))
     }
 
     /// How this timer measures.

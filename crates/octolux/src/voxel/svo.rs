@@ -914,12 +914,13 @@ impl SvoBuilder {
         fragments: u32,
         steps: &[(&'static str, u32, Dispatch)],
     ) {
-        timer.pass(name, |encoder, stamps| {
-            let last = steps.len().saturating_sub(1);
-            for (i, (entry, d, dispatch)) in steps.iter().enumerate() {
+        let record_step =
+            |encoder: &mut wgpu::CommandEncoder,
+             timestamps: Option<wgpu::ComputePassTimestampWrites>,
+             (entry, d, dispatch): &(&'static str, u32, Dispatch)| {
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some(entry),
-                    timestamp_writes: stamps.compute_part(i == 0, i == last),
+                    timestamp_writes: timestamps,
                 });
                 let (pipeline, groups) = &self.pipelines[entry];
                 pass.set_pipeline(pipeline);
@@ -946,6 +947,20 @@ impl SvoBuilder {
                         pass.dispatch_workgroups(1, 1, 1);
                     }
                 }
+            };
+        if timer.profile_steps() {
+            for step in steps {
+                let label = format!("{name}: {} {}", step.0, step.1);
+                timer.pass(&label, |encoder, stamps| {
+                    record_step(encoder, stamps.compute(), step)
+                });
+            }
+            return;
+        }
+        timer.pass(name, |encoder, stamps| {
+            let last = steps.len().saturating_sub(1);
+            for (i, step) in steps.iter().enumerate() {
+                record_step(encoder, stamps.compute_part(i == 0, i == last), step);
             }
         });
     }
