@@ -181,7 +181,7 @@ fn linear_index(wg: vec3<u32>, nwg: vec3<u32>, local: u32) -> u32 {
 }
 
 // Bounding-box voxels visited by one work item.
-const CHUNK: u32 = 4096u;
+const CHUNK: u32 = 256u;
 
 // Number of voxels in an inclusive range from `piece_cells` (0 when empty).
 fn cell_count(range: array<vec3<i32>, 2>) -> u32 {

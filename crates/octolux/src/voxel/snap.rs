@@ -314,8 +314,11 @@ pub fn piece_voxels(p: &Piece, size: IVec3) -> Vec<IVec3> {
     out
 }
 
-/// Bounding-box voxels one work item visits (`CHUNK` in `overlap.wgsl`).
-pub const CHUNK: u32 = 4096;
+/// Bounding-box voxels one work item visits (`CHUNK` in `overlap.wgsl`). Small, because the
+/// slowest invocation sets the pass time on a GPU: a floor triangle of Crytek Sponza spans
+/// thousands of voxels next to the few of a typical triangle (4096 took 0.7 ms per pass on an
+/// H100, most of it waiting for the longest items).
+pub const CHUNK: u32 = 256;
 
 /// Work items (piece, chunk) covering the cell range of every piece in a box of `size` voxels:
 /// exactly the chunks the GPU visits (no piece's range is empty or larger than `u32`).

@@ -92,8 +92,12 @@ pub(crate) const CONTROL_WORDS: u64 = 128;
 /// Word of `control` counting bricks (`BRICK_COUNTER` in `svo.wgsl`).
 pub(crate) const BRICK_COUNTER: usize = 60;
 /// Indirect dispatch slots (3 words each): static levels, dynamic levels, dynamic lists and
-/// the dynamic update's own sizes (`svo_dynamic.wgsl`).
-pub(crate) const ARGS_SLOTS: u64 = 96;
+/// the dynamic update's own sizes (`svo_dynamic.wgsl`); each slot again from `NODE_ARGS` on,
+/// sized for one workgroup per entry.
+pub(crate) const ARGS_SLOTS: u64 = 2 * NODE_ARGS as u64;
+/// Slot `s + NODE_ARGS` holds slot `s`'s count as one workgroup per entry (`NODE_ARGS` in
+/// `svo.wgsl`).
+pub(crate) const NODE_ARGS: u32 = 96;
 /// First indirect slot of the dynamic node ranges (`ARGS_DYN_NODES` in `svo_dynamic.wgsl`).
 pub(crate) const ARGS_DYN_NODES: u32 = 16;
 
@@ -287,8 +291,11 @@ pub(super) enum Dispatch {
     Fragments,
     /// `n` invocations.
     Capacity(u32),
-    /// Indirect, from this slot of the dispatch arguments.
+    /// Indirect, from this slot of the dispatch arguments: one invocation per entry.
     Indirect(u32),
+    /// Indirect, one workgroup per entry of this slot (kernels that spread a node over a
+    /// workgroup).
+    PerNode(u32),
     /// One workgroup.
     One,
 }
@@ -514,8 +521,11 @@ impl SvoBuilder {
         init[3] = 1;
         ctx.queue
             .write_buffer(&control, 0, bytemuck::cast_slice(&init));
-        ctx.queue
-            .write_buffer(&args, 0, bytemuck::cast_slice(&[1u32, 1, 1]));
+        // Level 0 is the root alone, in both forms of its slot.
+        for slot in [0, NODE_ARGS as u64] {
+            ctx.queue
+                .write_buffer(&args, slot * 12, bytemuck::cast_slice(&[1u32, 1, 1]));
+        }
         let params = level_params(
             ctx,
             "level params",
@@ -629,14 +639,14 @@ impl SvoBuilder {
         let leaf = depth - 1;
         let mut steps = vec![
             ("leaf_accumulate", leaf, Dispatch::Fragments),
-            ("leaf_fill", leaf, Dispatch::Indirect(leaf)),
+            ("leaf_fill", leaf, Dispatch::PerNode(leaf)),
         ];
         for d in (0..depth).rev() {
             if d != leaf {
-                steps.push(("mip", d, Dispatch::Indirect(d)));
+                steps.push(("mip", d, Dispatch::PerNode(d)));
             }
             for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.push((t, d, Dispatch::Indirect(d)));
+                steps.push((t, d, Dispatch::PerNode(d)));
             }
         }
         self.record(
@@ -839,10 +849,10 @@ impl SvoBuilder {
         let mut steps = Vec::new();
         for d in (0..depth).rev() {
             if d + 1 != depth {
-                steps.extend(ranges(d).map(|(slot, args)| ("mip", slot, Dispatch::Indirect(args))));
+                steps.extend(ranges(d).map(|(slot, args)| ("mip", slot, Dispatch::PerNode(args))));
             }
             for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::Indirect(args))));
+                steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::PerNode(args))));
             }
         }
         self.record(
@@ -942,6 +952,9 @@ impl SvoBuilder {
                     }
                     Dispatch::Indirect(slot) => {
                         pass.dispatch_workgroups_indirect(args, *slot as u64 * 12);
+                    }
+                    Dispatch::PerNode(slot) => {
+                        pass.dispatch_workgroups_indirect(args, (*slot + NODE_ARGS) as u64 * 12);
                     }
                     Dispatch::One => {
                         pass.dispatch_workgroups(1, 1, 1);

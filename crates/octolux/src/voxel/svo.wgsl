@@ -69,16 +69,49 @@ fn find(c: vec3<u32>, d: u32) -> u32 {
     return node;
 }
 
-// Node of this invocation on level L.d (its static or, with L.range == 1, its dynamic
-// nodes), or INVALID past the range's end.
-fn level_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+// Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
+// ones), INVALID past the range's end.
+fn level_entry(i: u32) -> u32 {
     let base = select(2u, 64u, L.range == 1u) + 2u * L.d;
-    let n = atomicLoad(&control[base]) + linear_index(wg, nwg, li);
+    let n = atomicLoad(&control[base]) + i;
     if n >= atomicLoad(&control[base + 1u]) {
         return INVALID;
     }
     return n;
 }
+
+// Node of this invocation on level L.d (one node per invocation).
+fn level_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    return level_entry(linear_index(wg, nwg, li));
+}
+
+// Index of this workgroup in a dispatch of one workgroup per node (slots + NODE_ARGS).
+fn group_index(wg: vec3<u32>, nwg: vec3<u32>) -> u32 {
+    return wg.y * nwg.x + wg.x;
+}
+
+// Indirect arguments: slot s holds one invocation per entry (groups of 64), slot
+// s + NODE_ARGS one workgroup per entry, for kernels that spread a node's 27 texels over the
+// lanes of a workgroup instead of computing them one after another in one invocation (a
+// latency chain of hundreds of dependent reads on a GPU).
+const NODE_ARGS: u32 = 96u;
+
+fn write_args(slot: u32, count: u32) {
+    let groups = (count + 63u) / 64u;
+    args[3u * slot] = min(groups, 65535u);
+    args[3u * slot + 1u] = (groups + 65534u) / 65535u;
+    args[3u * slot + 2u] = 1u;
+    let wide = 3u * (slot + NODE_ARGS);
+    args[wide] = min(count, 65535u);
+    args[wide + 1u] = (count + 65534u) / 65535u;
+    args[wide + 2u] = 1u;
+}
+
+// Shared by the kernels that give a workgroup one node: the node's brick (or other word)
+// handed from lane 0 to the workgroup as a uniform value, and staging for texels.
+var<workgroup> group_word: u32;
+var<workgroup> group_first: u32;
+var<workgroup> group_texels: array<vec4<f32>, 216>;
 
 // Brick of a node (after assign_bricks), INVALID when it has none.
 fn brick_of(node: u32) -> u32 {
@@ -145,7 +178,9 @@ fn flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     }
     let v = unpack3(fragments[f].x);
     let n = find(v >> vec3<u32>(L.depth - L.d), L.d);
-    if n != INVALID {
+    // Read first: on the coarse levels thousands of fragments share a node, and an atomic
+    // read-modify-write each would serialise them on its word.
+    if n != INVALID && (atomicLoad(&flags[n]) & OCCUPIED) == 0u {
         atomicOr(&flags[n], OCCUPIED);
     }
 }
@@ -183,7 +218,7 @@ fn flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
             continue;
         }
         let m = find(vec3<u32>(cc), L.d);
-        if m != INVALID {
+        if m != INVALID && (atomicLoad(&flags[m]) & NEEDED) == 0u {
             atomicOr(&flags[m], NEEDED);
         }
     }
@@ -215,11 +250,7 @@ fn finish_level() {
     let end = min(atomicLoad(&control[0]), L.capacity);
     atomicStore(&control[2u + 2u * (L.d + 1u)], start);
     atomicStore(&control[3u + 2u * (L.d + 1u)], end);
-    let groups = (end - start + 63u) / 64u;
-    let x = min(groups, 65535u);
-    args[3u * (L.d + 1u)] = x;
-    args[3u * (L.d + 1u) + 1u] = (groups + 65534u) / 65535u;
-    args[3u * (L.d + 1u) + 2u] = 1u;
+    write_args(L.d + 1u, end - start);
 }
 
 // Gives every needed node a brick (the others have an all-zero lattice and need none); the
@@ -269,47 +300,57 @@ fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
 // Leaf bricks: texel (i, j, k) sits on a voxel corner and holds this node's share of the box
 // filter there, the sum of its touching voxels / 8; the neighbour transfer adds the shares of
 // the neighbouring nodes.
+// One workgroup per node: lanes 0..7 average the voxels, lanes 0..26 write one texel each.
 @compute @workgroup_size(64)
 fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
              @builtin(local_invocation_index) li: u32) {
-    let n = level_node(wg, nwg, li);
-    if n == INVALID {
-        return;
+    if li == 0u {
+        let n = level_entry(group_index(wg, nwg));
+        group_word = INVALID;
+        if n != INVALID {
+            group_word = brick_of(n);
+        }
     }
-    let b = brick_of(n);
+    let b = workgroupUniformLoad(&group_word);
     if b == INVALID {
         return;
     }
-    var voxels: array<vec4<f32>, 8>;
-    for (var o = 0u; o < 8u; o++) {
-        let w = o * 4u;
+    if li < 8u {
+        let w = li * 4u;
         let count = bw_load(b, w + 3u);
-        if count == 0u {
-            voxels[o] = vec4<f32>(0.0);
-        } else {
+        var voxel = vec4<f32>(0.0);
+        if count != 0u {
             let c = f32(count);
-            voxels[o] = vec4<f32>(f32(bw_load(b, w)) / c / 255.0,
-                                  f32(bw_load(b, w + 1u)) / c / 255.0,
-                                  f32(bw_load(b, w + 2u)) / c / 255.0, 1.0);
+            voxel = vec4<f32>(f32(bw_load(b, w)) / c / 255.0,
+                              f32(bw_load(b, w + 1u)) / c / 255.0,
+                              f32(bw_load(b, w + 2u)) / c / 255.0, 1.0);
+        }
+        group_texels[li] = voxel;
+    }
+    // Every sum is read before any texel overwrites it.
+    workgroupBarrier();
+    if li >= 27u {
+        return;
+    }
+    let i = vec3<u32>(li % 3u, (li / 3u) % 3u, li / 9u);
+    var sum = vec4<f32>(0.0);
+    for (var o = 0u; o < 8u; o++) {
+        let a = octant_offset(o);
+        if all(i >= a) && all(i - a <= vec3<u32>(1u)) {
+            sum += group_texels[o] * 0.125;
         }
     }
-    for (var t = 0u; t < 27u; t++) {
-        let i = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
-        var sum = vec4<f32>(0.0);
-        for (var o = 0u; o < 8u; o++) {
-            let a = octant_offset(o);
-            if all(i >= a) && all(i - a <= vec3<u32>(1u)) {
-                sum += voxels[o] * 0.125;
-            }
-        }
-        write_texel(b, t, sum);
-    }
+    write_texel(b, li, sum);
 }
 
 // Neighbour transfer along one axis: the face shared by a node and its + neighbour gets the
 // sum of both partial values, written to both bricks.
-fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
-    let n = level_node(wg, nwg, li);
+// One workgroup per node, lane k < 9 adds face texel k.
+fn transfer(wg: vec3<u32>, nwg: vec3<u32>, k: u32, axis: u32) {
+    if k >= 9u {
+        return;
+    }
+    let n = level_entry(group_index(wg, nwg));
     if n == INVALID {
         return;
     }
@@ -323,35 +364,33 @@ fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
     if bn == INVALID || bm == INVALID {
         return;
     }
-    for (var k = 0u; k < 9u; k++) {
-        var hi = vec3<u32>(0u);
-        var lo = vec3<u32>(0u);
-        let u = (axis + 1u) % 3u;
-        let v = (axis + 2u) % 3u;
-        hi[axis] = 2u;
-        hi[u] = k % 3u;
-        hi[v] = k / 3u;
-        lo[u] = k % 3u;
-        lo[v] = k / 3u;
-        let s = read_texel(bn, texel_index(hi)) + read_texel(bm, texel_index(lo));
-        write_texel(bn, texel_index(hi), s);
-        write_texel(bm, texel_index(lo), s);
-    }
+    var hi = vec3<u32>(0u);
+    var lo = vec3<u32>(0u);
+    let u = (axis + 1u) % 3u;
+    let v = (axis + 2u) % 3u;
+    hi[axis] = 2u;
+    hi[u] = k % 3u;
+    hi[v] = k / 3u;
+    lo[u] = k % 3u;
+    lo[v] = k / 3u;
+    let s = read_texel(bn, texel_index(hi)) + read_texel(bm, texel_index(lo));
+    write_texel(bn, texel_index(hi), s);
+    write_texel(bm, texel_index(lo), s);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(16)
 fn transfer_x(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     transfer(wg, nwg, li, 0u);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(16)
 fn transfer_y(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     transfer(wg, nwg, li, 1u);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(16)
 fn transfer_z(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     transfer(wg, nwg, li, 2u);
@@ -366,42 +405,57 @@ fn tap_weight(o: u32) -> f32 {
 // with the neighbour node, which adds the same texel when the coarse texel is shared too: its
 // weight is divided by the number of nodes sharing it (inside the grid), and the neighbour transfer that follows
 // sums the shares.
+// One workgroup per node: the 8 children's bricks are staged in workgroup memory, then lane
+// t < 27 filters texel t (the same taps in the same order as one invocation would).
 @compute @workgroup_size(64)
 fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
        @builtin(local_invocation_index) li: u32) {
-    let n = level_node(wg, nwg, li);
-    if n == INVALID {
+    if li == 0u {
+        let n = level_entry(group_index(wg, nwg));
+        group_word = INVALID;
+        if n != INVALID {
+            let first = child[n];
+            group_first = first;
+            if first != 0u {
+                group_word = brick_of(n);
+            }
+        }
+    }
+    let bn = workgroupUniformLoad(&group_word);
+    if bn == INVALID {
         return;
     }
-    let first = child[n];
-    let bn = brick_of(n);
-    if first == 0u || bn == INVALID {
+    let first = group_first;
+    for (var i = li; i < 216u; i += 64u) {
+        group_texels[i] = read_texel(brick_of(first + i / 27u), i % 27u);
+    }
+    workgroupBarrier();
+    if li >= 27u {
         return;
     }
+    let n = level_entry(group_index(wg, nwg));
     let nc = unpack3(coord[n]);
     let size = 1u << L.d;
-    for (var t = 0u; t < 27u; t++) {
-        let c = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
-        var sum = vec4<f32>(0.0);
-        for (var k = 0u; k < 27u; k++) {
-            let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
-            let f = vec3<i32>(2u * c + o) - vec3<i32>(1);
-            if any(f < vec3<i32>(0)) || any(f > vec3<i32>(4)) {
-                continue;
-            }
-            let a = min(vec3<u32>(f) / 2u, vec3<u32>(1u));
-            let local = vec3<u32>(f) - 2u * a;
-            var w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
-            for (var ax = 0u; ax < 3u; ax++) {
-                // Shared only where a neighbour node exists inside the grid.
-                let inner = (c[ax] == 0u && nc[ax] > 0u) || (c[ax] == 2u && nc[ax] + 1u < size);
-                if inner && o[ax] == 1u {
-                    w *= 0.5;
-                }
-            }
-            let ch = first + a.x + 2u * a.y + 4u * a.z;
-            sum += w * read_texel(brick_of(ch), texel_index(local));
+    let c = vec3<u32>(li % 3u, (li / 3u) % 3u, li / 9u);
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < 27u; k++) {
+        let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+        let f = vec3<i32>(2u * c + o) - vec3<i32>(1);
+        if any(f < vec3<i32>(0)) || any(f > vec3<i32>(4)) {
+            continue;
         }
-        write_texel(bn, t, sum);
+        let a = min(vec3<u32>(f) / 2u, vec3<u32>(1u));
+        let local = vec3<u32>(f) - 2u * a;
+        var w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
+        for (var ax = 0u; ax < 3u; ax++) {
+            // Shared only where a neighbour node exists inside the grid.
+            let inner = (c[ax] == 0u && nc[ax] > 0u) || (c[ax] == 2u && nc[ax] + 1u < size);
+            if inner && o[ax] == 1u {
+                w *= 0.5;
+            }
+        }
+        let ch = a.x + 2u * a.y + 4u * a.z;
+        sum += w * group_texels[ch * 27u + texel_index(local)];
     }
+    write_texel(bn, li, sum);
 }

@@ -568,9 +568,9 @@ impl SvoBuilder {
             } else {
                 "dyn_mip_gather"
             };
-            steps.push((entry, d, Dispatch::Indirect(ARGS_NEED + d)));
+            steps.push((entry, d, Dispatch::PerNode(ARGS_NEED + d)));
             // The previous update's needed nodes (parameter slot depth + d).
-            steps.push((entry, depth + d, Dispatch::Indirect(ARGS_LAST_NEED + d)));
+            steps.push((entry, depth + d, Dispatch::PerNode(ARGS_LAST_NEED + d)));
         }
         self.record(
             timer,

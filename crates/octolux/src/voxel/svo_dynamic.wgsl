@@ -59,13 +59,6 @@ const ARGS_RESET: u32 = 66u;
 const ARGS_LAST_NEED: u32 = 67u;
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 
-fn write_args(slot: u32, count: u32) {
-    let groups = (count + 63u) / 64u;
-    args[3u * slot] = min(groups, 65535u);
-    args[3u * slot + 1u] = (groups + 65534u) / 65535u;
-    args[3u * slot + 2u] = 1u;
-}
-
 // Entry `i` of the range [control[base], control[base + 1]), INVALID past its end.
 fn range_entry(wg: vec3<u32>, nwg: vec3<u32>, li: u32, base: u32) -> u32 {
     let i = atomicLoad(&control[base]) + linear_index(wg, nwg, li);
@@ -438,20 +431,18 @@ fn store8(b1: u32, t: u32, v: vec4<f32>) {
 }
 
 // Bricks (+ 1) of the 3x3x3 nodes around c on level d (index x + 3y + 9z, c at 13).
-fn brick_block(c: vec3<u32>, d: u32) -> array<u32, 27> {
-    var out: array<u32, 27>;
+// Entry k of the 3x3x3 block of level-d nodes around node c: the node's flags (brick + 1),
+// 0 where there is no node.
+fn block_entry(c: vec3<u32>, d: u32, k: u32) -> u32 {
     let size = i32(1u << d);
-    for (var k = 0u; k < 27u; k++) {
-        let cc = vec3<i32>(c) + vec3<i32>(i32(k % 3u), i32((k / 3u) % 3u), i32(k / 9u)) - vec3<i32>(1);
-        out[k] = 0u;
-        if all(cc >= vec3<i32>(0)) && all(cc < vec3<i32>(size)) {
-            let m = find(vec3<u32>(cc), d);
-            if m != INVALID {
-                out[k] = atomicLoad(&flags[m]);
-            }
+    let cc = vec3<i32>(c) + vec3<i32>(i32(k % 3u), i32((k / 3u) % 3u), i32(k / 9u)) - vec3<i32>(1);
+    if all(cc >= vec3<i32>(0)) && all(cc < vec3<i32>(size)) {
+        let m = find(vec3<u32>(cc), d);
+        if m != INVALID {
+            return atomicLoad(&flags[m]);
         }
     }
-    return out;
+    return 0u;
 }
 
 // Writes texel t of node (block centre) to every node sharing its lattice point, so shared
@@ -468,97 +459,120 @@ fn store_shared(block: array<u32, 27>, t: vec3<u32>, v: vec4<f32>) {
     }
 }
 
-// The dirty node of this invocation on level d: this update's needed list, or (when
-// L.range == 1) the previous update's, whose static nodes must return to their static values.
-fn dirty_node(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+// Entry i of the dirty nodes of level d: this update's needed list, or (when L.range == 1)
+// the previous update's, whose static nodes must return to their static values.
+fn dirty_entry(i: u32) -> u32 {
     if L.range == 1u {
         let r = last_need_range(L.d);
-        let i = r.x + linear_index(wg, nwg, li);
-        if i >= r.y {
+        if r.x + i >= r.y {
             return INVALID;
         }
-        let n = last_need_list[i];
+        let n = last_need_list[r.x + i];
         if n >= D.sizes.x {
             return INVALID;
         }
         return n;
     }
-    let i = range_entry(wg, nwg, li, NEED_RANGE + 2u * L.d);
-    if i == INVALID {
+    let base = NEED_RANGE + 2u * L.d;
+    let e = atomicLoad(&control[base]) + i;
+    if e >= atomicLoad(&control[base + 1u]) {
         return INVALID;
     }
-    return need_list[i];
+    return need_list[e];
 }
 
+// The packed coordinates of this workgroup's dirty node (one workgroup per node), handed to
+// every lane as a uniform value; INVALID when there is none or it has no brick.
+fn dirty_group_coord(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    if li == 0u {
+        let n = dirty_entry(group_index(wg, nwg));
+        group_word = INVALID;
+        if n != INVALID && atomicLoad(&flags[n]) != 0u {
+            group_word = coord[n];
+        }
+    }
+    return workgroupUniformLoad(&group_word);
+}
+
+var<workgroup> group_block: array<u32, 27>;
+var<workgroup> group_fine: array<u32, 64>;
+
 // Leaf bricks of dirty nodes, gathered: texel (i, j, k) = the 8 voxels touching the corner / 8.
+// One workgroup per node: lane k fetches voxel k of the 4^3 around it and block entry k, then
+// lane t < 27 sums texel t.
 @compute @workgroup_size(64)
 fn dyn_leaf_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                    @builtin(local_invocation_index) li: u32) {
-    let n = dirty_node(wg, nwg, li);
-    if n == INVALID || atomicLoad(&flags[n]) == 0u {
+    let packed = dirty_group_coord(wg, nwg, li);
+    if packed == INVALID {
         return;
     }
-    let c = unpack3(coord[n]);
+    let c = unpack3(packed);
     let base = 2 * vec3<i32>(c) - vec3<i32>(1);
-    var voxels: array<vec4<f32>, 64>;
-    for (var k = 0u; k < 64u; k++) {
-        voxels[k] = voxel_albedo(base + vec3<i32>(i32(k % 4u), i32((k / 4u) % 4u), i32(k / 16u)));
+    group_texels[li] = voxel_albedo(base + vec3<i32>(i32(li % 4u), i32((li / 4u) % 4u), i32(li / 16u)));
+    if li < 27u {
+        group_block[li] = block_entry(c, L.d, li);
     }
-    let block = brick_block(c, L.d);
-    for (var t = 0u; t < 27u; t++) {
-        let i = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
-        var sum = vec4<f32>(0.0);
-        for (var o = 0u; o < 8u; o++) {
-            // Voxel 2c + i - 1 + octant, at block index i + octant.
-            let q = i + octant_offset(o);
-            sum += voxels[q.x + 4u * q.y + 16u * q.z] * 0.125;
-        }
-        store_shared(block, i, sum);
+    workgroupBarrier();
+    if li >= 27u {
+        return;
     }
+    let i = vec3<u32>(li % 3u, (li / 3u) % 3u, li / 9u);
+    var sum = vec4<f32>(0.0);
+    for (var o = 0u; o < 8u; o++) {
+        // Voxel 2c + i - 1 + octant, at block index i + octant.
+        let q = i + octant_offset(o);
+        sum += group_texels[q.x + 4u * q.y + 16u * q.z] * 0.125;
+    }
+    store_shared(group_block, i, sum);
 }
 
 // Coarser bricks of dirty nodes, gathered: the [1/4 1/2 1/4] filter of the 27 finer lattice
 // points around each texel, read from whichever finer node holds them (any sharer holds the
-// whole value; a missing or brickless sharer means the value is zero).
+// whole value; a missing or brickless sharer means the value is zero). One workgroup per node:
+// lane k finds finer node k of the 4^3 around it and block entry k, then lane t < 27 filters
+// texel t.
 @compute @workgroup_size(64)
 fn dyn_mip_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) li: u32) {
-    let n = dirty_node(wg, nwg, li);
-    if n == INVALID || atomicLoad(&flags[n]) == 0u {
+    let packed = dirty_group_coord(wg, nwg, li);
+    if packed == INVALID {
         return;
     }
-    let c = unpack3(coord[n]);
+    let c = unpack3(packed);
     let fine = L.d + 1u;
     let fine_size = i32(1u << fine);
     // Finer nodes 2c - 1 .. 2c + 2 on every axis.
-    var fb: array<u32, 64>;
-    for (var k = 0u; k < 64u; k++) {
-        let q = 2 * vec3<i32>(c) - vec3<i32>(1) + vec3<i32>(i32(k % 4u), i32((k / 4u) % 4u), i32(k / 16u));
-        fb[k] = 0u;
-        if all(q >= vec3<i32>(0)) && all(q < vec3<i32>(fine_size)) {
-            let m = find(vec3<u32>(q), fine);
-            if m != INVALID {
-                fb[k] = atomicLoad(&flags[m]);
-            }
+    let q = 2 * vec3<i32>(c) - vec3<i32>(1) + vec3<i32>(i32(li % 4u), i32((li / 4u) % 4u), i32(li / 16u));
+    var flags_of_fine = 0u;
+    if all(q >= vec3<i32>(0)) && all(q < vec3<i32>(fine_size)) {
+        let m = find(vec3<u32>(q), fine);
+        if m != INVALID {
+            flags_of_fine = atomicLoad(&flags[m]);
         }
     }
-    let block = brick_block(c, L.d);
-    for (var t = 0u; t < 27u; t++) {
-        let ti = vec3<i32>(i32(t % 3u), i32((t / 3u) % 3u), i32(t / 9u));
-        var sum = vec4<f32>(0.0);
-        for (var k = 0u; k < 27u; k++) {
-            let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
-            // Finer lattice point (global, in finer half-node units).
-            let g = 4 * vec3<i32>(c) + 2 * ti + vec3<i32>(o) - vec3<i32>(1);
-            if any(g < vec3<i32>(0)) || any(g > vec3<i32>(2 * fine_size)) {
-                continue;
-            }
-            let node = min(g / 2, vec3<i32>(fine_size - 1));
-            let local = vec3<u32>(g - 2 * node);
-            let q = vec3<u32>(node - (2 * vec3<i32>(c) - vec3<i32>(1)));
-            let w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
-            sum += w * texel8(fb[q.x + 4u * q.y + 16u * q.z], texel_index(local));
-        }
-        store_shared(block, vec3<u32>(ti), sum);
+    group_fine[li] = flags_of_fine;
+    if li < 27u {
+        group_block[li] = block_entry(c, L.d, li);
     }
+    workgroupBarrier();
+    if li >= 27u {
+        return;
+    }
+    let ti = vec3<i32>(i32(li % 3u), i32((li / 3u) % 3u), i32(li / 9u));
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < 27u; k++) {
+        let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+        // Finer lattice point (global, in finer half-node units).
+        let g = 4 * vec3<i32>(c) + 2 * ti + vec3<i32>(o) - vec3<i32>(1);
+        if any(g < vec3<i32>(0)) || any(g > vec3<i32>(2 * fine_size)) {
+            continue;
+        }
+        let node = min(g / 2, vec3<i32>(fine_size - 1));
+        let local = vec3<u32>(g - 2 * node);
+        let r = vec3<u32>(node - (2 * vec3<i32>(c) - vec3<i32>(1)));
+        let w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
+        sum += w * texel8(group_fine[r.x + 4u * r.y + 16u * r.z], texel_index(local));
+    }
+    store_shared(group_block, vec3<u32>(ti), sum);
 }
