@@ -6,6 +6,7 @@
 #   scripts/gpu-kit.sh [KIT_DIR]          # default: gpu-kit/ (ignored by git)
 #   # copy the repository checkout with KIT_DIR inside to the GPU machine, then there:
 #   KIT_DIR/run.sh [RESULTS_DIR]          # default: KIT_DIR/results/
+#   (tests, then the bench, then the voxel structures' measuring tests with VOXEL_TABLE=full)
 #   (BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3" for a quick try;
 #    LOADER_DEBS=DIR: .deb packages of the Vulkan loader to unpack first on a machine without one)
 #
@@ -82,6 +83,14 @@ read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 5 --frames
 (cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/cornell-afternoon.toml scenes/crytek-sponza.toml \
   --gi none,lpv,clpv,olpv --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
   tee "$results/bench.txt"
+# The voxel structures' measuring tests, with their tables (docs/voxels.md, docs/performance.md).
+for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
+  set -- $spec
+  b="$(ls /tmp/octolux-kit/tests/"$1"-* | head -1)"
+  echo "== $1 $2" | tee -a "$results/voxel-perf.txt"
+  (cd "$root/crates/octolux" && VOXEL_TABLE=full timeout 300 "$b" "$2" --nocapture) 2>&1 |
+    grep -v '^\[' | tee -a "$results/voxel-perf.txt"
+done
 echo "test binaries failed: $failed"
 exit "$failed"
 EOF

@@ -443,8 +443,12 @@ fn renderers_on_threads_share_one_device_and_agree() {
 #[test]
 fn pipelined_frames_report_earlier_frames_without_waiting() {
     // With timestamps (lavapipe has the feature; its values are not checked here) the
-    // pipelined path returns nothing until a frame's timestamps are back, then whole frames
-    // with every pass; without them it returns this frame's CPU times. The image is the same.
+    // pipelined path returns nothing until a frame's timestamps are back, then the latest
+    // finished frame with every pass; at most 3 frames are in flight, so no more than 3 calls
+    // in a row return nothing (a GPU slower than the recording CPU, as an H100 drawing 2048^2
+    // shadow maps is next to a 32x32 frame, lets frames pile up and finish together; their
+    // times then arrive as one report). Without timestamps every call returns this frame's
+    // CPU times. The image is the same either way.
     let scene = octolux::scene::cornell::scene();
     for timestamps in [Timestamps::Always, Timestamps::Off] {
         let ctx = GpuContext::shared(&GpuOptions {
@@ -453,23 +457,29 @@ fn pipelined_frames_report_earlier_frames_without_waiting() {
         })
         .unwrap();
         let mut renderer = Renderer::new(&ctx, &scene, settings(32, 32)).unwrap();
-        let mut reported = 0;
+        let (mut reported, mut silent, mut longest_silence) = (0, 0, 0);
         for frame in 0..8 {
             if let Some(times) = renderer.render_pipelined(&scene, 0.0).unwrap() {
                 let names: Vec<&str> = times.iter().map(|t| t.name.as_str()).collect();
                 assert_eq!(names, ["shadow maps", "gbuffer", "direct light", "compose"]);
                 reported += 1;
+                silent = 0;
             } else {
                 assert!(
                     ctx.timestamps,
                     "frame {frame}: CPU timing reports every frame"
                 );
+                silent += 1;
+                longest_silence = usize::max(longest_silence, silent);
             }
         }
         assert!(
-            reported >= 5,
-            "{timestamps:?}: {reported} of 8 frames reported"
+            longest_silence <= 3,
+            "{timestamps:?}: {longest_silence} calls in a row reported nothing"
         );
+        if !ctx.timestamps {
+            assert_eq!(reported, 8, "{timestamps:?}: every frame reported");
+        }
         let pipelined = renderer.read_display().unwrap();
         renderer.render(&scene, 0.0).unwrap();
         assert_eq!(pipelined, renderer.read_display().unwrap());

@@ -191,6 +191,18 @@ impl GpuContext {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         // GL lacks compute features we rely on; keep to the modern APIs.
         desc.backends &= wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+        // Indirect dispatch arguments come only from our own kernels, which clamp every
+        // dimension to 65535 by construction (`write_args` in voxel/svo.wgsl). wgpu's check
+        // of them adds a validation dispatch and a barrier to every indirect call: about a
+        // quarter of the octree's dynamic update (77 small dispatches) on an H100. Kept on
+        // Windows, where DX12 without it reports zero for `@builtin(num_workgroups)`, and
+        // wherever WGPU_VALIDATION_INDIRECT_CALL is set.
+        if cfg!(not(target_os = "windows"))
+            && std::env::var_os("WGPU_VALIDATION_INDIRECT_CALL").is_none()
+        {
+            desc.flags
+                .remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+        }
         let instance = wgpu::Instance::new(desc);
         let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
         if adapters.is_empty() {
