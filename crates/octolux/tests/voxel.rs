@@ -734,7 +734,7 @@ fn measure_memory_and_build_time() {
                             svo.bytes() as f64 / 1e6
                         ),
                         format!(
-                            "{gpu_ms:.0} ({:.0} wall)",
+                            "{gpu_ms:.1} ({:.0} wall)",
                             start.elapsed().as_secs_f64() * 1e3
                         ),
                     )
@@ -751,7 +751,7 @@ fn measure_memory_and_build_time() {
             let clip_gpu: f64 = timer.finish_frame().unwrap().iter().map(|t| t.ms).sum();
             let clip_wall = start.elapsed().as_secs_f64() * 1e3;
             println!(
-                "| {} | {res} | {} | {svo_cols} | {svo_ms} | {} x {}^3 | {:.2} | {clip_gpu:.0} ({clip_wall:.0} wall) |",
+                "| {} | {res} | {} | {svo_cols} | {svo_ms} | {} x {}^3 | {:.2} | {clip_gpu:.1} ({clip_wall:.0} wall) |",
                 scene.name,
                 tris.len(),
                 settings.levels,
