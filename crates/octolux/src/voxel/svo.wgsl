@@ -112,6 +112,7 @@ fn write_args(slot: u32, count: u32) {
 var<workgroup> group_word: u32;
 var<workgroup> group_first: u32;
 var<workgroup> group_texels: array<vec4<f32>, 216>;
+var<workgroup> group_children: array<u32, 8>;
 
 // Brick of a node (after assign_bricks), INVALID when it has none.
 fn brick_of(node: u32) -> u32 {
@@ -345,23 +346,27 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
 
 // Neighbour transfer along one axis: the face shared by a node and its + neighbour gets the
 // sum of both partial values, written to both bricks.
-// One workgroup per node, lane k < 9 adds face texel k.
+// One workgroup per node, lane k < 9 adds face texel k. Lane 0 looks up the node, its
+// neighbour and their bricks once for the workgroup.
+var<workgroup> group_pair: vec2<u32>;
+
 fn transfer(wg: vec3<u32>, nwg: vec3<u32>, k: u32, axis: u32) {
-    if k >= 9u {
-        return;
+    if k == 0u {
+        var pair = vec2<u32>(INVALID);
+        let n = level_entry(group_index(wg, nwg));
+        if n != INVALID {
+            let m = nbr[3u * n + axis];
+            // A node without a brick has an all-zero lattice: nothing to add or to receive.
+            if m != 0u {
+                pair = vec2<u32>(brick_of(n), brick_of(m));
+            }
+        }
+        group_pair = pair;
     }
-    let n = level_entry(group_index(wg, nwg));
-    if n == INVALID {
-        return;
-    }
-    let m = nbr[3u * n + axis];
-    if m == 0u {
-        return;
-    }
-    // A node without a brick has an all-zero lattice: nothing to add or to receive.
-    let bn = brick_of(n);
-    let bm = brick_of(m);
-    if bn == INVALID || bm == INVALID {
+    let pair = workgroupUniformLoad(&group_pair);
+    let bn = pair.x;
+    let bm = pair.y;
+    if bn == INVALID || bm == INVALID || k >= 9u {
         return;
     }
     var hi = vec3<u32>(0u);
@@ -426,8 +431,12 @@ fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<
         return;
     }
     let first = group_first;
+    if li < 8u {
+        group_children[li] = brick_of(first + li);
+    }
+    workgroupBarrier();
     for (var i = li; i < 216u; i += 64u) {
-        group_texels[i] = read_texel(brick_of(first + i / 27u), i % 27u);
+        group_texels[i] = read_texel(group_children[i / 27u], i % 27u);
     }
     workgroupBarrier();
     if li >= 27u {
