@@ -48,6 +48,9 @@ pub const NODE_BYTES: u64 = 20;
 pub(crate) const PARAM_STRIDE: u64 = 256;
 
 /// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
+/// What the octree's shader modules share (`svo_common.wgsl`).
+const SVO_COMMON_WGSL: &str = include_str!("svo_common.wgsl");
+
 const PACK_WGSL: &str = "
 // Storage, not uniform: see \"Parameter blocks\" in voxel/mod.rs.
 @group(0) @binding(0) var<storage, read> count: vec4<u32>;
@@ -328,12 +331,19 @@ impl SvoBuilder {
         });
         let dyn_layout = super::svo_dynamic::bind_group_layout(device);
         let source = format!(
-            "{OVERLAP_WGSL}\n{}\n{}\n{}",
+            "{OVERLAP_WGSL}\n{}\n{SVO_COMMON_WGSL}\n{}\n{}",
             super::svo_inject::LEAF_SUMS_WGSL,
             include_str!("svo.wgsl"),
             include_str!("svo_dynamic.wgsl")
         );
         let module = ctx.shader("svo", &source);
+        let accumulate = ctx.shader(
+            "svo accumulate",
+            &format!(
+                "{OVERLAP_WGSL}\n{SVO_COMMON_WGSL}\n{}",
+                include_str!("svo_accumulate.wgsl")
+            ),
+        );
         let plain = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("svo"),
             bind_group_layouts: &[Some(&layout0)],
@@ -361,7 +371,6 @@ impl SvoBuilder {
             "subdivide",
             "assign_bricks",
             "finish_level",
-            "leaf_accumulate",
             "leaf_fill",
             "transfer_x",
             "transfer_y",
@@ -388,6 +397,19 @@ impl SvoBuilder {
             });
             pipelines.insert(entry, (pipeline, groups));
         }
+        let leaf_accumulate = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("leaf_accumulate"),
+            layout: Some(&plain),
+            module: &accumulate,
+            entry_point: Some("leaf_accumulate"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let no_groups = Groups {
+            args: false,
+            dynamic: false,
+        };
+        pipelines.insert("leaf_accumulate", (leaf_accumulate, no_groups));
         let pack_module = ctx.shader("svo pack", PACK_WGSL);
         SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),

@@ -5,20 +5,6 @@
 // brick index + 1 (0 = no brick: only needed nodes get one). A brick is 27 corner-sampled RGBA
 // texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord` is build scratch.
 
-struct LevelParams {
-    d: u32,
-    depth: u32,
-    fragments: u32,
-    capacity: u32,
-    // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
-    pool_bricks: u32,
-    // Which node range a kernel walks: 0 the level's static nodes; 1 its dynamic nodes
-    // (`level_node`) or the previous update's dirty list (`dirty_node`, svo_dynamic.wgsl).
-    range: u32,
-    pad1: u32,
-    pad2: u32,
-}
-
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
 @group(0) @binding(0) var<storage, read> L: LevelParams;
 @group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
@@ -30,44 +16,12 @@ struct LevelParams {
 // [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d;
 // words 64.. belong to the dynamic part (svo_dynamic.wgsl), [60] counts bricks.
 @group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;
-@group(0) @binding(8) var<storage, read_write> bricks0: array<atomic<u32>>;
-@group(0) @binding(9) var<storage, read_write> bricks1: array<atomic<u32>>;
-@group(0) @binding(10) var<storage, read_write> bricks2: array<atomic<u32>>;
-@group(0) @binding(11) var<storage, read_write> bricks3: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read_write> bricks0: array<u32>;
+@group(0) @binding(9) var<storage, read_write> bricks1: array<u32>;
+@group(0) @binding(10) var<storage, read_write> bricks2: array<u32>;
+@group(0) @binding(11) var<storage, read_write> bricks3: array<u32>;
 // Indirect dispatch arguments, 3 words per level (bound only by finish_level).
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
-
-const INVALID: u32 = 0xffffffffu;
-const BRICK_COUNTER: u32 = 60u;
-const OCCUPIED: u32 = 1u;
-const NEEDED: u32 = 2u;
-
-fn unpack3(c: u32) -> vec3<u32> {
-    return vec3<u32>(c & 1023u, (c >> 10u) & 1023u, (c >> 20u) & 1023u);
-}
-
-fn pack3(c: vec3<u32>) -> u32 {
-    return (c.x & 1023u) | ((c.y & 1023u) << 10u) | ((c.z & 1023u) << 20u);
-}
-
-fn octant_offset(o: u32) -> vec3<u32> {
-    return vec3<u32>(o & 1u, (o >> 1u) & 1u, (o >> 2u) & 1u);
-}
-
-// The node of level d at coordinates c, or INVALID when an ancestor has no children.
-fn find(c: vec3<u32>, d: u32) -> u32 {
-    var node = 0u;
-    for (var l = 0u; l < d; l++) {
-        let first = child[node];
-        if first == 0u {
-            return INVALID;
-        }
-        let s = d - 1u - l;
-        let o = ((c.x >> s) & 1u) | (((c.y >> s) & 1u) << 1u) | (((c.z >> s) & 1u) << 2u);
-        node = first + o;
-    }
-    return node;
-}
 
 // Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
 // ones), INVALID past the range's end.
@@ -114,43 +68,25 @@ var<workgroup> group_first: u32;
 var<workgroup> group_texels: array<vec4<f32>, 216>;
 var<workgroup> group_children: array<u32, 8>;
 
-// Brick of a node (after assign_bricks), INVALID when it has none.
-fn brick_of(node: u32) -> u32 {
-    return atomicLoad(&flags[node]) - 1u;
-}
-
-// Word i (0..53) of brick b: pool b / pool_bricks, slot b % pool_bricks.
-fn bw_index(b: u32, i: u32) -> u32 {
-    return (b % L.pool_bricks) * 54u + i;
-}
-
+// Brick words are plain loads and stores: atomics (which only the leaf sums need, in
+// `svo_accumulate.wgsl`) bypass the caches and were the limit of every brick pass on a GPU.
 fn bw_load(b: u32, i: u32) -> u32 {
     let w = bw_index(b, i);
     switch b / L.pool_bricks {
-        case 0u: { return atomicLoad(&bricks0[w]); }
-        case 1u: { return atomicLoad(&bricks1[w]); }
-        case 2u: { return atomicLoad(&bricks2[w]); }
-        default: { return atomicLoad(&bricks3[w]); }
+        case 0u: { return bricks0[w]; }
+        case 1u: { return bricks1[w]; }
+        case 2u: { return bricks2[w]; }
+        default: { return bricks3[w]; }
     }
 }
 
 fn bw_store(b: u32, i: u32, v: u32) {
     let w = bw_index(b, i);
     switch b / L.pool_bricks {
-        case 0u: { atomicStore(&bricks0[w], v); }
-        case 1u: { atomicStore(&bricks1[w], v); }
-        case 2u: { atomicStore(&bricks2[w], v); }
-        default: { atomicStore(&bricks3[w], v); }
-    }
-}
-
-fn bw_add(b: u32, i: u32, v: u32) {
-    let w = bw_index(b, i);
-    switch b / L.pool_bricks {
-        case 0u: { atomicAdd(&bricks0[w], v); }
-        case 1u: { atomicAdd(&bricks1[w], v); }
-        case 2u: { atomicAdd(&bricks2[w], v); }
-        default: { atomicAdd(&bricks3[w], v); }
+        case 0u: { bricks0[w] = v; }
+        case 1u: { bricks1[w] = v; }
+        case 2u: { bricks2[w] = v; }
+        default: { bricks3[w] = v; }
     }
 }
 
@@ -268,34 +204,6 @@ fn assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
         brick = atomicAdd(&control[BRICK_COUNTER], 1u) + 1u;
     }
     atomicStore(&flags[n], brick);
-}
-
-// Leaf voxels: integer sums of albedo (x255) and fragment count, in words 0..31 of the leaf's
-// brick, 4 per voxel (octant order).
-@compute @workgroup_size(64)
-fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                   @builtin(local_invocation_index) li: u32) {
-    let f = linear_index(wg, nwg, li);
-    if f >= L.fragments {
-        return;
-    }
-    let frag = fragments[f];
-    let v = unpack3(frag.x);
-    let n = find(v >> vec3<u32>(1u), L.depth - 1u);
-    if n == INVALID {
-        return;
-    }
-    let b = brick_of(n);
-    if b == INVALID {
-        return;
-    }
-    let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
-    let albedo = bitcast<u32>(tris[frag.y].p0.w);
-    let w = o * 4u;
-    bw_add(b, w, albedo & 255u);
-    bw_add(b, w + 1u, (albedo >> 8u) & 255u);
-    bw_add(b, w + 2u, (albedo >> 16u) & 255u);
-    bw_add(b, w + 3u, 1u);
 }
 
 // Leaf bricks: texel (i, j, k) sits on a voxel corner and holds this node's share of the box

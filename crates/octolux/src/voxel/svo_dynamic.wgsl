@@ -408,10 +408,10 @@ fn texel8(b1: u32, t: u32) -> vec4<f32> {
     let b = b1 - 1u;
     let w = (b % L.pool_bricks) * 27u + t;
     switch b / L.pool_bricks {
-        case 0u: { return unpack4x8unorm(atomicLoad(&bricks0[w])); }
-        case 1u: { return unpack4x8unorm(atomicLoad(&bricks1[w])); }
-        case 2u: { return unpack4x8unorm(atomicLoad(&bricks2[w])); }
-        default: { return unpack4x8unorm(atomicLoad(&bricks3[w])); }
+        case 0u: { return unpack4x8unorm(bricks0[w]); }
+        case 1u: { return unpack4x8unorm(bricks1[w]); }
+        case 2u: { return unpack4x8unorm(bricks2[w]); }
+        default: { return unpack4x8unorm(bricks3[w]); }
     }
 }
 
@@ -423,10 +423,10 @@ fn store8(b1: u32, t: u32, v: vec4<f32>) {
     let w = (b % L.pool_bricks) * 27u + t;
     let p = pack4x8unorm(clamp(v, vec4<f32>(0.0), vec4<f32>(1.0)));
     switch b / L.pool_bricks {
-        case 0u: { atomicStore(&bricks0[w], p); }
-        case 1u: { atomicStore(&bricks1[w], p); }
-        case 2u: { atomicStore(&bricks2[w], p); }
-        default: { atomicStore(&bricks3[w], p); }
+        case 0u: { bricks0[w] = p; }
+        case 1u: { bricks1[w] = p; }
+        case 2u: { bricks2[w] = p; }
+        default: { bricks3[w] = p; }
     }
 }
 

@@ -1,0 +1,59 @@
+// Shared by the octree's modules (`svo.wgsl` + `svo_dynamic.wgsl`, `svo_accumulate.wgsl`):
+// the per-level parameters and the helpers that walk nodes and address bricks. Each including
+// module declares the bindings they read (`L`, `child`, `flags`).
+
+struct LevelParams {
+    d: u32,
+    depth: u32,
+    fragments: u32,
+    capacity: u32,
+    // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
+    pool_bricks: u32,
+    // Which node range a kernel walks: 0 the level's static nodes; 1 its dynamic nodes
+    // (`level_entry`) or the previous update's dirty list (`dirty_entry`, svo_dynamic.wgsl).
+    range: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+const INVALID: u32 = 0xffffffffu;
+const BRICK_COUNTER: u32 = 60u;
+const OCCUPIED: u32 = 1u;
+const NEEDED: u32 = 2u;
+
+fn unpack3(c: u32) -> vec3<u32> {
+    return vec3<u32>(c & 1023u, (c >> 10u) & 1023u, (c >> 20u) & 1023u);
+}
+
+fn pack3(c: vec3<u32>) -> u32 {
+    return (c.x & 1023u) | ((c.y & 1023u) << 10u) | ((c.z & 1023u) << 20u);
+}
+
+fn octant_offset(o: u32) -> vec3<u32> {
+    return vec3<u32>(o & 1u, (o >> 1u) & 1u, (o >> 2u) & 1u);
+}
+
+// The node of level d at coordinates c, or INVALID when an ancestor has no children.
+fn find(c: vec3<u32>, d: u32) -> u32 {
+    var node = 0u;
+    for (var l = 0u; l < d; l++) {
+        let first = child[node];
+        if first == 0u {
+            return INVALID;
+        }
+        let s = d - 1u - l;
+        let o = ((c.x >> s) & 1u) | (((c.y >> s) & 1u) << 1u) | (((c.z >> s) & 1u) << 2u);
+        node = first + o;
+    }
+    return node;
+}
+
+// Brick of a node (after assign_bricks), INVALID when it has none.
+fn brick_of(node: u32) -> u32 {
+    return atomicLoad(&flags[node]) - 1u;
+}
+
+// Word i (0..53) of brick b: pool b / pool_bricks, slot b % pool_bricks.
+fn bw_index(b: u32, i: u32) -> u32 {
+    return (b % L.pool_bricks) * 54u + i;
+}
