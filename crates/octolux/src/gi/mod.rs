@@ -6,6 +6,7 @@
 
 pub mod lpv;
 mod none;
+pub mod vct;
 
 pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;

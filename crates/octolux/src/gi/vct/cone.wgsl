@@ -1,0 +1,53 @@
+// One cone marched front to back through a filtered voxel structure (`003`, eq. 3, with the
+// step-length opacity correction it lacks). The includer declares
+//   fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32>
+// returning premultiplied radiance (rgb) and opacity (a) filtered over `footprint` metres.
+// CPU twin: `gi/vct/cone.rs`, `march_cone`; keep the two in step.
+
+struct ConeParams {
+    // Full aperture (radians), start offset, step (fraction of the diameter), maximum distance
+    // (all distances in metres).
+    aperture: f32,
+    start: f32,
+    step: f32,
+    max_distance: f32,
+    // Finest voxel size (metres): the smallest footprint; opacity at which a cone stops;
+    // maximum number of steps; unused.
+    voxel: f32,
+    stop_opacity: f32,
+    max_steps: u32,
+    pad: u32,
+}
+
+// What one sample adds to a cone that has accumulated `acc` (rgb premultiplied, a opacity):
+// the sample's opacity, defined over a path as long as its footprint, corrected to the step
+// length (1 - (1 - a)^(step / footprint)), its premultiplied radiance scaled alike.
+fn cone_composite(acc: vec4<f32>, s: vec4<f32>, step: f32, footprint: f32) -> vec4<f32> {
+    let a = clamp(s.a, 0.0, 1.0);
+    var corrected = a;
+    var scale = 1.0;
+    if a > 0.0 && a < 1.0 {
+        corrected = 1.0 - pow(1.0 - a, step / footprint);
+        scale = corrected / a;
+    }
+    let t = 1.0 - acc.a;
+    return vec4<f32>(acc.rgb + t * s.rgb * scale, acc.a + t * corrected);
+}
+
+// Marches the cone from `origin` along the unit vector `dir`: returns the accumulated
+// premultiplied radiance (rgb) and opacity (a).
+fn march_cone(origin: vec3<f32>, dir: vec3<f32>, c: ConeParams) -> vec4<f32> {
+    let spread = 2.0 * tan(0.5 * c.aperture);
+    var acc = vec4<f32>(0.0);
+    var t = c.start;
+    for (var i = 0u; i < c.max_steps; i++) {
+        if t >= c.max_distance || acc.a >= c.stop_opacity {
+            break;
+        }
+        let footprint = max(spread * t, c.voxel);
+        let step = c.step * footprint;
+        acc = cone_composite(acc, vct_sample(origin + t * dir, footprint), step, footprint);
+        t += step;
+    }
+    return acc;
+}
