@@ -15,7 +15,10 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
-use octolux::gi::vct::{march_cone, ConeMarch, ConeParams, CONE_WGSL};
+use octolux::gi::vct::gather::diffuse_cone_dir;
+use octolux::gi::vct::{
+    gather_irradiance, march_cone, ConeMarch, ConeParams, CONE_WGSL, GATHER_WGSL,
+};
 use octolux::gpu::{read_buffer, GpuContext, GpuOptions};
 
 const N: usize = 8;
@@ -160,6 +163,31 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let c = cones[id.x];
     results[id.x] = march_cone(c.origin.xyz, c.dir.xyz, c.params);
 }
+
+// The diffuse gather at apex `origin` around the normal `dir`: irradiance in rgb.
+@compute @workgroup_size(64)
+fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&results) {
+        return;
+    }
+    let c = cones[id.x];
+    var e = vec3<f32>(0.0);
+    for (var i = 0u; i < DIFFUSE_CONES; i++) {
+        let l = march_cone(c.origin.xyz, diffuse_cone_dir(c.dir.xyz, i), c.params);
+        e += diffuse_cone_weight(i) * l.rgb;
+    }
+    results[id.x] = vec4<f32>(3.14159265 * e, 0.0);
+}
+
+// The cone directions around the normal `dir` (one invocation per cone of the set).
+@compute @workgroup_size(64)
+fn directions(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&results) {
+        return;
+    }
+    let c = cones[id.x / DIFFUSE_CONES];
+    results[id.x] = vec4<f32>(diffuse_cone_dir(c.dir.xyz, id.x % DIFFUSE_CONES), 0.0);
+}
 "#;
 
 #[repr(C)]
@@ -170,9 +198,57 @@ struct GpuCone {
     params: ConeParams,
 }
 
-fn gpu_march(ctx: &GpuContext, grid: &Grid, cones: &[ConeMarch]) -> Vec<Vec4> {
-    let module = ctx.shader("cone test", &format!("{CONE_WGSL}\n{SAMPLER_WGSL}"));
-    let pipeline = ctx.compute_pipeline("cone test", &module, "main");
+/// Runs entry point `entry` with one invocation per result (`results` of them).
+fn gpu_run(
+    ctx: &GpuContext,
+    grid: &Grid,
+    cones: &[ConeMarch],
+    entry: &str,
+    results: usize,
+) -> Vec<Vec4> {
+    let module = ctx.shader(
+        "cone test",
+        &format!("{CONE_WGSL}\n{GATHER_WGSL}\n{SAMPLER_WGSL}"),
+    );
+    // One explicit layout for every entry point (some read only part of the bindings).
+    let storage_entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let layout = ctx
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, true),
+                storage_entry(2, true),
+                storage_entry(3, false),
+            ],
+        });
+    let pipeline_layout = ctx
+        .device
+        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+    let pipeline = ctx
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
     let storage = wgpu::BufferUsages::STORAGE;
     let info: [f32; 8] = [
         grid.origin.x,
@@ -197,7 +273,7 @@ fn gpu_march(ctx: &GpuContext, grid: &Grid, cones: &[ConeMarch]) -> Vec<Vec4> {
         .collect();
     let cone_buffer =
         ctx.create_buffer_init("test", "cones", bytemuck::cast_slice(&gpu_cones), storage);
-    let size = cones.len() as u64 * 16;
+    let size = results as u64 * 16;
     let results = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("results"),
         size,
@@ -206,7 +282,7 @@ fn gpu_march(ctx: &GpuContext, grid: &Grid, cones: &[ConeMarch]) -> Vec<Vec4> {
     });
     let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
-        layout: &pipeline.get_bind_group_layout(0),
+        layout: &layout,
         entries: &[(0, &info), (1, &voxels), (2, &cone_buffer), (3, &results)].map(
             |(binding, b)| wgpu::BindGroupEntry {
                 binding,
@@ -219,7 +295,7 @@ fn gpu_march(ctx: &GpuContext, grid: &Grid, cones: &[ConeMarch]) -> Vec<Vec4> {
         let mut pass = encoder.begin_compute_pass(&Default::default());
         pass.set_pipeline(&pipeline);
         pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((cones.len() as u32).div_ceil(64), 1, 1);
+        pass.dispatch_workgroups((size as u32 / 16).div_ceil(64), 1, 1);
     }
     ctx.queue.submit([encoder.finish()]);
     let bytes = read_buffer(ctx, &results, 0, size).unwrap();
@@ -324,7 +400,7 @@ fn gpu_cones_equal_the_cpu_twin_through_known_grids() {
         for cone in &cones {
             assert_decisions_are_clear(grid, cone);
         }
-        let gpu = gpu_march(&ctx, grid, &cones);
+        let gpu = gpu_run(&ctx, grid, &cones, "main", cones.len());
         let mut nonzero = 0;
         for (cone, g) in cones.iter().zip(&gpu) {
             let cpu = march_cone(|p, f| grid.sample(p, f), cone);
@@ -358,4 +434,74 @@ fn gpu_cones_equal_the_cpu_twin_through_known_grids() {
         (colour - Vec3::new(0.8, 0.4, 0.1)).abs().max_element() < 1e-4,
         "{straight}"
     );
+}
+
+#[test]
+fn gpu_gather_equals_the_cpu_and_a_closed_uniform_shell_gives_pi_l() {
+    // White furnace: the apex in a hollow at the centre of a grid that is opaque, emitting
+    // radiance L, everywhere else. Every cone ends in fully opaque samples, so each sees L and
+    // the gather gives pi L, whatever the normal (1e-4 relative: the opacity reaches 1 up to
+    // the rounding of trilinear weights).
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let l = Vec3::new(0.5, 1.0, 2.0);
+    let shell = Grid::new(|x, y, z| {
+        let c = Vec3::new(x as f32, y as f32, z as f32) + Vec3::splat(0.5) - Vec3::splat(4.0);
+        if c.length() < 1.8 {
+            Vec4::ZERO
+        } else {
+            l.extend(1.0)
+        }
+    });
+    let mut p = params(0.3);
+    p.max_distance = 3.0;
+    p.stop_opacity = 1.0;
+    let normals = [
+        Vec3::Y,
+        Vec3::NEG_Z,
+        Vec3::new(0.3, -0.8, 0.52).normalize(),
+        Vec3::new(-0.9, 0.1, 0.42).normalize(),
+    ];
+    let apexes: Vec<ConeMarch> = normals
+        .iter()
+        .map(|&n| ConeMarch {
+            origin: Vec3::new(0.01, -0.02, 0.015),
+            dir: n,
+            params: p,
+        })
+        .collect();
+    let gpu = gpu_run(&ctx, &shell, &apexes, "gather", apexes.len());
+    let pi_l = std::f32::consts::PI * l;
+    for (apex, g) in apexes.iter().zip(&gpu) {
+        let radiance: [Vec3; 6] = std::array::from_fn(|i| {
+            let cone = ConeMarch {
+                dir: diffuse_cone_dir(apex.dir, i),
+                ..*apex
+            };
+            let r = march_cone(|q, f| shell.sample(q, f), &cone);
+            // Opaque up to the rounding of trilinear weights (they sum to 1 within ulps);
+            // what a cone adds after that is below 1e-5 of L on either side.
+            assert!(
+                r.w > 0.99999,
+                "cone {i} around {} ends opaque: {r}",
+                apex.dir
+            );
+            r.truncate()
+        });
+        let cpu = gather_irradiance(&radiance);
+        assert!(
+            (cpu - pi_l).abs().max_element() < 1e-4 * pi_l.max_element(),
+            "{cpu}"
+        );
+        assert!(
+            (g.truncate() - cpu).abs().max_element() < 1e-4 * pi_l.max_element(),
+            "GPU {g} CPU {cpu}"
+        );
+    }
+    // The cone directions themselves, GPU against CPU.
+    let dirs = gpu_run(&ctx, &shell, &apexes, "directions", apexes.len() * 6);
+    for (k, d) in dirs.iter().enumerate() {
+        let cpu = diffuse_cone_dir(apexes[k / 6].dir, k % 6);
+        assert!((d.truncate() - cpu).abs().max_element() < 1e-5, "{d} {cpu}");
+    }
 }

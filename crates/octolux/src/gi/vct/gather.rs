@@ -1,0 +1,117 @@
+//! The diffuse gather's cone set: `003`'s six cones (one along the normal, five at 60 degrees
+//! around it), weighted by the cosine of their angle to the normal and normalised to sum to 1.
+//! Irradiance is `pi x` the weighted mean of the cones' radiance: exact for a uniform
+//! environment (`pi L`), which `003`'s unnormalised weights (summing to 3.5) were not. For a
+//! cosine-shaped environment `L0 max(0, cos)` the six cones give 0.643 where the integral is
+//! 2/3: 3.6 % low, the price of six cones.
+
+use glam::Vec3;
+
+/// WGSL: `diffuse_cone_dir(n, i)`, `diffuse_cone_weight(i)`, `DIFFUSE_CONES`.
+pub const GATHER_WGSL: &str = include_str!("gather.wgsl");
+
+/// `003`'s cone directions in the frame whose +y is the normal.
+pub const DIFFUSE_CONES_LOCAL: [[f32; 3]; 6] = [
+    [0.0, 1.0, 0.0],
+    [0.0, 0.5, 0.866025],
+    [0.823639, 0.5, 0.267617],
+    [0.509037, 0.5, -0.700629],
+    [-0.509037, 0.5, -0.700629],
+    [-0.823639, 0.5, 0.267617],
+];
+
+/// Normalised cosine weight of cone `i` (1/3.5 for the centre cone, 0.5/3.5 for the ring).
+pub fn diffuse_cone_weight(i: usize) -> f32 {
+    DIFFUSE_CONES_LOCAL[i][1] / 3.5
+}
+
+/// An orthonormal basis `(t, b)` around the unit normal `n` (CPU twin of `cone_basis`).
+pub fn cone_basis(n: Vec3) -> (Vec3, Vec3) {
+    let s = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x),
+        Vec3::new(b, s + n.y * n.y * a, -n.y),
+    )
+}
+
+/// World direction of cone `i` around the unit normal `n` (CPU twin of `diffuse_cone_dir`).
+pub fn diffuse_cone_dir(n: Vec3, i: usize) -> Vec3 {
+    let [x, y, z] = DIFFUSE_CONES_LOCAL[i];
+    let (t, b) = cone_basis(n);
+    (t * x + n * y + b * z).normalize()
+}
+
+/// Irradiance from the six cones' radiance: `pi x` their weighted mean.
+pub fn gather_irradiance(cone_radiance: &[Vec3; 6]) -> Vec3 {
+    cone_radiance
+        .iter()
+        .enumerate()
+        .map(|(i, l)| *l * diffuse_cone_weight(i))
+        .sum::<Vec3>()
+        * std::f32::consts::PI
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn normals() -> Vec<Vec3> {
+        let mut out = vec![
+            Vec3::Y,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+            Vec3::X,
+            Vec3::NEG_X,
+        ];
+        for i in 0..50 {
+            let a = i as f32 * 2.399963;
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / 50.0;
+            let r = (1.0 - z * z).sqrt();
+            out.push(Vec3::new(r * a.cos(), r * a.sin(), z));
+        }
+        out
+    }
+
+    #[test]
+    fn the_basis_is_orthonormal_and_the_cones_keep_their_angle_to_the_normal() {
+        for n in normals() {
+            let (t, b) = cone_basis(n);
+            for (u, v) in [(t, b), (t, n), (b, n)] {
+                assert!(u.dot(v).abs() < 1e-5, "{n}");
+            }
+            assert!((t.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
+            for (i, local) in DIFFUSE_CONES_LOCAL.iter().enumerate() {
+                let d = diffuse_cone_dir(n, i);
+                assert!((d.dot(n) - local[1]).abs() < 1e-5, "{n} cone {i}");
+            }
+            // The ring is evenly spread: neighbours 72 degrees apart about the normal.
+            for i in 1..6 {
+                let j = if i == 5 { 1 } else { i + 1 };
+                let (a, c) = (diffuse_cone_dir(n, i), diffuse_cone_dir(n, j));
+                let (pa, pc) = (
+                    (a - n * a.dot(n)).normalize(),
+                    (c - n * c.dot(n)).normalize(),
+                );
+                assert!((pa.dot(pc) - 72f32.to_radians().cos()).abs() < 1e-4);
+            }
+        }
+    }
+
+    #[test]
+    fn a_uniform_environment_gives_pi_l_and_a_cosine_one_is_within_four_percent() {
+        let l = Vec3::new(0.7, 1.3, 2.0);
+        let e = gather_irradiance(&[l; 6]);
+        assert!(
+            (e - std::f32::consts::PI * l).abs().max_element() < 1e-5,
+            "{e}"
+        );
+        // L(w) = max(0, w.n): exact irradiance pi x 2/3.
+        let cosine: [Vec3; 6] = std::array::from_fn(|i| Vec3::splat(DIFFUSE_CONES_LOCAL[i][1]));
+        let e = gather_irradiance(&cosine).x / std::f32::consts::PI;
+        assert!((e - 2.25 / 3.5).abs() < 1e-6);
+        assert!((e / (2.0 / 3.0) - 1.0).abs() < 0.04, "{e}");
+    }
+}

@@ -1,0 +1,42 @@
+// The diffuse gather's cone set (`003` §3.2.5): one cone along the normal and five at 60
+// degrees around it, weighted by the cosine of their angle to the normal and normalised so
+// that the weights sum to 1; irradiance = pi x the weighted mean of the cones' radiance, so a
+// uniform environment of radiance L gives exactly pi L. CPU twin: `gi/vct/gather.rs`.
+
+const DIFFUSE_CONES: u32 = 6u;
+
+// Directions in the frame whose +y is the normal (003's table: the ring is cone 2 rotated by
+// multiples of 72 degrees about y).
+fn diffuse_cone_local(i: u32) -> vec3<f32> {
+    switch i {
+        case 0u: { return vec3<f32>(0.0, 1.0, 0.0); }
+        case 1u: { return vec3<f32>(0.0, 0.5, 0.866025); }
+        case 2u: { return vec3<f32>(0.823639, 0.5, 0.267617); }
+        case 3u: { return vec3<f32>(0.509037, 0.5, -0.700629); }
+        case 4u: { return vec3<f32>(-0.509037, 0.5, -0.700629); }
+        default: { return vec3<f32>(-0.823639, 0.5, 0.267617); }
+    }
+}
+
+// Cosine weight of cone i over the sum of all six (1 + 5 x 0.5 = 3.5).
+fn diffuse_cone_weight(i: u32) -> f32 {
+    return diffuse_cone_local(i).y / 3.5;
+}
+
+// An orthonormal basis (t, b) around the unit normal n, without a branch on its direction
+// beyond the sign of n.z (Duff et al. 2017).
+fn cone_basis(n: vec3<f32>) -> mat2x3<f32> {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+    let u = vec3<f32>(b, s + n.y * n.y * a, -n.y);
+    return mat2x3<f32>(t, u);
+}
+
+// World direction of cone i around the unit normal n.
+fn diffuse_cone_dir(n: vec3<f32>, i: u32) -> vec3<f32> {
+    let l = diffuse_cone_local(i);
+    let basis = cone_basis(n);
+    return normalize(basis[0] * l.x + n * l.y + basis[1] * l.z);
+}
