@@ -505,3 +505,209 @@ fn gpu_gather_equals_the_cpu_and_a_closed_uniform_shell_gives_pi_l() {
         assert!((d.truncate() - cpu).abs().max_element() < 1e-5, "{d} {cpu}");
     }
 }
+
+const CLIPMAP_TEST_WGSL: &str = r#"
+@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
+@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
+@group(0) @binding(2) var<storage, read> clip_radiance: array<u32>;
+struct Cone { origin: vec4<f32>, dir: vec4<f32>, params: ConeParams }
+@group(0) @binding(3) var<storage, read> cones: array<Cone>;
+@group(0) @binding(4) var<storage, read_write> results: array<vec4<f32>>;
+
+// The clipmap back-end of the marcher's sampling function.
+fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+    return clip_radiance_sample(p, footprint);
+}
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&results) {
+        return;
+    }
+    let c = cones[id.x];
+    results[id.x] = march_cone(c.origin.xyz, c.dir.xyz, c.params);
+}
+"#;
+
+#[test]
+fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
+    // The marcher over the clipmap's injected radiance (`clip_radiance_sample`): a floor lit
+    // by a point light, cones from above it looking down at different apertures. The CPU twin
+    // marches the radiance read back, through the CPU twin of the same sampler. Radiance is
+    // stored as f16 and read back as stored, so both sides sample the same values; every
+    // sample stays 0.1 m (3 voxels) inside level 0, far from the level-choice boundary.
+    use octolux::gpu::PassTimer;
+    use octolux::scene::{Light, LightKind};
+    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
+    use octolux::voxel::sample::{
+        clip_radiance_sample, ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL,
+    };
+    use octolux::voxel::VoxelTriangle;
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let tri = |a: Vec3, b: Vec3, c: Vec3| VoxelTriangle {
+        positions: [a, b, c],
+        albedo: [200, 150, 100],
+        normal: (b - a).cross(c - a).normalize(),
+        emission: Vec3::ZERO,
+    };
+    let (a, b) = (Vec3::new(0.05, 0.3003, 0.05), Vec3::new(0.05, 0.3003, 0.95));
+    let (c, d) = (Vec3::new(0.95, 0.3003, 0.95), Vec3::new(0.95, 0.3003, 0.05));
+    let floor = vec![tri(a, b, c), tri(a, c, d)];
+    let light = Light {
+        name: "point".into(),
+        kind: LightKind::Point,
+        color: Vec3::ONE,
+        intensity: 1.0,
+        position: Vec3::new(0.5, 0.8, 0.5),
+        direction: Vec3::NEG_Y,
+        animation: None,
+    };
+    let settings = ClipmapSettings {
+        resolution: 32,
+        levels: 2,
+        voxel_size: 1.0 / 32.0,
+    };
+    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    clipmap
+        .update(&ctx, &mut timer, &floor, Vec3::splat(0.5))
+        .unwrap();
+    clipmap
+        .inject(&ctx, &mut timer, std::slice::from_ref(&light), 512)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    let radiance = clipmap.read_radiance(&ctx).unwrap();
+    let info = ClipInfo::new(&clipmap.settings, &clipmap.origins);
+    assert_eq!(
+        clipmap.origins[0],
+        Some(glam::IVec3::ZERO),
+        "level 0 spans the unit box"
+    );
+
+    let mut cones = Vec::new();
+    for (i, apex) in [
+        Vec3::new(0.5, 0.55, 0.5),
+        Vec3::new(0.3, 0.5, 0.62),
+        Vec3::new(0.71, 0.6, 0.33),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for (j, dir) in [
+            Vec3::NEG_Y,
+            Vec3::new(0.3, -1.0, 0.1),
+            Vec3::new(-0.2, -1.0, -0.35),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let aperture = [0.1f32, 0.5, 1.0][(i + j) % 3];
+            cones.push(ConeMarch {
+                origin: apex,
+                dir: dir.normalize(),
+                params: ConeParams {
+                    aperture,
+                    start: 0.02,
+                    step: 0.5,
+                    max_distance: 0.3 + 0.0123 * j as f32,
+                    voxel: settings.voxel_size,
+                    stop_opacity: 0.95,
+                    max_steps: 256,
+                    pad: 0,
+                },
+            });
+        }
+    }
+    let sample = |p: Vec3, f: f32| {
+        assert!(
+            p.cmpge(Vec3::splat(0.1)).all() && p.cmple(Vec3::splat(0.9)).all(),
+            "sample at {p} leaves the inner part of level 0"
+        );
+        clip_radiance_sample(&info, &radiance, p, f)
+    };
+    let cpu: Vec<Vec4> = cones.iter().map(|c| march_cone(sample, c)).collect();
+    for (cone, r) in cones.iter().zip(&cpu) {
+        // Off the march's decision boundaries (see the file's header).
+        let p = &cone.params;
+        let spread = 2.0 * (0.5 * p.aperture).tan();
+        let (mut t, mut acc) = (p.start, Vec4::ZERO);
+        while t < p.max_distance && acc.w < p.stop_opacity {
+            let footprint = (spread * t).max(p.voxel);
+            acc = octolux::gi::vct::cone::cone_composite(
+                acc,
+                sample(cone.origin + t * cone.dir, footprint),
+                p.step * footprint,
+                footprint,
+            );
+            t += p.step * footprint;
+            assert!((t - p.max_distance).abs() > 1e-4 && (acc.w - p.stop_opacity).abs() > 1e-4);
+        }
+        assert_eq!(acc, *r);
+    }
+    assert!(
+        cpu.iter().filter(|r| r.w > 0.2).count() >= 6,
+        "most cones reach the floor: {cpu:?}"
+    );
+
+    let module = ctx.shader(
+        "cone clipmap test",
+        &format!(
+            "{CONE_WGSL}\n{CLIPMAP_SAMPLE_WGSL}\n{CLIPMAP_RADIANCE_WGSL}\n{CLIPMAP_TEST_WGSL}"
+        ),
+    );
+    let pipeline = ctx.compute_pipeline("cone clipmap test", &module, "main");
+    let storage = wgpu::BufferUsages::STORAGE;
+    let info_buffer = ctx.create_buffer_init("test", "info", bytemuck::bytes_of(&info), storage);
+    let gpu_cones: Vec<GpuCone> = cones
+        .iter()
+        .map(|c| GpuCone {
+            origin: c.origin.extend(0.0).to_array(),
+            dir: c.dir.extend(0.0).to_array(),
+            params: c.params,
+        })
+        .collect();
+    let cone_buffer =
+        ctx.create_buffer_init("test", "cones", bytemuck::cast_slice(&gpu_cones), storage);
+    let size = cones.len() as u64 * 16;
+    let results = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("results"),
+        size,
+        usage: storage | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let radiance_buffer = clipmap.radiance.as_ref().unwrap();
+    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            // (binding 1, the albedo voxels, is declared by the sampler but unused here)
+            (0, &info_buffer),
+            (2, radiance_buffer),
+            (3, &cone_buffer),
+            (4, &results),
+        ]
+        .map(|(binding, b)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        }),
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((cones.len() as u32).div_ceil(64), 1, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = read_buffer(&ctx, &results, 0, size).unwrap();
+    let gpu: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+    let scale = cpu.iter().map(|r| r.max_element()).fold(0.0f32, f32::max);
+    for ((cone, g), c) in cones.iter().zip(gpu).zip(&cpu) {
+        let g = Vec4::from_array(*g);
+        assert!(
+            (g - *c).abs().max_element() <= 1e-5 * scale + 1e-4 * c.abs().max_element(),
+            "{cone:?}: GPU {g} CPU {c}"
+        );
+    }
+}
