@@ -13,6 +13,7 @@
 //! and no accumulated opacity within 1e-3 of `stop_opacity`, so both sides take the same
 //! samples.
 
+mod lit_floor;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use octolux::gi::vct::gather::diffuse_cone_dir;
@@ -263,6 +264,29 @@ fn gpu_run(
     let info = ctx.create_buffer_init("test", "info", bytemuck::cast_slice(&info), storage);
     let voxels =
         ctx.create_buffer_init("test", "grid", bytemuck::cast_slice(&grid.flat()), storage);
+    let grid_buffers = [info, voxels];
+    dispatch_cones(
+        ctx,
+        &pipeline,
+        &layout,
+        &[(0, &grid_buffers[0]), (1, &grid_buffers[1])],
+        cones,
+        results,
+    )
+}
+
+/// Binds `buffers` plus the cones (binding `n`) and `results` result slots (binding `n + 1`),
+/// `n` being one past the last of `buffers`, runs `pipeline` with one invocation per result
+/// and reads the results back.
+fn dispatch_cones(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[(u32, &wgpu::Buffer)],
+    cones: &[ConeMarch],
+    results: usize,
+) -> Vec<Vec4> {
+    let storage = wgpu::BufferUsages::STORAGE;
     let gpu_cones: Vec<GpuCone> = cones
         .iter()
         .map(|c| GpuCone {
@@ -274,31 +298,40 @@ fn gpu_run(
     let cone_buffer =
         ctx.create_buffer_init("test", "cones", bytemuck::cast_slice(&gpu_cones), storage);
     let size = results as u64 * 16;
-    let results = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+    let out = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("results"),
         size,
         usage: storage | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
+    let next = buffers.iter().map(|(b, _)| b + 1).max().unwrap_or(0);
+    let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .map(|&(binding, b)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    for (binding, b) in [(next, &cone_buffer), (next + 1, &out)] {
+        entries.push(wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        });
+    }
     let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
-        layout: &layout,
-        entries: &[(0, &info), (1, &voxels), (2, &cone_buffer), (3, &results)].map(
-            |(binding, b)| wgpu::BindGroupEntry {
-                binding,
-                resource: b.as_entire_binding(),
-            },
-        ),
+        layout,
+        entries: &entries,
     });
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((size as u32 / 16).div_ceil(64), 1, 1);
+        pass.dispatch_workgroups((results as u32).div_ceil(64), 1, 1);
     }
     ctx.queue.submit([encoder.finish()]);
-    let bytes = read_buffer(ctx, &results, 0, size).unwrap();
+    let bytes = read_buffer(ctx, &out, 0, size).unwrap();
     bytemuck::cast_slice::<u8, [f32; 4]>(&bytes)
         .iter()
         .map(|v| Vec4::from_array(*v))
@@ -536,47 +569,13 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
     // marches the radiance read back, through the CPU twin of the same sampler. Radiance is
     // stored as f16 and read back as stored, so both sides sample the same values; every
     // sample stays 0.1 m (3 voxels) inside level 0, far from the level-choice boundary.
-    use octolux::gpu::PassTimer;
-    use octolux::scene::{Light, LightKind};
-    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
     use octolux::voxel::sample::{
         clip_radiance_sample, ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL,
     };
-    use octolux::voxel::VoxelTriangle;
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
-    let tri = |a: Vec3, b: Vec3, c: Vec3| VoxelTriangle {
-        positions: [a, b, c],
-        albedo: [200, 150, 100],
-        normal: (b - a).cross(c - a).normalize(),
-        emission: Vec3::ZERO,
-    };
-    let (a, b) = (Vec3::new(0.05, 0.3003, 0.05), Vec3::new(0.05, 0.3003, 0.95));
-    let (c, d) = (Vec3::new(0.95, 0.3003, 0.95), Vec3::new(0.95, 0.3003, 0.05));
-    let floor = vec![tri(a, b, c), tri(a, c, d)];
-    let light = Light {
-        name: "point".into(),
-        kind: LightKind::Point,
-        color: Vec3::ONE,
-        intensity: 1.0,
-        position: Vec3::new(0.5, 0.8, 0.5),
-        direction: Vec3::NEG_Y,
-        animation: None,
-    };
-    let settings = ClipmapSettings {
-        resolution: 32,
-        levels: 2,
-        voxel_size: 1.0 / 32.0,
-    };
-    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
-    let mut timer = PassTimer::new(&ctx);
-    clipmap
-        .update(&ctx, &mut timer, &floor, Vec3::splat(0.5))
-        .unwrap();
-    clipmap
-        .inject(&ctx, &mut timer, std::slice::from_ref(&light), 512)
-        .unwrap();
-    timer.finish_frame().unwrap();
+    let clipmap = lit_floor::lit_clipmap(&ctx, &lit_floor::floor());
+    let settings = clipmap.settings;
     let radiance = clipmap.read_radiance(&ctx).unwrap();
     let info = ClipInfo::new(&clipmap.settings, &clipmap.origins);
     assert_eq!(
@@ -657,54 +656,26 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
         ),
     );
     let pipeline = ctx.compute_pipeline("cone clipmap test", &module, "main");
-    let storage = wgpu::BufferUsages::STORAGE;
-    let info_buffer = ctx.create_buffer_init("test", "info", bytemuck::bytes_of(&info), storage);
-    let gpu_cones: Vec<GpuCone> = cones
-        .iter()
-        .map(|c| GpuCone {
-            origin: c.origin.extend(0.0).to_array(),
-            dir: c.dir.extend(0.0).to_array(),
-            params: c.params,
-        })
-        .collect();
-    let cone_buffer =
-        ctx.create_buffer_init("test", "cones", bytemuck::cast_slice(&gpu_cones), storage);
-    let size = cones.len() as u64 * 16;
-    let results = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("results"),
-        size,
-        usage: storage | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
+    let info_buffer = ctx.create_buffer_init(
+        "test",
+        "info",
+        bytemuck::bytes_of(&info),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let layout = pipeline.get_bind_group_layout(0);
+    // (binding 1, the albedo voxels, is declared by the sampler but unused here)
     let radiance_buffer = clipmap.radiance.as_ref().unwrap();
-    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            // (binding 1, the albedo voxels, is declared by the sampler but unused here)
-            (0, &info_buffer),
-            (2, radiance_buffer),
-            (3, &cone_buffer),
-            (4, &results),
-        ]
-        .map(|(binding, b)| wgpu::BindGroupEntry {
-            binding,
-            resource: b.as_entire_binding(),
-        }),
-    });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((cones.len() as u32).div_ceil(64), 1, 1);
-    }
-    ctx.queue.submit([encoder.finish()]);
-    let bytes = read_buffer(&ctx, &results, 0, size).unwrap();
-    let gpu: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+    let gpu = dispatch_cones(
+        &ctx,
+        &pipeline,
+        &layout,
+        &[(0, &info_buffer), (2, radiance_buffer)],
+        &cones,
+        cones.len(),
+    );
     let scale = cpu.iter().map(|r| r.max_element()).fold(0.0f32, f32::max);
-    for ((cone, g), c) in cones.iter().zip(gpu).zip(&cpu) {
-        let g = Vec4::from_array(*g);
+    for ((cone, g), c) in cones.iter().zip(&gpu).zip(&cpu) {
+        let g = *g;
         assert!(
             (g - *c).abs().max_element() <= 1e-5 * scale + 1e-4 * c.abs().max_element(),
             "{cone:?}: GPU {g} CPU {c}"

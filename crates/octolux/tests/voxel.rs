@@ -3,6 +3,7 @@
 //! (structure, neighbour links, brick borders, mipmaps), the clipmap (incremental update equals
 //! a rebuild) and the common sampling interface.
 
+mod lit_floor;
 use glam::Vec3;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::voxel::voxelize::{read_fragments, Voxelizer};
@@ -869,41 +870,13 @@ fn empty_input_gives_empty_structures() {
 
 #[test]
 fn clipmap_light_injection_matches_analytic_irradiance_and_shadows() {
-    use octolux::gpu::PassTimer;
-    use octolux::scene::{Light, LightKind};
-    use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
     let ctx = context();
     // A floor facing +y under a point light, and a small occluder (facing the light) between.
-    let quad = |y: f32, lo: f32, hi: f32, albedo: [u8; 3]| {
-        let (a, b) = (Vec3::new(lo, y, lo), Vec3::new(lo, y, hi));
-        let (c, d) = (Vec3::new(hi, y, hi), Vec3::new(hi, y, lo));
-        vec![tri(a, b, c, albedo), tri(a, c, d, albedo)]
-    };
-    let mut tris = quad(0.3003, 0.05, 0.95, [200, 150, 100]);
-    tris.extend(quad(0.5503, 0.35, 0.5, [255, 255, 255]));
-    let light = Light {
-        name: "point".into(),
-        kind: LightKind::Point,
-        color: Vec3::ONE,
-        intensity: 1.0,
-        position: Vec3::new(0.5, 0.8, 0.5),
-        direction: Vec3::NEG_Y,
-        animation: None,
-    };
-    let settings = ClipmapSettings {
-        resolution: 32,
-        levels: 2,
-        voxel_size: 1.0 / 32.0,
-    };
-    let mut clipmap = Clipmap::new(&ctx, settings).unwrap();
-    let mut timer = PassTimer::new(&ctx);
-    clipmap
-        .update(&ctx, &mut timer, &tris, Vec3::splat(0.5))
-        .unwrap();
-    clipmap
-        .inject(&ctx, &mut timer, std::slice::from_ref(&light), 512)
-        .unwrap();
-    timer.finish_frame().unwrap();
+    let mut tris = lit_floor::floor();
+    tris.extend(lit_floor::quad(0.5503, 0.35, 0.5, [255, 255, 255]));
+    let light = lit_floor::light();
+    let clipmap = lit_floor::lit_clipmap(&ctx, &tris);
+    let settings = clipmap.settings;
     let voxels = clipmap.read_voxels(&ctx).unwrap();
     let radiance = clipmap.read_radiance(&ctx).unwrap();
     let r = settings.resolution as i32;
