@@ -74,6 +74,8 @@ pub struct GiSettings {
     pub clpv: ClpvSettings,
     /// Octree LPV (`[settings.olpv]`).
     pub olpv: OlpvSettings,
+    /// Voxel cone tracing (`[settings.vct]`).
+    pub vct: vct::VctSettings,
 }
 
 impl GiSettings {
@@ -107,7 +109,7 @@ pub(crate) fn indirect_target(
 }
 
 /// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv"];
+pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv", "vct-clipmap"];
 
 /// Creates the technique called `name` for images of `width` x `height`.
 pub fn create(
@@ -120,6 +122,13 @@ pub fn create(
 ) -> Result<Box<dyn GiTechnique>> {
     match name {
         "none" => Ok(Box::new(NoGi::new(ctx, width, height))),
+        "vct-clipmap" => Ok(Box::new(vct::VctClipmap::new(
+            ctx,
+            &settings.vct,
+            scene,
+            width,
+            height,
+        )?)),
         "lpv" | "clpv" | "olpv" => {
             let variant = match name {
                 "lpv" => lpv::Variant::Uniform,

@@ -6,8 +6,11 @@
 //! the structure it traces: the octree's or the clipmap's radiance sampler. [`gather`] holds
 //! the diffuse gather's cone set and weights.
 
+mod clipmap_gi;
 pub mod cone;
 pub mod gather;
+
+pub use clipmap_gi::{VctClipmap, VctSettings};
 
 pub use cone::{march_cone, ConeMarch, ConeParams, CONE_WGSL};
 pub use gather::{diffuse_cone_dir, gather_irradiance, GATHER_WGSL};
