@@ -669,7 +669,7 @@ fn injected_vpl_flux_is_the_reflected_flux_for_every_light_type() {
 }
 
 #[test]
-fn damping_reduces_the_leak_through_a_thin_wall() {
+fn thin_wall_leak_with_and_without_damping() {
     // A spot lights the floor on the +x side of a thin wall at x = 0. Nothing on the -x side
     // is lit, directly or by a bounce, so any indirect light on the wall's dark face is a leak
     // of the LPV's coarse cells through the wall. Measures its mean on the dark face for
@@ -725,13 +725,21 @@ fn damping_reduces_the_leak_through_a_thin_wall() {
         println!("damping {damping}: leak on the dark face {leak:.5} W/m^2");
         leaks.push(leak);
     }
-    assert!(leaks[0] > 0.0, "the undamped LPV leaks through a thin wall");
-    assert!(leaks[2] < leaks[0], "damping reduces the leak: {leaks:?}");
+    // Measured (docs/lpv.md): 0.0039, 0.0042, 0.0047 W/m^2 with the defaults (blocking from
+    // both sides, sampled a cell in front), against 0.0488, 0.0024, 0.0000 with 001's one-sided
+    // blocking and half-cell lookup. Damping no longer helps; the bound holds every setting to
+    // a fifth of the former undamped leak, about 3% of the lit floor's 0.3 W/m^2.
+    for (damping, leak) in [0.0, 1.0, 2.0].iter().zip(&leaks) {
+        assert!(
+            (0.0..0.01).contains(leak),
+            "damping {damping}: leak {leak}, all: {leaks:?}"
+        );
+    }
 }
 
 #[test]
 fn gpu_lookup_matches_cpu_lookup_of_the_accumulated_volume() {
-    // E = max(0, <c(p + n s/2), lobe(-n)>) / s^2 with c trilinear in the accumulated volume,
+    // E = max(0, <c(p + n s LOOKUP_OFFSET), lobe(-n)>) / s^2 with c trilinear in the accumulated volume,
     // computed on the CPU from the GPU's volume and G-buffer, against the GPU lookup. The output
     // is f16: agreement within 0.2% of the largest value.
     use octolux::scene::{Light, LightKind};
@@ -777,7 +785,8 @@ fn gpu_lookup_matches_cpu_lookup_of_the_accumulated_volume() {
             );
             let p = view.inv_view_proj.project_point3(ndc);
             let normal = g.normal[i].normalize();
-            let c = sh::sample_trilinear(&volume, n, origin, cell, p + normal * (0.5 * cell));
+            let at = p + normal * (sh::LOOKUP_OFFSET * cell);
+            let c = sh::sample_trilinear(&volume, n, origin, cell, at);
             for ch in 0..3 {
                 let cpu = sh::irradiance(&c[ch], normal, cell);
                 let got = gpu[i * 4 + ch];
@@ -954,13 +963,14 @@ fn cornell_irradiance_per_region_against_the_reference() {
 
 /// E of one Lambertian VPL (flux 1, normal +x) propagated in an open `n`^3 volume without
 /// occlusion (CPU reference, which the GPU kernel equals), looked up as the renderer does:
-/// VPL in the cell half a cell in front of the emitting point, sample half a cell in front of
-/// the receiver, E = <c, lobe(-n)>/s^2. Returns (distance in cells, off-axis, LPV E, exact E)
+/// VPL in the cell half a cell in front of the emitting point, sample `offset` cells in front
+/// of the receiver, E = <c, lobe(-n)>/s^2. Returns (distance in cells, off-axis, LPV E, exact E)
 /// for receivers facing -x at distances 1..=8 on the lobe axis and on the 45 degree line.
 fn single_vpl_irradiance(
     n: usize,
     iterations: usize,
     directional: f32,
+    offset: f32,
 ) -> Vec<(u32, bool, f32, f32)> {
     let s = 1.0f32;
     let emitter = Vec3::new(3.0, n as f32 / 2.0 + 0.5, n as f32 / 2.0 + 0.5);
@@ -984,7 +994,7 @@ fn single_vpl_irradiance(
             let along = d as f32 * s;
             let receiver = emitter + Vec3::new(along, if off_axis { along } else { 0.0 }, 0.0);
             let rn = -Vec3::X;
-            let c = sh::sample_trilinear(&acc, n, Vec3::ZERO, s, receiver + rn * 0.5 * s);
+            let c = sh::sample_trilinear(&acc, n, Vec3::ZERO, s, receiver + rn * offset * s);
             let lpv = sh::irradiance(&c[0], rn, s);
             let to = receiver - emitter;
             let r = to.length();
@@ -1007,27 +1017,33 @@ fn single_vpl_irradiance_against_the_analytic_answer() {
     //   back, so light diffuses instead of travelling straight: too dark far, and more so off
     //   the axis;
     // - re-emitting it as a beam along the direction it crossed the face (directional 1, the
-    //   default): light keeps its direction, but only the six axis and 24 side directions
-    //   exist, so the light of a single VPL gathers along the grid axes (a ray effect: on the
-    //   axis up to 12 x, 45 degrees off it 0.5-1.2 x).
+    //   default, sampled one cell in front of the receiver): light keeps its direction, but
+    //   only the six axis and 24 side directions exist, so the light of a single VPL gathers
+    //   along the grid axes (a ray effect: on the axis up to 15 x, 45 degrees off it 0.4-1.2
+    //   x). Extended sources average it out (the lit-plane tests).
     // The ratios below are the measured curves (f32 CPU arithmetic, exact up to rounding); the
     // test pins them to 5% so that any change of normalisation (a constant factor such as
     // pi, 4 pi, 2 or 8), of an offset, of the transfer or of the lookup shows.
-    let curves: [(f32, [f32; 8], [f32; 8]); 2] = [
+    let curves: [(f32, f32, [f32; 8], [f32; 8]); 2] = [
         (
             0.0,
+            0.5,
             [2.030, 2.644, 2.098, 1.583, 1.223, 0.922, 0.701, 0.489],
             [1.270, 1.679, 1.521, 1.187, 0.814, 0.490, 0.258, 0.116],
         ),
         (
             GiSettings::default().lpv.directional,
-            [2.34, 6.03, 9.10, 11.01, 11.96, 12.08, 11.82, 11.07],
-            [1.09, 1.04, 0.67, 0.50, 0.57, 0.77, 1.02, 1.22],
+            sh::LOOKUP_OFFSET,
+            [1.471, 7.689, 11.34, 13.59, 14.58, 14.66, 14.13, 13.25],
+            [0.823, 0.956, 0.599, 0.431, 0.497, 0.707, 0.972, 1.215],
         ),
     ];
-    for (directional, expected_on, expected_off) in curves {
-        let rows = single_vpl_irradiance(20, 40, directional);
-        println!("directional {directional}\nd  axis  E_lpv     E_exact   ratio");
+    let mut failures = Vec::new();
+    for (directional, offset, expected_on, expected_off) in curves {
+        let rows = single_vpl_irradiance(20, 40, directional, offset);
+        println!(
+            "directional {directional}, lookup offset {offset}\nd  axis  E_lpv     E_exact   ratio"
+        );
         for &(d, off, lpv, exact) in &rows {
             let ratio = lpv / exact;
             println!(
@@ -1035,12 +1051,14 @@ fn single_vpl_irradiance_against_the_analytic_answer() {
                 if off { "45" } else { " 0" }
             );
             let want = if off { expected_off } else { expected_on }[d as usize - 1];
-            assert!(
-                (ratio / want - 1.0).abs() < 0.05,
-                "directional {directional}, d {d} off-axis {off}: ratio {ratio}, documented {want}"
-            );
+            if (ratio / want - 1.0).abs() >= 0.05 {
+                failures.push(format!(
+                    "directional {directional}, d {d} off-axis {off}: ratio {ratio}, documented {want}"
+                ));
+            }
         }
     }
+    assert!(failures.is_empty(), "{failures:#?}");
 }
 
 /// A square Lambertian emitter filling the bottom row of an open `n`^3 volume (one VPL of flux
@@ -1051,6 +1069,7 @@ fn lit_plane_irradiance(
     n: usize,
     iterations: usize,
     directional: f32,
+    offset: f32,
     heights: &[u32],
 ) -> (Vec<(u32, f32, f32)>, f32) {
     let mut volume = vec![[[0.0f32; 4]; 3]; n * n * n];
@@ -1070,7 +1089,7 @@ fn lit_plane_irradiance(
     }
     let centre = n as f32 / 2.0;
     let lookup = |p: Vec3, normal: Vec3| {
-        let c = sh::sample_trilinear(&acc, n, Vec3::ZERO, 1.0, p + normal * 0.5);
+        let c = sh::sample_trilinear(&acc, n, Vec3::ZERO, 1.0, p + normal * offset);
         sh::irradiance(&c[0], normal, 1.0)
     };
     // Exact: E = M integral of h^2 / (pi r^4) over the square, midpoint rule.
@@ -1109,7 +1128,7 @@ fn lit_plane_lights_itself_and_fades_with_height() {
     // the light back down, so the light that climbs fades within a few cells. Measured ratios,
     // pinned to 5% (deterministic CPU arithmetic); the 32^3 / 64-iteration values are in
     // docs/lpv.md.
-    let (rows, own) = lit_plane_irradiance(16, 32, 0.0, &[2, 4, 8, 12]);
+    let (rows, own) = lit_plane_irradiance(16, 32, 0.0, 0.5, &[2, 4, 8, 12]);
     println!("own E on the plane: {own:.3} W/m^2 (exact 0)");
     for &(h, lpv, exact) in &rows {
         println!(
@@ -1138,15 +1157,16 @@ fn lit_plane_does_not_light_itself_when_light_keeps_its_direction() {
     // exitance (exact 0), ratios above it within 5% of the measured ones.
     let directional = GiSettings::default().lpv.directional;
     for (n, iterations, expected) in [
-        (16, 32, [0.989f32, 1.017, 1.145, 1.288, 0.0]),
-        (32, 64, [1.004, 0.992, 1.013, 1.071, 1.114]),
+        (16, 32, [1.027f32, 1.046, 1.194, 1.326, 0.0]),
+        (32, 64, [1.027, 1.005, 1.029, 1.091, 1.139]),
     ] {
         let heights: &[u32] = if n == 16 {
             &[2, 4, 8, 12]
         } else {
             &[2, 4, 8, 12, 15]
         };
-        let (rows, own) = lit_plane_irradiance(n, iterations, directional, heights);
+        let (rows, own) =
+            lit_plane_irradiance(n, iterations, directional, sh::LOOKUP_OFFSET, heights);
         println!("{n}^3, {iterations} iterations: own E on the plane {own:.4} W/m^2 (exact 0)");
         for &(h, lpv, exact) in &rows {
             println!(

@@ -69,6 +69,12 @@ pub fn lambertian_emitter(phi: f32, n: Vec3) -> Sh {
     lobe(n).map(|c| c * phi / std::f32::consts::PI)
 }
 
+/// Distance in front of a surface, in cells, at which the lookup samples the light: one cell,
+/// so that the eight cell centres of the trilinear sample lie in front of the surface's plane
+/// and a thin wall's far side, whose cells hold the light on the other side, is not read
+/// (001 uses half a cell, which reads the cell behind a wall with weight up to one half).
+pub const LOOKUP_OFFSET: f32 = 1.0;
+
 /// Irradiance on a surface with normal `n` in a cell of side `cell` whose intensity is `c`:
 /// radiance L = I / cell^2 arriving against `n`, E = integral L(w) max(0, -n.w) dw, clamped
 /// at zero (2-band SH can go negative behind a lobe).
