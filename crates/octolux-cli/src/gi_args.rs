@@ -25,6 +25,10 @@ pub struct GiArgs {
     /// LPV family: damping against light leaks at lookup, 0 = off (default 0).
     #[arg(long)]
     pub lpv_damping: Option<f32>,
+    /// LPV family: share 0..1 of the light crossing a cell face that keeps its direction; the
+    /// rest is re-emitted as a Lambertian lobe about the face (default 1).
+    #[arg(long)]
+    pub lpv_directional: Option<f32>,
     /// LPV family: scale of the indirect irradiance (default 1).
     #[arg(long)]
     pub lpv_gain: Option<f32>,
@@ -46,7 +50,7 @@ pub struct GiArgs {
     /// Octree LPV: side of level 0, a power of two (default 32).
     #[arg(long)]
     pub olpv_size: Option<u32>,
-    /// Octree LPV: propagation iterations per level (default 8).
+    /// Octree LPV: propagation iterations per level (default 16).
     #[arg(long)]
     pub olpv_iterations: Option<u32>,
 }
@@ -60,6 +64,7 @@ impl GiArgs {
         set(&mut lpv.rsm_size, self.rsm_size);
         set(&mut lpv.rsm_stride, self.rsm_stride);
         set(&mut lpv.damping, self.lpv_damping);
+        set(&mut lpv.directional, self.lpv_directional);
         set(&mut lpv.gain, self.lpv_gain);
         set(&mut lpv.occlusion, self.lpv_occlusion);
         set(&mut lpv.sky_rsms, self.lpv_sky_rsms);

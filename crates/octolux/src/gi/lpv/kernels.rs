@@ -53,9 +53,9 @@ fn read_u32(ctx: &GpuContext, buffer: &wgpu::Buffer, first: u32, count: u32) -> 
         .collect())
 }
 
-fn write_slots(ctx: &GpuContext, buffer: &wgpu::Buffer, grids: &[GpuGrid]) {
+fn write_slots(ctx: &GpuContext, buffer: &wgpu::Buffer, grids: &[GpuGrid], directional: f32) {
     ctx.queue
-        .write_buffer(buffer, 0, &super::propagate::slot_data(grids));
+        .write_buffer(buffer, 0, &super::propagate::slot_data(grids, directional));
 }
 
 /// Result of [`propagate`].
@@ -67,13 +67,14 @@ pub struct Propagated {
 }
 
 /// Runs `iterations` GPU propagation steps on an `n`^3 grid starting from `input`, occluded by
-/// the `(n+1)^3` geometry volume `gv` when given.
+/// the `(n+1)^3` geometry volume `gv` when given, re-emitting with `directional` (`sh::reemit`).
 pub fn propagate(
     ctx: &GpuContext,
     n: u32,
     input: &[Cell],
     gv: Option<&[Sh]>,
     iterations: u32,
+    directional: f32,
 ) -> Result<Propagated> {
     let cells = n * n * n;
     if input.len() != cells as usize {
@@ -104,6 +105,7 @@ pub fn propagate(
             gv_offset: 0,
             flags: grid_layouts[0].flags,
         }],
+        directional,
     );
     let p = Propagate::new(ctx, &slots, &v);
     let mut timer = PassTimer::new(ctx);
@@ -133,13 +135,15 @@ pub struct OctreeRun {
 }
 
 /// Runs the octree passes on the GPU: level 0 = `level0`, occupancy from the level-0 geometry
-/// volume `gv0` ((n+1)^3 cells), `iterations` unoccluded propagation steps on every level, merge.
+/// volume `gv0` ((n+1)^3 cells), `iterations` unoccluded propagation steps on every level
+/// (re-emission `directional`, `sh::reemit`), merge.
 pub fn octree(
     ctx: &GpuContext,
     n: u32,
     level0: &[Cell],
     gv0: &[Sh],
     iterations: u32,
+    directional: f32,
 ) -> Result<OctreeRun> {
     if !n.is_power_of_two() || n < 2 || level0.len() != (n * n * n) as usize {
         return Err(Error::InvalidArgument(format!(
@@ -180,7 +184,7 @@ pub fn octree(
             flags: gl.flags,
         })
         .collect();
-    write_slots(ctx, &slots, &grids);
+    write_slots(ctx, &slots, &grids, directional);
     let p = Propagate::new(ctx, &slots, &v);
     p.record(&mut timer, "propagate", &v, &grid_layouts, iterations);
     o.record_merge(&mut timer);

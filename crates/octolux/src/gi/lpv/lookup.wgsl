@@ -50,7 +50,7 @@ fn damp(c: vec4<f32>, grad: vec4<f32>) -> vec4<f32> {
 }
 
 fn irradiance(g: Grid, surface: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let p = surface + n * (0.5 * g.cell);
+    let p = surface + n * (LOOKUP_OFFSET * g.cell);
     var c = sample_grid(g, p);
     if grids.damping > 0.0 {
         let front = sample_grid(g, p + n * (0.5 * g.cell));
@@ -77,8 +77,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = world_from_depth(cam, id.xy, depth);
     let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
-    // The light reaching a surface is read half a cell in front of it (001 §3.3.1: the
-    // intensity is taken to originate half a cell away), so the surface's own blocking
+    // The light reaching a surface is read LOOKUP_OFFSET (one) cell in front of it, so that no
+    // cell behind the surface enters the trilinear sample and the surface's own blocking
     // potential at the cell corners does not shadow it.
     var e = irradiance(grids.grids[grids.count - 1u], p, n);
     for (var k = i32(grids.count) - 2; k >= 0; k--) {

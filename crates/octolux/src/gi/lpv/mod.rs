@@ -46,6 +46,11 @@ pub struct LpvSettings {
     pub rsm_stride: u32,
     /// Damping of leaks at lookup (001 §3.3.1), 0 = off (default 0).
     pub damping: f32,
+    /// Share 0..=1 of the flux crossing a cell face that propagation re-emits as a beam along
+    /// the direction it crossed the face; the rest becomes a Lambertian lobe about the face
+    /// normal (001). 0 diffuses light (lit planes light themselves, the far field fades), 1
+    /// keeps its direction (default 1, measured over every shipped scene: docs/lpv.md).
+    pub directional: f32,
     /// Scale of the indirect irradiance (default 1: physical units, no fudge factor).
     pub gain: f32,
     /// Occlusion of propagation by the geometry volume (default true).
@@ -68,6 +73,7 @@ impl Default for LpvSettings {
             rsm_size: 512,
             rsm_stride: 4,
             damping: 0.0,
+            directional: 1.0,
             gain: 1.0,
             occlusion: true,
             sky_rsms: 8,
@@ -109,8 +115,9 @@ impl Default for ClpvSettings {
 pub struct OlpvSettings {
     /// Side n of level 0, a power of two >= 2 (default 32); l = log2(n) + 1 levels.
     pub size: u32,
-    /// Propagation iterations on every level (default 8: level 2, cells 4 times level 0's,
-    /// crosses the volume; the paper's k = 4 is 4% worse in relMSE on the Cornell box).
+    /// Propagation iterations on every level (default 16: light keeps its direction and moves
+    /// one cell per step, so level 0, which serves the pixels near geometry, must carry it
+    /// across half the volume; 8 left the Cornell box's ceiling dark, docs/lpv.md).
     pub iterations: u32,
 }
 
@@ -118,7 +125,7 @@ impl Default for OlpvSettings {
     fn default() -> Self {
         OlpvSettings {
             size: 32,
-            iterations: 8,
+            iterations: 16,
         }
     }
 }
@@ -382,6 +389,11 @@ impl LpvGi {
             "lpv damping",
             "finite, >= 0",
         )?;
+        check(
+            (0.0..=1.0).contains(&s.directional),
+            "lpv directional",
+            "0..=1",
+        )?;
         if let Some([lo, hi]) = s.bounds {
             let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
             check(
@@ -612,8 +624,11 @@ impl GiTechnique for LpvGi {
         self.last_grids = Some(grids);
         ctx.queue
             .write_buffer(&self.grids, 0, bytemuck::bytes_of(&grids));
-        ctx.queue
-            .write_buffer(&self.grid_slots, 0, &propagate::slot_data(&placed));
+        ctx.queue.write_buffer(
+            &self.grid_slots,
+            0,
+            &propagate::slot_data(&placed, self.settings.directional),
+        );
         if self.variant == Variant::Octree {
             // The lookup reads the merged volume: one grid of level 0's placement.
             let mut merged = grids;

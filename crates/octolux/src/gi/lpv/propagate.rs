@@ -56,14 +56,16 @@ pub struct Propagate {
 }
 
 /// The contents of the grid slot buffer for `grids` (`GridSlot` of `propagate.wgsl`): per
-/// 256-byte slot the grid and the first of its 4x4x4-cell bricks in the dispatch.
-pub fn slot_data(grids: &[GpuGrid]) -> Vec<u8> {
+/// 256-byte slot the grid, the first of its 4x4x4-cell bricks in the dispatch and the
+/// re-emission's `directional` share (`sh::reemit`).
+pub fn slot_data(grids: &[GpuGrid], directional: f32) -> Vec<u8> {
     let mut data = vec![0u8; grids.len().max(1) * SLOT as usize];
     let mut first = 0u32;
     for (i, g) in grids.iter().enumerate() {
         let at = i * SLOT as usize;
         data[at..at + 32].copy_from_slice(bytemuck::bytes_of(g));
         data[at + 32..at + 36].copy_from_slice(&first.to_le_bytes());
+        data[at + 36..at + 40].copy_from_slice(&directional.to_le_bytes());
         first += groups(g.n, 4).pow(3);
     }
     data

@@ -1,14 +1,16 @@
 // One LPV propagation step in gather form (see sh.rs `propagate_step`): each cell collects the
 // flux its six neighbours send through its five non-shared faces (exact solid angles),
-// attenuated by the geometry volume at the shared face, re-emits it as Lambertian lobes about
-// the face normals, writes the result and adds it to the accumulation buffer.
+// attenuated by the geometry volume at the shared face, re-emits it (a beam along the direction
+// it crossed the face and a Lambertian lobe about the face normal, mixed by `directional`),
+// writes the result and adds it to the accumulation buffer.
 
 // Every grid (cascade, octree level) in one 256-byte slot each (`param_slots` in mod.rs), with
 // the first of its 4x4x4-cell bricks; one dispatch steps all of them (`propagate::slot_data`).
 struct GridSlot {
     grid: Grid,
     first_brick: u32,
-    _pad0: u32,
+    // share of the crossing flux re-emitted as a beam along its direction (sh.rs `reemit`)
+    directional: f32,
     _pad1: u32,
     _pad2: u32,
     _pad: array<vec4<u32>, 13>,
@@ -33,7 +35,7 @@ fn cell_index(c: vec3<i32>) -> u32 {
     return grid.offset + u32(c.x + n * (c.y + n * c.z));
 }
 
-// 1 - blocking potential towards the light at the face cell `c` shares with `c - dir`.
+// 1 - blocking potential at the face cell `c` shares with `c - dir` (sh.rs `transmittance`).
 fn transmittance(c: vec3<i32>, dir: vec3<i32>) -> f32 {
     let m = i32(grid.n) + 1;
     var b = vec4<f32>(0.0);
@@ -45,7 +47,10 @@ fn transmittance(c: vec3<i32>, dir: vec3<i32>) -> f32 {
             b += 0.25 * gv[grid.gv_offset + u32(corner.x + m * (corner.y + m * corner.z))];
         }
     }
-    return 1.0 - clamp(dot(b, sh_basis(-vec3<f32>(dir))), 0.0, 1.0);
+    // Opaque from both sides, normalised by the lobe's peak (sh.rs `blocking`).
+    let d = vec3<f32>(dir);
+    let peak = LOBE_C0 * SH_C0 + LOBE_C1 * SH_C1;
+    return 1.0 - clamp(max(dot(b, sh_basis(-d)), dot(b, sh_basis(d))) / peak, 0.0, 1.0);
 }
 
 // One workgroup per brick of 4x4x4 cells of every grid, the grids' bricks one after another.
@@ -63,6 +68,7 @@ fn main(
         }
     }
     grid = slots[which].grid;
+    let directional = slots[which].directional;
     let per = (grid.n + 3u) / 4u;
     let own = brick - slots[which].first_brick;
     if own >= per * per * per {
@@ -104,7 +110,7 @@ fn main(
                 dw = SIDE_SOLID_ANGLE;
             }
             let y = sh_basis(w);
-            let l = sh_lobe(nf) * (dw * t / LPV_PI);
+            let l = (sh_lobe(nf) * ((1.0 - directional) / LPV_PI) + y * directional) * (dw * t);
             r += l * dot(sr, y);
             g += l * dot(sg, y);
             b += l * dot(sb, y);

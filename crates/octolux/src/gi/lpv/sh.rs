@@ -69,6 +69,12 @@ pub fn lambertian_emitter(phi: f32, n: Vec3) -> Sh {
     lobe(n).map(|c| c * phi / std::f32::consts::PI)
 }
 
+/// Distance in front of a surface, in cells, at which the lookup samples the light: one cell,
+/// so that the eight cell centres of the trilinear sample lie in front of the surface's plane
+/// and a thin wall's far side, whose cells hold the light on the other side, is not read
+/// (001 uses half a cell, which reads the cell behind a wall with weight up to one half).
+pub const LOOKUP_OFFSET: f32 = 1.0;
+
 /// Irradiance on a surface with normal `n` in a cell of side `cell` whose intensity is `c`:
 /// radiance L = I / cell^2 arriving against `n`, E = integral L(w) max(0, -n.w) dw, clamped
 /// at zero (2-band SH can go negative behind a lobe).
@@ -133,15 +139,40 @@ pub fn transmittance(gv: &[Sh], n: usize, c: [i32; 3], dir: [i32; 3]) -> f32 {
             add_scaled(&mut b, &gv[i], 0.25);
         }
     }
-    let towards_light = -Vec3::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
-    1.0 - eval(&b, towards_light).clamp(0.0, 1.0)
+    let d = Vec3::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
+    1.0 - blocking(&b, d)
+}
+
+/// Peak of a surfel's 2-band blocking lobe, lobe(n) evaluated along n: 0.25 + 0.5 = 0.75.
+pub const BLOCKING_PEAK: f32 = LOBE_C0 * SH_C0 + LOBE_C1 * SH_C1;
+
+/// Fraction in [0, 1] of the light travelling along `d` that the geometry SH `b` (a sum of
+/// coverage x lobe(n) terms) blocks. A surface is opaque from both sides, so the lobe is read
+/// towards the light and away from it and the larger value counts; it is divided by the
+/// lobe's peak so that a face fully covered by a surface facing the light blocks all of it
+/// (the 2-band lobe peaks at 0.75, not 1).
+pub fn blocking(b: &Sh, d: Vec3) -> f32 {
+    (eval(b, -d).max(eval(b, d)) / BLOCKING_PEAK).clamp(0.0, 1.0)
+}
+
+/// SH that the flux `phi` crossing the face with normal `f`, seen from the neighbour's centre in
+/// direction `w`, is re-emitted as: `directional` x the beam along `w` (the 2-band projection
+/// of all of it travelling along `w`: phi x basis(w)) plus (1 - `directional`) x a Lambertian
+/// lobe about the face normal (phi / pi x lobe(f), 001's re-projection). Both carry exactly
+/// `phi` (equal band 0); they differ only in how much direction the light keeps.
+pub fn reemit(phi: f32, f: Vec3, w: Vec3, directional: f32) -> Sh {
+    let l = lobe(f);
+    let b = basis(w);
+    std::array::from_fn(|k| {
+        phi * ((1.0 - directional) * l[k] / std::f32::consts::PI + directional * b[k])
+    })
 }
 
 /// One propagation step (gather form) on an `n`^3 grid: every cell collects, from each of its
 /// six neighbours, the flux the neighbour's intensity sends through the five faces of the cell
-/// it does not share, Phi_f = I(w_f) dw_f, and re-emits it as a Lambertian lobe about the face
-/// normal (SH = Phi_f / pi * lobe). Light leaving the grid is lost. `gv` (optional) occludes.
-pub fn propagate_step(src: &[Cell], n: usize, gv: Option<&[Sh]>) -> Vec<Cell> {
+/// it does not share, Phi_f = I(w_f) dw_f, and re-emits it ([`reemit`] with `directional`).
+/// Light leaving the grid is lost. `gv` (optional) occludes.
+pub fn propagate_step(src: &[Cell], n: usize, gv: Option<&[Sh]>, directional: f32) -> Vec<Cell> {
     let mut dst = vec![[[0.0f32; 4]; 3]; n * n * n];
     let inside = |c: [i32; 3]| c.iter().all(|&v| v >= 0 && v < n as i32);
     for z in 0..n {
@@ -167,10 +198,9 @@ pub fn propagate_step(src: &[Cell], n: usize, gv: Option<&[Sh]>) -> Vec<Cell> {
                         } else {
                             ((d + 0.5 * f).normalize(), SIDE_SOLID_ANGLE)
                         };
-                        let reemit = lobe(f);
                         for ch in 0..3 {
                             let phi = eval(&source[ch], w) * dw * t;
-                            add_scaled(&mut out[ch], &reemit, phi / std::f32::consts::PI);
+                            add_scaled(&mut out[ch], &reemit(phi, f, w, directional), 1.0);
                         }
                     }
                 }
@@ -428,15 +458,45 @@ mod tests {
     }
 
     #[test]
+    fn a_fully_covering_surface_blocks_from_both_sides() {
+        let wall = lobe(Vec3::X);
+        // Head-on from either side: opaque; grazing: the 2-band lobe's isotropic third.
+        assert!((blocking(&wall, Vec3::X) - 1.0).abs() < 1e-6);
+        assert!((blocking(&wall, -Vec3::X) - 1.0).abs() < 1e-6);
+        assert!((blocking(&wall, Vec3::Y) - 1.0 / 3.0).abs() < 1e-6);
+        // Partial coverage scales it; nothing blocks nothing.
+        let half = wall.map(|c| c * 0.5);
+        assert!((blocking(&half, -Vec3::X) - 0.5).abs() < 1e-6);
+        assert_eq!(blocking(&[0.0; 4], Vec3::Z), 0.0);
+    }
+
+    #[test]
+    fn reemission_carries_the_face_flux_and_keeps_direction_when_directional() {
+        let (f, w) = (Vec3::X, Vec3::new(2.0, 1.0, 0.0).normalize());
+        for directional in [0.0, 0.3, 1.0] {
+            let c = reemit(2.0, f, w, directional);
+            assert!((flux(&c) - 2.0).abs() < 1e-5, "{directional}");
+        }
+        // The beam's band 1 points along w, the Lambertian lobe's along the face normal.
+        let beam = reemit(1.0, f, w, 1.0);
+        let b1 = Vec3::new(-beam[3], -beam[1], beam[2]).normalize();
+        assert!(b1.dot(w) > 0.9999);
+        let lambert = reemit(1.0, f, w, 0.0);
+        let l1 = Vec3::new(-lambert[3], -lambert[1], lambert[2]).normalize();
+        assert!(l1.dot(f) > 0.9999);
+    }
+
+    #[test]
     fn cpu_propagation_conserves_flux_in_an_open_grid() {
         let n = 6;
         let mut v = vec![[[0.0f32; 4]; 3]; n * n * n];
         v[index(n, 2, 3, 1)][0] = lambertian_emitter(1.0, Vec3::new(0.2, 0.9, -0.4).normalize());
         v[index(n, 4, 4, 4)][2] = lambertian_emitter(0.5, Vec3::X);
-        for _ in 0..8 {
+        for step in 0..8 {
             let out = boundary_outflow(&v, n);
             let before = total_flux(&v);
-            v = propagate_step(&v, n, None);
+            // Either re-emission carries the same flux.
+            v = propagate_step(&v, n, None, if step % 2 == 0 { 0.0 } else { 1.0 });
             let after = total_flux(&v);
             for ch in 0..3 {
                 assert!((after[ch] + out[ch] - before[ch]).abs() < 1e-5 * (1.0 + before[ch]));

@@ -4,6 +4,8 @@ const SH_C0: f32 = 0.2820948;
 const SH_C1: f32 = 0.4886025;
 const LOBE_C0: f32 = 0.8862269;
 const LOBE_C1: f32 = 1.0233267;
+// sh.rs LOOKUP_OFFSET: the lookup samples this many cells in front of the surface.
+const LOOKUP_OFFSET: f32 = 1.0;
 const FRONT_SOLID_ANGLE: f32 = 0.4006697;
 const SIDE_SOLID_ANGLE: f32 = 0.42343135;
 const LPV_PI: f32 = 3.14159265358979;
