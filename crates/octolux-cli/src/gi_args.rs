@@ -53,6 +53,27 @@ pub struct GiArgs {
     /// Octree LPV: propagation iterations per level (default 16).
     #[arg(long)]
     pub olpv_iterations: Option<u32>,
+    /// Cone tracing: voxels per side of each clipmap level, a power of two (default 64).
+    #[arg(long)]
+    pub vct_resolution: Option<u32>,
+    /// Cone tracing: clipmap levels, 1..=8 (default 4).
+    #[arg(long)]
+    pub vct_levels: Option<u32>,
+    /// Cone tracing: full aperture of the diffuse cones in degrees (default 60).
+    #[arg(long)]
+    pub vct_aperture: Option<f32>,
+    /// Cone tracing: step as a fraction of the cone's footprint (default 0.5).
+    #[arg(long)]
+    pub vct_step: Option<f32>,
+    /// Cone tracing: apex offset off the surface, in voxels of its level (default 1.5).
+    #[arg(long)]
+    pub vct_start: Option<f32>,
+    /// Cone tracing: accumulated opacity at which a cone stops (default 0.95).
+    #[arg(long)]
+    pub vct_stop_opacity: Option<f32>,
+    /// Cone tracing: samples per shadow ray of the light injection (default 256).
+    #[arg(long)]
+    pub vct_inject_steps: Option<u32>,
 }
 
 impl GiArgs {
@@ -75,6 +96,14 @@ impl GiArgs {
         let olpv = &mut settings.olpv;
         set(&mut olpv.size, self.olpv_size);
         set(&mut olpv.iterations, self.olpv_iterations);
+        let vct = &mut settings.vct;
+        set(&mut vct.resolution, self.vct_resolution);
+        set(&mut vct.levels, self.vct_levels);
+        set(&mut vct.aperture, self.vct_aperture);
+        set(&mut vct.step, self.vct_step);
+        set(&mut vct.start, self.vct_start);
+        set(&mut vct.stop_opacity, self.vct_stop_opacity);
+        set(&mut vct.inject_steps, self.vct_inject_steps);
     }
 }
 

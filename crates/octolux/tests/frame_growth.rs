@@ -64,6 +64,9 @@ fn small_settings() -> GiSettings {
     s.lpv.rsm_size = 64;
     s.clpv.size = 16;
     s.clpv.iterations = 8;
+    s.vct.resolution = 16;
+    s.vct.levels = 2;
+    s.vct.inject_steps = 32;
     s.olpv.size = 16;
     s.olpv.iterations = 4;
     s

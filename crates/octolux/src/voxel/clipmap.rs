@@ -308,6 +308,8 @@ impl UpdateStats {
 
 /// A voxel clipmap on the GPU.
 pub struct Clipmap {
+    /// Ledger owner of its buffers.
+    owner: &'static str,
     /// Dimensions.
     pub settings: ClipmapSettings,
     /// Per level, the first voxel it covers (world-voxel coordinates), once updated.
@@ -411,6 +413,17 @@ impl Clipmap {
         settings: ClipmapSettings,
         options: ClipmapOptions,
     ) -> Result<Clipmap> {
+        Self::with_owner(ctx, settings, options, OWNER)
+    }
+
+    /// [`Clipmap::with_options`] with its memory recorded in the ledger under `owner` (a
+    /// technique that owns the clipmap) instead of `clipmap`.
+    pub fn with_owner(
+        ctx: &GpuContext,
+        settings: ClipmapSettings,
+        options: ClipmapOptions,
+        owner: &'static str,
+    ) -> Result<Clipmap> {
         settings.validate()?;
         let res = settings.resolution as u64;
         let bytes = settings.levels as u64 * res * res * res * 4;
@@ -425,7 +438,7 @@ impl Clipmap {
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST;
         let voxels = ctx.create_buffer(
-            OWNER,
+            owner,
             &wgpu::BufferDescriptor {
                 label: Some("voxels"),
                 size: bytes,
@@ -434,7 +447,7 @@ impl Clipmap {
             },
         );
         let normals = ctx.create_buffer(
-            OWNER,
+            owner,
             &wgpu::BufferDescriptor {
                 label: Some("normals"),
                 size: bytes,
@@ -443,7 +456,7 @@ impl Clipmap {
             },
         );
         let emission = ctx.create_buffer(
-            OWNER,
+            owner,
             &wgpu::BufferDescriptor {
                 label: Some("emission"),
                 size: bytes,
@@ -455,7 +468,7 @@ impl Clipmap {
             .min(res * res * res)
             .max(res * res);
         let accum = ctx.create_buffer(
-            OWNER,
+            owner,
             &wgpu::BufferDescriptor {
                 label: Some("accumulation scratch"),
                 size: accum_voxels * ACCUM_WORDS * 4,
@@ -464,7 +477,7 @@ impl Clipmap {
             },
         );
         let written = ctx.create_buffer(
-            OWNER,
+            owner,
             &wgpu::BufferDescriptor {
                 label: Some("written counter"),
                 size: 16,
@@ -483,7 +496,7 @@ impl Clipmap {
         }
         let aniso = (options.anisotropic && aniso_bytes > 0).then(|| {
             ctx.create_buffer(
-                OWNER,
+                owner,
                 &wgpu::BufferDescriptor {
                     label: Some("anisotropic voxels"),
                     size: aniso_bytes,
@@ -493,7 +506,7 @@ impl Clipmap {
             )
         });
         let no_aniso = ctx.create_buffer(
-            OWNER,
+            owner,
             &wgpu::BufferDescriptor {
                 label: Some("no anisotropic voxels"),
                 size: 16,
@@ -533,10 +546,11 @@ impl Clipmap {
             scene: Vec::new(),
             has_scene: false,
             index: TriangleIndex::default(),
-            triangles: upload_triangles(ctx, OWNER, &[]),
+            triangles: upload_triangles(ctx, owner, &[]),
             scratch: [None, None, None],
             scratch_use: (None, [0; 3]),
             pending: Vec::new(),
+            owner,
         })
     }
 
@@ -636,7 +650,7 @@ impl Clipmap {
         self.scene = tris.to_vec();
         self.index = TriangleIndex::new(tris);
         // A new buffer, so that passes recorded earlier keep reading the triangles they saw.
-        self.triangles = upload_triangles(ctx, OWNER, tris);
+        self.triangles = upload_triangles(ctx, self.owner, tris);
         self.pending.clear();
         self.has_scene = true;
         self.acc.upload_bytes += tris.len() as u64 * 64;
@@ -824,7 +838,7 @@ impl Clipmap {
         let one_off = ONE_OFF[which];
         if bytes > SCRATCH_KEEP {
             let buffer = ctx.create_buffer(
-                OWNER,
+                self.owner,
                 &wgpu::BufferDescriptor {
                     label: Some(one_off),
                     ..desc(bytes)
@@ -832,7 +846,7 @@ impl Clipmap {
             );
             return (buffer, 0);
         }
-        ctx.ledger.record(OWNER, one_off, 0);
+        ctx.ledger.record(self.owner, one_off, 0);
         if self.scratch_use.0 != Some(timer.submissions()) {
             self.scratch_use = (Some(timer.submissions()), [0; 3]);
         }
@@ -846,7 +860,7 @@ impl Clipmap {
                 // A new buffer (the old one lives on while recorded passes use it), with room
                 // for growth: a quarter more, within the cap.
                 let size = (bytes + bytes / 4).next_multiple_of(256).min(SCRATCH_KEEP);
-                let buffer = ctx.create_buffer(OWNER, &desc(size));
+                let buffer = ctx.create_buffer(self.owner, &desc(size));
                 self.scratch[which] = Some(buffer.clone());
                 self.scratch_use.1[which] = bytes;
                 (buffer, 0)
@@ -1068,7 +1082,7 @@ impl Clipmap {
             ],
         };
         let params_buffer = ctx.create_buffer_init(
-            OWNER,
+            self.owner,
             "filter params",
             bytemuck::bytes_of(&params),
             wgpu::BufferUsages::STORAGE,
@@ -1162,7 +1176,7 @@ impl Clipmap {
             gpu.push([0.0; 12]);
         }
         let lights_buffer = ctx.create_buffer_init(
-            OWNER,
+            self.owner,
             "inject lights",
             bytemuck::cast_slice(&gpu),
             wgpu::BufferUsages::STORAGE,
@@ -1170,13 +1184,13 @@ impl Clipmap {
         let res = self.settings.resolution as u64;
         let slots = (self.settings.levels as u64 * res * res * res) as u32;
         let params = ctx.create_buffer_init(
-            OWNER,
+            self.owner,
             "inject params",
             bytemuck::cast_slice(&[count, max_steps.clamp(1, 4096), slots, 0]),
             wgpu::BufferUsages::STORAGE,
         );
         let info = ctx.create_buffer_init(
-            OWNER,
+            self.owner,
             "inject info",
             bytemuck::bytes_of(&super::sample::ClipInfo::new(&self.settings, &self.origins)),
             wgpu::BufferUsages::STORAGE,
@@ -1184,7 +1198,7 @@ impl Clipmap {
         let radiance = match self.radiance.take() {
             Some(r) => r,
             None => ctx.create_buffer(
-                OWNER,
+                self.owner,
                 &wgpu::BufferDescriptor {
                     label: Some("radiance"),
                     size: slots as u64 * 8,

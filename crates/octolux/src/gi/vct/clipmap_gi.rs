@@ -244,13 +244,14 @@ impl VctClipmap {
         };
         ctx.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        Clipmap::with_options(
+        Clipmap::with_owner(
             ctx,
             clip,
             ClipmapOptions {
                 filtered: true,
                 anisotropic: false,
             },
+            OWNER,
         )
     }
 }
