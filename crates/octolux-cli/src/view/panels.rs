@@ -206,6 +206,31 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             }
             changed |= drag(ui, "iterations per level", &mut s.olpv.iterations, 0, 64);
         }
+        "vct-clipmap" => {
+            let v = &mut s.vct;
+            let mut resolution = v.resolution;
+            ComboBox::from_label("voxels per level side")
+                .selected_text(resolution.to_string())
+                .show_ui(ui, |ui| {
+                    for n in [16, 32, 64, 128] {
+                        ui.selectable_value(&mut resolution, n, n.to_string());
+                    }
+                });
+            if resolution != v.resolution {
+                v.resolution = resolution;
+                changed = true;
+            }
+            changed |= drag(ui, "levels", &mut v.levels, 1, 8);
+            let slider = |ui: &mut Ui, label: &str, x: &mut f32, lo: f32, hi: f32| {
+                ui.add(Slider::new(x, lo..=hi).text(label)).changed()
+            };
+            changed |= slider(ui, "aperture (degrees)", &mut v.aperture, 10.0, 120.0);
+            changed |= slider(ui, "step (x footprint)", &mut v.step, 0.1, 2.0);
+            changed |= slider(ui, "start (voxels)", &mut v.start, 0.0, 4.0);
+            changed |= slider(ui, "stop opacity", &mut v.stop_opacity, 0.5, 1.0);
+            changed |= drag(ui, "injection steps", &mut v.inject_steps, 8, 1024);
+            return changed;
+        }
         _ => return false,
     }
     // Reflective shadow maps, injection and lookup, shared by the LPV family.
