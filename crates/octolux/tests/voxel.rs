@@ -946,3 +946,47 @@ fn clipmap_light_injection_matches_analytic_irradiance_and_shadows() {
         );
     }
 }
+
+#[test]
+fn split_leaves_out_clear_triangles_per_object() {
+    // An animated scene in which a static object's material is clear: the split must skip
+    // that object's triangles without shifting the others (it once panicked on Crytek
+    // Sponza, whose clear triangles made the filtered list shorter than the objects').
+    use octolux::scene::{AlphaMode, Scene};
+    use octolux::voxel::{scene_triangles, scene_triangles_split};
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    let mut scene = Scene::load(path).unwrap();
+    let frame = scene.frame(0.5, 0);
+    let (still, moving) = scene_triangles_split(&scene, &frame);
+    let moving_count = moving.len();
+    assert!(moving_count > 0 && !still.is_empty());
+    let first_static = scene
+        .objects
+        .iter()
+        .position(|o| o.animation.is_none())
+        .unwrap();
+    let mesh = scene.objects[first_static].meshes[0] as usize;
+    let material = scene.meshes[mesh].material as usize;
+    // Give that mesh a material of its own, made clear.
+    let mut clear = scene.materials[material].clone();
+    clear.alpha_mode = AlphaMode::Mask(0.5);
+    clear.opacity = 0.0;
+    scene.materials.push(clear);
+    scene.meshes[mesh].material = (scene.materials.len() - 1) as u32;
+    let gone = scene.meshes[mesh].indices.len() / 3;
+    let (still2, moving2) = scene_triangles_split(&scene, &frame);
+    assert_eq!(
+        moving2.len(),
+        moving_count,
+        "the animated object keeps its triangles"
+    );
+    assert_eq!(still2.len(), still.len() - gone);
+    assert_eq!(
+        still2.len() + moving2.len(),
+        scene_triangles(&scene, &frame).len()
+    );
+    assert_eq!(moving2, moving);
+}

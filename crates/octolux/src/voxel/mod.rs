@@ -185,58 +185,61 @@ pub fn scene_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<VoxelTriangle> 
     scene
         .world_triangles(frame)
         .iter()
-        .filter_map(|t| {
-            let material = scene.materials.get(t.material as usize);
-            if material.is_some_and(|m| m.is_clear()) {
+        .filter_map(|t| voxel_triangle(scene, t))
+        .collect()
+}
+
+/// The voxel triangle of one world triangle, None for a clear or masked-out one.
+fn voxel_triangle(scene: &Scene, t: &crate::scene::WorldTriangle) -> Option<VoxelTriangle> {
+    let material = scene.materials.get(t.material as usize);
+    if material.is_some_and(|m| m.is_clear()) {
+        return None;
+    }
+    let (factor, emission, texture) = match material {
+        Some(m) => (
+            m.base_color,
+            m.emission,
+            m.base_color_texture
+                .and_then(|i| scene.textures.get(i as usize)),
+        ),
+        None => (Vec3::splat(0.8), Vec3::ZERO, None),
+    };
+    let tex = match texture {
+        Some(tex) => {
+            let [a, b, c] = t.uvs;
+            let points: [Vec2; 7] = [
+                a,
+                b,
+                c,
+                (a + b) * 0.5,
+                (b + c) * 0.5,
+                (c + a) * 0.5,
+                (a + b + c) / 3.0,
+            ];
+            points.iter().map(|&uv| tex.sample(uv)).sum::<Vec4>() / 7.0
+        }
+        None => Vec4::ONE,
+    };
+    if let Some(m) = material {
+        if let AlphaMode::Mask(cutoff) = m.alpha_mode {
+            if tex.w * m.opacity < cutoff {
                 return None;
             }
-            let (factor, emission, texture) = match material {
-                Some(m) => (
-                    m.base_color,
-                    m.emission,
-                    m.base_color_texture
-                        .and_then(|i| scene.textures.get(i as usize)),
-                ),
-                None => (Vec3::splat(0.8), Vec3::ZERO, None),
-            };
-            let tex = match texture {
-                Some(tex) => {
-                    let [a, b, c] = t.uvs;
-                    let points: [Vec2; 7] = [
-                        a,
-                        b,
-                        c,
-                        (a + b) * 0.5,
-                        (b + c) * 0.5,
-                        (c + a) * 0.5,
-                        (a + b + c) / 3.0,
-                    ];
-                    points.iter().map(|&uv| tex.sample(uv)).sum::<Vec4>() / 7.0
-                }
-                None => Vec4::ONE,
-            };
-            if let Some(m) = material {
-                if let AlphaMode::Mask(cutoff) = m.alpha_mode {
-                    if tex.w * m.opacity < cutoff {
-                        return None;
-                    }
-                }
-            }
-            let albedo = (factor * tex.truncate()).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
-            let [p0, p1, p2] = t.positions;
-            let normal = (p1 - p0).cross(p2 - p0).normalize_or(t.normals[0]);
-            Some(VoxelTriangle {
-                positions: t.positions,
-                albedo: [
-                    albedo.x.round() as u8,
-                    albedo.y.round() as u8,
-                    albedo.z.round() as u8,
-                ],
-                normal,
-                emission,
-            })
-        })
-        .collect()
+        }
+    }
+    let albedo = (factor * tex.truncate()).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
+    let [p0, p1, p2] = t.positions;
+    let normal = (p1 - p0).cross(p2 - p0).normalize_or(t.normals[0]);
+    Some(VoxelTriangle {
+        positions: t.positions,
+        albedo: [
+            albedo.x.round() as u8,
+            albedo.y.round() as u8,
+            albedo.z.round() as u8,
+        ],
+        normal,
+        emission,
+    })
 }
 
 /// The voxel triangles of `frame`, split into those of objects without animation (static:
@@ -246,23 +249,27 @@ pub fn scene_triangles_split(
     scene: &Scene,
     frame: &SceneFrame,
 ) -> (Vec<VoxelTriangle>, Vec<VoxelTriangle>) {
-    let all = scene_triangles(scene, frame);
+    let all = scene.world_triangles(frame);
     let (mut still, mut moving) = (Vec::new(), Vec::new());
     let mut at = 0;
-    // `world_triangles` lists objects in order, each mesh's triangles in order.
+    // `world_triangles` lists objects in order, each mesh's triangles in order, clear and
+    // masked-out ones included (they are left out here, per triangle).
     for object in &scene.objects {
         let count: usize = object
             .meshes
             .iter()
             .map(|&m| scene.meshes[m as usize].indices.len() / 3)
             .sum();
-        let part = &all[at..at + count];
+        let end = (at + count).min(all.len());
+        let part = all[at.min(end)..end]
+            .iter()
+            .filter_map(|t| voxel_triangle(scene, t));
         if object.animation.is_some() {
-            moving.extend_from_slice(part);
+            moving.extend(part);
         } else {
-            still.extend_from_slice(part);
+            still.extend(part);
         }
-        at += count;
+        at = end;
     }
     (still, moving)
 }
