@@ -238,6 +238,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
     changed |= drag(ui, "RSM stride", &mut s.lpv.rsm_stride, 1, 16);
     changed |= drag(ui, "sky RSMs", &mut s.lpv.sky_rsms, 1, 64);
     changed |= ui
+        .add(Slider::new(&mut s.lpv.directional, 0.0..=1.0).text("directional transfer"))
+        .changed();
+    changed |= ui
         .add(Slider::new(&mut s.lpv.damping, 0.0..=1.0).text("damping"))
         .changed();
     changed |= ui
