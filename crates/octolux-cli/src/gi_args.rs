@@ -74,6 +74,10 @@ pub struct GiArgs {
     /// Cone tracing: samples per shadow ray of the light injection (default 256).
     #[arg(long)]
     pub vct_inject_steps: Option<u32>,
+    /// Cone tracing: trace one pixel per N x N block and reconstruct the others (default 4;
+    /// 1 traces every pixel).
+    #[arg(long)]
+    pub vct_sparse: Option<u32>,
 }
 
 impl GiArgs {
@@ -104,6 +108,7 @@ impl GiArgs {
         set(&mut vct.start, self.vct_start);
         set(&mut vct.stop_opacity, self.vct_stop_opacity);
         set(&mut vct.inject_steps, self.vct_inject_steps);
+        set(&mut vct.sparse, self.vct_sparse);
     }
 }
 

@@ -229,6 +229,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             changed |= slider(ui, "start (voxels)", &mut v.start, 0.0, 4.0);
             changed |= slider(ui, "stop opacity", &mut v.stop_opacity, 0.5, 1.0);
             changed |= drag(ui, "injection steps", &mut v.inject_steps, 8, 1024);
+            changed |= drag(ui, "sparse (N x N block)", &mut v.sparse, 1, 8);
             return changed;
         }
         _ => return false,

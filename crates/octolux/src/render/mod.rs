@@ -11,6 +11,7 @@ pub(crate) mod scene_gpu;
 mod shadow;
 mod sky;
 
+pub(crate) use direct::dispatch_2d;
 pub(crate) use gbuffer::target as render_target;
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub use scene_gpu::SceneGpu;

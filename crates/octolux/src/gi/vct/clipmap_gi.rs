@@ -6,12 +6,16 @@ use super::cone::ConeParams;
 use super::{CONE_WGSL, GATHER_WGSL};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
+use crate::render::dispatch_2d;
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use crate::voxel::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
 use crate::voxel::{scene_triangles_split, VoxelTriangle};
 use crate::{Error, Result};
 
 const OWNER: &str = "vct-clipmap";
+
+/// Default sparse factor (see [`VctSettings::sparse`] and docs/vct.md for the measurements).
+const SPARSE_DEFAULT: u32 = 4;
 
 /// Settings of voxel cone tracing. Scene files: `[settings.vct]`.
 #[derive(Clone, Debug, serde::Deserialize)]
@@ -35,6 +39,9 @@ pub struct VctSettings {
     pub stop_opacity: f32,
     /// Samples per shadow ray of the light injection (default 256).
     pub inject_steps: u32,
+    /// Sparse tracing: one traced pixel per `sparse` x `sparse` block, the others
+    /// reconstructed from the traced ones by depth and normal (1 = every pixel; 1..=8).
+    pub sparse: u32,
 }
 
 impl Default for VctSettings {
@@ -47,6 +54,7 @@ impl Default for VctSettings {
             start: 1.5,
             stop_opacity: 0.95,
             inject_steps: 256,
+            sparse: SPARSE_DEFAULT,
         }
     }
 }
@@ -92,7 +100,8 @@ impl VctSettings {
             (1..=4096).contains(&self.inject_steps),
             "vct inject_steps",
             "1..=4096",
-        )
+        )?;
+        check((1..=8).contains(&self.sparse), "vct sparse", "1..=8")
     }
 }
 
@@ -114,6 +123,9 @@ pub struct VctClipmap {
     dynamic_from: usize,
     scene_set: bool,
     pipeline: wgpu::ComputePipeline,
+    /// Sparse tracing: the reduced image and the reconstruction (None when every pixel is
+    /// traced).
+    sparse: Option<(wgpu::Texture, wgpu::TextureView, wgpu::ComputePipeline)>,
     params: wgpu::Buffer,
     info: wgpu::Buffer,
     texture: wgpu::Texture,
@@ -143,11 +155,43 @@ impl VctClipmap {
             CLIPMAP_RADIANCE_WGSL,
             CONE_WGSL,
             GATHER_WGSL,
+            include_str!("sparse.wgsl"),
             include_str!("trace.wgsl"),
         ]
         .join("\n");
         let module = ctx.shader("vct trace", &source);
         let pipeline = ctx.compute_pipeline("vct trace", &module, "main");
+        let f = settings.sparse;
+        let sparse = (f > 1).then(|| {
+            let texture = ctx.create_texture(
+                OWNER,
+                &wgpu::TextureDescriptor {
+                    label: Some("sparse irradiance"),
+                    size: wgpu::Extent3d {
+                        width: width.div_ceil(f),
+                        height: height.div_ceil(f),
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::Rgba16Float,
+                    usage: wgpu::TextureUsages::STORAGE_BINDING
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                },
+            );
+            let view = texture.create_view(&Default::default());
+            let source = [
+                include_str!("../../render/common.wgsl"),
+                include_str!("sparse.wgsl"),
+                include_str!("upsample.wgsl"),
+            ]
+            .join("\n");
+            let module = ctx.shader("vct upsample", &source);
+            let upsample = ctx.compute_pipeline("vct upsample", &module, "main");
+            (texture, view, upsample)
+        });
         let params = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
@@ -174,6 +218,7 @@ impl VctClipmap {
             dynamic_from: 0,
             scene_set: false,
             pipeline,
+            sparse,
             params,
             info,
             texture,
@@ -240,7 +285,7 @@ impl VctClipmap {
                 max_steps: 512,
                 pad: 0,
             },
-            misc: [s.start, 0.0, 0.0, 0.0],
+            misc: [s.start, s.sparse as f32, 0.0, 0.0],
         };
         ctx.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
@@ -280,6 +325,7 @@ impl GiTechnique for VctClipmap {
             return Err(Error::Gpu("vct-clipmap: no injected radiance".into()));
         };
         let tex = wgpu::BindingResource::TextureView;
+        let traced = self.sparse.as_ref().map_or(&self.view, |(_, view, _)| view);
         let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("vct trace"),
             layout: &self.pipeline.get_bind_group_layout(0),
@@ -290,20 +336,31 @@ impl GiTechnique for VctClipmap {
                 (3, self.info.as_entire_binding()),
                 (4, radiance.as_entire_binding()),
                 (5, self.params.as_entire_binding()),
-                (6, tex(&self.view)),
+                (6, tex(traced)),
             ]
             .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
         });
         let (w, h) = (self.texture.width(), self.texture.height());
-        timer.pass("vct trace", |encoder, stamps| {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("vct trace"),
-                timestamp_writes: stamps.compute(),
+        let f = self.settings.sparse;
+        let (tw, th) = (w.div_ceil(f), h.div_ceil(f));
+        dispatch_2d(timer, "vct trace", &self.pipeline, &group, tw, th);
+        // 4. Sparse tracing: the untraced pixels from the traced ones.
+        if let Some((_, view, upsample)) = &self.sparse {
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("vct upsample"),
+                layout: &upsample.get_bind_group_layout(0),
+                entries: &[
+                    (0, frame.camera_uniform.as_entire_binding()),
+                    (1, tex(&frame.gbuffer.depth_view)),
+                    (2, tex(&frame.gbuffer.normal_view)),
+                    (3, tex(view)),
+                    (4, self.params.as_entire_binding()),
+                    (5, tex(&self.view)),
+                ]
+                .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
             });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-        });
+            dispatch_2d(timer, "vct upsample", upsample, &group, w, h);
+        }
         Ok(())
     }
 

@@ -1,7 +1,8 @@
-// Diffuse gather per G-buffer pixel: the six cones of `gather.wgsl` from the surface (apex
-// moved `apex_offset` metres along the normal, off the surface's own voxels), marched through
-// the clipmap's injected radiance by `march_cone`; irradiance E = pi x the weighted mean of
-// the cones' radiance, in W/m^2.
+// Diffuse gather: the six cones of `gather.wgsl` from the surface (apex moved off the
+// surface's own voxels along the normal), marched through the clipmap's injected radiance by
+// `march_cone`; irradiance E = pi x the weighted mean of the cones' radiance, in W/m^2. With
+// sparse tracing (misc.y = f > 1) one invocation traces the centre pixel of each f x f block
+// and writes the block's texel of a reduced image; `upsample.wgsl` fills the full image.
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var depth_tex: texture_depth_2d;
@@ -15,7 +16,8 @@
 
 struct TraceParams {
     cone: ConeParams,
-    // x: apex offset along the normal and first sample, in voxels of the surface's level
+    // x: apex offset along the normal and first sample, in voxels of the surface's level;
+    // y: sparse factor f (one traced pixel per f x f block)
     misc: vec4<f32>,
 }
 
@@ -27,16 +29,18 @@ fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = vec2<u32>(cam.size.xy);
-    if id.x >= size.x || id.y >= size.y {
+    let f = u32(trace.misc.y);
+    if id.x * f >= size.x || id.y * f >= size.y {
         return;
     }
-    let depth = textureLoad(depth_tex, id.xy, 0);
+    let px = block_pixel(id.xy, f, size);
+    let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 {
         textureStore(out_tex, id.xy, vec4<f32>(0.0, 0.0, 0.0, 1.0));
         return;
     }
-    let p = world_from_depth(cam, id.xy, depth);
-    let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
+    let p = world_from_depth(cam, px, depth);
+    let n = normalize(textureLoad(normal_tex, px, 0).xyz);
     // The voxel size where the surface is: the finest level holding it. Cones start one such
     // voxel (x `start`) off the surface and never sample finer, so the surface's own voxels
     // do not occlude them (a coarse level's voxel is thicker than a fine level's offset).

@@ -1,0 +1,7 @@
+// Sparse tracing's blocks, shared by `trace.wgsl` and `upsample.wgsl`: one traced pixel per
+// f x f block of the image.
+
+// The pixel traced for block b: the block's centre, inside the image.
+fn block_pixel(b: vec2<u32>, f: u32, size: vec2<u32>) -> vec2<u32> {
+    return min(b * f + vec2<u32>(f / 2u), size - vec2<u32>(1u));
+}
