@@ -20,7 +20,7 @@ use octolux::gi::vct::gather::diffuse_cone_dir;
 use octolux::gi::vct::{
     gather_irradiance, march_cone, ConeMarch, ConeParams, CONE_WGSL, GATHER_WGSL,
 };
-use octolux::gpu::{read_buffer, GpuContext, GpuOptions};
+use octolux::gpu::{read_buffer, storage_entry, GpuContext, GpuOptions};
 
 const N: usize = 8;
 const LEVELS: usize = 4;
@@ -106,14 +106,28 @@ impl Grid {
     }
 }
 
+/// The cones to march and their results (bindings 8 and 9, after any sampler's), and the
+/// kernel marching one cone per invocation through the includer's `vct_sample`.
+const CONE_KERNEL_WGSL: &str = r#"
+struct Cone { origin: vec4<f32>, dir: vec4<f32>, params: ConeParams }
+@group(0) @binding(8) var<storage, read> cones: array<Cone>;
+@group(0) @binding(9) var<storage, read_write> results: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&results) {
+        return;
+    }
+    let c = cones[id.x];
+    results[id.x] = march_cone(c.origin.xyz, c.dir.xyz, c.params);
+}
+"#;
+
 const SAMPLER_WGSL: &str = r#"
 struct GridInfo { origin: vec4<f32>, misc: vec4<u32> }
 @group(0) @binding(0) var<storage, read> info: GridInfo;
 @group(0) @binding(1) var<storage, read> grid: array<vec4<f32>>;
 
-struct Cone { origin: vec4<f32>, dir: vec4<f32>, params: ConeParams }
-@group(0) @binding(2) var<storage, read> cones: array<Cone>;
-@group(0) @binding(3) var<storage, read_write> results: array<vec4<f32>>;
 
 fn level_offset(l: u32) -> u32 {
     var offset = 0u;
@@ -156,14 +170,6 @@ fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     return a + f * (b - a);
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&results) {
-        return;
-    }
-    let c = cones[id.x];
-    results[id.x] = march_cone(c.origin.xyz, c.dir.xyz, c.params);
-}
 
 // The diffuse gather at apex `origin` around the normal `dir`: irradiance in rgb.
 @compute @workgroup_size(64)
@@ -209,19 +215,9 @@ fn gpu_run(
 ) -> Vec<Vec4> {
     let module = ctx.shader(
         "cone test",
-        &format!("{CONE_WGSL}\n{GATHER_WGSL}\n{SAMPLER_WGSL}"),
+        &format!("{CONE_WGSL}\n{GATHER_WGSL}\n{CONE_KERNEL_WGSL}\n{SAMPLER_WGSL}"),
     );
     // One explicit layout for every entry point (some read only part of the bindings).
-    let storage_entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
     let layout = ctx
         .device
         .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -229,8 +225,8 @@ fn gpu_run(
             entries: &[
                 storage_entry(0, true),
                 storage_entry(1, true),
-                storage_entry(2, true),
-                storage_entry(3, false),
+                storage_entry(8, true),
+                storage_entry(9, false),
             ],
         });
     let pipeline_layout = ctx
@@ -275,9 +271,8 @@ fn gpu_run(
     )
 }
 
-/// Binds `buffers` plus the cones (binding `n`) and `results` result slots (binding `n + 1`),
-/// `n` being one past the last of `buffers`, runs `pipeline` with one invocation per result
-/// and reads the results back.
+/// Binds `buffers` plus the cones (binding 8) and `results` result slots (binding 9), runs
+/// `pipeline` with one invocation per result and reads the results back.
 fn dispatch_cones(
     ctx: &GpuContext,
     pipeline: &wgpu::ComputePipeline,
@@ -304,7 +299,6 @@ fn dispatch_cones(
         usage: storage | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let next = buffers.iter().map(|(b, _)| b + 1).max().unwrap_or(0);
     let mut entries: Vec<wgpu::BindGroupEntry> = buffers
         .iter()
         .map(|&(binding, b)| wgpu::BindGroupEntry {
@@ -312,7 +306,7 @@ fn dispatch_cones(
             resource: b.as_entire_binding(),
         })
         .collect();
-    for (binding, b) in [(next, &cone_buffer), (next + 1, &out)] {
+    for (binding, b) in [(8, &cone_buffer), (9, &out)] {
         entries.push(wgpu::BindGroupEntry {
             binding,
             resource: b.as_entire_binding(),
@@ -543,23 +537,12 @@ const CLIPMAP_TEST_WGSL: &str = r#"
 @group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
 @group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
 @group(0) @binding(2) var<storage, read> clip_radiance: array<u32>;
-struct Cone { origin: vec4<f32>, dir: vec4<f32>, params: ConeParams }
-@group(0) @binding(3) var<storage, read> cones: array<Cone>;
-@group(0) @binding(4) var<storage, read_write> results: array<vec4<f32>>;
 
 // The clipmap back-end of the marcher's sampling function.
 fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     return clip_radiance_sample(p, footprint);
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&results) {
-        return;
-    }
-    let c = cones[id.x];
-    results[id.x] = march_cone(c.origin.xyz, c.dir.xyz, c.params);
-}
 "#;
 
 #[test]
@@ -652,7 +635,7 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
     let module = ctx.shader(
         "cone clipmap test",
         &format!(
-            "{CONE_WGSL}\n{CLIPMAP_SAMPLE_WGSL}\n{CLIPMAP_RADIANCE_WGSL}\n{CLIPMAP_TEST_WGSL}"
+            "{CONE_WGSL}\n{CLIPMAP_SAMPLE_WGSL}\n{CLIPMAP_RADIANCE_WGSL}\n{CONE_KERNEL_WGSL}\n{CLIPMAP_TEST_WGSL}"
         ),
     );
     let pipeline = ctx.compute_pipeline("cone clipmap test", &module, "main");

@@ -10,3 +10,17 @@ pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timesta
 pub use ledger::{LedgerEntry, MemoryLedger};
 pub use readback::{read_buffer, read_texture};
 pub use timer::{slowest_first, PassTimer, PassTiming, TimingSource, PROFILE_STEPS_ENV};
+
+/// A compute-stage storage-buffer entry of a bind group layout at `binding`.
+pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}

@@ -458,8 +458,20 @@ impl Scene {
 
     /// All triangles in world space for a frame (for the path tracer and voxelizers).
     pub fn world_triangles(&self, frame: &SceneFrame) -> Vec<WorldTriangle> {
-        let mut out = Vec::with_capacity(self.triangle_count());
+        self.world_triangles_where(frame, |_| true)
+    }
+
+    /// [`Scene::world_triangles`] of the objects `keep` accepts only, in the same order.
+    pub fn world_triangles_where(
+        &self,
+        frame: &SceneFrame,
+        keep: impl Fn(&Object) -> bool,
+    ) -> Vec<WorldTriangle> {
+        let mut out = Vec::new();
         for (object, m) in self.objects.iter().zip(&frame.object_transforms) {
+            if !keep(object) {
+                continue;
+            }
             let normal_matrix = m.inverse().transpose();
             for &mesh_index in &object.meshes {
                 let mesh = &self.meshes[mesh_index as usize];

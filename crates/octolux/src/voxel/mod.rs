@@ -249,29 +249,19 @@ pub fn scene_triangles_split(
     scene: &Scene,
     frame: &SceneFrame,
 ) -> (Vec<VoxelTriangle>, Vec<VoxelTriangle>) {
-    let all = scene.world_triangles(frame);
-    let (mut still, mut moving) = (Vec::new(), Vec::new());
-    let mut at = 0;
-    // `world_triangles` lists objects in order, each mesh's triangles in order, clear and
-    // masked-out ones included (they are left out here, per triangle).
-    for object in &scene.objects {
-        let count: usize = object
-            .meshes
-            .iter()
-            .map(|&m| scene.meshes[m as usize].indices.len() / 3)
-            .sum();
-        let end = (at + count).min(all.len());
-        let part = all[at.min(end)..end]
-            .iter()
-            .filter_map(|t| voxel_triangle(scene, t));
-        if object.animation.is_some() {
-            moving.extend(part);
-        } else {
-            still.extend(part);
-        }
-        at = end;
-    }
-    (still, moving)
+    (
+        objects_triangles(scene, frame, false),
+        objects_triangles(scene, frame, true),
+    )
+}
+
+/// The voxel triangles of the animated objects (`animated`) or of the others, in scene order.
+pub fn objects_triangles(scene: &Scene, frame: &SceneFrame, animated: bool) -> Vec<VoxelTriangle> {
+    scene
+        .world_triangles_where(frame, |o| o.animation.is_some() == animated)
+        .iter()
+        .filter_map(|t| voxel_triangle(scene, t))
+        .collect()
 }
 
 /// Packs voxel coordinates (each < 1024) into one word, 10 bits per axis.

@@ -269,16 +269,7 @@ pub struct SvoBuilder {
 }
 
 pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
+    crate::gpu::storage_entry(binding, read_only)
 }
 
 /// Which bind groups beyond group 0 a kernel uses: group 1 (the dispatch arguments, which a

@@ -35,7 +35,7 @@ fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
     }
     let frag = fragments[f];
     let v = unpack3(frag.x);
-    let n = find(v >> vec3<u32>(1u), L.depth - 1u);
+    let n = leaf_of_voxel(v);
     if n == INVALID {
         return;
     }

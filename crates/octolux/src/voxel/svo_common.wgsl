@@ -57,3 +57,9 @@ fn brick_of(node: u32) -> u32 {
 fn bw_index(b: u32, i: u32) -> u32 {
     return (b % L.pool_bricks) * 54u + i;
 }
+
+// The leaf node holding voxel `v` (level depth - 1: nodes of 2x2x2 voxels), INVALID when the
+// octree has none there.
+fn leaf_of_voxel(v: vec3<u32>) -> u32 {
+    return find(v >> vec3<u32>(1u), L.depth - 1u);
+}

@@ -351,7 +351,7 @@ fn dyn_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
     }
     let frag = fragments[f];
     let v = unpack3(frag.x);
-    let n = find(v >> vec3<u32>(1u), L.depth - 1u);
+    let n = leaf_of_voxel(v);
     if n == INVALID {
         return;
     }
@@ -375,7 +375,7 @@ fn voxel_albedo(v: vec3<i32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let u = vec3<u32>(v);
-    let n = find(u >> vec3<u32>(1u), L.depth - 1u);
+    let n = leaf_of_voxel(u);
     if n == INVALID {
         return vec4<f32>(0.0);
     }

@@ -9,7 +9,7 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::render::dispatch_2d;
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use crate::voxel::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
-use crate::voxel::{scene_triangles_split, VoxelTriangle};
+use crate::voxel::{objects_triangles, scene_triangles_split, VoxelTriangle};
 use crate::{Error, Result};
 
 const OWNER: &str = "vct-clipmap";
@@ -235,14 +235,16 @@ impl VctClipmap {
         let Some(clipmap) = self.clipmap.as_mut() else {
             return Ok(());
         };
-        let (still, moving) = scene_triangles_split(frame.scene, frame.frame);
         if !self.scene_set {
+            let (still, moving) = scene_triangles_split(frame.scene, frame.frame);
             let mut all: Vec<VoxelTriangle> = still;
             self.dynamic_from = all.len();
             all.extend(moving);
             clipmap.set_scene(ctx, &all);
             self.scene_set = true;
-        } else if !moving.is_empty() {
+        } else if frame.scene.objects.iter().any(|o| o.animation.is_some()) {
+            // Only the animated objects' triangles, every frame; none for a static scene.
+            let moving = objects_triangles(frame.scene, frame.frame, true);
             clipmap.replace_triangles(ctx, self.dynamic_from, &moving)?;
         }
         Ok(())
