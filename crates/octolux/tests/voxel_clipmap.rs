@@ -3,10 +3,10 @@
 
 use glam::{IVec3, Vec3, Vec4};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
-use octolux::voxel::clipmap::{decode_emission, Clipmap, ClipmapOptions, ClipmapSettings};
-use octolux::voxel::clipmap_sample::{
+use octolux::voxel::clipmap::sample::{
     blend_choice, clip_sample_aniso, clip_sample_blend, clip_sample_blend_with, probe_blend,
 };
+use octolux::voxel::clipmap::{decode_emission, Clipmap, ClipmapOptions, ClipmapSettings};
 use octolux::voxel::sample::ClipInfo;
 use octolux::voxel::{cpu, VoxelTriangle};
 

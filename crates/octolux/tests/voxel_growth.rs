@@ -13,8 +13,8 @@ use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::render::LayerView;
 use octolux::scene::{Light, LightKind};
 use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
+use octolux::voxel::svo::dynamic::DynamicReserve;
 use octolux::voxel::svo::SvoBuilder;
-use octolux::voxel::svo_dynamic::DynamicReserve;
 use octolux::voxel::{VoxelGrid, VoxelTriangle};
 use std::f32::consts::TAU;
 

@@ -6,8 +6,8 @@
 use glam::{Vec3, Vec4};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::sample::{svo_sample, svo_sample_aniso};
+use octolux::voxel::svo::aniso::{SvoAniso, SvoAnisoValues, LEDGER_LABEL};
 use octolux::voxel::svo::{Svo, SvoBuilder};
-use octolux::voxel::svo_aniso::{SvoAniso, SvoAnisoValues, LEDGER_LABEL};
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
 
 fn context() -> GpuContext {

@@ -6,8 +6,8 @@
 
 use glam::Vec3;
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
+use octolux::voxel::svo::dynamic::DynamicReserve;
 use octolux::voxel::svo::{SvoBuilder, SvoCpu};
-use octolux::voxel::svo_dynamic::DynamicReserve;
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
 use std::collections::{BTreeMap, BTreeSet};
 

@@ -409,7 +409,7 @@ fn check_emission(ctx: &GpuContext, grid: &VoxelGrid, tris: &[VoxelTriangle], sv
 
 #[test]
 fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
-    use octolux::voxel::svo_dynamic::DynamicReserve;
+    use octolux::voxel::svo::dynamic::DynamicReserve;
     let ctx = context();
     let (grid, tris, _) = emissive_octree(&ctx);
     // The slanted, non-emissive triangle is static; the emissive one moves down through it.
@@ -432,7 +432,7 @@ fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
 #[test]
 fn gpu_radiance_samples_equal_the_cpu_twin() {
     use octolux::voxel::sample::{svo_sample, SvoInfo, SVO_SAMPLE_WGSL};
-    use octolux::voxel::svo_inject::SVO_RADIANCE_SAMPLE_WGSL;
+    use octolux::voxel::svo::inject::SVO_RADIANCE_SAMPLE_WGSL;
     let ctx = context();
     let (grid, _, svo) = emissive_octree(&ctx);
     let mut cpu_svo = svo.read_back(&ctx).unwrap();

@@ -192,7 +192,7 @@ impl GpuContext {
         // GL lacks compute features we rely on; keep to the modern APIs.
         desc.backends &= wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
         // Indirect dispatch arguments come only from our own kernels, which clamp every
-        // dimension to 65535 by construction (`write_args` in voxel/svo.wgsl). wgpu's check
+        // dimension to 65535 by construction (`write_args` in voxel/svo/build.wgsl). wgpu's check
         // of them adds a validation dispatch and a barrier to every indirect call: about a
         // quarter of the octree's dynamic update (77 small dispatches) on an H100. Kept on
         // Windows, where DX12 without it reports zero for `@builtin(num_workgroups)`, and

@@ -1,13 +1,13 @@
 //! CPU reference implementations of the voxel kernels, written for clarity; the tests compare
 //! the GPU structures with them.
 
-use super::snap::{piece_voxels, snap_triangles, SnapRegion};
+use super::voxelize::snap::{piece_voxels, snap_triangles, SnapRegion};
 use super::{VoxelGrid, VoxelTriangle};
 use glam::{IVec3, Vec3, Vec4};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Grid coordinates of `p` in `f32` (for tests that sample the geometry; the voxelizer snaps in
-/// `f64`, [`super::snap`]).
+/// `f64`, [`super::voxelize::snap`]).
 pub fn to_grid(p: Vec3, grid: &VoxelGrid) -> Vec3 {
     let inv = 1.0 / grid.voxel_size;
     Vec3::new(
@@ -19,7 +19,7 @@ pub fn to_grid(p: Vec3, grid: &VoxelGrid) -> Vec3 {
 
 /// The voxel fragment list the GPU voxelizer produces, in the same order: per snapped piece
 /// of each triangle ([`snap_triangles`]), the touched voxels of its cell range in z, y, x loop
-/// order, by the same integer test ([`super::snap::PieceTest`]).
+/// order, by the same integer test ([`super::voxelize::snap::PieceTest`]).
 pub fn voxelize(grid: &VoxelGrid, tris: &[VoxelTriangle]) -> Vec<([u32; 3], u32)> {
     let region = SnapRegion {
         origin: grid.origin,
@@ -271,7 +271,7 @@ pub fn clipmap_voxels(
 }
 
 /// The emission of a clipmap whose levels start at `origins`, in the GPU's layout (CPU twin of
-/// `resolve` in `clipmap.wgsl`): per touched voxel the rounded integer mean of its fragments'
+/// `resolve` in `clipmap/update.wgsl`): per touched voxel the rounded integer mean of its fragments'
 /// fixed-point emission ([`super::clipmap::emission_fixed`]) as an RGB9E5 word
 /// ([`super::clipmap::encode_emission`]); 0 elsewhere.
 pub fn clipmap_emission(
@@ -296,7 +296,7 @@ pub fn clipmap_emission(
 }
 
 /// Level filtering of a clipmap's emission (CPU twin of the emission part of `filter_level`
-/// in `clipmap_filter.wgsl`), in place over [`clipmap_emission`]'s layout: level by level from
+/// in `clipmap/filter.wgsl`), in place over [`clipmap_emission`]'s layout: level by level from
 /// level 1, the voxels wholly inside the finer level become the rounded integer mean of the
 /// fixed-point emission of their 2x2x2 finer voxels (empty ones count as zero), re-encoded.
 pub fn clipmap_filter_emission(
@@ -344,7 +344,7 @@ fn clip_slot(res: i32, g: IVec3) -> usize {
     (m.x + r * (m.y + r * m.z)) as usize
 }
 
-/// Level filtering of a clipmap (CPU twin of `filter_level` in `clipmap_filter.wgsl`), in
+/// Level filtering of a clipmap (CPU twin of `filter_level` in `clipmap/filter.wgsl`), in
 /// place over voxels in the GPU layout ([`clipmap_voxels`]): level by level from level 1, the
 /// voxels wholly inside the finer level ([`super::clipmap::covered_box`]) become the rounded
 /// mean of their 2x2x2 finer voxels, per premultiplied channel and opacity.
@@ -377,7 +377,7 @@ pub fn clipmap_filter(
 }
 
 /// The directional values of an anisotropic clipmap (CPU twin of `filter_level` and
-/// `replicate` in `clipmap_filter.wgsl`) from its filtered voxels ([`clipmap_filter`]): per
+/// `replicate` in `clipmap/filter.wgsl`) from its filtered voxels ([`clipmap_filter`]): per
 /// voxel slot of levels 1 and up, 6 RGBA8 words for travel along +x, -x, +y, -y, +z, -z. Inside
 /// the finer level, the two finer voxels met along the direction composited front to back
 /// (rounded integer arithmetic), averaged over the 4 pairs; elsewhere the isotropic value.
@@ -454,7 +454,7 @@ fn aniso_value(
 }
 
 /// Per occupied voxel, its RGBA8 word: the rounded integer mean of its fragments' albedo,
-/// alpha 255 (`leaf_voxel` in `svo_aniso.wgsl`, which reads the octree's leaf sums).
+/// alpha 255 (`leaf_voxel` in `svo/aniso.wgsl`, which reads the octree's leaf sums).
 pub fn voxel_words(
     fragments: &[([u32; 3], u32)],
     tris: &[VoxelTriangle],
@@ -476,7 +476,7 @@ pub fn voxel_words(
         .collect()
 }
 
-/// The anisotropic values of the octree's nodes (CPU twin of `svo_aniso.wgsl`) over a
+/// The anisotropic values of the octree's nodes (CPU twin of `svo/aniso.wgsl`) over a
 /// `2^depth` grid with the occupied voxels `voxels` ([`voxel_words`]): entry `d` holds level
 /// `d` (nodes of `2^(depth - d)` voxels) by node coordinates, 6 RGBA8 words per node for
 /// travel along +x, -x, +y, -y, +z, -z. Only nodes containing an occupied voxel are listed;

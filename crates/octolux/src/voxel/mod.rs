@@ -4,13 +4,13 @@
 //! - [`voxelize`]: a conservative compute-shader voxelizer (no geometry shaders), producing a
 //!   voxel fragment list or filling a dense region directly. Triangles are snapped to a
 //!   fixed-point lattice on the CPU and tested against the voxels in integer arithmetic
-//!   ([`snap`]), so every adapter marks exactly the voxels the CPU reference marks.
+//!   ([`voxelize::snap`]), so every adapter marks exactly the voxels the CPU reference marks.
 //!   Deterministic: every accumulation is an integer atomic sum.
 //! - [`svo`]: a sparse voxel octree built level by level on the GPU (flag, subdivide/allocate
 //!   with an atomic counter, neighbour links) with a 3x3x3 corner-sampled brick pool, neighbour
-//!   transfer and bottom-up mipmapping; [`svo_dynamic`] gives it a static part built once and
+//!   transfer and bottom-up mipmapping; [`svo::dynamic`] gives it a static part built once and
 //!   a dynamic part rebuilt every frame.
-//! - [`svo_aniso`]: optional anisotropic (6-direction) values per octree node, built bottom-up
+//! - [`svo::aniso`]: optional anisotropic (6-direction) values per octree node, built bottom-up
 //!   from the leaf sums, and their directional sampling.
 //! - [`clipmap`]: nested levels of equal resolution and doubling extent around the camera with
 //!   toroidal addressing; camera motion revoxelises only the exposed slabs.
@@ -36,16 +36,10 @@
 //! `min_storage_buffer_offset_alignment` wgpu allows.
 
 pub mod clipmap;
-pub mod clipmap_index;
-pub mod clipmap_sample;
 pub mod cpu;
 pub mod debug;
 pub mod sample;
-pub mod snap;
 pub mod svo;
-pub mod svo_aniso;
-pub mod svo_dynamic;
-pub mod svo_inject;
 pub mod voxelize;
 
 use crate::scene::{AlphaMode, Scene, SceneFrame};

@@ -6,7 +6,7 @@
 //! Both return premultiplied RGB and opacity; the RGB is albedo. For the clipmap,
 //! `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU twin [`clip_radiance_sample`]) returns
 //! the injected radiance the same way. The octree's anisotropic values are sampled by
-//! `svo_sample_aniso` ([`super::svo_aniso::SVO_ANISO_SAMPLE_WGSL`], CPU twin
+//! `svo_sample_aniso` ([`super::svo::aniso::SVO_ANISO_SAMPLE_WGSL`], CPU twin
 //! [`svo_sample_aniso`]).
 //!
 //! - Octree: the level whose lattice spacing matches the footprint (quadrilinear between two
@@ -21,12 +21,12 @@ use glam::{IVec3, UVec3, Vec3, Vec4};
 
 /// WGSL: `svo_sample(p, footprint)`; the includer declares `svo_info`, `svo_child`,
 /// `svo_bricks0..3`, `svo_brick_index` (see the file's header).
-pub const SVO_SAMPLE_WGSL: &str = include_str!("sample_svo.wgsl");
+pub const SVO_SAMPLE_WGSL: &str = include_str!("svo/sample.wgsl");
 /// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
-pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample_clipmap.wgsl");
+pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("clipmap/sample.wgsl");
 /// WGSL: `clip_radiance_sample(p, footprint)` over the injected radiance; goes after
 /// [`CLIPMAP_SAMPLE_WGSL`]; the includer also declares `clip_radiance`.
-pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("sample_radiance.wgsl");
+pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("clipmap/radiance_sample.wgsl");
 
 /// Parameter block `SvoInfo` of [`SVO_SAMPLE_WGSL`] (a read-only storage buffer).
 #[repr(C)]
@@ -158,7 +158,7 @@ pub fn svo_node_brick(svo: &SvoCpu, c: IVec3, d: u32) -> u32 {
 }
 
 /// CPU twin of `svo_aniso_level`: node-centred trilinear sample of level `d`'s directional
-/// values `aniso` (per brick, [`super::svo_aniso::SvoAnisoValues::read_back`]) at grid
+/// values `aniso` (per brick, [`super::svo::aniso::SvoAnisoValues::read_back`]) at grid
 /// position `g` (voxels), seen travelling along `dir`.
 pub fn svo_aniso_level(
     svo: &SvoCpu,
@@ -192,7 +192,7 @@ pub fn svo_aniso_level(
     })
 }
 
-/// CPU twin of `svo_sample_aniso` ([`super::svo_aniso::SVO_ANISO_SAMPLE_WGSL`]): the
+/// CPU twin of `svo_sample_aniso` ([`super::svo::aniso::SVO_ANISO_SAMPLE_WGSL`]): the
 /// directional values of the level whose node size matches `footprint` (quadrilinear between
 /// two levels), seen travelling along `dir`; below two voxels a blend from the isotropic
 /// [`svo_sample`] (one voxel) to the finest directional level (two voxels).

@@ -3,7 +3,7 @@
 // premultiplied colour and opacity are the rounded means of the eight (opacity becomes the
 // covered fraction), normals the normalised sum, emission the rounded integer mean of the
 // eight fixed-point values (empty voxels count as zero, so emission is premultiplied by
-// coverage like the colour; needs `clipmap_emission.wgsl` before this file). With anisotropic voxels (misc.z = 1), each of
+// coverage like the colour; needs `clipmap/emission.wgsl` before this file). With anisotropic voxels (misc.z = 1), each of
 // the 6 directional values (travel +x, -x, +y, -y, +z, -z) composites the two finer voxels met
 // one after the other along that direction, front to back, and averages the 4 pairs across
 // the other two axes; the finer values are the finer level's directional values, or its

@@ -1,6 +1,6 @@
 // The leaf sums of the octree build, the one brick pass that needs atomics: every fragment
 // adds its albedo to its leaf voxel. Its own module, so that the brick pools can be plain
-// arrays everywhere else (same bind group layout as `svo.wgsl`; only what it reads is
+// arrays everywhere else (same bind group layout as `svo/build.wgsl`; only what it reads is
 // declared).
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.

@@ -1,7 +1,7 @@
 //! Conservative voxelization in compute shaders (wgpu has no geometry shaders): one invocation
 //! per work item (a triangle piece and a chunk of its bounding box) visits the voxels of its
 //! chunk and keeps those the triangle touches, decided by an exact integer separating-axis
-//! test on a fixed-point lattice ([`super::snap`], `overlap.wgsl`): the CPU snaps and splits the
+//! test on a fixed-point lattice ([`crate::voxel::voxelize::snap`], `voxelize/overlap.wgsl`): the CPU snaps and splits the
 //! triangles before upload, the GPU decides in integers, so the result is the same on every
 //! adapter. Thin poles and 45-degree planes are never lost, unlike rasterisation-based
 //! voxelization.
@@ -10,15 +10,17 @@
 //! pass: the list holds one 8-byte fragment per (piece, voxel) pair (one per (triangle,
 //! voxel) pair, except on the seams of triangles split into pieces).
 
-use super::snap::{snap_triangles, Piece, SnapRegion};
-use super::{VoxelGrid, VoxelTriangle};
+pub mod snap;
+
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::voxel::voxelize::snap::{snap_triangles, Piece, SnapRegion};
+use crate::voxel::{VoxelGrid, VoxelTriangle};
 use crate::{Error, Result};
 
 /// WGSL shared by every voxelization kernel (triangle and piece layouts, overlap test).
 pub const OVERLAP_WGSL: &str = include_str!("overlap.wgsl");
 
-/// Parameter block `VoxParams` of `overlap.wgsl` (a read-only storage buffer).
+/// Parameter block `VoxParams` of `voxelize/overlap.wgsl` (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct VoxParams {
@@ -31,7 +33,7 @@ pub struct VoxParams {
 }
 
 /// Workgroup counts for `n` invocations of 64-wide workgroups, spread over two dimensions so
-/// that no dimension exceeds the 65535 limit (`linear_index` in `overlap.wgsl` undoes it).
+/// that no dimension exceeds the 65535 limit (`linear_index` in `voxelize/overlap.wgsl` undoes it).
 pub fn dispatch_size(n: u32) -> (u32, u32) {
     let groups = n.div_ceil(64).max(1);
     if groups <= 65535 {
@@ -51,7 +53,7 @@ pub fn upload_triangles(ctx: &GpuContext, owner: &str, tris: &[VoxelTriangle]) -
     )
 }
 
-/// Uploads snapped pieces ([`super::snap`]) in the GPU layout under `owner`.
+/// Uploads snapped pieces ([`crate::voxel::voxelize::snap`]) in the GPU layout under `owner`.
 pub fn upload_pieces(ctx: &GpuContext, owner: &str, pieces: &[Piece]) -> wgpu::Buffer {
     upload_storage(
         ctx,
@@ -80,16 +82,16 @@ fn upload_storage<T: bytemuck::Pod>(
     )
 }
 
-pub use super::snap::{work_items, CHUNK};
+pub use crate::voxel::voxelize::snap::{work_items, CHUNK};
 
 /// A voxel fragment list on the GPU: `count` fragments of two words, (packed voxel coordinate
-/// as in [`super::pack_coord`], triangle index).
+/// as in [`crate::voxel::pack_coord`], triangle index).
 pub struct FragmentList {
     /// The fragments (`array<vec2<u32>>`), at least one element long.
     pub buffer: wgpu::Buffer,
     /// Number of fragments.
     pub count: u32,
-    /// The triangles the fragments refer to (`array<Tri>` of `overlap.wgsl`).
+    /// The triangles the fragments refer to (`array<Tri>` of `voxelize/overlap.wgsl`).
     pub triangles: wgpu::Buffer,
     /// Number of triangles.
     pub triangle_count: u32,
@@ -337,7 +339,7 @@ pub fn read_fragments(ctx: &GpuContext, list: &FragmentList) -> Result<Vec<([u32
     let words: &[u32] = bytemuck::cast_slice(&bytes);
     Ok(words
         .chunks_exact(2)
-        .map(|w| (super::unpack_coord(w[0]), w[1]))
+        .map(|w| (crate::voxel::unpack_coord(w[0]), w[1]))
         .collect())
 }
 
@@ -346,7 +348,7 @@ pub fn read_fragments(ctx: &GpuContext, list: &FragmentList) -> Result<Vec<([u32
 fn snap_grid(
     grid: &VoxelGrid,
     tris: &[VoxelTriangle],
-) -> Result<(Vec<super::snap::Piece>, Vec<[u32; 2]>, u32)> {
+) -> Result<(Vec<crate::voxel::voxelize::snap::Piece>, Vec<[u32; 2]>, u32)> {
     let region = SnapRegion {
         origin: grid.origin,
         voxel_size: grid.voxel_size,

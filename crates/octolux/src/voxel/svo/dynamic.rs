@@ -5,7 +5,7 @@
 //! An octree built with [`SvoBuilder::build_with_reserve`] keeps room for
 //! [`DynamicReserve::nodes`] nodes and [`DynamicReserve::bricks`] bricks after its static
 //! ones. [`SvoBuilder::record_dynamic`] (or its blocking form [`SvoBuilder::update_dynamic`])
-//! then, on the GPU (`svo_dynamic.wgsl`):
+//! then, on the GPU (`svo/dynamic.wgsl`):
 //!
 //! 1. undoes the previous update: static nodes drop the children, bricks and neighbour links
 //!    that pointed into the dynamic section, and the section is cleared;
@@ -40,18 +40,18 @@
 //!
 //! Gathered texels are filtered from the finer level's 8-bit texels where the build filters
 //! 16-bit ones, so they can differ from a full rebuild by a few 8-bit steps; both agree with
-//! the exact lattice ([`super::cpu::lattices`]) within the tolerance the tests state.
+//! the exact lattice ([`crate::voxel::cpu::lattices`]) within the tolerance the tests state.
 
-use super::svo::{
+use crate::gpu::{GpuContext, PassTimer, PassTiming};
+use crate::voxel::svo::{
     level_params, Dispatch, Svo, SvoBuilder, ARGS_DYN_NODES, BRICK_COUNTER, CONTROL_WORDS, OWNER,
 };
-use super::VoxelTriangle;
-use crate::gpu::{GpuContext, PassTimer, PassTiming};
+use crate::voxel::VoxelTriangle;
 use crate::{Error, Result};
 use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
 
-/// The dynamic update's kernels (`svo_dynamic.wgsl`).
+/// The dynamic update's kernels (`svo/dynamic.wgsl`).
 pub(crate) const ENTRY_POINTS: &[&str] = &[
     "dyn_begin",
     "dyn_finish_fragments",
@@ -70,7 +70,7 @@ pub(crate) const ENTRY_POINTS: &[&str] = &[
     "dyn_mip_gather",
 ];
 
-// Words of `control` and indirect slots, as in `svo_dynamic.wgsl`.
+// Words of `control` and indirect slots, as in `svo/dynamic.wgsl`.
 const DYN_NODES: usize = 64;
 const NEED_RANGE: usize = 104;
 const OCC_COUNT: usize = 124;
@@ -199,7 +199,7 @@ pub(crate) struct SvoDynamic {
     pub(crate) sums: wgpu::Buffer,
     /// The dynamic fragments of the current update (reserve.fragments x 8 bytes).
     fragments: wgpu::Buffer,
-    /// `DynParams` of `svo_dynamic.wgsl`: constants, then the previous control block.
+    /// `DynParams` of `svo/dynamic.wgsl`: constants, then the previous control block.
     params: wgpu::Buffer,
     /// Per-level parameter slots of the dynamic kernels.
     level_params: wgpu::Buffer,
@@ -301,7 +301,7 @@ impl SvoDynamic {
                 triangles: 0,
             })
             .collect();
-        let sum_words = super::svo_inject::LEAF_SUM_WORDS as u64 * 8;
+        let sum_words = crate::voxel::svo::inject::LEAF_SUM_WORDS as u64 * 8;
         Some(SvoDynamic {
             reserve,
             node_capacity: part.node_capacity,
@@ -339,7 +339,7 @@ impl SvoDynamic {
 
 /// Group 2 of the dynamic kernels: parameters, state, lists, sums.
 pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    use super::svo::storage;
+    use crate::voxel::svo::storage;
     let mut entries = vec![wgpu::BindGroupLayoutEntry {
         binding: 1,
         visibility: wgpu::ShaderStages::COMPUTE,

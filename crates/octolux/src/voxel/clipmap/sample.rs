@@ -1,6 +1,6 @@
 //! Clipmap sampling that blends between levels by distance to a level's border and reads
 //! anisotropic voxels: the WGSL [`CLIPMAP_BLEND_WGSL`] (`clip_sample_blend`,
-//! `clip_sample_aniso`; goes after [`super::sample::CLIPMAP_SAMPLE_WGSL`]), its CPU twins
+//! `clip_sample_aniso`; goes after [`crate::voxel::sample::CLIPMAP_SAMPLE_WGSL`]), its CPU twins
 //! [`clip_sample_blend`] and [`clip_sample_aniso`], and [`probe_blend`], which evaluates the
 //! WGSL at given points for tests.
 //!
@@ -10,14 +10,14 @@
 //! from 0 at [`BLEND_CELLS`] voxels inside the border of level `l` to 1 on it. A level that
 //! does not contain the point is never read.
 
-use super::clipmap::Clipmap;
-use super::sample::ClipInfo;
 use crate::gpu::GpuContext;
+use crate::voxel::clipmap::Clipmap;
+use crate::voxel::sample::ClipInfo;
 use crate::{Error, Result};
 use glam::{IVec3, UVec3, Vec3, Vec4};
 
 /// WGSL: `clip_sample_blend(p, footprint)` and `clip_sample_aniso(p, footprint, dir)`.
-pub const CLIPMAP_BLEND_WGSL: &str = include_str!("clipmap_sample.wgsl");
+pub const CLIPMAP_BLEND_WGSL: &str = include_str!("blend.wgsl");
 /// Width (voxels of the finer level) of the band along a level's border over which samples
 /// fade to the next coarser level (`CLIP_BLEND_CELLS` in WGSL).
 pub const BLEND_CELLS: f32 = 2.0;
@@ -228,7 +228,7 @@ pub fn probe_blend(
     let owner = "clipmap probe";
     let source = format!(
         "{}\n{CLIPMAP_BLEND_WGSL}\n{PROBE_WGSL}",
-        super::sample::CLIPMAP_SAMPLE_WGSL
+        crate::voxel::sample::CLIPMAP_SAMPLE_WGSL
     );
     let info = ctx.create_buffer_init(
         owner,
@@ -238,5 +238,5 @@ pub fn probe_blend(
     );
     let aniso = clipmap.aniso.as_ref().unwrap_or(&clipmap.voxels);
     let fixed = [(0, &info), (1, &clipmap.voxels), (2, aniso)];
-    super::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
+    crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
 }

@@ -1,4 +1,4 @@
-// Shared by the octree's modules (`svo.wgsl` + `svo_dynamic.wgsl`, `svo_accumulate.wgsl`):
+// Shared by the octree's modules (`svo/build.wgsl` + `svo/dynamic.wgsl`, `svo/accumulate.wgsl`):
 // the per-level parameters and the helpers that walk nodes and address bricks. Each including
 // module declares the bindings they read (`L`, `child`, `flags`).
 
@@ -10,7 +10,7 @@ struct LevelParams {
     // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
     pool_bricks: u32,
     // Which node range a kernel walks: 0 the level's static nodes; 1 its dynamic nodes
-    // (`level_entry`) or the previous update's dirty list (`dirty_entry`, svo_dynamic.wgsl).
+    // (`level_entry`) or the previous update's dirty list (`dirty_entry`, svo/dynamic.wgsl).
     range: u32,
     pad1: u32,
     pad2: u32,

@@ -13,7 +13,7 @@
 //! mean emission (RGB9E5, [`encode_emission`]): 12 bytes per voxel. [`Clipmap::inject`] adds
 //! RGBA16F radiance (emission + reflected direct light, visibility by voxel shadow rays).
 //! The scene stays resident ([`Clipmap::set_scene`]: triangles uploaded once, their bounds
-//! indexed on the CPU by [`super::clipmap_index`]), so a per-frame [`Clipmap::follow`] snaps
+//! indexed on the CPU by [`crate::voxel::clipmap::index`]), so a per-frame [`Clipmap::follow`] snaps
 //! and uploads only the triangles near the boxes it revoxelises, into scratch buffers kept
 //! across updates. Moving objects: [`Clipmap::replace_triangles`] replaces an object's own
 //! triangles and queues the boxes around its old and new bounds for the next update; or
@@ -26,15 +26,18 @@
 //! per-level voxelization only outside the finer level; `anisotropic` (implies `filtered`) adds
 //! 6 directional values per voxel of levels 1 and up ([`Clipmap::aniso`]), composited front to
 //! back from the finer level along each axis. Sampling with blending by distance to a level's
-//! border and with directional values: [`super::clipmap_sample`].
+//! border and with directional values: [`crate::voxel::clipmap::sample`].
 
-use super::clipmap_index::TriangleIndex;
-use super::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
-use super::voxelize::{
+pub mod index;
+pub mod sample;
+
+use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::voxel::clipmap::index::TriangleIndex;
+use crate::voxel::voxelize::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
+use crate::voxel::voxelize::{
     bind_buffers, dispatch, upload_triangles, work_items, VoxParams, OVERLAP_WGSL,
 };
-use super::VoxelTriangle;
-use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::voxel::VoxelTriangle;
 use crate::{Error, Result};
 use bytemuck::Zeroable;
 use glam::{DVec3, IVec3, Vec3};
@@ -42,7 +45,7 @@ use rayon::prelude::*;
 
 /// Ledger owner of the clipmap's buffers.
 pub const OWNER: &str = "clipmap";
-/// Scratch words per voxel of an update box (`ACCUM_WORDS` in `clipmap.wgsl`): albedo sums
+/// Scratch words per voxel of an update box (`ACCUM_WORDS` in `clipmap/update.wgsl`): albedo sums
 /// (3), fragment count, normal sums (3), emission sums (3 x 64 bits).
 const ACCUM_WORDS: u64 = 13;
 /// Bytes of the accumulation scratch; larger update boxes are processed in z slices.
@@ -58,11 +61,11 @@ const PIECE_ALIGN: u64 = 16;
 /// Work items (8 bytes) per 256-byte alignment step of a box's block of work items.
 const ITEM_ALIGN: u64 = 32;
 /// Fixed-point units per W/(m^2 sr) of the emission sums (`EMISSION_SCALE` in
-/// `clipmap_emission.wgsl`).
+/// `clipmap/emission.wgsl`).
 pub const EMISSION_SCALE: f32 = 1024.0;
 /// WGSL of the emission format (`emission_encode`, `emission_decode`, ...), put in front of
 /// every clipmap kernel that reads or writes [`Clipmap::emission`].
-pub const CLIPMAP_EMISSION_WGSL: &str = include_str!("clipmap_emission.wgsl");
+pub const CLIPMAP_EMISSION_WGSL: &str = include_str!("emission.wgsl");
 
 /// Fixed-point value (x [`EMISSION_SCALE`], rounded half to even like WGSL `round`) of one
 /// triangle's emission channel, clamped to `[0, 65504]` (`emission_fixed` in WGSL).
@@ -72,7 +75,7 @@ pub fn emission_fixed(e: f32) -> u32 {
 
 /// The RGB9E5 word (red bits 0-8, green 9-17, blue 18-26, exponent 27-31, value = mantissa x
 /// 2^(exponent - 24)) of a fixed-point colour (x [`EMISSION_SCALE`]), as `emission_encode` in
-/// `clipmap_emission.wgsl` computes it: the smallest shift that fits the largest channel in 9
+/// `clipmap/emission.wgsl` computes it: the smallest shift that fits the largest channel in 9
 /// bits after rounding, each channel rounded half up; values under 512 (0.5 W/(m^2 sr)) are
 /// exact. Zero gives 0.
 pub fn encode_emission(q: [u32; 3]) -> u32 {
@@ -516,12 +519,12 @@ impl Clipmap {
         );
         let source = format!(
             "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{}",
-            include_str!("clipmap.wgsl")
+            include_str!("update.wgsl")
         );
         let module = ctx.shader("clipmap", &source);
         let source = format!(
             "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{}",
-            include_str!("clipmap_filter.wgsl")
+            include_str!("filter.wgsl")
         );
         let filter_module = ctx.shader("clipmap filter", &source);
         Ok(Clipmap {
@@ -642,7 +645,7 @@ impl Clipmap {
 
     /// Makes `tris` the clipmap's scene: uploads them once into a GPU buffer that stays
     /// resident (ledger: `clipmap / triangles`, 64 bytes per triangle) and indexes their bounds
-    /// on the CPU ([`super::clipmap_index`]), so that an update snaps and uploads only the
+    /// on the CPU ([`crate::voxel::clipmap::index`]), so that an update snaps and uploads only the
     /// triangles near the boxes it revoxelises. Voxels already built are left as they are
     /// until revoxelised; pending boxes of [`Clipmap::replace_triangles`] are dropped.
     pub fn set_scene(&mut self, ctx: &GpuContext, tris: &[VoxelTriangle]) {
@@ -722,7 +725,7 @@ impl Clipmap {
         let clock = std::time::Instant::now();
         self.scene[first..first + tris.len()].copy_from_slice(tris);
         self.index.replace(first, tris);
-        let gpu: Vec<super::GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
+        let gpu: Vec<crate::voxel::GpuTriangle> = tris.iter().map(VoxelTriangle::to_gpu).collect();
         ctx.queue.write_buffer(
             &self.triangles,
             first as u64 * 64,
@@ -1192,7 +1195,10 @@ impl Clipmap {
         let info = ctx.create_buffer_init(
             self.owner,
             "inject info",
-            bytemuck::bytes_of(&super::sample::ClipInfo::new(&self.settings, &self.origins)),
+            bytemuck::bytes_of(&crate::voxel::sample::ClipInfo::new(
+                &self.settings,
+                &self.origins,
+            )),
             wgpu::BufferUsages::STORAGE,
         );
         let radiance = match self.radiance.take() {
@@ -1212,7 +1218,7 @@ impl Clipmap {
             None => {
                 let source = format!(
                     "{}\n{CLIPMAP_EMISSION_WGSL}\n{}",
-                    super::sample::CLIPMAP_SAMPLE_WGSL,
+                    crate::voxel::sample::CLIPMAP_SAMPLE_WGSL,
                     include_str!("inject.wgsl")
                 );
                 let module = ctx.shader("clipmap inject", &source);
@@ -1250,8 +1256,8 @@ impl Clipmap {
         Ok(words
             .chunks_exact(2)
             .map(|w| {
-                let a = super::svo::unpack_half2(w[0]);
-                let b = super::svo::unpack_half2(w[1]);
+                let a = crate::voxel::svo::unpack_half2(w[0]);
+                let b = crate::voxel::svo::unpack_half2(w[1]);
                 glam::Vec4::new(a[0], a[1], b[0], b[1])
             })
             .collect())

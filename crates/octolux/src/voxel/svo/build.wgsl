@@ -14,7 +14,7 @@
 @group(0) @binding(5) var<storage, read_write> coord: array<u32>;
 @group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
 // [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d;
-// words 64.. belong to the dynamic part (svo_dynamic.wgsl), [60] counts bricks.
+// words 64.. belong to the dynamic part (svo/dynamic.wgsl), [60] counts bricks.
 @group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;
 @group(0) @binding(8) var<storage, read_write> bricks0: array<u32>;
 @group(0) @binding(9) var<storage, read_write> bricks1: array<u32>;
@@ -69,7 +69,7 @@ var<workgroup> group_texels: array<vec4<f32>, 216>;
 var<workgroup> group_children: array<u32, 8>;
 
 // Brick words are plain loads and stores: atomics (which only the leaf sums need, in
-// `svo_accumulate.wgsl`) bypass the caches and were the limit of every brick pass on a GPU.
+// `svo/accumulate.wgsl`) bypass the caches and were the limit of every brick pass on a GPU.
 fn bw_load(b: u32, i: u32) -> u32 {
     let w = bw_index(b, i);
     switch b / L.pool_bricks {

@@ -35,11 +35,11 @@ struct VoxParams {
     misc: vec4<u32>,
 }
 
-// ---- Exact overlap on the snapping lattice (CPU twin: snap.rs) ------------------------------
+// ---- Exact overlap on the snapping lattice (CPU twin: voxelize/snap.rs) ------------------------------
 // Triangles reach the GPU snapped on the CPU to a lattice of SNAP steps per voxel edge and split
 // into pieces of at most 2048 steps (32 voxels) per axis, in coordinates relative to the box's
 // first voxel. Everything below is integer arithmetic whose intermediates stay below
-// 1.7 x 10^9 in magnitude (bounds in snap.rs), so
+// 1.7 x 10^9 in magnitude (bounds in voxelize/snap.rs), so
 // no compiler choice (fused multiply-add, evaluation order) can change a decision: every
 // adapter and the CPU mark exactly the same voxels. A voxel's box is dilated by DILATE steps on
 // every side, which covers the snapping error: conservative for the original triangle.

@@ -3,16 +3,16 @@
 // `inject` turns every leaf voxel into outgoing radiance emission + albedo / pi x direct
 // irradiance, with visibility from the renderer's shadow-map array (PCF as in
 // `render/direct.wgsl`), and writes the leaf bricks of the radiance pool (RGBA16F, radiance
-// and opacity) the way `leaf_fill` writes albedo. The transfer and mip kernels of `svo.wgsl`
+// and opacity) the way `leaf_fill` writes albedo. The transfer and mip kernels of `svo/build.wgsl`
 // then filter the pool upward.
 
-// Per occupied leaf voxel (leaf_sums.wgsl): albedo r, g, b x255 sums, fragment count,
+// Per occupied leaf voxel (svo/leaf_sums.wgsl): albedo r, g, b x255 sums, fragment count,
 // emission r, g, b sums x EMISSION_SCALE, normal x, y, z sums (snorm8, two's complement).
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 const EMISSION_SCALE: f32 = 1024.0;
 
 // x: fragments, y: depth, z: first leaf node, w: leaf nodes. `sums` is the leaf sums buffer
-// (leaf_sums.wgsl) or, for `leaf_mask` and `leaf_slots`, its index part + 1 counter word.
+// (svo/leaf_sums.wgsl) or, for `leaf_mask` and `leaf_slots`, its index part + 1 counter word.
 struct AccumulateParams {
     misc: vec4<u32>,
 }
@@ -124,11 +124,11 @@ struct InjectParams {
 @group(0) @binding(20) var<storage, read_write> pool1: array<u32>;
 @group(0) @binding(21) var<storage, read_write> pool2: array<u32>;
 @group(0) @binding(22) var<storage, read_write> pool3: array<u32>;
-// The dynamic part (svo_dynamic.wgsl): per node state (leaf slot + 1 in bits 2..) and the
+// The dynamic part (svo/dynamic.wgsl): per node state (leaf slot + 1 in bits 2..) and the
 // dynamic fragments' sums per slot.
 @group(0) @binding(23) var<storage, read> dyn_sums: array<u32>;
 @group(0) @binding(24) var<storage, read> dyn_state: array<u32>;
-// The octree's control block (`svo.wgsl`), for the dynamic leaves' range.
+// The octree's control block (`svo/build.wgsl`), for the dynamic leaves' range.
 @group(0) @binding(25) var<storage, read> control: array<u32>;
 
 const PI: f32 = 3.14159265358979;

@@ -1,5 +1,5 @@
 // Clipmap sampling with blending between levels by distance and with anisotropic voxels.
-// Goes after `sample_clipmap.wgsl`; `clip_sample_aniso` also needs
+// Goes after `clipmap/sample.wgsl`; `clip_sample_aniso` also needs
 //   var<storage, read> clip_aniso: array<u32>;   (Clipmap::aniso)
 //
 // `clip_sample_blend(p, footprint)` reads the level l that `clip_sample` picks (the finest

@@ -1,6 +1,6 @@
 // Filtered injected radiance of the sparse voxel octree: `svo_radiance_sample(p, footprint)`
 // returns RGB radiance (premultiplied by opacity) and opacity with the level choice and
-// interpolation of `svo_sample`. Goes after `sample_svo.wgsl`; the includer also declares
+// interpolation of `svo_sample`. Goes after `svo/sample.wgsl`; the includer also declares
 //   var<storage, read> svo_radiance0: array<u32>; (and svo_radiance1..3: Svo::radiance)
 
 fn svo_radiance_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {

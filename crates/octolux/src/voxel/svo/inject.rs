@@ -5,33 +5,33 @@
 //! leaf radiance fills the leaf bricks of an RGBA16F radiance pool (radiance, opacity) exactly
 //! as albedo fills the albedo bricks, and the octree's neighbour transfer and mip kernels then
 //! filter it upward, so every level holds the same corner-sampled lattice filter of radiance
-//! as of albedo ([`super::cpu::lattices`] of the voxel radiance is the reference).
+//! as of albedo ([`crate::voxel::cpu::lattices`] of the voxel radiance is the reference).
 //!
 //! Per leaf voxel the build keeps the sums of its fragments' albedo, emission and normal
 //! ([`LEAF_SUM_WORDS`] words), which is what injection reads.
 
-use super::voxelize::{bind_buffers, dispatch, FragmentList, OVERLAP_WGSL};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::render::LayerView;
+use crate::voxel::voxelize::{bind_buffers, dispatch, FragmentList, OVERLAP_WGSL};
 use crate::{Error, Result};
 
 /// WGSL: `svo_radiance_sample(p, footprint)`, the injected radiance filtered like
-/// `svo_sample` ([`super::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
-/// declares `svo_radiance0..3` (the buffers of [`super::svo::Svo::radiance`]). CPU twin:
-/// [`super::sample::svo_sample`] over the bricks of [`super::svo::Svo::read_radiance`].
-pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("svo_radiance_sample.wgsl");
+/// `svo_sample` ([`crate::voxel::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
+/// declares `svo_radiance0..3` (the buffers of [`crate::voxel::svo::Svo::radiance`]). CPU twin:
+/// [`crate::voxel::sample::svo_sample`] over the bricks of [`crate::voxel::svo::Svo::read_radiance`].
+pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("radiance_sample.wgsl");
 
 /// Words kept per occupied leaf voxel: albedo sums (3), fragment count, emission sums (3,
 /// fixed point x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
 
-/// WGSL: the layout of the compact leaf sums ([`super::svo::Svo::leaf_sums`]): one index word
+/// WGSL: the layout of the compact leaf sums ([`crate::voxel::svo::Svo::leaf_sums`]): one index word
 /// per static leaf node (first slot << 8 | occupancy mask), then [`LEAF_SUM_WORDS`] words per
 /// occupied voxel; `leaf_sum_offset` finds a voxel's words.
 pub const LEAF_SUMS_WGSL: &str = include_str!("leaf_sums.wgsl");
 
 /// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
-/// `svo_dynamic.wgsl`).
+/// `svo/dynamic.wgsl`).
 const DYN_NODES: u32 = 64;
 
 /// Bytes of one light in the renderer's light buffer (`Light` in `render/direct.wgsl`).
@@ -59,9 +59,9 @@ impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
         let source = [
             OVERLAP_WGSL,
-            include_str!("../render/lights.wgsl"),
+            include_str!("../../render/lights.wgsl"),
             LEAF_SUMS_WGSL,
-            include_str!("svo_inject.wgsl"),
+            include_str!("inject.wgsl"),
         ]
         .join("\n");
         let module = ctx.shader("svo inject", &source);
@@ -94,7 +94,7 @@ impl SvoLight {
         depth: u32,
         leaves: (u32, u32),
     ) -> Result<(wgpu::Buffer, Vec<PassTiming>)> {
-        let owner = super::svo::OWNER;
+        let owner = crate::voxel::svo::OWNER;
         let leaf_count = leaves.1 - leaves.0;
         let usage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
@@ -165,7 +165,7 @@ impl SvoLight {
         &self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
-        svo: &super::svo::Svo,
+        svo: &crate::voxel::svo::Svo,
         shadow_array: &wgpu::Texture,
         shadow_layers: &[LayerView],
         lights: &wgpu::Buffer,
@@ -184,10 +184,10 @@ impl SvoLight {
                 DYN_NODES + 2 * leaf,
                 0,
                 end - first,
-                Some(super::svo::ARGS_DYN_NODES + leaf),
+                Some(crate::voxel::svo::ARGS_DYN_NODES + leaf),
             ));
         }
-        let owner = super::svo::OWNER;
+        let owner = crate::voxel::svo::OWNER;
         let mut matrices: Vec<[f32; 16]> = shadow_layers
             .iter()
             .map(|l| l.view_proj.to_cols_array())
@@ -261,7 +261,7 @@ impl SvoLight {
         &self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
-        svo: &super::svo::Svo,
+        svo: &crate::voxel::svo::Svo,
         [params_buffer, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
         view: &wgpu::TextureView,
         (name, count, indirect): (&str, u32, Option<u32>),

@@ -5,7 +5,7 @@
 //
 // Direction +x composites the two finer values met one after the other along x, front to
 // back (c = c_front + (1 - a_front) c_back, rounded integer arithmetic), and averages the 4
-// pairs across y and z, as the clipmap's anisotropic voxels do (`clipmap_filter.wgsl`). On the
+// pairs across y and z, as the clipmap's anisotropic voxels do (`clipmap/filter.wgsl`). On the
 // finest level the finer values are the node's 8 voxels (`leaf_voxel`, isotropic); above, its
 // 8 children's values for the same direction (a child without a brick is transparent zero).
 // One dispatch per level, finest first.
@@ -14,7 +14,7 @@ struct AnisoParams {
     // x: first node of the level, y: nodes on the level, z: first leaf node, w: 1 on the leaf
     // level.
     misc: vec4<u32>,
-    // x: static leaf nodes (the index words at the start of `leaf_sums`, leaf_sums.wgsl)
+    // x: static leaf nodes (the index words at the start of `leaf_sums`, svo/leaf_sums.wgsl)
     leaves: vec4<u32>,
 }
 

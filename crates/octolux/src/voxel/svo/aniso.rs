@@ -2,13 +2,13 @@
 //! option built on demand after the octree: every node is the voxel of its level (level `d` has
 //! `2^d` nodes per axis) and gets 6 RGBA8 values (premultiplied albedo, opacity), one per travel
 //! direction +x, -x, +y, -y, +z, -z, meaning what a cone travelling along that direction sees
-//! (the clipmap's convention, [`super::cpu::clipmap_aniso`]). Mipmapping them keeps a red wall
+//! (the clipmap's convention, [`crate::voxel::cpu::clipmap_aniso`]). Mipmapping them keeps a red wall
 //! in front of a green one red seen from the front and green from behind, where the isotropic
 //! bricks mix the two.
 //!
 //! - Finest level (nodes of 2x2x2 voxels): each voxel's isotropic value is the rounded integer
 //!   mean of its fragments' albedo from [`Svo::leaf_sums`], opacity 1 (`leaf_voxel` in
-//!   `svo_aniso.wgsl`); direction +x composites the two voxels met along x front to back
+//!   `svo/aniso.wgsl`); direction +x composites the two voxels met along x front to back
 //!   (`c = c_front + (1 - a_front) c_back`, rounded integer arithmetic) and averages the 4
 //!   pairs across y and z.
 //! - Coarser levels, bottom-up, one dispatch per level: the same rule over the 8 children's
@@ -20,19 +20,19 @@
 //! values are zero.
 //!
 //! Sampling: [`SVO_ANISO_SAMPLE_WGSL`] (`svo_sample_aniso(p, footprint, dir)`), CPU twin
-//! [`super::sample::svo_sample_aniso`]. CPU twin of the values: [`super::cpu::svo_aniso`].
+//! [`crate::voxel::sample::svo_sample_aniso`]. CPU twin of the values: [`crate::voxel::cpu::svo_aniso`].
 
-use super::sample::{SvoInfo, SVO_SAMPLE_WGSL};
-use super::svo::{Svo, OWNER, PARAM_STRIDE};
-use super::voxelize::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use crate::voxel::svo::{Svo, OWNER, PARAM_STRIDE};
+use crate::voxel::voxelize::dispatch_size;
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};
 
 /// WGSL: `svo_sample_aniso(p, footprint, dir)`; goes after [`SVO_SAMPLE_WGSL`], and the
 /// includer also declares `var<storage, read> svo_aniso: array<u32>` (the buffer of
 /// [`SvoAnisoValues`]).
-pub const SVO_ANISO_SAMPLE_WGSL: &str = include_str!("sample_svo_aniso.wgsl");
+pub const SVO_ANISO_SAMPLE_WGSL: &str = include_str!("sample_aniso.wgsl");
 
 /// Words per brick: one RGBA8 value per direction (+x, -x, +y, -y, +z, -z).
 pub const ANISO_WORDS: u32 = 6;
@@ -61,7 +61,7 @@ impl SvoAnisoValues {
         self.brick_count as u64 * ANISO_WORDS as u64 * 4
     }
 
-    /// Reads the values back: per brick (order of [`super::svo::SvoCpu::bricks`]), the 6
+    /// Reads the values back: per brick (order of [`crate::voxel::svo::SvoCpu::bricks`]), the 6
     /// RGBA8 words.
     pub fn read_back(&self, ctx: &GpuContext) -> Result<Vec<[u32; 6]>> {
         if self.brick_count == 0 {
@@ -85,8 +85,8 @@ impl SvoAniso {
     pub fn new(ctx: &GpuContext) -> SvoAniso {
         let source = format!(
             "{}\n{}",
-            super::svo_inject::LEAF_SUMS_WGSL,
-            include_str!("svo_aniso.wgsl")
+            crate::voxel::svo::inject::LEAF_SUMS_WGSL,
+            include_str!("aniso.wgsl")
         );
         let module = ctx.shader("svo anisotropic", &source);
         SvoAniso {
@@ -236,7 +236,7 @@ impl SvoAniso {
             (6, &svo.brick_index),
             (7, &values.buffer),
         ];
-        super::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
+        crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
     }
 }
 

@@ -1,4 +1,4 @@
-// Dynamic part of the sparse voxel octree (Arnebäck 2017 §3.1.7), compiled after svo.wgsl.
+// Dynamic part of the sparse voxel octree (Arnebäck 2017 §3.1.7), compiled after svo/build.wgsl.
 // The static part (nodes [0, S), bricks [0, B)) is built once; every update clears what the
 // previous update added, then flags, subdivides and links for the dynamic fragments only,
 // allocating new nodes after S and new bricks after B. Nothing of the static part is
@@ -36,7 +36,7 @@ struct DynParams {
 
 const DYN_OCCUPIED: u32 = 1u;
 const DYN_NEEDED: u32 = 2u;
-// Words of `control` (see svo.rs): per-level ranges of the dynamic nodes, the occupied and
+// Words of `control` (see svo/mod.rs): per-level ranges of the dynamic nodes, the occupied and
 // the needed lists; list counters; overflow of the lists or the brick pool.
 const DYN_NODES: u32 = 64u;
 const OCC_RANGE: u32 = 84u;
@@ -341,7 +341,7 @@ fn dyn_assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgrou
 // ---- Leaf sums and bricks -------------------------------------------------------------------
 
 // Dynamic fragments add albedo, emission and normal sums into their leaf's slot, as the
-// static build's leaf sums do (`svo_inject.wgsl`).
+// static build's leaf sums do (`svo/inject.wgsl`).
 @compute @workgroup_size(64)
 fn dyn_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) li: u32) {

@@ -1,5 +1,5 @@
-// Directional sampling of the octree's anisotropic node values (svo_aniso.wgsl). Goes after
-// `sample_svo.wgsl`; the includer also declares
+// Directional sampling of the octree's anisotropic node values (svo/aniso.wgsl). Goes after
+// `svo/sample.wgsl`; the includer also declares
 //   var<storage, read> svo_aniso: array<u32>;   (SvoAnisoValues::buffer)
 //
 // `svo_sample_aniso(p, footprint, dir)` returns premultiplied albedo and opacity at `p` seen by

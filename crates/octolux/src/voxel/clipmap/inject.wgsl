@@ -3,7 +3,7 @@
 // premultiplied by the voxel's opacity on filtered levels), with visibility
 // from marching the clipmap's own opacity towards the light (voxel shadow rays, no shadow
 // maps). Output: RGBA16F (radiance, opacity) per voxel slot, same layout as `clip_voxels`.
-// Needs `clipmap_emission.wgsl` before this file.
+// Needs `clipmap/emission.wgsl` before this file.
 
 struct InjectLight {
     // xyz position, w: kind (0 point, 1 spot, 2 directional)

@@ -1,6 +1,6 @@
 // Filtered injected radiance of the clipmap: `clip_radiance_sample(p, footprint)` returns RGB
 // radiance (premultiplied by opacity) and opacity, with the level choice of `clip_sample`.
-// Needs `sample_clipmap.wgsl` before it; the includer also declares
+// Needs `clipmap/sample.wgsl` before it; the includer also declares
 //   var<storage, read> clip_radiance: array<u32>;   (Clipmap::radiance)
 
 fn clip_radiance_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {

@@ -14,7 +14,7 @@
 //!
 //! The values define one corner-sampled lattice per level: on the finest level, each lattice
 //! point (a voxel corner) holds the sum of the touching voxels' values / 8; each coarser
-//! level applies the separable [1/4 1/2 1/4] filter ([`super::cpu::lattices`] is the reference).
+//! level applies the separable [1/4 1/2 1/4] filter ([`crate::voxel::cpu::lattices`] is the reference).
 //! A brick holds the lattice restricted to its node, so neighbouring bricks agree on their
 //! shared faces, and trilinear interpolation inside a brick is continuous across nodes.
 //!
@@ -22,17 +22,21 @@
 //! albedo, emission and normal, and an RGBA16F radiance pool (radiance, opacity) in the same
 //! brick layout: [`SvoBuilder::inject`] fills it with emission + albedo/pi x direct irradiance
 //! (visibility from the renderer's shadow maps) and filters it with the same transfer and mip
-//! passes ([`super::svo_inject`]).
+//! passes ([`crate::voxel::svo::inject`]).
 //!
-//! Moving geometry goes into a dynamic part ([`super::svo_dynamic`], Arnebäck 2017 §3.1.7):
+//! Moving geometry goes into a dynamic part ([`crate::voxel::svo::dynamic`], Arnebäck 2017 §3.1.7):
 //! an octree built with [`SvoBuilder::build_with_reserve`] keeps room for dynamic nodes and
 //! bricks after its static ones, and [`SvoBuilder::record_dynamic`] replaces the dynamic part
 //! each frame without voxelizing or rebuilding the static one, and without waiting for the GPU.
 
-use super::svo_dynamic::DynamicReserve;
-use super::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
-use super::{VoxelGrid, VoxelTriangle};
+pub mod aniso;
+pub mod dynamic;
+pub mod inject;
+
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::voxel::svo::dynamic::DynamicReserve;
+use crate::voxel::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
+use crate::voxel::{VoxelGrid, VoxelTriangle};
 use crate::{Error, Result};
 
 /// Ledger owner of the octree's buffers.
@@ -48,8 +52,8 @@ pub const NODE_BYTES: u64 = 20;
 pub(crate) const PARAM_STRIDE: u64 = 256;
 
 /// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
-/// What the octree's shader modules share (`svo_common.wgsl`).
-const SVO_COMMON_WGSL: &str = include_str!("svo_common.wgsl");
+/// What the octree's shader modules share (`svo/common.wgsl`).
+const SVO_COMMON_WGSL: &str = include_str!("common.wgsl");
 
 const PACK_WGSL: &str = "
 // Storage, not uniform: see \"Parameter blocks\" in voxel/mod.rs.
@@ -92,16 +96,16 @@ fn pack(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
 }
 ";
 pub(crate) const CONTROL_WORDS: u64 = 128;
-/// Word of `control` counting bricks (`BRICK_COUNTER` in `svo.wgsl`).
+/// Word of `control` counting bricks (`BRICK_COUNTER` in `svo/build.wgsl`).
 pub(crate) const BRICK_COUNTER: usize = 60;
 /// Indirect dispatch slots (3 words each): static levels, dynamic levels, dynamic lists and
-/// the dynamic update's own sizes (`svo_dynamic.wgsl`); each slot again from `NODE_ARGS` on,
+/// the dynamic update's own sizes (`svo/dynamic.wgsl`); each slot again from `NODE_ARGS` on,
 /// sized for one workgroup per entry.
 pub(crate) const ARGS_SLOTS: u64 = 2 * NODE_ARGS as u64;
 /// Slot `s + NODE_ARGS` holds slot `s`'s count as one workgroup per entry (`NODE_ARGS` in
-/// `svo.wgsl`).
+/// `svo/build.wgsl`).
 pub(crate) const NODE_ARGS: u32 = 96;
-/// First indirect slot of the dynamic node ranges (`ARGS_DYN_NODES` in `svo_dynamic.wgsl`).
+/// First indirect slot of the dynamic node ranges (`ARGS_DYN_NODES` in `svo/dynamic.wgsl`).
 pub(crate) const ARGS_DYN_NODES: u32 = 16;
 
 #[repr(C)]
@@ -176,7 +180,7 @@ pub struct Svo {
     pub fragment_count: u32,
     /// `array<u32>`: per node, its packed coordinates on its level (10 bits per axis).
     pub coord: wgpu::Buffer,
-    /// Level ranges and counters of the build (`control` in `svo.wgsl`), kept for the passes
+    /// Level ranges and counters of the build (`control` in `svo/build.wgsl`), kept for the passes
     /// that run per level after the build (injection).
     pub control: wgpu::Buffer,
     /// Indirect dispatch sizes per level.
@@ -184,8 +188,8 @@ pub struct Svo {
     /// Per-level parameters (one 256-byte slot per level).
     pub level_params: wgpu::Buffer,
     /// Fragment sums of albedo, emission and normal of the static part's occupied leaf voxels
-    /// ([`super::svo_inject::LEAF_SUMS_WGSL`]: an index word per static leaf node, then
-    /// [`super::svo_inject::LEAF_SUM_WORDS`] words per occupied voxel).
+    /// ([`crate::voxel::svo::inject::LEAF_SUMS_WGSL`]: an index word per static leaf node, then
+    /// [`crate::voxel::svo::inject::LEAF_SUM_WORDS`] words per occupied voxel).
     pub leaf_sums: wgpu::Buffer,
     /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
     /// 27 texels of RGBA16F (radiance, opacity). Zero until [`SvoBuilder::inject`].
@@ -201,7 +205,7 @@ pub struct Svo {
     /// [`Svo::node_count`]).
     pub dynamic_levels: Vec<(u32, u32)>,
     /// Room for the dynamic part, `None` for an octree built without a reserve.
-    pub(crate) dynamic: Option<super::svo_dynamic::SvoDynamic>,
+    pub(crate) dynamic: Option<crate::voxel::svo::dynamic::SvoDynamic>,
 }
 
 /// The octree read back to the CPU (for tests and tools).
@@ -259,13 +263,13 @@ pub struct SvoBuilder {
     pub(super) voxelizer: Voxelizer,
     pub(super) layout0: wgpu::BindGroupLayout,
     layout1: wgpu::BindGroupLayout,
-    /// Group 2 of the dynamic update's kernels (`svo_dynamic.wgsl`).
+    /// Group 2 of the dynamic update's kernels (`svo/dynamic.wgsl`).
     pub(super) dyn_layout: wgpu::BindGroupLayout,
     /// Kernels by entry point, with the groups they bind beyond group 0.
     pipelines: std::collections::HashMap<&'static str, (wgpu::ComputePipeline, Groups)>,
     pack: wgpu::ComputePipeline,
     pool_limit: Option<u32>,
-    pub(super) light: super::svo_inject::SvoLight,
+    pub(super) light: crate::voxel::svo::inject::SvoLight,
 }
 
 pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -320,19 +324,19 @@ impl SvoBuilder {
             label: Some("svo args"),
             entries: &[storage(0, false)],
         });
-        let dyn_layout = super::svo_dynamic::bind_group_layout(device);
+        let dyn_layout = crate::voxel::svo::dynamic::bind_group_layout(device);
         let source = format!(
             "{OVERLAP_WGSL}\n{}\n{SVO_COMMON_WGSL}\n{}\n{}",
-            super::svo_inject::LEAF_SUMS_WGSL,
-            include_str!("svo.wgsl"),
-            include_str!("svo_dynamic.wgsl")
+            crate::voxel::svo::inject::LEAF_SUMS_WGSL,
+            include_str!("build.wgsl"),
+            include_str!("dynamic.wgsl")
         );
         let module = ctx.shader("svo", &source);
         let accumulate = ctx.shader(
             "svo accumulate",
             &format!(
                 "{OVERLAP_WGSL}\n{SVO_COMMON_WGSL}\n{}",
-                include_str!("svo_accumulate.wgsl")
+                include_str!("accumulate.wgsl")
             ),
         );
         let plain = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -356,18 +360,22 @@ impl SvoBuilder {
             immediate_size: 0,
         });
         let mut pipelines = std::collections::HashMap::new();
-        for entry in super::svo_dynamic::ENTRY_POINTS.iter().copied().chain([
-            "flag_occupied",
-            "flag_needed",
-            "subdivide",
-            "assign_bricks",
-            "finish_level",
-            "leaf_fill",
-            "transfer_x",
-            "transfer_y",
-            "transfer_z",
-            "mip",
-        ]) {
+        for entry in crate::voxel::svo::dynamic::ENTRY_POINTS
+            .iter()
+            .copied()
+            .chain([
+                "flag_occupied",
+                "flag_needed",
+                "subdivide",
+                "assign_bricks",
+                "finish_level",
+                "leaf_fill",
+                "transfer_x",
+                "transfer_y",
+                "transfer_z",
+                "mip",
+            ])
+        {
             let groups = Groups {
                 args: entry.contains("finish") || entry == "dyn_begin",
                 dynamic: entry.starts_with("dyn_"),
@@ -405,7 +413,7 @@ impl SvoBuilder {
         SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
             pool_limit: None,
-            light: super::svo_inject::SvoLight::new(ctx),
+            light: crate::voxel::svo::inject::SvoLight::new(ctx),
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
@@ -443,7 +451,7 @@ impl SvoBuilder {
         tris: &[VoxelTriangle],
         reserve: DynamicReserve,
     ) -> Result<(Svo, Vec<PassTiming>)> {
-        super::check_resolution(grid.resolution)?;
+        crate::voxel::check_resolution(grid.resolution)?;
         if grid.resolution < 4 {
             return Err(Error::InvalidArgument(
                 "octree resolution must be at least 4".into(),
@@ -679,7 +687,7 @@ impl SvoBuilder {
             bytemuck::cast_slice(&[brick_count * 27, pool_bricks, 0, 0]),
             wgpu::BufferUsages::STORAGE,
         );
-        let pack_group = super::voxelize::bind_buffers(
+        let pack_group = crate::voxel::voxelize::bind_buffers(
             ctx,
             &self.pack,
             &[
@@ -694,7 +702,7 @@ impl SvoBuilder {
                 (8, &packed[3]),
             ],
         );
-        super::voxelize::dispatch(
+        crate::voxel::voxelize::dispatch(
             &mut timer,
             "svo pack bricks",
             &self.pack,
@@ -770,10 +778,10 @@ impl SvoBuilder {
             static_nodes: node_count,
             static_bricks: brick_count,
             dynamic_levels: Vec::new(),
-            dynamic: super::svo_dynamic::SvoDynamic::new(
+            dynamic: crate::voxel::svo::dynamic::SvoDynamic::new(
                 ctx,
                 reserve,
-                super::svo_dynamic::StaticPart {
+                crate::voxel::svo::dynamic::StaticPart {
                     node_capacity: node_capacity as u32,
                     brick_capacity: brick_capacity as u32,
                     depth,
@@ -802,8 +810,8 @@ impl SvoBuilder {
         lights: &wgpu::Buffer,
         light_count: u32,
     ) -> Result<()> {
-        let needed = light_count as u64 * super::svo_inject::LIGHT_BYTES;
-        if lights.size() < needed.max(super::svo_inject::LIGHT_BYTES) {
+        let needed = light_count as u64 * crate::voxel::svo::inject::LIGHT_BYTES;
+        if lights.size() < needed.max(crate::voxel::svo::inject::LIGHT_BYTES) {
             return Err(Error::InvalidArgument(format!(
                 "octree injection: {light_count} lights need a light buffer of {needed} bytes \
                  (at least one light's), it has {}",
@@ -882,7 +890,7 @@ impl SvoBuilder {
     }
 
     /// Group 0 of the octree kernels: `params` (per-level slots) and the 11 storage buffers
-    /// of `svo.wgsl` (fragments, triangles, child, neighbours, coordinates, flags / brick
+    /// of `svo/build.wgsl` (fragments, triangles, child, neighbours, coordinates, flags / brick
     /// index, control, the 4 brick pool buffers).
     /// Group 1: the dispatch arguments, written by the `finish` kernels.
     pub(super) fn args_group(&self, ctx: &GpuContext, args: &wgpu::Buffer) -> wgpu::BindGroup {

@@ -1,5 +1,5 @@
 //! Exact, conservative triangle/voxel overlap on a fixed-point lattice, shared bit for bit by
-//! the GPU kernels (`overlap.wgsl`) and the CPU references ([`super::cpu`]).
+//! the GPU kernels (`voxelize/overlap.wgsl`) and the CPU references ([`crate::voxel::cpu`]).
 //!
 //! A float separating-axis test decides touching and near-touching configurations (a triangle
 //! edge passing through a voxel edge, a vertex on a voxel face) by rounding, and a GPU compiler
@@ -29,7 +29,7 @@
 //! piece (the triangle counts twice in that voxel's averages). Only triangles longer than 32
 //! voxels are split.
 
-use super::VoxelTriangle;
+use crate::voxel::VoxelTriangle;
 use glam::{DVec3, IVec3, Vec3, Vec3Swizzles};
 
 /// Lattice steps per voxel edge: vertices are snapped to multiples of 1/`SNAP` voxel.
@@ -57,7 +57,7 @@ pub struct Piece {
     pub triangle: u32,
 }
 
-/// GPU layout of a [`Piece`] (`Piece` in `overlap.wgsl`): the vertices in `xyz`, the
+/// GPU layout of a [`Piece`] (`Piece` in `voxelize/overlap.wgsl`): the vertices in `xyz`, the
 /// triangle index in `a[3]`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
@@ -314,7 +314,7 @@ pub fn piece_voxels(p: &Piece, size: IVec3) -> Vec<IVec3> {
     out
 }
 
-/// Bounding-box voxels one work item visits (`CHUNK` in `overlap.wgsl`). Small, because the
+/// Bounding-box voxels one work item visits (`CHUNK` in `voxelize/overlap.wgsl`). Small, because the
 /// slowest invocation sets the pass time on a GPU: a floor triangle of Crytek Sponza spans
 /// thousands of voxels next to the few of a typical triangle (4096 took 0.7 ms per pass on an
 /// H100, most of it waiting for the longest items).

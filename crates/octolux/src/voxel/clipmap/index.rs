@@ -1,6 +1,6 @@
 //! A uniform grid over triangle bounds, built once per scene, that finds the triangles whose
 //! bounds meet a world-space box without visiting the others: the clipmap snaps only those for
-//! an update box ([`super::clipmap::Clipmap`]), so the CPU work of an update follows the
+//! an update box ([`crate::voxel::clipmap::Clipmap`]), so the CPU work of an update follows the
 //! geometry near the exposed slabs, not the scene.
 //!
 //! Cells are cubes sized so that the grid has about one cell per triangle (at most 2^21 cells,
@@ -10,7 +10,7 @@
 //! moved triangles that every query scans too, until there are so many that the grid is
 //! rebuilt. Queries return triangle indices in increasing order, each once.
 
-use super::VoxelTriangle;
+use crate::voxel::VoxelTriangle;
 use glam::{IVec3, Vec3};
 
 /// Most cells a triangle is listed in; larger triangles are scanned by every query.

@@ -3,10 +3,10 @@
 // resolve each voxel of the box into its toroidal slot: RGBA8 (albedo averaged with rounding,
 // opacity 255 when any triangle touches the voxel, all zero otherwise), the normalised normal
 // sum, and the mean emission (fixed-point sums divided with rounding, RGB9E5, see
-// `clipmap_emission.wgsl`, which comes before this file).
+// `clipmap/emission.wgsl`, which comes before this file).
 // misc: x = work items, y = first voxel of the level in `voxels`, z = resolution per axis.
 
-// Scratch words per voxel (ACCUM_WORDS in clipmap.rs): albedo r, g, b sums, fragment count,
+// Scratch words per voxel (ACCUM_WORDS in clipmap/mod.rs): albedo r, g, b sums, fragment count,
 // normal x, y, z sums, emission r, g, b sums as 64 bits (low words, then high words).
 const ACCUM_WORDS: u32 = 13u;
 
@@ -21,7 +21,7 @@ const ACCUM_WORDS: u32 = 13u;
 @group(0) @binding(6) var<storage, read_write> normals: array<u32>;
 // Per voxel: mean emission, RGB9E5 (same slots as `voxels`).
 @group(0) @binding(7) var<storage, read_write> emission: array<u32>;
-// The triangles snapped to the box's lattice (`Piece`, see overlap.wgsl); items[w].x indexes it.
+// The triangles snapped to the box's lattice (`Piece`, see voxelize/overlap.wgsl); items[w].x indexes it.
 @group(0) @binding(8) var<storage, read> pieces: array<Piece>;
 
 // Adds `v` to the 64-bit sum in words (lo, hi). The high word counts the wraps of the low
