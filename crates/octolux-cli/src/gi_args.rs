@@ -78,6 +78,19 @@ pub struct GiArgs {
     /// 1 traces every pixel).
     #[arg(long)]
     pub vct_sparse: Option<u32>,
+    /// Cone tracing (vct-svo): voxels per side of the octree's grid, a power of two from 16
+    /// to 512 (default 128).
+    #[arg(long)]
+    pub vct_octree_resolution: Option<u32>,
+    /// Cone tracing (vct-svo): nodes reserved for the animated objects' voxels (default 65536).
+    #[arg(long)]
+    pub vct_dynamic_reserve: Option<u32>,
+    /// Cone tracing: also trace one specular cone per pixel (`--output specular` shows it).
+    #[arg(long)]
+    pub vct_specular: bool,
+    /// Cone tracing: roughness of the specular cone, 0..=1 (default 0.3).
+    #[arg(long)]
+    pub vct_roughness: Option<f32>,
 }
 
 impl GiArgs {
@@ -109,6 +122,12 @@ impl GiArgs {
         set(&mut vct.stop_opacity, self.vct_stop_opacity);
         set(&mut vct.inject_steps, self.vct_inject_steps);
         set(&mut vct.sparse, self.vct_sparse);
+        set(&mut vct.octree_resolution, self.vct_octree_resolution);
+        set(&mut vct.dynamic_reserve, self.vct_dynamic_reserve);
+        set(&mut vct.roughness, self.vct_roughness);
+        if self.vct_specular {
+            vct.specular = true;
+        }
     }
 }
 

@@ -45,10 +45,15 @@ pub struct RenderArgs {
     /// Also write the linear HDR image to this OpenEXR file.
     #[arg(long)]
     pub exr: Option<PathBuf>,
-    /// GI technique: `none` (direct light only), `lpv`, `clpv`, `olpv`, or `reference` (the
-    /// CPU path tracer).
+    /// GI technique: `none` (direct light only), `lpv`, `clpv`, `olpv`, `vct-svo`,
+    /// `vct-clipmap`, or `reference` (the CPU path tracer).
     #[arg(long, default_value = crate::gi_args::DEFAULT_GI)]
     pub gi: String,
+    /// What the image holds (GPU techniques): `final` (the frame), `direct`, `indirect` (the
+    /// indirect irradiance E as E/pi), `ao` (ambient occlusion of the cone tracers) or
+    /// `specular` (their specular cone, with --vct-specular).
+    #[arg(long, default_value = "final")]
+    pub output: String,
     /// Which of the scene's cameras to use: its index or its name.
     #[arg(long, default_value = "0")]
     pub camera: String,
@@ -421,7 +426,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         soft_sky_shadows: args.gpu.soft_sky_shadows,
     };
     let start = std::time::Instant::now();
+    let output = crate::view::parse_output(&args.output)?;
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;
+    renderer.set_output(output);
     let progress = if args.frames > 1 {
         progress_bar(args.frames as u64, "frames")
     } else {

@@ -1,7 +1,8 @@
-//! `vct-clipmap` on the Cornell box against the one-bounce reference: the technique lights the
-//! ceiling, which the spot light does not reach (within a factor 2 of the reference), and its
-//! image is closer to the reference than no GI at all in relMSE and FLIP. Bad settings are
-//! clear errors.
+//! `vct-svo` and `vct-clipmap` on the Cornell box against the one-bounce reference: each
+//! lights the ceiling, which the spot light does not reach (within a factor 2 of the
+//! reference), and its image is closer to the reference than no GI at all in relMSE and FLIP.
+//! Their ambient occlusion closes in corners; the specular cone sees the lit walls. Bad
+//! settings are clear errors.
 
 use glam::Vec3;
 use octolux::gi::GiSettings;
@@ -9,7 +10,7 @@ use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
 use octolux::metrics::{flip, rel_mse, MetricOptions};
 use octolux::reference::{Bounces, ReferenceSettings};
-use octolux::render::{RenderSettings, Renderer};
+use octolux::render::{Output, RenderSettings, Renderer};
 
 const SIZE: u32 = 48;
 
@@ -43,15 +44,13 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let scene = octolux::scene::cornell::scene();
-    // Smaller than the defaults (64^3 x 4 levels), which lavapipe injects slowly.
-    let vct = octolux::gi::vct::VctSettings {
-        resolution: 32,
-        levels: 3,
-        ..Default::default()
-    };
+    // Smaller than the defaults (clipmap 64^3 x 4 levels, octree 128^3), which lavapipe
+    // injects slowly.
+    let vct = small();
+    let techniques = ["none", "vct-svo", "vct-clipmap"];
     let mut images = Vec::new();
     let mut mask = Vec::new();
-    for technique in ["none", "vct-clipmap"] {
+    for technique in techniques {
         let mut r = Renderer::new(&ctx, &scene, settings(technique, vct.clone())).unwrap();
         r.render(&scene, 0.0).unwrap();
         let g = r.read_gbuffer().unwrap();
@@ -78,34 +77,108 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     .unwrap()
     .total;
     let expected = mean_over(&reference, &mask);
-    let got = mean_over(&images[1], &mask);
-    println!("ceiling radiance: vct-clipmap {got}, reference {expected}");
     assert_eq!(
         mean_over(&images[0], &mask),
         0.0,
         "no direct light on the ceiling"
     );
-    assert!(
-        (0.5..2.0).contains(&(got / expected)),
-        "ceiling: vct-clipmap {got}, reference {expected}"
-    );
     let options = MetricOptions::default();
-    let (none_rel, vct_rel) = (
-        rel_mse(&images[0], &reference, None).unwrap(),
-        rel_mse(&images[1], &reference, None).unwrap(),
-    );
-    let (none_flip, vct_flip) = (
-        flip(&images[0], &reference, None, &options).unwrap(),
-        flip(&images[1], &reference, None, &options).unwrap(),
-    );
-    println!(
-        "relMSE none {none_rel:.4} vct {vct_rel:.4}; FLIP none {none_flip:.4} vct {vct_flip:.4}"
-    );
-    assert!(
-        vct_rel < 0.8 * none_rel,
-        "relMSE {vct_rel} vs none {none_rel}"
-    );
-    assert!(vct_flip < none_flip, "FLIP {vct_flip} vs none {none_flip}");
+    let none_rel = rel_mse(&images[0], &reference, None).unwrap();
+    let none_flip = flip(&images[0], &reference, None, &options).unwrap();
+    for (technique, image) in techniques.iter().zip(&images).skip(1) {
+        let got = mean_over(image, &mask);
+        let rel = rel_mse(image, &reference, None).unwrap();
+        let fl = flip(image, &reference, None, &options).unwrap();
+        println!(
+            "{technique}: ceiling radiance {got} (reference {expected}); relMSE {rel:.4} \
+             (none {none_rel:.4}), FLIP {fl:.4} (none {none_flip:.4})"
+        );
+        assert!(
+            (0.5..2.0).contains(&(got / expected)),
+            "ceiling: {technique} {got}, reference {expected}"
+        );
+        assert!(
+            rel < 0.8 * none_rel,
+            "{technique}: relMSE {rel} vs none {none_rel}"
+        );
+        assert!(fl < none_flip, "{technique}: FLIP {fl} vs none {none_flip}");
+    }
+}
+
+/// Cone-tracing settings small enough for lavapipe: clipmap 32^3 x 3 levels, octree 64^3.
+fn small() -> octolux::gi::vct::VctSettings {
+    octolux::gi::vct::VctSettings {
+        resolution: 32,
+        levels: 3,
+        octree_resolution: 64,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn ambient_occlusion_sees_the_closed_box_and_the_specular_cone_sees_the_walls() {
+    // AO (the indirect image's alpha) is 1 - the cosine-weighted opacity the six cones gather:
+    // in [0, 1] everywhere, and neither open nor closed in the box (below). The specular cone (every pixel, full resolution) reflects the
+    // lit walls: the floor's mirror image of the red left wall is red.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = octolux::scene::cornell::scene();
+    for technique in ["vct-svo", "vct-clipmap"] {
+        let vct = octolux::gi::vct::VctSettings {
+            sparse: 1,
+            specular: true,
+            roughness: 0.2,
+            ..small()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings(technique, vct)).unwrap();
+        r.set_output(Output::AmbientOcclusion);
+        r.render(&scene, 0.0).unwrap();
+        let ao = r.read_hdr().unwrap();
+        let g = r.read_gbuffer().unwrap();
+        r.set_output(Output::Specular);
+        r.render(&scene, 0.0).unwrap();
+        let specular = r.read_hdr().unwrap();
+        let at = |x: u32, y: u32| (y * SIZE + x) as usize;
+        let floor: Vec<(u32, u32)> = (0..SIZE * SIZE)
+            .filter(|&i| g.depth[i as usize] < 1.0 && g.normal[i as usize].y > 0.9)
+            .map(|i| (i % SIZE, i / SIZE))
+            .collect();
+        let mean_ao = |facing: Vec3| {
+            let v: Vec<f32> = (0..(SIZE * SIZE) as usize)
+                .filter(|&i| g.depth[i] < 1.0 && g.normal[i].dot(facing) > 0.9)
+                .map(|i| ao.pixels[i].x)
+                .collect();
+            v.iter().sum::<f32>() / v.len().max(1) as f32
+        };
+        // The box is closed on five sides: from the back wall's middle the open side
+        // subtends a cosine-weighted fraction of about 0.2 of the hemisphere, from the floor
+        // and the side walls less. So AO is well below 1 (a technique that wrote no occlusion
+        // gives 1) and above 0 (cones that all stopped on the surface's own voxels give 0).
+        let (back, floor_ao) = (mean_ao(Vec3::NEG_Z), mean_ao(Vec3::Y));
+        println!("{technique}: AO back wall {back}, floor {floor_ao}");
+        for v in [back, floor_ao] {
+            assert!(
+                (0.05..0.5).contains(&v),
+                "{technique}: AO {back}, {floor_ao}"
+            );
+        }
+        assert!(ao
+            .pixels
+            .iter()
+            .zip(&g.depth)
+            .all(|(p, &d)| d >= 1.0 || (p.x >= 0.0 && p.x <= 1.0)));
+        let row = floor.iter().map(|p| p.1).max().unwrap();
+        let xs: Vec<u32> = floor.iter().filter(|p| p.1 == row).map(|p| p.0).collect();
+        let (left, right) = (*xs.iter().min().unwrap(), *xs.iter().max().unwrap());
+        // Left half of the floor: its mirror direction (towards the camera's far side)
+        // meets the red wall more than the green one.
+        let reflected = floor
+            .iter()
+            .filter(|p| p.0 < (left + right) / 2 && p.1 + 4 > row)
+            .fold(Vec3::ZERO, |s, p| s + specular.pixels[at(p.0, p.1)]);
+        println!("{technique}: specular on the floor's left {reflected}");
+        assert!(reflected.x > 1.5 * reflected.y, "{technique}: {reflected}");
+    }
 }
 
 #[test]
@@ -197,11 +270,39 @@ fn bad_vct_settings_are_clear_errors() {
             },
             "vct sparse",
         ),
+        (
+            octolux::gi::vct::VctSettings {
+                octree_resolution: 1024,
+                ..Default::default()
+            },
+            "vct octree_resolution",
+        ),
+        (
+            octolux::gi::vct::VctSettings {
+                roughness: -0.5,
+                ..Default::default()
+            },
+            "vct roughness",
+        ),
+        (
+            octolux::gi::vct::VctSettings {
+                dynamic_reserve: 0,
+                ..Default::default()
+            },
+            "vct dynamic_reserve",
+        ),
     ];
-    for (vct, what) in cases {
-        let err = Renderer::new(&ctx, &scene, settings("vct-clipmap", vct))
-            .err()
-            .expect("must fail");
-        assert!(err.to_string().contains(what), "{err}");
+    for technique in ["vct-svo", "vct-clipmap"] {
+        for (vct, what) in &cases {
+            let err = Renderer::new(&ctx, &scene, settings(technique, vct.clone()))
+                .err()
+                .expect("must fail");
+            assert!(err.to_string().contains(what), "{technique}: {err}");
+        }
     }
+    // Unknown keys in a scene file's [settings.vct] are errors that name the key.
+    let table: toml::Table = toml::from_str("[vct]\ncone_count = 6\n").unwrap();
+    let err =
+        GiSettings::from_table(&table, std::path::Path::new("scene.toml")).expect_err("must fail");
+    assert!(err.to_string().contains("cone_count"), "{err}");
 }

@@ -275,10 +275,11 @@ impl Accumulated {
         self.spp += images.spp_done;
     }
 
-    /// The reference image matching what `output` shows.
+    /// The reference image matching what `output` shows (the frame for outputs the
+    /// reference does not compute: ambient occlusion, specular).
     fn matching(&self, output: Output) -> HdrImage {
         match output {
-            Output::Final => self.total.clone(),
+            Output::Final | Output::AmbientOcclusion | Output::Specular => self.total.clone(),
             Output::Direct => self.direct.clone(),
             Output::IndirectIrradiance => HdrImage {
                 pixels: self
@@ -352,7 +353,9 @@ impl Worker {
         let reference = acc.matching(output);
         let reference_rgb = display_rgb8(&reference, exposure);
         let mut measured = None;
-        if let Some(test) = test.filter(|t| t.image.width == reference.width) {
+        if let Some(test) =
+            test.filter(|t| t.image.width == reference.width && t.output.has_reference())
+        {
             let options = MetricOptions {
                 exposure,
                 ..MetricOptions::default()

@@ -119,7 +119,9 @@ pub fn parse_output(text: &str) -> Result<Output> {
         "final" => Ok(Output::Final),
         "direct" => Ok(Output::Direct),
         "indirect" | "indirect-irradiance" => Ok(Output::IndirectIrradiance),
-        other => bail!("--output {other}: expected final, direct or indirect"),
+        "ao" | "ambient-occlusion" => Ok(Output::AmbientOcclusion),
+        "specular" => Ok(Output::Specular),
+        other => bail!("--output {other}: expected final, direct, indirect, ao or specular"),
     }
 }
 

@@ -50,8 +50,19 @@ pub trait GiTechnique {
     /// Records the passes that bring the technique up to date with `frame` and write the
     /// indirect irradiance image. Every pass goes through `timer` under a name.
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()>;
-    /// The indirect irradiance image (valid after `update`).
+    /// The indirect irradiance image (valid after `update`). Techniques that compute ambient
+    /// occlusion (the cone tracers) put it in alpha (1 = open, 0 = occluded).
     fn indirect_view(&self) -> &wgpu::TextureView;
+    /// An optional image of specular radiance, W/(m^2 sr), along each pixel's mirror
+    /// direction (the cone tracers' `specular` setting); None by default.
+    fn specular_view(&self) -> Option<&wgpu::TextureView> {
+        None
+    }
+    /// Memory-ledger owners of this technique's resources besides its name (a shared voxel
+    /// structure it builds, under the structure's own owner), released with it.
+    fn other_ledger_owners(&self) -> &[&'static str] {
+        &[]
+    }
     /// The light transport this technique claims to compute, so that it is judged against the
     /// matching reference (LPV and VPL methods compute one indirect bounce).
     fn reference_bounces(&self) -> crate::reference::Bounces;
@@ -109,7 +120,7 @@ pub(crate) fn indirect_target(
 }
 
 /// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv", "vct-clipmap"];
+pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv", "vct-svo", "vct-clipmap"];
 
 /// Creates the technique called `name` for images of `width` x `height`.
 pub fn create(
@@ -122,6 +133,13 @@ pub fn create(
 ) -> Result<Box<dyn GiTechnique>> {
     match name {
         "none" => Ok(Box::new(NoGi::new(ctx, width, height))),
+        "vct-svo" => Ok(Box::new(vct::VctSvo::new(
+            ctx,
+            &settings.vct,
+            scene,
+            width,
+            height,
+        )?)),
         "vct-clipmap" => Ok(Box::new(vct::VctClipmap::new(
             ctx,
             &settings.vct,

@@ -12,6 +12,8 @@ pub(crate) struct Compose {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
     bind_group: Option<wgpu::BindGroup>,
+    /// Stand-in for a technique without a specular image (1 x 1, black).
+    no_specular: wgpu::TextureView,
     pub hdr: wgpu::Texture,
     hdr_view: wgpu::TextureView,
     pub ldr: wgpu::Texture,
@@ -43,10 +45,20 @@ impl Compose {
             wgpu::TextureFormat::Rgba8Unorm,
             usage,
         );
+        let (_, no_specular) = target(
+            ctx,
+            OWNER,
+            "no specular",
+            1,
+            1,
+            wgpu::TextureFormat::Rgba16Float,
+            wgpu::TextureUsages::TEXTURE_BINDING,
+        );
         Compose {
             pipeline,
             layout,
             bind_group: None,
+            no_specular,
             hdr,
             hdr_view,
             ldr,
@@ -62,6 +74,7 @@ impl Compose {
         direct: &wgpu::TextureView,
         gbuffer: &GBuffer,
         indirect: &wgpu::TextureView,
+        specular: Option<&wgpu::TextureView>,
     ) {
         self.bind_group = Some(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("compose"),
@@ -76,6 +89,7 @@ impl Compose {
                 tex(3, indirect),
                 tex(4, &self.hdr_view),
                 tex(5, &self.ldr_view),
+                tex(6, specular.unwrap_or(&self.no_specular)),
             ],
         }));
     }

@@ -8,6 +8,8 @@
 @group(0) @binding(3) var indirect_tex: texture_2d<f32>;
 @group(0) @binding(4) var out_hdr: texture_storage_2d<rgba32float, write>;
 @group(0) @binding(5) var out_ldr: texture_storage_2d<rgba8unorm, write>;
+// The technique's specular image, or a 1 x 1 black stand-in.
+@group(0) @binding(6) var specular_tex: texture_2d<f32>;
 
 fn filmic(x: vec3<f32>) -> vec3<f32> {
     let v = max(x, vec3<f32>(0.0));
@@ -29,15 +31,24 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let px = id.xy;
     let direct = textureLoad(direct_tex, px, 0).rgb;
     let albedo = textureLoad(albedo_tex, px, 0).rgb;
-    let indirect = textureLoad(indirect_tex, px, 0).rgb;
+    let indirect = textureLoad(indirect_tex, px, 0);
     // cam.params.w picks what is shown (render::Output): 0 the frame, 1 direct light only,
-    // 2 the indirect irradiance as the radiance a white Lambertian surface would reflect.
+    // 2 the indirect irradiance as the radiance a white Lambertian surface would reflect,
+    // 3 the ambient occlusion in the indirect image's alpha (shown as is, no exposure),
+    // 4 the specular image.
     let output = u32(cam.params.w);
-    var radiance = direct + albedo / PI * indirect;
+    var radiance = direct + albedo / PI * indirect.rgb;
     if output == 1u {
         radiance = direct;
     } else if output == 2u {
-        radiance = indirect / PI;
+        radiance = indirect.rgb / PI;
+    } else if output == 3u {
+        let ao = clamp(indirect.a, 0.0, 1.0);
+        textureStore(out_hdr, px, vec4<f32>(vec3<f32>(ao), 1.0));
+        textureStore(out_ldr, px, vec4<f32>(linear_to_srgb(vec3<f32>(ao)), 1.0));
+        return;
+    } else if output == 4u {
+        radiance = textureLoad(specular_tex, min(px, textureDimensions(specular_tex) - vec2<u32>(1u)), 0).rgb;
     }
     textureStore(out_hdr, px, vec4<f32>(radiance, 1.0));
     textureStore(out_ldr, px, vec4<f32>(linear_to_srgb(filmic(radiance * cam.params.x)), 1.0));

@@ -98,11 +98,23 @@ pub enum Output {
     /// The technique's indirect irradiance E, shown as E/pi: the radiance a white Lambertian
     /// surface would reflect, so it reads on the same exposure as the frame.
     IndirectIrradiance = 2,
+    /// The technique's ambient occlusion (the indirect image's alpha: 1 = open, 0 =
+    /// occluded), shown without exposure; only the cone-tracing techniques compute one.
+    AmbientOcclusion = 3,
+    /// The technique's specular image ([`crate::gi::GiTechnique::specular_view`]), black for
+    /// techniques without one.
+    Specular = 4,
 }
 
 impl Output {
     /// Every output, in menu order.
-    pub const ALL: [Output; 3] = [Output::Final, Output::Direct, Output::IndirectIrradiance];
+    pub const ALL: [Output; 5] = [
+        Output::Final,
+        Output::Direct,
+        Output::IndirectIrradiance,
+        Output::AmbientOcclusion,
+        Output::Specular,
+    ];
 
     /// Short name for menus and file names.
     pub fn name(self) -> &'static str {
@@ -110,7 +122,18 @@ impl Output {
             Output::Final => "final",
             Output::Direct => "direct",
             Output::IndirectIrradiance => "indirect irradiance",
+            Output::AmbientOcclusion => "ambient occlusion",
+            Output::Specular => "specular",
         }
+    }
+
+    /// Whether the reference path tracer computes this output too (the frame, direct light
+    /// and indirect irradiance; not ambient occlusion or specular), so the two can be compared.
+    pub fn has_reference(self) -> bool {
+        matches!(
+            self,
+            Output::Final | Output::Direct | Output::IndirectIrradiance
+        )
     }
 }
 
@@ -249,6 +272,7 @@ impl Renderer {
             &direct.output_view,
             &gbuffer,
             gi.indirect_view(),
+            gi.specular_view(),
         );
         ctx.check_errors()?;
         Ok(Renderer {
@@ -289,6 +313,11 @@ impl Renderer {
             // Same owner name: the new technique's entries have already replaced the old ones.
             self.ctx.ledger.release_owner(old.name());
         }
+        for owner in old.other_ledger_owners() {
+            if !self.gi.other_ledger_owners().contains(owner) {
+                self.ctx.ledger.release_owner(owner);
+            }
+        }
         drop(old);
         self.compose.bind(
             &self.ctx,
@@ -296,6 +325,7 @@ impl Renderer {
             &self.direct.output_view,
             &self.gbuffer,
             self.gi.indirect_view(),
+            self.gi.specular_view(),
         );
         self.settings.gi = name.to_string();
         self.settings.gi_settings = gi_settings.clone();

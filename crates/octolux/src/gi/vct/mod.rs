@@ -1,16 +1,24 @@
-//! Voxel cone tracing (`003`): the cone marcher shared by the octree and clipmap back-ends.
+//! Voxel cone tracing (`003`) on the sparse voxel octree (`vct-svo`) and on the clipmap
+//! (`vct-clipmap`).
 //!
 //! [`cone`] holds the marcher in WGSL ([`CONE_WGSL`]) and its CPU twin ([`march_cone`]),
 //! written against one sampling function, `vct_sample(p, footprint) -> vec4<f32>` (premultiplied
 //! radiance and opacity filtered over `footprint` metres), which the includer provides from
-//! the structure it traces: the octree's or the clipmap's radiance sampler. [`gather`] holds
-//! the diffuse gather's cone set and weights.
+//! the structure it traces: the octree's or the clipmap's radiance sampler
+//! (`svo_trace.wgsl`, `clipmap_trace.wgsl`). [`gather`] holds the diffuse gather's cone set
+//! and weights; `tracer.rs` the passes both techniques share (gather, sparse reconstruction,
+//! specular cone), so the two differ only in the structure they bring up to date and sample.
 
 mod clipmap_gi;
 pub mod cone;
 pub mod gather;
+mod settings;
+mod svo_gi;
+mod tracer;
 
-pub use clipmap_gi::{VctClipmap, VctSettings};
+pub use clipmap_gi::VctClipmap;
+pub use settings::VctSettings;
+pub use svo_gi::VctSvo;
 
 pub use cone::{march_cone, ConeMarch, ConeParams, CONE_WGSL};
 pub use gather::{diffuse_cone_dir, gather_irradiance, GATHER_WGSL};

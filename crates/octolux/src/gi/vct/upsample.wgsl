@@ -2,7 +2,8 @@
 // blocks around it (`trace.wgsl`, one traced pixel per f x f block, at the block's centre),
 // weighted bilinearly and by how alike the traced pixel's surface is: relative view depth
 // (exp(-|dz| / (0.05 z))) and normal (max(0, n.n')^8). Where no neighbour is alike (a
-// silhouette against unrelated surfaces) it takes the most alike one.
+// silhouette against unrelated surfaces) it takes the most alike one. Alpha (the ambient
+// occlusion) is reconstructed alike.
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var depth_tex: texture_depth_2d;
@@ -41,9 +42,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let g = (vec2<f32>(id.xy) + 0.5) / f32(f) - 0.5;
     let b0 = vec2<i32>(floor(g));
     let t = g - floor(g);
-    var sum = vec3<f32>(0.0);
+    var sum = vec4<f32>(0.0);
     var weight = 0.0;
-    var best = vec3<f32>(0.0);
+    var best = vec4<f32>(0.0, 0.0, 0.0, 1.0);
     var best_likeness = -1.0;
     for (var k = 0u; k < 4u; k++) {
         let o = vec2<i32>(i32(k & 1u), i32(k >> 1u));
@@ -54,7 +55,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let dz = abs(view_depth(px) - z) / max(0.05 * z, 1e-6);
         let likeness = exp(-dz) * pow(max(dot(n, normalize(textureLoad(normal_tex, px, 0).xyz)), 0.0), 8.0);
-        let e = textureLoad(sparse_tex, b, 0).rgb;
+        let e = textureLoad(sparse_tex, b, 0);
         let bilinear = select(1.0 - t.x, t.x, o.x == 1) * select(1.0 - t.y, t.y, o.y == 1);
         sum += bilinear * likeness * e;
         weight += bilinear * likeness;
@@ -67,5 +68,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if weight > 1e-4 {
         e = sum / weight;
     }
-    textureStore(out_tex, id.xy, vec4<f32>(e, 1.0));
+    textureStore(out_tex, id.xy, e);
 }

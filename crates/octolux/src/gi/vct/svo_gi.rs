@@ -1,0 +1,182 @@
+//! `vct-svo`: voxel cone tracing on the sparse voxel octree (`003` §3.1-3.2): the octree of
+//! the scene's static geometry is built once; per frame its dynamic part is rebuilt from the
+//! animated objects, direct light is injected into its leaves from the renderer's shadow maps
+//! and filtered up the levels, and every pixel gathers one bounce through six cones.
+
+use super::clipmap_gi::cone_params;
+use super::tracer::ConeTracer;
+use super::VctSettings;
+use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::scene::Scene;
+use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use crate::voxel::svo::dynamic::DynamicReserve;
+use crate::voxel::svo::inject::SVO_RADIANCE_SAMPLE_WGSL;
+use crate::voxel::svo::{Svo, SvoBuilder};
+use crate::voxel::{objects_triangles, VoxelGrid};
+use crate::{Error, Result};
+
+const OWNER: &str = "vct-svo";
+
+/// Voxel cone tracing on the sparse voxel octree.
+pub struct VctSvo {
+    builder: SvoBuilder,
+    svo: Svo,
+    /// Whether the scene has animated objects (the dynamic part is rebuilt every frame).
+    animated: bool,
+    tracer: ConeTracer,
+    info: wgpu::Buffer,
+}
+
+/// Bounds of everything the scene's geometry covers: at rest and, for animated objects, at
+/// 256 instants over their tracks' key range (a moving object outside the octree's grid would
+/// not be voxelised).
+fn bounds_over_animation(scene: &Scene) -> (glam::Vec3, glam::Vec3) {
+    let (mut lo, mut hi) = scene.bounds_at(0.0);
+    let keys = scene
+        .objects
+        .iter()
+        .filter_map(|o| o.animation.as_ref())
+        .flat_map(|track| track.keys.iter().map(|k| k.time));
+    let (t0, t1) = keys.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), t| {
+        (a.min(t), b.max(t))
+    });
+    if t0 < t1 {
+        for i in 0..=256 {
+            let (l, h) = scene.bounds_at(t0 + (t1 - t0) * i as f32 / 256.0);
+            lo = lo.min(l);
+            hi = hi.max(h);
+        }
+    }
+    (lo, hi)
+}
+
+impl VctSvo {
+    /// The technique for `scene` at `width` x `height`: builds the octree of the static
+    /// geometry (once, here; it waits for the GPU to size its buffers).
+    pub fn new(
+        ctx: &GpuContext,
+        settings: &VctSettings,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+    ) -> Result<VctSvo> {
+        settings.validate()?;
+        let (lo, hi) = bounds_over_animation(scene);
+        let extent = (hi - lo).max_element();
+        if !extent.is_finite() || extent <= 0.0 {
+            return Err(Error::InvalidArgument(format!(
+                "vct-svo needs a scene with extent; its bounds are {lo} to {hi}"
+            )));
+        }
+        let grid = VoxelGrid::enclosing((lo, hi), settings.octree_resolution)?;
+        let animated = scene.objects.iter().any(|o| o.animation.is_some());
+        let reserve = if animated {
+            DynamicReserve::new(settings.dynamic_reserve)
+        } else {
+            DynamicReserve::NONE
+        };
+        let builder = SvoBuilder::new(ctx);
+        let still = objects_triangles(scene, &scene.frame(0.0, 0), false);
+        let (svo, _) = builder.build_with_reserve(ctx, &grid, &still, reserve)?;
+        let tracer = ConeTracer::new(
+            ctx,
+            OWNER,
+            &[
+                SVO_SAMPLE_WGSL,
+                SVO_RADIANCE_SAMPLE_WGSL,
+                include_str!("svo_trace.wgsl"),
+            ],
+            settings,
+            width,
+            height,
+        );
+        let span = grid.voxel_size * grid.resolution as f32;
+        // Cones end where they leave the grid at the latest (its diagonal).
+        tracer.set_cone(
+            ctx,
+            cone_params(settings, grid.voxel_size, 3f32.sqrt() * span),
+            settings,
+        );
+        let info = ctx.create_buffer_init(
+            OWNER,
+            "octree info",
+            bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
+            wgpu::BufferUsages::STORAGE,
+        );
+        Ok(VctSvo {
+            builder,
+            svo,
+            animated,
+            tracer,
+            info,
+        })
+    }
+
+    /// The octree (for tests and tools).
+    pub fn octree(&self) -> &Svo {
+        &self.svo
+    }
+}
+
+impl GiTechnique for VctSvo {
+    fn name(&self) -> &str {
+        "vct-svo"
+    }
+
+    fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
+        // 1. Voxels: the animated objects' voxels replace the dynamic part (no readback: its
+        //    sizes stay on the GPU).
+        if self.animated {
+            let moving = objects_triangles(frame.scene, frame.frame, true);
+            self.builder
+                .record_dynamic(ctx, timer, &mut self.svo, &moving)?;
+        }
+        // 2. Direct light into the leaves from the shadow maps, filtered up the levels.
+        self.builder.inject(
+            ctx,
+            timer,
+            &self.svo,
+            frame.shadows.texture(),
+            frame.shadow_layers,
+            frame.lights,
+            frame.frame.lights.len() as u32,
+        )?;
+        // 3. Six cones per pixel through the injected radiance (sparse, then reconstructed;
+        //    the specular cone where enabled).
+        let svo = &self.svo;
+        let mut structure = vec![
+            (3, self.info.as_entire_binding()),
+            (4, svo.child.as_entire_binding()),
+            (7, svo.brick_index.as_entire_binding()),
+        ];
+        structure.extend(
+            svo.radiance
+                .iter()
+                .zip(8..)
+                .map(|(buffer, binding)| (binding, buffer.as_entire_binding())),
+        );
+        self.tracer.record(ctx, frame, timer, &structure);
+        Ok(())
+    }
+
+    fn indirect_view(&self) -> &wgpu::TextureView {
+        self.tracer.view()
+    }
+
+    fn specular_view(&self) -> Option<&wgpu::TextureView> {
+        self.tracer.specular().map(|(_, view)| view)
+    }
+
+    fn reference_bounces(&self) -> crate::reference::Bounces {
+        crate::reference::Bounces::Indirect(1)
+    }
+
+    fn other_ledger_owners(&self) -> &[&'static str] {
+        &[crate::voxel::svo::OWNER]
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+}

@@ -1,0 +1,235 @@
+//! The passes both cone-tracing techniques share once their structure holds injected
+//! radiance: the diffuse gather (`trace.wgsl`, every pixel or one per sparse block), the sparse
+//! reconstruction (`upsample.wgsl`) and the optional specular cone. The structure comes in as
+//! WGSL (`vct_sample`, `vct_surface_voxel` and their bindings) and as bind-group entries, so
+//! the octree and the clipmap differ only there.
+
+use super::cone::ConeParams;
+use super::{VctSettings, CONE_WGSL, GATHER_WGSL};
+use crate::gi::GiFrame;
+use crate::gpu::{GpuContext, PassTimer};
+use crate::render::dispatch_2d;
+
+/// `TraceParams` of `trace.wgsl` (a read-only storage block).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct TraceParams {
+    cone: ConeParams,
+    misc: [f32; 4],
+}
+
+/// An image of the technique's: texture, view and the pipeline that writes it.
+struct Stage {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// The gather, reconstruction and specular passes over one structure.
+pub(crate) struct ConeTracer {
+    sparse: u32,
+    trace: wgpu::ComputePipeline,
+    /// Sparse tracing: the reduced image and the reconstruction into the full one.
+    upsample: Option<Stage>,
+    specular: Option<Stage>,
+    params: wgpu::Buffer,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+}
+
+/// A texture of the technique's (`Rgba16Float`, written by compute, read by the next pass).
+fn image(
+    ctx: &GpuContext,
+    owner: &str,
+    label: &str,
+    width: u32,
+    height: u32,
+) -> (wgpu::Texture, wgpu::TextureView) {
+    crate::render::render_target(
+        ctx,
+        owner,
+        label,
+        width,
+        height,
+        wgpu::TextureFormat::Rgba16Float,
+        wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+    )
+}
+
+impl ConeTracer {
+    /// The passes for images of `width` x `height` over the structure whose sampling WGSL is
+    /// `structure` (its sampler, then its `*_trace.wgsl`), recorded under `owner`.
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        owner: &str,
+        structure: &[&str],
+        settings: &VctSettings,
+        width: u32,
+        height: u32,
+    ) -> ConeTracer {
+        let common = include_str!("../../render/common.wgsl");
+        let sparse_wgsl = include_str!("sparse.wgsl");
+        let source = [common]
+            .iter()
+            .chain(structure)
+            .chain(&[
+                CONE_WGSL,
+                GATHER_WGSL,
+                sparse_wgsl,
+                include_str!("trace.wgsl"),
+            ])
+            .copied()
+            .collect::<Vec<_>>()
+            .join("\n");
+        let module = ctx.shader("vct trace", &source);
+        let trace = ctx.compute_pipeline("vct trace", &module, "main");
+        let specular = settings.specular.then(|| {
+            let (texture, view) = image(ctx, owner, "specular radiance", width, height);
+            Stage {
+                view,
+                texture,
+                pipeline: ctx.compute_pipeline("vct specular", &module, "specular"),
+            }
+        });
+        let f = settings.sparse;
+        let upsample = (f > 1).then(|| {
+            let (texture, view) = image(
+                ctx,
+                owner,
+                "sparse irradiance",
+                width.div_ceil(f),
+                height.div_ceil(f),
+            );
+            let source = [common, sparse_wgsl, include_str!("upsample.wgsl")].join("\n");
+            let module = ctx.shader("vct upsample", &source);
+            Stage {
+                view,
+                texture,
+                pipeline: ctx.compute_pipeline("vct upsample", &module, "main"),
+            }
+        });
+        let params = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("trace params"),
+                size: std::mem::size_of::<TraceParams>() as u64,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            },
+        );
+        let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
+        ConeTracer {
+            sparse: f,
+            trace,
+            upsample,
+            specular,
+            params,
+            texture,
+            view,
+        }
+    }
+
+    /// Sets how cones are marched: `cone` (its `voxel` the finest voxel, its `start` unused:
+    /// the trace derives both from the voxel where each surface is) and the settings' start
+    /// offset, sparse factor and specular aperture.
+    pub(crate) fn set_cone(&self, ctx: &GpuContext, cone: ConeParams, settings: &VctSettings) {
+        let params = TraceParams {
+            cone,
+            misc: [
+                settings.start,
+                settings.sparse as f32,
+                settings.specular_aperture(),
+                0.0,
+            ],
+        };
+        ctx.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+    }
+
+    /// Records the gather (and the reconstruction and specular cone where enabled) with the
+    /// structure bound at `structure`'s bindings.
+    pub(crate) fn record(
+        &self,
+        ctx: &GpuContext,
+        frame: &GiFrame,
+        timer: &mut PassTimer,
+        structure: &[(u32, wgpu::BindingResource)],
+    ) {
+        let tex = wgpu::BindingResource::TextureView;
+        let bind = |label: &str, pipeline: &wgpu::ComputePipeline, out: u32, view| {
+            let mut entries: Vec<wgpu::BindGroupEntry> = [
+                (0, frame.camera_uniform.as_entire_binding()),
+                (
+                    1,
+                    wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
+                ),
+                (
+                    2,
+                    wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
+                ),
+                (5, self.params.as_entire_binding()),
+                (out, wgpu::BindingResource::TextureView(view)),
+            ]
+            .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
+            .into();
+            entries.extend(
+                structure
+                    .iter()
+                    .map(|(binding, resource)| wgpu::BindGroupEntry {
+                        binding: *binding,
+                        resource: resource.clone(),
+                    }),
+            );
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            })
+        };
+        let (w, h) = (self.texture.width(), self.texture.height());
+        // 1. Six cones per traced pixel.
+        let traced = self.upsample.as_ref().map_or(&self.view, |s| &s.view);
+        let group = bind("vct trace", &self.trace, 6, traced);
+        let f = self.sparse;
+        dispatch_2d(
+            timer,
+            "vct trace",
+            &self.trace,
+            &group,
+            w.div_ceil(f),
+            h.div_ceil(f),
+        );
+        // 2. Sparse tracing: the untraced pixels from the traced ones.
+        if let Some(up) = &self.upsample {
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("vct upsample"),
+                layout: &up.pipeline.get_bind_group_layout(0),
+                entries: &[
+                    (0, frame.camera_uniform.as_entire_binding()),
+                    (1, tex(&frame.gbuffer.depth_view)),
+                    (2, tex(&frame.gbuffer.normal_view)),
+                    (3, tex(&up.view)),
+                    (4, self.params.as_entire_binding()),
+                    (5, tex(&self.view)),
+                ]
+                .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
+            });
+            dispatch_2d(timer, "vct upsample", &up.pipeline, &group, w, h);
+        }
+        // 3. The optional specular cone, every pixel.
+        if let Some(spec) = &self.specular {
+            let group = bind("vct specular", &spec.pipeline, 30, &spec.view);
+            dispatch_2d(timer, "vct specular", &spec.pipeline, &group, w, h);
+        }
+    }
+
+    /// Indirect irradiance (rgb, W/m^2) and ambient occlusion (alpha).
+    pub(crate) fn view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
+    /// The specular cone's radiance, when enabled.
+    pub(crate) fn specular(&self) -> Option<(&wgpu::Texture, &wgpu::TextureView)> {
+        self.specular.as_ref().map(|s| (&s.texture, &s.view))
+    }
+}
