@@ -41,7 +41,8 @@ pub struct ViewArgs {
     /// Start with the animation playing.
     #[arg(long)]
     pub play: bool,
-    /// What to show at start: `final`, `direct` or `indirect` (the indirect irradiance).
+    /// What to show at start: `final`, `direct`, `indirect` (the indirect irradiance), `ao`
+    /// (the cone tracers' ambient occlusion) or `specular` (their specular cone).
     #[arg(long, default_value = "final")]
     pub output: String,
     /// Exposure in EV (stops), replacing the scene's.
