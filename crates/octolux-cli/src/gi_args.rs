@@ -71,7 +71,11 @@ pub struct GiArgs {
     /// Cone tracing: accumulated opacity at which a cone stops (default 0.95).
     #[arg(long)]
     pub vct_stop_opacity: Option<f32>,
-    /// Cone tracing: samples per shadow ray of the light injection (default 256).
+    /// Cone tracing (vct-clipmap): visibility for the light injection, `shadow-maps` (the
+    /// renderer's, default) or `voxel-rays` (marched through the clipmap).
+    #[arg(long)]
+    pub vct_injection: Option<octolux::gi::vct::ClipmapInjection>,
+    /// Cone tracing: samples per shadow ray of the voxel-ray injection (default 256).
     #[arg(long)]
     pub vct_inject_steps: Option<u32>,
     /// Cone tracing: trace one pixel per N x N block and reconstruct the others (default 4;
@@ -120,6 +124,7 @@ impl GiArgs {
         set(&mut vct.step, self.vct_step);
         set(&mut vct.start, self.vct_start);
         set(&mut vct.stop_opacity, self.vct_stop_opacity);
+        set(&mut vct.injection, self.vct_injection);
         set(&mut vct.inject_steps, self.vct_inject_steps);
         set(&mut vct.sparse, self.vct_sparse);
         set(&mut vct.octree_resolution, self.vct_octree_resolution);

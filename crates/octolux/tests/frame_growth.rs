@@ -67,6 +67,7 @@ fn small_settings() -> GiSettings {
     s.vct.resolution = 16;
     s.vct.levels = 2;
     s.vct.inject_steps = 32;
+    s.vct.octree_resolution = 32;
     s.olpv.size = 16;
     s.olpv.iterations = 4;
     s

@@ -305,4 +305,8 @@ fn bad_vct_settings_are_clear_errors() {
     let err =
         GiSettings::from_table(&table, std::path::Path::new("scene.toml")).expect_err("must fail");
     assert!(err.to_string().contains("cone_count"), "{err}");
+    let table: toml::Table = toml::from_str("[vct]\ninjection = \"rays\"\n").unwrap();
+    let err =
+        GiSettings::from_table(&table, std::path::Path::new("scene.toml")).expect_err("must fail");
+    assert!(err.to_string().contains("shadow-maps"), "{err}");
 }

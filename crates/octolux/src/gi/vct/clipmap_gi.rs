@@ -4,9 +4,10 @@
 
 use super::cone::ConeParams;
 use super::tracer::ConeTracer;
-use super::VctSettings;
+use super::{ClipmapInjection, VctSettings};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
+use crate::voxel::clipmap::sample::CLIPMAP_BLEND_WGSL;
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use crate::voxel::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
 use crate::voxel::{objects_triangles, scene_triangles_split, VoxelTriangle};
@@ -49,6 +50,7 @@ impl VctClipmap {
             OWNER,
             &[
                 CLIPMAP_SAMPLE_WGSL,
+                CLIPMAP_BLEND_WGSL,
                 CLIPMAP_RADIANCE_WGSL,
                 include_str!("clipmap_trace.wgsl"),
             ],
@@ -153,7 +155,19 @@ impl GiTechnique for VctClipmap {
         };
         clipmap.follow(ctx, timer, frame.view.position)?;
         // 2. Direct light into the voxels.
-        clipmap.inject(ctx, timer, &frame.frame.lights, self.settings.inject_steps)?;
+        match self.settings.injection {
+            ClipmapInjection::ShadowMaps => clipmap.inject_shadow_maps(
+                ctx,
+                timer,
+                frame.lights,
+                frame.frame.lights.len() as u32,
+                frame.shadows.texture(),
+                frame.shadow_layers,
+            )?,
+            ClipmapInjection::VoxelRays => {
+                clipmap.inject(ctx, timer, &frame.frame.lights, self.settings.inject_steps)?
+            }
+        }
         // 3. Six cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).
         ctx.queue.write_buffer(

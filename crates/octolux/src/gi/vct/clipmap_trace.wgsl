@@ -5,8 +5,24 @@
 // Declared for the sampler's albedo path, which the gather does not read.
 @group(0) @binding(7) var<storage, read> clip_voxels: array<u32>;
 
+// Declared for the blending sampler's anisotropic path, which the gather does not read.
+@group(0) @binding(12) var<storage, read> clip_aniso: array<u32>;
+
+// The injected radiance with the level choice of `clip_sample_blend` (`clipmap/blend.wgsl`):
+// near the border of the level a sample reads, it fades to the next coarser level, so cones
+// do not jump where a level ends (without it, each pixel's cones switched levels at other
+// places and the indirect light showed blocks of the coarse voxels).
 fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
-    return clip_radiance_sample(p, footprint);
+    let c = clip_blend_choice(p, footprint);
+    let l = u32(c.x);
+    if l >= clip_info.misc.y {
+        return vec4<f32>(0.0);
+    }
+    let a = clip_radiance_level(p, l);
+    if c.y <= 0.0 {
+        return a;
+    }
+    return mix(a, clip_radiance_level(p, l + 1u), c.y);
 }
 
 // The voxel of the finest level holding p (a coarse level's voxel is thicker than a fine

@@ -17,7 +17,7 @@ mod svo_gi;
 mod tracer;
 
 pub use clipmap_gi::VctClipmap;
-pub use settings::VctSettings;
+pub use settings::{ClipmapInjection, VctSettings};
 pub use svo_gi::VctSvo;
 
 pub use cone::{march_cone, ConeMarch, ConeParams, CONE_WGSL};

@@ -5,6 +5,29 @@ use crate::{Error, Result};
 /// Default sparse factor (see [`VctSettings::sparse`] and docs/vct.md for the measurements).
 const SPARSE_DEFAULT: u32 = 4;
 
+/// How `vct-clipmap` finds the visibility of the lights when it injects direct light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ClipmapInjection {
+    /// The renderer's shadow maps, one lookup per voxel and light (as `vct-svo` does).
+    ShadowMaps,
+    /// Shadow rays marched through the clipmap's own opacity (`inject_steps` samples).
+    VoxelRays,
+}
+
+impl std::str::FromStr for ClipmapInjection {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "shadow-maps" => Ok(ClipmapInjection::ShadowMaps),
+            "voxel-rays" => Ok(ClipmapInjection::VoxelRays),
+            other => Err(Error::InvalidArgument(format!(
+                "vct injection '{other}': expected shadow-maps or voxel-rays"
+            ))),
+        }
+    }
+}
+
 /// Settings of voxel cone tracing. Scene files: `[settings.vct]`.
 #[derive(Clone, Debug, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -25,7 +48,10 @@ pub struct VctSettings {
     pub start: f32,
     /// Accumulated opacity at which a cone stops (default 0.95).
     pub stop_opacity: f32,
-    /// Samples per shadow ray of the light injection (default 256).
+    /// `vct-clipmap`: visibility of the lights for the injection, `shadow-maps` (default) or
+    /// `voxel-rays`.
+    pub injection: ClipmapInjection,
+    /// Samples per shadow ray of the `voxel-rays` injection (default 256).
     pub inject_steps: u32,
     /// Sparse tracing: one traced pixel per `sparse` x `sparse` block, the others
     /// reconstructed from the traced ones by depth and normal (1 = every pixel; 1..=8).
@@ -53,6 +79,7 @@ impl Default for VctSettings {
             step: 0.5,
             start: 1.5,
             stop_opacity: 0.95,
+            injection: ClipmapInjection::ShadowMaps,
             inject_steps: 256,
             sparse: SPARSE_DEFAULT,
             octree_resolution: 128,

@@ -1,9 +1,6 @@
-// Light injection into the clipmap: every occupied voxel gets outgoing radiance
-// emission + albedo / pi x direct irradiance from point, spot and directional lights (both
-// premultiplied by the voxel's opacity on filtered levels), with visibility
-// from marching the clipmap's own opacity towards the light (voxel shadow rays, no shadow
-// maps). Output: RGBA16F (radiance, opacity) per voxel slot, same layout as `clip_voxels`.
-// Needs `clipmap/emission.wgsl` before this file.
+// Light injection into the clipmap by voxel shadow rays: direct irradiance from point, spot
+// and directional lights with visibility from marching the clipmap's own opacity towards the
+// light (no shadow maps). Needs `clipmap/inject_common.wgsl` before this file.
 
 struct InjectLight {
     // xyz position, w: kind (0 point, 1 spot, 2 directional)
@@ -14,22 +11,8 @@ struct InjectLight {
     radiant_cos_outer: vec4<f32>,
 }
 
-// x: lights, y: most march steps per shadow ray, z: voxel slots (levels * res^3).
-struct InjectParams {
-    misc: vec4<u32>,
-}
-
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
-@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
-@group(0) @binding(2) var<storage, read> normals: array<u32>;
 @group(0) @binding(3) var<storage, read> lights: array<InjectLight>;
-@group(0) @binding(4) var<storage, read_write> radiance: array<u32>;
-@group(0) @binding(5) var<storage, read> params: InjectParams;
-// Mean emission per voxel slot (RGB9E5).
-@group(0) @binding(6) var<storage, read> emission: array<u32>;
-
-const PI: f32 = 3.14159265358979;
 
 fn spot_falloff(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
     let x = clamp((cos_angle - cos_outer) / max(cos_inner - cos_outer, 1e-6), 0.0, 1.0);
@@ -52,30 +35,18 @@ fn transmittance(p: vec3<f32>, dir: vec3<f32>, dist: f32, voxel: f32) -> f32 {
 @compute @workgroup_size(64)
 fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
-    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    let i = inject_slot(wg, nwg, li);
     if i >= params.misc.z {
         return;
     }
-    let value = unpack4x8unorm(clip_voxels[i]);
-    if value.a == 0.0 {
-        radiance[2u * i] = 0u;
-        radiance[2u * i + 1u] = 0u;
+    let vox = inject_voxel(i);
+    if vox.value.a == 0.0 {
         return;
     }
-    let r = clip_info.misc.x;
-    let l = i / (r * r * r);
-    let s = i % (r * r * r);
-    let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
-    let o = clip_info.origins[l].xyz;
-    let ri = i32(r);
-    let g = o + ((m - o) % ri + ri) % ri;
-    let v = clip_info.voxel.x * f32(1u << l);
-    let p = (vec3<f32>(g) + 0.5) * v;
-    var n = unpack4x8snorm(normals[i]).xyz;
-    let has_normal = dot(n, n) > 0.01;
-    if has_normal {
-        n = normalize(n);
-    }
+    let p = vox.p;
+    let n = vox.n;
+    let has_normal = vox.has_normal;
+    let v = vox.size;
     var e = vec3<f32>(0.0);
     for (var k = 0u; k < params.misc.x; k++) {
         let light = lights[k];
@@ -112,7 +83,5 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let vis = transmittance(start, to_light, dist - 3.0 * v, v);
         e += el * cos_theta * vis;
     }
-    let out = emission_decode(emission[i]) + value.rgb / PI * e;
-    radiance[2u * i] = pack2x16float(out.rg);
-    radiance[2u * i + 1u] = pack2x16float(vec2<f32>(out.b, value.a));
+    inject_store(i, vox, e);
 }

@@ -53,6 +53,13 @@ const ACCUM_BYTES: u64 = 64 << 20;
 /// Largest scratch buffer (triangle pieces, work items, box parameters) a clipmap keeps
 /// between updates; an update that needs more (a first build, a jump) uses buffers of its own.
 pub const SCRATCH_KEEP: u64 = 4 << 20;
+
+/// Initial size of each kept scratch buffer, allocated with the clipmap so that the usual
+/// per-frame updates (a camera step, a moving object) never change the memory ledger.
+const SCRATCH_START: u64 = 64 << 10;
+
+/// Ledger names of the kept scratch buffers: triangle pieces, work items, box parameters.
+const SCRATCH_NAMES: [&str; 3] = ["triangle pieces", "work items", "box params"];
 /// Bytes between the parameter blocks of an update's boxes (storage binding offsets stay 256
 /// bytes apart, the largest `min_storage_buffer_offset_alignment` wgpu allows).
 const PARAM_STRIDE: u64 = 256;
@@ -66,6 +73,9 @@ pub const EMISSION_SCALE: f32 = 1024.0;
 /// WGSL of the emission format (`emission_encode`, `emission_decode`, ...), put in front of
 /// every clipmap kernel that reads or writes [`Clipmap::emission`].
 pub const CLIPMAP_EMISSION_WGSL: &str = include_str!("emission.wgsl");
+
+/// WGSL both light injections share (voxel decoding, output).
+const INJECT_COMMON_WGSL: &str = include_str!("inject_common.wgsl");
 
 /// Fixed-point value (x [`EMISSION_SCALE`], rounded half to even like WGSL `round`) of one
 /// triangle's emission channel, clamped to `[0, 65504]` (`emission_fixed` in WGSL).
@@ -336,6 +346,8 @@ pub struct Clipmap {
     replicate: wgpu::ComputePipeline,
     no_aniso: wgpu::Buffer,
     inject: Option<wgpu::ComputePipeline>,
+    /// The injection from the renderer's shadow maps, made at its first use.
+    inject_shadow: Option<wgpu::ComputePipeline>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
@@ -540,6 +552,7 @@ impl Clipmap {
             replicate: ctx.compute_pipeline("clipmap replicate", &filter_module, "replicate"),
             no_aniso,
             inject: None,
+            inject_shadow: None,
             accum,
             written,
             accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
@@ -550,7 +563,17 @@ impl Clipmap {
             has_scene: false,
             index: TriangleIndex::default(),
             triangles: upload_triangles(ctx, owner, &[]),
-            scratch: [None, None, None],
+            scratch: SCRATCH_NAMES.map(|name| {
+                Some(ctx.create_buffer(
+                    owner,
+                    &wgpu::BufferDescriptor {
+                        label: Some(name),
+                        size: SCRATCH_START,
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    },
+                ))
+            }),
             scratch_use: (None, [0; 3]),
             pending: Vec::new(),
             owner,
@@ -824,7 +847,6 @@ impl Clipmap {
         which: usize,
         bytes: u64,
     ) -> (wgpu::Buffer, u64) {
-        const NAMES: [&str; 3] = ["triangle pieces", "work items", "box params"];
         const ONE_OFF: [&str; 3] = [
             "triangle pieces (one update)",
             "work items (one update)",
@@ -832,7 +854,7 @@ impl Clipmap {
         ];
         let bytes = bytes.max(256).next_multiple_of(256);
         let desc = |size| wgpu::BufferDescriptor {
-            label: Some(NAMES[which]),
+            label: Some(SCRATCH_NAMES[which]),
             size,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
@@ -861,8 +883,13 @@ impl Clipmap {
             }
             _ => {
                 // A new buffer (the old one lives on while recorded passes use it), with room
-                // for growth: a quarter more, within the cap.
-                let size = (bytes + bytes / 4).next_multiple_of(256).min(SCRATCH_KEEP);
+                // for growth: a quarter more, within the cap, and never smaller than the old
+                // one (which was too small only for this submission's updates together).
+                let old = self.scratch[which].as_ref().map_or(0, |b| b.size());
+                let size = (bytes + bytes / 4)
+                    .next_multiple_of(256)
+                    .min(SCRATCH_KEEP)
+                    .max(old);
                 let buffer = ctx.create_buffer(self.owner, &desc(size));
                 self.scratch[which] = Some(buffer.clone());
                 self.scratch_use.1[which] = bytes;
@@ -1184,12 +1211,138 @@ impl Clipmap {
             bytemuck::cast_slice(&gpu),
             wgpu::BufferUsages::STORAGE,
         );
+        let pipeline = match &self.inject {
+            Some(p) => p.clone(),
+            None => {
+                let source = [
+                    crate::voxel::sample::CLIPMAP_SAMPLE_WGSL,
+                    CLIPMAP_EMISSION_WGSL,
+                    INJECT_COMMON_WGSL,
+                    include_str!("inject.wgsl"),
+                ]
+                .join("\n");
+                let module = ctx.shader("clipmap inject", &source);
+                let p = ctx.compute_pipeline("clipmap inject", &module, "inject");
+                self.inject = Some(p.clone());
+                p
+            }
+        };
+        let params = [count, max_steps.clamp(1, 4096)];
+        self.inject_with(
+            ctx,
+            timer,
+            "clipmap inject",
+            &pipeline,
+            params,
+            &lights_buffer,
+            &[],
+        );
+        Ok(())
+    }
+
+    /// Injects light as [`Clipmap::inject`] does, with visibility from the renderer's shadow
+    /// maps instead of voxel shadow rays: the first `light_count` lights of `lights` (the
+    /// renderer's light buffer, `array<Light>` of `render/lights.wgsl`), `shadow_array` (its
+    /// `Depth32Float` shadow-map array) and the layers' matrices `shadow_layers`, looked up
+    /// with the deferred lighting's PCF half a voxel off each voxel's centre along its normal.
+    /// Every voxel costs one lookup per light instead of a march per light. The pass is
+    /// `clipmap inject (shadow maps)`.
+    pub fn inject_shadow_maps(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        lights: &wgpu::Buffer,
+        light_count: u32,
+        shadow_array: &wgpu::Texture,
+        shadow_layers: &[crate::render::LayerView],
+    ) -> Result<()> {
+        let needed = light_count as u64 * crate::voxel::svo::inject::LIGHT_BYTES;
+        if lights.size() < needed {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap injection: {light_count} lights need a light buffer of {needed} \
+                 bytes, it has {}",
+                lights.size()
+            )));
+        }
+        let pipeline = match &self.inject_shadow {
+            Some(p) => p.clone(),
+            None => {
+                let source = [
+                    include_str!("../../render/lights.wgsl"),
+                    crate::voxel::sample::CLIPMAP_SAMPLE_WGSL,
+                    CLIPMAP_EMISSION_WGSL,
+                    INJECT_COMMON_WGSL,
+                    include_str!("inject_shadow.wgsl"),
+                ]
+                .join("\n");
+                let module = ctx.shader("clipmap inject (shadow maps)", &source);
+                let p =
+                    ctx.compute_pipeline("clipmap inject (shadow maps)", &module, "inject_shadow");
+                self.inject_shadow = Some(p.clone());
+                p
+            }
+        };
+        let mut matrices: Vec<[f32; 16]> = shadow_layers
+            .iter()
+            .map(|l| l.view_proj.to_cols_array())
+            .collect();
+        if matrices.is_empty() {
+            matrices.push(glam::Mat4::IDENTITY.to_cols_array());
+        }
+        let matrices = ctx.create_buffer_init(
+            self.owner,
+            "inject shadow matrices",
+            bytemuck::cast_slice(&matrices),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("clipmap shadow compare"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        self.inject_with(
+            ctx,
+            timer,
+            "clipmap inject (shadow maps)",
+            &pipeline,
+            [light_count, 0],
+            lights,
+            &[
+                (7, matrices.as_entire_binding()),
+                (8, wgpu::BindingResource::TextureView(&view)),
+                (9, wgpu::BindingResource::Sampler(&sampler)),
+            ],
+        );
+        // The matrices live as long as the frame's commands; the ledger keeps the kept buffers.
+        ctx.ledger.record(self.owner, "inject shadow matrices", 0);
+        Ok(())
+    }
+
+    /// One injection dispatch over every voxel slot: `params` are the light count and the
+    /// march's step limit, `extra` the variant's own bindings (from 7 on).
+    #[allow(clippy::too_many_arguments)]
+    fn inject_with(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        name: &str,
+        pipeline: &wgpu::ComputePipeline,
+        params: [u32; 2],
+        lights: &wgpu::Buffer,
+        extra: &[(u32, wgpu::BindingResource)],
+    ) {
         let res = self.settings.resolution as u64;
         let slots = (self.settings.levels as u64 * res * res * res) as u32;
         let params = ctx.create_buffer_init(
             self.owner,
             "inject params",
-            bytemuck::cast_slice(&[count, max_steps.clamp(1, 4096), slots, 0]),
+            bytemuck::cast_slice(&[params[0], params[1], slots, 0]),
             wgpu::BufferUsages::STORAGE,
         );
         let info = ctx.create_buffer_init(
@@ -1213,36 +1366,35 @@ impl Clipmap {
                 },
             ),
         };
-        let pipeline = match &self.inject {
-            Some(p) => p.clone(),
-            None => {
-                let source = format!(
-                    "{}\n{CLIPMAP_EMISSION_WGSL}\n{}",
-                    crate::voxel::sample::CLIPMAP_SAMPLE_WGSL,
-                    include_str!("inject.wgsl")
-                );
-                let module = ctx.shader("clipmap inject", &source);
-                let p = ctx.compute_pipeline("clipmap inject", &module, "inject");
-                self.inject = Some(p.clone());
-                p
-            }
-        };
-        let group = bind_buffers(
-            ctx,
-            &pipeline,
-            &[
-                (0, &info),
-                (1, &self.voxels),
-                (2, &self.normals),
-                (3, &lights_buffer),
-                (4, &radiance),
-                (5, &params),
-                (6, &self.emission),
-            ],
+        let mut entries: Vec<wgpu::BindGroupEntry> = [
+            (0, &info),
+            (1, &self.voxels),
+            (2, &self.normals),
+            (3, lights),
+            (4, &radiance),
+            (5, &params),
+            (6, &self.emission),
+        ]
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .into();
+        entries.extend(
+            extra
+                .iter()
+                .map(|(binding, resource)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: resource.clone(),
+                }),
         );
-        dispatch(timer, "clipmap inject", &pipeline, &group, slots);
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(name),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+        dispatch(timer, name, pipeline, &group, slots);
         self.radiance = Some(radiance);
-        Ok(())
     }
 
     /// Reads the injected radiance back: per voxel slot (layout of `voxels`), RGB radiance

@@ -1,0 +1,72 @@
+// What both light injections into the clipmap share (`inject.wgsl`: voxel shadow rays,
+// `inject_shadow.wgsl`: the renderer's shadow maps): every occupied voxel gets outgoing
+// radiance emission + albedo / pi x direct irradiance (both premultiplied by the voxel's
+// opacity on filtered levels). Output: RGBA16F (radiance, opacity) per voxel slot, same
+// layout as `clip_voxels`. Needs `clipmap/emission.wgsl` before this file.
+
+// x: lights, y: most march steps per shadow ray (voxel rays only), z: voxel slots
+// (levels * res^3).
+struct InjectParams {
+    misc: vec4<u32>,
+}
+
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
+@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
+@group(0) @binding(2) var<storage, read> normals: array<u32>;
+@group(0) @binding(4) var<storage, read_write> radiance: array<u32>;
+@group(0) @binding(5) var<storage, read> params: InjectParams;
+// Mean emission per voxel slot (RGB9E5).
+@group(0) @binding(6) var<storage, read> emission: array<u32>;
+
+const INJECT_PI: f32 = 3.14159265358979;
+
+// One voxel slot to light: its premultiplied albedo and opacity, world centre, unit normal
+// (zero where opposite faces cancelled: lit as facing the light) and voxel size.
+struct InjectVoxel {
+    value: vec4<f32>,
+    p: vec3<f32>,
+    n: vec3<f32>,
+    has_normal: bool,
+    size: f32,
+}
+
+// Slot `i` of the clipmap's voxels; None (value.a == 0) for an empty one, whose radiance is
+// written here.
+fn inject_voxel(i: u32) -> InjectVoxel {
+    var v: InjectVoxel;
+    v.value = unpack4x8unorm(clip_voxels[i]);
+    if v.value.a == 0.0 {
+        radiance[2u * i] = 0u;
+        radiance[2u * i + 1u] = 0u;
+        return v;
+    }
+    let r = clip_info.misc.x;
+    let l = i / (r * r * r);
+    let s = i % (r * r * r);
+    let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
+    let o = clip_info.origins[l].xyz;
+    let ri = i32(r);
+    let g = o + ((m - o) % ri + ri) % ri;
+    v.size = clip_info.voxel.x * f32(1u << l);
+    v.p = (vec3<f32>(g) + 0.5) * v.size;
+    v.n = unpack4x8snorm(normals[i]).xyz;
+    v.has_normal = dot(v.n, v.n) > 0.01;
+    if v.has_normal {
+        v.n = normalize(v.n);
+    } else {
+        v.n = vec3<f32>(0.0);
+    }
+    return v;
+}
+
+// Writes slot i's radiance from its albedo/opacity and direct irradiance e.
+fn inject_store(i: u32, v: InjectVoxel, e: vec3<f32>) {
+    let out = emission_decode(emission[i]) + v.value.rgb / INJECT_PI * e;
+    radiance[2u * i] = pack2x16float(out.rg);
+    radiance[2u * i + 1u] = pack2x16float(vec2<f32>(out.b, v.value.a));
+}
+
+fn inject_slot(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
+    return (wg.y * nwg.x + wg.x) * 64u + li;
+}

@@ -1,0 +1,40 @@
+// Light injection into the clipmap from the renderer's shadow maps (`003` §4.2's "inject
+// direct light from the shadow map", per voxel): direct irradiance from the renderer's
+// lights (`render/lights.wgsl`, the same incidence and PCF lookup as the deferred lighting),
+// looked up half a voxel off the voxel centre along its normal, where a surface in the voxel
+// may lie. Needs `render/lights.wgsl` and `clipmap/inject_common.wgsl` before this file.
+
+@group(0) @binding(3) var<storage, read> lights: array<Light>;
+@group(0) @binding(7) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
+@group(0) @binding(8) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(9) var shadow_sampler: sampler_comparison;
+
+@compute @workgroup_size(64)
+fn inject_shadow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) li: u32) {
+    let i = inject_slot(wg, nwg, li);
+    if i >= params.misc.z {
+        return;
+    }
+    let v = inject_voxel(i);
+    if v.value.a == 0.0 {
+        return;
+    }
+    var e = vec3<f32>(0.0);
+    for (var k = 0u; k < params.misc.x; k++) {
+        let light = lights[k];
+        let inc = light_incidence(light, v.p);
+        // A voxel without a dominant normal (opposite faces cancelled) is lit as facing the
+        // light.
+        var cos_theta = 1.0;
+        if v.has_normal {
+            cos_theta = dot(v.n, inc.to_light);
+        }
+        if cos_theta <= 0.0 || all(inc.irradiance <= vec3<f32>(0.0)) {
+            continue;
+        }
+        e += inc.irradiance * cos_theta
+            * shadow_visibility(light, v.p, v.n, inc.to_light, inc.dist, 0.5 * v.size);
+    }
+    inject_store(i, v, e);
+}
