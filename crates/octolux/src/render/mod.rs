@@ -15,6 +15,7 @@ pub(crate) use direct::dispatch_2d;
 pub(crate) use gbuffer::target as render_target;
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub use scene_gpu::SceneGpu;
+pub(crate) use shadow::shadow_lookup;
 pub use shadow::{LayerView, ShadowMaps};
 pub use sky::{sh_irradiance, sh_irradiance_coefficients, sky_lights};
 

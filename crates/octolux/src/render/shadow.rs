@@ -366,6 +366,36 @@ pub(crate) fn shadow_params(slot: Option<&ShadowSlot>, first: Option<&LayerView>
     }
 }
 
+/// What a compute pass needs to look up the renderer's shadow maps with `render/lights.wgsl`
+/// (`shadow_matrices`, `shadow_maps`): the layers' matrices in a storage buffer (recorded
+/// under `owner` as `label`) and an array view of the shadow-map texture.
+pub(crate) fn shadow_lookup(
+    ctx: &GpuContext,
+    owner: &str,
+    label: &str,
+    shadow_array: &wgpu::Texture,
+    shadow_layers: &[LayerView],
+) -> (wgpu::Buffer, wgpu::TextureView) {
+    let mut matrices: Vec<[f32; 16]> = shadow_layers
+        .iter()
+        .map(|l| l.view_proj.to_cols_array())
+        .collect();
+    if matrices.is_empty() {
+        matrices.push(Mat4::IDENTITY.to_cols_array());
+    }
+    let matrices = ctx.create_buffer_init(
+        owner,
+        label,
+        bytemuck::cast_slice(&matrices),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    });
+    (matrices, view)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

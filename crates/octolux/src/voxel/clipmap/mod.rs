@@ -1282,23 +1282,13 @@ impl Clipmap {
                 p
             }
         };
-        let mut matrices: Vec<[f32; 16]> = shadow_layers
-            .iter()
-            .map(|l| l.view_proj.to_cols_array())
-            .collect();
-        if matrices.is_empty() {
-            matrices.push(glam::Mat4::IDENTITY.to_cols_array());
-        }
-        let matrices = ctx.create_buffer_init(
+        let (matrices, view) = crate::render::shadow_lookup(
+            ctx,
             self.owner,
             "inject shadow matrices",
-            bytemuck::cast_slice(&matrices),
-            wgpu::BufferUsages::STORAGE,
+            shadow_array,
+            shadow_layers,
         );
-        let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
         let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("clipmap shadow compare"),
             mag_filter: wgpu::FilterMode::Linear,

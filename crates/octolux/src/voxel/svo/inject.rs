@@ -188,23 +188,13 @@ impl SvoLight {
             ));
         }
         let owner = crate::voxel::svo::OWNER;
-        let mut matrices: Vec<[f32; 16]> = shadow_layers
-            .iter()
-            .map(|l| l.view_proj.to_cols_array())
-            .collect();
-        if matrices.is_empty() {
-            matrices.push(glam::Mat4::IDENTITY.to_cols_array());
-        }
-        let matrices = ctx.create_buffer_init(
+        let (matrices, view) = crate::render::shadow_lookup(
+            ctx,
             owner,
             "inject shadow matrices",
-            bytemuck::cast_slice(&matrices),
-            wgpu::BufferUsages::STORAGE,
+            shadow_array,
+            shadow_layers,
         );
-        let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
         let placeholder = ctx.create_buffer(
             owner,
             &wgpu::BufferDescriptor {
