@@ -89,6 +89,10 @@ pub struct GiArgs {
     /// Cone tracing (vct-svo): nodes reserved for the animated objects' voxels (default 65536).
     #[arg(long)]
     pub vct_dynamic_reserve: Option<u32>,
+    /// Cone tracing (vct-svo): multiple bounces through the octree's voxels, converging over
+    /// frames, `true` (default) or `false` (one bounce).
+    #[arg(long)]
+    pub vct_multi_bounce: Option<bool>,
     /// Cone tracing: also trace one specular cone per pixel (`--output specular` shows it).
     #[arg(long)]
     pub vct_specular: bool,
@@ -130,6 +134,7 @@ impl GiArgs {
         set(&mut vct.octree_resolution, self.vct_octree_resolution);
         set(&mut vct.dynamic_reserve, self.vct_dynamic_reserve);
         set(&mut vct.roughness, self.vct_roughness);
+        set(&mut vct.multi_bounce, self.vct_multi_bounce);
         if self.vct_specular {
             vct.specular = true;
         }

@@ -36,6 +36,9 @@ fn settings(technique: &str) -> RenderSettings {
     gi.vct.inject_steps = 64;
     gi.vct.octree_resolution = 32;
     gi.vct.sparse = 1;
+    // One bounce: with multiple bounces each frame carries light one bounce further, so a
+    // renderer that walked 14 frames holds more bounces than one that jumped in 2.
+    gi.vct.multi_bounce = false;
     RenderSettings {
         width: 48,
         height: 48,

@@ -11,8 +11,9 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use crate::voxel::svo::dynamic::DynamicReserve;
-use crate::voxel::svo::inject::SVO_RADIANCE_SAMPLE_WGSL;
+use crate::voxel::svo::inject::{SvoBounce, SVO_RADIANCE_SAMPLE_WGSL};
 use crate::voxel::svo::{Svo, SvoBuilder};
+use crate::voxel::voxelize::dispatch;
 use crate::voxel::{objects_triangles, VoxelGrid};
 use crate::{Error, Result};
 
@@ -26,6 +27,9 @@ pub struct VctSvo {
     animated: bool,
     tracer: ConeTracer,
     info: wgpu::Buffer,
+    /// Multiple bounces: the buffers the injection and the bounce gather share, the gather
+    /// and its parameters (static leaf voxel slots).
+    bounce: Option<(SvoBounce, wgpu::ComputePipeline, wgpu::Buffer, u32)>,
 }
 
 /// Bounds of everything the scene's geometry covers: at rest and, for animated objects, at
@@ -86,6 +90,7 @@ impl VctSvo {
                 SVO_SAMPLE_WGSL,
                 SVO_RADIANCE_SAMPLE_WGSL,
                 include_str!("svo_trace.wgsl"),
+                include_str!("svo_bounce.wgsl"),
             ],
             settings,
             width,
@@ -104,12 +109,39 @@ impl VctSvo {
             bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
             wgpu::BufferUsages::STORAGE,
         );
+        let bounce = settings.multi_bounce.then(|| {
+            let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
+            let slots = (end - first) * 8;
+            let buffer = |label| {
+                ctx.create_buffer(
+                    OWNER,
+                    &wgpu::BufferDescriptor {
+                        label: Some(label),
+                        size: (slots as u64 * 8).max(16),
+                        usage: wgpu::BufferUsages::STORAGE,
+                        mapped_at_creation: false,
+                    },
+                )
+            };
+            let buffers = SvoBounce {
+                irradiance: buffer("bounce irradiance"),
+                geometry: buffer("bounce geometry"),
+            };
+            let params = ctx.create_buffer_init(
+                OWNER,
+                "bounce params",
+                bytemuck::cast_slice(&[slots, 0, 0, 0]),
+                wgpu::BufferUsages::STORAGE,
+            );
+            (buffers, tracer.pipeline(ctx, "bounce"), params, slots)
+        });
         Ok(VctSvo {
             builder,
             svo,
             animated,
             tracer,
             info,
+            bounce,
         })
     }
 
@@ -132,8 +164,9 @@ impl GiTechnique for VctSvo {
             self.builder
                 .record_dynamic(ctx, timer, &mut self.svo, &moving)?;
         }
-        // 2. Direct light into the leaves from the shadow maps, filtered up the levels.
-        self.builder.inject(
+        // 2. Direct light (plus, with multiple bounces, the irradiance the voxels gathered
+        //    last frame) into the leaves from the shadow maps, filtered up the levels.
+        self.builder.inject_with_bounce(
             ctx,
             timer,
             &self.svo,
@@ -141,9 +174,8 @@ impl GiTechnique for VctSvo {
             frame.shadow_layers,
             frame.lights,
             frame.frame.lights.len() as u32,
+            self.bounce.as_ref().map(|b| &b.0),
         )?;
-        // 3. Six cones per pixel through the injected radiance (sparse, then reconstructed;
-        //    the specular cone where enabled).
         let svo = &self.svo;
         let mut structure = vec![
             (3, self.info.as_entire_binding()),
@@ -156,6 +188,27 @@ impl GiTechnique for VctSvo {
                 .zip(8..)
                 .map(|(buffer, binding)| (binding, buffer.as_entire_binding())),
         );
+        // 3. Multiple bounces: every static voxel gathers irradiance for the next frame.
+        if let Some((buffers, pipeline, params, slots)) = &self.bounce {
+            let mut entries = structure.clone();
+            entries.extend([
+                (5, self.tracer.params().as_entire_binding()),
+                (20, params.as_entire_binding()),
+                (21, buffers.geometry.as_entire_binding()),
+                (22, buffers.irradiance.as_entire_binding()),
+            ]);
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("vct bounce"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries
+                    .into_iter()
+                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
+                    .collect::<Vec<_>>(),
+            });
+            dispatch(timer, "vct bounce", pipeline, &group, *slots);
+        }
+        // 4. Six cones per pixel through the injected radiance (sparse, then reconstructed;
+        //    the specular cone where enabled).
         self.tracer.record(ctx, frame, timer, &structure);
         Ok(())
     }
@@ -169,7 +222,11 @@ impl GiTechnique for VctSvo {
     }
 
     fn reference_bounces(&self) -> crate::reference::Bounces {
-        crate::reference::Bounces::Indirect(1)
+        if self.bounce.is_some() {
+            crate::reference::Bounces::Unlimited
+        } else {
+            crate::reference::Bounces::Indirect(1)
+        }
     }
 
     fn other_ledger_owners(&self) -> &[&'static str] {

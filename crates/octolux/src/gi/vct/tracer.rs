@@ -27,6 +27,9 @@ struct Stage {
 
 /// The gather, reconstruction and specular passes over one structure.
 pub(crate) struct ConeTracer {
+    /// The trace module: the gather, the specular cone and any entry point the structure's
+    /// WGSL adds (the octree's bounce gather).
+    module: wgpu::ShaderModule,
     sparse: u32,
     trace: wgpu::ComputePipeline,
     /// Sparse tracing: the reduced image and the reconstruction into the full one.
@@ -119,6 +122,7 @@ impl ConeTracer {
         );
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
         ConeTracer {
+            module,
             sparse: f,
             trace,
             upsample,
@@ -221,6 +225,16 @@ impl ConeTracer {
             let group = bind("vct specular", &spec.pipeline, 30, &spec.view);
             dispatch_2d(timer, "vct specular", &spec.pipeline, &group, w, h);
         }
+    }
+
+    /// The trace parameters (`TraceParams`, binding 5 of the trace module).
+    pub(crate) fn params(&self) -> &wgpu::Buffer {
+        &self.params
+    }
+
+    /// A pipeline of the trace module's entry point `entry` (one the structure's WGSL adds).
+    pub(crate) fn pipeline(&self, ctx: &GpuContext, entry: &str) -> wgpu::ComputePipeline {
+        ctx.compute_pipeline(entry, &self.module, entry)
     }
 
     /// Indirect irradiance (rgb, W/m^2) and ambient occlusion (alpha).

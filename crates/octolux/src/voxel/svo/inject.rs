@@ -46,6 +46,18 @@ struct InjectParams {
     range: [u32; 4],
 }
 
+/// Multiple bounces through the octree's static leaves: per `voxel_radiance` slot, the
+/// indirect irradiance to add to a voxel's direct irradiance (RGBA16F pairs, written by a
+/// cone gather) and the voxel geometry that the injection writes for that gather (coordinates
+/// with bit 30 set for an occupied voxel, then the snorm8x4 normal). Both are 8 bytes per
+/// slot, as `voxel_radiance`.
+pub struct SvoBounce {
+    /// Indirect irradiance per slot, read by the injection.
+    pub irradiance: wgpu::Buffer,
+    /// Voxel geometry per slot, written by the injection.
+    pub geometry: wgpu::Buffer,
+}
+
 /// The accumulation and injection kernels.
 pub(crate) struct SvoLight {
     leaf_mask: wgpu::ComputePipeline,
@@ -159,7 +171,8 @@ impl SvoLight {
         Ok((sums, timings))
     }
 
-    /// Records the leaf injection of `svo` (before its transfer and mip passes).
+    /// Records the leaf injection of `svo` (before its transfer and mip passes), with the
+    /// static leaves' multiple-bounce inputs and outputs where given.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn inject_leaves(
         &self,
@@ -170,6 +183,7 @@ impl SvoLight {
         shadow_layers: &[LayerView],
         lights: &wgpu::Buffer,
         light_count: u32,
+        bounce: Option<&SvoBounce>,
     ) {
         let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
         let grid = &svo.grid;
@@ -204,6 +218,17 @@ impl SvoLight {
                 mapped_at_creation: false,
             },
         );
+        // Written (binding 27) where no bounce buffers are given: a buffer of its own, since a
+        // dispatch may not use one buffer as read-only and read-write.
+        let placeholder_out = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("inject placeholder (bounce)"),
+                size: 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            },
+        );
         let (dyn_sums, dyn_state) = match dynamic {
             Some(d) => (&d.sums, d.state()),
             None => (&placeholder, &placeholder),
@@ -213,7 +238,13 @@ impl SvoLight {
                 origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
                 misc: [node, count, light_count, svo.pool_bricks],
                 part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
-                range: [indirect.is_some() as u32, node, 0, 0],
+                // Only the static leaves keep their slots from frame to frame.
+                range: [
+                    indirect.is_some() as u32,
+                    node,
+                    (bounce.is_some() && i == 0) as u32,
+                    0,
+                ],
             };
             let params_buffer = ctx.create_buffer_init(
                 owner,
@@ -231,6 +262,9 @@ impl SvoLight {
                 timer,
                 svo,
                 [&params_buffer, &matrices, lights, dyn_sums, dyn_state],
+                bounce.map_or([&placeholder, &placeholder_out], |b| {
+                    [&b.irradiance, &b.geometry]
+                }),
                 &view,
                 (name, count, indirect),
             );
@@ -239,6 +273,7 @@ impl SvoLight {
             "inject params",
             "inject shadow matrices",
             "inject placeholder",
+            "inject placeholder (bounce)",
         ] {
             ctx.ledger.record(owner, label, 0);
         }
@@ -247,16 +282,18 @@ impl SvoLight {
     /// One injection dispatch over `count` leaves, or indirectly from slot `indirect` of the
     /// octree's dispatch arguments; `buffers` are the parameters, the shadow matrices, the
     /// lights and the dynamic part's sums and state.
+    #[allow(clippy::too_many_arguments)]
     fn inject_part(
         &self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &crate::voxel::svo::Svo,
         [params_buffer, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
+        [bounce_in, bounce_out]: [&wgpu::Buffer; 2],
         view: &wgpu::TextureView,
         (name, count, indirect): (&str, u32, Option<u32>),
     ) {
-        let buffers: [(u32, &wgpu::Buffer); 14] = [
+        let buffers: [(u32, &wgpu::Buffer); 16] = [
             (10, params_buffer),
             (11, &svo.leaf_sums),
             (12, &svo.coord),
@@ -271,6 +308,8 @@ impl SvoLight {
             (23, dyn_sums),
             (24, dyn_state),
             (25, &svo.control),
+            (26, bounce_in),
+            (27, bounce_out),
         ];
         let mut entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()

@@ -106,7 +106,8 @@ struct InjectParams {
     // first leaf, w: 1 when the octree has a dynamic part (`dyn_sums`, `dyn_state`)
     part: vec4<u32>,
     // x: 1 when this dispatch's leaves are the range [control[y], control[y + 1]) that the
-    // octree's last dynamic update left on the GPU (misc.x and misc.y unused), 0 otherwise
+    // octree's last dynamic update left on the GPU (misc.x and misc.y unused), 0 otherwise;
+    // z: 1 when this dispatch takes part in multiple bounces (`bounce_*` below)
     range: vec4<u32>,
 }
 
@@ -130,6 +131,12 @@ struct InjectParams {
 @group(0) @binding(24) var<storage, read> dyn_state: array<u32>;
 // The octree's control block (`svo/build.wgsl`), for the dynamic leaves' range.
 @group(0) @binding(25) var<storage, read> control: array<u32>;
+// Multiple bounces (range.z = 1), per `voxel_radiance` slot: the indirect irradiance a cone
+// gather found for the voxel (RGBA16F pairs), added to its direct irradiance, and, for the
+// next gather, the voxel's geometry: its coordinates (10 bits per axis, bit 30 set for an
+// occupied voxel, 0 for an empty one) and its normal (snorm8x4).
+@group(0) @binding(26) var<storage, read> bounce_irradiance: array<u32>;
+@group(0) @binding(27) var<storage, read_write> bounce_geometry: array<u32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -168,8 +175,20 @@ fn leaf_voxel_sums(node: u32, o: u32) -> array<u32, 10> {
     return s;
 }
 
-// Outgoing radiance and opacity at `p` of the leaf voxel with fragment sums `s`.
-fn voxel_value(s: array<u32, 10>, p: vec3<f32>) -> vec4<f32> {
+// The unit mean normal of the leaf voxel with fragment sums `s`, zero where its fragments'
+// normals cancel (opposite faces in one voxel) or it is empty.
+fn voxel_normal(s: array<u32, 10>) -> vec3<f32> {
+    let c = f32(s[3]);
+    let n = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
+    if s[3] == 0u || dot(n, n) <= 0.01 * c * c * 127.0 * 127.0 {
+        return vec3<f32>(0.0);
+    }
+    return normalize(n);
+}
+
+// Outgoing radiance and opacity at `p` of the leaf voxel with fragment sums `s`, which also
+// receives the irradiance `e0` (multiple bounces).
+fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> vec4<f32> {
     let count = s[3];
     if count == 0u {
         return vec4<f32>(0.0);
@@ -177,14 +196,9 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>) -> vec4<f32> {
     let c = f32(count);
     let albedo = vec3<f32>(f32(s[0]), f32(s[1]), f32(s[2])) / c / 255.0;
     let emission = vec3<f32>(f32(s[4]), f32(s[5]), f32(s[6])) / c / EMISSION_SCALE;
-    var n = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
-    let has_normal = dot(n, n) > 0.01 * c * c * 127.0 * 127.0;
-    if has_normal {
-        n = normalize(n);
-    } else {
-        n = vec3<f32>(0.0);
-    }
-    var e = vec3<f32>(0.0);
+    let n = voxel_normal(s);
+    let has_normal = dot(n, n) > 0.5;
+    var e = e0;
     for (var k = 0u; k < P.misc.z; k++) {
         let light = lights[k];
         let inc = light_incidence(light, p);
@@ -227,8 +241,16 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     for (var o = 0u; o < 8u; o++) {
         let v = 2u * c + octant(o);
         let p = P.origin_voxel.xyz + (vec3<f32>(v) + 0.5) * P.origin_voxel.w;
-        voxels[o] = voxel_value(leaf_voxel_sums(n, o), p);
         let slot = (P.part.z + l) * 8u + o;
+        let sums = leaf_voxel_sums(n, o);
+        var e0 = vec3<f32>(0.0);
+        if P.range.z != 0u {
+            e0 = vec3<f32>(unpack2x16float(bounce_irradiance[2u * slot]),
+                           unpack2x16float(bounce_irradiance[2u * slot + 1u]).x);
+            bounce_geometry[2u * slot] = select(0u, v.x | (v.y << 10u) | (v.z << 20u) | (1u << 30u), sums[3] != 0u);
+            bounce_geometry[2u * slot + 1u] = pack4x8snorm(vec4<f32>(voxel_normal(sums), 0.0));
+        }
+        voxels[o] = voxel_value(sums, p, e0);
         voxel_radiance[2u * slot] = pack2x16float(voxels[o].xy);
         voxel_radiance[2u * slot + 1u] = pack2x16float(voxels[o].zw);
     }

@@ -810,6 +810,33 @@ impl SvoBuilder {
         lights: &wgpu::Buffer,
         light_count: u32,
     ) -> Result<()> {
+        self.inject_with_bounce(
+            ctx,
+            timer,
+            svo,
+            shadow_array,
+            shadow_layers,
+            lights,
+            light_count,
+            None,
+        )
+    }
+
+    /// [`SvoBuilder::inject`] with multiple bounces: the static leaves add the irradiance of
+    /// `bounce` to their direct irradiance and write their geometry into it for the next
+    /// gather ([`crate::voxel::svo::inject::SvoBounce`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inject_with_bounce(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        shadow_array: &wgpu::Texture,
+        shadow_layers: &[crate::render::LayerView],
+        lights: &wgpu::Buffer,
+        light_count: u32,
+        bounce: Option<&crate::voxel::svo::inject::SvoBounce>,
+    ) -> Result<()> {
         let needed = light_count as u64 * crate::voxel::svo::inject::LIGHT_BYTES;
         if lights.size() < needed.max(crate::voxel::svo::inject::LIGHT_BYTES) {
             return Err(Error::InvalidArgument(format!(
@@ -829,6 +856,7 @@ impl SvoBuilder {
             shadow_layers,
             lights,
             light_count,
+            bounce,
         );
         // The transfer and mip kernels bind the build layout: no fragments or triangles.
         let placeholder = ctx.create_buffer(
