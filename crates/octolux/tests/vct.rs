@@ -27,6 +27,16 @@ fn settings(gi: &str, vct: octolux::gi::vct::VctSettings) -> RenderSettings {
     }
 }
 
+/// The pixels of the ceiling (surfaces facing down), which only the bounce lights.
+fn ceiling_mask(r: &Renderer) -> Vec<bool> {
+    let g = r.read_gbuffer().unwrap();
+    g.normal
+        .iter()
+        .zip(&g.depth)
+        .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
+        .collect()
+}
+
 fn mean_over(image: &HdrImage, mask: &[bool]) -> f32 {
     let (sum, n) = image
         .pixels
@@ -53,13 +63,7 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     for technique in techniques {
         let mut r = Renderer::new(&ctx, &scene, settings(technique, vct.clone())).unwrap();
         r.render(&scene, 0.0).unwrap();
-        let g = r.read_gbuffer().unwrap();
-        mask = g
-            .normal
-            .iter()
-            .zip(&g.depth)
-            .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
-            .collect();
+        mask = ceiling_mask(&r);
         images.push(r.read_hdr().unwrap());
     }
     let reference = octolux::reference::render(
@@ -221,13 +225,7 @@ fn multiple_bounces_converge_to_the_unlimited_reference() {
         for _ in 0..10 {
             r.render(&scene, 0.0).unwrap();
         }
-        let g = r.read_gbuffer().unwrap();
-        let mask: Vec<bool> = g
-            .normal
-            .iter()
-            .zip(&g.depth)
-            .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
-            .collect();
+        let mask = ceiling_mask(&r);
         let image = r.read_hdr().unwrap();
         let fl = flip(&image, &reference, None, &MetricOptions::default()).unwrap();
         let ceiling = mean_over(&image, &mask) / mean_over(&reference, &mask);
