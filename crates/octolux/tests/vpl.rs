@@ -11,6 +11,7 @@ use octolux::gi::vpl::{geometry_term, VplGi, VplSettings};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::render::{RenderSettings, Renderer};
+use octolux::voxel::svo::dynamic::DynamicReserve;
 use octolux::voxel::svo::SvoBuilder;
 use octolux::voxel::{VoxelGrid, VoxelTriangle};
 use std::collections::BTreeSet;
@@ -70,16 +71,7 @@ fn octree_walk_equals_the_voxel_reference_and_its_cpu_twin() {
             Vec3::new(15.5, hi.0, hi.1),
         ));
     }
-    let speck = vec![VoxelTriangle {
-        positions: [
-            Vec3::splat(1.2),
-            Vec3::new(1.4, 1.2, 1.2),
-            Vec3::new(1.2, 1.4, 1.2),
-        ],
-        albedo: [200; 3],
-        normal: Vec3::Z,
-        emission: Vec3::ZERO,
-    }];
+    let speck = cases_speck();
     let cases = [
         ("nearly empty", speck),
         ("one wall", wall(15.5)),
@@ -90,73 +82,115 @@ fn octree_walk_equals_the_voxel_reference_and_its_cpu_twin() {
     let mut rng = Rng(7);
     for (name, tris) in cases {
         let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
-        let params = VplOctree::new(&svo, 1.75).unwrap();
-        let cpu = OctreeCpu::read(&ctx, &svo, params).unwrap();
-        let voxels: BTreeSet<[u32; 3]> = octolux::voxel::cpu::voxelize(&grid, &tris)
-            .into_iter()
-            .map(|(v, _)| v)
-            .collect();
-        let f = 1i32 << params.shift;
-        let top = (1 << 14) - 1;
-        let mut segments = Vec::new();
-        // Random segments anywhere in the grid.
-        for _ in 0..600 {
-            let mut p = || {
-                IVec3::new(
-                    (rng.next() % top as u32) as i32 + 1,
-                    (rng.next() % top as u32) as i32 + 1,
-                    (rng.next() % top as u32) as i32 + 1,
-                )
-            };
-            segments.push((p(), p()));
-        }
-        // Grazing segments: ends on voxel faces, edges and corners, along faces, through
-        // corners diagonally, and axis-parallel across the wall.
-        for _ in 0..400 {
-            let r: Vec<u32> = (0..10).map(|_| rng.next()).collect();
-            let c = |k: usize, lo: u32| (lo + r[k] % (res - lo - 1)) as i32 * f;
-            let (a, b) = match r[9] % 4 {
-                0 => (
-                    IVec3::new(c(0, 1), c(1, 1), c(2, 1)),
-                    IVec3::new(c(3, 1), c(4, 1), c(5, 1)),
-                ),
-                1 => {
-                    let (y, z) = (c(0, 1), c(1, 1));
-                    (IVec3::new(c(2, 1), y, z), IVec3::new(c(3, 1), y, z))
-                }
-                2 => {
-                    let (x, y, z, k) = (c(0, 2), c(1, 2), c(2, 2), (r[3] % 12) as i32 * f);
-                    (
-                        IVec3::new(x, y, z),
-                        IVec3::new((x + k).min(top), (y + k).min(top), (z - k).max(f)),
-                    )
-                }
-                _ => {
-                    let (y, z) = (c(0, 1) + (r[1] % 3) as i32 * f / 2, c(2, 1));
-                    (IVec3::new(f, y, z), IVec3::new(30 * f, y, z))
-                }
-            };
-            segments.push((a, b));
-        }
-        let gpu = tracer.trace(&ctx, &svo, &params, &segments).unwrap();
-        let mut hits = 0;
-        for (i, &(a, b)) in segments.iter().enumerate() {
-            let twin = cpu.occluded(a, b);
-            let reference = segment_blocked_brute(&voxels, a, b, params.shift);
-            assert_eq!(
-                twin, reference,
-                "{name}: segment {a} -> {b}: walk {twin}, voxel reference {reference}"
-            );
-            assert_eq!(gpu[i], twin, "{name}: segment {a} -> {b}: GPU differs");
-            hits += twin as usize;
-        }
-        println!("{name}: {hits} of {} segments occluded", segments.len());
+        let hits = compare_walks(&ctx, &tracer, &svo, &grid, &tris, &mut rng, name);
         if name == "nearly empty" {
             assert!(hits < 10, "{name}: {hits}");
         } else {
-            assert!(hits > 100 && hits < segments.len() - 100, "{name}: {hits}");
+            assert!(hits > 100 && hits < 900, "{name}: {hits}");
         }
     }
+    // The dynamic part: a wall moved through two poses is walked where it is now, together
+    // with the static speck.
+    let (mut svo, _) = builder
+        .build_with_reserve(&ctx, &grid, &cases_speck(), DynamicReserve::new(20_000))
+        .unwrap();
+    for x in [9.5, 21.5] {
+        builder.update_dynamic(&ctx, &mut svo, &wall(x)).unwrap();
+    }
+    svo.sync_dynamic(&ctx).unwrap();
+    let mut all = cases_speck();
+    all.extend(wall(21.5));
+    let hits = compare_walks(&ctx, &tracer, &svo, &grid, &all, &mut rng, "moved wall");
+    assert!(hits > 100 && hits < 900, "moved wall: {hits}");
+}
+
+fn cases_speck() -> Vec<VoxelTriangle> {
+    vec![VoxelTriangle {
+        positions: [
+            Vec3::splat(1.2),
+            Vec3::new(1.4, 1.2, 1.2),
+            Vec3::new(1.2, 1.4, 1.2),
+        ],
+        albedo: [200; 3],
+        normal: Vec3::Z,
+        emission: Vec3::ZERO,
+    }]
+}
+
+/// Traces 1000 segments (600 random, 400 grazing voxel faces, edges and corners) through
+/// `svo` on the GPU and with the CPU twin, and checks both against the voxel reference over
+/// `tris` voxelised on the CPU; returns how many are occluded.
+fn compare_walks(
+    ctx: &GpuContext,
+    tracer: &Tracer,
+    svo: &octolux::voxel::svo::Svo,
+    grid: &VoxelGrid,
+    tris: &[VoxelTriangle],
+    rng: &mut Rng,
+    name: &str,
+) -> usize {
+    let res = grid.resolution;
+    let params = VplOctree::new(svo, 1.75).unwrap();
+    let cpu = OctreeCpu::read(ctx, svo, params).unwrap();
+    let voxels: BTreeSet<[u32; 3]> = octolux::voxel::cpu::voxelize(grid, tris)
+        .into_iter()
+        .map(|(v, _)| v)
+        .collect();
+    let f = 1i32 << params.shift;
+    let top = (1 << 14) - 1;
+    let mut segments = Vec::new();
+    for _ in 0..600 {
+        let mut p = || {
+            IVec3::new(
+                (rng.next() % top as u32) as i32 + 1,
+                (rng.next() % top as u32) as i32 + 1,
+                (rng.next() % top as u32) as i32 + 1,
+            )
+        };
+        segments.push((p(), p()));
+    }
+    // Grazing segments: ends on voxel faces, edges and corners, along faces, through
+    // corners diagonally, and axis-parallel across the wall.
+    for _ in 0..400 {
+        let r: Vec<u32> = (0..10).map(|_| rng.next()).collect();
+        let c = |k: usize, lo: u32| (lo + r[k] % (res - lo - 1)) as i32 * f;
+        let (a, b) = match r[9] % 4 {
+            0 => (
+                IVec3::new(c(0, 1), c(1, 1), c(2, 1)),
+                IVec3::new(c(3, 1), c(4, 1), c(5, 1)),
+            ),
+            1 => {
+                let (y, z) = (c(0, 1), c(1, 1));
+                (IVec3::new(c(2, 1), y, z), IVec3::new(c(3, 1), y, z))
+            }
+            2 => {
+                let (x, y, z, k) = (c(0, 2), c(1, 2), c(2, 2), (r[3] % 12) as i32 * f);
+                (
+                    IVec3::new(x, y, z),
+                    IVec3::new((x + k).min(top), (y + k).min(top), (z - k).max(f)),
+                )
+            }
+            _ => {
+                let (y, z) = (c(0, 1) + (r[1] % 3) as i32 * f / 2, c(2, 1));
+                (IVec3::new(f, y, z), IVec3::new(30 * f, y, z))
+            }
+        };
+        segments.push((a, b));
+    }
+    let gpu = tracer.trace(ctx, svo, &params, &segments).unwrap();
+    let mut hits = 0;
+    for (i, &(a, b)) in segments.iter().enumerate() {
+        let twin = cpu.occluded(a, b);
+        let reference = segment_blocked_brute(&voxels, a, b, params.shift);
+        assert_eq!(
+            twin, reference,
+            "{name}: segment {a} -> {b}: walk {twin}, voxel reference {reference}"
+        );
+        assert_eq!(gpu[i], twin, "{name}: segment {a} -> {b}: GPU differs");
+        hits += twin as usize;
+    }
+    println!("{name}: {hits} of {} segments occluded", segments.len());
+    hits
 }
 
 fn vpl_of(r: &Renderer) -> &VplGi {
@@ -524,4 +558,52 @@ fn cornell_box_against_the_one_bounce_reference() {
     );
     assert!(rel[1] < 0.3 * rel[0], "relMSE {rel:?}");
     assert!(fl[1] < 0.4 * fl[0], "FLIP {fl:?}");
+}
+
+#[test]
+fn animated_scene_updates_the_octree_keeps_memory_constant_and_follows_the_light() {
+    // A moving block (the octree's dynamic part, rebuilt every frame) and a moving light
+    // (new VPLs every frame): after the first frame nothing is allocated, the octree update
+    // runs as timed passes, and the indirect light changes.
+    use octolux::scene::{Keyframe, Track};
+    let ctx = context();
+    let mut scene = octolux::scene::cornell::scene();
+    let key = |time: f32, x: f32| Keyframe {
+        time,
+        translation: Vec3::new(x, 0.0, 0.0),
+        rotation: glam::Quat::IDENTITY,
+    };
+    scene.lights[0].animation = Track::new(vec![key(0.0, -0.15), key(1.0, 0.15)], false);
+    scene.objects[1].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.1)], false);
+    let vpl = VplSettings {
+        count: 256,
+        resolution: 64,
+        ..VplSettings::default()
+    };
+    let mut r = Renderer::new(&ctx, &scene, settings(32, 32, vpl)).unwrap();
+    let first = r.render(&scene, 0.0).unwrap();
+    for pass in ["vpl rsm", "vpl generate", "vpl shade", "vpl merge"] {
+        assert!(first.iter().any(|t| t.name == pass), "{pass} missing");
+    }
+    assert!(
+        first.iter().any(|t| t.name.starts_with("svo dyn")),
+        "no octree update pass: {:?}",
+        first.iter().map(|t| &t.name).collect::<Vec<_>>()
+    );
+    let memory = ctx.ledger.total();
+    let e0 = irradiance(&ctx, vpl_of(&r).indirect_texture());
+    let mut last = e0.clone();
+    for t in [0.5, 1.0] {
+        r.render(&scene, t).unwrap();
+        assert_eq!(ctx.ledger.total(), memory, "allocation at t = {t}");
+        last = irradiance(&ctx, vpl_of(&r).indirect_texture());
+    }
+    let change: f32 = e0
+        .iter()
+        .zip(&last)
+        .map(|(a, b)| (*a - *b).abs().element_sum())
+        .sum();
+    let total: f32 = e0.iter().map(|p| p.element_sum()).sum();
+    println!("indirect changed by {change} of {total}");
+    assert!(change > 0.05 * total, "{change} of {total}");
 }

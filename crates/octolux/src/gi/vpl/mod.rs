@@ -2,9 +2,9 @@
 //! (`002`, Sun & Agu): `--gi vpl`.
 //!
 //! A frame, pass by pass (each a named, timed pass):
-//! 1. octree: the scene's octree ([`crate::voxel::svo`]) is built once when the technique is
-//!    created, from the scene at time 0 (static and animated objects alike; see `docs/vpl.md`
-//!    for what moving objects do).
+//! 1. `svo dyn ...` (animated scenes only): the octree's dynamic part is rebuilt from the
+//!    animated objects at this frame's time ([`SvoBuilder::record_dynamic`]). The static
+//!    objects' octree ([`crate::voxel::svo`]) is built once, when the technique is created.
 //! 2. `vpl rsm`: reflective shadow maps of every light view (the LPV's RSM pass,
 //!    [`crate::gi::lpv::rsm`]: spot and directional lights one, point lights six cube faces).
 //! 3. `vpl generate`: N VPLs importance-sampled by reflected flux, each with physical flux
@@ -19,8 +19,9 @@ pub mod trace;
 use crate::gi::lpv::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
+use crate::voxel::svo::dynamic::DynamicReserve;
 use crate::voxel::svo::{Svo, SvoBuilder};
-use crate::voxel::VoxelGrid;
+use crate::voxel::{objects_triangles, scene_triangles_split, VoxelGrid};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
@@ -175,6 +176,11 @@ pub fn geometry_term(p: glam::Vec3, n: glam::Vec3, pv: glam::Vec3, nv: glam::Vec
 pub struct VplGi {
     settings: VplSettings,
     svo: Svo,
+    /// The octree's pipelines, kept for the dynamic part's updates.
+    builder: SvoBuilder,
+    /// Whether the scene has animated objects (the octree then has a dynamic part).
+    animated: bool,
+    placeholder: wgpu::Buffer,
     octree: trace::VplOctree,
     octree_params: wgpu::Buffer,
     rsm: RsmTargets,
@@ -212,8 +218,18 @@ impl VplGi {
             )));
         }
         let grid = VoxelGrid::enclosing(bounds, settings.resolution)?;
-        let tris = crate::voxel::scene_triangles(scene, &scene.frame(0.0, 0));
-        let (svo, _) = SvoBuilder::new(ctx).build(ctx, &grid, &tris)?;
+        let (still, moving) = scene_triangles_split(scene, &scene.frame(0.0, 0));
+        let builder = SvoBuilder::new(ctx);
+        let animated = !moving.is_empty();
+        let (svo, _) = if animated {
+            // Room for the animated objects: their voxels at time 0, with a margin for the
+            // 26-neighbourhoods of every level and for poses that touch more voxels.
+            let voxels = crate::voxel::cpu::voxelize(&grid, &moving).len() as u32;
+            let reserve = DynamicReserve::new(voxels.saturating_mul(16).clamp(4096, 1 << 22));
+            builder.build_with_reserve(ctx, &grid, &still, reserve)?
+        } else {
+            builder.build(ctx, &grid, &still)?
+        };
         let octree = trace::VplOctree::new(&svo, settings.end_offset)?;
         let usage = wgpu::BufferUsages::STORAGE;
         let octree_params =
@@ -250,6 +266,9 @@ impl VplGi {
             rsm: RsmTargets::new(ctx, OWNER, layers, settings.rsm_size),
             settings: settings.clone(),
             svo,
+            builder,
+            animated,
+            placeholder: ctx.create_buffer_init(OWNER, "placeholder", &[0; 16], usage),
             octree,
             octree_params,
             shade_params,
@@ -308,14 +327,17 @@ impl VplGi {
         let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
         let generate = generate::Generate::new(ctx, OWNER, &self.rsm, self.settings.count);
         let tex = wgpu::BindingResource::TextureView;
+        let [child, leaf, state, sums] = trace::walk_buffers(&self.svo, &self.placeholder);
         let shade_group = crate::gi::lpv::bind(
             ctx,
             &shade,
             &[
                 (0, frame.camera_uniform.as_entire_binding()),
                 (1, self.octree_params.as_entire_binding()),
-                (2, self.svo.child.as_entire_binding()),
-                (3, self.svo.leaf_sums.as_entire_binding()),
+                (2, child.as_entire_binding()),
+                (3, leaf.as_entire_binding()),
+                (11, state.as_entire_binding()),
+                (12, sums.as_entire_binding()),
                 (4, tex(&frame.gbuffer.depth_view)),
                 (5, tex(&frame.gbuffer.normal_view)),
                 (6, generate.vpls.as_entire_binding()),
@@ -372,6 +394,11 @@ impl GiTechnique for VplGi {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         if self.passes.is_none() {
             self.passes = Some(self.build(ctx, frame));
+        }
+        if self.animated {
+            let moving = objects_triangles(frame.scene, frame.frame, true);
+            self.builder
+                .record_dynamic(ctx, timer, &mut self.svo, &moving)?;
         }
         let Some(p) = &self.passes else {
             return Ok(());

@@ -40,6 +40,8 @@ struct ShadeParams {
 @group(0) @binding(8) var raw_out: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(9) var raw_in: texture_2d<f32>;
 @group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(11) var<storage, read> svo_state: array<u32>;
+@group(0) @binding(12) var<storage, read> svo_dyn_sums: array<u32>;
 
 struct Vpl {
     position: vec4<f32>,

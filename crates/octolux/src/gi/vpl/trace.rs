@@ -43,14 +43,33 @@ pub struct VplOctree {
     pub cap: u32,
     /// Offset of the segment ends along their normals, in voxels.
     pub end_offset: f32,
+    /// 1 when the octree has a dynamic part.
+    pub dynamic: u32,
     /// Padding.
-    pub pad: [u32; 2],
+    pub pad: u32,
+}
+
+// `vpl_leaf_mask` reads a voxel's fragment count as word 3 of its dynamic sums.
+const _: () = assert!(crate::voxel::svo::inject::LEAF_SUM_WORDS == 10);
+
+/// The buffers the walk binds: child links, leaf sums, and the dynamic part's node state and
+/// sums (16-byte placeholders without one).
+pub(crate) fn walk_buffers<'a>(
+    svo: &'a Svo,
+    placeholder: &'a wgpu::Buffer,
+) -> [&'a wgpu::Buffer; 4] {
+    match svo.dynamic.as_ref() {
+        Some(d) => [&svo.child, &svo.leaf_sums, d.state(), &d.sums],
+        None => [&svo.child, &svo.leaf_sums, placeholder, placeholder],
+    }
 }
 
 impl VplOctree {
     /// Parameters of the walk through `svo` with ends moved `end_offset` voxels.
     pub fn new(svo: &Svo, end_offset: f32) -> Result<VplOctree> {
-        Self::from_parts(&svo.grid, svo.levels.last().copied(), end_offset)
+        let mut p = Self::from_parts(&svo.grid, svo.levels.last().copied(), end_offset)?;
+        p.dynamic = svo.dynamic.is_some() as u32;
+        Ok(p)
     }
 
     fn from_parts(
@@ -75,7 +94,8 @@ impl VplOctree {
             leaf_count: end - first_leaf,
             cap: 3 * grid.resolution + depth + 2,
             end_offset,
-            pad: [0; 2],
+            dynamic: 0,
+            pad: 0,
         })
     }
 
@@ -100,6 +120,8 @@ pub struct OctreeCpu {
     pub child: Vec<u32>,
     /// Per static leaf, the occupancy of its 2x2x2 voxels (bit x + 2y + 4z).
     pub leaf_masks: Vec<u32>,
+    /// Per node, the occupancy its dynamic fragments add (empty without a dynamic part).
+    pub dynamic_masks: Vec<u32>,
 }
 
 impl OctreeCpu {
@@ -122,10 +144,35 @@ impl OctreeCpu {
         .take(params.leaf_count as usize)
         .map(|w| w & 255)
         .collect();
+        let dynamic_masks = match svo.dynamic.as_ref() {
+            None => Vec::new(),
+            Some(d) => {
+                let state = words(crate::gpu::read_buffer(
+                    ctx,
+                    d.state(),
+                    0,
+                    d.state().size(),
+                )?);
+                let sums = words(crate::gpu::read_buffer(ctx, &d.sums, 0, d.sums.size())?);
+                state
+                    .iter()
+                    .map(|&s| match s >> 2 {
+                        0 => 0,
+                        slot => (0..8)
+                            .filter(|o| {
+                                let at = (((slot - 1) * 8 + o) * 10 + 3) as usize;
+                                sums.get(at).is_some_and(|&c| c != 0)
+                            })
+                            .fold(0, |m, o| m | 1 << o),
+                    })
+                    .collect()
+            }
+        };
         Ok(OctreeCpu {
             params,
             child,
             leaf_masks,
+            dynamic_masks,
         })
     }
 
@@ -151,7 +198,8 @@ impl OctreeCpu {
             loop {
                 if k == 1 {
                     let leaf = node.wrapping_sub(p.first_leaf);
-                    let mask = self.leaf_masks.get(leaf as usize).copied().unwrap_or(0);
+                    let mask = self.leaf_masks.get(leaf as usize).copied().unwrap_or(0)
+                        | self.dynamic_masks.get(node as usize).copied().unwrap_or(0);
                     if mask != 0 {
                         let bit = (v.x & 1) | ((v.y & 1) << 1) | ((v.z & 1) << 2);
                         occupied = mask & (1 << bit) != 0;
@@ -302,15 +350,19 @@ impl Tracer {
             &vec![0u8; segments.len().max(4) * 4],
             usage,
         );
+        let placeholder = ctx.create_buffer_init(owner, "placeholder", &[0; 16], usage);
+        let [child, leaf, state, sums] = walk_buffers(svo, &placeholder);
         let group = crate::voxel::voxelize::bind_buffers(
             ctx,
             &self.pipeline,
             &[
                 (0, &params_buf),
-                (1, &svo.child),
-                (2, &svo.leaf_sums),
+                (1, child),
+                (2, leaf),
                 (3, &seg_buf),
                 (4, &out),
+                (5, state),
+                (6, sums),
             ],
         );
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -346,6 +398,7 @@ mod tests {
             params: params(64),
             child: vec![0],
             leaf_masks: vec![],
+            dynamic_masks: vec![],
         };
         let f = 1 << tree.params.shift;
         let (hit, steps) = tree.walk(IVec3::splat(3), IVec3::new(60 * f, 61 * f, 2));

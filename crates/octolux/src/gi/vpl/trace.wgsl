@@ -30,9 +30,31 @@ struct VplOctree {
     cap: u32,
     // Segment ends move this many voxels along their surface normals (see `vpl_fixed_point`).
     end_offset: f32,
-    pad0: u32,
-    pad1: u32,
+    // 1 when the octree has a dynamic part (`svo_state`, `svo_dyn_sums` are bound).
+    dynamic: u32,
+    pad: u32,
 };
+
+// Occupancy of the 8 voxels of leaf node `node` (bit x + 2y + 4z): static and dynamic
+// fragments.
+fn vpl_leaf_mask(node: u32) -> u32 {
+    let leaf = node - vo.first_leaf;
+    var mask = 0u;
+    if leaf < vo.leaf_count {
+        mask = svo_leaf[leaf] & 255u;
+    }
+    if vo.dynamic != 0u {
+        let slot = svo_state[node] >> 2u;
+        if slot != 0u {
+            for (var o = 0u; o < 8u; o++) {
+                if svo_dyn_sums[((slot - 1u) * 8u + o) * 10u + 3u] != 0u {
+                    mask |= 1u << o;
+                }
+            }
+        }
+    }
+    return mask;
+}
 
 const VPL_FIXED_BITS: u32 = 14u;
 
@@ -74,11 +96,7 @@ fn svo_occluded(a: vec3<i32>, b: vec3<i32>) -> bool {
         var occupied = false;
         loop {
             if k == 1u {
-                let leaf = node - vo.first_leaf;
-                var mask = 0u;
-                if leaf < vo.leaf_count {
-                    mask = svo_leaf[leaf] & 255u;
-                }
+                let mask = vpl_leaf_mask(node);
                 if mask != 0u {
                     let bit = u32((v.x & 1) | ((v.y & 1) << 1u) | ((v.z & 1) << 2u));
                     occupied = (mask & (1u << bit)) != 0u;

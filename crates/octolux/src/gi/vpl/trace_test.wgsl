@@ -5,6 +5,8 @@
 @group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(3) var<storage, read> segments: array<vec4<i32>>;
 @group(0) @binding(4) var<storage, read_write> results: array<u32>;
+@group(0) @binding(5) var<storage, read> svo_state: array<u32>;
+@group(0) @binding(6) var<storage, read> svo_dyn_sums: array<u32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
