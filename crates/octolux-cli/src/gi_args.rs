@@ -99,6 +99,31 @@ pub struct GiArgs {
     /// Cone tracing: roughness of the specular cone, 0..=1 (default 0.3).
     #[arg(long)]
     pub vct_roughness: Option<f32>,
+    /// VPL GI: number of VPLs (default 1024).
+    #[arg(long)]
+    pub vpl_count: Option<u32>,
+    /// VPL GI: interleave factor, I x I sub-images with 1/I^2 of the VPLs each (default 4).
+    #[arg(long)]
+    pub vpl_interleave: Option<u32>,
+    /// VPL GI: distance clamp of the geometry term in octree voxels (default 2).
+    #[arg(long)]
+    pub vpl_clamp: Option<f32>,
+    /// VPL GI: voxels per side of the visibility octree, a power of two (default 128).
+    #[arg(long)]
+    pub vpl_resolution: Option<u32>,
+    /// VPL GI: RSM side in texels, a power of two (default 256).
+    #[arg(long)]
+    pub vpl_rsm_size: Option<u32>,
+    /// VPL GI: offset of the shadow-ray ends along their normals, in voxels (default 1.75).
+    #[arg(long)]
+    pub vpl_end_offset: Option<f32>,
+    /// VPL GI: skip VPLs contributing at most this irradiance (W/m^2) before their ray
+    /// (default 0).
+    #[arg(long)]
+    pub vpl_cull: Option<f32>,
+    /// VPL GI: geometry-aware merge of the sub-images (default true).
+    #[arg(long)]
+    pub vpl_filter: Option<bool>,
 }
 
 impl GiArgs {
@@ -138,6 +163,15 @@ impl GiArgs {
         if self.vct_specular {
             vct.specular = true;
         }
+        let vpl = &mut settings.vpl;
+        set(&mut vpl.count, self.vpl_count);
+        set(&mut vpl.interleave, self.vpl_interleave);
+        set(&mut vpl.clamp, self.vpl_clamp);
+        set(&mut vpl.resolution, self.vpl_resolution);
+        set(&mut vpl.rsm_size, self.vpl_rsm_size);
+        set(&mut vpl.end_offset, self.vpl_end_offset);
+        set(&mut vpl.cull, self.vpl_cull);
+        set(&mut vpl.filter, self.vpl_filter);
     }
 }
 

@@ -3,6 +3,8 @@
 //! (colour bleeding, plausibility), animation (no per-frame allocation, light follows), and
 //! printed measurements (octree error per iteration, pass-time ratios).
 
+mod floor_flux;
+
 use glam::{Quat, Vec3};
 use octolux::gi::lpv::{kernels, sh};
 use octolux::gi::GiSettings;
@@ -593,60 +595,13 @@ fn floor_scene(a: f32, light: octolux::scene::Light) -> octolux::scene::Scene {
 
 #[test]
 fn injected_vpl_flux_is_the_reflected_flux_for_every_light_type() {
-    // Reflected flux off a Lambertian floor of albedo 0.5, in closed form:
-    //   point (I, height h): albedo I Omega(square), Omega = 4 atan(a^2 / (h sqrt(2a^2 + h^2)))
-    //   spot: albedo I 2 pi integral s(theta) sin(theta) dtheta (the cone lies on the floor)
-    //   directional (E, direction d): albedo E |d.y| (2a)^2
+    // Reflected flux off a Lambertian floor in closed form (`floor_flux`).
     // RSM 128^2 with 4x4 blocks: only the floor's outline (about a texel wide) is
     // approximated, so the sums must agree within 1% (measured: 0.3% point, 0.01% spot,
     // 0.03% directional).
-    use octolux::scene::{Light, LightKind};
     let ctx = context();
-    let (a, h, albedo) = (1.0f32, 0.6f32, 0.5f32);
-    let base = Light {
-        name: "l".into(),
-        kind: LightKind::Point,
-        color: Vec3::ONE,
-        intensity: 2.0,
-        position: Vec3::new(0.0, h, 0.0),
-        direction: Vec3::NEG_Y,
-        animation: None,
-    };
-    let omega = 4.0 * (a * a / (h * (2.0 * a * a + h * h).sqrt())).atan();
-    let (inner, outer) = (30f32.to_radians(), 40f32.to_radians());
-    let spot = Light {
-        kind: LightKind::Spot {
-            inner_angle: inner,
-            outer_angle: outer,
-        },
-        ..base.clone()
-    };
-    let steps = 20000;
-    let cone: f32 = (0..steps)
-        .map(|i| {
-            let theta = (i as f32 + 0.5) / steps as f32 * outer;
-            spot.spot_factor(Vec3::new(theta.sin(), -theta.cos(), 0.0))
-                * theta.sin()
-                * (outer / steps as f32)
-        })
-        .sum::<f32>()
-        * 2.0
-        * std::f32::consts::PI;
-    let sun_dir = Vec3::new(0.3, -1.0, 0.2).normalize();
-    let sun = Light {
-        kind: LightKind::Directional,
-        direction: sun_dir,
-        ..base.clone()
-    };
-    let cases = [
-        ("point", base.clone(), albedo * 2.0 * omega),
-        ("spot", spot, albedo * 2.0 * cone),
-        (
-            "directional",
-            sun,
-            albedo * 2.0 * sun_dir.y.abs() * 4.0 * a * a,
-        ),
-    ];
+    let a = floor_flux::A;
+    let cases = floor_flux::cases();
     for (name, light, expected) in cases {
         let scene = floor_scene(a, light);
         let mut s = lpv_settings("lpv", 16, 16);

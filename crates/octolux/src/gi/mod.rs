@@ -7,6 +7,7 @@
 pub mod lpv;
 mod none;
 pub mod vct;
+pub mod vpl;
 
 pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;
@@ -87,6 +88,8 @@ pub struct GiSettings {
     pub olpv: OlpvSettings,
     /// Voxel cone tracing (`[settings.vct]`).
     pub vct: vct::VctSettings,
+    /// Many-lights VPL GI (`[settings.vpl]`).
+    pub vpl: vpl::VplSettings,
 }
 
 impl GiSettings {
@@ -120,7 +123,15 @@ pub(crate) fn indirect_target(
 }
 
 /// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv", "vct-svo", "vct-clipmap"];
+pub const TECHNIQUES: &[&str] = &[
+    "none",
+    "lpv",
+    "clpv",
+    "olpv",
+    "vct-svo",
+    "vct-clipmap",
+    "vpl",
+];
 
 /// Creates the technique called `name` for images of `width` x `height`.
 pub fn create(
@@ -143,6 +154,13 @@ pub fn create(
         "vct-clipmap" => Ok(Box::new(vct::VctClipmap::new(
             ctx,
             &settings.vct,
+            scene,
+            width,
+            height,
+        )?)),
+        "vpl" => Ok(Box::new(vpl::VplGi::new(
+            ctx,
+            &settings.vpl,
             scene,
             width,
             height,

@@ -1,0 +1,296 @@
+//! VPL generation: the RSMs' reflected flux is summed into a pyramid and N VPLs are drawn from
+//! it by inverting its distribution at stratified points (`generate.wgsl`), each carrying
+//! physical flux. [`sample_cpu`] is the CPU twin.
+
+use crate::gi::lpv::rsm::{RsmImage, RsmTargets};
+use crate::gpu::{GpuContext, PassTimer};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Bytes of one VPL (`Vpl` in `generate.wgsl`).
+pub const VPL_BYTES: u64 = 48;
+/// Bytes between the per-level slots of the level index.
+const SLOT: u64 = 256;
+
+/// `GenParams` of `generate.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct GenParams {
+    size: u32,
+    layers: u32,
+    levels: u32,
+    count: u32,
+    offsets: [u32; 16],
+}
+
+/// First word of every pyramid level and the total words, for `layers` RSMs of side `size`.
+fn offsets(size: u32, layers: u32) -> ([u32; 16], u64) {
+    let mut out = [0u32; 16];
+    let mut at = 0u64;
+    let levels = size.trailing_zeros();
+    for (k, o) in out.iter_mut().enumerate().take(levels as usize + 1) {
+        *o = at as u32;
+        let side = (size >> k) as u64;
+        at += layers as u64 * side * side;
+    }
+    (out, at)
+}
+
+/// A VPL read back to the CPU.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vpl {
+    /// World position.
+    pub position: Vec3,
+    /// Unit normal.
+    pub normal: Vec3,
+    /// Flux (W) per channel.
+    pub flux: Vec3,
+}
+
+/// Decodes the VPL buffer's bytes.
+pub fn decode(bytes: &[u8]) -> Vec<Vpl> {
+    bytemuck::cast_slice::<u8, [f32; 12]>(bytes)
+        .iter()
+        .map(|w| Vpl {
+            position: Vec3::new(w[0], w[1], w[2]),
+            normal: Vec3::new(w[4], w[5], w[6]),
+            flux: Vec3::new(w[8], w[9], w[10]),
+        })
+        .collect()
+}
+
+/// The generation passes and their buffers.
+pub struct Generate {
+    base: wgpu::ComputePipeline,
+    level: wgpu::ComputePipeline,
+    sample: wgpu::ComputePipeline,
+    groups: Vec<wgpu::BindGroup>,
+    size: u32,
+    layers: u32,
+    count: u32,
+    /// The VPLs (`array<Vpl>`), `count` of them.
+    pub vpls: wgpu::Buffer,
+}
+
+impl Generate {
+    /// Pipelines and buffers for `count` VPLs drawn from `rsm`.
+    pub fn new(ctx: &GpuContext, owner: &str, rsm: &RsmTargets, count: u32) -> Generate {
+        let module = ctx.shader("vpl generate", include_str!("generate.wgsl"));
+        let base = ctx.compute_pipeline("vpl pyramid base", &module, "pyramid_base");
+        let level = ctx.compute_pipeline("vpl pyramid level", &module, "pyramid_level");
+        let sample = ctx.compute_pipeline("vpl sample", &module, "sample_vpls");
+        let (size, layers) = (rsm.size, rsm.layers.max(1));
+        let levels = size.trailing_zeros();
+        let (offsets, words) = offsets(size, layers);
+        let params = GenParams {
+            size,
+            layers: rsm.layers,
+            levels,
+            count,
+            offsets,
+        };
+        let usage = wgpu::BufferUsages::STORAGE;
+        let params =
+            ctx.create_buffer_init(owner, "vpl generation", bytemuck::bytes_of(&params), usage);
+        let mut slots = vec![0u8; (levels as usize + 1) * SLOT as usize];
+        for k in 0..=levels {
+            slots[k as usize * SLOT as usize..][..4].copy_from_slice(&k.to_le_bytes());
+        }
+        let slots = ctx.create_buffer_init(owner, "vpl pyramid levels", &slots, usage);
+        let storage = |label: &str, bytes: u64| {
+            ctx.create_buffer(
+                owner,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes.max(16),
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        let pyramid = storage("flux pyramid", words * 4);
+        let vpls = storage("vpls", count as u64 * VPL_BYTES);
+        let tex = wgpu::BindingResource::TextureView;
+        let groups = (0..=levels)
+            .map(|k| {
+                let pipeline = match k {
+                    0 => &base,
+                    _ => &level,
+                };
+                let mut entries = vec![(0, params.as_entire_binding())];
+                if k == 0 {
+                    entries.push((1, tex(&rsm.position_array)));
+                    entries.push((3, tex(&rsm.flux_array)));
+                } else {
+                    entries.push((
+                        6,
+                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &slots,
+                            offset: k as u64 * SLOT,
+                            size: wgpu::BufferSize::new(4),
+                        }),
+                    ));
+                }
+                entries.push((4, pyramid.as_entire_binding()));
+                crate::gi::lpv::bind(ctx, pipeline, &entries)
+            })
+            .chain(std::iter::once(crate::gi::lpv::bind(
+                ctx,
+                &sample,
+                &[
+                    (0, params.as_entire_binding()),
+                    (1, tex(&rsm.position_array)),
+                    (2, tex(&rsm.normal_array)),
+                    (3, tex(&rsm.flux_array)),
+                    (4, pyramid.as_entire_binding()),
+                    (5, vpls.as_entire_binding()),
+                ],
+            )))
+            .collect();
+        Generate {
+            base,
+            level,
+            sample,
+            groups,
+            size,
+            layers: rsm.layers,
+            count,
+            vpls,
+        }
+    }
+
+    /// Records the pyramid and the sampling as the pass `name`.
+    pub fn record(&self, timer: &mut PassTimer, name: &str) {
+        if self.layers == 0 {
+            return;
+        }
+        timer.pass(name, |encoder, stamps| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(name),
+                timestamp_writes: stamps.compute(),
+            });
+            let levels = self.size.trailing_zeros();
+            for k in 0..=levels {
+                let side = self.size >> k;
+                pass.set_pipeline(if k == 0 { &self.base } else { &self.level });
+                pass.set_bind_group(0, &self.groups[k as usize], &[]);
+                pass.dispatch_workgroups(side.div_ceil(8), side.div_ceil(8), self.layers);
+            }
+            pass.set_pipeline(&self.sample);
+            pass.set_bind_group(0, &self.groups[levels as usize + 1], &[]);
+            pass.dispatch_workgroups(self.count.div_ceil(64), 1, 1);
+        });
+    }
+}
+
+fn weight(f: Vec3) -> f32 {
+    (f.x + f.y + f.z) / 3.0
+}
+
+/// CPU twin of `generate.wgsl`: `count` VPLs drawn from the RSM images (all of one side, a
+/// power of two), with the same pyramid sums and the same descent.
+pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
+    let Some(size) = images.first().map(|i| i.size) else {
+        return vec![
+            Vpl {
+                position: Vec3::ZERO,
+                normal: Vec3::ZERO,
+                flux: Vec3::ZERO,
+            };
+            count as usize
+        ];
+    };
+    let texel = |l: usize, i: usize| {
+        let p = images[l].position[i];
+        let f = images[l].flux[i];
+        Vec3::new(f[0], f[1], f[2]).max(Vec3::ZERO) * p[3].max(0.0)
+    };
+    // pyramid[k][layer] = level k of that layer, side size >> k.
+    let levels = size.trailing_zeros() as usize;
+    let mut pyramid: Vec<Vec<Vec<f32>>> = vec![(0..images.len())
+        .map(|l| {
+            (0..(size * size) as usize)
+                .map(|i| weight(texel(l, i)))
+                .collect()
+        })
+        .collect()];
+    for k in 1..=levels {
+        let (side, fine) = ((size >> k) as usize, (size >> (k - 1)) as usize);
+        let next = pyramid[k - 1]
+            .iter()
+            .map(|f| {
+                (0..side * side)
+                    .map(|i| {
+                        let (x, y) = (2 * (i % side), 2 * (i / side));
+                        (f[y * fine + x] + f[y * fine + x + 1])
+                            + (f[(y + 1) * fine + x] + f[(y + 1) * fine + x + 1])
+                    })
+                    .collect()
+            })
+            .collect();
+        pyramid.push(next);
+    }
+    let tops: Vec<f32> = pyramid[levels].iter().map(|l| l[0]).collect();
+    let mut total = 0.0f32;
+    for &t in &tops {
+        total += t;
+    }
+    (0..count)
+        .map(|i| {
+            let zero = Vpl {
+                position: Vec3::ZERO,
+                normal: Vec3::ZERO,
+                flux: Vec3::ZERO,
+            };
+            if total <= 0.0 {
+                return zero;
+            }
+            let mut t = (i as f32 + 0.5) / count as f32 * total;
+            let mut layer = tops.iter().rposition(|&w| w > 0.0).unwrap_or(0);
+            for (l, &w) in tops.iter().enumerate() {
+                if w > 0.0 && t < w {
+                    layer = l;
+                    break;
+                }
+                t -= w;
+            }
+            t = t.clamp(0.0, tops[layer]);
+            let (mut x, mut y) = (0usize, 0usize);
+            for k in (1..=levels).rev() {
+                let fine = (size >> (k - 1)) as usize;
+                let f = &pyramid[k - 1][layer];
+                let w = |c: usize| f[(2 * y + (c >> 1)) * fine + 2 * x + (c & 1)];
+                let mut chosen = None;
+                let mut last_nonzero = 0;
+                for c in 0..4 {
+                    if w(c) > 0.0 {
+                        last_nonzero = c;
+                        if chosen.is_none() {
+                            if t < w(c) {
+                                chosen = Some(c);
+                            } else {
+                                t -= w(c);
+                            }
+                        }
+                    }
+                }
+                let c = chosen.unwrap_or_else(|| {
+                    t = w(last_nonzero);
+                    last_nonzero
+                });
+                x = 2 * x + (c & 1);
+                y = 2 * y + (c >> 1);
+            }
+            let at = y * size as usize + x;
+            let phi = texel(layer, at);
+            let p = images[layer].position[at];
+            let n = images[layer].normal[at];
+            let scale = total / (count as f32 * weight(phi).max(1e-30));
+            Vpl {
+                position: Vec3::new(p[0], p[1], p[2]),
+                normal: Vec3::new(n[0], n[1], n[2]).normalize_or_zero(),
+                flux: phi * scale,
+            }
+        })
+        .collect()
+}

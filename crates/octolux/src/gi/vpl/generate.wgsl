@@ -1,0 +1,159 @@
+// VPL generation from the reflective shadow maps, importance-sampled by flux on the GPU.
+//
+// 1. `pyramid_base`: per RSM texel its reflected flux (albedo x incident, W: `flux.rgb` x the
+//    texel measure `position.w`, see gi/lpv/rsm.wgsl) and its mean over r, g, b, the weight.
+// 2. `pyramid_level` (once per level): every node sums its 2x2 children, up to one node per
+//    layer.
+// 3. `sample_vpls`: VPL i inverts the weight's distribution at u = (i + 0.5) / N: it picks a
+//    layer, then descends the pyramid, at each level choosing the child whose share of the
+//    weight holds u and rescaling u into it (sample warping; stratified over the RSMs). Its flux
+//    is the texel's divided by the probability of choosing it times N:
+//      Phi_vpl = Phi_texel x W / (N w_texel)    (W the total weight, w_texel its own),
+//    so every VPL carries W / N of mean flux and the N of them sum to the RSMs' reflected flux
+//    (exactly in the weight, in expectation per channel) whatever N is.
+
+struct GenParams {
+    // RSM side (a power of two), layers, pyramid levels above the base, VPL count.
+    size: u32,
+    layers: u32,
+    levels: u32,
+    count: u32,
+    // First word of every pyramid level in `pyramid` (level 0 = the texels).
+    offsets: array<vec4<u32>, 4>,
+};
+
+struct Vpl {
+    // xyz position, w unused
+    position: vec4<f32>,
+    // xyz unit normal (facing the light), w unused
+    normal: vec4<f32>,
+    // rgb flux (W), w mean flux
+    flux: vec4<f32>,
+};
+
+@group(0) @binding(0) var<storage, read> gp: GenParams;
+@group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
+@group(0) @binding(2) var rsm_normal: texture_2d_array<f32>;
+@group(0) @binding(3) var rsm_flux: texture_2d_array<f32>;
+@group(0) @binding(4) var<storage, read_write> pyramid: array<f32>;
+@group(0) @binding(5) var<storage, read_write> vpls: array<Vpl>;
+// The level a `pyramid_level` dispatch builds (one slot per level).
+@group(0) @binding(6) var<storage, read> level: u32;
+
+fn level_offset(k: u32) -> u32 {
+    return gp.offsets[k / 4u][k % 4u];
+}
+
+fn texel_flux(x: u32, y: u32, layer: u32) -> vec3<f32> {
+    let p = textureLoad(rsm_position, vec2<u32>(x, y), layer, 0);
+    let f = textureLoad(rsm_flux, vec2<u32>(x, y), layer, 0);
+    return max(f.rgb, vec3<f32>(0.0)) * max(p.w, 0.0);
+}
+
+fn weight(f: vec3<f32>) -> f32 {
+    return (f.r + f.g + f.b) / 3.0;
+}
+
+@compute @workgroup_size(8, 8)
+fn pyramid_base(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= gp.size || id.y >= gp.size || id.z >= gp.layers {
+        return;
+    }
+    pyramid[(id.z * gp.size + id.y) * gp.size + id.x] = weight(texel_flux(id.x, id.y, id.z));
+}
+
+@compute @workgroup_size(8, 8)
+fn pyramid_level(@builtin(global_invocation_id) id: vec3<u32>) {
+    let side = gp.size >> level;
+    if id.x >= side || id.y >= side || id.z >= gp.layers {
+        return;
+    }
+    let fine = gp.size >> (level - 1u);
+    let base = level_offset(level - 1u) + id.z * fine * fine;
+    let x = 2u * id.x;
+    let y = 2u * id.y;
+    let s = (pyramid[base + y * fine + x] + pyramid[base + y * fine + x + 1u])
+        + (pyramid[base + (y + 1u) * fine + x] + pyramid[base + (y + 1u) * fine + x + 1u]);
+    pyramid[level_offset(level) + (id.z * side + id.y) * side + id.x] = s;
+}
+
+@compute @workgroup_size(64)
+fn sample_vpls(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= gp.count {
+        return;
+    }
+    let top = level_offset(gp.levels);
+    var total = 0.0;
+    for (var l = 0u; l < gp.layers; l++) {
+        total += pyramid[top + l];
+    }
+    var out: Vpl;
+    out.position = vec4<f32>(0.0);
+    out.normal = vec4<f32>(0.0);
+    out.flux = vec4<f32>(0.0);
+    if total <= 0.0 {
+        vpls[i] = out;
+        return;
+    }
+    // Pick the layer.
+    var t = (f32(i) + 0.5) / f32(gp.count) * total;
+    var layer = 0u;
+    var last = 0u;
+    for (var l = 0u; l < gp.layers; l++) {
+        let w = pyramid[top + l];
+        if w > 0.0 {
+            last = l;
+        }
+    }
+    layer = last;
+    for (var l = 0u; l < gp.layers; l++) {
+        let w = pyramid[top + l];
+        if w > 0.0 && t < w {
+            layer = l;
+            break;
+        }
+        t -= w;
+    }
+    t = clamp(t, 0.0, pyramid[top + layer]);
+    // Descend: at each level the child holding t, t made relative to it.
+    var x = 0u;
+    var y = 0u;
+    for (var k = gp.levels; k > 0u; k--) {
+        let fine = gp.size >> (k - 1u);
+        let base = level_offset(k - 1u) + layer * fine * fine;
+        var chosen = 4u;
+        var last_nonzero = 0u;
+        for (var c = 0u; c < 4u; c++) {
+            let cx = 2u * x + (c & 1u);
+            let cy = 2u * y + (c >> 1u);
+            let w = pyramid[base + cy * fine + cx];
+            if w > 0.0 {
+                last_nonzero = c;
+                if chosen == 4u {
+                    if t < w {
+                        chosen = c;
+                    } else {
+                        t -= w;
+                    }
+                }
+            }
+        }
+        if chosen == 4u {
+            // t at the very top of the node (rounding): its last child with weight.
+            chosen = last_nonzero;
+            t = pyramid[base + (2u * y + (chosen >> 1u)) * fine + 2u * x + (chosen & 1u)];
+        }
+        x = 2u * x + (chosen & 1u);
+        y = 2u * y + (chosen >> 1u);
+    }
+    let phi = texel_flux(x, y, layer);
+    let w = weight(phi);
+    let p = textureLoad(rsm_position, vec2<u32>(x, y), layer, 0);
+    let n = textureLoad(rsm_normal, vec2<u32>(x, y), layer, 0);
+    out.position = vec4<f32>(p.xyz, 0.0);
+    out.normal = vec4<f32>(normalize(n.xyz), 0.0);
+    let scale = total / (f32(gp.count) * max(w, 1e-30));
+    out.flux = vec4<f32>(phi * scale, w * scale);
+    vpls[i] = out;
+}

@@ -1,0 +1,445 @@
+//! Many-lights VPL global illumination with visibility by sparse-voxel-octree ray marching
+//! (`002`, Sun & Agu): `--gi vpl`.
+//!
+//! A frame, pass by pass (each a named, timed pass):
+//! 1. `svo dyn ...` (animated scenes only): the octree's dynamic part is rebuilt from the
+//!    animated objects at this frame's time ([`SvoBuilder::record_dynamic`]). The static
+//!    objects' octree ([`crate::voxel::svo`]) is built once, when the technique is created.
+//! 2. `vpl rsm`: reflective shadow maps of every light view (the LPV's RSM pass,
+//!    [`crate::gi::lpv::rsm`]: spot and directional lights one, point lights six cube faces).
+//! 3. `vpl generate`: N VPLs importance-sampled by reflected flux, each with physical flux
+//!    ([`generate`]).
+//! 4. `vpl shade`: interleaved shading, each pixel with 1 / I^2 of the VPLs, visibility by a
+//!    stackless walk of the octree ([`trace`], `shade.wgsl`).
+//! 5. `vpl merge`: geometry-aware I x I merge into the indirect irradiance image.
+
+pub mod generate;
+pub mod trace;
+
+use crate::gi::lpv::rsm::{self, RsmLayer, RsmPass, RsmTargets};
+use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::voxel::svo::dynamic::DynamicReserve;
+use crate::voxel::svo::{Svo, SvoBuilder};
+use crate::voxel::{objects_triangles, scene_triangles_split, VoxelGrid};
+use crate::{Error, Result};
+use bytemuck::{Pod, Zeroable};
+
+const OWNER: &str = "vpl";
+
+/// Settings of VPL GI. Scene files: `[settings.vpl]`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VplSettings {
+    /// Number of VPLs, 1..=65536 (default 1024; 002 uses 512, 1024 and 2048).
+    pub count: u32,
+    /// Interleave factor I: the image is split into I x I sub-images, each shading 1 / I^2
+    /// of the VPLs, then merged over I x I windows (1..=8, default 4 as in 002).
+    pub interleave: u32,
+    /// Distance clamp of eq. 2 in voxels of the octree: B = (clamp x voxel edge)^2 (default 2:
+    /// closer than two voxels the octree cannot tell the VPL's surface from the receiver's,
+    /// so the 1/r^2 singularity is cut there; docs/vpl.md measures the bias).
+    pub clamp: f32,
+    /// Voxels per side of the octree, a power of two in 4..=1024 (default 128, as 002's
+    /// Cornell box).
+    pub resolution: u32,
+    /// RSM side in texels, a power of two in 16..=2048 (default 256).
+    pub rsm_size: u32,
+    /// Shadow-segment ends move this many voxels along their normals before the octree walk
+    /// (default 1.75, just over a voxel diagonal; 0..=8).
+    pub end_offset: f32,
+    /// A VPL whose mean contribution to a pixel is at most this (W/m^2) is skipped before
+    /// its shadow ray (default 0: only VPLs with G = 0 or no flux).
+    pub cull: f32,
+    /// Geometry-aware merge of the sub-images (default true; false shows the raw interleave).
+    pub filter: bool,
+    /// Merge: least cosine between a neighbour's normal and the pixel's (default 0.9).
+    pub normal_min: f32,
+    /// Merge: largest distance of a neighbour to the pixel's tangent plane, as a fraction of
+    /// the pixel's distance to the camera (default 0.02).
+    pub plane_tol: f32,
+    /// Light bounces carried by VPLs (default 1; only 1 is built).
+    pub bounces: u32,
+    /// Sky lights that get an RSM (default 8), as `[settings.lpv] sky_rsms`.
+    pub sky_rsms: u32,
+}
+
+impl Default for VplSettings {
+    fn default() -> Self {
+        VplSettings {
+            count: 1024,
+            interleave: 4,
+            clamp: 2.0,
+            resolution: 128,
+            rsm_size: 256,
+            end_offset: 1.75,
+            cull: 0.0,
+            filter: true,
+            normal_min: 0.9,
+            plane_tol: 0.02,
+            bounces: 1,
+            sky_rsms: 8,
+        }
+    }
+}
+
+fn check(ok: bool, what: &str, range: &str) -> Result<()> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Error::InvalidArgument(format!(
+            "vpl {what} must be {range}"
+        )))
+    }
+}
+
+impl VplSettings {
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<()> {
+        check((1..=65536).contains(&self.count), "count", "1..=65536")?;
+        check((1..=8).contains(&self.interleave), "interleave", "1..=8")?;
+        check(
+            self.clamp.is_finite() && self.clamp >= 0.0,
+            "clamp",
+            "finite, >= 0",
+        )?;
+        check(
+            self.resolution.is_power_of_two() && (4..=1024).contains(&self.resolution),
+            "resolution",
+            "a power of two in 4..=1024",
+        )?;
+        check(
+            self.rsm_size.is_power_of_two() && (16..=2048).contains(&self.rsm_size),
+            "rsm_size",
+            "a power of two in 16..=2048",
+        )?;
+        check(
+            (0.0..=8.0).contains(&self.end_offset),
+            "end_offset",
+            "0..=8",
+        )?;
+        check(
+            self.cull.is_finite() && self.cull >= 0.0,
+            "cull",
+            "finite, >= 0",
+        )?;
+        check(
+            (-1.0..=1.0).contains(&self.normal_min),
+            "normal_min",
+            "-1..=1",
+        )?;
+        check(
+            self.plane_tol.is_finite() && self.plane_tol >= 0.0,
+            "plane_tol",
+            "finite, >= 0",
+        )?;
+        check(
+            self.bounces == 1,
+            "bounces",
+            "1 (multi-bounce VPLs are not built yet)",
+        )?;
+        check(
+            (1..=crate::scene::Sky::MAX_DIRECTIONS).contains(&self.sky_rsms),
+            "sky_rsms",
+            "1..=64",
+        )
+    }
+}
+
+/// `ShadeParams` of `shade.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct ShadeParams {
+    count: u32,
+    interleave: u32,
+    clamp_b: f32,
+    cull: f32,
+    normal_min: f32,
+    plane_tol: f32,
+    filter: u32,
+    pad: u32,
+}
+
+/// The geometry term of eq. 2-4 (as `vpl_g` in `shade.wgsl`): receiver at `p` with normal
+/// `n`, VPL at `pv` with normal `nv`, squared distance clamped at `b`.
+pub fn geometry_term(p: glam::Vec3, n: glam::Vec3, pv: glam::Vec3, nv: glam::Vec3, b: f32) -> f32 {
+    let d = p - pv;
+    let r2 = d.length_squared();
+    if r2 <= 0.0 {
+        return 0.0;
+    }
+    let w = d / r2.sqrt();
+    n.dot(-w).max(0.0) * nv.dot(w).max(0.0) / b.max(r2)
+}
+
+/// VPL global illumination.
+pub struct VplGi {
+    settings: VplSettings,
+    svo: Svo,
+    /// The octree's pipelines, kept for the dynamic part's updates.
+    builder: SvoBuilder,
+    /// Whether the scene has animated objects (the octree then has a dynamic part).
+    animated: bool,
+    placeholder: wgpu::Buffer,
+    octree: trace::VplOctree,
+    octree_params: wgpu::Buffer,
+    rsm: RsmTargets,
+    shade_params: wgpu::Buffer,
+    raw: (wgpu::Texture, wgpu::TextureView),
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    passes: Option<Passes>,
+}
+
+struct Passes {
+    rsm: RsmPass,
+    generate: generate::Generate,
+    shade: wgpu::ComputePipeline,
+    merge: wgpu::ComputePipeline,
+    shade_group: wgpu::BindGroup,
+    merge_group: wgpu::BindGroup,
+}
+
+impl VplGi {
+    /// The technique for `scene` at `width` x `height`; builds the scene's octree.
+    pub fn new(
+        ctx: &GpuContext,
+        settings: &VplSettings,
+        scene: &crate::scene::Scene,
+        width: u32,
+        height: u32,
+    ) -> Result<VplGi> {
+        settings.validate()?;
+        let bounds = scene.bounds_at(0.0);
+        if !(bounds.0.is_finite() && bounds.1.is_finite() && bounds.0.cmple(bounds.1).all()) {
+            return Err(Error::InvalidArgument(format!(
+                "vpl needs a scene with geometry; its bounds are {} to {}",
+                bounds.0, bounds.1
+            )));
+        }
+        let grid = VoxelGrid::enclosing(bounds, settings.resolution)?;
+        let (still, moving) = scene_triangles_split(scene, &scene.frame(0.0, 0));
+        let builder = SvoBuilder::new(ctx);
+        let animated = !moving.is_empty();
+        let (svo, _) = if animated {
+            // Room for the animated objects: their voxels at time 0, with a margin for the
+            // 26-neighbourhoods of every level and for poses that touch more voxels.
+            let voxels = crate::voxel::cpu::voxelize(&grid, &moving).len() as u32;
+            let reserve = DynamicReserve::new(voxels.saturating_mul(16).clamp(4096, 1 << 22));
+            builder.build_with_reserve(ctx, &grid, &still, reserve)?
+        } else {
+            builder.build(ctx, &grid, &still)?
+        };
+        let octree = trace::VplOctree::new(&svo, settings.end_offset)?;
+        let usage = wgpu::BufferUsages::STORAGE;
+        let octree_params =
+            ctx.create_buffer_init(OWNER, "octree walk", bytemuck::bytes_of(&octree), usage);
+        let b = settings.clamp * grid.voxel_size;
+        let shade = ShadeParams {
+            count: settings.count,
+            interleave: settings.interleave,
+            clamp_b: b * b,
+            cull: settings.cull,
+            normal_min: settings.normal_min,
+            plane_tol: settings.plane_tol,
+            filter: settings.filter as u32,
+            pad: 0,
+        };
+        let shade_params =
+            ctx.create_buffer_init(OWNER, "shade params", bytemuck::bytes_of(&shade), usage);
+        let layers = rsm::rsm_layer_count(
+            &scene.lights,
+            crate::render::sky_light_count(scene),
+            settings.sky_rsms,
+        );
+        let raw = crate::render::render_target(
+            ctx,
+            OWNER,
+            "interleaved irradiance",
+            width,
+            height,
+            wgpu::TextureFormat::Rgba16Float,
+            wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let (texture, view) = crate::gi::indirect_target(ctx, OWNER, width, height);
+        Ok(VplGi {
+            rsm: RsmTargets::new(ctx, OWNER, layers, settings.rsm_size),
+            settings: settings.clone(),
+            svo,
+            builder,
+            animated,
+            placeholder: ctx.create_buffer_init(OWNER, "placeholder", &[0; 16], usage),
+            octree,
+            octree_params,
+            shade_params,
+            raw,
+            texture,
+            view,
+            passes: None,
+        })
+    }
+
+    /// The octree the shadow rays walk.
+    pub fn svo(&self) -> &Svo {
+        &self.svo
+    }
+
+    /// The walk's parameters.
+    pub fn octree(&self) -> &trace::VplOctree {
+        &self.octree
+    }
+
+    /// The VPLs of the last frame.
+    pub fn read_vpls(&self, ctx: &GpuContext) -> Result<Vec<generate::Vpl>> {
+        let Some(p) = &self.passes else {
+            return Ok(Vec::new());
+        };
+        let bytes = crate::gpu::read_buffer(
+            ctx,
+            &p.generate.vpls,
+            0,
+            self.settings.count as u64 * generate::VPL_BYTES,
+        )?;
+        Ok(generate::decode(&bytes))
+    }
+
+    /// The reflective shadow maps of the last frame, one image per layer.
+    pub fn read_rsm(&self, ctx: &GpuContext) -> Result<Vec<rsm::RsmImage>> {
+        (0..self.rsm.layers)
+            .map(|layer| rsm::RsmImage::read(ctx, &self.rsm, layer))
+            .collect()
+    }
+
+    /// The indirect-irradiance texture (`Rgba16Float`).
+    pub fn indirect_texture(&self) -> &wgpu::Texture {
+        &self.texture
+    }
+
+    fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
+        let source = [
+            include_str!("../../render/common.wgsl"),
+            trace::TRACE_WGSL,
+            include_str!("shade.wgsl"),
+        ]
+        .join("\n");
+        let module = ctx.shader("vpl shade", &source);
+        let shade = ctx.compute_pipeline("vpl shade", &module, "shade");
+        let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
+        let generate = generate::Generate::new(ctx, OWNER, &self.rsm, self.settings.count);
+        let tex = wgpu::BindingResource::TextureView;
+        let [child, leaf, state, sums] = trace::walk_buffers(&self.svo, &self.placeholder);
+        let shade_group = crate::gi::lpv::bind(
+            ctx,
+            &shade,
+            &[
+                (0, frame.camera_uniform.as_entire_binding()),
+                (1, self.octree_params.as_entire_binding()),
+                (2, child.as_entire_binding()),
+                (3, leaf.as_entire_binding()),
+                (11, state.as_entire_binding()),
+                (12, sums.as_entire_binding()),
+                (4, tex(&frame.gbuffer.depth_view)),
+                (5, tex(&frame.gbuffer.normal_view)),
+                (6, generate.vpls.as_entire_binding()),
+                (7, self.shade_params.as_entire_binding()),
+                (8, tex(&self.raw.1)),
+            ],
+        );
+        let merge_group = crate::gi::lpv::bind(
+            ctx,
+            &merge,
+            &[
+                (0, frame.camera_uniform.as_entire_binding()),
+                (4, tex(&frame.gbuffer.depth_view)),
+                (5, tex(&frame.gbuffer.normal_view)),
+                (7, self.shade_params.as_entire_binding()),
+                (9, tex(&self.raw.1)),
+                (10, tex(&self.view)),
+            ],
+        );
+        Passes {
+            rsm: RsmPass::new(ctx, frame.scene_gpu, &self.rsm),
+            generate,
+            shade,
+            merge,
+            shade_group,
+            merge_group,
+        }
+    }
+}
+
+fn record_compute(
+    timer: &mut PassTimer,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    size: [u32; 3],
+) {
+    timer.pass(name, |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(name),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(size[0], size[1], size[2]);
+    });
+}
+
+impl GiTechnique for VplGi {
+    fn name(&self) -> &str {
+        "vpl"
+    }
+
+    fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
+        if self.passes.is_none() {
+            self.passes = Some(self.build(ctx, frame));
+        }
+        if self.animated {
+            let moving = objects_triangles(frame.scene, frame.frame, true);
+            self.builder
+                .record_dynamic(ctx, timer, &mut self.svo, &moving)?;
+        }
+        let Some(p) = &self.passes else {
+            return Ok(());
+        };
+        let layers: Vec<RsmLayer> = rsm::rsm_layers(frame, self.rsm.size, self.settings.sky_rsms);
+        p.rsm.update(ctx, &self.rsm, &layers);
+        p.rsm
+            .record(timer, frame.scene_gpu, &self.rsm, &layers, "vpl rsm");
+        p.generate.record(timer, "vpl generate");
+        let (w, h) = (self.texture.width(), self.texture.height());
+        let m = self.settings.interleave;
+        record_compute(
+            timer,
+            "vpl shade",
+            &p.shade,
+            &p.shade_group,
+            [w.div_ceil(m).div_ceil(8), h.div_ceil(m).div_ceil(8), m * m],
+        );
+        record_compute(
+            timer,
+            "vpl merge",
+            &p.merge,
+            &p.merge_group,
+            [w.div_ceil(8), h.div_ceil(8), 1],
+        );
+        Ok(())
+    }
+
+    fn indirect_view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
+    fn reference_bounces(&self) -> crate::reference::Bounces {
+        crate::reference::Bounces::Indirect(self.settings.bounces)
+    }
+
+    fn other_ledger_owners(&self) -> &[&'static str] {
+        &[crate::voxel::svo::OWNER]
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+}

@@ -1,0 +1,143 @@
+// Interleaved VPL shading (002 §3.2, eq. 1-4) and the geometry-aware merge.
+//
+// `shade`: the image is split into I x I sub-images by addressing, not by copying: dispatch z
+// is the sub-image k = (y mod I) I + (x mod I), and its pixels (x, y) sum VPL subset k, the
+// VPLs j = k, k + I^2, k + 2 I^2, ... (the VPLs are stratified over the RSMs in index order, so
+// every subset is spread over all of them). Workgroups never straddle sub-images, so a
+// workgroup reads one subset. Per pixel p (normal n) and VPL (p_v, n_v, Phi):
+//   G = max(0, cos_i) max(0, cos_o) / max(B, |p - p_v|^2)               (eq. 2-4)
+//   E += I^2 / pi x Phi G (1 - V)                                          (eq. 1)
+// 1/pi turns the VPL's flux into the radiant intensity of a Lambertian emitter (Phi/pi cos_o),
+// I^2 scales the subset up to all N VPLs (each subset holds 1/I^2 of them), so the expected
+// value over subsets is the full VPL sum. VPLs with G = 0 (behind either surface), no flux,
+// or a mean contribution below `cull` (W/m^2) are skipped before the shadow ray.
+//
+// `merge`: every pixel averages the I x I window around it (which holds every sub-image once)
+// over the pixels on its own surface: normal within `normal_min` (cosine) and the neighbour's
+// distance to the pixel's tangent plane within `plane_tol` x its distance to the camera. The
+// weights are 0 or 1 and normalised, so a pixel's value stays an average of unbiased
+// estimates of its full VPL sum.
+
+struct ShadeParams {
+    count: u32,
+    interleave: u32,
+    clamp_b: f32,
+    cull: f32,
+    normal_min: f32,
+    plane_tol: f32,
+    merge_on: u32,
+    pad: u32,
+};
+
+@group(0) @binding(0) var<uniform> cam: Camera;
+@group(0) @binding(1) var<storage, read> vo: VplOctree;
+@group(0) @binding(2) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(3) var<storage, read> svo_leaf: array<u32>;
+@group(0) @binding(4) var depth_tex: texture_depth_2d;
+@group(0) @binding(5) var normal_tex: texture_2d<f32>;
+@group(0) @binding(6) var<storage, read> vpls: array<Vpl>;
+@group(0) @binding(7) var<storage, read> sp: ShadeParams;
+@group(0) @binding(8) var raw_out: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(9) var raw_in: texture_2d<f32>;
+@group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(11) var<storage, read> svo_state: array<u32>;
+@group(0) @binding(12) var<storage, read> svo_dyn_sums: array<u32>;
+
+struct Vpl {
+    position: vec4<f32>,
+    normal: vec4<f32>,
+    flux: vec4<f32>,
+};
+
+
+// Eq. 2-4: the geometry term of a VPL at `pv` (normal `nv`) for a receiver at `p` (normal `n`).
+fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>) -> f32 {
+    let d = p - pv;
+    let r2 = dot(d, d);
+    if r2 <= 0.0 {
+        return 0.0;
+    }
+    let w = d * inverseSqrt(r2);
+    let cos_i = max(0.0, dot(n, -w));
+    let cos_o = max(0.0, dot(nv, w));
+    return cos_i * cos_o / max(sp.clamp_b, r2);
+}
+
+@compute @workgroup_size(8, 8)
+fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
+    let m = sp.interleave;
+    let k = id.z;
+    let px = vec2<u32>(id.x * m + k % m, id.y * m + k / m);
+    let size = vec2<u32>(cam.size.xy);
+    if px.x >= size.x || px.y >= size.y {
+        return;
+    }
+    let depth = textureLoad(depth_tex, px, 0);
+    if depth >= 1.0 {
+        textureStore(raw_out, px, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        return;
+    }
+    let p = world_from_depth(cam, px, depth);
+    let n = normalize(textureLoad(normal_tex, px, 0).xyz);
+    let scale = f32(m * m) / PI;
+    var e = vec3<f32>(0.0);
+    var a = vec3<i32>(0);
+    var have_a = false;
+    for (var j = k; j < sp.count; j += m * m) {
+        let v = vpls[j];
+        let g = vpl_g(p, n, v.position.xyz, v.normal.xyz);
+        let c = scale * v.flux.w * g;
+        if g <= 0.0 || c <= sp.cull {
+            continue;
+        }
+        if !have_a {
+            a = vpl_fixed_point(p, n);
+            have_a = true;
+        }
+        if svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
+            continue;
+        }
+        e += scale * v.flux.rgb * g;
+    }
+    textureStore(raw_out, px, vec4<f32>(e, 1.0));
+}
+
+@compute @workgroup_size(8, 8)
+fn merge(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = vec2<u32>(cam.size.xy);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let px = id.xy;
+    let depth = textureLoad(depth_tex, px, 0);
+    if depth >= 1.0 || sp.merge_on == 0u {
+        textureStore(out_tex, px, textureLoad(raw_in, px, 0));
+        return;
+    }
+    let p = world_from_depth(cam, px, depth);
+    let n = normalize(textureLoad(normal_tex, px, 0).xyz);
+    let tol = sp.plane_tol * length(p - cam.position.xyz);
+    let m = i32(sp.interleave);
+    var sum = vec3<f32>(0.0);
+    var weight = 0.0;
+    for (var dy = -m / 2; dy < m - m / 2; dy++) {
+        for (var dx = -m / 2; dx < m - m / 2; dx++) {
+            let q = vec2<i32>(px) + vec2<i32>(dx, dy);
+            if any(q < vec2<i32>(0)) || any(q >= vec2<i32>(size)) {
+                continue;
+            }
+            let dq = textureLoad(depth_tex, q, 0);
+            if dq >= 1.0 {
+                continue;
+            }
+            let nq = normalize(textureLoad(normal_tex, q, 0).xyz);
+            let pq = world_from_depth(cam, vec2<u32>(q), dq);
+            if dot(n, nq) < sp.normal_min || abs(dot(n, pq - p)) > tol {
+                continue;
+            }
+            sum += textureLoad(raw_in, q, 0).rgb;
+            weight += 1.0;
+        }
+    }
+    textureStore(out_tex, px, vec4<f32>(sum / max(weight, 1.0), 1.0));
+}

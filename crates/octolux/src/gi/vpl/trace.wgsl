@@ -1,0 +1,139 @@
+// VPL visibility: a stackless walk of the sparse voxel octree along a shadow segment (002's
+// SVO-restart, Fig. 3, in integer arithmetic). The includer declares `vo: VplOctree` (read-only
+// storage), `svo_child: array<u32>` (the octree's `child`) and `svo_leaf: array<u32>` (the
+// octree's `leaf_sums`, whose first `leaf_count` words are the static leaves' index words:
+// bits 0..7 the occupancy of their 2x2x2 voxels).
+//
+// Every decision is made on integers: segment ends are points of a lattice of 2^14 steps per
+// grid side (`1 << shift` steps per voxel), and the time along the segment is the fraction
+// tn / td of two integers below 2^15. The CPU twin (`trace.rs`) runs the same integer code, so
+// both visit the same cells on every adapter. Products stay below 2^30 in i32.
+//
+// Each step restarts at the root and descends along the voxel holding the current point
+// (kd-restart), stopping at the first node without children (an empty octant of any level:
+// occupied nodes are always subdivided) or at a leaf, where an empty leaf is skipped whole and
+// an occupied one voxel by voxel. The cell is then left through its exit face: the next voxel
+// is the one holding the point just after the exit time, found exactly (no t-epsilon).
+
+struct VplOctree {
+    // World position of the grid's corner, voxel edge (m).
+    origin: vec3<f32>,
+    voxel: f32,
+    // Octree levels: the grid has 2^depth voxels per side.
+    depth: u32,
+    // log2 of the fixed-point steps per voxel (14 - depth).
+    shift: u32,
+    // First node of the finest level, and the number of static leaves with an index word.
+    first_leaf: u32,
+    leaf_count: u32,
+    // Most cells one segment may visit (a safety bound; 3 x side + depth + 2 is never reached).
+    cap: u32,
+    // Segment ends move this many voxels along their surface normals (see `vpl_fixed_point`).
+    end_offset: f32,
+    // 1 when the octree has a dynamic part (`svo_state`, `svo_dyn_sums` are bound).
+    dynamic: u32,
+    pad: u32,
+};
+
+// Occupancy of the 8 voxels of leaf node `node` (bit x + 2y + 4z): static and dynamic
+// fragments.
+fn vpl_leaf_mask(node: u32) -> u32 {
+    let leaf = node - vo.first_leaf;
+    var mask = 0u;
+    if leaf < vo.leaf_count {
+        mask = svo_leaf[leaf] & 255u;
+    }
+    if vo.dynamic != 0u {
+        let slot = svo_state[node] >> 2u;
+        if slot != 0u {
+            for (var o = 0u; o < 8u; o++) {
+                if svo_dyn_sums[((slot - 1u) * 8u + o) * 10u + 3u] != 0u {
+                    mask |= 1u << o;
+                }
+            }
+        }
+    }
+    return mask;
+}
+
+const VPL_FIXED_BITS: u32 = 14u;
+
+// The voxel holding the point at time tn / td (+ an infinitesimal) of the segment a + t d:
+// on an axis where the point lies on a voxel face, the voxel the segment enters next, and for
+// a segment lying in a face (d = 0), the voxel above it (voxels are half-open).
+fn vpl_voxel_at(a: vec3<i32>, d: vec3<i32>, tn: i32, td: i32) -> vec3<i32> {
+    let den = vec3<i32>(td << vo.shift);
+    let n = a * td + d * tn;
+    let up = n / den;
+    let down = (n + den - vec3<i32>(1)) / den - vec3<i32>(1);
+    return select(up, down, d < vec3<i32>(0));
+}
+
+// Lattice point of world position `p` moved `end_offset` voxels along `n`, inside the grid.
+fn vpl_fixed_point(p: vec3<f32>, n: vec3<f32>) -> vec3<i32> {
+    let g = (p + n * (vo.end_offset * vo.voxel) - vo.origin) / vo.voxel;
+    let top = (1 << VPL_FIXED_BITS) - 1;
+    let q = vec3<i32>(floor(clamp(g, vec3<f32>(0.0), vec3<f32>(f32(1u << vo.depth))) * f32(1u << vo.shift)));
+    return clamp(q, vec3<i32>(1), vec3<i32>(top));
+}
+
+// Whether the segment a -> b (lattice points) passes through an occupied voxel other than the
+// voxels holding its two ends (where the surfaces it joins were voxelised).
+fn svo_occluded(a: vec3<i32>, b: vec3<i32>) -> bool {
+    let d = b - a;
+    let ad = abs(d);
+    if all(ad == vec3<i32>(0)) {
+        return false;
+    }
+    var tn = 0;
+    var td = 1;
+    var v = vpl_voxel_at(a, d, 0, 1);
+    let first = v;
+    for (var it = 0u; it < vo.cap; it++) {
+        // Descend from the root to the node holding v.
+        var node = 0u;
+        var k = vo.depth;
+        var occupied = false;
+        loop {
+            if k == 1u {
+                let mask = vpl_leaf_mask(node);
+                if mask != 0u {
+                    let bit = u32((v.x & 1) | ((v.y & 1) << 1u) | ((v.z & 1) << 2u));
+                    occupied = (mask & (1u << bit)) != 0u;
+                    k = 0u;
+                }
+                break;
+            }
+            let c = svo_child[node];
+            if c == 0u {
+                break;
+            }
+            k -= 1u;
+            let o = (v >> vec3<u32>(k)) & vec3<i32>(1);
+            node = c + u32(o.x | (o.y << 1u) | (o.z << 2u));
+        }
+        // Leave the cell (side 2^k voxels) through the face the segment reaches first.
+        let lo = (v >> vec3<u32>(k)) << vec3<u32>(k);
+        let bound = select(lo, lo + vec3<i32>(1 << k), d > vec3<i32>(0)) << vec3<u32>(vo.shift);
+        let dist = select(a - bound, bound - a, d > vec3<i32>(0));
+        var m = 3;
+        for (var i = 0; i < 3; i++) {
+            if ad[i] > 0 && (m == 3 || dist[i] * ad[m] < dist[m] * ad[i]) {
+                m = i;
+            }
+        }
+        let en = dist[m];
+        let ed = ad[m];
+        let holds_end = en >= ed;
+        if occupied && !holds_end && any(v != first) {
+            return true;
+        }
+        if holds_end {
+            return false;
+        }
+        tn = en;
+        td = ed;
+        v = vpl_voxel_at(a, d, tn, td);
+    }
+    return false;
+}

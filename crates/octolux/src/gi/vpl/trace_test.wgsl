@@ -1,0 +1,18 @@
+// Test kernel: traces segments given as lattice points and writes 1 where occluded.
+
+@group(0) @binding(0) var<storage, read> vo: VplOctree;
+@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
+@group(0) @binding(3) var<storage, read> segments: array<vec4<i32>>;
+@group(0) @binding(4) var<storage, read_write> results: array<u32>;
+@group(0) @binding(5) var<storage, read> svo_state: array<u32>;
+@group(0) @binding(6) var<storage, read> svo_dyn_sums: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&segments) / 2u {
+        return;
+    }
+    results[i] = select(0u, 1u, svo_occluded(segments[2u * i].xyz, segments[2u * i + 1u].xyz));
+}
