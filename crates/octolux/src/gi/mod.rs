@@ -6,6 +6,7 @@
 
 pub mod lpv;
 mod none;
+pub mod probes;
 pub mod vct;
 
 pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
@@ -76,6 +77,8 @@ pub struct GiSettings {
     pub olpv: OlpvSettings,
     /// Voxel cone tracing (`[settings.vct]`).
     pub vct: vct::VctSettings,
+    /// Probes and surfels (`[settings.probes]`).
+    pub probes: probes::ProbeSettings,
 }
 
 impl GiSettings {
@@ -109,7 +112,7 @@ pub(crate) fn indirect_target(
 }
 
 /// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv", "vct-clipmap"];
+pub const TECHNIQUES: &[&str] = &["none", "lpv", "clpv", "olpv", "vct-clipmap", "probes-grid"];
 
 /// Creates the technique called `name` for images of `width` x `height`.
 pub fn create(
@@ -125,6 +128,13 @@ pub fn create(
         "vct-clipmap" => Ok(Box::new(vct::VctClipmap::new(
             ctx,
             &settings.vct,
+            scene,
+            width,
+            height,
+        )?)),
+        "probes-grid" => Ok(Box::new(probes::ProbesGrid::new(
+            ctx,
+            &settings.probes,
             scene,
             width,
             height,
