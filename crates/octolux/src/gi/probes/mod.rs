@@ -14,6 +14,8 @@
 
 pub mod bvh;
 pub mod encoding;
+#[cfg(test)]
+mod gpu_tests;
 mod grid;
 pub mod lattice;
 
