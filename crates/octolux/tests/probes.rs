@@ -103,6 +103,95 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     }
 }
 
+fn reference(scene: &octolux::scene::Scene, t: f32, bounces: Bounces) -> HdrImage {
+    octolux::reference::render(
+        scene,
+        &scene.frame(t, 0),
+        SIZE,
+        SIZE,
+        &ReferenceSettings {
+            spp: 256,
+            bounces,
+            ..ReferenceSettings::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap()
+    .total
+}
+
+#[test]
+fn multiple_bounces_converge_towards_the_full_reference() {
+    // With `multi_bounce` the surfels also receive the probes' light of the previous frame:
+    // after 8 frames (8 bounces) the image is closer to the unlimited-bounce reference than
+    // the one-bounce technique is, and brighter.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = octolux::scene::cornell::scene();
+    let full = reference(&scene, 0.0, Bounces::Unlimited);
+    let mut results = Vec::new();
+    for multi_bounce in [false, true] {
+        let probes = ProbeSettings {
+            grid: [12; 3],
+            multi_bounce,
+            ..Default::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings("probes-grid", probes)).unwrap();
+        assert_eq!(
+            r.technique().reference_bounces(),
+            if multi_bounce {
+                Bounces::Unlimited
+            } else {
+                Bounces::Indirect(1)
+            }
+        );
+        for _ in 0..8 {
+            r.render(&scene, 0.0).unwrap();
+        }
+        let image = r.read_hdr().unwrap();
+        let mean = image.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+        results.push((rel_mse(&image, &full, None).unwrap(), mean));
+    }
+    println!(
+        "against unlimited bounces: one bounce {:?}, multi {:?}",
+        results[0], results[1]
+    );
+    assert!(results[1].0 < results[0].0, "{results:?}");
+    assert!(results[1].1 > 1.02 * results[0].1, "{results:?}");
+}
+
+#[test]
+fn moving_objects_are_lit_where_they_are() {
+    // The animated box at t = 1.5 s (the short block moved and turned, the spot swung): the
+    // animated objects' BVH is rebuilt every frame and the surfels re-placed, so the image
+    // beats GI off against the one-bounce reference at that time.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    let scene = octolux::scene::Scene::load(path).unwrap();
+    let one = reference(&scene, 1.5, Bounces::Indirect(1));
+    let mut errors = Vec::new();
+    for technique in ["none", "probes-grid"] {
+        let probes = ProbeSettings {
+            grid: [12; 3],
+            ..Default::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings(technique, probes)).unwrap();
+        // Two frames: the second re-places the surfels around the moved block.
+        r.render(&scene, 1.4).unwrap();
+        r.render(&scene, 1.5).unwrap();
+        errors.push(rel_mse(&r.read_hdr().unwrap(), &one, None).unwrap());
+    }
+    println!(
+        "animated box relMSE: none {}, probes-grid {}",
+        errors[0], errors[1]
+    );
+    assert!(errors[1] < 0.8 * errors[0], "{errors:?}");
+}
+
 #[test]
 fn bad_probe_settings_are_clear_errors() {
     let ctx = GpuContext::shared(&GpuOptions::default())

@@ -224,3 +224,115 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
     assert!(hits > count / 2, "{hits}");
     assert!(edges * 200 < count, "{edges} rays differ at edges");
 }
+
+#[test]
+fn probe_integration_and_gather_equal_their_cpu_twins() {
+    // One frame of `probes-grid` on the Cornell box (10^3 probes, both encodings, both
+    // lattices): every probe's coefficients equal the CPU integration of the GPU's surfel
+    // radiance, and every pixel's indirect irradiance equals the CPU gather from the GPU's
+    // probes at the pixel's position and normal.
+    //
+    // Tolerances: the lattice directions agree to 3 x 2^-11 (test above), so a coefficient
+    // may differ by that share of the probe's total sum_j |L_j| dw_j; the gather's output is
+    // f16 (11-bit mantissa, 2^-11 relative) of a sum the CPU forms in the same order, from a
+    // world position rebuilt from the depth buffer on both sides.
+    use crate::render::{RenderSettings, Renderer};
+    let ctx = ctx();
+    let scene = crate::scene::cornell::scene();
+    for (encoding, lattice) in [
+        (super::Encoding::ShL1, Lattice::Fibonacci),
+        (super::Encoding::Octahedron, Lattice::LatLong),
+    ] {
+        let probes = super::ProbeSettings {
+            grid: [10; 3],
+            encoding,
+            lattice,
+            ..Default::default()
+        };
+        let settings = RenderSettings {
+            width: 40,
+            height: 40,
+            gi: "probes-grid".into(),
+            gi_settings: crate::gi::GiSettings {
+                probes: probes.clone(),
+                ..Default::default()
+            },
+            ..RenderSettings::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        let technique = r
+            .technique()
+            .as_any()
+            .and_then(|a| a.downcast_ref::<super::ProbesGrid>())
+            .unwrap();
+        let read = |b: &wgpu::Buffer| -> Vec<[f32; 4]> {
+            bytemuck::cast_slice(&read_buffer(&ctx, b, 0, b.size()).unwrap()).to_vec()
+        };
+        let (surfel_buf, radiance_buf) = technique.surfel_buffers();
+        let (surfels, radiance, probe_data) = (
+            read(surfel_buf),
+            read(radiance_buf),
+            read(technique.probe_buffer()),
+        );
+        let n = probes.surfels as usize;
+        let vec4s = super::grid::PROBE_VEC4 as usize;
+        let surfel_vec4 = super::grid::SURFEL_VEC4 as usize;
+        let mut valid = 0;
+        for probe in 0..technique.grid().count() as usize {
+            let states: Vec<f32> = (0..n)
+                .map(|k| surfels[(probe * n + k) * surfel_vec4][3])
+                .collect();
+            let l: Vec<Vec3> = (0..n)
+                .map(|k| Vec3::from_slice(&radiance[probe * n + k]))
+                .collect();
+            let (coeffs, meta) = super::integrate_probe(&probes, &states, &l);
+            let scale: f32 = l.iter().map(|x| x.max_element()).sum::<f32>() * 4.0 * 3.15 / n as f32;
+            let b = probe * vec4s;
+            for (k, c) in coeffs.iter().enumerate() {
+                let g = Vec3::from_slice(&probe_data[b + k]);
+                assert!(
+                    (g - *c).abs().max_element() <= 3.0 / 2048.0 * scale + 1e-7,
+                    "probe {probe} coefficient {k}: gpu {g}, cpu {c}"
+                );
+            }
+            assert_eq!(probe_data[b + 8], meta, "probe {probe}");
+            valid += (meta[2] > 0.5) as u32;
+        }
+        // The probes inside the two blocks are the invalid ones.
+        let count = technique.grid().count();
+        assert!(
+            valid < count && valid > count * 3 / 4,
+            "{valid} of {count} valid"
+        );
+        let g = r.read_gbuffer().unwrap();
+        let view = *r.last_view().unwrap();
+        let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
+        let indirect: &[u16] = bytemuck::cast_slice(&bytes);
+        let mut lit = 0;
+        for (i, (&depth, normal)) in g.depth.iter().zip(&g.normal).enumerate() {
+            if depth >= 1.0 {
+                continue;
+            }
+            let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+            let ndc = Vec3::new(x / 40.0 * 2.0 - 1.0, 1.0 - y / 40.0 * 2.0, depth);
+            let p = view.inv_view_proj.project_point3(ndc);
+            let want = super::grid_irradiance(
+                technique.grid(),
+                &probes,
+                &probe_data,
+                p,
+                normal.normalize(),
+            );
+            let got = Vec3::from_array(std::array::from_fn(|c| {
+                crate::render::f16_to_f32(indirect[4 * i + c])
+            }));
+            assert!(
+                (got - want).abs().max_element() <= 2e-3 * want.max_element() + 1e-5,
+                "{encoding:?} pixel {i}: gpu {got}, cpu {want}"
+            );
+            lit += (want.max_element() > 0.0) as u32;
+        }
+        assert!(lit > 1000, "{lit} pixels lit");
+    }
+}

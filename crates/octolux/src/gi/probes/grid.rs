@@ -3,8 +3,8 @@
 //! and interpolated per pixel (see the module documentation of [`super`] and docs/probes.md).
 
 use super::bvh::{Bvh, GpuNode, GpuTri, BVH_WGSL};
-use super::encoding::ENCODING_WGSL;
-use super::lattice::LATTICE_WGSL;
+use super::encoding::{COEFFS, ENCODING_WGSL};
+use super::lattice::{direction, LATTICE_WGSL};
 use super::ProbeSettings;
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
@@ -76,6 +76,78 @@ impl ProbeGrid {
     }
 }
 
+/// CPU twin of integrate.wgsl for one probe: its encoding's coefficients and (back-face
+/// share, hit share, valid, 0) from its surfels' states (0 miss, 1 front, 2 back) and outgoing
+/// radiance, in lattice order.
+pub fn integrate_probe(
+    settings: &ProbeSettings,
+    states: &[f32],
+    radiance: &[Vec3],
+) -> ([Vec3; COEFFS], [f32; 4]) {
+    let n = settings.surfels;
+    let mut coeffs = [Vec3::ZERO; COEFFS];
+    let (mut hits, mut back) = (0, 0);
+    for k in 0..n {
+        let state = states[k as usize];
+        hits += (state > 0.5) as u32;
+        back += (state > 1.5) as u32;
+        let (dir, dw) = direction(settings.lattice, k, n);
+        settings
+            .encoding
+            .add(&mut coeffs, radiance[k as usize], dir, dw);
+    }
+    let back_share = back as f32 / n as f32;
+    let valid = if back_share <= settings.backface_limit {
+        1.0
+    } else {
+        0.0
+    };
+    (coeffs, [back_share, hits as f32 / n as f32, valid, 0.0])
+}
+
+/// CPU twin of `grid_irradiance` (grid_sample.wgsl): irradiance at `p` (unit normal `n`)
+/// from `probes` (the probe buffer's `vec4`s) on `grid`.
+pub fn grid_irradiance(
+    grid: &ProbeGrid,
+    settings: &ProbeSettings,
+    probes: &[[f32; 4]],
+    p: Vec3,
+    n: Vec3,
+) -> Vec3 {
+    let q = p + n * (settings.normal_bias * grid.spacing.min_element());
+    let g = (q - grid.lo) / grid.spacing - 0.5;
+    let hi = grid.dims.as_ivec3() - 2;
+    let base = g.floor().as_ivec3().clamp(glam::IVec3::ZERO, hi);
+    let t = (g - base.as_vec3()).clamp(Vec3::ZERO, Vec3::ONE);
+    let (mut sum, mut total) = (Vec3::ZERO, 0.0);
+    for c in 0..8u32 {
+        let off = UVec3::new(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        let coord = base.as_uvec3() + off;
+        let probe = (coord.x + grid.dims.x * (coord.y + grid.dims.y * coord.z)) as usize;
+        let b = probe * PROBE_VEC4 as usize;
+        if probes[b + 8][2] < 0.5 {
+            continue;
+        }
+        let tri = Vec3::select(off.cmpeq(UVec3::ONE), t, Vec3::ONE - t);
+        let to_probe = grid.position(coord) - p;
+        let len = to_probe.length();
+        let facing = if len > 1e-6 {
+            (to_probe.dot(n) / len + 1.0) * 0.5
+        } else {
+            1.0
+        };
+        let w = tri.x * tri.y * tri.z * (facing * facing + 0.2);
+        let coeffs: [Vec3; COEFFS] = std::array::from_fn(|k| Vec3::from_slice(&probes[b + k]));
+        sum += settings.encoding.irradiance(&coeffs, n) * w;
+        total += w;
+    }
+    if total > 0.0 {
+        sum / total
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// Probe + surfel GI on a uniform grid.
 pub struct ProbesGrid {
     settings: ProbeSettings,
@@ -98,6 +170,7 @@ pub struct ProbesGrid {
     light: wgpu::ComputePipeline,
     integrate: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
+    texture: wgpu::Texture,
     view: wgpu::TextureView,
     size: (u32, u32),
 }
@@ -222,7 +295,7 @@ impl ProbesGrid {
             let module = ctx.shader(name, &pass_source(source, extra));
             ctx.compute_pipeline(name, &module, "main")
         };
-        let (_, view) = crate::gi::indirect_target(ctx, OWNER, width, height);
+        let (texture, view) = crate::gi::indirect_target(ctx, OWNER, width, height);
         Ok(ProbesGrid {
             settings: settings.clone(),
             grid,
@@ -249,9 +322,15 @@ impl ProbesGrid {
                 include_str!("gather.wgsl"),
                 &[GRID_SAMPLE_WGSL],
             ),
+            texture,
             view,
             size: (width, height),
         })
+    }
+
+    /// The indirect irradiance image (as [`GiTechnique::indirect_view`] views it).
+    pub fn indirect_texture(&self) -> &wgpu::Texture {
+        &self.texture
     }
 
     /// The grid the probes sit on.

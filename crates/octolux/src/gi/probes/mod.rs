@@ -20,7 +20,7 @@ mod grid;
 pub mod lattice;
 
 pub use encoding::Encoding;
-pub use grid::ProbesGrid;
+pub use grid::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
 pub use lattice::Lattice;
 
 use crate::{Error, Result};
