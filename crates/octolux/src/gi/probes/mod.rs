@@ -11,6 +11,8 @@
 //! - [`encoding`]: the probes' irradiance: `004`'s 8 octahedron-facet bins or SH L1.
 //! - [`grid`]: the `probes-grid` technique (placement, surfel light, probe integration,
 //!   gather).
+//! - [`octree`]: `004`'s adaptive octree (encoding, allocation, state machine) on the CPU, the
+//!   specification of the coming `probes-octree`.
 
 pub mod bvh;
 pub mod encoding;
@@ -18,6 +20,7 @@ pub mod encoding;
 mod gpu_tests;
 mod grid;
 pub mod lattice;
+pub mod octree;
 
 pub use encoding::Encoding;
 pub use grid::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
