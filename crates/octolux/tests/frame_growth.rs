@@ -69,6 +69,7 @@ fn small_settings() -> GiSettings {
     s.vct.inject_steps = 32;
     s.olpv.size = 16;
     s.olpv.iterations = 4;
+    s.probes.grid = [8; 3];
     s
 }
 
