@@ -193,6 +193,32 @@ fn moving_objects_are_lit_where_they_are() {
 }
 
 #[test]
+fn scene_files_set_the_probe_settings() {
+    let origin = std::path::Path::new("scene.toml");
+    let table: toml::Table = toml::from_str(
+        "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true",
+    )
+    .unwrap();
+    let s = GiSettings::from_table(&table, origin).unwrap().probes;
+    assert_eq!(s.grid, [8, 9, 10]);
+    assert_eq!(s.surfels, 128);
+    assert_eq!(s.lattice, octolux::gi::probes::Lattice::LatLong);
+    assert_eq!(s.encoding, Encoding::Octahedron);
+    assert!(s.multi_bounce);
+    assert_eq!(s.probe_count(), 720);
+    for (text, what) in [
+        ("[probes]\nlattice = \"spiral\"", "spiral"),
+        ("[probes]\nsurfel = 64", "surfel"),
+    ] {
+        let table: toml::Table = toml::from_str(text).unwrap();
+        let err = GiSettings::from_table(&table, origin)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(what), "{err}");
+    }
+}
+
+#[test]
 fn bad_probe_settings_are_clear_errors() {
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
