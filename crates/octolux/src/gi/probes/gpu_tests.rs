@@ -296,7 +296,15 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
                     "probe {probe} coefficient {k}: gpu {g}, cpu {c}"
                 );
             }
-            assert_eq!(probe_data[b + 8], meta, "probe {probe}");
+            // Shares: a division WGSL computes to 2.5 ULPs; the validity is an integer test.
+            let got = probe_data[b + 8];
+            assert_eq!(got[2], meta[2], "probe {probe} validity");
+            for c in 0..2 {
+                assert!(
+                    (got[c] - meta[c]).abs() <= 1e-6,
+                    "probe {probe}: {got:?} {meta:?}"
+                );
+            }
             valid += (meta[2] > 0.5) as u32;
         }
         // The probes inside the two blocks are the invalid ones.

@@ -30,7 +30,7 @@ pub(crate) struct ProbeParams {
     dims: [u32; 4],
     misc: [u32; 4],
     roots: [u32; 4],
-    limits: [f32; 4],
+    limits: [u32; 4],
 }
 
 /// The probe grid's placement: the box it fills and the probe spacing.
@@ -96,13 +96,15 @@ pub fn integrate_probe(
             .encoding
             .add(&mut coeffs, radiance[k as usize], dir, dw);
     }
-    let back_share = back as f32 / n as f32;
-    let valid = if back_share <= settings.backface_limit {
+    let valid = if back <= settings.max_back_faces() {
         1.0
     } else {
         0.0
     };
-    (coeffs, [back_share, hits as f32 / n as f32, valid, 0.0])
+    (
+        coeffs,
+        [back as f32 / n as f32, hits as f32 / n as f32, valid, 0.0],
+    )
 }
 
 /// CPU twin of `grid_irradiance` (grid_sample.wgsl): irradiance at `p` (unit normal `n`)
@@ -288,7 +290,7 @@ impl ProbesGrid {
                 probes,
                 surfels,
             ],
-            limits: [settings.backface_limit, 0.0, 0.0, 0.0],
+            limits: [settings.max_back_faces(), 0, 0, 0],
         };
         let params_buffer = storage(ctx, "params", std::mem::size_of::<ProbeParams>() as u64);
         let pipeline = |name: &str, source: &str, extra: &[&str]| {

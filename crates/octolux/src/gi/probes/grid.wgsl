@@ -12,8 +12,8 @@ struct ProbeParams {
     misc: vec4<u32>,
     // x, y: BVH roots (static, animated; 0xffffffff none), z: probe count, w: surfel count
     roots: vec4<u32>,
-    // x: largest back-face share of a probe still gathered
-    limits: vec4<f32>,
+    // x: most back-face hits of a probe still gathered
+    limits: vec4<u32>,
 };
 
 // Words (vec4) per probe: 8 encoding coefficients, then (back-face share, hit share, valid, 0).

@@ -29,6 +29,5 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     for (var k = 0u; k < 8u; k++) {
         probes[b + k] = vec4<f32>(c[k], 0.0);
     }
-    let back_share = f32(back) / f32(n);
-    probes[b + 8u] = vec4<f32>(back_share, f32(hits) / f32(n), select(0.0, 1.0, back_share <= P.limits.x), 0.0);
+    probes[b + 8u] = vec4<f32>(f32(back) / f32(n), f32(hits) / f32(n), select(0.0, 1.0, back <= P.limits.x), 0.0);
 }

@@ -112,6 +112,12 @@ impl ProbeSettings {
         )
     }
 
+    /// Most back-face hits of a probe that is still gathered: decided in integers on the CPU
+    /// once, so that the GPU and its CPU twin agree on every adapter.
+    pub fn max_back_faces(&self) -> u32 {
+        (self.backface_limit as f64 * self.surfels as f64).floor() as u32
+    }
+
     /// Probes in the grid.
     pub fn probe_count(&self) -> u32 {
         self.grid.iter().product()
