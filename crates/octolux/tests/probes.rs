@@ -261,6 +261,14 @@ fn bad_probe_settings_are_clear_errors() {
             },
             "16M surfels",
         ),
+        (
+            // 13.8M surfels, 663 MiB: more than one storage binding may hold.
+            ProbeSettings {
+                grid: [60; 3],
+                ..Default::default()
+            },
+            "per storage binding",
+        ),
     ];
     for (probes, what) in cases {
         let err = Renderer::new(&ctx, &scene, settings("probes-grid", probes))

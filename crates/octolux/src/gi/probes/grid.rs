@@ -193,8 +193,19 @@ pub(crate) fn pass_source(pass: &str, extra: &[&str]) -> String {
     parts.join("\n")
 }
 
-fn storage(ctx: &GpuContext, label: &str, bytes: u64) -> wgpu::Buffer {
-    ctx.create_buffer(
+/// A storage buffer of `bytes`, or a clear error where one binding of that size exceeds what
+/// the adapter allows.
+fn storage(ctx: &GpuContext, label: &str, bytes: u64) -> Result<wgpu::Buffer> {
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    if bytes > limit {
+        return Err(Error::InvalidArgument(format!(
+            "probes-grid: its {label} need {} MiB, more than the adapter's {} MiB per storage \
+             binding; use fewer probes or surfels",
+            bytes.div_ceil(1 << 20),
+            limit >> 20
+        )));
+    }
+    Ok(ctx.create_buffer(
         OWNER,
         &wgpu::BufferDescriptor {
             label: Some(label),
@@ -204,7 +215,7 @@ fn storage(ctx: &GpuContext, label: &str, bytes: u64) -> wgpu::Buffer {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         },
-    )
+    ))
 }
 
 fn buf(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
@@ -258,12 +269,12 @@ impl ProbesGrid {
             ctx,
             "bvh nodes",
             (nodes.len() + 2 * moving.len()) as u64 * node_bytes,
-        );
+        )?;
         let tri_buffer = storage(
             ctx,
             "bvh triangles",
             (tris.len() + moving.len()) as u64 * tri_bytes,
-        );
+        )?;
         ctx.queue
             .write_buffer(&node_buffer, 0, bytemuck::cast_slice(&nodes));
         ctx.queue
@@ -292,7 +303,7 @@ impl ProbesGrid {
             ],
             limits: [settings.max_back_faces(), 0, 0, 0],
         };
-        let params_buffer = storage(ctx, "params", std::mem::size_of::<ProbeParams>() as u64);
+        let params_buffer = storage(ctx, "params", std::mem::size_of::<ProbeParams>() as u64)?;
         let pipeline = |name: &str, source: &str, extra: &[&str]| {
             let module = ctx.shader(name, &pass_source(source, extra));
             ctx.compute_pipeline(name, &module, "main")
@@ -308,9 +319,9 @@ impl ProbesGrid {
             static_size,
             animated,
             placed: false,
-            surfels: storage(ctx, "surfels", surfels as u64 * SURFEL_VEC4 * 16),
-            radiance: storage(ctx, "surfel radiance", surfels as u64 * 16),
-            probes: storage(ctx, "probes", probes as u64 * PROBE_VEC4 * 16),
+            surfels: storage(ctx, "surfels", surfels as u64 * SURFEL_VEC4 * 16)?,
+            radiance: storage(ctx, "surfel radiance", surfels as u64 * 16)?,
+            probes: storage(ctx, "probes", probes as u64 * PROBE_VEC4 * 16)?,
             matrices: None,
             place: pipeline("probes place", include_str!("place.wgsl"), &[BVH_WGSL]),
             light: pipeline(
@@ -357,12 +368,23 @@ impl ProbesGrid {
     }
 
     /// Rebuilds the animated objects' BVH for this frame after the static part.
-    fn sync_moving(&mut self, ctx: &GpuContext, frame: &GiFrame) {
+    fn sync_moving(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
         let moving = Bvh::build(&objects_triangles(frame.scene, frame.frame, true));
         let (node_base, tri_base) = self.static_size;
         let (nodes, tris) = moving.flatten_at(node_base, tri_base);
         let node_bytes = std::mem::size_of::<GpuNode>() as u64;
         let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
+        let end = |base: u32, count: usize, bytes: u64| (base as u64 + count as u64) * bytes;
+        if end(node_base, nodes.len(), node_bytes) > self.nodes.size()
+            || end(tri_base, tris.len(), tri_bytes) > self.tris.size()
+        {
+            return Err(Error::InvalidArgument(format!(
+                "probes-grid: the animated objects have {} triangles at t = {} s, more than \
+                 at the start",
+                tris.len(),
+                frame.frame.time
+            )));
+        }
         if !nodes.is_empty() {
             ctx.queue.write_buffer(
                 &self.nodes,
@@ -376,10 +398,11 @@ impl ProbesGrid {
             );
         }
         self.params.roots[1] = if nodes.is_empty() { NO_ROOT } else { node_base };
+        Ok(())
     }
 
     /// Uploads this frame's shadow matrices, growing their buffer when needed.
-    fn sync_matrices(&mut self, ctx: &GpuContext, frame: &GiFrame) -> &wgpu::Buffer {
+    fn sync_matrices(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
         let mut matrices: Vec<[f32; 16]> = frame
             .shadow_layers
             .iter()
@@ -388,14 +411,16 @@ impl ProbesGrid {
         if matrices.is_empty() {
             matrices.push(glam::Mat4::IDENTITY.to_cols_array());
         }
-        if self.matrices.as_ref().is_none_or(|m| m.1 < matrices.len()) {
-            let buffer = storage(ctx, "shadow matrices", matrices.len() as u64 * 64);
-            self.matrices = Some((buffer, matrices.len()));
-        }
-        let buffer = &self.matrices.as_ref().expect("allocated above").0;
+        let buffer = match &mut self.matrices {
+            Some((buffer, room)) if *room >= matrices.len() => buffer,
+            slot => {
+                let buffer = storage(ctx, "shadow matrices", matrices.len() as u64 * 64)?;
+                &slot.insert((buffer, matrices.len())).0
+            }
+        };
         ctx.queue
             .write_buffer(buffer, 0, bytemuck::cast_slice(&matrices));
-        buffer
+        Ok(())
     }
 }
 
@@ -406,13 +431,15 @@ impl GiTechnique for ProbesGrid {
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         if self.animated {
-            self.sync_moving(ctx, frame);
+            self.sync_moving(ctx, frame)?;
         }
         self.params.misc[2] = frame.frame.lights.len() as u32;
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
-        self.sync_matrices(ctx, frame);
-        let matrices = &self.matrices.as_ref().expect("synced above").0;
+        self.sync_matrices(ctx, frame)?;
+        let Some((matrices, _)) = &self.matrices else {
+            return Err(Error::Gpu("probes-grid: no shadow matrices".into()));
+        };
         let params = buf(&self.params_buffer);
         let surfels = self.params.roots[3];
         // 1. Surfels: rays from every probe along its lattice (once for a static scene).
