@@ -1,6 +1,7 @@
 //! Command-line settings of the GI techniques, shared by `render` and `bench`.
 
 use clap::Args;
+use octolux::gi::probes::{Encoding, Lattice};
 use octolux::gi::GiSettings;
 
 /// The technique `render` and `view` use when `--gi` is not given, chosen from the error and
@@ -124,6 +125,31 @@ pub struct GiArgs {
     /// VPL GI: geometry-aware merge of the sub-images (default true).
     #[arg(long)]
     pub vpl_filter: Option<bool>,
+    /// Probes: probes per axis of the uniform grid, 2..=128 (default 21: 9261 probes).
+    #[arg(long)]
+    pub probes_grid: Option<u32>,
+    /// Probes: surfels (rays) per probe, 8..=1024; a multiple of 8 on the lat-long lattice
+    /// (default 64).
+    #[arg(long)]
+    pub probes_surfels: Option<u32>,
+    /// Probes: direction lattice, `fibonacci` or `lat-long` (default fibonacci).
+    #[arg(long, value_parser = parse_lattice)]
+    pub probes_lattice: Option<Lattice>,
+    /// Probes: irradiance encoding, `sh1` or `octahedron` (004's 8 bins) (default sh1).
+    #[arg(long, value_parser = parse_encoding)]
+    pub probes_encoding: Option<Encoding>,
+    /// Probes: surfels also receive the probes' light, one more bounce per frame (default
+    /// false).
+    #[arg(long)]
+    pub probes_multi_bounce: Option<bool>,
+}
+
+fn parse_lattice(name: &str) -> Result<Lattice, String> {
+    Lattice::from_name(name).ok_or_else(|| format!("'{name}': expected fibonacci or lat-long"))
+}
+
+fn parse_encoding(name: &str) -> Result<Encoding, String> {
+    Encoding::from_name(name).ok_or_else(|| format!("'{name}': expected sh1 or octahedron"))
 }
 
 impl GiArgs {
@@ -172,6 +198,12 @@ impl GiArgs {
         set(&mut vpl.end_offset, self.vpl_end_offset);
         set(&mut vpl.cull, self.vpl_cull);
         set(&mut vpl.filter, self.vpl_filter);
+        let probes = &mut settings.probes;
+        set(&mut probes.grid, self.probes_grid.map(|n| [n; 3]));
+        set(&mut probes.surfels, self.probes_surfels);
+        set(&mut probes.lattice, self.probes_lattice);
+        set(&mut probes.encoding, self.probes_encoding);
+        set(&mut probes.multi_bounce, self.probes_multi_bounce);
     }
 }
 

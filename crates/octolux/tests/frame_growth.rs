@@ -70,6 +70,7 @@ fn small_settings() -> GiSettings {
     s.vct.octree_resolution = 32;
     s.olpv.size = 16;
     s.olpv.iterations = 4;
+    s.probes.grid = [8; 3];
     s
 }
 

@@ -232,6 +232,41 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             changed |= drag(ui, "sparse (N x N block)", &mut v.sparse, 1, 8);
             return changed;
         }
+        "probes-grid" => {
+            use octolux::gi::probes::{Encoding, Lattice};
+            let p = &mut s.probes;
+            let mut side = p.grid[0];
+            changed |= drag(ui, "probes per axis", &mut side, 2, 64);
+            p.grid = [side; 3];
+            let before = (p.surfels, p.lattice, p.encoding);
+            ComboBox::from_label("surfels per probe")
+                .selected_text(p.surfels.to_string())
+                .show_ui(ui, |ui| {
+                    for n in [32, 64, 128, 256] {
+                        ui.selectable_value(&mut p.surfels, n, n.to_string());
+                    }
+                });
+            ComboBox::from_label("lattice")
+                .selected_text(format!("{:?}", p.lattice))
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut p.lattice, Lattice::Fibonacci, "Fibonacci");
+                    ui.selectable_value(&mut p.lattice, Lattice::LatLong, "lat-long");
+                });
+            ComboBox::from_label("encoding")
+                .selected_text(format!("{:?}", p.encoding))
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut p.encoding, Encoding::ShL1, "SH L1");
+                    ui.selectable_value(&mut p.encoding, Encoding::Octahedron, "octahedron");
+                });
+            changed |= before != (p.surfels, p.lattice, p.encoding);
+            changed |= ui
+                .checkbox(&mut p.multi_bounce, "multiple bounces")
+                .changed();
+            changed |= ui
+                .add(Slider::new(&mut p.normal_bias, 0.0..=1.0).text("normal bias (spacings)"))
+                .changed();
+            return changed;
+        }
         _ => return false,
     }
     // Reflective shadow maps, injection and lookup, shared by the LPV family.

@@ -6,6 +6,7 @@
 
 pub mod lpv;
 mod none;
+pub mod probes;
 pub mod vct;
 pub mod vpl;
 
@@ -90,6 +91,8 @@ pub struct GiSettings {
     pub vct: vct::VctSettings,
     /// Many-lights VPL GI (`[settings.vpl]`).
     pub vpl: vpl::VplSettings,
+    /// Probes and surfels (`[settings.probes]`).
+    pub probes: probes::ProbeSettings,
 }
 
 impl GiSettings {
@@ -131,6 +134,7 @@ pub const TECHNIQUES: &[&str] = &[
     "vct-svo",
     "vct-clipmap",
     "vpl",
+    "probes-grid",
 ];
 
 /// Creates the technique called `name` for images of `width` x `height`.
@@ -161,6 +165,13 @@ pub fn create(
         "vpl" => Ok(Box::new(vpl::VplGi::new(
             ctx,
             &settings.vpl,
+            scene,
+            width,
+            height,
+        )?)),
+        "probes-grid" => Ok(Box::new(probes::ProbesGrid::new(
+            ctx,
+            &settings.probes,
             scene,
             width,
             height,

@@ -47,6 +47,9 @@ mod sky;
 use crate::image_io::HdrImage;
 use crate::scene::{LightKind, Scene, SceneFrame};
 use crate::{Error, Result};
+/// For GPU ray traversal tests against the reference's ray queries.
+#[cfg(test)]
+pub(crate) use accel::Accel as ReferenceAccel;
 use accel::{Accel, Hit};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;

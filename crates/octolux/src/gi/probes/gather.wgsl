@@ -1,0 +1,24 @@
+// Pixel gather: the indirect irradiance of every G-buffer pixel from the 8 probes around it.
+
+@group(0) @binding(0) var<storage, read> P: ProbeParams;
+@group(0) @binding(1) var<storage, read> probes: array<vec4<f32>>;
+@group(0) @binding(2) var<uniform> cam: Camera;
+@group(0) @binding(3) var depth_tex: texture_depth_2d;
+@group(0) @binding(4) var normal_tex: texture_2d<f32>;
+@group(0) @binding(5) var out_tex: texture_storage_2d<rgba16float, write>;
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = vec2<u32>(cam.size.xy);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let depth = textureLoad(depth_tex, id.xy, 0);
+    if depth >= 1.0 {
+        textureStore(out_tex, id.xy, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        return;
+    }
+    let p = world_from_depth(cam, id.xy, depth);
+    let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
+    textureStore(out_tex, id.xy, vec4<f32>(grid_irradiance(p, n), 1.0));
+}

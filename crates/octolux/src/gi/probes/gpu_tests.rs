@@ -1,0 +1,346 @@
+//! GPU twins of the probe kernels: lattice directions and BVH traversal on the GPU against the
+//! CPU code in `lattice.rs` and `bvh.rs`, and the BVH against the reference's ray queries.
+
+use super::bvh::{Bvh, BvhHit};
+use super::lattice::{direction, Lattice, LATTICE_WGSL};
+use crate::gpu::{read_buffer, GpuContext, GpuOptions};
+use crate::reference::ReferenceAccel;
+use crate::scene::Scene;
+use crate::voxel::objects_triangles;
+use glam::Vec3;
+
+const OWNER: &str = "probes test";
+const MISS: u32 = u32::MAX;
+
+fn ctx() -> GpuContext {
+    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+}
+
+fn upload(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
+    ctx.create_buffer_init(
+        OWNER,
+        label,
+        bytes,
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+    )
+}
+
+/// Runs entry `entry` of the test kernels over `count` invocations with `buffers` at their
+/// bindings; returns the output (binding 4) as `vec4`s.
+fn run(
+    ctx: &GpuContext,
+    entry: &str,
+    buffers: &[(u32, &wgpu::Buffer)],
+    count: u32,
+    out_vec4: usize,
+) -> Vec<[f32; 4]> {
+    let source = [
+        LATTICE_WGSL,
+        super::bvh::BVH_WGSL,
+        include_str!("test_kernels.wgsl"),
+    ]
+    .join("\n");
+    let module = ctx.shader("probes test", &source);
+    let pipeline = ctx.compute_pipeline(entry, &module, entry);
+    let out = upload(ctx, "out", &vec![0u8; out_vec4 * 16]);
+    let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .map(|&(binding, b)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    entries.push(wgpu::BindGroupEntry {
+        binding: 4,
+        resource: out.as_entire_binding(),
+    });
+    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(count.div_ceil(64), 1, 1);
+    }
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = read_buffer(ctx, &out, 0, out_vec4 as u64 * 16).unwrap();
+    ctx.check_errors().unwrap();
+    bytemuck::cast_slice(&bytes).to_vec()
+}
+
+#[test]
+fn gpu_lattices_equal_the_cpu_lattices() {
+    // Tolerance: WGSL bounds sin and cos on [-pi, pi) only to 2^-11 absolute (both sides
+    // reduce the angle there first), and division and sqrt to a few ULPs; a direction
+    // component is a product of at most two such values, so 3 x 2^-11 bounds it on any
+    // adapter. The solid angles use only cos of angles in [0, pi] and division: same bound.
+    // Fibonacci's z uses only division, so it agrees to a few ULPs.
+    let ctx = ctx();
+    for (lattice, n) in [
+        (Lattice::Fibonacci, 64),
+        (Lattice::Fibonacci, 1024),
+        (Lattice::LatLong, 64),
+        (Lattice::LatLong, 128),
+    ] {
+        let params: [u32; 8] = [lattice.gpu_kind(), n, 0, 0, 0, 0, 0, 0];
+        let p = upload(&ctx, "params", bytemuck::cast_slice(&params));
+        let gpu = run(&ctx, "dirs", &[(0, &p)], n, n as usize);
+        let mut worst = 0.0f32;
+        for (k, g) in gpu.iter().enumerate() {
+            let (d, w) = direction(lattice, k as u32, n);
+            let err = (Vec3::from_slice(g) - d)
+                .abs()
+                .max_element()
+                .max((g[3] - w).abs());
+            worst = worst.max(err);
+            if lattice == Lattice::Fibonacci {
+                assert!((g[1] - d.y).abs() < 1e-6, "{lattice:?} {n} {k}: z");
+            }
+        }
+        println!("{lattice:?} {n}: largest difference {worst:e}");
+        assert!(worst < 3.0 / 2048.0, "{lattice:?} {n}: {worst}");
+    }
+}
+
+/// The two-part closest hit as bvh.wgsl's `bvh_closest` computes it: the static part, then
+/// the animated part up to the static hit; triangle indices over both parts.
+fn closest(parts: &[Bvh; 2], o: Vec3, d: Vec3, t_max: f32) -> Option<BvhHit> {
+    let a = parts[0].closest(o, d, t_max);
+    let b = parts[1].closest(o, d, a.map_or(t_max, |h| h.t));
+    b.map(|h| BvhHit {
+        tri: h.tri + parts[0].tris.len() as u32,
+        ..h
+    })
+    .or(a)
+}
+
+/// Whether the hit lies within `eps` (barycentric) of its triangle's edges.
+fn near_edge(h: &BvhHit, eps: f32) -> bool {
+    h.u < eps || h.v < eps || 1.0 - h.u - h.v < eps
+}
+
+#[test]
+fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
+    // The shipped animated Cornell box at t = 1.3 s (the short block moved and turned): its
+    // static part and its animated part, as `probes-grid` holds them. 4096 random rays from
+    // inside the box: the GPU's closest hit equals the CPU traversal of the same BVH and the
+    // reference's obvhs BVH (hit or miss, and distance).
+    //
+    // Tolerances: the same Möller-Trumbore arithmetic runs on both sides, but WGSL may fuse
+    // multiply-adds and divides to 2.5 ULPs, so t, u, v agree to ~1e-6 relative, and a ray
+    // through an edge (a barycentric within 1e-4 of 0) may go to either of the triangles
+    // sharing it, or slip between them; such rays are allowed to differ and must be rare.
+    let ctx = ctx();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    let scene = Scene::load(path).unwrap();
+    let frame = scene.frame(1.3, 0);
+    let parts = [
+        Bvh::build(&objects_triangles(&scene, &frame, false)),
+        Bvh::build(&objects_triangles(&scene, &frame, true)),
+    ];
+    assert!(!parts[1].tris.is_empty(), "the short block moves");
+    let (nodes0, tris0) = parts[0].flatten_at(0, 0);
+    let (nodes1, tris1) = parts[1].flatten_at(nodes0.len() as u32, tris0.len() as u32);
+    let nodes = [nodes0.clone(), nodes1].concat();
+    let tris = [tris0, tris1].concat();
+    let reference = ReferenceAccel::build(&scene, &frame).unwrap();
+    let (lo, hi) = scene.bounds_at(1.3);
+    let mut seed = 12345u32;
+    let mut rnd = move || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1 << 24) as f32
+    };
+    let count = 4096u32;
+    let mut rays = Vec::new();
+    let mut cases = Vec::new();
+    for i in 0..count {
+        let o = lo + (hi - lo) * Vec3::new(rnd(), rnd(), rnd()) * 0.98 + (hi - lo) * 0.01;
+        let d = loop {
+            let v = Vec3::new(rnd(), rnd(), rnd()) * 2.0 - 1.0;
+            if (0.01..1.0).contains(&v.length_squared()) {
+                break v.normalize();
+            }
+        };
+        // Every fourth ray gets a short reach, so that t_max cuts some hits off.
+        let t_max = if i % 4 == 0 { 0.2 } else { 1e30 };
+        rays.push([o.x, o.y, o.z, t_max]);
+        rays.push([d.x, d.y, d.z, 0.0]);
+        cases.push((o, d, t_max));
+    }
+    let params: [u32; 8] = [0, 0, count, 0, 0, nodes0.len() as u32, 0, 0];
+    let p = upload(&ctx, "params", bytemuck::cast_slice(&params));
+    let n = upload(&ctx, "nodes", bytemuck::cast_slice(&nodes));
+    let t = upload(&ctx, "tris", bytemuck::cast_slice(&tris));
+    let r = upload(&ctx, "rays", bytemuck::cast_slice(&rays));
+    let gpu = run(
+        &ctx,
+        "trace",
+        &[(0, &p), (1, &n), (2, &t), (3, &r)],
+        count,
+        2 * count as usize,
+    );
+    let (mut hits, mut edges) = (0, 0);
+    for (i, &(o, d, t_max)) in cases.iter().enumerate() {
+        let g = gpu[2 * i];
+        let g_tri = g[0].to_bits();
+        let g_hit = (g_tri != MISS).then_some(BvhHit {
+            tri: g_tri,
+            t: g[1],
+            u: g[2],
+            v: g[3],
+        });
+        let occluded = gpu[2 * i + 1][0] > 0.5;
+        let cpu = closest(&parts, o, d, t_max);
+        let r = reference.closest(o, d, t_max);
+        hits += cpu.is_some() as u32;
+        assert_eq!(occluded, g_hit.is_some(), "ray {i}: occluded vs closest");
+        let edge =
+            cpu.is_some_and(|h| near_edge(&h, 1e-4)) || g_hit.is_some_and(|h| near_edge(&h, 1e-4));
+        let same = |a: Option<f32>, b: Option<f32>| match (a, b) {
+            (Some(a), Some(b)) => (a - b).abs() <= 1e-5 * a.max(1.0),
+            (None, None) => true,
+            _ => false,
+        };
+        let ok_gpu = g_hit.map(|h| h.tri) == cpu.map(|h| h.tri)
+            && same(g_hit.map(|h| h.t), cpu.map(|h| h.t));
+        let ok_ref = same(r.as_ref().map(|h| h.t), cpu.map(|h| h.t));
+        if !(ok_gpu && ok_ref) {
+            assert!(
+                edge,
+                "ray {i} {o} {d}: gpu {g_hit:?}, cpu {cpu:?}, reference {:?}",
+                r.map(|h| h.t)
+            );
+            edges += 1;
+        }
+    }
+    println!("{hits} of {count} rays hit; {edges} differ at an edge");
+    assert!(hits > count / 2, "{hits}");
+    assert!(edges * 200 < count, "{edges} rays differ at edges");
+}
+
+#[test]
+fn probe_integration_and_gather_equal_their_cpu_twins() {
+    // One frame of `probes-grid` on the Cornell box (10^3 probes, both encodings, both
+    // lattices): every probe's coefficients equal the CPU integration of the GPU's surfel
+    // radiance, and every pixel's indirect irradiance equals the CPU gather from the GPU's
+    // probes at the pixel's position and normal.
+    //
+    // Tolerances: the lattice directions agree to 3 x 2^-11 (test above), so a coefficient
+    // may differ by that share of the probe's total sum_j |L_j| dw_j; the gather's output is
+    // f16 (11-bit mantissa, 2^-11 relative) of a sum the CPU forms in the same order, from a
+    // world position rebuilt from the depth buffer on both sides.
+    use crate::render::{RenderSettings, Renderer};
+    let ctx = ctx();
+    let scene = crate::scene::cornell::scene();
+    for (encoding, lattice) in [
+        (super::Encoding::ShL1, Lattice::Fibonacci),
+        (super::Encoding::Octahedron, Lattice::LatLong),
+    ] {
+        let probes = super::ProbeSettings {
+            grid: [10; 3],
+            encoding,
+            lattice,
+            ..Default::default()
+        };
+        let settings = RenderSettings {
+            width: 40,
+            height: 40,
+            gi: "probes-grid".into(),
+            gi_settings: crate::gi::GiSettings {
+                probes: probes.clone(),
+                ..Default::default()
+            },
+            ..RenderSettings::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        let technique = r
+            .technique()
+            .as_any()
+            .and_then(|a| a.downcast_ref::<super::ProbesGrid>())
+            .unwrap();
+        let read = |b: &wgpu::Buffer| -> Vec<[f32; 4]> {
+            bytemuck::cast_slice(&read_buffer(&ctx, b, 0, b.size()).unwrap()).to_vec()
+        };
+        let (surfel_buf, radiance_buf) = technique.surfel_buffers();
+        let (surfels, radiance, probe_data) = (
+            read(surfel_buf),
+            read(radiance_buf),
+            read(technique.probe_buffer()),
+        );
+        let n = probes.surfels as usize;
+        let vec4s = super::grid::PROBE_VEC4 as usize;
+        let surfel_vec4 = super::grid::SURFEL_VEC4 as usize;
+        let mut valid = 0;
+        for probe in 0..technique.grid().count() as usize {
+            let states: Vec<f32> = (0..n)
+                .map(|k| surfels[(probe * n + k) * surfel_vec4][3])
+                .collect();
+            let l: Vec<Vec3> = (0..n)
+                .map(|k| Vec3::from_slice(&radiance[probe * n + k]))
+                .collect();
+            let (coeffs, meta) = super::integrate_probe(&probes, &states, &l);
+            let scale: f32 = l.iter().map(|x| x.max_element()).sum::<f32>() * 4.0 * 3.15 / n as f32;
+            let b = probe * vec4s;
+            for (k, c) in coeffs.iter().enumerate() {
+                let g = Vec3::from_slice(&probe_data[b + k]);
+                assert!(
+                    (g - *c).abs().max_element() <= 3.0 / 2048.0 * scale + 1e-7,
+                    "probe {probe} coefficient {k}: gpu {g}, cpu {c}"
+                );
+            }
+            // Shares: a division WGSL computes to 2.5 ULPs; the validity is an integer test.
+            let got = probe_data[b + 8];
+            assert_eq!(got[2], meta[2], "probe {probe} validity");
+            for c in 0..2 {
+                assert!(
+                    (got[c] - meta[c]).abs() <= 1e-6,
+                    "probe {probe}: {got:?} {meta:?}"
+                );
+            }
+            valid += (meta[2] > 0.5) as u32;
+        }
+        // The probes inside the two blocks are the invalid ones.
+        let count = technique.grid().count();
+        assert!(
+            valid < count && valid > count * 3 / 4,
+            "{valid} of {count} valid"
+        );
+        let g = r.read_gbuffer().unwrap();
+        let view = *r.last_view().unwrap();
+        let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
+        let indirect: &[u16] = bytemuck::cast_slice(&bytes);
+        let mut lit = 0;
+        for (i, (&depth, normal)) in g.depth.iter().zip(&g.normal).enumerate() {
+            if depth >= 1.0 {
+                continue;
+            }
+            let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+            let ndc = Vec3::new(x / 40.0 * 2.0 - 1.0, 1.0 - y / 40.0 * 2.0, depth);
+            let p = view.inv_view_proj.project_point3(ndc);
+            let want = super::grid_irradiance(
+                technique.grid(),
+                &probes,
+                &probe_data,
+                p,
+                normal.normalize(),
+            );
+            let got = Vec3::from_array(std::array::from_fn(|c| {
+                crate::render::f16_to_f32(indirect[4 * i + c])
+            }));
+            assert!(
+                (got - want).abs().max_element() <= 2e-3 * want.max_element() + 1e-5,
+                "{encoding:?} pixel {i}: gpu {got}, cpu {want}"
+            );
+            lit += (want.max_element() > 0.0) as u32;
+        }
+        assert!(lit > 1000, "{lit} pixels lit");
+    }
+}

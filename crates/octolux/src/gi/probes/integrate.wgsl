@@ -1,0 +1,33 @@
+// Probe integration: each probe sums its surfels' radiance, each over the solid angle of its
+// lattice direction, into its encoding, and counts its back-face and total hits.
+
+@group(0) @binding(0) var<storage, read> P: ProbeParams;
+@group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> probes: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    let probe = linear_index(wg, nwg, li);
+    if probe >= P.roots.z {
+        return;
+    }
+    let n = P.dims.w;
+    var c: array<vec3<f32>, 8>;
+    var back = 0u;
+    var hits = 0u;
+    for (var k = 0u; k < n; k++) {
+        let s = probe * n + k;
+        let state = surfels[s * SURFEL_VEC4].w;
+        hits += u32(state > 0.5);
+        back += u32(state > 1.5);
+        let d = lattice_dir(P.misc.x, k, n);
+        probe_encode(P.misc.y, &c, radiance[s].rgb, d.xyz, d.w);
+    }
+    let b = probe * PROBE_VEC4;
+    for (var k = 0u; k < 8u; k++) {
+        probes[b + k] = vec4<f32>(c[k], 0.0);
+    }
+    probes[b + 8u] = vec4<f32>(f32(back) / f32(n), f32(hits) / f32(n), select(0.0, 1.0, back <= P.limits.x), 0.0);
+}

@@ -1,0 +1,47 @@
+// Surfel light: outgoing radiance emission + albedo / pi x E of every front-facing surfel,
+// with E the direct irradiance from the renderer's lights and shadow maps (`render/lights.wgsl`,
+// as the deferred pass lights pixels) plus, with multiple bounces, the probes' irradiance of
+// the previous frame at the surfel. Back faces and misses send no light (the sky seen directly
+// is the direct pass's).
+
+@group(0) @binding(0) var<storage, read> P: ProbeParams;
+@group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> radiance: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> probes: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> lights: array<Light>;
+@group(0) @binding(5) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
+@group(0) @binding(6) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(7) var shadow_sampler: sampler_comparison;
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    let s = linear_index(wg, nwg, li);
+    if s >= P.roots.w {
+        return;
+    }
+    let b = s * SURFEL_VEC4;
+    let s0 = surfels[b];
+    if s0.w < 0.5 || s0.w > 1.5 {
+        radiance[s] = vec4<f32>(0.0);
+        return;
+    }
+    let s1 = surfels[b + 1u];
+    let p = s0.xyz;
+    let n = s1.xyz;
+    let albedo = unpack4x8unorm(bitcast<u32>(s1.w)).rgb;
+    var e = vec3<f32>(0.0);
+    for (var i = 0u; i < P.misc.z; i++) {
+        let light = lights[i];
+        let inc = light_incidence(light, p);
+        let cos_theta = dot(n, inc.to_light);
+        if cos_theta <= 0.0 || all(inc.irradiance <= vec3<f32>(0.0)) {
+            continue;
+        }
+        e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
+    }
+    if P.misc.w != 0u {
+        e += grid_irradiance(p, n);
+    }
+    radiance[s] = vec4<f32>(surfels[b + 2u].rgb + albedo / PI * e, 0.0);
+}

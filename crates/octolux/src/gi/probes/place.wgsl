@@ -1,0 +1,35 @@
+// Surfel placement: one ray per surfel from its probe along its lattice direction, through
+// the scene's BVH; the closest hit becomes the surfel (position, normal facing the probe,
+// albedo, emission), marked front or back face, or a miss.
+
+@group(0) @binding(0) var<storage, read> P: ProbeParams;
+@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(3) var<storage, read_write> surfels: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    let s = linear_index(wg, nwg, li);
+    if s >= P.roots.w {
+        return;
+    }
+    let n = P.dims.w;
+    let probe = s / n;
+    let d = lattice_dir(P.misc.x, s % n, n).xyz;
+    let o = probe_position(probe_coord(probe));
+    let hit = bvh_closest(P.roots.xy, o, d, P.lo.w);
+    let b = s * SURFEL_VEC4;
+    if hit.tri == BVH_MISS {
+        surfels[b] = vec4<f32>(o, 0.0);
+        surfels[b + 1u] = vec4<f32>(0.0);
+        surfels[b + 2u] = vec4<f32>(0.0);
+        return;
+    }
+    let geo = bvh_normal(hit.tri);
+    let front = dot(geo, d) < 0.0;
+    let tri = bvh_tris[hit.tri];
+    surfels[b] = vec4<f32>(o + d * hit.t, select(2.0, 1.0, front));
+    surfels[b + 1u] = vec4<f32>(select(-geo, geo, front), tri.p0.w);
+    surfels[b + 2u] = vec4<f32>(tri.emission.rgb, hit.t);
+}

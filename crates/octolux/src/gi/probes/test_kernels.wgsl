@@ -1,0 +1,35 @@
+// Test kernels: the lattice and the BVH traversal on the GPU, for their CPU twins.
+
+struct TestParams {
+    // x: lattice kind, y: directions, z: rays
+    misc: vec4<u32>,
+    // x, y: BVH roots
+    roots: vec4<u32>,
+};
+
+@group(0) @binding(0) var<storage, read> T: TestParams;
+@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> bvh_tris: array<BvhTri>;
+// Per ray: (origin, t_max), (direction, 0).
+@group(0) @binding(3) var<storage, read> rays: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn dirs(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x < T.misc.y {
+        out[id.x] = lattice_dir(T.misc.x, id.x, T.misc.y);
+    }
+}
+
+// Per ray: (triangle bits, t, u, v), (occluded, 0, 0, 0).
+@compute @workgroup_size(64)
+fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= T.misc.z {
+        return;
+    }
+    let o = rays[2u * id.x];
+    let d = rays[2u * id.x + 1u].xyz;
+    let hit = bvh_closest(T.roots.xy, o.xyz, d, o.w);
+    out[2u * id.x] = vec4<f32>(bitcast<f32>(hit.tri), hit.t, hit.u, hit.v);
+    out[2u * id.x + 1u] = vec4<f32>(select(0.0, 1.0, bvh_occluded(T.roots.xy, o.xyz, d, o.w)), 0.0, 0.0, 0.0);
+}
