@@ -81,7 +81,7 @@ done
 # BENCH_ARGS replaces the size and frame counts (e.g. for a quick try on a CPU adapter).
 read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 5 --frames 20}"
 (cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/cornell-afternoon.toml scenes/crytek-sponza.toml \
-  --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
+  --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
   tee "$results/bench.txt"
 # The voxel structures' measuring tests, with their tables (docs/voxels.md, docs/performance.md).
 for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
