@@ -185,7 +185,10 @@ pub struct VplGi {
     octree_params: wgpu::Buffer,
     rsm: RsmTargets,
     shade_params: wgpu::Buffer,
-    raw: (wgpu::Texture, wgpu::TextureView),
+    /// Per pixel, the sum of its VPL subset (`vec4<f32>`).
+    raw: wgpu::Buffer,
+    /// One 256-byte slot per shading chunk holding its index.
+    chunks: wgpu::Buffer,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     passes: Option<Passes>,
@@ -196,8 +199,22 @@ struct Passes {
     generate: generate::Generate,
     shade: wgpu::ComputePipeline,
     merge: wgpu::ComputePipeline,
-    shade_group: wgpu::BindGroup,
+    /// One per shading chunk.
+    shade_groups: Vec<wgpu::BindGroup>,
     merge_group: wgpu::BindGroup,
+}
+
+/// VPLs of a subset per shading dispatch (`CHUNK` in `shade.wgsl`).
+const CHUNK: u32 = 8;
+/// Bytes between the chunk index slots.
+const SLOT: u64 = 256;
+
+/// Shading dispatches per frame: chunks of [`CHUNK`] VPLs of every subset.
+fn chunk_count(settings: &VplSettings) -> u32 {
+    settings
+        .count
+        .div_ceil(settings.interleave * settings.interleave)
+        .div_ceil(CHUNK)
 }
 
 impl VplGi {
@@ -252,15 +269,20 @@ impl VplGi {
             crate::render::sky_light_count(scene),
             settings.sky_rsms,
         );
-        let raw = crate::render::render_target(
-            ctx,
+        let raw = ctx.create_buffer(
             OWNER,
-            "interleaved irradiance",
-            width,
-            height,
-            wgpu::TextureFormat::Rgba16Float,
-            wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+            &wgpu::BufferDescriptor {
+                label: Some("interleaved irradiance"),
+                size: width as u64 * height as u64 * 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            },
         );
+        let mut slots = vec![0u8; chunk_count(settings) as usize * SLOT as usize];
+        for c in 0..chunk_count(settings) {
+            slots[c as usize * SLOT as usize..][..4].copy_from_slice(&c.to_le_bytes());
+        }
+        let chunks = ctx.create_buffer_init(OWNER, "shading chunks", &slots, usage);
         let (texture, view) = crate::gi::indirect_target(ctx, OWNER, width, height);
         Ok(VplGi {
             rsm: RsmTargets::new(ctx, OWNER, layers, settings.rsm_size),
@@ -273,6 +295,7 @@ impl VplGi {
             octree_params,
             shade_params,
             raw,
+            chunks,
             texture,
             view,
             passes: None,
@@ -328,23 +351,34 @@ impl VplGi {
         let generate = generate::Generate::new(ctx, OWNER, &self.rsm, self.settings.count);
         let tex = wgpu::BindingResource::TextureView;
         let [child, leaf, state, sums] = trace::walk_buffers(&self.svo, &self.placeholder);
-        let shade_group = crate::gi::lpv::bind(
-            ctx,
-            &shade,
-            &[
-                (0, frame.camera_uniform.as_entire_binding()),
-                (1, self.octree_params.as_entire_binding()),
-                (2, child.as_entire_binding()),
-                (3, leaf.as_entire_binding()),
-                (11, state.as_entire_binding()),
-                (12, sums.as_entire_binding()),
-                (4, tex(&frame.gbuffer.depth_view)),
-                (5, tex(&frame.gbuffer.normal_view)),
-                (6, generate.vpls.as_entire_binding()),
-                (7, self.shade_params.as_entire_binding()),
-                (8, tex(&self.raw.1)),
-            ],
-        );
+        let shade_group = |c: u32| {
+            crate::gi::lpv::bind(
+                ctx,
+                &shade,
+                &[
+                    (
+                        13,
+                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &self.chunks,
+                            offset: c as u64 * SLOT,
+                            size: wgpu::BufferSize::new(4),
+                        }),
+                    ),
+                    (0, frame.camera_uniform.as_entire_binding()),
+                    (1, self.octree_params.as_entire_binding()),
+                    (2, child.as_entire_binding()),
+                    (3, leaf.as_entire_binding()),
+                    (11, state.as_entire_binding()),
+                    (12, sums.as_entire_binding()),
+                    (4, tex(&frame.gbuffer.depth_view)),
+                    (5, tex(&frame.gbuffer.normal_view)),
+                    (6, generate.vpls.as_entire_binding()),
+                    (7, self.shade_params.as_entire_binding()),
+                    (8, self.raw.as_entire_binding()),
+                ],
+            )
+        };
+        let shade_groups = (0..chunk_count(&self.settings)).map(shade_group).collect();
         let merge_group = crate::gi::lpv::bind(
             ctx,
             &merge,
@@ -353,7 +387,7 @@ impl VplGi {
                 (4, tex(&frame.gbuffer.depth_view)),
                 (5, tex(&frame.gbuffer.normal_view)),
                 (7, self.shade_params.as_entire_binding()),
-                (9, tex(&self.raw.1)),
+                (9, self.raw.as_entire_binding()),
                 (10, tex(&self.view)),
             ],
         );
@@ -362,7 +396,7 @@ impl VplGi {
             generate,
             shade,
             merge,
-            shade_group,
+            shade_groups,
             merge_group,
         }
     }
@@ -410,13 +444,21 @@ impl GiTechnique for VplGi {
         p.generate.record(timer, "vpl generate");
         let (w, h) = (self.texture.width(), self.texture.height());
         let m = self.settings.interleave;
-        record_compute(
-            timer,
-            "vpl shade",
-            &p.shade,
-            &p.shade_group,
-            [w.div_ceil(m).div_ceil(8), h.div_ceil(m).div_ceil(8), m * m],
-        );
+        timer.pass("vpl shade", |encoder, stamps| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("vpl shade"),
+                timestamp_writes: stamps.compute(),
+            });
+            pass.set_pipeline(&p.shade);
+            for group in &p.shade_groups {
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(
+                    w.div_ceil(m).div_ceil(8),
+                    h.div_ceil(m).div_ceil(8),
+                    m * m,
+                );
+            }
+        });
         record_compute(
             timer,
             "vpl merge",
