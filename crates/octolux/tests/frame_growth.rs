@@ -69,6 +69,9 @@ fn small_settings() -> GiSettings {
     s.vct.inject_steps = 32;
     s.olpv.size = 16;
     s.olpv.iterations = 4;
+    s.vpl.count = 64;
+    s.vpl.resolution = 32;
+    s.vpl.rsm_size = 64;
     s
 }
 
