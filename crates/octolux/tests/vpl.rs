@@ -6,7 +6,9 @@ mod floor_flux;
 
 use glam::{IVec3, Vec3};
 use octolux::gi::vpl::generate::{sample_cpu, Vpl};
-use octolux::gi::vpl::trace::{segment_blocked_brute, OctreeCpu, Tracer, VplOctree};
+use octolux::gi::vpl::trace::{
+    first_blocker_brute, segment_blocked_brute, OctreeCpu, Tracer, VplOctree,
+};
 use octolux::gi::vpl::{geometry_term, VplGi, VplSettings};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
@@ -180,14 +182,19 @@ fn compare_walks(
     let gpu = tracer.trace(ctx, svo, &params, &segments).unwrap();
     let mut hits = 0;
     for (i, &(a, b)) in segments.iter().enumerate() {
-        let twin = cpu.occluded(a, b);
-        let reference = segment_blocked_brute(&voxels, a, b, params.shift);
+        // The first blocking voxel (what a bounce ray hits), and so whether it is blocked.
+        let twin = cpu.walk(a, b).0;
+        let reference = first_blocker_brute(&voxels, a, b, params.shift);
         assert_eq!(
             twin, reference,
-            "{name}: segment {a} -> {b}: walk {twin}, voxel reference {reference}"
+            "{name}: segment {a} -> {b}: walk {twin:?}, voxel reference {reference:?}"
+        );
+        assert_eq!(
+            cpu.occluded(a, b),
+            segment_blocked_brute(&voxels, a, b, params.shift)
         );
         assert_eq!(gpu[i], twin, "{name}: segment {a} -> {b}: GPU differs");
-        hits += twin as usize;
+        hits += twin.is_some() as usize;
     }
     println!("{name}: {hits} of {} segments occluded", segments.len());
     hits
