@@ -460,7 +460,7 @@ fn bad_settings_are_clear_errors() {
         ),
         (
             VplSettings {
-                bounces: 3,
+                bounces: 4,
                 ..VplSettings::default()
             },
             "bounces",
@@ -715,4 +715,65 @@ fn thin_wall_between_a_lit_and_a_dark_room_leaks_no_light() {
             assert!(dark <= 1e-3 * lit, "{resolution}: {dark} leaked of {lit}");
         }
     }
+}
+
+#[test]
+fn second_bounce_vpls_bring_the_image_closer_to_the_two_bounce_reference() {
+    // With `bounces` 2 every first-bounce VPL spawns one through the octree. Against the
+    // two-bounce reference the image must be closer than with one bounce (relMSE and FLIP),
+    // and the second bounce's VPLs must carry between 10% and 100% of the first's flux (the
+    // walls' albedos are below 1, and most rays hit the box: energy shrinks but stays).
+    use octolux::metrics::{flip, rel_mse, MetricOptions};
+    use octolux::reference::{Bounces, ReferenceSettings};
+    let ctx = context();
+    let scene = octolux::scene::cornell::scene();
+    let size = 48;
+    let reference = octolux::reference::render(
+        &scene,
+        &scene.frame(0.0, 0),
+        size,
+        size,
+        &ReferenceSettings {
+            spp: 256,
+            bounces: Bounces::Indirect(2),
+            ..ReferenceSettings::default()
+        },
+        &|_, _| {},
+    )
+    .unwrap()
+    .total;
+    let mut errors = Vec::new();
+    for bounces in [1, 2] {
+        let vpl = VplSettings {
+            bounces,
+            ..VplSettings::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings(size, size, vpl)).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        assert_eq!(
+            r.technique().reference_bounces(),
+            Bounces::Indirect(bounces)
+        );
+        let image = r.read_hdr().unwrap();
+        let rel = rel_mse(&image, &reference, None).unwrap();
+        let fl = flip(&image, &reference, None, &MetricOptions::default()).unwrap();
+        println!("bounces {bounces}: relMSE {rel:.4} FLIP {fl:.4}");
+        errors.push((rel, fl));
+        if bounces == 2 {
+            let vpls = vpl_of(&r).read_vpls(&ctx).unwrap();
+            let (first, second) = vpls.split_at(1024);
+            let sum = |v: &[Vpl]| v.iter().map(|v| v.flux.element_sum()).sum::<f32>();
+            let hits = second.iter().filter(|v| v.flux.max_element() > 0.0).count();
+            println!(
+                "first bounce {} W, second {} W ({hits} of 1024 rays hit)",
+                sum(first),
+                sum(second)
+            );
+            // The box is open towards the camera: 889 of 1024 rays hit (measured).
+            assert!(hits > 800, "{hits} of 1024 bounce rays hit the box");
+            assert!(sum(second) > 0.1 * sum(first) && sum(second) < sum(first));
+        }
+    }
+    assert!(errors[1].0 < errors[0].0, "relMSE {errors:?}");
+    assert!(errors[1].1 < errors[0].1, "FLIP {errors:?}");
 }
