@@ -482,6 +482,29 @@ fn bad_settings_are_clear_errors() {
     assert_eq!((s.vpl.count, s.vpl.interleave), (512, 2));
 }
 
+/// The reference path tracer's image of `scene` with `bounces` indirect bounces (256 spp).
+fn reference(
+    scene: &octolux::scene::Scene,
+    size: u32,
+    bounces: u32,
+) -> octolux::image_io::HdrImage {
+    let settings = octolux::reference::ReferenceSettings {
+        spp: 256,
+        bounces: octolux::reference::Bounces::Indirect(bounces),
+        ..octolux::reference::ReferenceSettings::default()
+    };
+    octolux::reference::render(
+        scene,
+        &scene.frame(0.0, 0),
+        size,
+        size,
+        &settings,
+        &|_, _| {},
+    )
+    .unwrap()
+    .total
+}
+
 fn mean_over(image: &octolux::image_io::HdrImage, mask: &[bool]) -> f32 {
     let (sum, n) = image
         .pixels
@@ -501,7 +524,7 @@ fn cornell_box_against_the_one_bounce_reference() {
     // 0.3 x and FLIP under 0.4 x GI off's (48 x 48, 256 spp; docs/vpl.md has the 160 x 90
     // table).
     use octolux::metrics::{flip, rel_mse, MetricOptions};
-    use octolux::reference::{Bounces, ReferenceSettings};
+    use octolux::reference::Bounces;
     let ctx = context();
     let scene = octolux::scene::cornell::scene();
     let size = 48;
@@ -524,20 +547,7 @@ fn cornell_box_against_the_one_bounce_reference() {
             .collect();
         images.push(r.read_hdr().unwrap());
     }
-    let reference = octolux::reference::render(
-        &scene,
-        &scene.frame(0.0, 0),
-        size,
-        size,
-        &ReferenceSettings {
-            spp: 256,
-            bounces: Bounces::Indirect(1),
-            ..ReferenceSettings::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap()
-    .total;
+    let reference = reference(&scene, size, 1);
     let expected = mean_over(&reference, &mask);
     let got = mean_over(&images[1], &mask);
     println!("ceiling radiance: vpl {got}, reference {expected}");
@@ -724,24 +734,11 @@ fn second_bounce_vpls_bring_the_image_closer_to_the_two_bounce_reference() {
     // and the second bounce's VPLs must carry between 10% and 100% of the first's flux (the
     // walls' albedos are below 1, and most rays hit the box: energy shrinks but stays).
     use octolux::metrics::{flip, rel_mse, MetricOptions};
-    use octolux::reference::{Bounces, ReferenceSettings};
+    use octolux::reference::Bounces;
     let ctx = context();
     let scene = octolux::scene::cornell::scene();
     let size = 48;
-    let reference = octolux::reference::render(
-        &scene,
-        &scene.frame(0.0, 0),
-        size,
-        size,
-        &ReferenceSettings {
-            spp: 256,
-            bounces: Bounces::Indirect(2),
-            ..ReferenceSettings::default()
-        },
-        &|_, _| {},
-    )
-    .unwrap()
-    .total;
+    let reference = reference(&scene, size, 2);
     let mut errors = Vec::new();
     for bounces in [1, 2] {
         let vpl = VplSettings {
