@@ -103,6 +103,9 @@ pub struct GiArgs {
     /// VPL GI: geometry-aware merge of the sub-images (default true).
     #[arg(long)]
     pub vpl_filter: Option<bool>,
+    /// VPL GI: light bounces, 1..=3; later bounces are spawned through the octree (default 1).
+    #[arg(long)]
+    pub vpl_bounces: Option<u32>,
 }
 
 impl GiArgs {
@@ -143,6 +146,7 @@ impl GiArgs {
         set(&mut vpl.end_offset, self.vpl_end_offset);
         set(&mut vpl.cull, self.vpl_cull);
         set(&mut vpl.filter, self.vpl_filter);
+        set(&mut vpl.bounces, self.vpl_bounces);
     }
 }
 
