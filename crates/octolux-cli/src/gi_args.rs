@@ -142,6 +142,9 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
+    /// VPL GI: light bounces, 1..=3; later bounces are spawned through the octree (default 1).
+    #[arg(long)]
+    pub vpl_bounces: Option<u32>,
 }
 
 fn parse_lattice(name: &str) -> Result<Lattice, String> {
@@ -198,6 +201,7 @@ impl GiArgs {
         set(&mut vpl.end_offset, self.vpl_end_offset);
         set(&mut vpl.cull, self.vpl_cull);
         set(&mut vpl.filter, self.vpl_filter);
+        set(&mut vpl.bounces, self.vpl_bounces);
         let probes = &mut settings.probes;
         set(&mut probes.grid, self.probes_grid.map(|n| [n; 3]));
         set(&mut probes.surfels, self.probes_surfels);

@@ -71,6 +71,9 @@ fn small_settings() -> GiSettings {
     s.olpv.size = 16;
     s.olpv.iterations = 4;
     s.probes.grid = [8; 3];
+    s.vpl.count = 64;
+    s.vpl.resolution = 32;
+    s.vpl.rsm_size = 64;
     s
 }
 

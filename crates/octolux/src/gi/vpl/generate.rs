@@ -73,8 +73,15 @@ pub struct Generate {
 }
 
 impl Generate {
-    /// Pipelines and buffers for `count` VPLs drawn from `rsm`.
-    pub fn new(ctx: &GpuContext, owner: &str, rsm: &RsmTargets, count: u32) -> Generate {
+    /// Pipelines and buffers for `count` VPLs drawn from `rsm`, in a buffer of `capacity` VPLs
+    /// (the later bounces follow them).
+    pub fn new(
+        ctx: &GpuContext,
+        owner: &str,
+        rsm: &RsmTargets,
+        count: u32,
+        capacity: u32,
+    ) -> Generate {
         let module = ctx.shader("vpl generate", include_str!("generate.wgsl"));
         let base = ctx.compute_pipeline("vpl pyramid base", &module, "pyramid_base");
         let level = ctx.compute_pipeline("vpl pyramid level", &module, "pyramid_level");
@@ -109,7 +116,7 @@ impl Generate {
             )
         };
         let pyramid = storage("flux pyramid", words * 4);
-        let vpls = storage("vpls", count as u64 * VPL_BYTES);
+        let vpls = storage("vpls", capacity.max(count) as u64 * VPL_BYTES);
         let tex = wgpu::BindingResource::TextureView;
         let groups = (0..=levels)
             .map(|k| {

@@ -8,7 +8,8 @@
 //! 2. `vpl rsm`: reflective shadow maps of every light view (the LPV's RSM pass,
 //!    [`crate::gi::lpv::rsm`]: spot and directional lights one, point lights six cube faces).
 //! 3. `vpl generate`: N VPLs importance-sampled by reflected flux, each with physical flux
-//!    ([`generate`]).
+//!    ([`generate`]); with `bounces` 2 or 3, `vpl bounce` adds the next bounce's VPLs where
+//!    rays from the previous bounce's VPLs hit the octree (`bounce.wgsl`).
 //! 4. `vpl shade`: interleaved shading, each pixel with 1 / I^2 of the VPLs, visibility by a
 //!    stackless walk of the octree ([`trace`], `shade.wgsl`).
 //! 5. `vpl merge`: geometry-aware I x I merge into the indirect irradiance image.
@@ -58,7 +59,9 @@ pub struct VplSettings {
     /// Merge: largest distance of a neighbour to the pixel's tangent plane, as a fraction of
     /// the pixel's distance to the camera (default 0.02).
     pub plane_tol: f32,
-    /// Light bounces carried by VPLs (default 1; only 1 is built).
+    /// Light bounces carried by VPLs, 1..=3 (default 1): with 2 or 3, every VPL of the
+    /// previous bounce spawns one VPL where a cosine-distributed ray through the octree hits
+    /// (`bounce.wgsl`), so N VPLs per bounce are shaded.
     pub bounces: u32,
     /// Sky lights that get an RSM (default 8), as `[settings.lpv] sky_rsms`.
     pub sky_rsms: u32,
@@ -133,11 +136,7 @@ impl VplSettings {
             "plane_tol",
             "finite, >= 0",
         )?;
-        check(
-            self.bounces == 1,
-            "bounces",
-            "1 (multi-bounce VPLs are not built yet)",
-        )?;
+        check((1..=3).contains(&self.bounces), "bounces", "1..=3")?;
         check(
             (1..=crate::scene::Sky::MAX_DIRECTIONS).contains(&self.sky_rsms),
             "sky_rsms",
@@ -185,7 +184,10 @@ pub struct VplGi {
     octree_params: wgpu::Buffer,
     rsm: RsmTargets,
     shade_params: wgpu::Buffer,
-    raw: (wgpu::Texture, wgpu::TextureView),
+    /// Per pixel, the sum of its VPL subset (`vec4<f32>`).
+    raw: wgpu::Buffer,
+    /// One 256-byte slot per shading chunk holding its index.
+    chunks: wgpu::Buffer,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     passes: Option<Passes>,
@@ -196,8 +198,24 @@ struct Passes {
     generate: generate::Generate,
     shade: wgpu::ComputePipeline,
     merge: wgpu::ComputePipeline,
-    shade_group: wgpu::BindGroup,
+    /// One per shading chunk.
+    shade_groups: Vec<wgpu::BindGroup>,
+    bounce: wgpu::ComputePipeline,
+    /// One per bounce after the first.
+    bounce_groups: Vec<wgpu::BindGroup>,
     merge_group: wgpu::BindGroup,
+}
+
+/// VPLs of a subset per shading dispatch (`CHUNK` in `shade.wgsl`).
+const CHUNK: u32 = 8;
+/// Bytes between the chunk index slots.
+const SLOT: u64 = 256;
+
+/// Shading dispatches per frame: chunks of [`CHUNK`] VPLs of every subset.
+fn chunk_count(settings: &VplSettings) -> u32 {
+    (settings.count * settings.bounces)
+        .div_ceil(settings.interleave * settings.interleave)
+        .div_ceil(CHUNK)
 }
 
 impl VplGi {
@@ -236,7 +254,7 @@ impl VplGi {
             ctx.create_buffer_init(OWNER, "octree walk", bytemuck::bytes_of(&octree), usage);
         let b = settings.clamp * grid.voxel_size;
         let shade = ShadeParams {
-            count: settings.count,
+            count: settings.count * settings.bounces,
             interleave: settings.interleave,
             clamp_b: b * b,
             cull: settings.cull,
@@ -252,15 +270,20 @@ impl VplGi {
             crate::render::sky_light_count(scene),
             settings.sky_rsms,
         );
-        let raw = crate::render::render_target(
-            ctx,
+        let raw = ctx.create_buffer(
             OWNER,
-            "interleaved irradiance",
-            width,
-            height,
-            wgpu::TextureFormat::Rgba16Float,
-            wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+            &wgpu::BufferDescriptor {
+                label: Some("interleaved irradiance"),
+                size: width as u64 * height as u64 * 16,
+                usage: wgpu::BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            },
         );
+        let mut slots = vec![0u8; chunk_count(settings) as usize * SLOT as usize];
+        for c in 0..chunk_count(settings) {
+            slots[c as usize * SLOT as usize..][..4].copy_from_slice(&c.to_le_bytes());
+        }
+        let chunks = ctx.create_buffer_init(OWNER, "shading chunks", &slots, usage);
         let (texture, view) = crate::gi::indirect_target(ctx, OWNER, width, height);
         Ok(VplGi {
             rsm: RsmTargets::new(ctx, OWNER, layers, settings.rsm_size),
@@ -273,6 +296,7 @@ impl VplGi {
             octree_params,
             shade_params,
             raw,
+            chunks,
             texture,
             view,
             passes: None,
@@ -289,7 +313,7 @@ impl VplGi {
         &self.octree
     }
 
-    /// The VPLs of the last frame.
+    /// The VPLs of the last frame, `count` per bounce, bounce after bounce.
     pub fn read_vpls(&self, ctx: &GpuContext) -> Result<Vec<generate::Vpl>> {
         let Some(p) = &self.passes else {
             return Ok(Vec::new());
@@ -298,7 +322,7 @@ impl VplGi {
             ctx,
             &p.generate.vpls,
             0,
-            self.settings.count as u64 * generate::VPL_BYTES,
+            (self.settings.count * self.settings.bounces) as u64 * generate::VPL_BYTES,
         )?;
         Ok(generate::decode(&bytes))
     }
@@ -325,26 +349,67 @@ impl VplGi {
         let module = ctx.shader("vpl shade", &source);
         let shade = ctx.compute_pipeline("vpl shade", &module, "shade");
         let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
-        let generate = generate::Generate::new(ctx, OWNER, &self.rsm, self.settings.count);
-        let tex = wgpu::BindingResource::TextureView;
         let [child, leaf, state, sums] = trace::walk_buffers(&self.svo, &self.placeholder);
-        let shade_group = crate::gi::lpv::bind(
-            ctx,
-            &shade,
-            &[
-                (0, frame.camera_uniform.as_entire_binding()),
-                (1, self.octree_params.as_entire_binding()),
-                (2, child.as_entire_binding()),
-                (3, leaf.as_entire_binding()),
-                (11, state.as_entire_binding()),
-                (12, sums.as_entire_binding()),
-                (4, tex(&frame.gbuffer.depth_view)),
-                (5, tex(&frame.gbuffer.normal_view)),
-                (6, generate.vpls.as_entire_binding()),
-                (7, self.shade_params.as_entire_binding()),
-                (8, tex(&self.raw.1)),
-            ],
+        let (count, bounces) = (self.settings.count, self.settings.bounces);
+        let generate = generate::Generate::new(ctx, OWNER, &self.rsm, count, count * bounces);
+        let bounce_module = ctx.shader(
+            "vpl bounce",
+            &[trace::TRACE_WGSL, include_str!("bounce.wgsl")].join("\n"),
         );
+        let bounce = ctx.compute_pipeline("vpl bounce", &bounce_module, "bounce");
+        let bounce_groups = (1..bounces)
+            .map(|b| {
+                let params: [u32; 4] = [count, (b - 1) * count, 0, 0];
+                let params = ctx.create_buffer_init(
+                    OWNER,
+                    "bounce params",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::STORAGE,
+                );
+                crate::voxel::voxelize::bind_buffers(
+                    ctx,
+                    &bounce,
+                    &[
+                        (0, &self.octree_params),
+                        (1, child),
+                        (2, leaf),
+                        (3, state),
+                        (4, sums),
+                        (5, &generate.vpls),
+                        (6, &params),
+                    ],
+                )
+            })
+            .collect();
+        let tex = wgpu::BindingResource::TextureView;
+        let shade_group = |c: u32| {
+            crate::gi::lpv::bind(
+                ctx,
+                &shade,
+                &[
+                    (
+                        13,
+                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &self.chunks,
+                            offset: c as u64 * SLOT,
+                            size: wgpu::BufferSize::new(4),
+                        }),
+                    ),
+                    (0, frame.camera_uniform.as_entire_binding()),
+                    (1, self.octree_params.as_entire_binding()),
+                    (2, child.as_entire_binding()),
+                    (3, leaf.as_entire_binding()),
+                    (11, state.as_entire_binding()),
+                    (12, sums.as_entire_binding()),
+                    (4, tex(&frame.gbuffer.depth_view)),
+                    (5, tex(&frame.gbuffer.normal_view)),
+                    (6, generate.vpls.as_entire_binding()),
+                    (7, self.shade_params.as_entire_binding()),
+                    (8, self.raw.as_entire_binding()),
+                ],
+            )
+        };
+        let shade_groups = (0..chunk_count(&self.settings)).map(shade_group).collect();
         let merge_group = crate::gi::lpv::bind(
             ctx,
             &merge,
@@ -353,7 +418,7 @@ impl VplGi {
                 (4, tex(&frame.gbuffer.depth_view)),
                 (5, tex(&frame.gbuffer.normal_view)),
                 (7, self.shade_params.as_entire_binding()),
-                (9, tex(&self.raw.1)),
+                (9, self.raw.as_entire_binding()),
                 (10, tex(&self.view)),
             ],
         );
@@ -362,7 +427,9 @@ impl VplGi {
             generate,
             shade,
             merge,
-            shade_group,
+            shade_groups,
+            bounce,
+            bounce_groups,
             merge_group,
         }
     }
@@ -408,15 +475,37 @@ impl GiTechnique for VplGi {
         p.rsm
             .record(timer, frame.scene_gpu, &self.rsm, &layers, "vpl rsm");
         p.generate.record(timer, "vpl generate");
+        if !p.bounce_groups.is_empty() {
+            let n = self.settings.count;
+            timer.pass("vpl bounce", |encoder, stamps| {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("vpl bounce"),
+                    timestamp_writes: stamps.compute(),
+                });
+                pass.set_pipeline(&p.bounce);
+                for group in &p.bounce_groups {
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(n.div_ceil(64), 1, 1);
+                }
+            });
+        }
         let (w, h) = (self.texture.width(), self.texture.height());
         let m = self.settings.interleave;
-        record_compute(
-            timer,
-            "vpl shade",
-            &p.shade,
-            &p.shade_group,
-            [w.div_ceil(m).div_ceil(8), h.div_ceil(m).div_ceil(8), m * m],
-        );
+        timer.pass("vpl shade", |encoder, stamps| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("vpl shade"),
+                timestamp_writes: stamps.compute(),
+            });
+            pass.set_pipeline(&p.shade);
+            for group in &p.shade_groups {
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(
+                    w.div_ceil(m).div_ceil(8),
+                    h.div_ceil(m).div_ceil(8),
+                    m * m,
+                );
+            }
+        });
         record_compute(
             timer,
             "vpl merge",

@@ -37,11 +37,20 @@ struct ShadeParams {
 @group(0) @binding(5) var normal_tex: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read> vpls: array<Vpl>;
 @group(0) @binding(7) var<storage, read> sp: ShadeParams;
-@group(0) @binding(8) var raw_out: texture_storage_2d<rgba16float, write>;
-@group(0) @binding(9) var raw_in: texture_2d<f32>;
+// Per pixel (row-major) the sum of its subset so far; `shade` runs once per chunk of the
+// subset and adds to it, `merge` reads it.
+@group(0) @binding(8) var<storage, read_write> raw: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> raw_in: array<vec4<f32>>;
 @group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
 @group(0) @binding(11) var<storage, read> svo_state: array<u32>;
 @group(0) @binding(12) var<storage, read> svo_dyn_sums: array<u32>;
+// The chunk of VPLs a `shade` dispatch sums (one slot per dispatch).
+@group(0) @binding(13) var<storage, read> chunk: u32;
+
+// VPLs of a subset per `shade` dispatch: lavapipe (llvmpipe) ends an invocation after 65535
+// loop iterations in total, and a shadow ray may take a few hundred steps of up to `depth`
+// descents each, so the subset is summed in chunks of this many VPLs, one dispatch each.
+const CHUNK: u32 = 8u;
 
 struct Vpl {
     position: vec4<f32>,
@@ -72,9 +81,10 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     if px.x >= size.x || px.y >= size.y {
         return;
     }
+    let at = px.y * size.x + px.x;
     let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 {
-        textureStore(raw_out, px, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        raw[at] = vec4<f32>(0.0);
         return;
     }
     let p = world_from_depth(cam, px, depth);
@@ -83,7 +93,9 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     var e = vec3<f32>(0.0);
     var a = vec3<i32>(0);
     var have_a = false;
-    for (var j = k; j < sp.count; j += m * m) {
+    let first = k + chunk * CHUNK * m * m;
+    let end = min(sp.count, first + CHUNK * m * m);
+    for (var j = first; j < end; j += m * m) {
         let v = vpls[j];
         let g = vpl_g(p, n, v.position.xyz, v.normal.xyz);
         let c = scale * v.flux.w * g;
@@ -99,7 +111,11 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         e += scale * v.flux.rgb * g;
     }
-    textureStore(raw_out, px, vec4<f32>(e, 1.0));
+    if chunk == 0u {
+        raw[at] = vec4<f32>(e, 0.0);
+    } else {
+        raw[at] += vec4<f32>(e, 0.0);
+    }
 }
 
 @compute @workgroup_size(8, 8)
@@ -111,7 +127,7 @@ fn merge(@builtin(global_invocation_id) id: vec3<u32>) {
     let px = id.xy;
     let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 || sp.merge_on == 0u {
-        textureStore(out_tex, px, textureLoad(raw_in, px, 0));
+        textureStore(out_tex, px, vec4<f32>(raw_in[px.y * size.x + px.x].rgb, 1.0));
         return;
     }
     let p = world_from_depth(cam, px, depth);
@@ -135,7 +151,7 @@ fn merge(@builtin(global_invocation_id) id: vec3<u32>) {
             if dot(n, nq) < sp.normal_min || abs(dot(n, pq - p)) > tol {
                 continue;
             }
-            sum += textureLoad(raw_in, q, 0).rgb;
+            sum += raw_in[u32(q.y) * size.x + u32(q.x)].rgb;
             weight += 1.0;
         }
     }

@@ -178,16 +178,17 @@ impl OctreeCpu {
 
     /// CPU twin of `svo_occluded` (`trace.wgsl`): the same integer steps.
     pub fn occluded(&self, a: IVec3, b: IVec3) -> bool {
-        self.walk(a, b).0
+        self.walk(a, b).0.is_some()
     }
 
-    /// The walk's result and the number of cells it visited.
-    pub fn walk(&self, a: IVec3, b: IVec3) -> (bool, u32) {
+    /// CPU twin of `svo_first_hit`: the first occupied voxel between the ends' voxels, and
+    /// the number of cells the walk visited.
+    pub fn walk(&self, a: IVec3, b: IVec3) -> (Option<IVec3>, u32) {
         let p = &self.params;
         let d = b - a;
         let ad = d.abs();
         if ad == IVec3::ZERO {
-            return (false, 0);
+            return (None, 0);
         }
         let first = voxel_at(a, d, 0, 1, p.shift);
         let mut v = first;
@@ -230,14 +231,14 @@ impl OctreeCpu {
             let (en, ed) = (dist[m], ad[m]);
             let holds_end = en >= ed;
             if occupied && !holds_end && v != first {
-                return (true, it + 1);
+                return (Some(v), it + 1);
             }
             if holds_end {
-                return (false, it + 1);
+                return (None, it + 1);
             }
             v = voxel_at(a, d, en, ed, p.shift);
         }
-        (false, p.cap)
+        (None, p.cap)
     }
 }
 
@@ -270,12 +271,22 @@ impl Time {
 /// voxels holding its two ends. Voxels are half-open boxes `[v, v + 1)`, every voxel is tested
 /// on its own with exact rational entry and exit times (no stepping).
 pub fn segment_blocked_brute(voxels: &BTreeSet<[u32; 3]>, a: IVec3, b: IVec3, shift: u32) -> bool {
+    first_blocker_brute(voxels, a, b, shift).is_some()
+}
+
+/// The blocking voxel of [`segment_blocked_brute`] the segment enters first.
+pub fn first_blocker_brute(
+    voxels: &BTreeSet<[u32; 3]>,
+    a: IVec3,
+    b: IVec3,
+    shift: u32,
+) -> Option<IVec3> {
     let d = b - a;
     if d == IVec3::ZERO {
-        return false;
+        return None;
     }
     let step = 1i64 << shift;
-    voxels.iter().any(|v| {
+    let entry = |v: &[u32; 3]| -> Option<Time> {
         // The times at which the segment is inside the slab of each axis: an interval whose
         // ends are included or not as the half-open box says; for positive-length pieces
         // only the interior matters, so the open interval (lo, hi) is enough.
@@ -288,7 +299,7 @@ pub fn segment_blocked_brute(voxels: &BTreeSet<[u32; 3]>, a: IVec3, b: IVec3, sh
             let (b0, b1) = (v[i] as i64 * step, (v[i] as i64 + 1) * step);
             if d == 0 {
                 if a < b0 || a >= b1 {
-                    return false;
+                    return None;
                 }
                 continue;
             }
@@ -307,8 +318,13 @@ pub fn segment_blocked_brute(voxels: &BTreeSet<[u32; 3]>, a: IVec3, b: IVec3, sh
             }
         }
         // Crossed with positive length, and neither the first nor the last voxel crossed.
-        lo.lt(hi) && !lo_start && !hi_end
-    })
+        (lo.lt(hi) && !lo_start && !hi_end).then_some(lo)
+    };
+    voxels
+        .iter()
+        .filter_map(|v| entry(v).map(|t| (t, v)))
+        .reduce(|x, y| if y.0.lt(x.0) { y } else { x })
+        .map(|(_, v)| IVec3::new(v[0] as i32, v[1] as i32, v[2] as i32))
 }
 
 /// Traces segments on the GPU with `trace.wgsl` (for tests).
@@ -326,14 +342,14 @@ impl Tracer {
         }
     }
 
-    /// Whether each segment (pair of lattice points) is occluded in `svo`.
+    /// Per segment (pair of lattice points), the first voxel of `svo` that blocks it.
     pub fn trace(
         &self,
         ctx: &GpuContext,
         svo: &Svo,
         params: &VplOctree,
         segments: &[(IVec3, IVec3)],
-    ) -> Result<Vec<bool>> {
+    ) -> Result<Vec<Option<IVec3>>> {
         let owner = "vpl trace test";
         let words: Vec<[i32; 8]> = segments
             .iter()
@@ -377,7 +393,16 @@ impl Tracer {
         ctx.ledger.release_owner(owner);
         Ok(bytemuck::cast_slice::<u8, u32>(&bytes)
             .iter()
-            .map(|&w| w != 0)
+            .map(|&w| {
+                let v = w.wrapping_sub(1);
+                (w != 0).then(|| {
+                    IVec3::new(
+                        (v % 1024) as i32,
+                        (v / 1024 % 1024) as i32,
+                        (v >> 20) as i32,
+                    )
+                })
+            })
             .collect())
     }
 }
@@ -402,7 +427,7 @@ mod tests {
         };
         let f = 1 << tree.params.shift;
         let (hit, steps) = tree.walk(IVec3::splat(3), IVec3::new(60 * f, 61 * f, 2));
-        assert!(!hit);
+        assert!(hit.is_none());
         assert_eq!(steps, 1);
     }
 

@@ -80,10 +80,17 @@ fn vpl_fixed_point(p: vec3<f32>, n: vec3<f32>) -> vec3<i32> {
 // Whether the segment a -> b (lattice points) passes through an occupied voxel other than the
 // voxels holding its two ends (where the surfaces it joins were voxelised).
 fn svo_occluded(a: vec3<i32>, b: vec3<i32>) -> bool {
+    return svo_first_hit(a, b).w != 0;
+}
+
+// The first occupied voxel the segment a -> b passes through other than the voxels holding its
+// two ends (xyz), w = 1, or w = 0 when there is none.
+fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
+    let none = vec4<i32>(0);
     let d = b - a;
     let ad = abs(d);
     if all(ad == vec3<i32>(0)) {
-        return false;
+        return none;
     }
     var tn = 0;
     var td = 1;
@@ -126,14 +133,14 @@ fn svo_occluded(a: vec3<i32>, b: vec3<i32>) -> bool {
         let ed = ad[m];
         let holds_end = en >= ed;
         if occupied && !holds_end && any(v != first) {
-            return true;
+            return vec4<i32>(v, 1);
         }
         if holds_end {
-            return false;
+            return none;
         }
         tn = en;
         td = ed;
         v = vpl_voxel_at(a, d, tn, td);
     }
-    return false;
+    return none;
 }

@@ -1,4 +1,5 @@
-// Test kernel: traces segments given as lattice points and writes 1 where occluded.
+// Test kernel: traces segments given as lattice points and writes, per segment, 0 when nothing
+// blocks it, else 1 + the first blocking voxel packed as x + 1024 (y + 1024 z).
 
 @group(0) @binding(0) var<storage, read> vo: VplOctree;
 @group(0) @binding(1) var<storage, read> svo_child: array<u32>;
@@ -14,5 +15,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= arrayLength(&segments) / 2u {
         return;
     }
-    results[i] = select(0u, 1u, svo_occluded(segments[2u * i].xyz, segments[2u * i + 1u].xyz));
+    let h = svo_first_hit(segments[2u * i].xyz, segments[2u * i + 1u].xyz);
+    let v = vec3<u32>(h.xyz);
+    results[i] = select(0u, 1u + v.x + 1024u * (v.y + 1024u * v.z), h.w != 0);
 }
