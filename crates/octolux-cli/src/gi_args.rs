@@ -60,6 +60,9 @@ pub struct GiArgs {
     /// Cone tracing: clipmap levels, 1..=8 (default 4).
     #[arg(long)]
     pub vct_levels: Option<u32>,
+    /// Cone tracing: diffuse cones per gather, 6 (003's set, default) or 8..=64.
+    #[arg(long)]
+    pub vct_cones: Option<u32>,
     /// Cone tracing: full aperture of the diffuse cones in degrees (default 60).
     #[arg(long)]
     pub vct_aperture: Option<f32>,
@@ -178,6 +181,7 @@ impl GiArgs {
         let vct = &mut settings.vct;
         set(&mut vct.resolution, self.vct_resolution);
         set(&mut vct.levels, self.vct_levels);
+        set(&mut vct.cones, self.vct_cones);
         set(&mut vct.aperture, self.vct_aperture);
         set(&mut vct.step, self.vct_step);
         set(&mut vct.start, self.vct_start);

@@ -18,7 +18,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use octolux::gi::vct::gather::diffuse_cone_dir;
 use octolux::gi::vct::{
-    gather_irradiance, march_cone, ConeMarch, ConeParams, CONE_WGSL, GATHER_WGSL,
+    cone_set_wgsl, gather_irradiance, march_cone, ConeMarch, ConeParams, CONE_WGSL, GATHER_WGSL,
 };
 use octolux::gpu::{read_buffer, storage_entry, GpuContext, GpuOptions};
 
@@ -215,7 +215,10 @@ fn gpu_run(
 ) -> Vec<Vec4> {
     let module = ctx.shader(
         "cone test",
-        &format!("{CONE_WGSL}\n{GATHER_WGSL}\n{CONE_KERNEL_WGSL}\n{SAMPLER_WGSL}"),
+        &format!(
+            "{}\n{CONE_WGSL}\n{GATHER_WGSL}\n{CONE_KERNEL_WGSL}\n{SAMPLER_WGSL}",
+            cone_set_wgsl(6)
+        ),
     );
     // One explicit layout for every entry point (some read only part of the bindings).
     let layout = ctx

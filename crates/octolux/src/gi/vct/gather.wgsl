@@ -3,24 +3,17 @@
 // that the weights sum to 1; irradiance = pi x the weighted mean of the cones' radiance, so a
 // uniform environment of radiance L gives exactly pi L. CPU twin: `gi/vct/gather.rs`.
 
-const DIFFUSE_CONES: u32 = 6u;
+// The cone set comes before this file (`gather.rs`, `cone_set_wgsl`): DIFFUSE_CONES cones,
+// DIFFUSE_SET[i] = direction in the frame whose +y is the normal (xyz) and weight (w; the
+// weights sum to 1). The default is 003's six (the ring is cone 2 rotated by multiples of
+// 72 degrees about y, weights cos / 3.5); denser sets are cosine-distributed, weights 1/N.
 
-// Directions in the frame whose +y is the normal (003's table: the ring is cone 2 rotated by
-// multiples of 72 degrees about y).
 fn diffuse_cone_local(i: u32) -> vec3<f32> {
-    switch i {
-        case 0u: { return vec3<f32>(0.0, 1.0, 0.0); }
-        case 1u: { return vec3<f32>(0.0, 0.5, 0.866025); }
-        case 2u: { return vec3<f32>(0.823639, 0.5, 0.267617); }
-        case 3u: { return vec3<f32>(0.509037, 0.5, -0.700629); }
-        case 4u: { return vec3<f32>(-0.509037, 0.5, -0.700629); }
-        default: { return vec3<f32>(-0.823639, 0.5, 0.267617); }
-    }
+    return DIFFUSE_SET[i].xyz;
 }
 
-// Cosine weight of cone i over the sum of all six (1 + 5 x 0.5 = 3.5).
 fn diffuse_cone_weight(i: u32) -> f32 {
-    return diffuse_cone_local(i).y / 3.5;
+    return DIFFUSE_SET[i].w;
 }
 
 // An orthonormal basis (t, b) around the unit normal n, without a branch on its direction

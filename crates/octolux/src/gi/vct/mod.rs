@@ -21,4 +21,4 @@ pub use settings::{ClipmapInjection, VctSettings};
 pub use svo_gi::VctSvo;
 
 pub use cone::{march_cone, ConeMarch, ConeParams, CONE_WGSL};
-pub use gather::{diffuse_cone_dir, gather_irradiance, GATHER_WGSL};
+pub use gather::{cone_set_wgsl, diffuse_cone_dir, gather_irradiance, GATHER_WGSL};

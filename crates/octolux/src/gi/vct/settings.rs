@@ -38,6 +38,9 @@ pub struct VctSettings {
     /// level, centred on the camera, reaches the scene's farthest point from where the camera
     /// is at the first frame (with 10 % to spare).
     pub levels: u32,
+    /// Diffuse cones per gather: 6 (default, `003`'s set) or a cosine-distributed set of
+    /// 8..=64 (lower `aperture` with it: the cones of a denser set are closer together).
+    pub cones: u32,
     /// Full aperture of the six diffuse cones in degrees (default 60: the ring's cones, 60
     /// degrees apart, touch).
     pub aperture: f32,
@@ -80,6 +83,7 @@ impl Default for VctSettings {
         VctSettings {
             resolution: 64,
             levels: 4,
+            cones: 6,
             aperture: 60.0,
             step: 0.5,
             start: 1.5,
@@ -113,6 +117,11 @@ impl VctSettings {
             "a power of two from 8 to 256",
         )?;
         check((1..=8).contains(&self.levels), "vct levels", "1..=8")?;
+        check(
+            super::gather::check_cone_count(self.cones),
+            "vct cones",
+            "6 (003's set) or 8..=64",
+        )?;
         check(
             self.aperture.is_finite() && self.aperture > 0.0 && self.aperture < 180.0,
             "vct aperture",

@@ -72,7 +72,8 @@ impl ConeTracer {
     ) -> ConeTracer {
         let common = include_str!("../../render/common.wgsl");
         let sparse_wgsl = include_str!("sparse.wgsl");
-        let source = [common]
+        let cone_set = super::gather::cone_set_wgsl(settings.cones);
+        let source = [common, cone_set.as_str()]
             .iter()
             .chain(structure)
             .chain(&[
