@@ -346,8 +346,9 @@ pub struct Clipmap {
     replicate: wgpu::ComputePipeline,
     no_aniso: wgpu::Buffer,
     inject: Option<wgpu::ComputePipeline>,
-    /// The injection from the renderer's shadow maps, made at its first use.
-    inject_shadow: Option<wgpu::ComputePipeline>,
+    /// The injection from the renderer's shadow maps and its comparison sampler, made at
+    /// its first use.
+    inject_shadow: Option<(wgpu::ComputePipeline, wgpu::Sampler)>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
@@ -1264,8 +1265,8 @@ impl Clipmap {
                 lights.size()
             )));
         }
-        let pipeline = match &self.inject_shadow {
-            Some(p) => p.clone(),
+        let (pipeline, sampler) = match &self.inject_shadow {
+            Some(made) => made.clone(),
             None => {
                 let source = [
                     include_str!("../../render/lights.wgsl"),
@@ -1278,8 +1279,15 @@ impl Clipmap {
                 let module = ctx.shader("clipmap inject (shadow maps)", &source);
                 let p =
                     ctx.compute_pipeline("clipmap inject (shadow maps)", &module, "inject_shadow");
-                self.inject_shadow = Some(p.clone());
-                p
+                let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+                    label: Some("clipmap shadow compare"),
+                    mag_filter: wgpu::FilterMode::Linear,
+                    min_filter: wgpu::FilterMode::Linear,
+                    compare: Some(wgpu::CompareFunction::LessEqual),
+                    ..Default::default()
+                });
+                self.inject_shadow = Some((p.clone(), sampler.clone()));
+                (p, sampler)
             }
         };
         let (matrices, view) = crate::render::shadow_lookup(
@@ -1289,13 +1297,6 @@ impl Clipmap {
             shadow_array,
             shadow_layers,
         );
-        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("clipmap shadow compare"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            ..Default::default()
-        });
         self.inject_with(
             ctx,
             timer,
