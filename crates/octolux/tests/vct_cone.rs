@@ -344,7 +344,7 @@ fn params(aperture: f32) -> ConeParams {
         voxel: VOXEL,
         stop_opacity: 0.98,
         max_steps: 128,
-        pad: 0,
+        max_footprint: 1e30,
     }
 }
 
@@ -599,7 +599,7 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
                     voxel: settings.voxel_size,
                     stop_opacity: 0.95,
                     max_steps: 256,
-                    pad: 0,
+                    max_footprint: 1e30,
                 },
             });
         }

@@ -2,6 +2,7 @@
 //! follows the camera (and revoxelises around moving objects), direct light is injected into
 //! its voxels, and every pixel gathers one bounce through six cones.
 
+use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::ConeTracer;
 use super::{ClipmapInjection, VctSettings};
@@ -26,6 +27,8 @@ pub struct VctClipmap {
     scene_set: bool,
     tracer: ConeTracer,
     info: wgpu::Buffer,
+    /// Coarser copies of the coarsest level, for wide cones.
+    tail: ClipmapTail,
 }
 
 impl VctClipmap {
@@ -67,6 +70,7 @@ impl VctClipmap {
                 mapped_at_creation: false,
             },
         );
+        let tail = ClipmapTail::new(ctx, OWNER, settings.resolution);
         Ok(VctClipmap {
             settings: settings.clone(),
             clipmap: None,
@@ -75,6 +79,7 @@ impl VctClipmap {
             scene_set: false,
             tracer,
             info,
+            tail,
         })
     }
 
@@ -118,6 +123,8 @@ impl VctClipmap {
             .fold(0.0f32, f32::max);
         let span = s.resolution as f32 * (1u32 << (s.levels - 1)) as f32;
         let voxel = 2.2 * far / span;
+        // Footprints grow up to the tail's coarsest voxel; past it, steps stay that size.
+        let coarsest = voxel * (1u32 << (s.levels - 1 + tail_levels(s.resolution))) as f32;
         if !voxel.is_finite() || voxel <= 0.0 {
             return Err(Error::InvalidArgument(format!(
                 "vct-clipmap: no clipmap fits a camera at {camera} and scene bounds {lo} to {hi}"
@@ -129,7 +136,7 @@ impl VctClipmap {
             voxel_size: voxel,
         };
         self.tracer
-            .set_cone(ctx, cone_params(s, voxel, 0.5 * span * voxel), s);
+            .set_cone(ctx, cone_params(s, voxel, coarsest, 0.5 * span * voxel), s);
         Clipmap::with_owner(
             ctx,
             clip,
@@ -168,8 +175,6 @@ impl GiTechnique for VctClipmap {
                 clipmap.inject(ctx, timer, &frame.frame.lights, self.settings.inject_steps)?
             }
         }
-        // 3. Six cones per pixel through the injected radiance (sparse, then reconstructed;
-        //    the specular cone where enabled).
         ctx.queue.write_buffer(
             &self.info,
             0,
@@ -178,6 +183,10 @@ impl GiTechnique for VctClipmap {
         let Some(radiance) = &clipmap.radiance else {
             return Err(Error::Gpu("vct-clipmap: no injected radiance".into()));
         };
+        // 3. The tail: coarser copies of the coarsest level, for wide cones.
+        self.tail.record(ctx, timer, &self.info, radiance);
+        // 4. Six cones per pixel through the injected radiance (sparse, then reconstructed;
+        //    the specular cone where enabled).
         self.tracer.record(
             ctx,
             frame,
@@ -185,6 +194,7 @@ impl GiTechnique for VctClipmap {
             &[
                 (3, self.info.as_entire_binding()),
                 (4, radiance.as_entire_binding()),
+                (13, self.tail.buffer.as_entire_binding()),
             ],
         );
         Ok(())
@@ -207,9 +217,14 @@ impl GiTechnique for VctClipmap {
     }
 }
 
-/// The marcher's parameters for the settings `s`, a finest voxel of `voxel` metres and cones
-/// that end at `max_distance` metres.
-pub(crate) fn cone_params(s: &VctSettings, voxel: f32, max_distance: f32) -> ConeParams {
+/// The marcher's parameters for the settings `s`, a finest voxel of `voxel` metres, a
+/// coarsest of `coarsest` metres and cones that end at `max_distance` metres.
+pub(crate) fn cone_params(
+    s: &VctSettings,
+    voxel: f32,
+    coarsest: f32,
+    max_distance: f32,
+) -> ConeParams {
     ConeParams {
         aperture: s.aperture.to_radians(),
         start: s.start * voxel,
@@ -217,7 +232,7 @@ pub(crate) fn cone_params(s: &VctSettings, voxel: f32, max_distance: f32) -> Con
         max_distance,
         voxel,
         stop_opacity: s.stop_opacity,
-        max_steps: 512,
-        pad: 0,
+        max_steps: 1024,
+        max_footprint: coarsest.max(voxel),
     }
 }

@@ -33,8 +33,11 @@ pub struct ConeParams {
     pub stop_opacity: f32,
     /// Most samples per cone.
     pub max_steps: u32,
-    /// Padding.
-    pub pad: u32,
+    /// The coarsest voxel size in metres: the largest footprint (a sample wider than the
+    /// structure's coarsest voxel is not filtered further, and the step stays
+    /// `step x max_footprint` so that a wall of such voxels is never stepped over). At least
+    /// `voxel`.
+    pub max_footprint: f32,
 }
 
 /// A cone to march: apex, unit direction and parameters.
@@ -73,7 +76,7 @@ pub fn march_cone(sample: impl Fn(Vec3, f32) -> Vec4, cone: &ConeMarch) -> Vec4 
         if t >= c.max_distance || acc.w >= c.stop_opacity {
             break;
         }
-        let footprint = (spread * t).max(c.voxel);
+        let footprint = (spread * t).max(c.voxel).min(c.max_footprint);
         let step = c.step * footprint;
         acc = cone_composite(
             acc,
@@ -99,7 +102,7 @@ mod tests {
             voxel: 0.05,
             stop_opacity: 0.99,
             max_steps: 256,
-            pad: 0,
+            max_footprint: 1e30,
         }
     }
 
@@ -183,5 +186,31 @@ mod tests {
             t += 0.5 * f;
         }
         assert!(t >= 4.0 && seen.len() > 5);
+    }
+
+    #[test]
+    fn past_the_largest_footprint_the_samples_keep_its_size_and_step() {
+        // A wall of coarse voxels (0.2 m) must not be stepped over: past max_footprint the
+        // samples stay 0.2 m wide and 0.1 m apart.
+        let seen = std::cell::RefCell::new(Vec::new());
+        let record = |p: Vec3, f: f32| {
+            seen.borrow_mut().push((p.x, f));
+            Vec4::ZERO
+        };
+        let mut c = cone();
+        c.params.max_footprint = 0.2;
+        march_cone(record, &c);
+        let seen = seen.into_inner();
+        let spread = 2.0 * (0.25f32).tan();
+        assert!(seen.iter().all(|&(_, f)| f <= 0.2));
+        let wide: Vec<_> = seen.iter().filter(|&&(x, _)| spread * x >= 0.2).collect();
+        assert!(
+            wide.len() > 20,
+            "{} samples past the largest footprint",
+            wide.len()
+        );
+        for pair in wide.windows(2) {
+            assert!((pair[1].0 - pair[0].0 - 0.1).abs() < 1e-5);
+        }
     }
 }

@@ -12,11 +12,11 @@ struct ConeParams {
     step: f32,
     max_distance: f32,
     // Finest voxel size (metres): the smallest footprint; opacity at which a cone stops;
-    // maximum number of steps; unused.
+    // maximum number of steps; the coarsest voxel (metres): the largest footprint.
     voxel: f32,
     stop_opacity: f32,
     max_steps: u32,
-    pad: u32,
+    max_footprint: f32,
 }
 
 // What one sample adds to a cone that has accumulated `acc` (rgb premultiplied, a opacity):
@@ -44,7 +44,9 @@ fn march_cone(origin: vec3<f32>, dir: vec3<f32>, c: ConeParams) -> vec4<f32> {
         if t >= c.max_distance || acc.a >= c.stop_opacity {
             break;
         }
-        let footprint = max(spread * t, c.voxel);
+        // Past the coarsest level's voxel the structure cannot filter more: the cone keeps
+        // that footprint and its step, so it cannot step over a wall of coarse voxels.
+        let footprint = min(max(spread * t, c.voxel), c.max_footprint);
         let step = c.step * footprint;
         acc = cone_composite(acc, vct_sample(origin + t * dir, footprint), step, footprint);
         t += step;

@@ -10,6 +10,7 @@
 //! specular cone), so the two differ only in the structure they bring up to date and sample.
 
 mod clipmap_gi;
+pub mod clipmap_tail;
 pub mod cone;
 pub mod gather;
 mod settings;

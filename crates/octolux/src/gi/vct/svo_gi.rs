@@ -100,7 +100,7 @@ impl VctSvo {
         // Cones end where they leave the grid at the latest (its diagonal).
         tracer.set_cone(
             ctx,
-            cone_params(settings, grid.voxel_size, 3f32.sqrt() * span),
+            cone_params(settings, grid.voxel_size, 0.5 * span, 3f32.sqrt() * span),
             settings,
         );
         let info = ctx.create_buffer_init(

@@ -1,0 +1,248 @@
+//! The clipmap's tail: coarser copies of its coarsest level, for cones wider than that
+//! level's voxel.
+//!
+//! A clipmap's coarsest voxel is its extent over its resolution (1/64 of it by default), while
+//! a 60-degree diffuse cone is as wide as it is long: most of a cone's samples are wider than
+//! any level's voxel. Without coarser data the marcher can only point-sample the coarsest
+//! level with steps many voxels long, so whether a sample lands on a wall depends on where the
+//! pixel is, and the indirect light shows blotches of coarse voxels. The tail adds levels of
+//! `res / 2^k` voxels (k = 1..=K, down to 2 per side) over the coarsest level's region, each
+//! the mean of the 8 voxels below it, and the trace samples them for footprints past the
+//! coarsest voxel (`clipmap_trace.wgsl`), quadrilinear between them.
+
+use crate::gpu::{GpuContext, PassTimer};
+use crate::voxel::sample::CLIPMAP_SAMPLE_WGSL;
+use glam::{IVec3, Vec4};
+
+/// The tail of a clipmap of `res` voxels per side: its levels k = 1..=K have `res >> k`
+/// voxels per side, down to 2.
+pub fn tail_levels(res: u32) -> u32 {
+    res.max(4).trailing_zeros() - 1
+}
+
+/// First voxel slot of tail level `k` in the tail buffer (levels one after the other, x
+/// fastest).
+pub fn tail_offset(res: u32, k: u32) -> u32 {
+    (1..k).map(|i| (res >> i).pow(3)).sum()
+}
+
+/// `TailParams` in clipmap_tail.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct TailParams {
+    misc: [u32; 4],
+}
+
+/// The tail's buffer and the passes that fill it from the clipmap's injected radiance.
+pub(crate) struct ClipmapTail {
+    res: u32,
+    /// RGBA16F premultiplied radiance and opacity, 2 words per voxel, levels one after the
+    /// other.
+    pub buffer: wgpu::Buffer,
+    params: Vec<wgpu::Buffer>,
+    pipeline: wgpu::ComputePipeline,
+}
+
+impl ClipmapTail {
+    /// The tail of a clipmap of `res` voxels per side, recorded in the ledger under `owner`.
+    pub fn new(ctx: &GpuContext, owner: &str, res: u32) -> ClipmapTail {
+        let levels = tail_levels(res);
+        let voxels = tail_offset(res, levels + 1) as u64;
+        let buffer = ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some("clipmap tail"),
+                size: (voxels * 8).max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        );
+        let params = (1..=levels)
+            .map(|k| {
+                let p = TailParams {
+                    misc: [
+                        k,
+                        res >> k,
+                        tail_offset(res, k),
+                        if k > 1 { tail_offset(res, k - 1) } else { 0 },
+                    ],
+                };
+                ctx.create_buffer_init(
+                    owner,
+                    "clipmap tail params",
+                    bytemuck::bytes_of(&p),
+                    wgpu::BufferUsages::STORAGE,
+                )
+            })
+            .collect();
+        let source = [CLIPMAP_SAMPLE_WGSL, include_str!("clipmap_tail.wgsl")].join("\n");
+        let module = ctx.shader("clipmap tail", &source);
+        let pipeline = ctx.compute_pipeline("clipmap tail", &module, "build_tail");
+        ClipmapTail {
+            res,
+            buffer,
+            params,
+            pipeline,
+        }
+    }
+
+    /// Records the pass `vct tail`: level 1 from the coarsest level of `radiance` (the
+    /// clipmap's injected radiance, described by `info`, a `ClipInfo` block), then each level
+    /// from the one before.
+    pub fn record(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        info: &wgpu::Buffer,
+        radiance: &wgpu::Buffer,
+    ) {
+        let layout = self.pipeline.get_bind_group_layout(0);
+        let groups: Vec<wgpu::BindGroup> = self
+            .params
+            .iter()
+            .map(|params| {
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("clipmap tail"),
+                    layout: &layout,
+                    entries: &[
+                        (0, params.as_entire_binding()),
+                        (1, info.as_entire_binding()),
+                        (2, radiance.as_entire_binding()),
+                        (3, self.buffer.as_entire_binding()),
+                    ]
+                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
+                })
+            })
+            .collect();
+        let last = groups.len().saturating_sub(1);
+        timer.pass("vct tail", |encoder, stamps| {
+            // One compute pass per level: each reads what the one before wrote.
+            for (k, group) in groups.iter().enumerate() {
+                let n = self.res >> (k + 1);
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("vct tail"),
+                    timestamp_writes: stamps.compute_part(k == 0, k == last),
+                });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(n.div_ceil(4), n.div_ceil(4), n.div_ceil(4));
+            }
+        });
+    }
+}
+
+/// CPU twin of the tail build: the tail levels (level k at [`tail_offset`]) of a clipmap of
+/// `res` voxels per side whose coarsest level reads `coarsest(g)` at world-voxel coordinates
+/// `g`, with that level's first voxel at `origin`. In f32: the GPU stores each level in f16,
+/// so its values differ by the rounding of up to K stores (relative 2^-11 each).
+pub fn tail_cpu(res: u32, origin: IVec3, coarsest: impl Fn(IVec3) -> Vec4) -> Vec<Vec4> {
+    let levels = tail_levels(res);
+    let mut tail = vec![Vec4::ZERO; tail_offset(res, levels + 1) as usize];
+    for k in 1..=levels {
+        let n = res >> k;
+        for z in 0..n {
+            for y in 0..n {
+                for x in 0..n {
+                    let mut sum = Vec4::ZERO;
+                    for c in 0..8u32 {
+                        let j = 2 * glam::UVec3::new(x, y, z)
+                            + glam::UVec3::new(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                        sum += if k == 1 {
+                            coarsest(origin + j.as_ivec3())
+                        } else {
+                            let m = 2 * n;
+                            tail[(tail_offset(res, k - 1) + j.x + m * (j.y + m * j.z)) as usize]
+                        };
+                    }
+                    tail[(tail_offset(res, k) + x + n * (y + n * z)) as usize] = sum * 0.125;
+                }
+            }
+        }
+    }
+    tail
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::{read_buffer, GpuOptions};
+    use crate::render::f16_to_f32;
+    use crate::voxel::clipmap::ClipmapSettings;
+    use crate::voxel::sample::ClipInfo;
+
+    #[test]
+    fn tail_sizes() {
+        assert_eq!(tail_levels(4), 1);
+        assert_eq!(tail_levels(64), 5);
+        assert_eq!(tail_offset(64, 1), 0);
+        assert_eq!(tail_offset(64, 3), 32 * 32 * 32 + 16 * 16 * 16);
+        assert_eq!(tail_offset(8, tail_levels(8) + 1), 64 + 8);
+    }
+
+    /// The GPU tail of a clipmap filled with arbitrary f16 radiance, its coarsest level's
+    /// origin odd on every axis (so the toroidal wrap is crossed), equals the CPU twin within
+    /// the f16 rounding of its stores: relative 2^-11 per level, two levels, bound 2^-9.
+    #[test]
+    fn gpu_tail_equals_cpu_twin() {
+        let ctx = GpuContext::shared(&GpuOptions::default())
+            .expect("a GPU adapter (install mesa-vulkan-drivers)");
+        let res = 8u32;
+        let settings = ClipmapSettings {
+            resolution: res,
+            levels: 2,
+            voxel_size: 0.1,
+        };
+        let origins = [Some(IVec3::new(-8, 2, 0)), Some(IVec3::new(-3, 5, -1))];
+        let slots = 2 * res.pow(3) as usize;
+        // Positive finite f16s from a fixed linear congruential sequence: exponents 10..=17
+        // (about 2^-5 to 4), any mantissa.
+        let mut state = 12345u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let e = 10 + (state >> 29);
+            (e << 10 | (state >> 8) & 1023) as u16
+        };
+        let halves: Vec<u16> = (0..4 * slots).map(|_| next()).collect();
+        let words: Vec<u32> = halves
+            .chunks(2)
+            .map(|h| h[0] as u32 | (h[1] as u32) << 16)
+            .collect();
+        let radiance = ctx.create_buffer_init(
+            "test",
+            "radiance",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let info = ctx.create_buffer_init(
+            "test",
+            "info",
+            bytemuck::bytes_of(&ClipInfo::new(&settings, &origins)),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let tail = ClipmapTail::new(&ctx, "test", res);
+        let mut timer = PassTimer::new(&ctx);
+        tail.record(&ctx, &mut timer, &info, &radiance);
+        timer.finish_frame().expect("tail pass");
+        let bytes = read_buffer(&ctx, &tail.buffer, 0, tail.buffer.size()).expect("read tail");
+        let gpu: Vec<u16> = bytemuck::cast_slice(&bytes).to_vec();
+
+        let level_slot = |g: IVec3| {
+            let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
+            (res.pow(3) + m.x + res * (m.y + res * m.z)) as usize
+        };
+        let coarsest = |g: IVec3| {
+            let s = level_slot(g);
+            Vec4::from_array(std::array::from_fn(|c| f16_to_f32(halves[4 * s + c])))
+        };
+        let cpu = tail_cpu(res, IVec3::new(-3, 5, -1), coarsest);
+        assert_eq!(cpu.len(), 72);
+        for (i, want) in cpu.iter().enumerate() {
+            let got = Vec4::from_array(std::array::from_fn(|c| f16_to_f32(gpu[4 * i + c])));
+            let err = (got - *want).abs().max_element();
+            assert!(
+                err <= want.abs().max_element() * 2f32.powi(-9),
+                "tail voxel {i}: GPU {got} CPU {want}"
+            );
+        }
+    }
+}

@@ -1,0 +1,46 @@
+// The clipmap's tail: coarser copies of its coarsest level for cones wider than that level's
+// voxel. Tail level k (1..=K) has res / 2^k voxels per side over the coarsest level's region
+// (absolute indices from that level's origin, not toroidal); each voxel is the mean of the 8
+// voxels of level k - 1 it covers (level 0: the coarsest clipmap level), premultiplied
+// radiance and opacity alike. CPU twin: `clipmap_tail::tail_cpu`.
+
+struct TailParams {
+    // x: k, y: res >> k (voxels per side), z: first slot of level k, w: first slot of k - 1
+    misc: vec4<u32>,
+}
+
+@group(0) @binding(0) var<storage, read> tail_params: TailParams;
+@group(0) @binding(1) var<storage, read> clip_info: ClipInfo;
+@group(0) @binding(2) var<storage, read> clip_radiance: array<u32>;
+@group(0) @binding(3) var<storage, read_write> tail: array<u32>;
+// Declared for `clipmap/sample.wgsl`'s albedo path, which the tail does not read.
+@group(0) @binding(4) var<storage, read> clip_voxels: array<u32>;
+
+fn tail_source(j: vec3<u32>) -> vec4<f32> {
+    if tail_params.misc.x == 1u {
+        let l = clip_info.misc.y - 1u;
+        let slot = clip_slot(l, clip_info.origins[l].xyz + vec3<i32>(j));
+        return vec4<f32>(unpack2x16float(clip_radiance[2u * slot]),
+                         unpack2x16float(clip_radiance[2u * slot + 1u]));
+    }
+    let n = 2u * tail_params.misc.y;
+    let slot = tail_params.misc.w + j.x + n * (j.y + n * j.z);
+    return vec4<f32>(unpack2x16float(tail[2u * slot]), unpack2x16float(tail[2u * slot + 1u]));
+}
+
+@compute @workgroup_size(4, 4, 4)
+fn build_tail(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = tail_params.misc.y;
+    if any(id >= vec3<u32>(n)) {
+        return;
+    }
+    var sum = vec4<f32>(0.0);
+    for (var c = 0u; c < 8u; c++) {
+        let o = vec3<u32>(c & 1u, (c >> 1u) & 1u, (c >> 2u) & 1u);
+        sum += tail_source(2u * id + o);
+    }
+    let mean = sum * 0.125;
+    let slot = tail_params.misc.z + id.x + n * (id.y + n * id.z);
+    tail[2u * slot] = pack2x16float(mean.xy);
+    tail[2u * slot + 1u] = pack2x16float(mean.zw);
+}
