@@ -145,6 +145,25 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
+    /// Probe octree: deepest level, 2..=5 (default 3).
+    #[arg(long)]
+    pub probes_max_depth: Option<u32>,
+    /// Probe octree: share of a probe's surfels inside its cube from which its leaf splits
+    /// (default 0.5).
+    #[arg(long)]
+    pub probes_split_fraction: Option<f32>,
+    /// Probe octree: share of a probe's surfels inside its cube below which it is freed
+    /// (default 0.25).
+    #[arg(long)]
+    pub probes_free_fraction: Option<f32>,
+    /// Probe octree: how pixels read the probes, `octree` (the leaves around the pixel) or
+    /// `all` (004's loop over every probe) (default octree).
+    #[arg(long)]
+    pub probes_gather: Option<octolux::gi::probes::OctreeGather>,
+    /// Probe octree: which surfels light a probe, `scene` (every hit) or `cube` (only hits
+    /// inside its leaf's cube, as 004) (default scene).
+    #[arg(long)]
+    pub probes_surfel_range: Option<octolux::gi::probes::SurfelRange>,
     /// VPL GI: light bounces, 1..=3; later bounces are spawned through the octree (default 1).
     #[arg(long)]
     pub vpl_bounces: Option<u32>,
@@ -212,6 +231,11 @@ impl GiArgs {
         set(&mut probes.lattice, self.probes_lattice);
         set(&mut probes.encoding, self.probes_encoding);
         set(&mut probes.multi_bounce, self.probes_multi_bounce);
+        set(&mut probes.max_depth, self.probes_max_depth);
+        set(&mut probes.split_fraction, self.probes_split_fraction);
+        set(&mut probes.free_fraction, self.probes_free_fraction);
+        set(&mut probes.gather, self.probes_gather);
+        set(&mut probes.surfel_range, self.probes_surfel_range);
     }
 }
 

@@ -4,7 +4,7 @@
 //! Bad settings are clear errors.
 
 use glam::Vec3;
-use octolux::gi::probes::{Encoding, ProbeSettings};
+use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
@@ -193,10 +193,62 @@ fn moving_objects_are_lit_where_they_are() {
 }
 
 #[test]
+fn octree_probes_light_the_cornell_box_with_few_probes() {
+    // `probes-octree` after 10 frames (the tree grows a level per frame, then settles), with
+    // both gathers: the ceiling gets light (within a factor 2 of the reference) and the image
+    // beats GI off in relMSE and FLIP, with a small share of the grid's probes.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = octolux::scene::cornell::scene();
+    let one = reference(&scene, 0.0, Bounces::Indirect(1));
+    let options = MetricOptions::default();
+    let mut r = Renderer::new(&ctx, &scene, settings("none", ProbeSettings::default())).unwrap();
+    r.render(&scene, 0.0).unwrap();
+    let image = r.read_hdr().unwrap();
+    let (none_rel, none_flip) = (
+        rel_mse(&image, &one, None).unwrap(),
+        flip(&image, &one, None, &options).unwrap(),
+    );
+    let g = r.read_gbuffer().unwrap();
+    let mask: Vec<bool> = g
+        .normal
+        .iter()
+        .zip(&g.depth)
+        .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
+        .collect();
+    let expected = mean_over(&one, &mask);
+    for gather in [OctreeGather::Octree, OctreeGather::All] {
+        let probes = ProbeSettings {
+            gather,
+            ..Default::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings("probes-octree", probes)).unwrap();
+        for _ in 0..10 {
+            r.render(&scene, 0.0).unwrap();
+        }
+        let image = r.read_hdr().unwrap();
+        let ceiling = mean_over(&image, &mask);
+        let rel = rel_mse(&image, &one, None).unwrap();
+        let fl = flip(&image, &one, None, &options).unwrap();
+        println!(
+            "probes-octree {gather:?}: ceiling {ceiling} (reference {expected}), relMSE {rel:.4} \
+             (none {none_rel:.4}), FLIP {fl:.4} (none {none_flip:.4})"
+        );
+        assert!(
+            (0.5..2.0).contains(&(ceiling / expected)),
+            "{gather:?} ceiling: {ceiling}, reference {expected}"
+        );
+        assert!(rel < 0.8 * none_rel, "relMSE {rel} vs none {none_rel}");
+        assert!(fl < none_flip, "FLIP {fl} vs none {none_flip}");
+    }
+}
+
+#[test]
 fn scene_files_set_the_probe_settings() {
     let origin = std::path::Path::new("scene.toml");
     let table: toml::Table = toml::from_str(
-        "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true",
+        "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true\n\
+         max_depth = 4\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"",
     )
     .unwrap();
     let s = GiSettings::from_table(&table, origin).unwrap().probes;
@@ -206,9 +258,14 @@ fn scene_files_set_the_probe_settings() {
     assert_eq!(s.encoding, Encoding::Octahedron);
     assert!(s.multi_bounce);
     assert_eq!(s.probe_count(), 720);
+    assert_eq!(s.max_depth, 4);
+    assert_eq!((s.split_fraction, s.free_fraction), (0.6, 0.2));
+    assert_eq!(s.gather, OctreeGather::All);
+    assert_eq!(s.surfel_range, SurfelRange::Cube);
     for (text, what) in [
         ("[probes]\nlattice = \"spiral\"", "spiral"),
         ("[probes]\nsurfel = 64", "surfel"),
+        ("[probes]\ngather = \"some\"", "some"),
     ] {
         let table: toml::Table = toml::from_str(text).unwrap();
         let err = GiSettings::from_table(&table, origin)
@@ -272,6 +329,52 @@ fn bad_probe_settings_are_clear_errors() {
     ];
     for (probes, what) in cases {
         let err = Renderer::new(&ctx, &scene, settings("probes-grid", probes))
+            .err()
+            .expect("must fail");
+        assert!(err.to_string().contains(what), "{err}");
+    }
+    let octree_cases: Vec<(ProbeSettings, &str)> = vec![
+        (
+            ProbeSettings {
+                max_depth: 6,
+                ..Default::default()
+            },
+            "probes max_depth",
+        ),
+        (
+            ProbeSettings {
+                max_depth: 1,
+                ..Default::default()
+            },
+            "probes max_depth",
+        ),
+        (
+            ProbeSettings {
+                split_fraction: 0.2,
+                free_fraction: 0.3,
+                ..Default::default()
+            },
+            "free_fraction < split_fraction",
+        ),
+        (
+            ProbeSettings {
+                split_fraction: f32::NAN,
+                ..Default::default()
+            },
+            "split_fraction",
+        ),
+        (
+            // 32769 probes x 1024 surfels x 48 bytes: more than one storage binding holds.
+            ProbeSettings {
+                max_depth: 5,
+                surfels: 1024,
+                ..Default::default()
+            },
+            "per storage binding",
+        ),
+    ];
+    for (probes, what) in octree_cases {
+        let err = Renderer::new(&ctx, &scene, settings("probes-octree", probes))
             .err()
             .expect("must fail");
         assert!(err.to_string().contains(what), "{err}");

@@ -135,6 +135,7 @@ pub const TECHNIQUES: &[&str] = &[
     "vct-clipmap",
     "vpl",
     "probes-grid",
+    "probes-octree",
 ];
 
 /// Creates the technique called `name` for images of `width` x `height`.
@@ -170,6 +171,13 @@ pub fn create(
             height,
         )?)),
         "probes-grid" => Ok(Box::new(probes::ProbesGrid::new(
+            ctx,
+            &settings.probes,
+            scene,
+            width,
+            height,
+        )?)),
+        "probes-octree" => Ok(Box::new(probes::ProbesOctree::new(
             ctx,
             &settings.probes,
             scene,

@@ -1,4 +1,4 @@
-// Pixel gather: the indirect irradiance of every G-buffer pixel from the 8 probes around it.
+// Pixel gather: the indirect irradiance of every G-buffer pixel from the probes around it.
 
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> probes: array<vec4<f32>>;
@@ -20,5 +20,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = world_from_depth(cam, id.xy, depth);
     let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
-    textureStore(out_tex, id.xy, vec4<f32>(grid_irradiance(p, n), 1.0));
+    textureStore(out_tex, id.xy, vec4<f32>(probes_irradiance(p, n), 1.0));
 }

@@ -276,8 +276,8 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             read(technique.probe_buffer()),
         );
         let n = probes.surfels as usize;
-        let vec4s = super::grid::PROBE_VEC4 as usize;
-        let surfel_vec4 = super::grid::SURFEL_VEC4 as usize;
+        let vec4s = super::passes::PROBE_VEC4 as usize;
+        let surfel_vec4 = super::passes::SURFEL_VEC4 as usize;
         let mut valid = 0;
         for probe in 0..technique.grid().count() as usize {
             let states: Vec<f32> = (0..n)

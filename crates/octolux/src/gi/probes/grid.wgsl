@@ -1,31 +1,5 @@
-// The probe grid and its buffers, shared by the probe passes (gi/probes/grid.rs). The includer
-// declares `P: ProbeParams`.
-
-struct ProbeParams {
-    // xyz: lower corner of the grid's box; w: max ray distance
-    lo: vec4<f32>,
-    // xyz: probe spacing per axis; w: gather offset along the normal (m)
-    spacing: vec4<f32>,
-    // xyz: probes per axis; w: surfels per probe
-    dims: vec4<u32>,
-    // x: lattice kind, y: encoding kind, z: light count, w: 1 = surfels get probe light
-    misc: vec4<u32>,
-    // x, y: BVH roots (static, animated; 0xffffffff none), z: probe count, w: surfel count
-    roots: vec4<u32>,
-    // x: most back-face hits of a probe still gathered
-    limits: vec4<u32>,
-};
-
-// Words (vec4) per probe: 8 encoding coefficients, then (back-face share, hit share, valid, 0).
-const PROBE_VEC4: u32 = 9u;
-// vec4s per surfel: (position, state 0 miss / 1 front / 2 back), (normal towards the probe,
-// albedo bits), (emission, hit distance).
-const SURFEL_VEC4: u32 = 3u;
-
-// One invocation per item over a 2D grid of 64-wide workgroups (more than 65535 groups).
-fn linear_index(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
-    return (wg.y * nwg.x + wg.x) * 64u + li;
-}
+// The probe set of `probes-grid` (gi/probes/grid.rs): probes at the cell centres of a uniform
+// grid; every probe is live and re-placed whenever placement runs.
 
 fn probe_coord(probe: u32) -> vec3<u32> {
     let d = P.dims.xyz;
@@ -36,3 +10,26 @@ fn probe_position(c: vec3<u32>) -> vec3<f32> {
     return P.lo.xyz + (vec3<f32>(c) + 0.5) * P.spacing.xyz;
 }
 
+fn probe_origin(probe: u32) -> vec3<f32> {
+    return probe_position(probe_coord(probe));
+}
+
+fn probe_live(probe: u32) -> bool {
+    return true;
+}
+
+fn probe_wants_place(probe: u32) -> bool {
+    return true;
+}
+
+// Distance from the probe along unit d to the end of its region, and whether hits beyond it
+// are kept as surfels: the grid's probes see the whole scene.
+fn probe_region_exit(probe: u32, d: vec3<f32>) -> f32 {
+    return 3.0e38;
+}
+
+fn probe_keeps_far_hits() -> bool {
+    return true;
+}
+
+fn probe_store_hits(probe: u32, inside: u32) {}

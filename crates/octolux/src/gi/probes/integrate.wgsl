@@ -1,5 +1,6 @@
 // Probe integration: each probe sums its surfels' radiance, each over the solid angle of its
-// lattice direction, into its encoding, and counts its back-face and total hits.
+// lattice direction, into its encoding, and counts its back-face and total hits and the hits
+// inside its region (the octree's hit count).
 
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
@@ -10,18 +11,20 @@
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
     let probe = linear_index(wg, nwg, li);
-    if probe >= P.roots.z {
+    if probe >= P.roots.z || !probe_live(probe) {
         return;
     }
     let n = P.dims.w;
     var c: array<vec3<f32>, 8>;
     var back = 0u;
     var hits = 0u;
+    var inside = 0u;
     for (var k = 0u; k < n; k++) {
         let s = probe * n + k;
         let state = surfels[s * SURFEL_VEC4].w;
         hits += u32(state > 0.5);
         back += u32(state > 1.5);
+        inside += u32(state > 0.5 && surfels[s * SURFEL_VEC4 + 2u].w >= 0.0);
         let d = lattice_dir(P.misc.x, k, n);
         probe_encode(P.misc.y, &c, radiance[s].rgb, d.xyz, d.w);
     }
@@ -29,5 +32,6 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     for (var k = 0u; k < 8u; k++) {
         probes[b + k] = vec4<f32>(c[k], 0.0);
     }
+    probe_store_hits(probe, inside);
     probes[b + 8u] = vec4<f32>(f32(back) / f32(n), f32(hits) / f32(n), select(0.0, 1.0, back <= P.limits.x), 0.0);
 }

@@ -17,7 +17,7 @@
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
     let s = linear_index(wg, nwg, li);
-    if s >= P.roots.w {
+    if s >= P.roots.w || !probe_live(s / P.dims.w) {
         return;
     }
     let b = s * SURFEL_VEC4;
@@ -41,7 +41,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
     }
     if P.misc.w != 0u {
-        e += grid_irradiance(p, n);
+        e += probes_irradiance(p, n);
     }
     radiance[s] = vec4<f32>(surfels[b + 2u].rgb + albedo / PI * e, 0.0);
 }

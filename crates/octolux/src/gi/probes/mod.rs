@@ -9,10 +9,13 @@
 //!   binary BVH built on the CPU and traversed in WGSL, a static part built once and a small
 //!   part for the animated objects rebuilt every frame.
 //! - [`encoding`]: the probes' irradiance: `004`'s 8 octahedron-facet bins or SH L1.
-//! - [`grid`]: the `probes-grid` technique (placement, surfel light, probe integration,
-//!   gather).
+//! - `passes`: what both techniques share (placement, surfel light, probe integration,
+//!   gather) over a probe set.
+//! - [`grid`]: the `probes-grid` technique, probes on a uniform grid.
 //! - [`octree`]: `004`'s adaptive octree (encoding, allocation, state machine) on the CPU, the
-//!   specification of the coming `probes-octree`.
+//!   specification of the GPU's.
+//! - [`octree_gpu`]: the `probes-octree` technique: that octree on the GPU, driven by the
+//!   probes' surfel hit fractions, rebuilt around moving objects, gathered through the tree.
 
 pub mod bvh;
 pub mod encoding;
@@ -21,12 +24,63 @@ mod gpu_tests;
 mod grid;
 pub mod lattice;
 pub mod octree;
+pub mod octree_gpu;
+#[cfg(test)]
+mod octree_tests;
+mod passes;
 
 pub use encoding::Encoding;
 pub use grid::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
 pub use lattice::Lattice;
+pub use octree_gpu::{OctreeView, ProbesOctree};
 
 use crate::{Error, Result};
+
+/// How `probes-octree` reads its probes at a pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OctreeGather {
+    /// Through the octree: the probes of the leaves around the point (default).
+    Octree,
+    /// `004`'s loop over every probe, attenuated by distance and the probe's volume.
+    All,
+}
+
+impl std::str::FromStr for OctreeGather {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "octree" => Ok(OctreeGather::Octree),
+            "all" => Ok(OctreeGather::All),
+            other => Err(Error::InvalidArgument(format!(
+                "probes gather '{other}': expected octree or all"
+            ))),
+        }
+    }
+}
+
+/// Which of an octree probe's surfels are lit and integrated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SurfelRange {
+    /// Only hits inside the probe's leaf cube, as `004` places them; the rest are misses.
+    Cube,
+    /// Every closest hit (default); only the hits inside the cube count for the hit fraction.
+    Scene,
+}
+
+impl std::str::FromStr for SurfelRange {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "cube" => Ok(SurfelRange::Cube),
+            "scene" => Ok(SurfelRange::Scene),
+            other => Err(Error::InvalidArgument(format!(
+                "probes surfel_range '{other}': expected cube or scene"
+            ))),
+        }
+    }
+}
 
 /// Settings of the probe techniques. Scene files: `[settings.probes]`.
 #[derive(Clone, Debug, serde::Deserialize)]
@@ -52,6 +106,20 @@ pub struct ProbeSettings {
     /// Share of a probe's rays that may hit back faces before it counts as inside geometry
     /// and is left out of the gather (default 0.25).
     pub backface_limit: f32,
+    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 3: at most 512
+    /// leaves, 8 x 8 x 8 at the finest).
+    pub max_depth: u32,
+    /// `probes-octree`: a leaf splits when at least this share of its probe's surfels land
+    /// inside its cube (`004`: 1/2; default 0.5).
+    pub split_fraction: f32,
+    /// `probes-octree`: a probe is freed when less than this share of its surfels land inside
+    /// its cube (`004`: 1/4; default 0.25); below `split_fraction`.
+    pub free_fraction: f32,
+    /// `probes-octree`: how pixels read the probes, `"octree"` (default) or `"all"`.
+    pub gather: OctreeGather,
+    /// `probes-octree`: which surfels light a probe, `"scene"` (default: every hit) or
+    /// `"cube"` (only hits inside its leaf's cube, as `004`).
+    pub surfel_range: SurfelRange,
 }
 
 impl Default for ProbeSettings {
@@ -64,6 +132,11 @@ impl Default for ProbeSettings {
             multi_bounce: false,
             normal_bias: 0.2,
             backface_limit: 0.25,
+            max_depth: 3,
+            split_fraction: 0.5,
+            free_fraction: 0.25,
+            gather: OctreeGather::Octree,
+            surfel_range: SurfelRange::Scene,
         }
     }
 }
@@ -104,6 +177,20 @@ impl ProbeSettings {
             "probes backface_limit",
             "0..=1",
         )?;
+        check(
+            (2..=5).contains(&self.max_depth),
+            "probes max_depth",
+            "2..=5",
+        )?;
+        check(
+            self.free_fraction.is_finite()
+                && self.split_fraction.is_finite()
+                && 0.0 <= self.free_fraction
+                && self.free_fraction < self.split_fraction
+                && self.split_fraction <= 1.0,
+            "probes free_fraction and split_fraction",
+            "0 <= free_fraction < split_fraction <= 1",
+        )?;
         let count = self.grid.iter().map(|&n| n as u64).product::<u64>() * self.surfels as u64;
         check(
             count <= 1 << 24,
@@ -116,6 +203,16 @@ impl ProbeSettings {
     /// once, so that the GPU and its CPU twin agree on every adapter.
     pub fn max_back_faces(&self) -> u32 {
         (self.backface_limit as f64 * self.surfels as f64).floor() as u32
+    }
+
+    /// The octree's split/free rule.
+    pub fn octree_rule(&self) -> octree::OctreeRule {
+        octree::OctreeRule {
+            max_depth: self.max_depth,
+            surfels: self.surfels,
+            f_lower: self.free_fraction,
+            f_upper: self.split_fraction,
+        }
     }
 
     /// Probes in the grid.

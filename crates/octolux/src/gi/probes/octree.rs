@@ -1,8 +1,8 @@
 //! The adaptive probe octree of `004` §3.1-§3.2 on the CPU: the buffer encoding, allocation
 //! and the per-leaf state machine (memory update M0-M4, light update L0-L3) over the
-//! three-segment leaf ring. It is the specification the GPU version (`probes-octree`) is to be
-//! tested against; here hit fractions come from the caller (scripted in tests, surfel rays on
-//! the GPU).
+//! three-segment leaf ring. It is the specification the GPU version (`probes-octree`,
+//! octree.wgsl) is tested against word for word; hit counts come from the caller (scripted in
+//! tests, surfel rays on the GPU).
 //!
 //! Encoding (`004` §3.1.1): one `i32` buffer. Index 0 is the root; after it, clusters of 9
 //! words: a meta word (0 free, `< 0`: allocated, `!meta` = parent node) and 8 sibling nodes.
@@ -11,9 +11,22 @@
 //! covers the octant with bit 0, 1, 2 of `s` set = upper half in x, y, z. A tail shorter than 9
 //! words is never allocated.
 //!
+//! Every step is independent of the order in which a parallel machine visits the leaves, so
+//! that the GPU reaches the same tree bit for bit:
+//! - a ring segment holds one state per leaf; when two pushes meet, the higher
+//!   [`State::code`] wins (M0 and L0 override, then the lower-numbered state);
+//! - the memory update runs in four steps: M2 frees probes; M4 decides on the tree after
+//!   that which clusters to free, then frees them; M1 and M3 allocate from the free lists as
+//!   they were at the start of the update, in node order by prefix sums of their demands (a
+//!   request succeeds when it and all requests before it fit, so a request never takes what
+//!   an earlier one needed); last, the freed probes and clusters go back on their free lists
+//!   in node order. Nothing freed in an update is handed out again in the same update (a
+//!   cluster freed by M4 would otherwise get new children whose L1 the L0 of the old ones
+//!   overrides).
+//!
 //! Changes from `004`, each for a trap the notes name:
 //! - **Allocation** pops free lists (clusters, probes) instead of scanning the buffer with
-//!   compare-exchange (the cause of `004`'s depth-3 spikes); on the GPU an atomic stack.
+//!   compare-exchange (the cause of `004`'s depth-3 spikes).
 //! - **Orphans.** M2 frees a leaf's probe and pushes only the parent (M4). If a sibling keeps
 //!   its probe, M4 does nothing and the freed leaf was in no segment any more: geometry moving
 //!   into it later could never give it a probe. Here M2 also pushes the leaf as L3.
@@ -21,9 +34,10 @@
 //!   (their lattices, confined to smaller cubes, hit less) collapsed to a probe-less L3 for
 //!   good. Here a collapsed parent asks for a probe again (M1) and is not split again until
 //!   geometry moves through it.
+//! - **Stale requests.** An M1 for a leaf whose cluster was freed meanwhile is dropped.
 
 use glam::Vec3;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 
 /// The states of `004` §3.2.1-§3.2.2.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -49,6 +63,30 @@ pub enum State {
 }
 
 impl State {
+    const ALL: [State; 9] = [
+        State::L3,
+        State::L2,
+        State::L1,
+        State::L0,
+        State::M4,
+        State::M3,
+        State::M2,
+        State::M1,
+        State::M0,
+    ];
+
+    /// The state's word in the GPU's ring (0: no state). Of two states pushed for one leaf
+    /// into one segment the higher code stays: M0 and L0 override, then the lower-numbered
+    /// state. A segment holds memory or light states, never both.
+    pub fn code(self) -> u32 {
+        Self::ALL.iter().position(|&s| s == self).unwrap_or(0) as u32 + 1
+    }
+
+    /// The state of a ring word (None for 0 or an unknown word).
+    pub fn from_code(code: u32) -> Option<State> {
+        Self::ALL.get((code as usize).checked_sub(1)?).copied()
+    }
+
     fn is_memory(self) -> bool {
         matches!(
             self,
@@ -57,11 +95,16 @@ impl State {
     }
 }
 
-/// The thresholds of the split/free rule.
+/// The split/free rule: a probe's hit count `h` out of `surfels` (the surfels it places
+/// inside its cube) frees it when `h / surfels < f_lower` and splits its leaf when
+/// `h / surfels >= f_upper` above `max_depth`. Decided in integers ([`Self::free_below`],
+/// [`Self::split_from`]) so that every adapter decides alike.
 #[derive(Clone, Copy, Debug)]
 pub struct OctreeRule {
     /// Deepest level (root 0).
     pub max_depth: u32,
+    /// Surfels (rays) per probe.
+    pub surfels: u32,
     /// A leaf frees its probe below this hit fraction (`004`: 1/4).
     pub f_lower: f32,
     /// A leaf splits at or above this hit fraction (`004`: 1/2).
@@ -72,9 +115,31 @@ impl Default for OctreeRule {
     fn default() -> Self {
         OctreeRule {
             max_depth: 2,
+            surfels: 64,
             f_lower: 0.25,
             f_upper: 0.5,
         }
+    }
+}
+
+impl OctreeRule {
+    /// Hit counts below this free the probe (`h < f_lower x surfels`).
+    pub fn free_below(&self) -> u32 {
+        (self.f_lower as f64 * self.surfels as f64).ceil() as u32
+    }
+
+    /// Hit counts from this on split the leaf (`h >= f_upper x surfels`).
+    pub fn split_from(&self) -> u32 {
+        (self.f_upper as f64 * self.surfels as f64).ceil() as u32
+    }
+
+    /// Words of a tree buffer and probes that hold the full tree of `max_depth` levels: every
+    /// parent's cluster, and `8^max_depth` leaves plus the one probe a split holds while it
+    /// allocates its children's.
+    pub fn full_capacity(&self) -> (usize, u32) {
+        let leaves = 8u64.pow(self.max_depth);
+        let clusters = (leaves - 1) / 7;
+        (1 + 9 * clusters as usize, leaves as u32 + 1)
     }
 }
 
@@ -87,6 +152,16 @@ pub struct OctreeProbe {
     pub depth: u32,
 }
 
+impl OctreeProbe {
+    /// The probe's record in the GPU's probe-info buffer: position and depth, or
+    /// `(0, 0, 0, -1)` for a free slot.
+    pub fn gpu_info(probe: Option<&OctreeProbe>) -> [f32; 4] {
+        probe.map_or([0.0, 0.0, 0.0, -1.0], |p| {
+            p.position.extend(p.depth as f32).to_array()
+        })
+    }
+}
+
 /// The probe octree with its allocators and leaf ring.
 pub struct ProbeOctree {
     /// The octree buffer.
@@ -96,8 +171,8 @@ pub struct ProbeOctree {
     free_clusters: Vec<u32>,
     ring: [BTreeMap<u32, State>; 3],
     origin: usize,
-    /// Collapsed parents that may not split again until geometry moves through them.
-    no_split: BTreeSet<u32>,
+    /// Per node: a collapsed parent that may not split again until geometry moves through it.
+    no_split: Vec<bool>,
     lo: Vec3,
     size: f32,
     rule: OctreeRule,
@@ -122,7 +197,7 @@ impl ProbeOctree {
             free_clusters: (0..clusters as u32).rev().map(|k| 1 + 9 * k).collect(),
             ring: Default::default(),
             origin: 0,
-            no_split: BTreeSet::new(),
+            no_split: vec![false; len],
             lo,
             size,
             rule,
@@ -131,16 +206,12 @@ impl ProbeOctree {
         tree
     }
 
-    /// Pushes `state` for `node` into segment `origin + offset`; M0 and L0 override any other
-    /// state of their kind, otherwise the first push wins.
+    /// Pushes `state` for `node` into segment `origin + offset`; the higher code wins.
     fn push(&mut self, offset: usize, node: u32, state: State) {
         let segment = &mut self.ring[(self.origin + offset) % 3];
-        match segment.get(&node) {
-            Some(State::M0 | State::L0) => {}
-            Some(_) if !matches!(state, State::M0 | State::L0) => {}
-            _ => {
-                segment.insert(node, state);
-            }
+        let old = segment.get(&node).map_or(0, |s| s.code());
+        if state.code() > old {
+            segment.insert(node, state);
         }
     }
 
@@ -180,6 +251,42 @@ impl ProbeOctree {
         self.probes.iter().flatten()
     }
 
+    /// The probe in slot `p`, if allocated.
+    pub fn probe(&self, p: u32) -> Option<&OctreeProbe> {
+        self.probes.get(p as usize)?.as_ref()
+    }
+
+    /// Per probe slot its GPU record ([`OctreeProbe::gpu_info`]).
+    pub fn probe_info(&self) -> Vec<[f32; 4]> {
+        self.probes
+            .iter()
+            .map(|p| OctreeProbe::gpu_info(p.as_ref()))
+            .collect()
+    }
+
+    /// The free lists as stacks (the next pop is the last element): probe slots, clusters.
+    pub fn free_lists(&self) -> (&[u32], &[u32]) {
+        (&self.free_probes, &self.free_clusters)
+    }
+
+    /// The ring as the GPU holds it: per segment `k` and node `i`, word `k x len + i` is the
+    /// [`State::code`] queued (0 none); and the pull origin of the next frame.
+    pub fn ring_codes(&self) -> (Vec<u32>, usize) {
+        let len = self.nodes.len();
+        let mut codes = vec![0; 3 * len];
+        for (k, segment) in self.ring.iter().enumerate() {
+            for (&node, state) in segment {
+                codes[k * len + node as usize] = state.code();
+            }
+        }
+        (codes, self.origin)
+    }
+
+    /// Per node whether it is a collapsed parent that may not split again yet.
+    pub fn no_split(&self) -> &[bool] {
+        &self.no_split
+    }
+
     /// Leaves (nodes reachable from the root that have no children).
     pub fn leaves(&self) -> Vec<u32> {
         let mut out = Vec::new();
@@ -203,172 +310,184 @@ impl ProbeOctree {
             .collect()
     }
 
-    fn alloc_probe(&mut self, node: u32) -> Option<u32> {
-        let p = self.free_probes.pop()?;
+    /// Gives leaf `node` probe slot `p`.
+    fn set_probe(&mut self, node: u32, p: u32) {
         let (lo, size, depth) = self.cube(node);
         self.probes[p as usize] = Some(OctreeProbe {
             position: lo + Vec3::splat(size * 0.5),
             depth,
         });
-        Some(p)
+        self.nodes[node as usize] = !(p as i32);
     }
 
-    fn free_probe_of(&mut self, node: u32) {
+    /// Takes the probe of leaf `node` (its slot is returned to the free list by the caller).
+    fn take_probe(&mut self, node: u32) -> Option<u32> {
         let v = self.nodes[node as usize];
-        if v < 0 {
+        (v < 0).then(|| {
             let p = !v as u32;
             self.probes[p as usize] = None;
-            self.free_probes.push(p);
             self.nodes[node as usize] = 0;
-        }
+            p
+        })
+    }
+
+    /// Whether `node` still belongs to the tree (the root, or its cluster is allocated).
+    fn in_live_cluster(&self, node: u32) -> bool {
+        node == 0 || self.nodes[Self::meta_of(node) as usize] != 0
     }
 
     /// One frame: the memory update, then the light update. `moved` holds the boxes of the
-    /// geometry that changed this frame (old and new bounds); `hit_fraction(lo, size, depth)`
-    /// is the share of a probe's surfels that land inside its cube.
-    pub fn frame(&mut self, moved: &[(Vec3, Vec3)], hit_fraction: impl Fn(Vec3, f32, u32) -> f32) {
+    /// geometry that changed this frame (old and new bounds); `hits(slot, probe)` is the
+    /// number of the probe's surfels (of [`OctreeRule::surfels`]) that land inside its cube.
+    pub fn frame(&mut self, moved: &[(Vec3, Vec3)], hits: impl Fn(u32, &OctreeProbe) -> u32) {
         // Memory update: pull segment origin; L items go to origin + 1 (lit this frame), M
         // items to origin + 2 (next frame's memory update).
-        let pulled = std::mem::take(&mut self.ring[self.origin]);
-        for (node, state) in pulled {
-            debug_assert!(state.is_memory());
-            self.memory_update(node, state);
-        }
+        self.memory_update();
         // Light update: pull origin + 1; M items to origin + 2, L items to origin + 3 =
         // origin (next frame's light segment, (origin + 2) + 1).
-        let pulled = std::mem::take(&mut self.ring[(self.origin + 1) % 3]);
-        for (node, state) in pulled {
-            debug_assert!(!state.is_memory());
-            self.light_update(node, state, moved, &hit_fraction);
-        }
+        self.light_update(moved, &hits);
         self.origin = (self.origin + 2) % 3;
     }
 
-    fn memory_update(&mut self, node: u32, state: State) {
-        let v = self.nodes[node as usize];
-        match state {
-            State::M0 => {}
-            State::M1 => {
-                if v != 0 {
-                    return;
-                }
-                match self.alloc_probe(node) {
-                    Some(p) => {
-                        self.nodes[node as usize] = !(p as i32);
-                        self.push(1, node, State::L1);
-                    }
-                    None => self.push(1, node, State::L3),
-                }
+    fn memory_update(&mut self) {
+        let pulled = std::mem::take(&mut self.ring[self.origin]);
+        debug_assert!(pulled.values().all(|s| s.is_memory()));
+        let of = |state: State| {
+            pulled
+                .iter()
+                .filter(move |(_, &s)| s == state)
+                .map(|(&node, _)| node)
+        };
+        // (node, slot) of every probe freed in this update.
+        let mut freed_probes = Vec::new();
+        // 1. M2: free the probe.
+        for node in of(State::M2) {
+            if let Some(p) = self.take_probe(node) {
+                freed_probes.push((node, p));
             }
-            State::M2 => {
-                self.free_probe_of(node);
-                if let Some(parent) = self.parent(node) {
-                    self.push(2, parent, State::M4);
-                }
-                // Orphan fix: the freed leaf keeps watching for moving geometry.
-                self.push(1, node, State::L3);
+            if let Some(parent) = self.parent(node) {
+                self.push(2, parent, State::M4);
             }
-            State::M3 => {
-                if v >= 0 {
-                    return;
-                }
-                let Some(cluster) = self.free_clusters.pop() else {
-                    self.push(1, node, State::L2);
-                    return;
+            // Orphan fix: the freed leaf keeps watching for moving geometry.
+            self.push(1, node, State::L3);
+        }
+        // 2. M4: which clusters to free is decided on the tree after step 1, then applied.
+        let collapsing: Vec<u32> = of(State::M4)
+            .filter(|&node| {
+                let v = self.nodes[node as usize];
+                v > 0 && (1..=8).all(|k| self.nodes[(v + k) as usize] == 0)
+            })
+            .collect();
+        let mut freed_clusters = Vec::new();
+        for &node in &collapsing {
+            let cluster = self.nodes[node as usize] as u32;
+            self.nodes[cluster as usize] = 0;
+            self.nodes[node as usize] = 0;
+            freed_clusters.push(cluster);
+            for k in 1..=8 {
+                self.push(1, cluster + k, State::L0);
+            }
+            if let Some(parent) = self.parent(node) {
+                self.push(2, parent, State::M4);
+            }
+            // Collapse fix: the parent asks for a probe again and does not split again
+            // until geometry moves through it.
+            self.no_split[node as usize] = true;
+            self.push(2, node, State::M1);
+        }
+        // 3. M1 and M3 allocate in node order from the free lists as they were before this
+        // update: a request succeeds when it and all before it fit.
+        let (mut clusters_used, mut probes_used, mut fits) = (0, 0, true);
+        for (&node, &state) in &pulled {
+            let v = self.nodes[node as usize];
+            let (clusters, probes) = match state {
+                State::M1 if v == 0 && self.in_live_cluster(node) => (0, 1),
+                State::M3 if v < 0 => (1, 8),
+                _ => continue,
+            };
+            fits = fits
+                && clusters_used + clusters <= self.free_clusters.len()
+                && probes_used + probes <= self.free_probes.len();
+            if !fits {
+                // M1 keeps watching; M3 keeps its probe.
+                let next = if state == State::M1 {
+                    State::L3
+                } else {
+                    State::L2
                 };
+                self.push(1, node, next);
+                continue;
+            }
+            let probe = |tree: &Self, j: usize| {
+                tree.free_probes[tree.free_probes.len() - 1 - probes_used - j]
+            };
+            if state == State::M1 {
+                let p = probe(self, 0);
+                self.set_probe(node, p);
+                self.push(1, node, State::L1);
+            } else {
+                let cluster = self.free_clusters[self.free_clusters.len() - 1 - clusters_used];
                 // Link the cluster: meta first (its parent), then the parent's word.
                 self.nodes[cluster as usize] = !(node as i32);
                 self.nodes[node as usize] = cluster as i32;
-                let mut made = Vec::new();
                 for k in 1..=8 {
                     let child = cluster + k;
-                    match self.alloc_probe(child) {
-                        Some(p) => made.push((child, p)),
-                        None => break,
-                    }
-                }
-                if made.len() < 8 {
-                    // Undo: the node keeps its probe and stays a leaf.
-                    for (_, p) in made {
-                        self.probes[p as usize] = None;
-                        self.free_probes.push(p);
-                    }
-                    self.nodes[node as usize] = v;
-                    self.nodes[cluster as usize] = 0;
-                    self.free_clusters.push(cluster);
-                    self.push(1, node, State::L2);
-                    return;
+                    let p = probe(self, k as usize - 1);
+                    self.no_split[child as usize] = false;
+                    self.set_probe(child, p);
+                    self.push(1, child, State::L1);
                 }
                 let own = !v as u32;
                 self.probes[own as usize] = None;
-                self.free_probes.push(own);
-                for (child, p) in made {
-                    self.nodes[child as usize] = !(p as i32);
-                    self.push(1, child, State::L1);
-                }
+                freed_probes.push((node, own));
             }
-            State::M4 => {
-                if v <= 0 {
-                    return;
-                }
-                let cluster = v as u32;
-                if (1..=8).any(|k| self.nodes[(cluster + k) as usize] != 0) {
-                    return;
-                }
-                self.nodes[cluster as usize] = 0;
-                self.free_clusters.push(cluster);
-                self.nodes[node as usize] = 0;
-                for k in 1..=8 {
-                    self.push(1, cluster + k, State::L0);
-                }
-                if let Some(parent) = self.parent(node) {
-                    self.push(2, parent, State::M4);
-                }
-                // Collapse fix: the parent asks for a probe again and does not split again
-                // until geometry moves through it.
-                self.no_split.insert(node);
-                self.push(2, node, State::M1);
-            }
-            _ => unreachable!("light state {state:?} in the memory segment"),
+            clusters_used += clusters;
+            probes_used += probes;
         }
+        self.free_clusters
+            .truncate(self.free_clusters.len() - clusters_used);
+        self.free_probes
+            .truncate(self.free_probes.len() - probes_used);
+        // 4. What this update freed goes back on the free lists, in node order.
+        freed_probes.sort_unstable();
+        self.free_probes
+            .extend(freed_probes.into_iter().map(|(_, p)| p));
+        self.free_clusters.extend(freed_clusters);
     }
 
-    fn light_update(
-        &mut self,
-        node: u32,
-        state: State,
-        moved: &[(Vec3, Vec3)],
-        hit_fraction: &impl Fn(Vec3, f32, u32) -> f32,
-    ) {
-        if state == State::L0 {
-            return;
-        }
-        let v = self.nodes[node as usize];
-        if v > 0 {
-            // Became a parent: its children carry on.
-            return;
-        }
-        let (lo, size, depth) = self.cube(node);
-        let mut state = state;
-        if moved
-            .iter()
-            .any(|&b| overlaps((lo, lo + Vec3::splat(size)), b))
-        {
-            self.no_split.remove(&node);
-            if v == 0 {
-                self.push(2, node, State::M1);
-                return;
+    fn light_update(&mut self, moved: &[(Vec3, Vec3)], hits: &impl Fn(u32, &OctreeProbe) -> u32) {
+        let pulled = std::mem::take(&mut self.ring[(self.origin + 1) % 3]);
+        for (node, state) in pulled {
+            debug_assert!(!state.is_memory());
+            if state == State::L0 {
+                continue;
             }
-            state = State::L1;
-        }
-        match state {
-            State::L1 if v < 0 => {
-                let f = hit_fraction(lo, size, depth);
-                if f < self.rule.f_lower {
+            let v = self.nodes[node as usize];
+            if v > 0 {
+                // Became a parent: its children carry on.
+                continue;
+            }
+            let (lo, size, depth) = self.cube(node);
+            let mut state = state;
+            if moved
+                .iter()
+                .any(|&b| overlaps((lo, lo + Vec3::splat(size)), b))
+            {
+                self.no_split[node as usize] = false;
+                if v == 0 {
+                    self.push(2, node, State::M1);
+                    continue;
+                }
+                state = State::L1;
+            }
+            if state == State::L1 && v < 0 {
+                let p = !v as u32;
+                let h = self.probes[p as usize].map_or(0, |probe| hits(p, &probe));
+                if h < self.rule.free_below() {
                     self.push(2, node, State::M2);
-                } else if f >= self.rule.f_upper
+                } else if h >= self.rule.split_from()
                     && depth < self.rule.max_depth
-                    && !self.no_split.contains(&node)
+                    && !self.no_split[node as usize]
                 {
                     self.push(2, node, State::M3);
                     if let Some(parent) = self.parent(node) {
@@ -377,12 +496,10 @@ impl ProbeOctree {
                 } else {
                     self.push(0, node, State::L2);
                 }
-            }
-            State::L1 | State::L2 | State::L3 => {
+            } else {
                 let next = if v < 0 { State::L2 } else { State::L3 };
                 self.push(0, node, next);
             }
-            _ => unreachable!("memory state {state:?} in the light segment"),
         }
     }
 }
@@ -390,6 +507,11 @@ impl ProbeOctree {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Hits of a probe of 64 surfels with hit fraction `f`.
+    fn hits(f: f32) -> u32 {
+        (f * 64.0) as u32
+    }
 
     fn tree(depth: u32, clusters: usize, probes: u32) -> ProbeOctree {
         ProbeOctree::new(
@@ -433,6 +555,7 @@ mod tests {
             if meta < 0 {
                 assert_eq!(t.nodes[!meta as usize], m as i32, "cluster {m}'s parent");
                 assert!(!t.free_clusters.contains(&(m as u32)));
+                assert!(t.in_live_cluster(m as u32 + 1));
             } else {
                 assert!(t.free_clusters.contains(&(m as u32)), "cluster {m} lost");
             }
@@ -446,7 +569,7 @@ mod tests {
         let mut t = tree(2, 9, 100);
         let mut counts = Vec::new();
         for _ in 0..8 {
-            t.frame(&[], |_, _, _| 1.0);
+            t.frame(&[], |_, _| 64);
             check(&t);
             counts.push(t.probe_count());
         }
@@ -466,7 +589,7 @@ mod tests {
         // cannot split (no cluster left) and keep their probes (M3 failure -> L2).
         let mut t = ProbeOctree::new(15, 100, Vec3::ZERO, 8.0, OctreeRule::default());
         for _ in 0..10 {
-            t.frame(&[], |_, _, _| 1.0);
+            t.frame(&[], |_, _| 64);
             check(&t);
         }
         assert_eq!(t.probe_count(), 8);
@@ -474,7 +597,7 @@ mod tests {
         // Too few probes for a split's 8 children: the split is undone, the root keeps its.
         let mut t = tree(2, 9, 5);
         for _ in 0..6 {
-            t.frame(&[], |_, _, _| 1.0);
+            t.frame(&[], |_, _| 64);
             check(&t);
         }
         assert_eq!(t.probe_count(), 1);
@@ -489,10 +612,10 @@ mod tests {
         // child must get a probe again, which needs it to still be in the leaf ring (004's
         // M2 pushes only the parent, and the leaf would never be visited again).
         let mut t = tree(1, 9, 100);
-        let f = |lo: Vec3, _: f32, depth: u32| match depth {
-            0 => 1.0,
-            _ if lo == Vec3::ZERO => 0.1,
-            _ => 0.4,
+        let f = |_, p: &OctreeProbe| match p.depth {
+            0 => 64,
+            _ if p.position == Vec3::splat(2.0) => hits(0.1),
+            _ => hits(0.4),
         };
         for _ in 0..8 {
             t.frame(&[], f);
@@ -505,8 +628,8 @@ mod tests {
         assert!(t.nodes[0] > 0, "the parent kept its cluster");
         assert_eq!(t.queued(child), [State::L3], "still watched");
         // Geometry moves through the freed cube: a probe comes back.
-        t.frame(&[(Vec3::splat(1.0), Vec3::splat(2.0))], |_, _, _| 0.4);
-        t.frame(&[], |_, _, _| 0.4);
+        t.frame(&[(Vec3::splat(1.0), Vec3::splat(2.0))], |_, _| hits(0.4));
+        t.frame(&[], |_, _| hits(0.4));
         check(&t);
         assert!(
             t.nodes[child as usize] < 0,
@@ -522,7 +645,7 @@ mod tests {
         // In 004 the collapsed root stays probe-less for good; here it asks for a probe again
         // and keeps it without splitting again: one probe, stable.
         let mut t = tree(2, 9, 100);
-        let f = |_: Vec3, _: f32, depth: u32| if depth == 0 { 0.6 } else { 0.1 };
+        let f = |_, p: &OctreeProbe| if p.depth == 0 { hits(0.6) } else { hits(0.1) };
         let mut counts = Vec::new();
         for _ in 0..16 {
             t.frame(&[], f);
@@ -543,7 +666,7 @@ mod tests {
     fn low_hit_fractions_free_everything_and_the_root_still_watches() {
         let mut t = tree(2, 9, 100);
         for _ in 0..3 {
-            t.frame(&[], |_, _, _| 0.1);
+            t.frame(&[], |_, _| hits(0.1));
             check(&t);
         }
         assert_eq!(t.probe_count(), 0);

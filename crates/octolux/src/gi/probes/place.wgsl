@@ -1,6 +1,8 @@
 // Surfel placement: one ray per surfel from its probe along its lattice direction, through
 // the scene's BVH; the closest hit becomes the surfel (position, normal facing the probe,
-// albedo, emission), marked front or back face, or a miss.
+// albedo, emission), marked front or back face, or a miss. Only probes the probe set asks
+// for are placed; a hit beyond the probe's region (the octree's cube) is marked by a negative
+// distance, or is a miss where the set keeps no far hits.
 
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
@@ -16,11 +18,15 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     let n = P.dims.w;
     let probe = s / n;
+    if !probe_wants_place(probe) {
+        return;
+    }
     let d = lattice_dir(P.misc.x, s % n, n).xyz;
-    let o = probe_position(probe_coord(probe));
+    let o = probe_origin(probe);
     let hit = bvh_closest(P.roots.xy, o, d, P.lo.w);
+    let inside = hit.t <= probe_region_exit(probe, d);
     let b = s * SURFEL_VEC4;
-    if hit.tri == BVH_MISS {
+    if hit.tri == BVH_MISS || !(inside || probe_keeps_far_hits()) {
         surfels[b] = vec4<f32>(o, 0.0);
         surfels[b + 1u] = vec4<f32>(0.0);
         surfels[b + 2u] = vec4<f32>(0.0);
@@ -31,5 +37,5 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     let tri = bvh_tris[hit.tri];
     surfels[b] = vec4<f32>(o + d * hit.t, select(2.0, 1.0, front));
     surfels[b + 1u] = vec4<f32>(select(-geo, geo, front), tri.p0.w);
-    surfels[b + 2u] = vec4<f32>(tri.emission.rgb, hit.t);
+    surfels[b + 2u] = vec4<f32>(tri.emission.rgb, select(-hit.t, hit.t, inside));
 }

@@ -1,0 +1,596 @@
+//! `probes-octree`: `004`'s adaptive probe octree on the GPU. The octree (the encoding of
+//! [`super::octree`], one `i32` buffer), its free lists and leaf ring live in GPU buffers; the
+//! state machine runs in three compute passes per frame (octree.wgsl), driven by each probe's
+//! surfel hit count inside its cube, and reaches the same buffers bit for bit as the CPU
+//! specification [`ProbeOctree`](super::octree::ProbeOctree) from the same hit counts (tested).
+//! Leaves whose cubes meet the old or new bounds of a moving object are re-placed (L1) or ask
+//! for a probe (M1). Placement, surfel light, integration and the gather are the shared probe
+//! passes over the octree's probe set (octree_set.wgsl, octree_sample.wgsl); a pixel reads the
+//! probes of the few leaves around it ([`OctreeView::irradiance`] is the CPU twin).
+
+use super::encoding::COEFFS;
+use super::grid::facing_weight;
+use super::octree::{OctreeProbe, OctreeRule, State};
+use super::passes::{
+    bind_at, buf, run_pass, storage, ProbeLayout, ProbePasses, ProbeSetWgsl, PROBE_VEC4,
+};
+use super::{OctreeGather, ProbeSettings, SurfelRange};
+use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::{GpuContext, PassTimer};
+use crate::scene::Scene;
+use crate::voxel::voxelize::dispatch_size;
+use crate::{Error, Result};
+use glam::{Mat4, UVec3, Vec3};
+
+const OWNER: &str = "probes-octree";
+/// Words before the free lists in the state buffer (tops of the two free lists, 2 spare).
+const STATE_HEAD: usize = 4;
+
+/// `OctreeParams` in octree_tree.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct OctreeParams {
+    root: [f32; 4],
+    sizes: [u32; 4],
+    frame: [u32; 4],
+    modes: [u32; 4],
+}
+
+/// The WGSL of the octree's encoding, shared by the state machine and the probe set.
+const TREE_WGSL: &str = include_str!("octree_tree.wgsl");
+
+/// The probe octree in GPU buffers and the passes of its state machine.
+pub struct GpuOctree {
+    rule: OctreeRule,
+    params: OctreeParams,
+    params_buffer: wgpu::Buffer,
+    tree: wgpu::Buffer,
+    probe_info: wgpu::Buffer,
+    place_flags: wgpu::Buffer,
+    hits: wgpu::Buffer,
+    state: wgpu::Buffer,
+    ring: wgpu::Buffer,
+    boxes: wgpu::Buffer,
+    box_room: usize,
+    memory_update: wgpu::ComputePipeline,
+    light_select: wgpu::ComputePipeline,
+    light_decide: wgpu::ComputePipeline,
+    origin: u32,
+}
+
+/// Creates a storage buffer holding `data` under `owner`.
+fn init(ctx: &GpuContext, label: &str, data: &[u8]) -> Result<wgpu::Buffer> {
+    let b = storage(ctx, OWNER, label, data.len() as u64)?;
+    ctx.queue.write_buffer(&b, 0, data);
+    Ok(b)
+}
+
+impl GpuOctree {
+    /// An octree over the cube at `lo` of edge `size` with room for the full tree of
+    /// `rule.max_depth` levels, its root asking for a probe (as [`ProbeOctree::new`] with
+    /// [`OctreeRule::full_capacity`]).
+    ///
+    /// [`ProbeOctree::new`]: super::octree::ProbeOctree::new
+    pub fn new(ctx: &GpuContext, rule: OctreeRule, lo: Vec3, size: f32) -> Result<GpuOctree> {
+        let (len, capacity) = rule.full_capacity();
+        Self::with_room(ctx, rule, lo, size, len, capacity)
+    }
+
+    /// [`GpuOctree::new`] with a tree buffer of `len` words and `capacity` probe slots.
+    pub(crate) fn with_room(
+        ctx: &GpuContext,
+        rule: OctreeRule,
+        lo: Vec3,
+        size: f32,
+        len: usize,
+        capacity: u32,
+    ) -> Result<GpuOctree> {
+        let clusters = (len - 1) / 9;
+        let mut state = vec![0u32; STATE_HEAD + capacity as usize + clusters + 3 * len];
+        state[0] = capacity;
+        state[1] = clusters as u32;
+        for (k, p) in (0..capacity).rev().enumerate() {
+            state[STATE_HEAD + k] = p;
+        }
+        for (k, c) in (0..clusters as u32).rev().enumerate() {
+            state[STATE_HEAD + capacity as usize + k] = 1 + 9 * c;
+        }
+        let mut ring = vec![0u32; 3 * len];
+        ring[0] = State::M1.code();
+        let info = vec![OctreeProbe::gpu_info(None); capacity as usize];
+        let params = OctreeParams {
+            root: lo.extend(size).to_array(),
+            sizes: [len as u32, capacity, clusters as u32, rule.max_depth],
+            frame: [0, 0, rule.free_below(), rule.split_from()],
+            modes: [0; 4],
+        };
+        let module = ctx.shader(
+            "probes octree",
+            &[TREE_WGSL, include_str!("octree.wgsl")].join("\n"),
+        );
+        let zeros = |n: usize| vec![0u8; 4 * n];
+        Ok(GpuOctree {
+            rule,
+            params,
+            params_buffer: init(ctx, "octree params", bytemuck::bytes_of(&params))?,
+            tree: init(ctx, "octree", &zeros(len))?,
+            probe_info: init(ctx, "octree probe info", bytemuck::cast_slice(&info))?,
+            place_flags: init(ctx, "octree place flags", &zeros(capacity as usize))?,
+            hits: init(ctx, "octree hits", &zeros(capacity as usize))?,
+            state: init(ctx, "octree free lists", bytemuck::cast_slice(&state))?,
+            ring: init(ctx, "octree leaf ring", bytemuck::cast_slice(&ring))?,
+            boxes: init(ctx, "octree moved boxes", &zeros(8))?,
+            box_room: 1,
+            memory_update: ctx.compute_pipeline("probes memory update", &module, "memory_update"),
+            light_select: ctx.compute_pipeline("probes light select", &module, "light_select"),
+            light_decide: ctx.compute_pipeline("probes light decide", &module, "light_decide"),
+            origin: 0,
+        })
+    }
+
+    /// The split/free rule.
+    pub fn rule(&self) -> &OctreeRule {
+        &self.rule
+    }
+
+    /// Probe slots.
+    pub fn capacity(&self) -> u32 {
+        self.params.sizes[1]
+    }
+
+    /// The buffers a test reads back: the tree, the probe info, the state (free-list tops,
+    /// free lists, per-node marks) and the ring.
+    pub fn buffers(&self) -> [&wgpu::Buffer; 4] {
+        [&self.tree, &self.probe_info, &self.state, &self.ring]
+    }
+
+    /// Probes allocated, read back from the GPU (for tools and tests; waits for the GPU).
+    pub fn probe_count(&self, ctx: &GpuContext) -> Result<u32> {
+        let words = crate::gpu::read_buffer(ctx, &self.state, 0, 4)?;
+        Ok(self.capacity() - bytemuck::cast_slice::<u8, u32>(&words)[0])
+    }
+
+    /// The per-probe hit counts `light_decide` reads (the integration writes them).
+    pub fn hits_buffer(&self) -> &wgpu::Buffer {
+        &self.hits
+    }
+
+    /// Uploads this frame's parameters: the ring origin, the moved boxes, the modes.
+    pub fn begin_frame(
+        &mut self,
+        ctx: &GpuContext,
+        moved: &[(Vec3, Vec3)],
+        modes: [u32; 3],
+    ) -> Result<()> {
+        if moved.len() > self.box_room {
+            self.boxes = storage(ctx, OWNER, "octree moved boxes", moved.len() as u64 * 32)?;
+            self.box_room = moved.len();
+        }
+        let boxes: Vec<[f32; 4]> = moved
+            .iter()
+            .flat_map(|(lo, hi)| [lo.extend(0.0).to_array(), hi.extend(0.0).to_array()])
+            .collect();
+        if !boxes.is_empty() {
+            ctx.queue
+                .write_buffer(&self.boxes, 0, bytemuck::cast_slice(&boxes));
+        }
+        self.params.frame[0] = self.origin;
+        self.params.frame[1] = moved.len() as u32;
+        self.params.modes = [modes[0], modes[1], modes[2], 0];
+        ctx.queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        Ok(())
+    }
+
+    /// The memory update (M states).
+    pub fn memory_update(&self, ctx: &GpuContext, timer: &mut PassTimer) {
+        let group = bind_at(
+            ctx,
+            "probes memory update",
+            &self.memory_update,
+            0,
+            &[
+                (0, buf(&self.params_buffer)),
+                (1, buf(&self.tree)),
+                (2, buf(&self.probe_info)),
+                (5, buf(&self.state)),
+                (6, buf(&self.ring)),
+            ],
+        );
+        run_pass(
+            timer,
+            "probes memory update",
+            &self.memory_update,
+            &[&group],
+            (1, 1),
+        );
+    }
+
+    fn node_groups(&self) -> (u32, u32) {
+        dispatch_size(self.params.sizes[0])
+    }
+
+    /// The light update's first half: moved geometry, L1 leaves ask for surfels.
+    pub fn light_select(&self, ctx: &GpuContext, timer: &mut PassTimer) {
+        let group = bind_at(
+            ctx,
+            "probes light select",
+            &self.light_select,
+            0,
+            &[
+                (0, buf(&self.params_buffer)),
+                (1, buf(&self.tree)),
+                (3, buf(&self.place_flags)),
+                (5, buf(&self.state)),
+                (6, buf(&self.ring)),
+                (7, buf(&self.boxes)),
+            ],
+        );
+        let size = self.node_groups();
+        run_pass(
+            timer,
+            "probes light select",
+            &self.light_select,
+            &[&group],
+            size,
+        );
+    }
+
+    /// The light update's second half: the split/free rule from the hit counts.
+    pub fn light_decide(&self, ctx: &GpuContext, timer: &mut PassTimer) {
+        let group = bind_at(
+            ctx,
+            "probes light decide",
+            &self.light_decide,
+            0,
+            &[
+                (0, buf(&self.params_buffer)),
+                (1, buf(&self.tree)),
+                (2, buf(&self.probe_info)),
+                (3, buf(&self.place_flags)),
+                (4, buf(&self.hits)),
+                (5, buf(&self.state)),
+                (6, buf(&self.ring)),
+            ],
+        );
+        let size = self.node_groups();
+        run_pass(
+            timer,
+            "probes light decide",
+            &self.light_decide,
+            &[&group],
+            size,
+        );
+    }
+
+    /// Ends the frame: the next pull origin (`004`: p <- (p + 2) mod 3).
+    pub fn end_frame(&mut self) {
+        self.origin = (self.origin + 2) % 3;
+    }
+
+    /// Bind group 1 (octree_set.wgsl) of a shared probe pass, with the bindings it uses:
+    /// `uses` holds params, tree, probe info, place flags, hits.
+    fn set_group(
+        &self,
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        uses: [bool; 5],
+    ) -> wgpu::BindGroup {
+        let all = [
+            &self.params_buffer,
+            &self.tree,
+            &self.probe_info,
+            &self.place_flags,
+            &self.hits,
+        ];
+        let entries: Vec<(u32, wgpu::BindingResource)> = all
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| uses[i])
+            .map(|(i, b)| (i as u32, buf(b)))
+            .collect();
+        bind_at(ctx, "probes octree set", pipeline, 1, &entries)
+    }
+}
+
+/// The octree as the gather reads it, on the CPU: the CPU twin of octree_sample.wgsl over
+/// buffers read back from the GPU.
+pub struct OctreeView<'a> {
+    /// Lower corner of the root cube.
+    pub lo: Vec3,
+    /// Edge of the root cube.
+    pub size: f32,
+    /// Deepest level.
+    pub max_depth: u32,
+    /// Gather offset along the normal (m).
+    pub bias: f32,
+    /// The tree buffer.
+    pub nodes: &'a [i32],
+    /// Per probe slot: position and depth, or (0, 0, 0, -1).
+    pub info: &'a [[f32; 4]],
+}
+
+impl OctreeView<'_> {
+    /// The leaf holding `q` (inside the root cube) and its depth: `octree_leaf`.
+    pub fn leaf(&self, q: Vec3) -> (u32, u32) {
+        let (mut node, mut lo, mut size) = (0u32, self.lo, self.size);
+        for d in 0..=self.max_depth {
+            let v = self.nodes[node as usize];
+            if v <= 0 {
+                return (node, d);
+            }
+            let half = size * 0.5;
+            let upper = q.cmpge(lo + Vec3::splat(half));
+            lo += Vec3::select(upper, Vec3::splat(half), Vec3::ZERO);
+            size = half;
+            node = v as u32 + 1 + upper.bitmask();
+        }
+        (node, self.max_depth)
+    }
+
+    fn edge(&self, probe: usize) -> f32 {
+        self.size * 2f32.powi(-(self.info[probe][3] as i32))
+    }
+
+    /// Irradiance at `p` (unit normal `n`) from `probes` (the probe buffer's `vec4`s):
+    /// `probes_irradiance` of octree_sample.wgsl.
+    pub fn irradiance(
+        &self,
+        settings: &ProbeSettings,
+        probes: &[[f32; 4]],
+        p: Vec3,
+        n: Vec3,
+    ) -> Vec3 {
+        let q = p + n * self.bias;
+        let valid = |probe: usize| probes[probe * PROBE_VEC4 as usize + 8][2] >= 0.5;
+        let value = |probe: usize| {
+            let b = probe * PROBE_VEC4 as usize;
+            let coeffs: [Vec3; COEFFS] = std::array::from_fn(|k| Vec3::from_slice(&probes[b + k]));
+            settings.encoding.irradiance(&coeffs, n)
+        };
+        let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
+        if settings.gather == OctreeGather::All {
+            for (probe, info) in self.info.iter().enumerate() {
+                if info[3] < 0.0 || !valid(probe) {
+                    continue;
+                }
+                let x = Vec3::from_slice(info);
+                let r = x - q;
+                let e = self.edge(probe) * 0.5;
+                let w =
+                    facing_weight(x - p, n) * 2f32.powi(-3 * info[3] as i32) / r.dot(r).max(e * e);
+                sum += value(probe) * w;
+                total += w;
+            }
+        } else {
+            let (lo, hi) = (self.lo, self.lo + Vec3::splat(self.size));
+            let (_, depth) = self.leaf(q.clamp(lo, hi));
+            let mut h = self.size * 2f32.powi(-(depth as i32)) * 0.5;
+            for _ in 0..=self.max_depth + 1 {
+                let mut seen = Vec::new();
+                for c in 0..8u32 {
+                    let upper = glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
+                    let corner =
+                        (q + Vec3::select(upper, Vec3::splat(h), Vec3::splat(-h))).clamp(lo, hi);
+                    let v = self.nodes[self.leaf(corner).0 as usize];
+                    if v >= 0 || seen.contains(&(!v as usize)) {
+                        continue;
+                    }
+                    let probe = !v as usize;
+                    seen.push(probe);
+                    if !valid(probe) {
+                        continue;
+                    }
+                    let x = Vec3::from_slice(&self.info[probe]);
+                    let tent =
+                        (Vec3::ONE - (q - x).abs() / self.edge(probe).max(2.0 * h)).max(Vec3::ZERO);
+                    let w = tent.x * tent.y * tent.z * facing_weight(x - p, n);
+                    sum += value(probe) * w;
+                    total += w;
+                }
+                if total > 0.0 {
+                    break;
+                }
+                h *= 2.0;
+            }
+        }
+        if total > 0.0 {
+            sum / total
+        } else {
+            Vec3::ZERO
+        }
+    }
+}
+
+/// The root cube of the octree over `bounds`: centred on them, edge the largest extent plus
+/// 2 %, so that walls on the bounds lie inside the cubes that touch them rather than on
+/// their faces.
+pub fn root_cube(bounds: (Vec3, Vec3)) -> Result<(Vec3, f32)> {
+    let (lo, hi) = bounds;
+    let size = (hi - lo).max_element() * 1.02;
+    if !(size.is_finite() && size > 0.0) {
+        return Err(Error::InvalidArgument(format!(
+            "probes need a scene with extent; its bounds are {lo} to {hi}"
+        )));
+    }
+    Ok(((lo + hi) * 0.5 - Vec3::splat(size * 0.5), size))
+}
+
+/// World bounds of object `i` of `scene` under `m`.
+fn object_bounds(scene: &Scene, i: usize, m: &Mat4) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for &mesh in &scene.objects[i].meshes {
+        for &p in &scene.meshes[mesh as usize].positions {
+            let w = m.transform_point3(p);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    (lo, hi)
+}
+
+/// The boxes of the objects that moved between two frames' transforms: old and new bounds of
+/// each.
+pub fn moved_boxes(scene: &Scene, before: &[Mat4], now: &[Mat4]) -> Vec<(Vec3, Vec3)> {
+    let mut out = Vec::new();
+    for (i, (a, b)) in before.iter().zip(now).enumerate() {
+        if a != b {
+            out.push(object_bounds(scene, i, a));
+            out.push(object_bounds(scene, i, b));
+        }
+    }
+    out
+}
+
+/// Probe + surfel GI on `004`'s adaptive octree.
+pub struct ProbesOctree {
+    passes: ProbePasses,
+    octree: GpuOctree,
+    root: (Vec3, f32),
+    bias: f32,
+    /// Object transforms of the previous frame (None before the first).
+    last_transforms: Option<Vec<Mat4>>,
+    /// Bind group 1 of place, light, integrate and gather.
+    groups: [wgpu::BindGroup; 4],
+    /// Boxes of the objects that moved in the last frame.
+    moved: Vec<(Vec3, Vec3)>,
+}
+
+impl ProbesOctree {
+    /// The technique for `scene` at `width` x `height`.
+    pub fn new(
+        ctx: &GpuContext,
+        settings: &ProbeSettings,
+        scene: &Scene,
+        width: u32,
+        height: u32,
+    ) -> Result<ProbesOctree> {
+        settings.validate()?;
+        let (lo, size) = root_cube(scene.bounds_at(0.0))?;
+        let rule = settings.octree_rule();
+        let octree = GpuOctree::new(ctx, rule, lo, size)?;
+        let bias = settings.normal_bias * size * 2f32.powi(-(rule.max_depth as i32));
+        let layout = ProbeLayout {
+            lo,
+            spacing: Vec3::ZERO,
+            dims: UVec3::ZERO,
+            bias,
+            probes: octree.capacity(),
+        };
+        let set = ProbeSetWgsl {
+            set: &[TREE_WGSL, include_str!("octree_set.wgsl")],
+            sample: &[include_str!("octree_sample.wgsl")],
+        };
+        let passes = ProbePasses::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
+        // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits.
+        let groups = [
+            octree.set_group(ctx, &passes.place, [true, false, true, true, false]),
+            octree.set_group(ctx, &passes.light, [true, true, true, false, false]),
+            octree.set_group(ctx, &passes.integrate, [false, false, true, false, true]),
+            octree.set_group(ctx, &passes.gather, [true, true, true, false, false]),
+        ];
+        Ok(ProbesOctree {
+            passes,
+            octree,
+            root: (lo, size),
+            bias,
+            last_transforms: None,
+            groups,
+            moved: Vec::new(),
+        })
+    }
+
+    /// The indirect irradiance image.
+    pub fn indirect_texture(&self) -> &wgpu::Texture {
+        self.passes.texture()
+    }
+
+    /// The settings in use.
+    pub fn settings(&self) -> &ProbeSettings {
+        &self.passes.settings
+    }
+
+    /// The GPU octree.
+    pub fn octree(&self) -> &GpuOctree {
+        &self.octree
+    }
+
+    /// The probe buffer (per probe slot 8 coefficients, then back-face share, hit share,
+    /// valid).
+    pub fn probe_buffer(&self) -> &wgpu::Buffer {
+        self.passes.probe_buffer()
+    }
+
+    /// The boxes of the objects that moved in the last frame (old and new bounds).
+    pub fn moved(&self) -> &[(Vec3, Vec3)] {
+        &self.moved
+    }
+
+    /// The gather's view of the octree over read-back buffers.
+    pub fn view<'a>(&self, nodes: &'a [i32], info: &'a [[f32; 4]]) -> OctreeView<'a> {
+        OctreeView {
+            lo: self.root.0,
+            size: self.root.1,
+            max_depth: self.octree.rule.max_depth,
+            bias: self.bias,
+            nodes,
+            info,
+        }
+    }
+}
+
+impl GiTechnique for ProbesOctree {
+    fn name(&self) -> &str {
+        OWNER
+    }
+
+    fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
+        self.passes.begin_frame(ctx, frame)?;
+        let now = &frame.frame.object_transforms;
+        self.moved = match &self.last_transforms {
+            Some(before) => moved_boxes(frame.scene, before, now),
+            None => Vec::new(),
+        };
+        self.last_transforms = Some(now.clone());
+        let settings = &self.passes.settings;
+        let scene_range = settings.surfel_range == SurfelRange::Scene;
+        // Surfels beyond the cube see objects the moved-leaf test does not reach: while
+        // anything moves, every probe re-places them.
+        let place_all = scene_range && !self.moved.is_empty();
+        let modes = [
+            scene_range as u32,
+            (settings.gather == OctreeGather::All) as u32,
+            place_all as u32,
+        ];
+        self.octree.begin_frame(ctx, &self.moved, modes)?;
+        let [place, light, integrate, gather] = &self.groups;
+        // 1. Memory update: free, collapse, allocate (M0-M4).
+        self.octree.memory_update(ctx, timer);
+        // 2. Light update, first half: moved geometry; L1 leaves ask for surfels.
+        self.octree.light_select(ctx, timer);
+        // 3. Surfels of those probes: rays along their lattices, hits inside the cube count.
+        self.passes.place(ctx, timer, Some(place));
+        // 4. Surfel light (+ last frame's probes).
+        self.passes.light(ctx, frame, timer, Some(light))?;
+        // 5. Probes: each integrates its surfels and counts its hits inside its cube.
+        self.passes.integrate(ctx, timer, Some(integrate));
+        // 6. Light update, second half: split, free or keep by the hit counts.
+        self.octree.light_decide(ctx, timer);
+        // 7. Pixels: the probes of the leaves around each (or all probes).
+        self.passes.gather(ctx, frame, timer, Some(gather));
+        self.octree.end_frame();
+        Ok(())
+    }
+
+    fn indirect_view(&self) -> &wgpu::TextureView {
+        self.passes.view()
+    }
+
+    fn reference_bounces(&self) -> crate::reference::Bounces {
+        self.passes.reference_bounces()
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
+}

@@ -1,0 +1,80 @@
+// Irradiance from the probe octree (probes.wgsl, octree_tree.wgsl, octree_set.wgsl and
+// probe_values.wgsl go before it). CPU twin: `OctreeView::irradiance` in octree_gpu.rs.
+
+// Through the octree: at q = p + bias n, the leaves holding the 8 corners of a box of the
+// size of q's leaf around q; their probes are blended with tent weights (radius: the larger of
+// the probe's cube and the box; trilinear where the leaves are equal) times the back-face
+// weight; probes inside geometry are left out. Where none of them weighs anything the box
+// doubles, up to the root.
+fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let lo = O.root.xyz;
+    let hi = lo + vec3<f32>(O.root.w);
+    let q = p + n * P.spacing.w;
+    let leaf = octree_leaf(clamp(q, lo, hi));
+    var h = ldexp(O.root.w, -i32(leaf.y)) * 0.5;
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var level = 0u; level <= O.sizes.w + 1u; level++) {
+        var seen: array<u32, 8>;
+        var count = 0u;
+        for (var c = 0u; c < 8u; c++) {
+            let upper = vec3<bool>((c & 1u) != 0u, (c & 2u) != 0u, (c & 4u) != 0u);
+            let corner = clamp(q + select(vec3<f32>(-h), vec3<f32>(h), upper), lo, hi);
+            let v = tree[octree_leaf(corner).x];
+            if v >= 0 {
+                continue;
+            }
+            let probe = u32(~v);
+            var known = false;
+            for (var k = 0u; k < count; k++) {
+                known = known || seen[k] == probe;
+            }
+            if known {
+                continue;
+            }
+            seen[count] = probe;
+            count += 1u;
+            if !probe_valid(probe) {
+                continue;
+            }
+            let x = probe_info[probe].xyz;
+            let tent = max(vec3<f32>(1.0) - abs(q - x) / max(probe_edge(probe), 2.0 * h), vec3<f32>(0.0));
+            let w = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
+            sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
+            total += w;
+        }
+        if total > 0.0 {
+            break;
+        }
+        h *= 2.0;
+    }
+    return select(vec3<f32>(0.0), sum / total, total > 0.0);
+}
+
+// 004's loop over every probe: the back-face weight times 8^-depth / max(r^2, (edge / 2)^2),
+// r the distance from q to the probe (004 attenuates by distance and by the probe's volume
+// and clamps inside its cube); normalised by the weights' sum.
+fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let q = p + n * P.spacing.w;
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var probe = 0u; probe < P.roots.z; probe++) {
+        if !probe_live(probe) || !probe_valid(probe) {
+            continue;
+        }
+        let x = probe_info[probe].xyz;
+        let r = x - q;
+        let e = probe_edge(probe) * 0.5;
+        let w = probe_facing_weight(x - p, n) * ldexp(1.0, -3 * i32(probe_info[probe].w)) / max(dot(r, r), e * e);
+        sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
+        total += w;
+    }
+    return select(vec3<f32>(0.0), sum / total, total > 0.0);
+}
+
+fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    if O.modes.y != 0u {
+        return all_probes_irradiance(p, n);
+    }
+    return octree_irradiance(p, n);
+}

@@ -1,0 +1,41 @@
+// The probe set of `probes-octree` (gi/probes/octree_gpu.rs): one probe at the centre of each
+// leaf that holds one; a probe's surfels are placed when the state machine asks for them (or
+// every frame while objects move and surfels beyond the cube are kept). The includer declares
+// `P: ProbeParams`; octree_tree.wgsl goes with it.
+
+@group(1) @binding(0) var<storage, read> O: OctreeParams;
+@group(1) @binding(1) var<storage, read> tree: array<i32>;
+@group(1) @binding(2) var<storage, read> probe_info: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> place_flags: array<u32>;
+@group(1) @binding(4) var<storage, read_write> hits: array<u32>;
+
+fn probe_origin(probe: u32) -> vec3<f32> {
+    return probe_info[probe].xyz;
+}
+
+fn probe_live(probe: u32) -> bool {
+    return probe_info[probe].w >= 0.0;
+}
+
+fn probe_wants_place(probe: u32) -> bool {
+    return probe_live(probe) && (place_flags[probe] != 0u || O.modes.z != 0u);
+}
+
+// Edge of the probe's leaf cube.
+fn probe_edge(probe: u32) -> f32 {
+    return ldexp(O.root.w, -i32(probe_info[probe].w));
+}
+
+// Distance from the probe (its cube's centre) along unit d to its cube's boundary.
+fn probe_region_exit(probe: u32, d: vec3<f32>) -> f32 {
+    let t = vec3<f32>(probe_edge(probe) * 0.5) / max(abs(d), vec3<f32>(1e-20));
+    return min(t.x, min(t.y, t.z));
+}
+
+fn probe_keeps_far_hits() -> bool {
+    return O.modes.x != 0u;
+}
+
+fn probe_store_hits(probe: u32, inside: u32) {
+    hits[probe] = inside;
+}

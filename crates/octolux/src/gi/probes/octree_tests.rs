@@ -1,0 +1,277 @@
+//! The GPU octree against its CPU specification: the same frames from the same hit counts
+//! give the same buffers word for word (tree, probe records, free lists, marks, ring).
+
+use super::octree::{OctreeProbe, OctreeRule, ProbeOctree};
+use super::octree_gpu::GpuOctree;
+use crate::gpu::{read_buffer, GpuContext, GpuOptions, PassTimer};
+use glam::Vec3;
+
+fn ctx() -> GpuContext {
+    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
+}
+
+fn read<T: bytemuck::Pod>(ctx: &GpuContext, b: &wgpu::Buffer) -> Vec<T> {
+    bytemuck::cast_slice(&read_buffer(ctx, b, 0, b.size()).unwrap()).to_vec()
+}
+
+/// Compares every buffer of `gpu` with `cpu`; returns the probe count.
+fn assert_same(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: &str) -> usize {
+    let [tree, info, state, ring] = gpu.buffers();
+    let len = cpu.nodes.len();
+    let tree: Vec<i32> = read(ctx, tree);
+    assert_eq!(tree[..len], cpu.nodes[..], "{what}: tree");
+    let info: Vec<[u32; 4]> = read(ctx, info);
+    let want: Vec<[u32; 4]> = cpu
+        .probe_info()
+        .iter()
+        .map(|v| v.map(f32::to_bits))
+        .collect();
+    assert_eq!(info[..want.len()], want[..], "{what}: probe records");
+    let state: Vec<u32> = read(ctx, state);
+    let (probes, clusters) = cpu.free_lists();
+    let capacity = want.len();
+    let cluster_room = (len - 1) / 9;
+    assert_eq!(state[0] as usize, probes.len(), "{what}: free probes");
+    assert_eq!(state[1] as usize, clusters.len(), "{what}: free clusters");
+    assert_eq!(state[4..4 + probes.len()], probes[..], "{what}: probe list");
+    let c0 = 4 + capacity;
+    assert_eq!(
+        state[c0..c0 + clusters.len()],
+        clusters[..],
+        "{what}: cluster list"
+    );
+    let marks = c0 + cluster_room;
+    let no_split: Vec<bool> = state[marks..marks + len].iter().map(|&w| w != 0).collect();
+    assert_eq!(no_split, cpu.no_split(), "{what}: no-split marks");
+    assert!(
+        state[marks + len..marks + 3 * len].iter().all(|&w| w == 0),
+        "{what}: scratch marks left"
+    );
+    let ring: Vec<u32> = read(ctx, ring);
+    let (codes, _) = cpu.ring_codes();
+    assert_eq!(ring[..3 * len], codes[..], "{what}: ring");
+    cpu.probe_count()
+}
+
+/// One frame on both: the GPU's memory update and light selection, then its hit counts are
+/// set from `hits` for its live probes, then the decision.
+fn frame(
+    ctx: &GpuContext,
+    gpu: &mut GpuOctree,
+    cpu: &mut ProbeOctree,
+    moved: &[(Vec3, Vec3)],
+    hits: &dyn Fn(&OctreeProbe) -> u32,
+) {
+    gpu.begin_frame(ctx, moved, [0; 3]).unwrap();
+    let mut timer = PassTimer::new(ctx);
+    gpu.memory_update(ctx, &mut timer);
+    gpu.light_select(ctx, &mut timer);
+    timer.finish_frame().unwrap();
+    let info: Vec<[f32; 4]> = read(ctx, gpu.buffers()[1]);
+    let counts: Vec<u32> = info
+        .iter()
+        .map(|i| {
+            let probe = OctreeProbe {
+                position: Vec3::from_slice(i),
+                depth: i[3].max(0.0) as u32,
+            };
+            if i[3] < 0.0 {
+                0
+            } else {
+                hits(&probe)
+            }
+        })
+        .collect();
+    ctx.queue
+        .write_buffer(gpu.hits_buffer(), 0, bytemuck::cast_slice(&counts));
+    gpu.light_decide(ctx, &mut timer);
+    timer.finish_frame().unwrap();
+    ctx.check_errors().unwrap();
+    gpu.end_frame();
+    cpu.frame(moved, |_, p| hits(p));
+}
+
+/// A hash of a probe's position, depth and the frame's epoch: hit counts that change every
+/// few frames, so the tree splits, frees and collapses over and over.
+fn scripted(p: &OctreeProbe, epoch: u32, surfels: u32) -> u32 {
+    let mut h = p
+        .position
+        .to_array()
+        .iter()
+        .fold(epoch.wrapping_mul(0x9e37_79b9), |h, v| {
+            (h ^ v.to_bits()).wrapping_mul(0x85eb_ca6b).rotate_left(13)
+        });
+    h ^= p.depth.wrapping_mul(0xc2b2_ae35);
+    h = h.wrapping_mul(0x27d4_eb2f) ^ (h >> 15);
+    // The root always splits; deeper probes hit less, as their lattices are confined to
+    // smaller cubes.
+    let u = (h % 1000) as f32 / 1000.0;
+    let f = if p.depth == 0 {
+        0.9
+    } else {
+        0.1 + 0.8 * u * (1.0 - 0.15 * p.depth as f32)
+    };
+    ((f * surfels as f32) as u32).min(surfels)
+}
+
+#[test]
+fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
+    let ctx = ctx();
+    // Full room at depths 2 and 3, and a small room where splits fail for want of probes and
+    // clusters.
+    for (depth, room) in [(2, None), (3, None), (3, Some((1 + 9 * 6, 40)))] {
+        let rule = OctreeRule {
+            max_depth: depth,
+            ..Default::default()
+        };
+        let (len, capacity) = room.unwrap_or(rule.full_capacity());
+        let (lo, size) = (Vec3::new(-1.0, -0.5, -2.0), 4.0);
+        let mut gpu = GpuOctree::with_room(&ctx, rule, lo, size, len, capacity).unwrap();
+        let mut cpu = ProbeOctree::new(len, capacity, lo, size, rule);
+        let mut counts = Vec::new();
+        for f in 0..40u32 {
+            // A box sweeps through the cube from frame 20 to 30.
+            let moved = if (20..30).contains(&f) {
+                let c = lo + Vec3::splat(0.4 * (f - 20) as f32);
+                vec![(c, c + Vec3::splat(0.5))]
+            } else {
+                vec![]
+            };
+            frame(&ctx, &mut gpu, &mut cpu, &moved, &|p| {
+                scripted(p, f / 4, rule.surfels)
+            });
+            counts.push(assert_same(
+                &ctx,
+                &gpu,
+                &cpu,
+                &format!("depth {depth}, room {room:?}, frame {f}"),
+            ));
+        }
+        println!("depth {depth}, room {room:?}: probes per frame {counts:?}");
+        let distinct: std::collections::BTreeSet<_> = counts.iter().collect();
+        assert!(distinct.len() > 5, "the tree changes: {counts:?}");
+    }
+}
+
+#[test]
+fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
+    // `probes-octree` on the shipped animated Cornell box, 30 frames through the block's
+    // motion: after every frame the CPU octree, fed the same boxes of moved objects and the
+    // GPU's hit counts (surfels inside each probe's cube), holds the same buffers.
+    use crate::render::{RenderSettings, Renderer};
+    let ctx = ctx();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenes/cornell-animated.toml"
+    );
+    let scene = crate::scene::Scene::load(path).unwrap();
+    let probes = super::ProbeSettings {
+        max_depth: 3,
+        ..Default::default()
+    };
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        gi: "probes-octree".into(),
+        gi_settings: crate::gi::GiSettings {
+            probes: probes.clone(),
+            ..Default::default()
+        },
+        ..RenderSettings::default()
+    };
+    let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+    let rule = probes.octree_rule();
+    let (len, capacity) = rule.full_capacity();
+    let (lo, size) = super::octree_gpu::root_cube(scene.bounds_at(0.0)).unwrap();
+    let mut cpu = ProbeOctree::new(len, capacity, lo, size, rule);
+    let (mut counts, mut moving) = (Vec::new(), 0);
+    for f in 0..30 {
+        r.render(&scene, 0.9 + 0.05 * f as f32).unwrap();
+        let technique = r
+            .technique()
+            .as_any()
+            .and_then(|a| a.downcast_ref::<super::ProbesOctree>())
+            .unwrap();
+        let hits: Vec<u32> = read(&ctx, technique.octree().hits_buffer());
+        cpu.frame(technique.moved(), |slot, _| hits[slot as usize]);
+        moving += !technique.moved().is_empty() as u32;
+        counts.push(assert_same(
+            &ctx,
+            technique.octree(),
+            &cpu,
+            &format!("frame {f}"),
+        ));
+    }
+    println!("probes per frame {counts:?}, {moving} frames with moving objects");
+    assert!(moving > 10, "the block moves");
+    assert!(counts[29] > 8 && counts[29] < 512, "{counts:?}");
+}
+
+#[test]
+fn octree_gather_equals_its_cpu_twin() {
+    // `probes-octree` on the Cornell box after 8 frames (the tree has grown), both gathers:
+    // every pixel's indirect irradiance equals the CPU twin's (`OctreeView::irradiance`) from
+    // the GPU's tree and probes at the pixel's position and normal.
+    //
+    // Tolerance: the output is f16 (2^-11 relative) of a sum the CPU forms in the same
+    // order, from a world position rebuilt from the depth buffer on both sides; a point within
+    // rounding of a cube face may pick another leaf on either side, which must be rare.
+    use crate::render::{RenderSettings, Renderer};
+    let ctx = ctx();
+    let scene = crate::scene::cornell::scene();
+    for gather in [super::OctreeGather::Octree, super::OctreeGather::All] {
+        let probes = super::ProbeSettings {
+            gather,
+            ..Default::default()
+        };
+        let settings = RenderSettings {
+            width: 40,
+            height: 40,
+            gi: "probes-octree".into(),
+            gi_settings: crate::gi::GiSettings {
+                probes: probes.clone(),
+                ..Default::default()
+            },
+            ..RenderSettings::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+        for _ in 0..8 {
+            r.render(&scene, 0.0).unwrap();
+        }
+        let technique = r
+            .technique()
+            .as_any()
+            .and_then(|a| a.downcast_ref::<super::ProbesOctree>())
+            .unwrap();
+        let [tree, info, _, _] = technique.octree().buffers();
+        let (nodes, info): (Vec<i32>, Vec<[f32; 4]>) = (read(&ctx, tree), read(&ctx, info));
+        let probe_data: Vec<[f32; 4]> = read(&ctx, technique.probe_buffer());
+        let live = info.iter().filter(|i| i[3] >= 0.0).count();
+        let view = technique.view(&nodes, &info);
+        let g = r.read_gbuffer().unwrap();
+        let camera = *r.last_view().unwrap();
+        let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
+        let indirect: &[u16] = bytemuck::cast_slice(&bytes);
+        let (mut lit, mut off) = (0, 0);
+        for (i, (&depth, normal)) in g.depth.iter().zip(&g.normal).enumerate() {
+            if depth >= 1.0 {
+                continue;
+            }
+            let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+            let ndc = Vec3::new(x / 40.0 * 2.0 - 1.0, 1.0 - y / 40.0 * 2.0, depth);
+            let p = camera.inv_view_proj.project_point3(ndc);
+            let want = view.irradiance(&probes, &probe_data, p, normal.normalize());
+            let got = Vec3::from_array(std::array::from_fn(|c| {
+                crate::render::f16_to_f32(indirect[4 * i + c])
+            }));
+            if (got - want).abs().max_element() > 2e-3 * want.max_element() + 1e-5 {
+                off += 1;
+                assert!(off <= 2, "{gather:?} pixel {i}: gpu {got}, cpu {want}");
+            }
+            lit += (want.max_element() > 0.0) as u32;
+        }
+        println!("{gather:?}: {live} probes, {lit} pixels lit, {off} differ");
+        assert!(lit > 1000, "{lit} pixels lit");
+        assert!((8..=512).contains(&live), "{live} probes");
+    }
+}

@@ -1,0 +1,521 @@
+//! The passes every probe technique shares (docs/probes.md): surfel placement through the
+//! scene's BVH, surfel light, probe integration and the pixel gather, over a *probe set* that
+//! says where the probes are, which are live, which to (re)place and how a point reads them:
+//! the uniform grid (grid.wgsl, grid_sample.wgsl) or the octree (octree_set.wgsl,
+//! octree_sample.wgsl, with its buffers in bind group 1).
+
+use super::bvh::{Bvh, GpuNode, GpuTri, BVH_WGSL};
+use super::encoding::ENCODING_WGSL;
+use super::lattice::LATTICE_WGSL;
+use super::ProbeSettings;
+use crate::gi::GiFrame;
+use crate::gpu::{GpuContext, PassTimer};
+use crate::voxel::objects_triangles;
+use crate::voxel::voxelize::dispatch_size;
+use crate::{Error, Result};
+use glam::{UVec3, Vec3};
+
+/// `vec4`s per probe and per surfel (`PROBE_VEC4`, `SURFEL_VEC4` in probes.wgsl).
+pub(crate) const PROBE_VEC4: u64 = 9;
+pub(crate) const SURFEL_VEC4: u64 = 3;
+/// Root of an absent BVH part.
+const NO_ROOT: u32 = u32::MAX;
+
+/// `ProbeParams` in probes.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub(crate) struct ProbeParams {
+    lo: [f32; 4],
+    spacing: [f32; 4],
+    dims: [u32; 4],
+    misc: [u32; 4],
+    roots: [u32; 4],
+    limits: [u32; 4],
+}
+
+/// A probe set's WGSL: what every pass includes (positions, liveness, placement), and what
+/// the passes that read probes include (`probes_irradiance`).
+pub(crate) struct ProbeSetWgsl {
+    pub set: &'static [&'static str],
+    pub sample: &'static [&'static str],
+}
+
+/// Where the probes sit, as the shared parameters hold it.
+pub(crate) struct ProbeLayout {
+    /// The grid's lower corner (the octree's: its root cube's).
+    pub lo: Vec3,
+    /// The grid's probe spacing (zero for the octree).
+    pub spacing: Vec3,
+    /// The grid's probes per axis (zero for the octree).
+    pub dims: UVec3,
+    /// Gather offset along the normal, in metres.
+    pub bias: f32,
+    /// Probe slots.
+    pub probes: u32,
+}
+
+/// A storage buffer of `bytes` under `owner`, or a clear error where one binding of that size
+/// exceeds what the adapter allows.
+pub(crate) fn storage(
+    ctx: &GpuContext,
+    owner: &str,
+    label: &str,
+    bytes: u64,
+) -> Result<wgpu::Buffer> {
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    if bytes > limit {
+        return Err(Error::InvalidArgument(format!(
+            "{owner}: its {label} need {} MiB, more than the adapter's {} MiB per storage \
+             binding; use fewer probes or surfels",
+            bytes.div_ceil(1 << 20),
+            limit >> 20
+        )));
+    }
+    Ok(ctx.create_buffer(
+        owner,
+        &wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(16),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    ))
+}
+
+pub(crate) fn buf(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
+    b.as_entire_binding()
+}
+
+/// A bind group for group `index` of `pipeline` with `entries` as (binding, resource).
+pub(crate) fn bind_at(
+    ctx: &GpuContext,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    index: u32,
+    entries: &[(u32, wgpu::BindingResource)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|(binding, resource)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: resource.clone(),
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pipeline.get_bind_group_layout(index),
+        entries: &entries,
+    })
+}
+
+/// A bind group of group 0 of `pipeline` with `entries` at bindings 0, 1, ...
+pub(crate) fn bind(
+    ctx: &GpuContext,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    entries: &[wgpu::BindingResource],
+) -> wgpu::BindGroup {
+    let entries: Vec<(u32, wgpu::BindingResource)> = entries
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (i as u32, r.clone()))
+        .collect();
+    bind_at(ctx, label, pipeline, 0, &entries)
+}
+
+/// Records the named pass `name`: `pipeline` with `groups` (group i = `groups[i]`) over
+/// `groups_xy` workgroups.
+pub(crate) fn run_pass(
+    timer: &mut PassTimer,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    groups_xy: (u32, u32),
+) {
+    timer.pass(name, |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(name),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(pipeline);
+        for (i, g) in groups.iter().enumerate() {
+            pass.set_bind_group(i as u32, *g, &[]);
+        }
+        pass.dispatch_workgroups(groups_xy.0, groups_xy.1, 1);
+    });
+}
+
+/// The shared state and pipelines of a probe technique.
+pub(crate) struct ProbePasses {
+    owner: &'static str,
+    pub settings: ProbeSettings,
+    params: ProbeParams,
+    pub params_buffer: wgpu::Buffer,
+    nodes: wgpu::Buffer,
+    tris: wgpu::Buffer,
+    /// Nodes and triangles of the static part (the animated part follows them).
+    static_size: (u32, u32),
+    /// Whether any object moves: then the animated part is rebuilt every frame.
+    pub animated: bool,
+    surfels: wgpu::Buffer,
+    radiance: wgpu::Buffer,
+    probes: wgpu::Buffer,
+    matrices: Option<(wgpu::Buffer, usize)>,
+    pub place: wgpu::ComputePipeline,
+    pub light: wgpu::ComputePipeline,
+    pub integrate: wgpu::ComputePipeline,
+    pub gather: wgpu::ComputePipeline,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    size: (u32, u32),
+}
+
+impl ProbePasses {
+    /// The passes for `scene` at `width` x `height` over the probe set `set` laid out as
+    /// `layout`; buffers are recorded under `owner`.
+    pub fn new(
+        ctx: &GpuContext,
+        owner: &'static str,
+        settings: &ProbeSettings,
+        scene: &crate::scene::Scene,
+        (width, height): (u32, u32),
+        layout: &ProbeLayout,
+        set: &ProbeSetWgsl,
+    ) -> Result<ProbePasses> {
+        let bounds = scene.bounds_at(0.0);
+        let frame = scene.frame(0.0, 0);
+        let still = Bvh::build(&objects_triangles(scene, &frame, false));
+        let moving = objects_triangles(scene, &frame, true);
+        let animated = scene.objects.iter().any(|o| o.animation.is_some());
+        let (nodes, tris) = still.flatten_at(0, 0);
+        let static_size = (nodes.len() as u32, tris.len() as u32);
+        // The animated part's BVH has at most 2n - 1 nodes for n triangles.
+        let node_bytes = std::mem::size_of::<GpuNode>() as u64;
+        let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
+        let node_buffer = storage(
+            ctx,
+            owner,
+            "bvh nodes",
+            (nodes.len() + 2 * moving.len()) as u64 * node_bytes,
+        )?;
+        let tri_buffer = storage(
+            ctx,
+            owner,
+            "bvh triangles",
+            (tris.len() + moving.len()) as u64 * tri_bytes,
+        )?;
+        ctx.queue
+            .write_buffer(&node_buffer, 0, bytemuck::cast_slice(&nodes));
+        ctx.queue
+            .write_buffer(&tri_buffer, 0, bytemuck::cast_slice(&tris));
+        let probes = layout.probes;
+        let surfels = probes as u64 * settings.surfels as u64;
+        if surfels > u32::MAX as u64 / SURFEL_VEC4 as u32 as u64 {
+            return Err(Error::InvalidArgument(format!(
+                "{owner}: {surfels} surfels are too many"
+            )));
+        }
+        let (lo, hi) = bounds;
+        let params = ProbeParams {
+            lo: layout.lo.extend((hi - lo).length() * 1.01).to_array(),
+            spacing: layout.spacing.extend(layout.bias).to_array(),
+            dims: layout.dims.extend(settings.surfels).to_array(),
+            misc: [
+                settings.lattice.gpu_kind(),
+                settings.encoding.gpu_kind(),
+                0,
+                settings.multi_bounce as u32,
+            ],
+            roots: [
+                if nodes.is_empty() { NO_ROOT } else { 0 },
+                NO_ROOT,
+                probes,
+                surfels as u32,
+            ],
+            limits: [settings.max_back_faces(), 0, 0, 0],
+        };
+        let params_buffer = storage(
+            ctx,
+            owner,
+            "params",
+            std::mem::size_of::<ProbeParams>() as u64,
+        )?;
+        let pipeline = |name: &str, pass: &str, extra: &[&str], sample: bool| {
+            let mut parts = vec![
+                include_str!("../../render/common.wgsl"),
+                LATTICE_WGSL,
+                ENCODING_WGSL,
+                include_str!("probes.wgsl"),
+            ];
+            parts.extend(set.set);
+            if sample {
+                parts.push(include_str!("probe_values.wgsl"));
+                parts.extend(set.sample);
+            }
+            parts.extend(extra);
+            parts.push(pass);
+            let module = ctx.shader(name, &parts.join("\n"));
+            ctx.compute_pipeline(name, &module, "main")
+        };
+        let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
+        Ok(ProbePasses {
+            owner,
+            settings: settings.clone(),
+            params,
+            params_buffer,
+            nodes: node_buffer,
+            tris: tri_buffer,
+            static_size,
+            animated,
+            surfels: storage(ctx, owner, "surfels", surfels * SURFEL_VEC4 * 16)?,
+            radiance: storage(ctx, owner, "surfel radiance", surfels * 16)?,
+            probes: storage(ctx, owner, "probes", probes as u64 * PROBE_VEC4 * 16)?,
+            matrices: None,
+            place: pipeline(
+                "probes place",
+                include_str!("place.wgsl"),
+                &[BVH_WGSL],
+                false,
+            ),
+            light: pipeline(
+                "probes light",
+                include_str!("light.wgsl"),
+                &[include_str!("../../render/lights.wgsl")],
+                true,
+            ),
+            integrate: pipeline(
+                "probes integrate",
+                include_str!("integrate.wgsl"),
+                &[],
+                false,
+            ),
+            gather: pipeline("probes gather", include_str!("gather.wgsl"), &[], true),
+            texture,
+            view,
+            size: (width, height),
+        })
+    }
+
+    /// The indirect irradiance image.
+    pub fn texture(&self) -> &wgpu::Texture {
+        &self.texture
+    }
+
+    /// The indirect irradiance image's view.
+    pub fn view(&self) -> &wgpu::TextureView {
+        &self.view
+    }
+
+    /// The probe buffer (per probe 8 coefficients, then back-face share, hit share, valid).
+    pub fn probe_buffer(&self) -> &wgpu::Buffer {
+        &self.probes
+    }
+
+    /// The surfel buffer and the surfels' outgoing radiance.
+    pub fn surfel_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
+        (&self.surfels, &self.radiance)
+    }
+
+    /// Brings the rays and lights up to date with `frame`: the animated objects' BVH, the
+    /// light count, the shadow matrices.
+    pub fn begin_frame(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
+        if self.animated {
+            self.sync_moving(ctx, frame)?;
+        }
+        self.params.misc[2] = frame.frame.lights.len() as u32;
+        ctx.queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        self.sync_matrices(ctx, frame)
+    }
+
+    /// Rebuilds the animated objects' BVH for this frame after the static part.
+    fn sync_moving(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
+        let moving = Bvh::build(&objects_triangles(frame.scene, frame.frame, true));
+        let (node_base, tri_base) = self.static_size;
+        let (nodes, tris) = moving.flatten_at(node_base, tri_base);
+        let node_bytes = std::mem::size_of::<GpuNode>() as u64;
+        let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
+        let end = |base: u32, count: usize, bytes: u64| (base as u64 + count as u64) * bytes;
+        if end(node_base, nodes.len(), node_bytes) > self.nodes.size()
+            || end(tri_base, tris.len(), tri_bytes) > self.tris.size()
+        {
+            return Err(Error::InvalidArgument(format!(
+                "{}: the animated objects have {} triangles at t = {} s, more than at the start",
+                self.owner,
+                tris.len(),
+                frame.frame.time
+            )));
+        }
+        if !nodes.is_empty() {
+            ctx.queue.write_buffer(
+                &self.nodes,
+                node_base as u64 * node_bytes,
+                bytemuck::cast_slice(&nodes),
+            );
+            ctx.queue.write_buffer(
+                &self.tris,
+                tri_base as u64 * tri_bytes,
+                bytemuck::cast_slice(&tris),
+            );
+        }
+        self.params.roots[1] = if nodes.is_empty() { NO_ROOT } else { node_base };
+        Ok(())
+    }
+
+    /// Uploads this frame's shadow matrices, growing their buffer when needed.
+    fn sync_matrices(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
+        let mut matrices: Vec<[f32; 16]> = frame
+            .shadow_layers
+            .iter()
+            .map(|l| l.view_proj.to_cols_array())
+            .collect();
+        if matrices.is_empty() {
+            matrices.push(glam::Mat4::IDENTITY.to_cols_array());
+        }
+        let buffer = match &mut self.matrices {
+            Some((buffer, room)) if *room >= matrices.len() => buffer,
+            slot => {
+                let buffer = storage(
+                    ctx,
+                    self.owner,
+                    "shadow matrices",
+                    matrices.len() as u64 * 64,
+                )?;
+                &slot.insert((buffer, matrices.len())).0
+            }
+        };
+        ctx.queue
+            .write_buffer(buffer, 0, bytemuck::cast_slice(&matrices));
+        Ok(())
+    }
+
+    fn surfel_groups(&self) -> (u32, u32) {
+        dispatch_size(self.params.roots[3])
+    }
+
+    /// Surfels: rays from the probes the set asks for along their lattices.
+    pub fn place(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<&wgpu::BindGroup>) {
+        let group = bind(
+            ctx,
+            "probes place",
+            &self.place,
+            &[
+                buf(&self.params_buffer),
+                buf(&self.nodes),
+                buf(&self.tris),
+                buf(&self.surfels),
+            ],
+        );
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
+        run_pass(
+            timer,
+            "probes place",
+            &self.place,
+            &groups,
+            self.surfel_groups(),
+        );
+    }
+
+    /// Surfel light: direct light with shadow-map visibility (+ last frame's probes).
+    pub fn light(
+        &self,
+        ctx: &GpuContext,
+        frame: &GiFrame,
+        timer: &mut PassTimer,
+        set: Option<&wgpu::BindGroup>,
+    ) -> Result<()> {
+        let Some((matrices, _)) = &self.matrices else {
+            return Err(Error::Gpu(format!("{}: no shadow matrices", self.owner)));
+        };
+        let group = bind(
+            ctx,
+            "probes light",
+            &self.light,
+            &[
+                buf(&self.params_buffer),
+                buf(&self.surfels),
+                buf(&self.radiance),
+                buf(&self.probes),
+                buf(frame.lights),
+                buf(matrices),
+                wgpu::BindingResource::TextureView(&frame.shadows.array_view),
+                wgpu::BindingResource::Sampler(&frame.shadows.sampler),
+            ],
+        );
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
+        run_pass(
+            timer,
+            "probes light",
+            &self.light,
+            &groups,
+            self.surfel_groups(),
+        );
+        Ok(())
+    }
+
+    /// Probes: each integrates its surfels into its encoding.
+    pub fn integrate(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        set: Option<&wgpu::BindGroup>,
+    ) {
+        let group = bind(
+            ctx,
+            "probes integrate",
+            &self.integrate,
+            &[
+                buf(&self.params_buffer),
+                buf(&self.surfels),
+                buf(&self.radiance),
+                buf(&self.probes),
+            ],
+        );
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
+        let size = dispatch_size(self.params.roots[2]);
+        run_pass(timer, "probes integrate", &self.integrate, &groups, size);
+    }
+
+    /// Pixels: the probe set's irradiance at each.
+    pub fn gather(
+        &self,
+        ctx: &GpuContext,
+        frame: &GiFrame,
+        timer: &mut PassTimer,
+        set: Option<&wgpu::BindGroup>,
+    ) {
+        let group = bind(
+            ctx,
+            "probes gather",
+            &self.gather,
+            &[
+                buf(&self.params_buffer),
+                buf(&self.probes),
+                buf(frame.camera_uniform),
+                wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
+                wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
+                wgpu::BindingResource::TextureView(&self.view),
+            ],
+        );
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
+        let (w, h) = self.size;
+        run_pass(
+            timer,
+            "probes gather",
+            &self.gather,
+            &groups,
+            (w.div_ceil(8), h.div_ceil(8)),
+        );
+    }
+
+    /// The light transport the passes compute.
+    pub fn reference_bounces(&self) -> crate::reference::Bounces {
+        if self.settings.multi_bounce {
+            crate::reference::Bounces::Unlimited
+        } else {
+            crate::reference::Bounces::Indirect(1)
+        }
+    }
+}
