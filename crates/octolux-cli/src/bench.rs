@@ -18,8 +18,8 @@ use octolux::reference::{self, Bounces, ReferenceImages, ReferenceSettings};
 use octolux::render::{check_image_size, RenderSettings, Renderer};
 use octolux::scene::Scene;
 use report::{
-    frame_stats, AdapterReport, BenchReport, OwnerMemory, ReferenceReport, SceneReport,
-    TechniqueReport,
+    frame_stats, AdapterReport, BenchReport, MemoryEntry, OwnerMemory, ReferenceReport,
+    SceneReport, TechniqueReport,
 };
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -400,6 +400,16 @@ fn bench_scene(
                 .map(|(owner, bytes)| OwnerMemory {
                     owner,
                     mib: mib(bytes),
+                })
+                .collect(),
+            memory_entries: ctx
+                .ledger
+                .entries()
+                .into_iter()
+                .map(|e| MemoryEntry {
+                    owner: e.owner,
+                    name: e.name,
+                    mib: mib(e.bytes),
                 })
                 .collect(),
             objects,

@@ -103,6 +103,10 @@ pub struct GiArgs {
     /// Cone tracing: roughness of the specular cone, 0..=1 (default 0.3).
     #[arg(long)]
     pub vct_roughness: Option<f32>,
+    /// Cone tracing: the specular cone takes exactly N samples from the finest voxel on and
+    /// never stops early: fixed work for timing the structures (default 0: off).
+    #[arg(long)]
+    pub vct_specular_steps: Option<u32>,
     /// VPL GI: number of VPLs (default 1024).
     #[arg(long)]
     pub vpl_count: Option<u32>,
@@ -211,6 +215,7 @@ impl GiArgs {
         set(&mut vct.octree_resolution, self.vct_octree_resolution);
         set(&mut vct.dynamic_reserve, self.vct_dynamic_reserve);
         set(&mut vct.roughness, self.vct_roughness);
+        set(&mut vct.specular_steps, self.vct_specular_steps);
         set(&mut vct.multi_bounce, self.vct_multi_bounce);
         if self.vct_specular {
             vct.specular = true;

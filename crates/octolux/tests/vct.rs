@@ -389,6 +389,21 @@ fn bad_vct_settings_are_clear_errors() {
             },
             "vct dynamic_reserve",
         ),
+        (
+            octolux::gi::vct::VctSettings {
+                specular_steps: 64,
+                ..Default::default()
+            },
+            "vct specular_steps",
+        ),
+        (
+            octolux::gi::vct::VctSettings {
+                specular: true,
+                specular_steps: 5000,
+                ..Default::default()
+            },
+            "vct specular_steps",
+        ),
     ];
     for technique in ["vct-svo", "vct-clipmap"] {
         for (vct, what) in &cases {
@@ -407,4 +422,66 @@ fn bad_vct_settings_are_clear_errors() {
     let err =
         GiSettings::from_table(&table, std::path::Path::new("scene.toml")).expect_err("must fail");
     assert!(err.to_string().contains("shadow-maps"), "{err}");
+}
+
+#[test]
+fn a_fixed_work_specular_cone_takes_its_steps_and_no_more() {
+    // `specular_steps` = N: the cone takes exactly N samples and never stops early, so the
+    // march of N samples is the start of the march of M > N (radiance only grows along a
+    // cone: every pixel's radiance with 1 step <= with 8 <= with 512), and with enough steps
+    // the floor's left half still reflects the red wall.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = octolux::scene::cornell::scene();
+    for technique in ["vct-svo", "vct-clipmap"] {
+        let specular = |steps: u32| {
+            let vct = octolux::gi::vct::VctSettings {
+                sparse: 8,
+                specular: true,
+                roughness: 0.0,
+                specular_steps: steps,
+                ..small()
+            };
+            let mut r = Renderer::new(&ctx, &scene, settings(technique, vct)).unwrap();
+            r.set_output(Output::Specular);
+            r.render(&scene, 0.0).unwrap();
+            (r.read_hdr().unwrap(), r.read_gbuffer().unwrap())
+        };
+        let (one, g) = specular(1);
+        let (eight, _) = specular(8);
+        let (many, _) = specular(512);
+        let sum = |img: &HdrImage| img.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+        for i in 0..one.pixels.len() {
+            let (a, b, c) = (one.pixels[i], eight.pixels[i], many.pixels[i]);
+            assert!(
+                a.cmple(b + 1e-3).all() && b.cmple(c + 1e-3).all(),
+                "{technique}: pixel {i}: {a} / {b} / {c}"
+            );
+        }
+        println!(
+            "{technique}: specular sum 1 / 8 / 512 steps: {} / {} / {}",
+            sum(&one),
+            sum(&eight),
+            sum(&many)
+        );
+        assert!(sum(&many) > 2.0 * sum(&one), "{technique}");
+        // As in the test above: the floor's front rows, left half.
+        let floor: Vec<(u32, u32)> = (0..SIZE * SIZE)
+            .filter(|&i| g.depth[i as usize] < 1.0 && g.normal[i as usize].y > 0.9)
+            .map(|i| (i % SIZE, i / SIZE))
+            .collect();
+        let row = floor.iter().map(|p| p.1).max().unwrap();
+        let xs: Vec<u32> = floor.iter().filter(|p| p.1 == row).map(|p| p.0).collect();
+        let mid = (xs.iter().min().unwrap() + xs.iter().max().unwrap()) / 2;
+        let left_floor = floor
+            .iter()
+            .filter(|p| p.0 < mid && p.1 + 4 > row)
+            .fold(Vec3::ZERO, |s, p| {
+                s + many.pixels[(p.1 * SIZE + p.0) as usize]
+            });
+        assert!(
+            left_floor.x > 1.5 * left_floor.y,
+            "{technique}: {left_floor}"
+        );
+    }
 }

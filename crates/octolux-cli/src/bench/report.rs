@@ -73,6 +73,17 @@ pub struct OwnerMemory {
     pub mib: f64,
 }
 
+/// One GPU resource of the memory ledger.
+#[derive(Clone, Debug, Serialize)]
+pub struct MemoryEntry {
+    /// Ledger owner.
+    pub owner: String,
+    /// The resource's name under its owner.
+    pub name: String,
+    /// MiB.
+    pub mib: f64,
+}
+
 /// One technique's results on one scene.
 #[derive(Clone, Debug, Serialize)]
 pub struct TechniqueReport {
@@ -96,6 +107,8 @@ pub struct TechniqueReport {
     pub total_mib: f64,
     /// GPU memory per ledger owner.
     pub memory: Vec<OwnerMemory>,
+    /// Every resource of the ledger (all owners), after the last measured frame.
+    pub memory_entries: Vec<MemoryEntry>,
     /// wgpu's count of live objects after the warm-up frames and after the measured ones
     /// (equal unless something leaks per frame); `null` where wgpu keeps no count.
     pub objects: Option<[octolux::gpu::ResourceCounts; 2]>,

@@ -76,6 +76,11 @@ pub struct VctSettings {
     /// Roughness of the specular cone, 0..=1 (default 0.3): aperture = roughness x 90 degrees,
     /// at least 2 degrees.
     pub roughness: f32,
+    /// Fixed work for timing the structures against each other (`003` §5.3.5): when not 0
+    /// (with `specular`), the specular cone takes exactly this many samples, from the structure's finest voxel
+    /// on, and never stops early (default 0: it stops as the diffuse cones do). Its image is
+    /// then meaningless; only its pass time is.
+    pub specular_steps: u32,
 }
 
 impl Default for VctSettings {
@@ -96,6 +101,7 @@ impl Default for VctSettings {
             multi_bounce: true,
             specular: false,
             roughness: 0.3,
+            specular_steps: 0,
         }
     }
 }
@@ -163,6 +169,16 @@ impl VctSettings {
             self.roughness.is_finite() && (0.0..=1.0).contains(&self.roughness),
             "vct roughness",
             "0..=1",
+        )?;
+        check(
+            self.specular_steps <= 4096,
+            "vct specular_steps",
+            "0..=4096",
+        )?;
+        check(
+            self.specular_steps == 0 || self.specular,
+            "vct specular_steps",
+            "0 unless the specular cone is on (specular = true, --vct-specular)",
         )
     }
 

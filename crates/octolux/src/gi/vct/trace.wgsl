@@ -19,7 +19,7 @@ struct TraceParams {
     cone: ConeParams,
     // x: apex offset along the normal and first sample, in voxels of the surface's level;
     // y: sparse factor f (one traced pixel per f x f block); z: the specular cone's full
-    // aperture (radians)
+    // aperture (radians); w: the specular cone's fixed sample count (0: none)
     misc: vec4<f32>,
 }
 
@@ -87,6 +87,14 @@ fn specular(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
     var s = surface_cone(p, n);
     s.cone.aperture = trace.misc.z;
+    // Fixed work (`specular_steps`, for timing the structures, `003` §5.3.5): exactly that
+    // many samples from the finest voxel on, never stopping at opacity or distance.
+    if trace.misc.w > 0.0 {
+        s.cone.voxel = trace.cone.voxel;
+        s.cone.stop_opacity = 2.0;
+        s.cone.max_distance = 3.0e38;
+        s.cone.max_steps = u32(trace.misc.w);
+    }
     let v = normalize(p - cam.position.xyz);
     let l = march_cone(s.apex, reflect(v, n), s.cone);
     textureStore(specular_tex, id.xy, vec4<f32>(l.rgb, 1.0));

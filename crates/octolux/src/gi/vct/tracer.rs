@@ -136,7 +136,7 @@ impl ConeTracer {
 
     /// Sets how cones are marched: `cone` (its `voxel` the finest voxel, its `start` unused:
     /// the trace derives both from the voxel where each surface is) and the settings' start
-    /// offset, sparse factor and specular aperture.
+    /// offset, sparse factor, specular aperture and the specular cone's fixed sample count.
     pub(crate) fn set_cone(&self, ctx: &GpuContext, cone: ConeParams, settings: &VctSettings) {
         let params = TraceParams {
             cone,
@@ -144,7 +144,7 @@ impl ConeTracer {
                 settings.start,
                 settings.sparse as f32,
                 settings.specular_aperture(),
-                0.0,
+                settings.specular_steps as f32,
             ],
         };
         ctx.queue
