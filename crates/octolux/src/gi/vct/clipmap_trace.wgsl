@@ -58,15 +58,20 @@ fn clip_tail_levels() -> u32 {
     return countTrailingZeros(max(clip_info.misc.x, 4u)) - 1u;
 }
 
-fn clip_tail_voxel(k: u32, j: vec3<i32>) -> vec4<f32> {
-    let n = clip_info.misc.x >> k;
-    if any(j < vec3<i32>(0)) || any(j >= vec3<i32>(i32(n))) {
-        return vec4<f32>(0.0);
-    }
+// First slot of tail level k (`clipmap_tail::tail_offset`).
+fn clip_tail_first(k: u32) -> u32 {
     var first = 0u;
     for (var i = 1u; i < k; i++) {
         let m = clip_info.misc.x >> i;
         first += m * m * m;
+    }
+    return first;
+}
+
+fn clip_tail_voxel(k: u32, first: u32, j: vec3<i32>) -> vec4<f32> {
+    let n = clip_info.misc.x >> k;
+    if any(j < vec3<i32>(0)) || any(j >= vec3<i32>(i32(n))) {
+        return vec4<f32>(0.0);
     }
     let slot = first + u32(j.x) + n * (u32(j.y) + n * u32(j.z));
     return vec4<f32>(unpack2x16float(clip_tail[2u * slot]),
@@ -81,11 +86,12 @@ fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
     let g = (p / coarsest - origin) / f32(1u << k) - 0.5;
     let i0 = vec3<i32>(floor(g));
     let f = g - floor(g);
+    let first = clip_tail_first(k);
     var sum = vec4<f32>(0.0);
     for (var c = 0u; c < 8u; c++) {
-        let o = vec3<i32>(i32(c & 1u), i32((c >> 1u) & 1u), i32((c >> 2u) & 1u));
+        let o = clip_corner(c);
         let w = select(1.0 - f, f, o == vec3<i32>(1));
-        sum += w.x * w.y * w.z * clip_tail_voxel(k, i0 + o);
+        sum += w.x * w.y * w.z * clip_tail_voxel(k, first, i0 + o);
     }
     return sum;
 }
