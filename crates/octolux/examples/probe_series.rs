@@ -8,7 +8,8 @@
 //! ```
 //!
 //! Keys: `frames` (600), `gi` (`probes-octree` or `probes-grid`), `width`/`height` (160 x 90),
-//! and the `[settings.probes]` keys `max_depth`, `surfels`, `lattice`, `grid` (per axis).
+//! and the `[settings.probes]` keys `max_depth`, `surfels`, `lattice`, `split_fraction`,
+//! `free_fraction`, `grid` (per axis).
 
 use octolux::gi::probes::{Lattice, ProbesOctree};
 use octolux::gi::GiSettings;
@@ -36,6 +37,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "height" => height = value.parse()?,
             "max_depth" => probes.max_depth = value.parse()?,
             "surfels" => probes.surfels = value.parse()?,
+            "split_fraction" => probes.split_fraction = value.parse()?,
+            "free_fraction" => probes.free_fraction = value.parse()?,
             "grid" => probes.grid = [value.parse()?; 3],
             "lattice" => {
                 probes.lattice = Lattice::from_name(value).ok_or(format!("lattice '{value}'"))?

@@ -36,6 +36,22 @@ pub use octree_gpu::{OctreeView, ProbesOctree};
 
 use crate::{Error, Result};
 
+/// Creates `probes-grid` or `probes-octree` (`name`) for `scene` at `width` x `height`.
+pub fn create(
+    name: &str,
+    ctx: &crate::gpu::GpuContext,
+    settings: &ProbeSettings,
+    scene: &crate::scene::Scene,
+    width: u32,
+    height: u32,
+) -> Result<Box<dyn crate::gi::GiTechnique>> {
+    Ok(if name == "probes-octree" {
+        Box::new(ProbesOctree::new(ctx, settings, scene, width, height)?)
+    } else {
+        Box::new(ProbesGrid::new(ctx, settings, scene, width, height)?)
+    })
+}
+
 /// How `probes-octree` reads its probes at a pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
