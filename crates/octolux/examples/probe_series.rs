@@ -7,7 +7,7 @@
 //!     frames=600 gi=probes-octree max_depth=3 surfels=64 lattice=fibonacci
 //! ```
 //!
-//! Keys: `frames` (600), `gi` (`probes-octree` or `probes-grid`), `width`/`height` (160 x 90),
+//! Keys: `frames` (600), `start` (first frame, 0), `gi` (`probes-octree` or `probes-grid`), `width`/`height` (160 x 90),
 //! and the `[settings.probes]` keys `max_depth`, `surfels`, `lattice`, `split_fraction`,
 //! `free_fraction`, `grid` (per axis).
 
@@ -22,8 +22,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = args
         .next()
         .ok_or("usage: probe_series SCENE [key=value ...]")?;
-    let (mut frames, mut gi, mut width, mut height) =
-        (600u32, "probes-octree".to_string(), 160, 90);
+    let (mut frames, mut start, mut gi) = (600u32, 0u32, "probes-octree".to_string());
+    let (mut width, mut height) = (160, 90);
     let mut settings = GiSettings::default();
     for arg in args {
         let (key, value) = arg
@@ -32,6 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let probes = &mut settings.probes;
         match key {
             "frames" => frames = value.parse()?,
+            "start" => start = value.parse()?,
             "gi" => gi = value.to_string(),
             "width" => width = value.parse()?,
             "height" => height = value.parse()?,
@@ -60,7 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
     )?;
     let mut header = false;
-    for frame in 0..frames {
+    for frame in start..start + frames {
         let timings = r.render(&scene, frame as f32 / 60.0)?;
         let probes = match r
             .technique()
