@@ -149,7 +149,7 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
-    /// Probe octree: deepest level, 2..=5 (default 3).
+    /// Probe octree: deepest level, 2..=5 (default 2).
     #[arg(long)]
     pub probes_max_depth: Option<u32>,
     /// Probe octree: share of a probe's surfels inside its cube from which its leaf splits

@@ -7,8 +7,9 @@
 //!     frames=600 gi=probes-octree max_depth=3 surfels=64 lattice=fibonacci
 //! ```
 //!
-//! Keys: `frames` (600), `gi` (`probes-octree` or `probes-grid`), `width`/`height` (160 x 90),
-//! and the `[settings.probes]` keys `max_depth`, `surfels`, `lattice`, `grid` (per axis).
+//! Keys: `frames` (600), `start` (first frame, 0), `gi` (`probes-octree` or `probes-grid`), `width`/`height` (160 x 90),
+//! and the `[settings.probes]` keys `max_depth`, `surfels`, `lattice`, `split_fraction`,
+//! `free_fraction`, `grid` (per axis).
 
 use octolux::gi::probes::{Lattice, ProbesOctree};
 use octolux::gi::GiSettings;
@@ -21,8 +22,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = args
         .next()
         .ok_or("usage: probe_series SCENE [key=value ...]")?;
-    let (mut frames, mut gi, mut width, mut height) =
-        (600u32, "probes-octree".to_string(), 160, 90);
+    let (mut frames, mut start, mut gi) = (600u32, 0u32, "probes-octree".to_string());
+    let (mut width, mut height) = (160, 90);
     let mut settings = GiSettings::default();
     for arg in args {
         let (key, value) = arg
@@ -31,11 +32,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let probes = &mut settings.probes;
         match key {
             "frames" => frames = value.parse()?,
+            "start" => start = value.parse()?,
             "gi" => gi = value.to_string(),
             "width" => width = value.parse()?,
             "height" => height = value.parse()?,
             "max_depth" => probes.max_depth = value.parse()?,
             "surfels" => probes.surfels = value.parse()?,
+            "split_fraction" => probes.split_fraction = value.parse()?,
+            "free_fraction" => probes.free_fraction = value.parse()?,
             "grid" => probes.grid = [value.parse()?; 3],
             "lattice" => {
                 probes.lattice = Lattice::from_name(value).ok_or(format!("lattice '{value}'"))?
@@ -57,7 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         },
     )?;
     let mut header = false;
-    for frame in 0..frames {
+    for frame in start..start + frames {
         let timings = r.render(&scene, frame as f32 / 60.0)?;
         let probes = match r
             .technique()

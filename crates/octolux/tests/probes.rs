@@ -1,7 +1,7 @@
 //! `probes-grid` on the Cornell box against the one-bounce reference: the probes light the
 //! ceiling, which the spot light does not reach (within a factor 2 of the reference), and the
 //! image is closer to the reference than no GI at all in relMSE and FLIP, with both encodings.
-//! Bad settings are clear errors.
+//! `probes-octree` does so too with a few dozen probes. Bad settings are clear errors.
 
 use glam::Vec3;
 use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange};
@@ -39,6 +39,16 @@ fn mean_over(image: &HdrImage, mask: &[bool]) -> f32 {
     sum / n.max(1) as f32
 }
 
+/// The pixels that see the ceiling (normal facing down), from the renderer's G-buffer.
+fn ceiling_mask(r: &Renderer) -> Vec<bool> {
+    let g = r.read_gbuffer().unwrap();
+    g.normal
+        .iter()
+        .zip(&g.depth)
+        .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
+        .collect()
+}
+
 #[test]
 fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     let ctx = GpuContext::shared(&GpuOptions::default())
@@ -73,13 +83,7 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
         };
         let mut r = Renderer::new(&ctx, &scene, settings(technique, probes)).unwrap();
         r.render(&scene, 0.0).unwrap();
-        let g = r.read_gbuffer().unwrap();
-        let mask: Vec<bool> = g
-            .normal
-            .iter()
-            .zip(&g.depth)
-            .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
-            .collect();
+        let mask = ceiling_mask(&r);
         let image = r.read_hdr().unwrap();
         let ceiling = mean_over(&image, &mask);
         let rel = rel_mse(&image, &reference, None).unwrap();
@@ -209,13 +213,7 @@ fn octree_probes_light_the_cornell_box_with_few_probes() {
         rel_mse(&image, &one, None).unwrap(),
         flip(&image, &one, None, &options).unwrap(),
     );
-    let g = r.read_gbuffer().unwrap();
-    let mask: Vec<bool> = g
-        .normal
-        .iter()
-        .zip(&g.depth)
-        .map(|(n, &d)| d < 1.0 && n.dot(Vec3::NEG_Y) > 0.9)
-        .collect();
+    let mask = ceiling_mask(&r);
     let expected = mean_over(&one, &mask);
     for gather in [OctreeGather::Octree, OctreeGather::All] {
         let probes = ProbeSettings {
@@ -280,101 +278,63 @@ fn bad_probe_settings_are_clear_errors() {
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let scene = octolux::scene::cornell::scene();
-    let cases: Vec<(ProbeSettings, &str)> = vec![
+    // The grid's settings (the octree checks them as well), then the octree's own.
+    type Change = fn(&mut ProbeSettings);
+    let cases: [(&str, Change, &str); 11] = [
+        ("probes-grid", |s| s.grid = [21, 1, 21], "probes grid"),
+        ("probes-grid", |s| s.surfels = 4, "probes surfels"),
         (
-            ProbeSettings {
-                grid: [21, 1, 21],
-                ..Default::default()
-            },
-            "probes grid",
-        ),
-        (
-            ProbeSettings {
-                surfels: 4,
-                ..Default::default()
-            },
-            "probes surfels",
-        ),
-        (
-            ProbeSettings {
-                surfels: 100,
-                lattice: octolux::gi::probes::Lattice::LatLong,
-                ..Default::default()
+            "probes-grid",
+            |s| {
+                s.surfels = 100;
+                s.lattice = octolux::gi::probes::Lattice::LatLong;
             },
             "lat-long",
         ),
         (
-            ProbeSettings {
-                normal_bias: f32::NAN,
-                ..Default::default()
-            },
+            "probes-grid",
+            |s| s.normal_bias = f32::NAN,
             "probes normal_bias",
         ),
         (
-            ProbeSettings {
-                grid: [128; 3],
-                surfels: 1024,
-                ..Default::default()
+            "probes-grid",
+            |s| {
+                s.grid = [128; 3];
+                s.surfels = 1024;
             },
             "16M surfels",
         ),
+        // 13.8M surfels, 663 MiB: more than one storage binding may hold.
+        ("probes-grid", |s| s.grid = [60; 3], "per storage binding"),
+        ("probes-octree", |s| s.max_depth = 6, "probes max_depth"),
+        ("probes-octree", |s| s.max_depth = 1, "probes max_depth"),
         (
-            // 13.8M surfels, 663 MiB: more than one storage binding may hold.
-            ProbeSettings {
-                grid: [60; 3],
-                ..Default::default()
-            },
-            "per storage binding",
-        ),
-    ];
-    for (probes, what) in cases {
-        let err = Renderer::new(&ctx, &scene, settings("probes-grid", probes))
-            .err()
-            .expect("must fail");
-        assert!(err.to_string().contains(what), "{err}");
-    }
-    let octree_cases: Vec<(ProbeSettings, &str)> = vec![
-        (
-            ProbeSettings {
-                max_depth: 6,
-                ..Default::default()
-            },
-            "probes max_depth",
-        ),
-        (
-            ProbeSettings {
-                max_depth: 1,
-                ..Default::default()
-            },
-            "probes max_depth",
-        ),
-        (
-            ProbeSettings {
-                split_fraction: 0.2,
-                free_fraction: 0.3,
-                ..Default::default()
+            "probes-octree",
+            |s| {
+                s.split_fraction = 0.2;
+                s.free_fraction = 0.3;
             },
             "free_fraction < split_fraction",
         ),
         (
-            ProbeSettings {
-                split_fraction: f32::NAN,
-                ..Default::default()
-            },
+            "probes-octree",
+            |s| s.split_fraction = f32::NAN,
             "split_fraction",
         ),
+        // 32769 probes x 1024 surfels x 48 bytes: more than one storage binding holds.
         (
-            // 32769 probes x 1024 surfels x 48 bytes: more than one storage binding holds.
-            ProbeSettings {
-                max_depth: 5,
-                surfels: 1024,
-                ..Default::default()
+            "probes-octree",
+            |s| {
+                s.max_depth = 5;
+                s.surfels = 1024;
             },
             "per storage binding",
         ),
     ];
-    for (probes, what) in octree_cases {
-        let err = Renderer::new(&ctx, &scene, settings("probes-octree", probes))
+    for (technique, change, what) in cases {
+        let mut probes = ProbeSettings::default();
+        change(&mut probes);
+        let err = Renderer::new(&ctx, &scene, settings(technique, probes))
             .err()
             .expect("must fail");
         assert!(err.to_string().contains(what), "{err}");

@@ -232,12 +232,38 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             changed |= drag(ui, "sparse (N x N block)", &mut v.sparse, 1, 8);
             return changed;
         }
-        "probes-grid" => {
-            use octolux::gi::probes::{Encoding, Lattice};
+        "probes-grid" | "probes-octree" => {
+            use octolux::gi::probes::{Encoding, Lattice, OctreeGather, SurfelRange};
             let p = &mut s.probes;
-            let mut side = p.grid[0];
-            changed |= drag(ui, "probes per axis", &mut side, 2, 64);
-            p.grid = [side; 3];
+            if technique == "probes-grid" {
+                let mut side = p.grid[0];
+                changed |= drag(ui, "probes per axis", &mut side, 2, 64);
+                p.grid = [side; 3];
+            } else {
+                changed |= drag(ui, "max depth", &mut p.max_depth, 2, 5);
+                changed |= ui
+                    .add(Slider::new(&mut p.split_fraction, 0.05..=1.0).text("split fraction"))
+                    .changed();
+                changed |= ui
+                    .add(Slider::new(&mut p.free_fraction, 0.0..=0.95).text("free fraction"))
+                    .changed();
+                // Keep the two bounds ordered, as the settings require.
+                p.free_fraction = p.free_fraction.min(p.split_fraction - 0.05);
+                let before = (p.gather, p.surfel_range);
+                ComboBox::from_label("gather")
+                    .selected_text(format!("{:?}", p.gather))
+                    .show_ui(ui, |ui| {
+                        ui.selectable_value(&mut p.gather, OctreeGather::Octree, "octree");
+                        ui.selectable_value(&mut p.gather, OctreeGather::All, "all probes");
+                    });
+                ComboBox::from_label("surfel range")
+                    .selected_text(format!("{:?}", p.surfel_range))
+                    .show_ui(ui, |ui| {
+                        ui.selectable_value(&mut p.surfel_range, SurfelRange::Scene, "scene");
+                        ui.selectable_value(&mut p.surfel_range, SurfelRange::Cube, "cube");
+                    });
+                changed |= before != (p.gather, p.surfel_range);
+            }
             let before = (p.surfels, p.lattice, p.encoding);
             ComboBox::from_label("surfels per probe")
                 .selected_text(p.surfels.to_string())

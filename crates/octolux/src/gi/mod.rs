@@ -170,20 +170,9 @@ pub fn create(
             width,
             height,
         )?)),
-        "probes-grid" => Ok(Box::new(probes::ProbesGrid::new(
-            ctx,
-            &settings.probes,
-            scene,
-            width,
-            height,
-        )?)),
-        "probes-octree" => Ok(Box::new(probes::ProbesOctree::new(
-            ctx,
-            &settings.probes,
-            scene,
-            width,
-            height,
-        )?)),
+        "probes-grid" | "probes-octree" => {
+            probes::create(name, ctx, &settings.probes, scene, width, height)
+        }
         "lpv" | "clpv" | "olpv" => {
             let variant = match name {
                 "lpv" => lpv::Variant::Uniform,

@@ -245,18 +245,7 @@ pub(crate) fn bind(
     pipeline: &wgpu::ComputePipeline,
     entries: &[(u32, wgpu::BindingResource)],
 ) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = entries
-        .iter()
-        .map(|(binding, resource)| wgpu::BindGroupEntry {
-            binding: *binding,
-            resource: resource.clone(),
-        })
-        .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    })
+    crate::gpu::bind_group_at(ctx, None, pipeline, 0, entries)
 }
 
 /// A slice of a uniform buffer holding one struct of `size` bytes at slot `slot`.

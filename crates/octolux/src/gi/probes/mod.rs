@@ -36,6 +36,22 @@ pub use octree_gpu::{OctreeView, ProbesOctree};
 
 use crate::{Error, Result};
 
+/// Creates `probes-grid` or `probes-octree` (`name`) for `scene` at `width` x `height`.
+pub fn create(
+    name: &str,
+    ctx: &crate::gpu::GpuContext,
+    settings: &ProbeSettings,
+    scene: &crate::scene::Scene,
+    width: u32,
+    height: u32,
+) -> Result<Box<dyn crate::gi::GiTechnique>> {
+    Ok(if name == "probes-octree" {
+        Box::new(ProbesOctree::new(ctx, settings, scene, width, height)?)
+    } else {
+        Box::new(ProbesGrid::new(ctx, settings, scene, width, height)?)
+    })
+}
+
 /// How `probes-octree` reads its probes at a pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -106,8 +122,9 @@ pub struct ProbeSettings {
     /// Share of a probe's rays that may hit back faces before it counts as inside geometry
     /// and is left out of the gather (default 0.25).
     pub backface_limit: f32,
-    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 3: at most 512
-    /// leaves, 8 x 8 x 8 at the finest).
+    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 2: at most 64
+    /// leaves, 4 x 4 x 4 at the finest; on the Cornell box depth 3 doubles the probes and
+    /// gains nothing measurable, docs/probes.md).
     pub max_depth: u32,
     /// `probes-octree`: a leaf splits when at least this share of its probe's surfels land
     /// inside its cube (`004`: 1/2; default 0.5).
@@ -132,7 +149,7 @@ impl Default for ProbeSettings {
             multi_bounce: false,
             normal_bias: 0.2,
             backface_limit: 0.25,
-            max_depth: 3,
+            max_depth: 2,
             split_fraction: 0.5,
             free_fraction: 0.25,
             gather: OctreeGather::Octree,

@@ -253,9 +253,9 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
 // The moved-geometry test and the L states that need no hit count; L1 leaves with a probe
 // ask for their surfels (`place_flags`) and wait for `light_decide`.
 @compute @workgroup_size(64)
-fn light_select(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                @builtin(local_invocation_index) li: u32) {
-    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
+    // At most 37449 nodes (depth 5): one row of workgroups.
+    let i = id.x;
     if i >= O.sizes.x {
         return;
     }
@@ -292,9 +292,9 @@ fn light_select(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
 
 // The split/free rule for the leaves `light_select` left waiting, from their probes' hits.
 @compute @workgroup_size(64)
-fn light_decide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                @builtin(local_invocation_index) li: u32) {
-    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+fn light_decide(@builtin(global_invocation_id) id: vec3<u32>) {
+    // At most 37449 nodes (depth 5): one row of workgroups.
+    let i = id.x;
     if i >= O.sizes.x || state[request_at(i)] == 0u {
         return;
     }

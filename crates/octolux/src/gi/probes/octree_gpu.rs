@@ -18,7 +18,6 @@ use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
-use crate::voxel::voxelize::dispatch_size;
 use crate::{Error, Result};
 use glam::{Mat4, UVec3, Vec3};
 
@@ -207,7 +206,7 @@ impl GpuOctree {
     }
 
     fn node_groups(&self) -> (u32, u32) {
-        dispatch_size(self.params.sizes[0])
+        (self.params.sizes[0].div_ceil(64), 1)
     }
 
     /// The light update's first half: moved geometry, L1 leaves ask for surfels.

@@ -153,12 +153,39 @@ fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
     }
 }
 
+/// A renderer with `probes-octree` and `probes` at `size` x `size`.
+fn octree_renderer(
+    ctx: &GpuContext,
+    scene: &crate::scene::Scene,
+    probes: &super::ProbeSettings,
+    size: u32,
+) -> crate::render::Renderer {
+    let settings = crate::render::RenderSettings {
+        width: size,
+        height: size,
+        gi: "probes-octree".into(),
+        gi_settings: crate::gi::GiSettings {
+            probes: probes.clone(),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    crate::render::Renderer::new(ctx, scene, settings).unwrap()
+}
+
+/// The renderer's `probes-octree`.
+fn technique(r: &crate::render::Renderer) -> &super::ProbesOctree {
+    r.technique()
+        .as_any()
+        .and_then(|a| a.downcast_ref::<super::ProbesOctree>())
+        .unwrap()
+}
+
 #[test]
 fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
     // `probes-octree` on the shipped animated Cornell box, 30 frames through the block's
     // motion: after every frame the CPU octree, fed the same boxes of moved objects and the
     // GPU's hit counts (surfels inside each probe's cube), holds the same buffers.
-    use crate::render::{RenderSettings, Renderer};
     let ctx = ctx();
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -169,17 +196,7 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
         max_depth: 3,
         ..Default::default()
     };
-    let settings = RenderSettings {
-        width: 24,
-        height: 24,
-        gi: "probes-octree".into(),
-        gi_settings: crate::gi::GiSettings {
-            probes: probes.clone(),
-            ..Default::default()
-        },
-        ..RenderSettings::default()
-    };
-    let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+    let mut r = octree_renderer(&ctx, &scene, &probes, 24);
     let rule = probes.octree_rule();
     let (len, capacity) = rule.full_capacity();
     let (lo, size) = super::octree_gpu::root_cube(scene.bounds_at(0.0)).unwrap();
@@ -187,11 +204,7 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
     let (mut counts, mut moving) = (Vec::new(), 0);
     for f in 0..30 {
         r.render(&scene, 0.9 + 0.05 * f as f32).unwrap();
-        let technique = r
-            .technique()
-            .as_any()
-            .and_then(|a| a.downcast_ref::<super::ProbesOctree>())
-            .unwrap();
+        let technique = technique(&r);
         let hits: Vec<u32> = read(&ctx, technique.octree().hits_buffer());
         cpu.frame(technique.moved(), |slot, _| hits[slot as usize]);
         moving += !technique.moved().is_empty() as u32;
@@ -216,7 +229,6 @@ fn octree_gather_equals_its_cpu_twin() {
     // Tolerance: the output is f16 (2^-11 relative) of a sum the CPU forms in the same
     // order, from a world position rebuilt from the depth buffer on both sides; a point within
     // rounding of a cube face may pick another leaf on either side, which must be rare.
-    use crate::render::{RenderSettings, Renderer};
     let ctx = ctx();
     let scene = crate::scene::cornell::scene();
     for gather in [super::OctreeGather::Octree, super::OctreeGather::All] {
@@ -224,25 +236,11 @@ fn octree_gather_equals_its_cpu_twin() {
             gather,
             ..Default::default()
         };
-        let settings = RenderSettings {
-            width: 40,
-            height: 40,
-            gi: "probes-octree".into(),
-            gi_settings: crate::gi::GiSettings {
-                probes: probes.clone(),
-                ..Default::default()
-            },
-            ..RenderSettings::default()
-        };
-        let mut r = Renderer::new(&ctx, &scene, settings).unwrap();
+        let mut r = octree_renderer(&ctx, &scene, &probes, 40);
         for _ in 0..8 {
             r.render(&scene, 0.0).unwrap();
         }
-        let technique = r
-            .technique()
-            .as_any()
-            .and_then(|a| a.downcast_ref::<super::ProbesOctree>())
-            .unwrap();
+        let technique = technique(&r);
         let [tree, info, _, _] = technique.octree().buffers();
         let (nodes, info): (Vec<i32>, Vec<[f32; 4]>) = (read(&ctx, tree), read(&ctx, info));
         let probe_data: Vec<[f32; 4]> = read(&ctx, technique.probe_buffer());

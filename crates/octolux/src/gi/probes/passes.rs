@@ -96,18 +96,7 @@ pub(crate) fn bind_at(
     index: u32,
     entries: &[(u32, wgpu::BindingResource)],
 ) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = entries
-        .iter()
-        .map(|(binding, resource)| wgpu::BindGroupEntry {
-            binding: *binding,
-            resource: resource.clone(),
-        })
-        .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some(label),
-        layout: &pipeline.get_bind_group_layout(index),
-        entries: &entries,
-    })
+    crate::gpu::bind_group_at(ctx, Some(label), pipeline, index, entries)
 }
 
 /// A bind group of group 0 of `pipeline` with `entries` at bindings 0, 1, ...
