@@ -63,21 +63,31 @@ pub struct RenderArgs {
     /// Exposure in EV (stops), replacing the scene's: the display image is scaled by 2^EV.
     #[arg(long, allow_hyphen_values = true)]
     pub exposure: Option<f32>,
-    /// What to show: `shaded` (the rendered image) or `voxels` (the voxel structure's albedo,
-    /// ray-marched; see --voxel-structure, --voxel-res and --level).
-    #[arg(long, default_value = "shaded", help_heading = "Voxel debug view")]
+    /// What to show: `shaded` (the rendered image), `voxels` (the voxel structure's albedo,
+    /// ray-marched; see --voxel-structure, --voxel-res and --level) or `probes` (with --gi
+    /// probes-grid or probes-octree: the frame with the probes as spheres shaded by their
+    /// irradiance, the octree's leaf cubes and the surfels drawn over it; see --probe-layers).
+    #[arg(long, default_value = "shaded", help_heading = "Debug views")]
     pub view: String,
+    /// Layers of `--view probes`: a comma-separated list of `probes`, `cells` (the octree's
+    /// leaf cubes; yellow: holds a probe) and `surfels`, or `all`.
+    #[arg(long, default_value = "all", help_heading = "Debug views")]
+    pub probe_layers: String,
+    /// Frames rendered before `--view probes` reads the probes (the octree grows one level
+    /// per frame).
+    #[arg(long, default_value_t = 10, help_heading = "Debug views")]
+    pub probe_frames: u32,
     /// Structure shown by `--view voxels`: `svo`, `clipmap` or `clipmap-radiance` (the
     /// clipmap's injected direct radiance).
-    #[arg(long, default_value = "svo", help_heading = "Voxel debug view")]
+    #[arg(long, default_value = "svo", help_heading = "Debug views")]
     pub voxel_structure: String,
     /// Voxel resolution of `--view voxels` (the octree's grid; the clipmap's finest voxel
     /// matches it).
-    #[arg(long, default_value_t = 128, help_heading = "Voxel debug view")]
+    #[arg(long, default_value_t = 128, help_heading = "Debug views")]
     pub voxel_res: u32,
     /// Level sampled by `--view voxels` (octree: 0 = root; clipmap: 0 = finest). Default: the
     /// finest.
-    #[arg(long, help_heading = "Voxel debug view")]
+    #[arg(long, help_heading = "Debug views")]
     pub level: Option<u32>,
     /// Reference path tracer options (used with `--gi reference`).
     #[command(flatten, next_help_heading = "Reference path tracer (--gi reference)")]
@@ -292,6 +302,61 @@ fn run_voxel_view(args: &RenderArgs, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+fn run_probe_view(args: &RenderArgs, scene: &Scene, gi_settings: GiSettings) -> Result<()> {
+    use octolux::gi::probes::debug::{Layers, ProbeSnapshot};
+    if !matches!(args.gi.as_str(), "probes-grid" | "probes-octree") {
+        bail!(
+            "--view probes shows a probe technique: use --gi probes-grid or probes-octree, not {}",
+            args.gi
+        );
+    }
+    if !args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!("{}: --view probes writes a .png", args.out.display());
+    }
+    let layers: Layers = args.probe_layers.parse()?;
+    if args.probe_frames == 0 || args.probe_frames > 10_000 {
+        bail!("--probe-frames {}: expected 1..=10000", args.probe_frames);
+    }
+    let ctx = GpuContext::new(&args.gpu.options())?;
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        shadow_map_size: args.gpu.shadow_map_size,
+        camera: scene.camera_index(&args.camera)?,
+        gi: args.gi.clone(),
+        gi_settings,
+        soft_sky_shadows: args.gpu.soft_sky_shadows,
+    };
+    let mut renderer = Renderer::new(&ctx, scene, settings).context("setting up the renderer")?;
+    // The marks go over whichever image --output names (e.g. `indirect`).
+    renderer.set_output(crate::view::parse_output(&args.output)?);
+    for _ in 0..args.probe_frames {
+        renderer.render(scene, args.start_time())?;
+    }
+    let snapshot = ProbeSnapshot::read(&ctx, renderer.technique())?;
+    let view = renderer
+        .last_view()
+        .context("the renderer kept no camera view")?;
+    let depth = renderer.read_gbuffer()?.depth;
+    let mut rgb = renderer.read_display()?;
+    snapshot.draw(view, &depth, &mut rgb, scene.exposure, layers)?;
+    write_rgb8_png(&args.out, args.width, args.height, rgb)?;
+    println!(
+        "{}: {} probes ({} gathered), {} octree cells, {} surfels on front faces -> {}",
+        args.gi,
+        snapshot.probes.len(),
+        snapshot.valid_probes(),
+        snapshot.cells.len(),
+        snapshot.surfels.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
 /// Loads the scene named on the command line (default: the built-in Cornell box) and the GI
 /// settings of its scene file, with the command-line flags (technique settings, sky) applied
 /// on top.
@@ -405,7 +470,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     match args.view.as_str() {
         "shaded" => {}
         "voxels" => return run_voxel_view(args, &scene),
-        other => bail!("--view {other}: expected shaded or voxels"),
+        "probes" => return run_probe_view(args, &scene, gi_settings),
+        other => bail!("--view {other}: expected shaded, voxels or probes"),
     }
     if args.gi == "reference" {
         run_reference(args, &scene)?;

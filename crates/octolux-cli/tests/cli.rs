@@ -548,6 +548,104 @@ fn voxel_debug_view_renders_and_rejects_bad_input() {
     );
 }
 
+/// `--view probes` draws a probe technique's state over the frame: the counts it prints match
+/// the settings, each layer changes the image, and misuse is a clear error.
+#[test]
+fn probe_debug_view_renders_and_rejects_bad_input() {
+    let dir = temp_dir("probe-view");
+    let run = |gi: &str, layers: &str, name: &str| {
+        let out = dir.join(name);
+        let output = octolux(&[
+            "render",
+            "--gi",
+            gi,
+            "--probes-grid",
+            "4",
+            "--view",
+            "probes",
+            "--probe-layers",
+            layers,
+            "--probe-frames",
+            "6",
+            "--width",
+            "48",
+            "--height",
+            "32",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+        let image = image::open(&out).unwrap().to_rgb8();
+        assert_eq!(image.dimensions(), (48, 32));
+        (stdout, image)
+    };
+    // The grid: 4^3 probes, no cells.
+    let (stdout, _) = run("probes-grid", "all", "grid.png");
+    assert!(stdout.contains("probes-grid: 64 probes"), "{stdout}");
+    assert!(stdout.contains(" 0 octree cells"), "{stdout}");
+    // The octree: some probes and cells; each layer draws something of its own.
+    let (stdout, cells) = run("probes-octree", "cells", "cells.png");
+    assert!(
+        !stdout.contains(" 0 probes") && !stdout.contains(" 0 octree cells"),
+        "{stdout}"
+    );
+    let (_, probes) = run("probes-octree", "probes", "probes.png");
+    let (_, surfels) = run("probes-octree", "surfels", "surfels.png");
+    assert_ne!(cells, probes);
+    assert_ne!(probes, surfels);
+    let out = dir.join("p.png");
+    let out = out.to_str().unwrap();
+    assert_fails_with(
+        &octolux(&["render", "--gi", "vpl", "--view", "probes", "--out", out]),
+        &["--view probes", "vpl"],
+    );
+    assert_fails_with(
+        &octolux(&[
+            "render",
+            "--gi",
+            "probes-grid",
+            "--view",
+            "probes",
+            "--out",
+            "p.exr",
+        ]),
+        &["p.exr", ".png"],
+    );
+    assert_fails_with(
+        &octolux(&[
+            "render",
+            "--gi",
+            "probes-grid",
+            "--view",
+            "probes",
+            "--probe-layers",
+            "probes,voxels",
+            "--out",
+            out,
+        ]),
+        &["voxels"],
+    );
+    assert_fails_with(
+        &octolux(&[
+            "render",
+            "--gi",
+            "probes-grid",
+            "--view",
+            "probes",
+            "--probe-frames",
+            "0",
+            "--out",
+            out,
+        ]),
+        &["--probe-frames 0"],
+    );
+}
+
 /// `--sky` lights any scene without a scene file: the camera sees it where nothing is drawn,
 /// on the GPU and in the reference; a bad value is an error naming it.
 #[test]

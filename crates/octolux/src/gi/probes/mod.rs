@@ -14,10 +14,12 @@
 //! - [`grid`]: the `probes-grid` technique, probes on a uniform grid.
 //! - [`octree`]: `004`'s adaptive octree (encoding, allocation, state machine) on the CPU, the
 //!   specification of the GPU's.
+//! - [`debug`]: the probe debug view (`--view probes`), drawn on the CPU from read-back state.
 //! - [`octree_gpu`]: the `probes-octree` technique: that octree on the GPU, driven by the
 //!   probes' surfel hit fractions, rebuilt around moving objects, gathered through the tree.
 
 pub mod bvh;
+pub mod debug;
 pub mod encoding;
 #[cfg(test)]
 mod gpu_tests;

@@ -525,6 +525,17 @@ impl ProbesOctree {
         &self.moved
     }
 
+    /// The root cube: lower corner and edge.
+    pub fn root(&self) -> (Vec3, f32) {
+        self.root
+    }
+
+    /// The surfel buffer (per surfel position + state, normal + albedo, emission + distance)
+    /// and the surfels' outgoing radiance.
+    pub fn surfel_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
+        self.passes.surfel_buffers()
+    }
+
     /// The gather's view of the octree over read-back buffers.
     pub fn view<'a>(&self, nodes: &'a [i32], info: &'a [[f32; 4]]) -> OctreeView<'a> {
         OctreeView {
