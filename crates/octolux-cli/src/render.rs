@@ -302,6 +302,23 @@ fn run_voxel_view(args: &RenderArgs, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// The GPU renderer's settings from the command line.
+fn render_settings(
+    args: &RenderArgs,
+    scene: &Scene,
+    gi_settings: GiSettings,
+) -> Result<RenderSettings> {
+    Ok(RenderSettings {
+        width: args.width,
+        height: args.height,
+        shadow_map_size: args.gpu.shadow_map_size,
+        camera: scene.camera_index(&args.camera)?,
+        gi: args.gi.clone(),
+        gi_settings,
+        soft_sky_shadows: args.gpu.soft_sky_shadows,
+    })
+}
+
 fn run_probe_view(args: &RenderArgs, scene: &Scene, gi_settings: GiSettings) -> Result<()> {
     use octolux::gi::probes::debug::{Layers, ProbeSnapshot};
     if !matches!(args.gi.as_str(), "probes-grid" | "probes-octree") {
@@ -322,15 +339,7 @@ fn run_probe_view(args: &RenderArgs, scene: &Scene, gi_settings: GiSettings) -> 
         bail!("--probe-frames {}: expected 1..=10000", args.probe_frames);
     }
     let ctx = GpuContext::new(&args.gpu.options())?;
-    let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        shadow_map_size: args.gpu.shadow_map_size,
-        camera: scene.camera_index(&args.camera)?,
-        gi: args.gi.clone(),
-        gi_settings,
-        soft_sky_shadows: args.gpu.soft_sky_shadows,
-    };
+    let settings = render_settings(args, scene, gi_settings)?;
     let mut renderer = Renderer::new(&ctx, scene, settings).context("setting up the renderer")?;
     // The marks go over whichever image --output names (e.g. `indirect`).
     renderer.set_output(crate::view::parse_output(&args.output)?);
@@ -482,15 +491,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let ctx = GpuContext::new(&args.gpu.options())?;
     log::info!("adapter: {}", ctx.describe());
-    let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        shadow_map_size: args.gpu.shadow_map_size,
-        camera: scene.camera_index(&args.camera)?,
-        gi: args.gi.clone(),
-        gi_settings,
-        soft_sky_shadows: args.gpu.soft_sky_shadows,
-    };
+    let settings = render_settings(args, &scene, gi_settings)?;
     let start = std::time::Instant::now();
     let output = crate::view::parse_output(&args.output)?;
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;

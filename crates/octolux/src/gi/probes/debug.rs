@@ -155,6 +155,22 @@ fn surfel_marks(
         .collect()
 }
 
+/// Reads the surfel buffers (geometry, radiance) back and keeps the front-face surfels of
+/// the live probe slots.
+fn read_surfels(
+    ctx: &GpuContext,
+    (geometry, radiance): (&wgpu::Buffer, &wgpu::Buffer),
+    settings: &super::ProbeSettings,
+    live: &[bool],
+) -> Result<Vec<SurfelMark>> {
+    Ok(surfel_marks(
+        &vec4s(&read_all(ctx, geometry)?),
+        &vec4s(&read_all(ctx, radiance)?),
+        settings.surfels as usize,
+        live,
+    ))
+}
+
 impl ProbeSnapshot {
     /// Reads the state of `technique`, which must be `probes-grid` or `probes-octree`, after
     /// at least one frame. Waits for the GPU.
@@ -180,14 +196,8 @@ impl ProbeSnapshot {
                 probe_mark(&probes, i as usize, grid.position(c), radius)
             })
             .collect();
-        let (geometry, radiance) = technique.surfel_buffers();
         let live = vec![true; grid.count() as usize];
-        let surfels = surfel_marks(
-            &vec4s(&read_all(ctx, geometry)?),
-            &vec4s(&read_all(ctx, radiance)?),
-            technique.settings().surfels as usize,
-            &live,
-        );
+        let surfels = read_surfels(ctx, technique.surfel_buffers(), technique.settings(), &live)?;
         Ok(ProbeSnapshot {
             encoding: technique.settings().encoding,
             probes: marks,
@@ -222,13 +232,7 @@ impl ProbeSnapshot {
             technique.octree().rule().max_depth,
             &mut cells,
         );
-        let (geometry, radiance) = technique.surfel_buffers();
-        let surfels = surfel_marks(
-            &vec4s(&read_all(ctx, geometry)?),
-            &vec4s(&read_all(ctx, radiance)?),
-            technique.settings().surfels as usize,
-            &live,
-        );
+        let surfels = read_surfels(ctx, technique.surfel_buffers(), technique.settings(), &live)?;
         Ok(ProbeSnapshot {
             encoding: technique.settings().encoding,
             probes: marks,
@@ -520,7 +524,14 @@ mod tests {
     fn white_probe(position: Vec3, valid: bool) -> ProbeMark {
         // SH L1 of a uniform radiance 1 from six opposite directions: band 1 cancels.
         let mut coeffs = [Vec3::ZERO; COEFFS];
-        for d in [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z] {
+        for d in [
+            Vec3::X,
+            Vec3::NEG_X,
+            Vec3::Y,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+        ] {
             Encoding::ShL1.add(&mut coeffs, Vec3::ONE, d, 4.0 * std::f32::consts::PI / 6.0);
         }
         ProbeMark {
