@@ -369,6 +369,11 @@ pub struct Clipmap {
     scratch_use: (Option<u64>, [u64; 3]),
     /// Boxes queued by [`Clipmap::replace_triangles`].
     pending: Vec<UpdateBox>,
+    /// Every box the last revoxelisation rewrote (camera motion and moving objects).
+    revoxelised: Vec<UpdateBox>,
+    /// Indirect irradiance per voxel slot that the injection adds to the direct irradiance
+    /// (multiple bounces; [`Clipmap::set_bounce`]).
+    bounce: Option<wgpu::Buffer>,
 }
 
 /// A whole buffer as a binding range.
@@ -577,6 +582,8 @@ impl Clipmap {
             }),
             scratch_use: (None, [0; 3]),
             pending: Vec::new(),
+            revoxelised: Vec::new(),
+            bounce: None,
             owner,
         })
     }
@@ -922,6 +929,7 @@ impl Clipmap {
                 all.push(c);
             }
         }
+        self.revoxelised.clone_from(&all);
         let boxes = &all[..];
         let mut stats = std::mem::take(&mut self.acc);
         if boxes.is_empty() {
@@ -1149,6 +1157,33 @@ impl Clipmap {
         }
     }
 
+    /// Every box (of its level, inside the level's extent) that the last [`Clipmap::update`],
+    /// [`Clipmap::follow`] or [`Clipmap::revoxelise`] rewrote: the camera's exposed slabs and
+    /// the regions moving objects left and entered. Whatever a caller keeps per voxel slot is
+    /// stale there (a wrapped slot now holds another voxel, or the voxel changed).
+    pub fn last_revoxelised(&self) -> &[UpdateBox] {
+        &self.revoxelised
+    }
+
+    /// Multiple bounces: from now on both injections add `bounce` (per voxel slot, layout of
+    /// [`Clipmap::voxels`], RGBA16F indirect irradiance in W/m^2, alpha unused; at least 8
+    /// bytes per slot) to each voxel's direct irradiance, so its outgoing radiance is
+    /// emission + albedo / pi x (direct + indirect). `None` stops it.
+    pub fn set_bounce(&mut self, bounce: Option<wgpu::Buffer>) -> Result<()> {
+        let res = self.settings.resolution as u64;
+        let needed = self.settings.levels as u64 * res * res * res * 8;
+        if let Some(b) = &bounce {
+            if b.size() < needed {
+                return Err(Error::InvalidArgument(format!(
+                    "clipmap bounce buffer of {} bytes, {needed} needed",
+                    b.size()
+                )));
+            }
+        }
+        self.bounce = bounce;
+        Ok(())
+    }
+
     /// CPU cost and size of the last [`Clipmap::update`] or [`Clipmap::revoxelise`].
     pub fn last_update_stats(&self) -> UpdateStats {
         self.stats
@@ -1333,7 +1368,7 @@ impl Clipmap {
         let params = ctx.create_buffer_init(
             self.owner,
             "inject params",
-            bytemuck::cast_slice(&[params[0], params[1], slots, 0]),
+            bytemuck::cast_slice(&[params[0], params[1], slots, self.bounce.is_some() as u32]),
             wgpu::BufferUsages::STORAGE,
         );
         let info = ctx.create_buffer_init(
@@ -1365,6 +1400,7 @@ impl Clipmap {
             (4, &radiance),
             (5, &params),
             (6, &self.emission),
+            (10, self.bounce.as_ref().unwrap_or(&self.no_aniso)),
         ]
         .map(|(binding, buffer)| wgpu::BindGroupEntry {
             binding,
