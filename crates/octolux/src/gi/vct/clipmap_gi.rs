@@ -145,6 +145,11 @@ impl VctClipmap {
         })
     }
 
+    /// The clipmap, once the first frame made it (for tests and tools).
+    pub fn clipmap(&self) -> Option<&Clipmap> {
+        self.clipmap.as_ref()
+    }
+
     /// Multiple bounces, before the injection: the slots of every box the clipmap rewrote
     /// this frame lose their bounce light (a wrapped slot holds another voxel now; a moving
     /// object changed the voxels around it).

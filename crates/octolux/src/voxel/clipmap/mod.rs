@@ -319,6 +319,23 @@ impl UpdateStats {
     }
 }
 
+/// CPU twin of the injections' store (`inject_common.wgsl`): the outgoing radiance of a voxel
+/// slot with RGBA8 word `voxel` (albedo, premultiplied by coverage on filtered levels, and
+/// opacity) and RGB9E5 `emission` under `irradiance` W/m^2 (direct, plus with multiple bounces
+/// the indirect irradiance of [`Clipmap::set_bounce`]): emission + albedo / pi x irradiance;
+/// zero for an empty slot. The GPU stores it as f16.
+pub fn injected_radiance(voxel: u32, emission: u32, irradiance: Vec3) -> Vec3 {
+    if voxel >> 24 == 0 {
+        return Vec3::ZERO;
+    }
+    let albedo = Vec3::new(
+        (voxel & 255) as f32,
+        ((voxel >> 8) & 255) as f32,
+        ((voxel >> 16) & 255) as f32,
+    ) / 255.0;
+    decode_emission(emission) + albedo / std::f32::consts::PI * irradiance
+}
+
 /// A voxel clipmap on the GPU.
 pub struct Clipmap {
     /// Ledger owner of its buffers.
