@@ -93,7 +93,7 @@ pub struct GiArgs {
     /// Cone tracing (vct-svo): nodes reserved for the animated objects' voxels (default 65536).
     #[arg(long)]
     pub vct_dynamic_reserve: Option<u32>,
-    /// Cone tracing (vct-svo): multiple bounces through the octree's voxels, converging over
+    /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over
     /// frames, `true` (default) or `false` (one bounce).
     #[arg(long)]
     pub vct_multi_bounce: Option<bool>,

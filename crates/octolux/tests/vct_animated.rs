@@ -30,6 +30,10 @@ fn scene() -> Scene {
 }
 
 fn settings(technique: &str) -> RenderSettings {
+    settings_with(technique, false)
+}
+
+fn settings_with(technique: &str, multi_bounce: bool) -> RenderSettings {
     let mut gi = GiSettings::default();
     gi.vct.resolution = 16;
     gi.vct.levels = 3;
@@ -38,7 +42,7 @@ fn settings(technique: &str) -> RenderSettings {
     gi.vct.sparse = 1;
     // One bounce: with multiple bounces each frame carries light one bounce further, so a
     // renderer that walked 14 frames holds more bounces than one that jumped in 2.
-    gi.vct.multi_bounce = false;
+    gi.vct.multi_bounce = multi_bounce;
     RenderSettings {
         width: 48,
         height: 48,
@@ -82,5 +86,42 @@ fn frame_after_frame_equals_a_jump_to_the_same_time() {
         // The bound leaves room for adapters whose atomics place dynamic nodes in another
         // order (the same values in other bricks, summed in another order by the mips).
         assert!(difference < 1e-4, "{technique}: {difference}");
+    }
+}
+
+#[test]
+fn multiple_bounces_follow_the_motion_without_drift_or_growth() {
+    // With multiple bounces the voxels keep the indirect light they gathered from frame to
+    // frame. A renderer that walked through the animation (moving block, swinging spot,
+    // camera scrolling the clipmap) and then held the last instant for 12 frames must give
+    // the image of one that jumped to that instant and held it as long: what it carried
+    // through the motion (bounce light of voxels the block or the clipmap's scrolling
+    // replaced) is gone, and nothing accumulates. The memory ledger stays constant.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = scene();
+    let t_end = 1.3;
+    for technique in ["vct-svo", "vct-clipmap"] {
+        let mut walked = Renderer::new(&ctx, &scene, settings_with(technique, true)).unwrap();
+        walked.render(&scene, 0.0).unwrap();
+        let ledger = ctx.ledger.total();
+        for i in 1..=13 {
+            walked.render(&scene, i as f32 * t_end / 13.0).unwrap();
+        }
+        for _ in 0..12 {
+            walked.render(&scene, t_end).unwrap();
+        }
+        assert_eq!(ctx.ledger.total(), ledger, "{technique}: memory ledger");
+        let walked_image = walked.read_hdr().unwrap();
+        drop(walked);
+        let mut jumped = Renderer::new(&ctx, &scene, settings_with(technique, true)).unwrap();
+        jumped.render(&scene, 0.0).unwrap();
+        for _ in 0..25 {
+            jumped.render(&scene, t_end).unwrap();
+        }
+        let jumped_image = jumped.read_hdr().unwrap();
+        let difference = rel_mse(&walked_image, &jumped_image, None).unwrap();
+        println!("{technique}, multiple bounces: relMSE walked vs jumped {difference:e}");
+        assert!(difference < 1e-3, "{technique}: {difference}");
     }
 }

@@ -6,7 +6,9 @@ use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::clipmap::sample::{
     blend_choice, clip_sample_aniso, clip_sample_blend, clip_sample_blend_with, probe_blend,
 };
-use octolux::voxel::clipmap::{decode_emission, Clipmap, ClipmapOptions, ClipmapSettings};
+use octolux::voxel::clipmap::{
+    decode_emission, injected_radiance, Clipmap, ClipmapOptions, ClipmapSettings,
+};
 use octolux::voxel::sample::ClipInfo;
 use octolux::voxel::{cpu, VoxelTriangle};
 
@@ -638,4 +640,83 @@ fn several_updates_recorded_into_one_frame_equal_a_rebuild() {
         wrong, 0,
         "{wrong} voxels differ from a rebuild after updates in one frame"
     );
+}
+
+/// The f16 bits of `x`, a normal f16 value or zero (exact).
+fn half(x: f32) -> u16 {
+    if x == 0.0 {
+        return 0;
+    }
+    let bits = x.to_bits();
+    let h = ((((bits >> 23) & 255) as i32 - 112) << 10) as u32 | ((bits >> 13) & 1023);
+    assert_eq!(
+        octolux::voxel::svo::half_to_f32(h as u16),
+        x,
+        "{x} is not an f16"
+    );
+    h as u16
+}
+
+/// Multiple bounces: with a bounce buffer set, the injection adds each slot's indirect
+/// irradiance to its direct irradiance. Without lights the injected radiance is emission +
+/// albedo / pi x bounce, which the CPU twin `injected_radiance` computes from the read-back
+/// voxel, emission and bounce words; without the buffer it is the emission alone.
+#[test]
+fn bounce_irradiance_is_added_to_the_injected_radiance() {
+    let ctx = context();
+    let tris = scene();
+    let mut clipmap = build(&ctx, ClipmapOptions::default(), &tris, Vec3::splat(0.5));
+    let slots = (SETTINGS.levels * SETTINGS.resolution.pow(3)) as usize;
+    // Irradiance k / 64 (k < 1024) per channel: exact in f16.
+    let mut rng = Rng(77);
+    let bounce: Vec<Vec3> = (0..slots)
+        .map(|_| (rng.vec(0.0, 1.0) * 1023.0).floor() / 64.0)
+        .collect();
+    let words: Vec<u32> = bounce
+        .iter()
+        .flat_map(|b| {
+            [
+                half(b.x) as u32 | (half(b.y) as u32) << 16,
+                half(b.z) as u32,
+            ]
+        })
+        .collect();
+    let buffer = ctx.create_buffer_init(
+        "test",
+        "bounce",
+        bytemuck::cast_slice(&words),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let voxels = clipmap.read_voxels(&ctx).unwrap();
+    let emission = clipmap.read_emission(&ctx).unwrap();
+    for with_bounce in [false, true] {
+        clipmap
+            .set_bounce(with_bounce.then(|| buffer.clone()))
+            .unwrap();
+        let mut timer = PassTimer::new(&ctx);
+        clipmap.inject(&ctx, &mut timer, &[], 64).unwrap();
+        timer.finish_frame().unwrap();
+        let radiance = clipmap.read_radiance(&ctx).unwrap();
+        let mut lit = 0;
+        for i in 0..slots {
+            let e = if with_bounce { bounce[i] } else { Vec3::ZERO };
+            let want = injected_radiance(voxels[i], emission[i], e);
+            let got = radiance[i].truncate();
+            // f16 output: half an ulp, 2^-11 relative (plus the smallest normal).
+            let tol = want.abs().max_element() * 1e-3 + 1e-4;
+            assert!(
+                (got - want).abs().max_element() <= tol,
+                "slot {i} (bounce {with_bounce}): GPU {got}, CPU twin {want}"
+            );
+            if with_bounce && voxels[i] >> 24 != 0 && e.max_element() > 0.5 {
+                lit += 1;
+            }
+        }
+        if with_bounce {
+            assert!(lit > 100, "{lit} slots with bounce light");
+        }
+    }
+    // A buffer smaller than the clipmap's slots is refused.
+    let small = ctx.create_buffer_init("test", "small", &[0u8; 64], wgpu::BufferUsages::STORAGE);
+    assert!(clipmap.set_bounce(Some(small)).is_err());
 }

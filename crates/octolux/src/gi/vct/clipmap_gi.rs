@@ -1,6 +1,7 @@
 //! `vct-clipmap`: voxel cone tracing on the clipmap (`003` §3.2, §4): per frame the clipmap
-//! follows the camera (and revoxelises around moving objects), direct light is injected into
-//! its voxels, and every pixel gathers one bounce through six cones.
+//! follows the camera (and revoxelises around moving objects), direct light (plus, with
+//! multiple bounces, the indirect light the voxels gathered last frame) is injected into its
+//! voxels, and every pixel gathers through six cones.
 
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
@@ -9,8 +10,10 @@ use super::{ClipmapInjection, VctSettings};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::CLIPMAP_BLEND_WGSL;
+use crate::voxel::clipmap::UpdateBox;
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use crate::voxel::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
+use crate::voxel::voxelize::dispatch;
 use crate::voxel::{objects_triangles, scene_triangles_split, VoxelTriangle};
 use crate::{Error, Result};
 
@@ -29,6 +32,39 @@ pub struct VctClipmap {
     info: wgpu::Buffer,
     /// Coarser copies of the coarsest level, for wide cones.
     tail: ClipmapTail,
+    /// Multiple bounces (`multi_bounce`).
+    bounce: Option<ClipmapBounce>,
+}
+
+/// Multiple bounces on the clipmap: the indirect irradiance every voxel slot gathered last
+/// frame (RGBA16F per slot, layout of the clipmap's voxels), the gather and the pass that
+/// clears the revoxelised boxes.
+struct ClipmapBounce {
+    irradiance: wgpu::Buffer,
+    gather: wgpu::ComputePipeline,
+    clear: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    slots: u32,
+}
+
+/// Stride of the boxes in the per-frame box buffer (a storage binding offset alignment).
+const BOX_STRIDE: u64 = 256;
+
+/// The `BounceBox` words of `clipmap_bounce.wgsl` for box `b` of a clipmap of `res`^3 voxels
+/// per level.
+fn bounce_box_words(b: &UpdateBox, res: u32) -> [i32; 8] {
+    let size = (b.hi - b.lo).max(glam::IVec3::ZERO);
+    let first = (b.level as u64 * (res as u64).pow(3)) as u32;
+    [
+        b.lo.x,
+        b.lo.y,
+        b.lo.z,
+        0,
+        size.x,
+        size.y,
+        size.z,
+        first as i32,
+    ]
 }
 
 impl VctClipmap {
@@ -56,11 +92,36 @@ impl VctClipmap {
                 CLIPMAP_BLEND_WGSL,
                 CLIPMAP_RADIANCE_WGSL,
                 include_str!("clipmap_trace.wgsl"),
+                include_str!("clipmap_bounce.wgsl"),
             ],
             settings,
             width,
             height,
         );
+        let bounce = settings.multi_bounce.then(|| {
+            let res = settings.resolution as u64;
+            let slots = settings.levels as u64 * res * res * res;
+            ClipmapBounce {
+                irradiance: ctx.create_buffer(
+                    OWNER,
+                    &wgpu::BufferDescriptor {
+                        label: Some("bounce irradiance"),
+                        size: slots * 8,
+                        usage: wgpu::BufferUsages::STORAGE,
+                        mapped_at_creation: false,
+                    },
+                ),
+                gather: tracer.pipeline(ctx, "bounce"),
+                clear: tracer.pipeline(ctx, "bounce_clear"),
+                params: ctx.create_buffer_init(
+                    OWNER,
+                    "bounce params",
+                    bytemuck::cast_slice(&[slots as u32, 0, 0, 0]),
+                    wgpu::BufferUsages::STORAGE,
+                ),
+                slots: slots as u32,
+            }
+        });
         let info = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
@@ -80,14 +141,75 @@ impl VctClipmap {
             tracer,
             info,
             tail,
+            bounce,
         })
+    }
+
+    /// The clipmap, once the first frame made it (for tests and tools).
+    pub fn clipmap(&self) -> Option<&Clipmap> {
+        self.clipmap.as_ref()
+    }
+
+    /// Multiple bounces, before the injection: the slots of every box the clipmap rewrote
+    /// this frame lose their bounce light (a wrapped slot holds another voxel now; a moving
+    /// object changed the voxels around it).
+    fn clear_revoxelised(&self, ctx: &GpuContext, timer: &mut PassTimer, boxes: &[UpdateBox]) {
+        let Some(b) = &self.bounce else { return };
+        let boxes: Vec<&UpdateBox> = boxes.iter().filter(|b| b.volume() > 0).collect();
+        if boxes.is_empty() {
+            return;
+        }
+        let mut bytes = vec![0u8; boxes.len() * BOX_STRIDE as usize];
+        for (k, ub) in boxes.iter().enumerate() {
+            let words = bounce_box_words(ub, self.settings.resolution);
+            let at = k * BOX_STRIDE as usize;
+            bytes[at..at + 32].copy_from_slice(bytemuck::bytes_of(&words));
+        }
+        let buffer =
+            ctx.create_buffer_init(OWNER, "bounce boxes", &bytes, wgpu::BufferUsages::STORAGE);
+        // Lives as long as the frame's commands; the ledger keeps the kept buffers.
+        ctx.ledger.record(OWNER, "bounce boxes", 0);
+        let layout = b.clear.get_bind_group_layout(0);
+        for (k, ub) in boxes.iter().enumerate() {
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("vct bounce clear"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: self.info.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 22,
+                        resource: b.irradiance.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 23,
+                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                            buffer: &buffer,
+                            offset: k as u64 * BOX_STRIDE,
+                            size: wgpu::BufferSize::new(32),
+                        }),
+                    },
+                ],
+            });
+            dispatch(
+                timer,
+                "vct bounce clear",
+                &b.clear,
+                &group,
+                ub.volume() as u32,
+            );
+        }
     }
 
     /// Brings the clipmap's scene to this frame: the static triangles once, then the animated
     /// objects' triangles every frame (their old and new regions are revoxelised).
     fn sync_scene(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
         if self.clipmap.is_none() {
-            self.clipmap = Some(self.make_clipmap(ctx, frame.view.position)?);
+            let mut clipmap = self.make_clipmap(ctx, frame.view.position)?;
+            clipmap.set_bounce(self.bounce.as_ref().map(|b| b.irradiance.clone()))?;
+            self.clipmap = Some(clipmap);
         }
         let Some(clipmap) = self.clipmap.as_mut() else {
             return Ok(());
@@ -161,7 +283,19 @@ impl GiTechnique for VctClipmap {
             return Ok(());
         };
         clipmap.follow(ctx, timer, frame.view.position)?;
-        // 2. Direct light into the voxels.
+        ctx.queue.write_buffer(
+            &self.info,
+            0,
+            bytemuck::bytes_of(&ClipInfo::new(&clipmap.settings, &clipmap.origins)),
+        );
+        // 2. Multiple bounces: the voxels the clipmap rewrote lose the bounce light they had.
+        let boxes = clipmap.last_revoxelised().to_vec();
+        self.clear_revoxelised(ctx, timer, &boxes);
+        let Some(clipmap) = self.clipmap.as_mut() else {
+            return Ok(());
+        };
+        // 3. Direct light (plus, with multiple bounces, the indirect irradiance the voxels
+        //    gathered last frame) into the voxels.
         match self.settings.injection {
             ClipmapInjection::ShadowMaps => clipmap.inject_shadow_maps(
                 ctx,
@@ -175,17 +309,32 @@ impl GiTechnique for VctClipmap {
                 clipmap.inject(ctx, timer, &frame.frame.lights, self.settings.inject_steps)?
             }
         }
-        ctx.queue.write_buffer(
-            &self.info,
-            0,
-            bytemuck::bytes_of(&ClipInfo::new(&clipmap.settings, &clipmap.origins)),
-        );
         let Some(radiance) = &clipmap.radiance else {
             return Err(Error::Gpu("vct-clipmap: no injected radiance".into()));
         };
-        // 3. The tail: coarser copies of the coarsest level, for wide cones.
+        // 4. The tail: coarser copies of the coarsest level, for wide cones.
         self.tail.record(ctx, timer, &self.info, radiance);
-        // 4. Six cones per pixel through the injected radiance (sparse, then reconstructed;
+        // 5. Multiple bounces: every voxel gathers indirect irradiance for the next frame.
+        if let Some(b) = &self.bounce {
+            let entries = [
+                (3, self.info.as_entire_binding()),
+                (4, radiance.as_entire_binding()),
+                (5, self.tracer.params().as_entire_binding()),
+                (7, clipmap.voxels.as_entire_binding()),
+                (13, self.tail.buffer.as_entire_binding()),
+                (20, b.params.as_entire_binding()),
+                (21, clipmap.normals.as_entire_binding()),
+                (22, b.irradiance.as_entire_binding()),
+            ];
+            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("vct bounce"),
+                layout: &b.gather.get_bind_group_layout(0),
+                entries: &entries
+                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
+            });
+            dispatch(timer, "vct bounce", &b.gather, &group, b.slots);
+        }
+        // 6. Six cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).
         self.tracer.record(
             ctx,
@@ -209,7 +358,11 @@ impl GiTechnique for VctClipmap {
     }
 
     fn reference_bounces(&self) -> crate::reference::Bounces {
-        crate::reference::Bounces::Indirect(1)
+        if self.bounce.is_some() {
+            crate::reference::Bounces::Unlimited
+        } else {
+            crate::reference::Bounces::Indirect(1)
+        }
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

@@ -65,10 +65,10 @@ pub struct VctSettings {
     /// `vct-svo`: nodes (and bricks) reserved for the octree's dynamic part, the voxels of the
     /// animated objects rebuilt every frame (default 65536; unused in a static scene).
     pub dynamic_reserve: u32,
-    /// `vct-svo`: multiple bounces: every frame the octree's static voxels gather indirect
-    /// irradiance with the diffuse cones and add it to their direct irradiance at the next
-    /// injection, so the light converges to all bounces over frames (default true; false
-    /// computes one bounce).
+    /// Multiple bounces: every frame the voxels (the octree's static voxels, every clipmap
+    /// voxel) gather indirect irradiance with the diffuse cones and add it to their direct
+    /// irradiance at the next injection, so the light converges to all bounces over frames
+    /// (default true; false computes one bounce).
     pub multi_bounce: bool,
     /// Trace one specular cone per pixel along the mirror direction into an extra image
     /// (default false; the diffuse irradiance stays the technique's output).

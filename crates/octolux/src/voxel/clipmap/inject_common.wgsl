@@ -5,7 +5,7 @@
 // layout as `clip_voxels`. Needs `clipmap/emission.wgsl` before this file.
 
 // x: lights, y: most march steps per shadow ray (voxel rays only), z: voxel slots
-// (levels * res^3).
+// (levels * res^3), w: 1 when `bounce` holds indirect irradiance to add (multiple bounces).
 struct InjectParams {
     misc: vec4<u32>,
 }
@@ -18,6 +18,9 @@ struct InjectParams {
 @group(0) @binding(5) var<storage, read> params: InjectParams;
 // Mean emission per voxel slot (RGB9E5).
 @group(0) @binding(6) var<storage, read> emission: array<u32>;
+// Multiple bounces: indirect irradiance per voxel slot (RGBA16F, 2 words) that the voxels
+// gathered last frame (`gi/vct/clipmap_bounce.wgsl`); a placeholder when params.misc.w is 0.
+@group(0) @binding(10) var<storage, read> bounce: array<u32>;
 
 const INJECT_PI: f32 = 3.14159265358979;
 
@@ -60,9 +63,15 @@ fn inject_voxel(i: u32) -> InjectVoxel {
     return v;
 }
 
-// Writes slot i's radiance from its albedo/opacity and direct irradiance e.
+// Writes slot i's radiance from its albedo/opacity and direct irradiance e, plus (multiple
+// bounces) the indirect irradiance the slot gathered last frame.
 fn inject_store(i: u32, v: InjectVoxel, e: vec3<f32>) {
-    let out = emission_decode(emission[i]) + v.value.rgb / INJECT_PI * e;
+    var irradiance = e;
+    if params.misc.w != 0u {
+        irradiance += vec3<f32>(unpack2x16float(bounce[2u * i]),
+                                unpack2x16float(bounce[2u * i + 1u]).x);
+    }
+    let out = emission_decode(emission[i]) + v.value.rgb / INJECT_PI * irradiance;
     radiance[2u * i] = pack2x16float(out.rg);
     radiance[2u * i + 1u] = pack2x16float(vec2<f32>(out.b, v.value.a));
 }

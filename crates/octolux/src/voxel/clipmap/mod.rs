@@ -319,6 +319,23 @@ impl UpdateStats {
     }
 }
 
+/// CPU twin of the injections' store (`inject_common.wgsl`): the outgoing radiance of a voxel
+/// slot with RGBA8 word `voxel` (albedo, premultiplied by coverage on filtered levels, and
+/// opacity) and RGB9E5 `emission` under `irradiance` W/m^2 (direct, plus with multiple bounces
+/// the indirect irradiance of [`Clipmap::set_bounce`]): emission + albedo / pi x irradiance;
+/// zero for an empty slot. The GPU stores it as f16.
+pub fn injected_radiance(voxel: u32, emission: u32, irradiance: Vec3) -> Vec3 {
+    if voxel >> 24 == 0 {
+        return Vec3::ZERO;
+    }
+    let albedo = Vec3::new(
+        (voxel & 255) as f32,
+        ((voxel >> 8) & 255) as f32,
+        ((voxel >> 16) & 255) as f32,
+    ) / 255.0;
+    decode_emission(emission) + albedo / std::f32::consts::PI * irradiance
+}
+
 /// A voxel clipmap on the GPU.
 pub struct Clipmap {
     /// Ledger owner of its buffers.
@@ -369,6 +386,11 @@ pub struct Clipmap {
     scratch_use: (Option<u64>, [u64; 3]),
     /// Boxes queued by [`Clipmap::replace_triangles`].
     pending: Vec<UpdateBox>,
+    /// Every box the last revoxelisation rewrote (camera motion and moving objects).
+    revoxelised: Vec<UpdateBox>,
+    /// Indirect irradiance per voxel slot that the injection adds to the direct irradiance
+    /// (multiple bounces; [`Clipmap::set_bounce`]).
+    bounce: Option<wgpu::Buffer>,
 }
 
 /// A whole buffer as a binding range.
@@ -577,6 +599,8 @@ impl Clipmap {
             }),
             scratch_use: (None, [0; 3]),
             pending: Vec::new(),
+            revoxelised: Vec::new(),
+            bounce: None,
             owner,
         })
     }
@@ -922,6 +946,7 @@ impl Clipmap {
                 all.push(c);
             }
         }
+        self.revoxelised.clone_from(&all);
         let boxes = &all[..];
         let mut stats = std::mem::take(&mut self.acc);
         if boxes.is_empty() {
@@ -1149,6 +1174,33 @@ impl Clipmap {
         }
     }
 
+    /// Every box (of its level, inside the level's extent) that the last [`Clipmap::update`],
+    /// [`Clipmap::follow`] or [`Clipmap::revoxelise`] rewrote: the camera's exposed slabs and
+    /// the regions moving objects left and entered. Whatever a caller keeps per voxel slot is
+    /// stale there (a wrapped slot now holds another voxel, or the voxel changed).
+    pub fn last_revoxelised(&self) -> &[UpdateBox] {
+        &self.revoxelised
+    }
+
+    /// Multiple bounces: from now on both injections add `bounce` (per voxel slot, layout of
+    /// [`Clipmap::voxels`], RGBA16F indirect irradiance in W/m^2, alpha unused; at least 8
+    /// bytes per slot) to each voxel's direct irradiance, so its outgoing radiance is
+    /// emission + albedo / pi x (direct + indirect). `None` stops it.
+    pub fn set_bounce(&mut self, bounce: Option<wgpu::Buffer>) -> Result<()> {
+        let res = self.settings.resolution as u64;
+        let needed = self.settings.levels as u64 * res * res * res * 8;
+        if let Some(b) = &bounce {
+            if b.size() < needed {
+                return Err(Error::InvalidArgument(format!(
+                    "clipmap bounce buffer of {} bytes, {needed} needed",
+                    b.size()
+                )));
+            }
+        }
+        self.bounce = bounce;
+        Ok(())
+    }
+
     /// CPU cost and size of the last [`Clipmap::update`] or [`Clipmap::revoxelise`].
     pub fn last_update_stats(&self) -> UpdateStats {
         self.stats
@@ -1333,7 +1385,7 @@ impl Clipmap {
         let params = ctx.create_buffer_init(
             self.owner,
             "inject params",
-            bytemuck::cast_slice(&[params[0], params[1], slots, 0]),
+            bytemuck::cast_slice(&[params[0], params[1], slots, self.bounce.is_some() as u32]),
             wgpu::BufferUsages::STORAGE,
         );
         let info = ctx.create_buffer_init(
@@ -1365,6 +1417,7 @@ impl Clipmap {
             (4, &radiance),
             (5, &params),
             (6, &self.emission),
+            (10, self.bounce.as_ref().unwrap_or(&self.no_aniso)),
         ]
         .map(|(binding, buffer)| wgpu::BindGroupEntry {
             binding,

@@ -1,0 +1,80 @@
+// Multiple bounces on the clipmap (`multi_bounce`). `bounce`: one invocation per voxel slot
+// of every level gathers the indirect irradiance at the voxel with the diffuse cones of
+// `trace.wgsl` through the radiance injected this frame, from the voxel's centre along its
+// mean normal. The next frame's injection adds it to the voxel's direct irradiance
+// (`Clipmap::set_bounce`), so each frame carries the light one bounce further.
+// `bounce_clear`: zeroes the slots of one box the clipmap revoxelised this frame (slots that
+// wrapped to new voxels as the clipmap scrolled, regions moving objects left or entered), so
+// no voxel starts with another voxel's bounce.
+
+// x: voxel slots (levels * res^3)
+struct BounceParams {
+    misc: vec4<u32>,
+}
+
+// A box of one level: lo (world voxel coordinates of the level), size (xyz) and the level's
+// first slot (w).
+struct BounceBox {
+    lo: vec4<i32>,
+    size: vec4<u32>,
+}
+
+@group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
+@group(0) @binding(21) var<storage, read> clip_normals: array<u32>;
+@group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
+@group(0) @binding(23) var<storage, read> bounce_box: BounceBox;
+
+@compute @workgroup_size(64)
+fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    if i >= bounce_params.misc.x {
+        return;
+    }
+    let n = unpack4x8snorm(clip_normals[i]).xyz;
+    var e = vec3<f32>(0.0);
+    // Voxels without a dominant normal (opposite faces cancelled) get no bounce.
+    if unpack4x8unorm(clip_voxels[i]).a > 0.0 && dot(n, n) > 0.01 {
+        let r = clip_info.misc.x;
+        let l = i / (r * r * r);
+        let s = i % (r * r * r);
+        let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
+        let o = clip_info.origins[l].xyz;
+        let ri = i32(r);
+        let g = o + ((m - o) % ri + ri) % ri;
+        let size = clip_info.voxel.x * f32(1u << l);
+        let p = (vec3<f32>(g) + 0.5) * size;
+        let nn = normalize(n);
+        // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to
+        // half its size behind the surface it holds.
+        let voxel = max(vct_surface_voxel(p), size);
+        var cone = trace.cone;
+        cone.voxel = voxel;
+        cone.start = trace.misc.x * voxel;
+        let apex = p + nn * cone.start;
+        for (var k = 0u; k < DIFFUSE_CONES; k++) {
+            e += diffuse_cone_weight(k) * march_cone(apex, diffuse_cone_dir(nn, k), cone).rgb;
+        }
+        e *= 3.14159265;
+    }
+    bounce_irradiance[2u * i] = pack2x16float(e.rg);
+    bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+}
+
+@compute @workgroup_size(64)
+fn bounce_clear(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    let size = bounce_box.size.xyz;
+    if i >= size.x * size.y * size.z {
+        return;
+    }
+    let c = bounce_box.lo.xyz + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
+                                                    i / (size.x * size.y)));
+    let r = clip_info.misc.x;
+    let ri = i32(r);
+    let m = vec3<u32>((c % ri + ri) % ri);
+    let slot = bounce_box.size.w + m.x + r * (m.y + r * m.z);
+    bounce_irradiance[2u * slot] = 0u;
+    bounce_irradiance[2u * slot + 1u] = 0u;
+}
