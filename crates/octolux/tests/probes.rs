@@ -201,7 +201,8 @@ fn moving_objects_are_lit_where_they_are() {
 fn octree_probes_light_the_cornell_box_with_few_probes() {
     // `probes-octree` after 10 frames (the tree grows a level per frame, then settles), with
     // both gathers: the ceiling gets light (within a factor 2 of the reference) and the image
-    // beats GI off in relMSE and FLIP, with a small share of the grid's probes.
+    // is much closer to the reference than GI off in relMSE and FLIP, with a small share of
+    // the grid's probes.
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let scene = octolux::scene::cornell::scene();
@@ -237,8 +238,12 @@ fn octree_probes_light_the_cornell_box_with_few_probes() {
             (0.5..2.0).contains(&(ceiling / expected)),
             "{gather:?} ceiling: {ceiling}, reference {expected}"
         );
-        assert!(rel < 0.8 * none_rel, "relMSE {rel} vs none {none_rel}");
-        assert!(fl < none_flip, "FLIP {fl} vs none {none_flip}");
+        // Measured on lavapipe (min_depth 2, depth 3, 96 probes): relMSE 0.054 / 0.074 and
+        // FLIP 0.21 / 0.24 (octree / all) against 0.263 / 0.559 for GI off; `004`'s rule at
+        // depth 2 (31 probes) gave 0.092 / 0.080 and 0.27 / 0.25. The bounds leave a third
+        // of headroom over the worse gather.
+        assert!(rel < 0.4 * none_rel, "relMSE {rel} vs none {none_rel}");
+        assert!(fl < 0.6 * none_flip, "FLIP {fl} vs none {none_flip}");
     }
 }
 
