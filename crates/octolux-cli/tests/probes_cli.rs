@@ -51,7 +51,7 @@ fn octree_flags_render_and_bad_values_are_clear_errors() {
             1,
         ),
         (&["--probes-max-depth", "9"][..], "probes max_depth", 1),
-        (&["--probes-min-depth", "-1"][..], "--probes-min-depth", 2),
+        (&["--probes-min-depth=-1"][..], "--probes-min-depth", 2),
         (&["--probes-min-depth", "two"][..], "--probes-min-depth", 2),
     ] {
         let out = render(flags);
