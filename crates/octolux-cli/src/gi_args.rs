@@ -149,9 +149,13 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
-    /// Probe octree: deepest level, 2..=5 (default 2).
+    /// Probe octree: deepest level, 2..=5 (default 3).
     #[arg(long)]
     pub probes_max_depth: Option<u32>,
+    /// Probe octree: levels complete down to this depth (always split above it, keep the
+    /// probes down to it), 0..=max depth; 0 is 004's rule (default 2).
+    #[arg(long)]
+    pub probes_min_depth: Option<u32>,
     /// Probe octree: share of a probe's surfels inside its cube from which its leaf splits
     /// (default 0.5).
     #[arg(long)]
@@ -237,6 +241,7 @@ impl GiArgs {
         set(&mut probes.encoding, self.probes_encoding);
         set(&mut probes.multi_bounce, self.probes_multi_bounce);
         set(&mut probes.max_depth, self.probes_max_depth);
+        set(&mut probes.min_depth, self.probes_min_depth);
         set(&mut probes.split_fraction, self.probes_split_fraction);
         set(&mut probes.free_fraction, self.probes_free_fraction);
         set(&mut probes.gather, self.probes_gather);

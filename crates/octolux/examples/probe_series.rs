@@ -8,7 +8,7 @@
 //! ```
 //!
 //! Keys: `frames` (600), `start` (first frame, 0), `gi` (`probes-octree` or `probes-grid`), `width`/`height` (160 x 90),
-//! and the `[settings.probes]` keys `max_depth`, `surfels`, `lattice`, `split_fraction`,
+//! and the `[settings.probes]` keys `max_depth`, `min_depth`, `surfels`, `lattice`, `split_fraction`,
 //! `free_fraction`, `grid` (per axis).
 
 use octolux::gi::probes::{Lattice, ProbesOctree};
@@ -37,6 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "width" => width = value.parse()?,
             "height" => height = value.parse()?,
             "max_depth" => probes.max_depth = value.parse()?,
+            "min_depth" => probes.min_depth = value.parse()?,
             "surfels" => probes.surfels = value.parse()?,
             "split_fraction" => probes.split_fraction = value.parse()?,
             "free_fraction" => probes.free_fraction = value.parse()?,

@@ -124,10 +124,15 @@ pub struct ProbeSettings {
     /// Share of a probe's rays that may hit back faces before it counts as inside geometry
     /// and is left out of the gather (default 0.25).
     pub backface_limit: f32,
-    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 2: at most 64
-    /// leaves, 4 x 4 x 4 at the finest; on the Cornell box depth 3 doubles the probes and
-    /// gains nothing measurable, docs/probes.md).
+    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 3: at most 512
+    /// leaves, 8 x 8 x 8 at the finest; docs/probes.md).
     pub max_depth: u32,
+    /// `probes-octree`: the tree is complete down to this level whatever the hit fractions:
+    /// leaves above it always split, leaves at it or above keep their probes; only the levels
+    /// below it follow the split/free rule. 0..=`max_depth`; 0 is `004`'s rule (default 2:
+    /// 64 probes at least; with `004`'s rule open scenes collapse to one probe and a wall's
+    /// middle loses its probes, docs/probes.md).
+    pub min_depth: u32,
     /// `probes-octree`: a leaf splits when at least this share of its probe's surfels land
     /// inside its cube (`004`: 1/2; default 0.5).
     pub split_fraction: f32,
@@ -151,7 +156,8 @@ impl Default for ProbeSettings {
             multi_bounce: false,
             normal_bias: 0.2,
             backface_limit: 0.25,
-            max_depth: 2,
+            max_depth: 3,
+            min_depth: 2,
             split_fraction: 0.5,
             free_fraction: 0.25,
             gather: OctreeGather::Octree,
@@ -202,6 +208,11 @@ impl ProbeSettings {
             "2..=5",
         )?;
         check(
+            self.min_depth <= self.max_depth,
+            "probes min_depth",
+            "0..=max_depth",
+        )?;
+        check(
             self.free_fraction.is_finite()
                 && self.split_fraction.is_finite()
                 && 0.0 <= self.free_fraction
@@ -228,6 +239,7 @@ impl ProbeSettings {
     pub fn octree_rule(&self) -> octree::OctreeRule {
         octree::OctreeRule {
             max_depth: self.max_depth,
+            min_depth: self.min_depth,
             surfels: self.surfels,
             f_lower: self.free_fraction,
             f_upper: self.split_fraction,

@@ -99,10 +99,17 @@ impl State {
 /// inside its cube) frees it when `h / surfels < f_lower` and splits its leaf when
 /// `h / surfels >= f_upper` above `max_depth`. Decided in integers ([`Self::free_below`],
 /// [`Self::split_from`]) so that every adapter decides alike.
+///
+/// `min_depth` keeps the coarse levels populated whatever the hit fractions: a leaf above it
+/// always splits, a leaf at it or above never frees its probe, so the tree is complete down
+/// to `min_depth` and only the refinement below it follows `004`'s rule. 0 is `004`'s rule
+/// (every level adaptive, the root's probe included).
 #[derive(Clone, Copy, Debug)]
 pub struct OctreeRule {
     /// Deepest level (root 0).
     pub max_depth: u32,
+    /// Levels complete down to this depth (0: `004`, none).
+    pub min_depth: u32,
     /// Surfels (rays) per probe.
     pub surfels: u32,
     /// A leaf frees its probe below this hit fraction (`004`: 1/4).
@@ -111,10 +118,23 @@ pub struct OctreeRule {
     pub f_upper: f32,
 }
 
+/// What a leaf that measured its hit count does next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Decision {
+    /// Free its probe (M2).
+    Free,
+    /// Split (M3, its parent M0).
+    Split,
+    /// Keep its probe and light it (L2).
+    Keep,
+}
+
 impl Default for OctreeRule {
+    /// `004`'s rule at depth 2.
     fn default() -> Self {
         OctreeRule {
             max_depth: 2,
+            min_depth: 0,
             surfels: 64,
             f_lower: 0.25,
             f_upper: 0.5,
@@ -133,13 +153,33 @@ impl OctreeRule {
         (self.f_upper as f64 * self.surfels as f64).ceil() as u32
     }
 
+    /// The decision of a leaf at `depth` whose probe counted `hits` inside its cube;
+    /// `no_split`: a collapsed parent that may not split again yet. Integers only: the GPU's
+    /// `light_decide` is the same expression.
+    pub fn decide(&self, hits: u32, depth: u32, no_split: bool) -> Decision {
+        let may_split = depth < self.max_depth && !no_split;
+        if may_split && depth < self.min_depth {
+            Decision::Split
+        } else if hits < self.free_below() && !(self.min_depth > 0 && depth <= self.min_depth) {
+            Decision::Free
+        } else if may_split && hits >= self.split_from() {
+            Decision::Split
+        } else {
+            Decision::Keep
+        }
+    }
+
     /// Words of a tree buffer and probes that hold the full tree of `max_depth` levels: every
-    /// parent's cluster, and `8^max_depth` leaves plus the one probe a split holds while it
-    /// allocates its children's.
+    /// parent's cluster, and `8^max_depth` leaves plus the `8^(max_depth - 1)` probes their
+    /// parents hold while they allocate their children's (a split returns its own probe at
+    /// the end of the update, so a whole level splitting at once needs both).
     pub fn full_capacity(&self) -> (usize, u32) {
         let leaves = 8u64.pow(self.max_depth);
         let clusters = (leaves - 1) / 7;
-        (1 + 9 * clusters as usize, leaves as u32 + 1)
+        (
+            1 + 9 * clusters as usize,
+            (leaves + leaves / 8).max(1) as u32,
+        )
     }
 }
 
@@ -483,18 +523,15 @@ impl ProbeOctree {
             if state == State::L1 && v < 0 {
                 let p = !v as u32;
                 let h = self.probes[p as usize].map_or(0, |probe| hits(p, &probe));
-                if h < self.rule.free_below() {
-                    self.push(2, node, State::M2);
-                } else if h >= self.rule.split_from()
-                    && depth < self.rule.max_depth
-                    && !self.no_split[node as usize]
-                {
-                    self.push(2, node, State::M3);
-                    if let Some(parent) = self.parent(node) {
-                        self.push(2, parent, State::M0);
+                match self.rule.decide(h, depth, self.no_split[node as usize]) {
+                    Decision::Free => self.push(2, node, State::M2),
+                    Decision::Split => {
+                        self.push(2, node, State::M3);
+                        if let Some(parent) = self.parent(node) {
+                            self.push(2, parent, State::M0);
+                        }
                     }
-                } else {
-                    self.push(0, node, State::L2);
+                    Decision::Keep => self.push(0, node, State::L2),
                 }
             } else {
                 let next = if v < 0 { State::L2 } else { State::L3 };
@@ -660,6 +697,110 @@ mod tests {
         t.frame(&[], f);
         check(&t);
         assert!(t.nodes[0] > 0, "split again after the geometry moved");
+    }
+
+    #[test]
+    fn min_depth_0_is_004s_rule_and_min_depth_overrides_only_the_coarse_levels() {
+        // Every hit count at depths 0..=3: min_depth 0 decides as 004 (free below 16 hits of
+        // 64, split from 32 above max_depth); min_depth 2 splits depths 0 and 1 whatever the
+        // count, keeps the probes of depths 1 and 2, and decides depth 3 as 004.
+        let rule = |min_depth| OctreeRule {
+            max_depth: 3,
+            min_depth,
+            ..Default::default()
+        };
+        for h in 0..=64 {
+            for depth in 0..=3 {
+                let d004 = if h < 16 {
+                    Decision::Free
+                } else if h >= 32 && depth < 3 {
+                    Decision::Split
+                } else {
+                    Decision::Keep
+                };
+                assert_eq!(rule(0).decide(h, depth, false), d004, "h {h} depth {depth}");
+                let want = match depth {
+                    0 | 1 => Decision::Split,
+                    2 if d004 == Decision::Free => Decision::Keep,
+                    _ => d004,
+                };
+                assert_eq!(rule(2).decide(h, depth, false), want, "h {h} depth {depth}");
+                // A collapsed parent does not split again, whatever the level.
+                assert_ne!(rule(2).decide(h, depth, true), Decision::Split);
+            }
+        }
+    }
+
+    #[test]
+    fn min_depth_completes_the_coarse_levels_whatever_the_hit_fractions() {
+        // No hits at all (an open scene's coarse cubes): with 004's rule everything is freed
+        // (the test below); with min_depth 2 the tree grows to the 64 depth-2 leaves, one
+        // level per frame, and keeps their probes, in a buffer of the full tree's size.
+        let rule = OctreeRule {
+            max_depth: 3,
+            min_depth: 2,
+            ..Default::default()
+        };
+        let (len, capacity) = rule.full_capacity();
+        let mut t = ProbeOctree::new(len, capacity, Vec3::ZERO, 8.0, rule);
+        let mut counts = Vec::new();
+        for _ in 0..8 {
+            t.frame(&[], |_, _| 0);
+            check(&t);
+            counts.push(t.probe_count());
+        }
+        assert_eq!(counts, [1, 8, 64, 64, 64, 64, 64, 64]);
+        assert!(t.probes().all(|p| p.depth == 2));
+        // Full hit fractions: the whole level 2 splits in one update; the full capacity
+        // holds the 512 new probes and the 64 the splitting leaves hold until its end.
+        let mut t = ProbeOctree::new(len, capacity, Vec3::ZERO, 8.0, rule);
+        for _ in 0..6 {
+            t.frame(&[], |_, _| 64);
+            check(&t);
+        }
+        assert_eq!(t.probe_count(), 512);
+    }
+
+    #[test]
+    fn below_min_depth_004s_rule_refines_frees_and_collapses() {
+        // min_depth 1, max_depth 2, cube of edge 8. Depth 1: the octant at the origin sees
+        // much (f = 0.6) and splits; the others see little (f = 0.1) and keep their probes.
+        // Depth 2 inside the split octant: the child at the origin keeps its probe (f = 0.3),
+        // the other seven free theirs (f = 0.1). Then the kept child drops to f = 0.1 once
+        // geometry moves through it: all eight are free, the octant collapses and asks for
+        // a probe again, which it keeps without splitting.
+        let mut t = tree(2, 9, 100);
+        t.rule.min_depth = 1;
+        let f = |low: bool| {
+            move |_, p: &OctreeProbe| match (p.depth, p.position) {
+                (0, _) => 0,
+                (1, q) if q == Vec3::splat(2.0) => hits(0.6),
+                (2, q) if q == Vec3::splat(1.0) && !low => hits(0.3),
+                _ => hits(0.1),
+            }
+        };
+        for _ in 0..8 {
+            t.frame(&[], f(false));
+            check(&t);
+        }
+        let octant = t.nodes[0] as u32 + 1;
+        assert!(t.nodes[octant as usize] > 0, "the busy octant split");
+        assert_eq!(t.probe_count(), 7 + 1);
+        assert_eq!(t.probes().filter(|p| p.depth == 1).count(), 7);
+        let kept: Vec<_> = t.probes().filter(|p| p.depth == 2).collect();
+        assert_eq!(kept[0].position, Vec3::splat(1.0));
+        // Geometry moves through the kept child: it re-decides at f = 0.1 and frees.
+        t.frame(&[(Vec3::splat(0.5), Vec3::splat(1.0))], f(true));
+        for _ in 0..8 {
+            t.frame(&[], f(true));
+            check(&t);
+        }
+        assert!(
+            t.nodes[octant as usize] < 0,
+            "collapsed, with a probe again"
+        );
+        assert_eq!(t.probe_count(), 8);
+        assert!(t.probes().all(|p| p.depth == 1));
     }
 
     #[test]

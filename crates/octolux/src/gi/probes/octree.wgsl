@@ -303,9 +303,19 @@ fn light_decide(@builtin(global_invocation_id) id: vec3<u32>) {
     place_flags[p] = 0u;
     let h = hits[p];
     let depth = u32(probe_info[p].w);
-    if h < O.frame.z {
+    // `OctreeRule::decide`: levels above the minimum depth (modes.w) always split, leaves
+    // down to it keep their probes.
+    let min_depth = O.modes.w;
+    let may_split = depth < O.sizes.w && state[no_split_at(i)] == 0u;
+    let kept = min_depth > 0u && depth <= min_depth;
+    if may_split && depth < min_depth {
+        push(2u, i, M3);
+        if i != 0u {
+            push(2u, parent_of(i), M0);
+        }
+    } else if h < O.frame.z && !kept {
         push(2u, i, M2);
-    } else if h >= O.frame.w && depth < O.sizes.w && state[no_split_at(i)] == 0u {
+    } else if may_split && h >= O.frame.w {
         push(2u, i, M3);
         if i != 0u {
             push(2u, parent_of(i), M0);

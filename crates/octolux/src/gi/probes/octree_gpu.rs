@@ -101,7 +101,7 @@ impl GpuOctree {
             root: lo.extend(size).to_array(),
             sizes: [len as u32, capacity, clusters as u32, rule.max_depth],
             frame: [0, 0, rule.free_below(), rule.split_from()],
-            modes: [0; 4],
+            modes: [0, 0, 0, rule.min_depth],
         };
         let module = ctx.shader(
             "probes octree",
@@ -175,7 +175,7 @@ impl GpuOctree {
         }
         self.params.frame[0] = self.origin;
         self.params.frame[1] = moved.len() as u32;
-        self.params.modes = [modes[0], modes[1], modes[2], 0];
+        self.params.modes = [modes[0], modes[1], modes[2], self.rule.min_depth];
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         Ok(())

@@ -118,10 +118,18 @@ fn scripted(p: &OctreeProbe, epoch: u32, surfels: u32) -> u32 {
 fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
     let ctx = ctx();
     // Full room at depths 2 and 3, and a small room where splits fail for want of probes and
-    // clusters.
-    for (depth, room) in [(2, None), (3, None), (3, Some((1 + 9 * 6, 40)))] {
+    // clusters; `004`'s rule (min_depth 0) and levels kept down to depth 1 and 2.
+    for (depth, min_depth, room) in [
+        (2, 0, None),
+        (3, 0, None),
+        (3, 0, Some((1 + 9 * 6, 40))),
+        (3, 1, None),
+        (3, 2, None),
+        (3, 2, Some((1 + 9 * 12, 80))),
+    ] {
         let rule = OctreeRule {
             max_depth: depth,
+            min_depth,
             ..Default::default()
         };
         let (len, capacity) = room.unwrap_or(rule.full_capacity());
@@ -144,10 +152,10 @@ fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
                 &ctx,
                 &gpu,
                 &cpu,
-                &format!("depth {depth}, room {room:?}, frame {f}"),
+                &format!("depth {depth}, min {min_depth}, room {room:?}, frame {f}"),
             ));
         }
-        println!("depth {depth}, room {room:?}: probes per frame {counts:?}");
+        println!("depth {depth}, min {min_depth}, room {room:?}: probes per frame {counts:?}");
         let distinct: std::collections::BTreeSet<_> = counts.iter().collect();
         assert!(distinct.len() > 5, "the tree changes: {counts:?}");
     }

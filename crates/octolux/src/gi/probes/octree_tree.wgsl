@@ -11,7 +11,8 @@ struct OctreeParams {
     // w: hits from which a leaf splits
     frame: vec4<u32>,
     // x: 1 = surfels beyond the probe's cube are kept (lit, not counted), y: gather 0 through
-    // the octree, 1 over all probes, z: 1 = place every live probe this frame
+    // the octree, 1 over all probes, z: 1 = place every live probe this frame, w: levels
+    // complete down to this depth (`OctreeRule::min_depth`)
     modes: vec4<u32>,
 };
 

@@ -1,0 +1,63 @@
+//! End-to-end tests of the probe octree's flags of `octolux render`: valid values render,
+//! invalid ones are clear errors (an `error:` line naming the setting, no panic).
+
+use std::process::{Command, Output};
+
+fn render(extra: &[&str]) -> Output {
+    let dir = std::env::temp_dir().join(format!("octolux-probes-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("out.png");
+    let mut args = vec![
+        "render",
+        "--gi",
+        "probes-octree",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--shadow-map-size",
+        "64",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    Command::new(env!("CARGO_BIN_EXE_octolux"))
+        .args(&args)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .expect("run octolux")
+}
+
+#[test]
+fn octree_flags_render_and_bad_values_are_clear_errors() {
+    let ok = render(&[
+        "--probes-max-depth",
+        "2",
+        "--probes-min-depth",
+        "0",
+        "--probes-surfels",
+        "32",
+    ]);
+    assert!(
+        ok.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    for (flags, needle, code) in [
+        (&["--probes-min-depth", "4"][..], "probes min_depth", 1),
+        (
+            &["--probes-max-depth", "2", "--probes-min-depth", "3"][..],
+            "probes min_depth",
+            1,
+        ),
+        (&["--probes-max-depth", "9"][..], "probes max_depth", 1),
+        (&["--probes-min-depth=-1"][..], "--probes-min-depth", 2),
+        (&["--probes-min-depth", "two"][..], "--probes-min-depth", 2),
+    ] {
+        let out = render(flags);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{flags:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "panic: {stderr}");
+        assert!(stderr.contains(needle), "'{needle}' not in: {stderr}");
+    }
+}
