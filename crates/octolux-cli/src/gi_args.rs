@@ -136,7 +136,7 @@ pub struct GiArgs {
     #[arg(long)]
     pub probes_grid: Option<u32>,
     /// Probes: surfels (rays) per probe, 8..=1024; a multiple of 8 on the lat-long lattice
-    /// (default 64).
+    /// (default 64 for probes-grid, 128 for probes-octree).
     #[arg(long)]
     pub probes_surfels: Option<u32>,
     /// Probes: direction lattice, `fibonacci` or `lat-long` (default fibonacci).
@@ -236,7 +236,7 @@ impl GiArgs {
         set(&mut vpl.bounces, self.vpl_bounces);
         let probes = &mut settings.probes;
         set(&mut probes.grid, self.probes_grid.map(|n| [n; 3]));
-        set(&mut probes.surfels, self.probes_surfels);
+        set(&mut probes.surfels, self.probes_surfels.map(Some));
         set(&mut probes.lattice, self.probes_lattice);
         set(&mut probes.encoding, self.probes_encoding);
         set(&mut probes.multi_bounce, self.probes_multi_bounce);

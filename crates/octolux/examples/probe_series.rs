@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "height" => height = value.parse()?,
             "max_depth" => probes.max_depth = value.parse()?,
             "min_depth" => probes.min_depth = value.parse()?,
-            "surfels" => probes.surfels = value.parse()?,
+            "surfels" => probes.surfels = Some(value.parse()?),
             "split_fraction" => probes.split_fraction = value.parse()?,
             "free_fraction" => probes.free_fraction = value.parse()?,
             "grid" => probes.grid = [value.parse()?; 3],

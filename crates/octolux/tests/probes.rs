@@ -297,7 +297,7 @@ fn scene_files_set_the_probe_settings() {
     .unwrap();
     let s = GiSettings::from_table(&table, origin).unwrap().probes;
     assert_eq!(s.grid, [8, 9, 10]);
-    assert_eq!(s.surfels, 128);
+    assert_eq!(s.surfels, Some(128));
     assert_eq!(s.lattice, octolux::gi::probes::Lattice::LatLong);
     assert_eq!(s.encoding, Encoding::Octahedron);
     assert!(s.multi_bounce);
@@ -328,11 +328,11 @@ fn bad_probe_settings_are_clear_errors() {
     type Change = fn(&mut ProbeSettings);
     let cases: [(&str, Change, &str); 13] = [
         ("probes-grid", |s| s.grid = [21, 1, 21], "probes grid"),
-        ("probes-grid", |s| s.surfels = 4, "probes surfels"),
+        ("probes-grid", |s| s.surfels = Some(4), "probes surfels"),
         (
             "probes-grid",
             |s| {
-                s.surfels = 100;
+                s.surfels = Some(100);
                 s.lattice = octolux::gi::probes::Lattice::LatLong;
             },
             "lat-long",
@@ -346,7 +346,7 @@ fn bad_probe_settings_are_clear_errors() {
             "probes-grid",
             |s| {
                 s.grid = [128; 3];
-                s.surfels = 1024;
+                s.surfels = Some(1024);
             },
             "16M surfels",
         ),
@@ -381,7 +381,7 @@ fn bad_probe_settings_are_clear_errors() {
             "probes-octree",
             |s| {
                 s.max_depth = 5;
-                s.surfels = 1024;
+                s.surfels = Some(1024);
             },
             "per storage binding",
         ),

@@ -266,10 +266,11 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             }
             let before = (p.surfels, p.lattice, p.encoding);
             ComboBox::from_label("surfels per probe")
-                .selected_text(p.surfels.to_string())
+                .selected_text(p.surfels.map_or("default".to_string(), |n| n.to_string()))
                 .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut p.surfels, None, "default (grid 64, octree 128)");
                     for n in [32, 64, 128, 256] {
-                        ui.selectable_value(&mut p.surfels, n, n.to_string());
+                        ui.selectable_value(&mut p.surfels, Some(n), n.to_string());
                     }
                 });
             ComboBox::from_label("lattice")

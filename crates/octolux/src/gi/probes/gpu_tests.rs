@@ -275,7 +275,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             read(radiance_buf),
             read(technique.probe_buffer()),
         );
-        let n = probes.surfels as usize;
+        let n = probes.surfel_count() as usize;
         let vec4s = super::passes::PROBE_VEC4 as usize;
         let surfel_vec4 = super::passes::SURFEL_VEC4 as usize;
         let mut valid = 0;

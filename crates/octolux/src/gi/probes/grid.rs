@@ -64,7 +64,7 @@ pub fn integrate_probe(
     states: &[f32],
     radiance: &[Vec3],
 ) -> ([Vec3; COEFFS], [f32; 4]) {
-    let n = settings.surfels;
+    let n = settings.surfel_count();
     let mut coeffs = [Vec3::ZERO; COEFFS];
     let (mut hits, mut back) = (0, 0);
     for k in 0..n {
@@ -151,6 +151,7 @@ impl ProbesGrid {
         width: u32,
         height: u32,
     ) -> Result<ProbesGrid> {
+        let settings = &settings.resolved(false);
         settings.validate()?;
         let grid = ProbeGrid::over(scene.bounds_at(0.0), settings.grid)?;
         let layout = ProbeLayout {

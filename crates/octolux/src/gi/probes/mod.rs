@@ -107,9 +107,11 @@ pub struct ProbeSettings {
     /// Probes along x, y and z of the uniform grid, each 2..=128 (default 21 x 21 x 21, the
     /// 9261 probes of `004`).
     pub grid: [u32; 3],
-    /// Surfels (rays) per probe (default 64). The latitude-longitude lattice has 8 parallels,
-    /// so it needs a multiple of 8 (64 = 8 x 8, 128 = 8 x 16); 8..=1024.
-    pub surfels: u32,
+    /// Surfels (rays) per probe, 8..=1024; unset: each technique's default, 64 for
+    /// `probes-grid` (`004`'s) and 128 for `probes-octree`, whose few probes need the finer
+    /// sampling to meet its error target (docs/probes.md). The latitude-longitude lattice has
+    /// 8 parallels, so it needs a multiple of 8 (64 = 8 x 8, 128 = 8 x 16).
+    pub surfels: Option<u32>,
     /// Direction lattice: `"fibonacci"` (default) or `"lat-long"`.
     pub lattice: Lattice,
     /// Probe encoding: `"sh1"` (default, spherical harmonics L1 of radiance, irradiance by
@@ -150,7 +152,7 @@ impl Default for ProbeSettings {
     fn default() -> Self {
         ProbeSettings {
             grid: [21; 3],
-            surfels: 64,
+            surfels: None,
             lattice: Lattice::Fibonacci,
             encoding: Encoding::ShL1,
             multi_bounce: false,
@@ -174,7 +176,27 @@ fn check(ok: bool, what: &str, range: &str) -> Result<()> {
     }
 }
 
+/// Surfels per probe of `probes-grid` when `surfels` is unset (`004`'s 64).
+pub const GRID_SURFELS: u32 = 64;
+/// Surfels per probe of `probes-octree` when `surfels` is unset.
+pub const OCTREE_SURFELS: u32 = 128;
+
 impl ProbeSettings {
+    /// Surfels per probe: the set value, or the grid's default.
+    pub fn surfel_count(&self) -> u32 {
+        self.surfels.unwrap_or(GRID_SURFELS)
+    }
+
+    /// These settings with the technique's own defaults filled in (`octree`: for
+    /// `probes-octree`), as the technique runs with them.
+    pub fn resolved(&self, octree: bool) -> ProbeSettings {
+        let default = if octree { OCTREE_SURFELS } else { GRID_SURFELS };
+        ProbeSettings {
+            surfels: Some(self.surfels.unwrap_or(default)),
+            ..self.clone()
+        }
+    }
+
     /// Checks every value's range.
     pub fn validate(&self) -> Result<()> {
         check(
@@ -183,12 +205,13 @@ impl ProbeSettings {
             "2..=128 probes per axis",
         )?;
         check(
-            (8..=1024).contains(&self.surfels),
+            (8..=1024).contains(&self.surfel_count()),
             "probes surfels",
             "8..=1024 per probe",
         )?;
         check(
-            self.lattice != Lattice::LatLong || self.surfels.is_multiple_of(lattice::PARALLELS),
+            self.lattice != Lattice::LatLong
+                || self.surfel_count().is_multiple_of(lattice::PARALLELS),
             "probes surfels on the lat-long lattice",
             "a multiple of 8 (8 parallels: 64 = 8 x 8, 128 = 8 x 16)",
         )?;
@@ -221,7 +244,8 @@ impl ProbeSettings {
             "probes free_fraction and split_fraction",
             "0 <= free_fraction < split_fraction <= 1",
         )?;
-        let count = self.grid.iter().map(|&n| n as u64).product::<u64>() * self.surfels as u64;
+        let count =
+            self.grid.iter().map(|&n| n as u64).product::<u64>() * self.surfel_count() as u64;
         check(
             count <= 1 << 24,
             "probes grid x surfels",
@@ -232,7 +256,7 @@ impl ProbeSettings {
     /// Most back-face hits of a probe that is still gathered: decided in integers on the CPU
     /// once, so that the GPU and its CPU twin agree on every adapter.
     pub fn max_back_faces(&self) -> u32 {
-        (self.backface_limit as f64 * self.surfels as f64).floor() as u32
+        (self.backface_limit as f64 * self.surfel_count() as f64).floor() as u32
     }
 
     /// The octree's split/free rule.
@@ -240,7 +264,7 @@ impl ProbeSettings {
         octree::OctreeRule {
             max_depth: self.max_depth,
             min_depth: self.min_depth,
-            surfels: self.surfels,
+            surfels: self.surfel_count(),
             f_lower: self.free_fraction,
             f_upper: self.split_fraction,
         }

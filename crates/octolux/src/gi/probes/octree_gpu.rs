@@ -464,6 +464,7 @@ impl ProbesOctree {
         width: u32,
         height: u32,
     ) -> Result<ProbesOctree> {
+        let settings = &settings.resolved(true);
         settings.validate()?;
         let (lo, size) = root_cube(scene.bounds_at(0.0))?;
         let rule = settings.octree_rule();

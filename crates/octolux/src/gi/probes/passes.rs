@@ -200,7 +200,7 @@ impl ProbePasses {
         ctx.queue
             .write_buffer(&tri_buffer, 0, bytemuck::cast_slice(&tris));
         let probes = layout.probes;
-        let surfels = probes as u64 * settings.surfels as u64;
+        let surfels = probes as u64 * settings.surfel_count() as u64;
         if surfels > u32::MAX as u64 / SURFEL_VEC4 as u32 as u64 {
             return Err(Error::InvalidArgument(format!(
                 "{owner}: {surfels} surfels are too many"
@@ -210,7 +210,7 @@ impl ProbePasses {
         let params = ProbeParams {
             lo: layout.lo.extend((hi - lo).length() * 1.01).to_array(),
             spacing: layout.spacing.extend(layout.bias).to_array(),
-            dims: layout.dims.extend(settings.surfels).to_array(),
+            dims: layout.dims.extend(settings.surfel_count()).to_array(),
             misc: [
                 settings.lattice.gpu_kind(),
                 settings.encoding.gpu_kind(),
