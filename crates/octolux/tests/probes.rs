@@ -4,7 +4,7 @@
 //! `probes-octree` does so too with a few dozen probes. Bad settings are clear errors.
 
 use glam::Vec3;
-use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange};
+use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange, Visibility};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
@@ -246,7 +246,8 @@ fn scene_files_set_the_probe_settings() {
     let origin = std::path::Path::new("scene.toml");
     let table: toml::Table = toml::from_str(
         "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true\n\
-         max_depth = 4\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"",
+         max_depth = 4\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"\n\
+         visibility = \"none\"",
     )
     .unwrap();
     let s = GiSettings::from_table(&table, origin).unwrap().probes;
@@ -260,7 +261,10 @@ fn scene_files_set_the_probe_settings() {
     assert_eq!((s.split_fraction, s.free_fraction), (0.6, 0.2));
     assert_eq!(s.gather, OctreeGather::All);
     assert_eq!(s.surfel_range, SurfelRange::Cube);
+    assert_eq!(s.visibility, Visibility::None);
+    assert_eq!(ProbeSettings::default().visibility, Visibility::Moments);
     for (text, what) in [
+        ("[probes]\nvisibility = \"rays\"", "rays"),
         ("[probes]\nlattice = \"spiral\"", "spiral"),
         ("[probes]\nsurfel = 64", "surfel"),
         ("[probes]\ngather = \"some\"", "some"),
