@@ -172,6 +172,10 @@ pub struct GiArgs {
     /// inside its leaf's cube, as 004) (default scene).
     #[arg(long)]
     pub probes_surfel_range: Option<octolux::gi::probes::SurfelRange>,
+    /// Probes: `moments` weighs each probe by DDGI's Chebyshev visibility from its depth
+    /// moments, against leaks through thin walls; `none` does not (default moments).
+    #[arg(long)]
+    pub probes_visibility: Option<octolux::gi::probes::Visibility>,
     /// VPL GI: light bounces, 1..=3; later bounces are spawned through the octree (default 1).
     #[arg(long)]
     pub vpl_bounces: Option<u32>,
@@ -246,6 +250,7 @@ impl GiArgs {
         set(&mut probes.free_fraction, self.probes_free_fraction);
         set(&mut probes.gather, self.probes_gather);
         set(&mut probes.surfel_range, self.probes_surfel_range);
+        set(&mut probes.visibility, self.probes_visibility);
     }
 }
 

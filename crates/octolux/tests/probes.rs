@@ -5,7 +5,7 @@
 //! bunny on its ground plane). Bad settings are clear errors.
 
 use glam::Vec3;
-use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange};
+use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange, Visibility};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
@@ -292,7 +292,8 @@ fn scene_files_set_the_probe_settings() {
     let origin = std::path::Path::new("scene.toml");
     let table: toml::Table = toml::from_str(
         "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true\n\
-         max_depth = 4\nmin_depth = 1\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"",
+         max_depth = 4\nmin_depth = 1\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"\n\
+         visibility = \"none\"",
     )
     .unwrap();
     let s = GiSettings::from_table(&table, origin).unwrap().probes;
@@ -306,7 +307,10 @@ fn scene_files_set_the_probe_settings() {
     assert_eq!((s.split_fraction, s.free_fraction), (0.6, 0.2));
     assert_eq!(s.gather, OctreeGather::All);
     assert_eq!(s.surfel_range, SurfelRange::Cube);
+    assert_eq!(s.visibility, Visibility::None);
+    assert_eq!(ProbeSettings::default().visibility, Visibility::Moments);
     for (text, what) in [
+        ("[probes]\nvisibility = \"rays\"", "rays"),
         ("[probes]\nlattice = \"spiral\"", "spiral"),
         ("[probes]\nsurfel = 64", "surfel"),
         ("[probes]\ngather = \"some\"", "some"),

@@ -6,6 +6,7 @@
 @group(0) @binding(3) var depth_tex: texture_depth_2d;
 @group(0) @binding(4) var normal_tex: texture_2d<f32>;
 @group(0) @binding(5) var out_tex: texture_storage_2d<rgba16float, write>;
+@group(0) @binding(6) var<storage, read> moments: array<vec2<f32>>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {

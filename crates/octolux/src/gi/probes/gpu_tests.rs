@@ -239,14 +239,26 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
     use crate::render::{RenderSettings, Renderer};
     let ctx = ctx();
     let scene = crate::scene::cornell::scene();
-    for (encoding, lattice) in [
-        (super::Encoding::ShL1, Lattice::Fibonacci),
-        (super::Encoding::Octahedron, Lattice::LatLong),
+    use super::moments::{build_map, MomentMaps, MOMENT_TEXELS};
+    use super::Visibility;
+    for (encoding, lattice, visibility) in [
+        (
+            super::Encoding::ShL1,
+            Lattice::Fibonacci,
+            Visibility::Moments,
+        ),
+        (
+            super::Encoding::Octahedron,
+            Lattice::LatLong,
+            Visibility::None,
+        ),
+        (super::Encoding::ShL1, Lattice::LatLong, Visibility::Moments),
     ] {
         let probes = super::ProbeSettings {
             grid: [10; 3],
             encoding,
             lattice,
+            visibility,
             ..Default::default()
         };
         let settings = RenderSettings {
@@ -275,8 +287,25 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             read(radiance_buf),
             read(technique.probe_buffer()),
         );
+        let maps: Vec<[f32; 2]> = bytemuck::cast_slice(
+            &read_buffer(
+                &ctx,
+                technique.moment_buffer(),
+                0,
+                technique.moment_buffer().size(),
+            )
+            .unwrap(),
+        )
+        .to_vec();
         let n = probes.surfel_count() as usize;
         let vec4s = super::passes::PROBE_VEC4 as usize;
+        let dirs: Vec<Vec3> = (0..probes.surfel_count())
+            .map(|k| super::lattice::direction(lattice, k, probes.surfel_count()).0)
+            .collect();
+        // The scene's maximum ray distance (ProbeParams.lo.w): a miss's distance.
+        let (lo, hi) = scene.bounds_at(0.0);
+        let far = (hi - lo).length() * 1.01;
+        let mut worst_moment = 0.0f32;
         let surfel_vec4 = super::passes::SURFEL_VEC4 as usize;
         let mut valid = 0;
         for probe in 0..technique.grid().count() as usize {
@@ -306,7 +335,44 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
                 );
             }
             valid += (meta[2] > 0.5) as u32;
+            // Depth moments: the GPU's map equals the CPU's from the same surfels. The
+            // lattice directions differ by up to 3 x 2^-11 (above), which moves a kernel
+            // weight max(0, t . d)^32 by at most 32 x 3 x 2^-11 of itself, so a weighted mean
+            // by at most 2 x 4.7 % of the spread of the distances it averages (and a mean
+            // square by as much of the squares' spread); plus f32 rounding of the sums.
+            if visibility == Visibility::Moments {
+                let dists: Vec<f32> = (0..n)
+                    .map(|k| surfels[(probe * n + k) * surfel_vec4 + 2][3])
+                    .collect();
+                let t = MOMENT_TEXELS as usize;
+                let want = build_map(&dirs, &states, &dists, far);
+                let used: Vec<f32> = (0..n)
+                    .map(|k| if states[k] > 0.5 { dists[k].abs() } else { far })
+                    .collect();
+                let (dlo, dhi) = used
+                    .iter()
+                    .fold((f32::MAX, 0.0f32), |(a, b), &d| (a.min(d), b.max(d)));
+                for (i, w) in want.iter().enumerate() {
+                    let g = maps[probe * t + i];
+                    for c in 0..2 {
+                        let spread = if c == 0 {
+                            dhi - dlo
+                        } else {
+                            dhi * dhi - dlo * dlo
+                        };
+                        let err = (g[c] - w[c]).abs();
+                        worst_moment = worst_moment.max(err / (spread + w[c]));
+                        assert!(
+                            err <= 0.094 * spread + 1e-5 * w[c],
+                            "probe {probe} texel {i} moment {c}: gpu {}, cpu {}",
+                            g[c],
+                            w[c]
+                        );
+                    }
+                }
+            }
         }
+        println!("{visibility:?}: largest moment difference {worst_moment:e} (relative)");
         // The probes inside the two blocks are the invalid ones.
         let count = technique.grid().count();
         assert!(
@@ -325,10 +391,15 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
             let ndc = Vec3::new(x / 40.0 * 2.0 - 1.0, 1.0 - y / 40.0 * 2.0, depth);
             let p = view.inv_view_proj.project_point3(ndc);
+            let moments = (visibility == Visibility::Moments).then(|| MomentMaps {
+                maps: &maps,
+                floor: technique.variance_floor(),
+            });
             let want = super::grid_irradiance(
                 technique.grid(),
                 &probes,
                 &probe_data,
+                moments,
                 p,
                 normal.normalize(),
             );

@@ -4,6 +4,7 @@
 
 use super::encoding::COEFFS;
 use super::lattice::direction;
+use super::moments::MomentMaps;
 use super::passes::{ProbeLayout, ProbePasses, ProbeSetWgsl, PROBE_VEC4};
 use super::ProbeSettings;
 use crate::gi::{GiFrame, GiTechnique};
@@ -100,11 +101,13 @@ pub(crate) fn facing_weight(to_probe: Vec3, n: Vec3) -> f32 {
 }
 
 /// CPU twin of `probes_irradiance` in grid_sample.wgsl: irradiance at `p` (unit normal `n`)
-/// from `probes` (the probe buffer's `vec4`s) on `grid`.
+/// from `probes` (the probe buffer's `vec4`s) on `grid`, each probe weighed by its visibility
+/// from `moments` where given.
 pub fn grid_irradiance(
     grid: &ProbeGrid,
     settings: &ProbeSettings,
     probes: &[[f32; 4]],
+    moments: Option<MomentMaps>,
     p: Vec3,
     n: Vec3,
 ) -> Vec3 {
@@ -123,7 +126,9 @@ pub fn grid_irradiance(
             continue;
         }
         let tri = Vec3::select(off.cmpeq(UVec3::ONE), t, Vec3::ONE - t);
-        let w = tri.x * tri.y * tri.z * facing_weight(grid.position(coord) - p, n);
+        let x = grid.position(coord);
+        let vis = moments.map_or(1.0, |m| m.visibility(probe, x, q));
+        let w = tri.x * tri.y * tri.z * facing_weight(x - p, n) * vis;
         let coeffs: [Vec3; COEFFS] = std::array::from_fn(|k| Vec3::from_slice(&probes[b + k]));
         sum += settings.encoding.irradiance(&coeffs, n) * w;
         total += w;
@@ -159,6 +164,7 @@ impl ProbesGrid {
             spacing: grid.spacing,
             dims: grid.dims,
             bias: settings.normal_bias * grid.spacing.min_element(),
+            cell: grid.spacing.min_element(),
             probes: grid.count(),
         };
         let set = ProbeSetWgsl {
@@ -193,6 +199,16 @@ impl ProbesGrid {
         self.passes.probe_buffer()
     }
 
+    /// The probes' depth moment maps (see [`super::moments`]).
+    pub fn moment_buffer(&self) -> &wgpu::Buffer {
+        self.passes.moment_buffer()
+    }
+
+    /// The variance floor of the visibility test (m^2).
+    pub fn variance_floor(&self) -> f32 {
+        super::moments::variance_floor(self.grid.spacing.min_element())
+    }
+
     /// The surfel buffer (per surfel position + state, normal + albedo, emission + distance)
     /// and the surfels' outgoing radiance.
     pub fn surfel_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
@@ -207,9 +223,11 @@ impl GiTechnique for ProbesGrid {
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         self.passes.begin_frame(ctx, frame)?;
-        // 1. Surfels: rays from every probe along its lattice (once for a static scene).
+        // 1. Surfels: rays from every probe along its lattice (once for a static scene), and
+        //    the probes' depth moments from them.
         if !self.placed || self.passes.animated {
             self.passes.place(ctx, timer, None);
+            self.passes.build_moments(ctx, timer, None);
             self.placed = true;
         }
         // 2. Surfel light: direct light with shadow-map visibility (+ last frame's probes).

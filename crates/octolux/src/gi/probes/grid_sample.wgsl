@@ -20,7 +20,8 @@ fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let tri = select(vec3<f32>(1.0) - t, t, off == vec3<u32>(1u));
-        let w = tri.x * tri.y * tri.z * probe_facing_weight(probe_position(coord) - p, n);
+        let x = probe_position(coord);
+        let w = tri.x * tri.y * tri.z * probe_facing_weight(x - p, n) * probe_visibility(probe, x, q);
         sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
         total += w;
     }

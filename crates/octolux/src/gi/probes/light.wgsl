@@ -12,6 +12,7 @@
 @group(0) @binding(5) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
 @group(0) @binding(6) var shadow_maps: texture_depth_2d_array;
 @group(0) @binding(7) var shadow_sampler: sampler_comparison;
+@group(0) @binding(8) var<storage, read> moments: array<vec2<f32>>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,

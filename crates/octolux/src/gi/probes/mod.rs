@@ -9,6 +9,8 @@
 //!   binary BVH built on the CPU and traversed in WGSL, a static part built once and a small
 //!   part for the animated objects rebuilt every frame.
 //! - [`encoding`]: the probes' irradiance: `004`'s 8 octahedron-facet bins or SH L1.
+//! - [`moments`]: depth moments per probe and DDGI's Chebyshev visibility in the gather,
+//!   against leaks through thin walls.
 //! - `passes`: what both techniques share (placement, surfel light, probe integration,
 //!   gather) over a probe set.
 //! - [`grid`]: the `probes-grid` technique, probes on a uniform grid.
@@ -25,6 +27,7 @@ pub mod encoding;
 mod gpu_tests;
 mod grid;
 pub mod lattice;
+pub mod moments;
 pub mod octree;
 pub mod octree_gpu;
 #[cfg(test)]
@@ -34,6 +37,7 @@ mod passes;
 pub use encoding::Encoding;
 pub use grid::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
 pub use lattice::Lattice;
+pub use moments::Visibility;
 pub use octree_gpu::{OctreeView, ProbesOctree};
 
 use crate::{Error, Result};
@@ -146,6 +150,9 @@ pub struct ProbeSettings {
     /// `probes-octree`: which surfels light a probe, `"scene"` (default: every hit) or
     /// `"cube"` (only hits inside its leaf's cube, as `004`).
     pub surfel_range: SurfelRange,
+    /// Whether the gather weighs each probe by its visibility from the shaded point:
+    /// `"moments"` (default: depth moments per probe and DDGI's Chebyshev test) or `"none"`.
+    pub visibility: Visibility,
 }
 
 impl Default for ProbeSettings {
@@ -164,6 +171,7 @@ impl Default for ProbeSettings {
             free_fraction: 0.25,
             gather: OctreeGather::Octree,
             surfel_range: SurfelRange::Scene,
+            visibility: Visibility::Moments,
         }
     }
 }

@@ -10,6 +10,7 @@
 
 use super::encoding::COEFFS;
 use super::grid::facing_weight;
+use super::moments::MomentMaps;
 use super::octree::{OctreeProbe, OctreeRule, State};
 use super::passes::{
     bind_at, buf, run_pass, storage, ProbeLayout, ProbePasses, ProbeSetWgsl, PROBE_VEC4,
@@ -292,6 +293,10 @@ impl GpuOctree {
     }
 }
 
+/// `VISIBLE_SHARE` of octree_sample.wgsl: the octree gather widens its box while the probes
+/// it found weigh less than this share of their weight without visibility.
+const VISIBLE_SHARE: f32 = 0.1;
+
 /// The octree as the gather reads it, on the CPU: the CPU twin of octree_sample.wgsl over
 /// buffers read back from the GPU.
 pub struct OctreeView<'a> {
@@ -307,6 +312,8 @@ pub struct OctreeView<'a> {
     pub nodes: &'a [i32],
     /// Per probe slot: position and depth, or (0, 0, 0, -1).
     pub info: &'a [[f32; 4]],
+    /// The moment maps and variance floor where the gather weighs by visibility.
+    pub moments: Option<MomentMaps<'a>>,
 }
 
 impl OctreeView<'_> {
@@ -325,6 +332,10 @@ impl OctreeView<'_> {
             node = v as u32 + 1 + upper.bitmask();
         }
         (node, self.max_depth)
+    }
+
+    fn visibility(&self, probe: usize, x: Vec3, q: Vec3) -> f32 {
+        self.moments.map_or(1.0, |m| m.visibility(probe, x, q))
     }
 
     fn edge(&self, probe: usize) -> f32 {
@@ -356,8 +367,10 @@ impl OctreeView<'_> {
                 let x = Vec3::from_slice(info);
                 let r = x - q;
                 let e = self.edge(probe) * 0.5;
-                let w =
-                    facing_weight(x - p, n) * 2f32.powi(-3 * info[3] as i32) / r.dot(r).max(e * e);
+                let w = facing_weight(x - p, n)
+                    * self.visibility(probe, x, q)
+                    * 2f32.powi(-3 * info[3] as i32)
+                    / r.dot(r).max(e * e);
                 sum += value(probe) * w;
                 total += w;
             }
@@ -367,6 +380,8 @@ impl OctreeView<'_> {
             let mut h = self.size * 2f32.powi(-(depth as i32)) * 0.5;
             for _ in 0..=self.max_depth + 1 {
                 let mut seen = Vec::new();
+                let mut open = 0.0f32;
+                (sum, total) = (Vec3::ZERO, 0.0);
                 for c in 0..8u32 {
                     let upper = glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
                     let corner =
@@ -383,11 +398,13 @@ impl OctreeView<'_> {
                     let x = Vec3::from_slice(&self.info[probe]);
                     let tent =
                         (Vec3::ONE - (q - x).abs() / self.edge(probe).max(2.0 * h)).max(Vec3::ZERO);
-                    let w = tent.x * tent.y * tent.z * facing_weight(x - p, n);
+                    let w0 = tent.x * tent.y * tent.z * facing_weight(x - p, n);
+                    let w = w0 * self.visibility(probe, x, q);
                     sum += value(probe) * w;
                     total += w;
+                    open += w0;
                 }
-                if total > 0.0 {
+                if total > 0.0 && total >= VISIBLE_SHARE * open {
                     break;
                 }
                 h *= 2.0;
@@ -449,8 +466,8 @@ pub struct ProbesOctree {
     bias: f32,
     /// Object transforms of the previous frame (None before the first).
     last_transforms: Option<Vec<Mat4>>,
-    /// Bind group 1 of place, light, integrate and gather.
-    groups: [wgpu::BindGroup; 4],
+    /// Bind group 1 of place, light, integrate, gather and the moments.
+    groups: [wgpu::BindGroup; 5],
     /// Boxes of the objects that moved in the last frame.
     moved: Vec<(Vec3, Vec3)>,
 }
@@ -475,6 +492,7 @@ impl ProbesOctree {
             spacing: Vec3::ZERO,
             dims: UVec3::ZERO,
             bias,
+            cell: size * 2f32.powi(-(rule.max_depth as i32)),
             probes: octree.capacity(),
         };
         let set = ProbeSetWgsl {
@@ -488,6 +506,7 @@ impl ProbesOctree {
             octree.set_group(ctx, &passes.light, [true, true, true, false, false]),
             octree.set_group(ctx, &passes.integrate, [false, false, true, false, true]),
             octree.set_group(ctx, &passes.gather, [true, true, true, false, false]),
+            octree.set_group(ctx, &passes.moments_build, [true, false, true, true, false]),
         ];
         Ok(ProbesOctree {
             passes,
@@ -537,8 +556,20 @@ impl ProbesOctree {
         self.passes.surfel_buffers()
     }
 
-    /// The gather's view of the octree over read-back buffers.
-    pub fn view<'a>(&self, nodes: &'a [i32], info: &'a [[f32; 4]]) -> OctreeView<'a> {
+    /// The probes' depth moment maps (see [`super::moments`]).
+    pub fn moment_buffer(&self) -> &wgpu::Buffer {
+        self.passes.moment_buffer()
+    }
+
+    /// The gather's view of the octree over read-back buffers (`moments`: the moment maps,
+    /// read where the visibility is on).
+    pub fn view<'a>(
+        &self,
+        nodes: &'a [i32],
+        info: &'a [[f32; 4]],
+        moments: Option<&'a [[f32; 2]]>,
+    ) -> OctreeView<'a> {
+        let cell = self.root.1 * 2f32.powi(-(self.octree.rule.max_depth as i32));
         OctreeView {
             lo: self.root.0,
             size: self.root.1,
@@ -546,6 +577,10 @@ impl ProbesOctree {
             bias: self.bias,
             nodes,
             info,
+            moments: moments.map(|maps| MomentMaps {
+                maps,
+                floor: super::moments::variance_floor(cell),
+            }),
         }
     }
 }
@@ -574,13 +609,15 @@ impl GiTechnique for ProbesOctree {
             place_all as u32,
         ];
         self.octree.begin_frame(ctx, &self.moved, modes)?;
-        let [place, light, integrate, gather] = &self.groups;
+        let [place, light, integrate, gather, moments] = &self.groups;
         // 1. Memory update: free, collapse, allocate (M0-M4).
         self.octree.memory_update(ctx, timer);
         // 2. Light update, first half: moved geometry; L1 leaves ask for surfels.
         self.octree.light_select(ctx, timer);
-        // 3. Surfels of those probes: rays along their lattices, hits inside the cube count.
+        // 3. Surfels of those probes: rays along their lattices, hits inside the cube count;
+        //    their depth moments.
         self.passes.place(ctx, timer, Some(place));
+        self.passes.build_moments(ctx, timer, Some(moments));
         // 4. Surfel light (+ last frame's probes).
         self.passes.light(ctx, frame, timer, Some(light))?;
         // 5. Probes: each integrates its surfels and counts its hits inside its cube.

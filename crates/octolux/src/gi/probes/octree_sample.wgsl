@@ -4,8 +4,11 @@
 // Through the octree: at q = p + bias n, the leaves holding the 8 corners of a box of the
 // size of q's leaf around q; their probes are blended with tent weights (radius: the larger of
 // the probe's cube and the box; trilinear where the leaves are equal) times the back-face
-// weight; probes inside geometry are left out. Where none of them weighs anything the box
-// doubles, up to the root.
+// weight and the visibility (moments.wgsl); probes inside geometry are left out. Where they
+// weigh nothing, or their visible weight is under VISIBLE_SHARE of what it would be without
+// visibility (the probes found are behind walls), the box doubles, up to the root.
+const VISIBLE_SHARE: f32 = 0.1;
+
 fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let lo = O.root.xyz;
     let hi = lo + vec3<f32>(O.root.w);
@@ -17,6 +20,9 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     for (var level = 0u; level <= O.sizes.w + 1u; level++) {
         var seen: array<u32, 8>;
         var count = 0u;
+        var open = 0.0;
+        sum = vec3<f32>(0.0);
+        total = 0.0;
         for (var c = 0u; c < 8u; c++) {
             let upper = vec3<bool>((c & 1u) != 0u, (c & 2u) != 0u, (c & 4u) != 0u);
             let corner = clamp(q + select(vec3<f32>(-h), vec3<f32>(h), upper), lo, hi);
@@ -39,11 +45,13 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             }
             let x = probe_info[probe].xyz;
             let tent = max(vec3<f32>(1.0) - abs(q - x) / max(probe_edge(probe), 2.0 * h), vec3<f32>(0.0));
-            let w = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
+            let w0 = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
+            let w = w0 * probe_visibility(probe, x, q);
             sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
             total += w;
+            open += w0;
         }
-        if total > 0.0 {
+        if total > 0.0 && total >= VISIBLE_SHARE * open {
             break;
         }
         h *= 2.0;
@@ -65,7 +73,7 @@ fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let x = probe_info[probe].xyz;
         let r = x - q;
         let e = probe_edge(probe) * 0.5;
-        let w = probe_facing_weight(x - p, n) * ldexp(1.0, -3 * i32(probe_info[probe].w)) / max(dot(r, r), e * e);
+        let w = probe_facing_weight(x - p, n) * probe_visibility(probe, x, q) * ldexp(1.0, -3 * i32(probe_info[probe].w)) / max(dot(r, r), e * e);
         sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
         total += w;
     }

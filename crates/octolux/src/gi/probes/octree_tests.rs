@@ -230,18 +230,25 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
 
 #[test]
 fn octree_gather_equals_its_cpu_twin() {
-    // `probes-octree` on the Cornell box after 8 frames (the tree has grown), both gathers:
-    // every pixel's indirect irradiance equals the CPU twin's (`OctreeView::irradiance`) from
-    // the GPU's tree and probes at the pixel's position and normal.
+    // `probes-octree` on the Cornell box after 8 frames (the tree has grown), both gathers
+    // with depth-moment visibility and the octree gather without: every pixel's indirect
+    // irradiance equals the CPU twin's (`OctreeView::irradiance`) from the GPU's tree, probes
+    // and moment maps at the pixel's position and normal.
     //
     // Tolerance: the output is f16 (2^-11 relative) of a sum the CPU forms in the same
     // order, from a world position rebuilt from the depth buffer on both sides; a point within
     // rounding of a cube face may pick another leaf on either side, which must be rare.
     let ctx = ctx();
     let scene = crate::scene::cornell::scene();
-    for gather in [super::OctreeGather::Octree, super::OctreeGather::All] {
+    use super::Visibility;
+    for (gather, visibility) in [
+        (super::OctreeGather::Octree, Visibility::Moments),
+        (super::OctreeGather::All, Visibility::Moments),
+        (super::OctreeGather::Octree, Visibility::None),
+    ] {
         let probes = super::ProbeSettings {
             gather,
+            visibility,
             ..Default::default()
         };
         let mut r = octree_renderer(&ctx, &scene, &probes, 40);
@@ -253,7 +260,12 @@ fn octree_gather_equals_its_cpu_twin() {
         let (nodes, info): (Vec<i32>, Vec<[f32; 4]>) = (read(&ctx, tree), read(&ctx, info));
         let probe_data: Vec<[f32; 4]> = read(&ctx, technique.probe_buffer());
         let live = info.iter().filter(|i| i[3] >= 0.0).count();
-        let view = technique.view(&nodes, &info);
+        let maps: Vec<[f32; 2]> = read(&ctx, technique.moment_buffer());
+        let view = technique.view(
+            &nodes,
+            &info,
+            (visibility == Visibility::Moments).then_some(&maps[..]),
+        );
         let g = r.read_gbuffer().unwrap();
         let camera = *r.last_view().unwrap();
         let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
@@ -272,11 +284,14 @@ fn octree_gather_equals_its_cpu_twin() {
             }));
             if (got - want).abs().max_element() > 2e-3 * want.max_element() + 1e-5 {
                 off += 1;
-                assert!(off <= 2, "{gather:?} pixel {i}: gpu {got}, cpu {want}");
+                assert!(
+                    off <= 2,
+                    "{gather:?} {visibility:?} pixel {i}: gpu {got}, cpu {want}"
+                );
             }
             lit += (want.max_element() > 0.0) as u32;
         }
-        println!("{gather:?}: {live} probes, {lit} pixels lit, {off} differ");
+        println!("{gather:?} {visibility:?}: {live} probes, {lit} pixels lit, {off} differ");
         assert!(lit > 1000, "{lit} pixels lit");
         assert!((8..=512).contains(&live), "{live} probes");
     }

@@ -7,6 +7,7 @@
 use super::bvh::{Bvh, GpuNode, GpuTri, BVH_WGSL};
 use super::encoding::ENCODING_WGSL;
 use super::lattice::LATTICE_WGSL;
+use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
 use super::ProbeSettings;
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
@@ -31,6 +32,7 @@ pub(crate) struct ProbeParams {
     misc: [u32; 4],
     roots: [u32; 4],
     limits: [u32; 4],
+    vis: [f32; 4],
 }
 
 /// A probe set's WGSL: what every pass includes (positions, liveness, placement), and what
@@ -50,6 +52,8 @@ pub(crate) struct ProbeLayout {
     pub dims: UVec3,
     /// Gather offset along the normal, in metres.
     pub bias: f32,
+    /// The smallest probe spacing (the octree's finest cube edge), in metres.
+    pub cell: f32,
     /// Probe slots.
     pub probes: u32,
 }
@@ -151,8 +155,10 @@ pub(crate) struct ProbePasses {
     surfels: wgpu::Buffer,
     radiance: wgpu::Buffer,
     probes: wgpu::Buffer,
+    moments: wgpu::Buffer,
     matrices: Option<(wgpu::Buffer, usize)>,
     pub place: wgpu::ComputePipeline,
+    pub moments_build: wgpu::ComputePipeline,
     pub light: wgpu::ComputePipeline,
     pub integrate: wgpu::ComputePipeline,
     pub gather: wgpu::ComputePipeline,
@@ -223,7 +229,13 @@ impl ProbePasses {
                 probes,
                 surfels as u32,
             ],
-            limits: [settings.max_back_faces(), 0, 0, 0],
+            limits: [
+                settings.max_back_faces(),
+                settings.visibility.gpu_kind(),
+                0,
+                0,
+            ],
+            vis: [variance_floor(layout.cell), 0.0, 0.0, 0.0],
         };
         let params_buffer = storage(
             ctx,
@@ -241,6 +253,7 @@ impl ProbePasses {
             parts.extend(set.set);
             if sample {
                 parts.push(include_str!("probe_values.wgsl"));
+                parts.push(include_str!("moments.wgsl"));
                 parts.extend(set.sample);
             }
             parts.extend(extra);
@@ -261,11 +274,27 @@ impl ProbePasses {
             surfels: storage(ctx, owner, "surfels", surfels * SURFEL_VEC4 * 16)?,
             radiance: storage(ctx, owner, "surfel radiance", surfels * 16)?,
             probes: storage(ctx, owner, "probes", probes as u64 * PROBE_VEC4 * 16)?,
+            // Without visibility the gather never reads the maps: a placeholder binding.
+            moments: storage(
+                ctx,
+                owner,
+                "probe depth moments",
+                match settings.visibility {
+                    Visibility::Moments => probes as u64 * MOMENT_BYTES,
+                    Visibility::None => 16,
+                },
+            )?,
             matrices: None,
             place: pipeline(
                 "probes place",
                 include_str!("place.wgsl"),
                 &[BVH_WGSL],
+                false,
+            ),
+            moments_build: pipeline(
+                "probes moments",
+                include_str!("moments_build.wgsl"),
+                &[include_str!("moments.wgsl")],
                 false,
             ),
             light: pipeline(
@@ -300,6 +329,12 @@ impl ProbePasses {
     /// The probe buffer (per probe 8 coefficients, then back-face share, hit share, valid).
     pub fn probe_buffer(&self) -> &wgpu::Buffer {
         &self.probes
+    }
+
+    /// The probes' depth moment maps (`MOMENT_TEXELS` texels of (mean, mean square) each;
+    /// 16 bytes when the visibility is off).
+    pub fn moment_buffer(&self) -> &wgpu::Buffer {
+        &self.moments
     }
 
     /// The surfel buffer and the surfels' outgoing radiance.
@@ -407,6 +442,31 @@ impl ProbePasses {
         );
     }
 
+    /// Depth moments of the probes just placed (nothing without visibility).
+    pub fn build_moments(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        set: Option<&wgpu::BindGroup>,
+    ) {
+        if self.settings.visibility == Visibility::None {
+            return;
+        }
+        let group = bind(
+            ctx,
+            "probes moments",
+            &self.moments_build,
+            &[
+                buf(&self.params_buffer),
+                buf(&self.surfels),
+                buf(&self.moments),
+            ],
+        );
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
+        let size = dispatch_size(self.params.roots[2] * super::moments::MOMENT_TEXELS);
+        run_pass(timer, "probes moments", &self.moments_build, &groups, size);
+    }
+
     /// Surfel light: direct light with shadow-map visibility (+ last frame's probes).
     pub fn light(
         &self,
@@ -431,6 +491,7 @@ impl ProbePasses {
                 buf(matrices),
                 wgpu::BindingResource::TextureView(&frame.shadows.array_view),
                 wgpu::BindingResource::Sampler(&frame.shadows.sampler),
+                buf(&self.moments),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
@@ -486,6 +547,7 @@ impl ProbePasses {
                 wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
                 wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
                 wgpu::BindingResource::TextureView(&self.view),
+                buf(&self.moments),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();

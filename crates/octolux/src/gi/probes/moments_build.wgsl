@@ -1,0 +1,32 @@
+// Depth moments (moments.wgsl): one invocation per probe and texel of its map, over the
+// probes the set has just placed. Each texel holds the kernel-weighted mean distance and mean
+// squared distance of the probe's surfels (misses at the ray's maximum distance, P.lo.w),
+// weighted by max(0, t . d)^8 for the texel's direction t and the surfel's lattice direction
+// d. Each invocation writes its own texel: no atomics.
+
+@group(0) @binding(0) var<storage, read> P: ProbeParams;
+@group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> moments: array<vec2<f32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    let id = linear_index(wg, nwg, li);
+    let probe = id / MOMENT_TEXELS;
+    if probe >= P.roots.z || !probe_wants_place(probe) {
+        return;
+    }
+    let t = moment_texel_dir(id % MOMENT_TEXELS);
+    let n = P.dims.w;
+    var sum = vec2<f32>(0.0);
+    var total = 0.0;
+    for (var k = 0u; k < n; k++) {
+        let s = (probe * n + k) * SURFEL_VEC4;
+        let dist = select(P.lo.w, abs(surfels[s + 2u].w), surfels[s].w > 0.5);
+        let w = moment_kernel(t, lattice_dir(P.misc.x, k, n).xyz);
+        sum += w * vec2<f32>(dist, dist * dist);
+        total += w;
+    }
+    let far = vec2<f32>(P.lo.w, P.lo.w * P.lo.w);
+    moments[id] = select(far, sum / total, total > 0.0);
+}
