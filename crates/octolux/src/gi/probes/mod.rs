@@ -272,7 +272,7 @@ impl ProbeSettings {
         octree::OctreeRule {
             max_depth: self.max_depth,
             min_depth: self.min_depth,
-            surfels: self.surfel_count(),
+            surfels: self.surfels.unwrap_or(OCTREE_SURFELS),
             f_lower: self.free_fraction,
             f_upper: self.split_fraction,
         }
