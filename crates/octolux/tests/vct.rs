@@ -198,8 +198,8 @@ fn a_denser_cone_set_gathers_what_the_six_cones_gather() {
     let mut mask = Vec::new();
     for (cones, aperture) in [(6, 60.0), (16, 36.0)] {
         let vct = octolux::gi::vct::VctSettings {
-            cones,
-            aperture,
+            cones: Some(cones),
+            aperture: Some(aperture),
             ..small()
         };
         let mut r = Renderer::new(&ctx, &scene, settings("vct-svo", vct)).unwrap();
@@ -455,7 +455,7 @@ fn bad_vct_settings_are_clear_errors() {
         ),
         (
             octolux::gi::vct::VctSettings {
-                aperture: f32::NAN,
+                aperture: Some(f32::NAN),
                 ..Default::default()
             },
             "vct aperture",
@@ -483,10 +483,17 @@ fn bad_vct_settings_are_clear_errors() {
         ),
         (
             octolux::gi::vct::VctSettings {
-                cones: 7,
+                cones: Some(7),
                 ..Default::default()
             },
             "vct cones",
+        ),
+        (
+            octolux::gi::vct::VctSettings {
+                start: Some(-1.0),
+                ..Default::default()
+            },
+            "vct start",
         ),
         (
             octolux::gi::vct::VctSettings {

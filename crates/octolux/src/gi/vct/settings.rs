@@ -1,4 +1,8 @@
 //! Settings shared by both cone-tracing techniques (`[settings.vct]`).
+//!
+//! The diffuse cones (`cones`, `aperture`, `start`) are the exception: each technique has its
+//! own defaults ([`VctStructure::default_cones`]), measured on the shipped scenes
+//! (docs/vct.md), and a value given in the settings overrides them for both techniques.
 
 use crate::{Error, Result};
 
@@ -28,7 +32,53 @@ impl std::str::FromStr for ClipmapInjection {
     }
 }
 
+/// Which structure a technique traces; the diffuse cones' defaults depend on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VctStructure {
+    /// The sparse voxel octree (`vct-svo`).
+    Octree,
+    /// The clipmap (`vct-clipmap`).
+    Clipmap,
+}
+
+/// The diffuse cones one technique gathers with, every value resolved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffuseCones {
+    /// Cones per gather: 6 (`003`'s set) or a cosine-distributed set of 8..=64.
+    pub cones: u32,
+    /// Full aperture of each cone in degrees.
+    pub aperture: f32,
+    /// Apex offset along the normal and first sample, in voxels of the finest level holding
+    /// the surface.
+    pub start: f32,
+}
+
+impl VctStructure {
+    /// The structure's own diffuse cones, used where the settings give none (measured on the
+    /// shipped scenes, docs/vct.md): the octree gathers with 16 cones of 36 degrees started
+    /// 2 voxels out, the clipmap with `003`'s six cones of 60 degrees started 2 voxels out.
+    pub fn default_cones(self) -> DiffuseCones {
+        match self {
+            VctStructure::Octree => DiffuseCones {
+                cones: 16,
+                aperture: 36.0,
+                start: 2.0,
+            },
+            VctStructure::Clipmap => DiffuseCones {
+                cones: 6,
+                aperture: 60.0,
+                start: 2.0,
+            },
+        }
+    }
+}
+
 /// Settings of voxel cone tracing. Scene files: `[settings.vct]`.
+///
+/// The diffuse cones' fields (`cones`, `aperture`, `start`) are optional: `None` (the key left
+/// out, no `--vct-*` flag) lets each technique use its own default
+/// ([`VctStructure::default_cones`]); a value given applies to both techniques.
+/// [`VctSettings::diffuse_cones`] resolves them.
 #[derive(Clone, Debug, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct VctSettings {
@@ -38,17 +88,19 @@ pub struct VctSettings {
     /// level, centred on the camera, reaches the scene's farthest point from where the camera
     /// is at the first frame (with 10 % to spare).
     pub levels: u32,
-    /// Diffuse cones per gather: 6 (default, `003`'s set) or a cosine-distributed set of
-    /// 8..=64 (lower `aperture` with it: the cones of a denser set are closer together).
-    pub cones: u32,
-    /// Full aperture of the six diffuse cones in degrees (default 60: the ring's cones, 60
-    /// degrees apart, touch).
-    pub aperture: f32,
+    /// Diffuse cones per gather: 6 (`003`'s set) or a cosine-distributed set of 8..=64 (lower
+    /// `aperture` with it: the cones of a denser set are closer together). Default `None`: the
+    /// technique's own (`vct-svo` 16, `vct-clipmap` 6).
+    pub cones: Option<u32>,
+    /// Full aperture of the diffuse cones in degrees. Default `None`: the technique's own
+    /// (`vct-svo` 36, `vct-clipmap` 60: the six cones' ring, 60 degrees apart, touches).
+    pub aperture: Option<f32>,
     /// Step along a cone as a fraction of its footprint (default 0.5).
     pub step: f32,
-    /// Apex offset along the normal and first sample, in voxels of the finest level holding
-    /// the surface (default 1.5): off the surface's own voxels.
-    pub start: f32,
+    /// Apex offset of the diffuse cones along the normal and their first sample, in voxels of
+    /// the finest level holding the surface: off the surface's own voxels. Default `None`: the
+    /// technique's own (2 voxels for both).
+    pub start: Option<f32>,
     /// Accumulated opacity at which a cone stops (default 0.95).
     pub stop_opacity: f32,
     /// `vct-clipmap`: visibility of the lights for the injection, `shadow-maps` (default) or
@@ -88,10 +140,10 @@ impl Default for VctSettings {
         VctSettings {
             resolution: 64,
             levels: 4,
-            cones: 6,
-            aperture: 60.0,
+            cones: None,
+            aperture: None,
             step: 0.5,
-            start: 1.5,
+            start: None,
             stop_opacity: 0.95,
             injection: ClipmapInjection::ShadowMaps,
             inject_steps: 256,
@@ -124,12 +176,13 @@ impl VctSettings {
         )?;
         check((1..=8).contains(&self.levels), "vct levels", "1..=8")?;
         check(
-            super::gather::check_cone_count(self.cones),
+            self.cones.is_none_or(super::gather::check_cone_count),
             "vct cones",
             "6 (003's set) or 8..=64",
         )?;
         check(
-            self.aperture.is_finite() && self.aperture > 0.0 && self.aperture < 180.0,
+            self.aperture
+                .is_none_or(|a| a.is_finite() && a > 0.0 && a < 180.0),
             "vct aperture",
             "in (0, 180) degrees",
         )?;
@@ -139,7 +192,8 @@ impl VctSettings {
             "0.05..=4",
         )?;
         check(
-            self.start.is_finite() && (0.0..=16.0).contains(&self.start),
+            self.start
+                .is_none_or(|s| s.is_finite() && (0.0..=16.0).contains(&s)),
             "vct start",
             "0..=16 voxels",
         )?;
@@ -182,8 +236,83 @@ impl VctSettings {
         )
     }
 
+    /// The diffuse cones of the technique tracing `structure`: the values given here, the
+    /// structure's own defaults for the others.
+    pub fn diffuse_cones(&self, structure: VctStructure) -> DiffuseCones {
+        let own = structure.default_cones();
+        DiffuseCones {
+            cones: self.cones.unwrap_or(own.cones),
+            aperture: self.aperture.unwrap_or(own.aperture),
+            start: self.start.unwrap_or(own.start),
+        }
+    }
+
     /// Full aperture of the specular cone in radians.
     pub fn specular_aperture(&self) -> f32 {
         (self.roughness * 90.0).max(2.0).to_radians()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> std::result::Result<VctSettings, toml::de::Error> {
+        toml::from_str(text)
+    }
+
+    #[test]
+    fn each_structure_has_its_own_cones_unless_given() {
+        let s = VctSettings::default();
+        assert_eq!(
+            s.diffuse_cones(VctStructure::Octree),
+            VctStructure::Octree.default_cones()
+        );
+        assert_eq!(
+            s.diffuse_cones(VctStructure::Clipmap),
+            VctStructure::Clipmap.default_cones()
+        );
+        assert_ne!(
+            VctStructure::Octree.default_cones(),
+            VctStructure::Clipmap.default_cones()
+        );
+        // Every default is a valid value.
+        for structure in [VctStructure::Octree, VctStructure::Clipmap] {
+            let d = structure.default_cones();
+            let given = VctSettings {
+                cones: Some(d.cones),
+                aperture: Some(d.aperture),
+                start: Some(d.start),
+                ..VctSettings::default()
+            };
+            given.validate().unwrap();
+        }
+        // A value given applies to both structures; the others stay each one's own.
+        let s = parse("cones = 8\nstart = 3.0\n").unwrap();
+        s.validate().unwrap();
+        for structure in [VctStructure::Octree, VctStructure::Clipmap] {
+            let c = s.diffuse_cones(structure);
+            assert_eq!((c.cones, c.start), (8, 3.0));
+            assert_eq!(c.aperture, structure.default_cones().aperture);
+        }
+    }
+
+    #[test]
+    fn bad_cone_settings_are_clear_errors() {
+        for (text, what) in [
+            ("cones = 7", "vct cones"),
+            ("cones = 65", "vct cones"),
+            ("aperture = 180.0", "vct aperture"),
+            ("aperture = 0.0", "vct aperture"),
+            ("start = -0.5", "vct start"),
+            ("start = 17.0", "vct start"),
+        ] {
+            let err = parse(text).unwrap().validate().expect_err(text);
+            assert!(err.to_string().contains(what), "{text}: {err}");
+        }
+        // Wrong types and unknown keys fail to parse, naming what was expected.
+        let err = parse("cones = \"many\"").expect_err("a string");
+        assert!(err.to_string().contains("cones"), "{err}");
+        assert!(parse("cone_aperture = 30.0").is_err());
     }
 }
