@@ -61,18 +61,18 @@ pub struct GiArgs {
     #[arg(long)]
     pub vct_levels: Option<u32>,
     /// Cone tracing: diffuse cones per gather, 6 (003's set) or 8..=64; for both techniques
-    /// (default: each technique's own, vct-svo 16, vct-clipmap 6).
+    /// (default: each technique's own, 16; vct-clipmap with one bounce 6).
     #[arg(long)]
     pub vct_cones: Option<u32>,
     /// Cone tracing: full aperture of the diffuse cones in degrees; for both techniques
-    /// (default: each technique's own, vct-svo 36, vct-clipmap 60).
+    /// (default: each technique's own, 36; vct-clipmap with one bounce 60).
     #[arg(long)]
     pub vct_aperture: Option<f32>,
     /// Cone tracing: step as a fraction of the cone's footprint (default 0.5).
     #[arg(long)]
     pub vct_step: Option<f32>,
     /// Cone tracing: apex offset of the diffuse cones off the surface, in voxels of its level;
-    /// for both techniques (default: each technique's own, 2 for both).
+    /// for both techniques (default: each technique's own, 2; vct-clipmap with one bounce 1.5).
     #[arg(long)]
     pub vct_start: Option<f32>,
     /// Cone tracing: accumulated opacity at which a cone stops (default 0.95).

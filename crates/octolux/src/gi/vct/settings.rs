@@ -1,8 +1,9 @@
 //! Settings shared by both cone-tracing techniques (`[settings.vct]`).
 //!
 //! The diffuse cones (`cones`, `aperture`, `start`) are the exception: each technique has its
-//! own defaults ([`VctStructure::default_cones`]), measured on the shipped scenes
-//! (docs/vct.md), and a value given in the settings overrides them for both techniques.
+//! own defaults ([`VctStructure::default_cones`], by structure and `multi_bounce`), measured
+//! on the shipped scenes (docs/vct.md), and a value given in the settings overrides them for
+//! both techniques.
 
 use crate::{Error, Result};
 
@@ -54,19 +55,22 @@ pub struct DiffuseCones {
 }
 
 impl VctStructure {
-    /// The structure's own diffuse cones, used where the settings give none (measured on the
-    /// shipped scenes, docs/vct.md): the octree gathers with 16 cones of 36 degrees started
-    /// 2 voxels out, the clipmap with `003`'s six cones of 60 degrees started 2 voxels out.
-    pub fn default_cones(self) -> DiffuseCones {
-        match self {
-            VctStructure::Octree => DiffuseCones {
-                cones: 16,
-                aperture: 36.0,
-                start: 2.0,
-            },
-            VctStructure::Clipmap => DiffuseCones {
+    /// The structure's own diffuse cones, used where the settings give none, for multiple
+    /// bounces (`multi_bounce`) or one (measured on the shipped scenes, docs/vct.md): 16
+    /// cones of 36 degrees started 2 voxels out, except the clipmap at one bounce, which
+    /// keeps `003`'s six cones of 60 degrees started 1.5 voxels out (16 cones double its
+    /// relMSE on the McGuire box against the one-bounce reference; with multiple bounces they
+    /// lower it on every shipped scene).
+    pub fn default_cones(self, multi_bounce: bool) -> DiffuseCones {
+        match (self, multi_bounce) {
+            (VctStructure::Clipmap, false) => DiffuseCones {
                 cones: 6,
                 aperture: 60.0,
+                start: 1.5,
+            },
+            _ => DiffuseCones {
+                cones: 16,
+                aperture: 36.0,
                 start: 2.0,
             },
         }
@@ -77,7 +81,8 @@ impl VctStructure {
 ///
 /// The diffuse cones' fields (`cones`, `aperture`, `start`) are optional: `None` (the key left
 /// out, no `--vct-*` flag) lets each technique use its own default
-/// ([`VctStructure::default_cones`]); a value given applies to both techniques.
+/// ([`VctStructure::default_cones`], which also depends on `multi_bounce`); a value given
+/// applies to both techniques.
 /// [`VctSettings::diffuse_cones`] resolves them.
 #[derive(Clone, Debug, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -90,16 +95,17 @@ pub struct VctSettings {
     pub levels: u32,
     /// Diffuse cones per gather: 6 (`003`'s set) or a cosine-distributed set of 8..=64 (lower
     /// `aperture` with it: the cones of a denser set are closer together). Default `None`: the
-    /// technique's own (`vct-svo` 16, `vct-clipmap` 6).
+    /// technique's own (16; `vct-clipmap` with `multi_bounce = false`: 6).
     pub cones: Option<u32>,
-    /// Full aperture of the diffuse cones in degrees. Default `None`: the technique's own
-    /// (`vct-svo` 36, `vct-clipmap` 60: the six cones' ring, 60 degrees apart, touches).
+    /// Full aperture of the diffuse cones in degrees. Default `None`: the technique's own (36;
+    /// `vct-clipmap` with `multi_bounce = false`: 60, the six cones' ring, 60 degrees apart,
+    /// touches).
     pub aperture: Option<f32>,
     /// Step along a cone as a fraction of its footprint (default 0.5).
     pub step: f32,
     /// Apex offset of the diffuse cones along the normal and their first sample, in voxels of
     /// the finest level holding the surface: off the surface's own voxels. Default `None`: the
-    /// technique's own (2 voxels for both).
+    /// technique's own (2; `vct-clipmap` with `multi_bounce = false`: 1.5).
     pub start: Option<f32>,
     /// Accumulated opacity at which a cone stops (default 0.95).
     pub stop_opacity: f32,
@@ -239,7 +245,7 @@ impl VctSettings {
     /// The diffuse cones of the technique tracing `structure`: the values given here, the
     /// structure's own defaults for the others.
     pub fn diffuse_cones(&self, structure: VctStructure) -> DiffuseCones {
-        let own = structure.default_cones();
+        let own = structure.default_cones(self.multi_bounce);
         DiffuseCones {
             cones: self.cones.unwrap_or(own.cones),
             aperture: self.aperture.unwrap_or(own.aperture),
@@ -263,37 +269,34 @@ mod tests {
 
     #[test]
     fn each_structure_has_its_own_cones_unless_given() {
-        let s = VctSettings::default();
-        assert_eq!(
-            s.diffuse_cones(VctStructure::Octree),
-            VctStructure::Octree.default_cones()
-        );
-        assert_eq!(
-            s.diffuse_cones(VctStructure::Clipmap),
-            VctStructure::Clipmap.default_cones()
-        );
-        assert_ne!(
-            VctStructure::Octree.default_cones(),
-            VctStructure::Clipmap.default_cones()
-        );
-        // Every default is a valid value.
-        for structure in [VctStructure::Octree, VctStructure::Clipmap] {
-            let d = structure.default_cones();
-            let given = VctSettings {
-                cones: Some(d.cones),
-                aperture: Some(d.aperture),
-                start: Some(d.start),
+        for multi_bounce in [false, true] {
+            let s = VctSettings {
+                multi_bounce,
                 ..VctSettings::default()
             };
-            given.validate().unwrap();
+            for structure in [VctStructure::Octree, VctStructure::Clipmap] {
+                let own = structure.default_cones(multi_bounce);
+                assert_eq!(s.diffuse_cones(structure), own);
+                // Every default is a valid value.
+                let given = VctSettings {
+                    cones: Some(own.cones),
+                    aperture: Some(own.aperture),
+                    start: Some(own.start),
+                    ..s.clone()
+                };
+                given.validate().unwrap();
+            }
         }
+        // The clipmap at one bounce keeps 003's six cones; the octree does not.
+        assert_eq!(VctStructure::Clipmap.default_cones(false).cones, 6);
+        assert_eq!(VctStructure::Octree.default_cones(false).cones, 16);
         // A value given applies to both structures; the others stay each one's own.
-        let s = parse("cones = 8\nstart = 3.0\n").unwrap();
+        let s = parse("cones = 8\nstart = 3.0\nmulti_bounce = false\n").unwrap();
         s.validate().unwrap();
         for structure in [VctStructure::Octree, VctStructure::Clipmap] {
             let c = s.diffuse_cones(structure);
             assert_eq!((c.cones, c.start), (8, 3.0));
-            assert_eq!(c.aperture, structure.default_cones().aperture);
+            assert_eq!(c.aperture, structure.default_cones(false).aperture);
         }
     }
 
