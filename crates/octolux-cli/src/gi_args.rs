@@ -60,16 +60,19 @@ pub struct GiArgs {
     /// Cone tracing: clipmap levels, 1..=8 (default 4).
     #[arg(long)]
     pub vct_levels: Option<u32>,
-    /// Cone tracing: diffuse cones per gather, 6 (003's set, default) or 8..=64.
+    /// Cone tracing: diffuse cones per gather, 6 (003's set) or 8..=64; for both techniques
+    /// (default: each technique's own, 16; vct-clipmap with one bounce 6).
     #[arg(long)]
     pub vct_cones: Option<u32>,
-    /// Cone tracing: full aperture of the diffuse cones in degrees (default 60).
+    /// Cone tracing: full aperture of the diffuse cones in degrees; for both techniques
+    /// (default: each technique's own, 36; vct-clipmap with one bounce 60).
     #[arg(long)]
     pub vct_aperture: Option<f32>,
     /// Cone tracing: step as a fraction of the cone's footprint (default 0.5).
     #[arg(long)]
     pub vct_step: Option<f32>,
-    /// Cone tracing: apex offset off the surface, in voxels of its level (default 1.5).
+    /// Cone tracing: apex offset of the diffuse cones off the surface, in voxels of its level;
+    /// for both techniques (default: each technique's own, 2; vct-clipmap with one bounce 1.5).
     #[arg(long)]
     pub vct_start: Option<f32>,
     /// Cone tracing: accumulated opacity at which a cone stops (default 0.95).
@@ -212,10 +215,12 @@ impl GiArgs {
         let vct = &mut settings.vct;
         set(&mut vct.resolution, self.vct_resolution);
         set(&mut vct.levels, self.vct_levels);
-        set(&mut vct.cones, self.vct_cones);
-        set(&mut vct.aperture, self.vct_aperture);
+        // The diffuse cones' settings are optional (None: each technique's own default); a
+        // flag given sets them for both techniques.
+        set(&mut vct.cones, self.vct_cones.map(Some));
+        set(&mut vct.aperture, self.vct_aperture.map(Some));
         set(&mut vct.step, self.vct_step);
-        set(&mut vct.start, self.vct_start);
+        set(&mut vct.start, self.vct_start.map(Some));
         set(&mut vct.stop_opacity, self.vct_stop_opacity);
         set(&mut vct.injection, self.vct_injection);
         set(&mut vct.inject_steps, self.vct_inject_steps);

@@ -224,9 +224,19 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             let slider = |ui: &mut Ui, label: &str, x: &mut f32, lo: f32, hi: f32| {
                 ui.add(Slider::new(x, lo..=hi).text(label)).changed()
             };
-            changed |= slider(ui, "aperture (degrees)", &mut v.aperture, 10.0, 120.0);
+            // The diffuse cones' settings are optional (the technique's own defaults); the
+            // sliders show the clipmap's values and an edit sets them.
+            let cones = v.diffuse_cones(octolux::gi::vct::VctStructure::Clipmap);
+            let (mut aperture, mut start) = (cones.aperture, cones.start);
+            if slider(ui, "aperture (degrees)", &mut aperture, 10.0, 120.0) {
+                v.aperture = Some(aperture);
+                changed = true;
+            }
             changed |= slider(ui, "step (x footprint)", &mut v.step, 0.1, 2.0);
-            changed |= slider(ui, "start (voxels)", &mut v.start, 0.0, 4.0);
+            if slider(ui, "start (voxels)", &mut start, 0.0, 4.0) {
+                v.start = Some(start);
+                changed = true;
+            }
             changed |= slider(ui, "stop opacity", &mut v.stop_opacity, 0.5, 1.0);
             changed |= drag(ui, "injection steps", &mut v.inject_steps, 8, 1024);
             changed |= drag(ui, "sparse (N x N block)", &mut v.sparse, 1, 8);

@@ -6,7 +6,7 @@
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::ConeTracer;
-use super::{ClipmapInjection, VctSettings};
+use super::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::CLIPMAP_BLEND_WGSL;
@@ -95,6 +95,7 @@ impl VctClipmap {
                 include_str!("clipmap_bounce.wgsl"),
             ],
             settings,
+            settings.diffuse_cones(VctStructure::Clipmap),
             width,
             height,
         );
@@ -257,8 +258,17 @@ impl VctClipmap {
             levels: s.levels,
             voxel_size: voxel,
         };
-        self.tracer
-            .set_cone(ctx, cone_params(s, voxel, coarsest, 0.5 * span * voxel), s);
+        self.tracer.set_cone(
+            ctx,
+            cone_params(
+                s,
+                self.tracer.diffuse(),
+                voxel,
+                coarsest,
+                0.5 * span * voxel,
+            ),
+            s,
+        );
         Clipmap::with_owner(
             ctx,
             clip,
@@ -370,17 +380,18 @@ impl GiTechnique for VctClipmap {
     }
 }
 
-/// The marcher's parameters for the settings `s`, a finest voxel of `voxel` metres, a
-/// coarsest of `coarsest` metres and cones that end at `max_distance` metres.
+/// The marcher's parameters for the settings `s` and the `diffuse` cones, a finest voxel of
+/// `voxel` metres, a coarsest of `coarsest` metres and cones that end at `max_distance` metres.
 pub(crate) fn cone_params(
     s: &VctSettings,
+    diffuse: DiffuseCones,
     voxel: f32,
     coarsest: f32,
     max_distance: f32,
 ) -> ConeParams {
     ConeParams {
-        aperture: s.aperture.to_radians(),
-        start: s.start * voxel,
+        aperture: diffuse.aperture.to_radians(),
+        start: diffuse.start * voxel,
         step: s.step,
         max_distance,
         voxel,

@@ -18,7 +18,7 @@ mod svo_gi;
 mod tracer;
 
 pub use clipmap_gi::VctClipmap;
-pub use settings::{ClipmapInjection, VctSettings};
+pub use settings::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
 pub use svo_gi::VctSvo;
 
 pub use cone::{march_cone, ConeMarch, ConeParams, CONE_WGSL};

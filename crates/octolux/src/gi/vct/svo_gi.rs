@@ -5,7 +5,7 @@
 
 use super::clipmap_gi::cone_params;
 use super::tracer::ConeTracer;
-use super::VctSettings;
+use super::{VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
@@ -93,6 +93,7 @@ impl VctSvo {
                 include_str!("svo_bounce.wgsl"),
             ],
             settings,
+            settings.diffuse_cones(VctStructure::Octree),
             width,
             height,
         );
@@ -100,7 +101,13 @@ impl VctSvo {
         // Cones end where they leave the grid at the latest (its diagonal).
         tracer.set_cone(
             ctx,
-            cone_params(settings, grid.voxel_size, 0.5 * span, 3f32.sqrt() * span),
+            cone_params(
+                settings,
+                tracer.diffuse(),
+                grid.voxel_size,
+                0.5 * span,
+                3f32.sqrt() * span,
+            ),
             settings,
         );
         let info = ctx.create_buffer_init(

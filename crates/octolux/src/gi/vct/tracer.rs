@@ -5,7 +5,7 @@
 //! the octree and the clipmap differ only there.
 
 use super::cone::ConeParams;
-use super::{VctSettings, CONE_WGSL, GATHER_WGSL};
+use super::{DiffuseCones, VctSettings, CONE_WGSL, GATHER_WGSL};
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::render::dispatch_2d;
@@ -38,6 +38,8 @@ pub(crate) struct ConeTracer {
     params: wgpu::Buffer,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
+    /// The technique's diffuse cones (the settings' or its structure's defaults).
+    diffuse: DiffuseCones,
 }
 
 /// A texture of the technique's (`Rgba16Float`, written by compute, read by the next pass).
@@ -61,18 +63,20 @@ fn image(
 
 impl ConeTracer {
     /// The passes for images of `width` x `height` over the structure whose sampling WGSL is
-    /// `structure` (its sampler, then its `*_trace.wgsl`), recorded under `owner`.
+    /// `structure` (its sampler, then its `*_trace.wgsl`), recorded under `owner`, gathering
+    /// with the `diffuse` cones.
     pub(crate) fn new(
         ctx: &GpuContext,
         owner: &str,
         structure: &[&str],
         settings: &VctSettings,
+        diffuse: DiffuseCones,
         width: u32,
         height: u32,
     ) -> ConeTracer {
         let common = include_str!("../../render/common.wgsl");
         let sparse_wgsl = include_str!("sparse.wgsl");
-        let cone_set = super::gather::cone_set_wgsl(settings.cones);
+        let cone_set = super::gather::cone_set_wgsl(diffuse.cones);
         let source = [common, cone_set.as_str()]
             .iter()
             .chain(structure)
@@ -131,17 +135,23 @@ impl ConeTracer {
             params,
             texture,
             view,
+            diffuse,
         }
     }
 
+    /// The diffuse cones this tracer gathers with.
+    pub(crate) fn diffuse(&self) -> DiffuseCones {
+        self.diffuse
+    }
+
     /// Sets how cones are marched: `cone` (its `voxel` the finest voxel, its `start` unused:
-    /// the trace derives both from the voxel where each surface is) and the settings' start
-    /// offset, sparse factor, specular aperture and the specular cone's fixed sample count.
+    /// the trace derives both from the voxel where each surface is) and the diffuse cones' start
+    /// offset, the settings' sparse factor, specular aperture and the specular cone's fixed sample count.
     pub(crate) fn set_cone(&self, ctx: &GpuContext, cone: ConeParams, settings: &VctSettings) {
         let params = TraceParams {
             cone,
             misc: [
-                settings.start,
+                self.diffuse.start,
                 settings.sparse as f32,
                 settings.specular_aperture(),
                 settings.specular_steps as f32,
