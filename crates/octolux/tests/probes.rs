@@ -2,7 +2,7 @@
 //! ceiling, which the spot light does not reach (within a factor 2 of the reference), and the
 //! image is closer to the reference than no GI at all in relMSE and FLIP, with both encodings.
 //! `probes-octree` does so too with about a hundred probes, and on an open scene (the
-//! bunny on its ground plane). Bad settings are clear errors.
+//! sphere on a ground plane). Bad settings are clear errors.
 
 use glam::Vec3;
 use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange, Visibility};
@@ -250,17 +250,51 @@ fn octree_probes_light_the_cornell_box_with_few_probes() {
 
 #[test]
 fn octree_probes_light_an_open_scene() {
-    // The Stanford bunny on a 12 m ground plane: with `004`'s rule (min_depth 0) the coarse
-    // octants see too little geometry inside their cubes and free their probes, the root
-    // collapses to one probe inside the bunny, which is left out: no indirect light. With
-    // the default min_depth the 64 depth-2 probes stay, and the image beats GI off.
+    // A 1.2 m sphere on a 12 m ground plane under a sun and a spot (the layout of the Stanford
+    // bunny scene, with a model in this repository): with `004`'s rule (min_depth 0) the
+    // coarse octants see too little geometry inside their cubes and free their probes, and
+    // the root collapses to one probe, inside the sphere, which is left out: no indirect
+    // light. With the default min_depth the 64 depth-2 probes stay, and the image beats GI off.
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../scenes/stanford-bunny.toml"
-    );
-    let scene = octolux::scene::Scene::load(path).unwrap();
+    let origin = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/open-sphere.toml");
+    let text = r#"
+        name = "open-sphere"
+        [[model]]
+        name = "ground"
+        path = "builtin:ground-plane"
+        size = 12.0
+        material = { albedo = [0.6, 0.6, 0.6] }
+        [[model]]
+        name = "sphere"
+        path = "models/uv-sphere.obj"
+        scale = 0.6
+        translate = [0.0, 0.6, 0.0]
+        material = { albedo = [0.75, 0.72, 0.68] }
+        [[light]]
+        type = "directional"
+        name = "sun"
+        direction = [-0.5, -1.0, -0.3]
+        color = [1.0, 0.95, 0.85]
+        intensity = 3.0
+        [[light]]
+        type = "spot"
+        name = "fill-spot"
+        position = [-2.0, 3.0, 1.5]
+        target = [0.0, 0.7, 0.0]
+        color = [0.7, 0.8, 1.0]
+        intensity = 18.0
+        inner_angle = 20.0
+        outer_angle = 30.0
+        [[camera]]
+        name = "front"
+        position = [1.6, 1.2, 3.4]
+        target = [0.0, 0.7, 0.0]
+        fov = 40.0
+        near = 0.05
+        far = 50.0
+    "#;
+    let scene = octolux::scene::file::parse(text, std::path::Path::new(origin)).unwrap();
     let one = reference(&scene, 0.0, Bounces::Indirect(1));
     let options = MetricOptions::default();
     let mut errors = Vec::new();
@@ -280,9 +314,11 @@ fn octree_probes_light_an_open_scene() {
         ));
     }
     println!(
-        "bunny (relMSE, FLIP): none {:?}, min_depth 0 {:?}, min_depth 2 {:?}",
+        "open sphere (relMSE, FLIP): none {:?}, min_depth 0 {:?}, min_depth 2 {:?}",
         errors[0], errors[1], errors[2]
     );
+    // Measured on lavapipe: relMSE / FLIP 0.047 / 0.107 GI off, the same with `004`'s rule,
+    // 0.016 / 0.060 with the default.
     let (none, default) = (errors[0], errors[2]);
     assert!(default.0 < 0.8 * none.0, "{errors:?}");
     assert!(default.1 < none.1, "{errors:?}");
