@@ -243,7 +243,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             return changed;
         }
         "probes-grid" | "probes-octree" => {
-            use octolux::gi::probes::{Encoding, Lattice, OctreeGather, SurfelRange};
+            use octolux::gi::probes::{Encoding, Lattice, OctreeGather, SurfelRange, Visibility};
             let p = &mut s.probes;
             if technique == "probes-grid" {
                 let mut side = p.grid[0];
@@ -251,6 +251,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 p.grid = [side; 3];
             } else {
                 changed |= drag(ui, "max depth", &mut p.max_depth, 2, 5);
+                changed |= drag(ui, "min depth (complete down to)", &mut p.min_depth, 0, 5);
+                // Keep it within the depth, as the settings require.
+                p.min_depth = p.min_depth.min(p.max_depth);
                 changed |= ui
                     .add(Slider::new(&mut p.split_fraction, 0.05..=1.0).text("split fraction"))
                     .changed();
@@ -274,7 +277,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     });
                 changed |= before != (p.gather, p.surfel_range);
             }
-            let before = (p.surfels, p.lattice, p.encoding);
+            let before = (p.surfels, p.lattice, p.encoding, p.visibility);
             ComboBox::from_label("surfels per probe")
                 .selected_text(p.surfels.map_or("default".to_string(), |n| n.to_string()))
                 .show_ui(ui, |ui| {
@@ -295,7 +298,13 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     ui.selectable_value(&mut p.encoding, Encoding::ShL1, "SH L1");
                     ui.selectable_value(&mut p.encoding, Encoding::Octahedron, "octahedron");
                 });
-            changed |= before != (p.surfels, p.lattice, p.encoding);
+            ComboBox::from_label("visibility")
+                .selected_text(format!("{:?}", p.visibility))
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut p.visibility, Visibility::Moments, "depth moments");
+                    ui.selectable_value(&mut p.visibility, Visibility::None, "none");
+                });
+            changed |= before != (p.surfels, p.lattice, p.encoding, p.visibility);
             changed |= ui
                 .checkbox(&mut p.multi_bounce, "multiple bounces")
                 .changed();
