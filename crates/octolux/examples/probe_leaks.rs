@@ -10,7 +10,6 @@
 //! Keys: `scene` (scenes/two-rooms-leak.toml), `width`/`height` (160 x 90), `spp` (512),
 //! `frames` (12: the octree grows a level per frame), `grid` (probes per axis, 21).
 
-use glam::Vec3;
 use octolux::gi::probes::{ProbeSettings, ProbesGrid, ProbesOctree, Visibility};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
@@ -69,7 +68,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for _ in 0..frames {
             r.render(&scene, 0.0)?;
         }
-        let rooms = rooms.get_or_insert_with(|| room_of_pixels(&r, width, height));
+        if rooms.is_none() {
+            rooms = Some(room_of_pixels(&r)?);
+        }
+        let rooms = rooms.as_ref().ok_or("no rooms")?;
         let t = r.technique().as_any();
         let texture = match gi {
             "probes-grid" => t
@@ -121,10 +123,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// Per pixel: 1 lit room, 2 dark room, 0 background, the wall or its front edge.
-fn room_of_pixels(r: &Renderer, width: u32, height: u32) -> Vec<u8> {
-    let g = r.read_gbuffer().expect("G-buffer");
-    let view = *r.last_view().expect("a rendered frame");
-    g.depth
+fn room_of_pixels(r: &Renderer) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    let g = r.read_gbuffer()?;
+    let view = *r.last_view().ok_or("no frame rendered")?;
+    let width = view.width;
+    Ok(g.depth
         .iter()
         .enumerate()
         .map(|(i, &depth)| {
@@ -135,12 +138,7 @@ fn room_of_pixels(r: &Renderer, width: u32, height: u32) -> Vec<u8> {
                 (i as u32 % width) as f32 + 0.5,
                 (i as u32 / width) as f32 + 0.5,
             );
-            let ndc = Vec3::new(
-                x / width as f32 * 2.0 - 1.0,
-                1.0 - y / height as f32 * 2.0,
-                depth,
-            );
-            let p = view.inv_view_proj.project_point3(ndc);
+            let p = view.world_point(x, y, depth);
             if p.x < WALL.0 - 1e-3 {
                 1
             } else if p.x > WALL.1 + 1e-3 {
@@ -149,7 +147,7 @@ fn room_of_pixels(r: &Renderer, width: u32, height: u32) -> Vec<u8> {
                 0
             }
         })
-        .collect()
+        .collect())
 }
 
 /// Mean of `e` over the dark room's pixels and over the lit room's.

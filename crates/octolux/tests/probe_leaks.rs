@@ -38,12 +38,7 @@ fn rooms(r: &Renderer) -> Vec<u8> {
                 (i as u32 % SIZE) as f32 + 0.5,
                 (i as u32 / SIZE) as f32 + 0.5,
             );
-            let ndc = Vec3::new(
-                x / SIZE as f32 * 2.0 - 1.0,
-                1.0 - y / SIZE as f32 * 2.0,
-                depth,
-            );
-            let p = view.inv_view_proj.project_point3(ndc);
+            let p = view.world_point(x, y, depth);
             if p.x < WALL.0 - 1e-3 {
                 1
             } else if p.x > WALL.1 + 1e-3 {

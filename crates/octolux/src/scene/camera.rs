@@ -136,4 +136,13 @@ impl CameraView {
             .project_point3(Vec3::new(ndc_x, ndc_y, 1.0));
         (far - self.position).normalize()
     }
+
+    /// World position seen at image position (`x`, `y`) in pixels (as [`Self::ray_direction`])
+    /// whose depth-buffer value is `depth` (0..1, as the G-buffer holds it).
+    pub fn world_point(&self, x: f32, y: f32, depth: f32) -> Vec3 {
+        let ndc_x = x / self.width as f32 * 2.0 - 1.0;
+        let ndc_y = 1.0 - y / self.height as f32 * 2.0;
+        self.inv_view_proj
+            .project_point3(Vec3::new(ndc_x, ndc_y, depth))
+    }
 }

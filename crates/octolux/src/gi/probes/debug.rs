@@ -380,17 +380,12 @@ impl Canvas<'_> {
     /// Whether world point `p`, which projects into pixel (x, y), is in front of the scene's
     /// surface there (within 1 % of its distance, so that marks on surfaces show).
     fn visible(&self, x: usize, y: usize, p: Vec3) -> bool {
-        let (w, h) = (self.view.width as usize, self.view.height as usize);
+        let w = self.view.width as usize;
         let d = self.depth[y * w + x];
         if d >= 1.0 {
             return true;
         }
-        let ndc = Vec3::new(
-            (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-            1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-            d,
-        );
-        let surface = self.view.inv_view_proj.project_point3(ndc);
+        let surface = self.view.world_point(x as f32 + 0.5, y as f32 + 0.5, d);
         p.distance(self.view.position) <= surface.distance(self.view.position) * 1.01
     }
 

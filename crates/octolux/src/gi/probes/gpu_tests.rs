@@ -389,8 +389,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
                 continue;
             }
             let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
-            let ndc = Vec3::new(x / 40.0 * 2.0 - 1.0, 1.0 - y / 40.0 * 2.0, depth);
-            let p = view.inv_view_proj.project_point3(ndc);
+            let p = view.world_point(x, y, depth);
             let moments = (visibility == Visibility::Moments).then(|| MomentMaps {
                 maps: &maps,
                 floor: technique.variance_floor(),

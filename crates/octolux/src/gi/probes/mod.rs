@@ -267,7 +267,8 @@ impl ProbeSettings {
         (self.backface_limit as f64 * self.surfel_count() as f64).floor() as u32
     }
 
-    /// The octree's split/free rule.
+    /// The octree's split/free rule. Its surfel count is the octree's (unset: 128), since
+    /// only `probes-octree` has the rule.
     pub fn octree_rule(&self) -> octree::OctreeRule {
         octree::OctreeRule {
             max_depth: self.max_depth,

@@ -276,8 +276,7 @@ fn octree_gather_equals_its_cpu_twin() {
                 continue;
             }
             let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
-            let ndc = Vec3::new(x / 40.0 * 2.0 - 1.0, 1.0 - y / 40.0 * 2.0, depth);
-            let p = camera.inv_view_proj.project_point3(ndc);
+            let p = camera.world_point(x, y, depth);
             let want = view.irradiance(&probes, &probe_data, p, normal.normalize());
             let got = Vec3::from_array(std::array::from_fn(|c| {
                 crate::render::f16_to_f32(indirect[4 * i + c])

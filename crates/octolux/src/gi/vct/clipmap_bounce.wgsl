@@ -35,15 +35,9 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     var e = vec3<f32>(0.0);
     // Voxels without a dominant normal (opposite faces cancelled) get no bounce.
     if unpack4x8unorm(clip_voxels[i]).a > 0.0 && dot(n, n) > 0.01 {
-        let r = clip_info.misc.x;
-        let l = i / (r * r * r);
-        let s = i % (r * r * r);
-        let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
-        let o = clip_info.origins[l].xyz;
-        let ri = i32(r);
-        let g = o + ((m - o) % ri + ri) % ri;
-        let size = clip_info.voxel.x * f32(1u << l);
-        let p = (vec3<f32>(g) + 0.5) * size;
+        let centre = clip_slot_centre(i);
+        let p = centre.xyz;
+        let size = centre.w;
         let nn = normalize(n);
         // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to
         // half its size behind the surface it holds.

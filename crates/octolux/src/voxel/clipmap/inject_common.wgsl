@@ -44,15 +44,9 @@ fn inject_voxel(i: u32) -> InjectVoxel {
         radiance[2u * i + 1u] = 0u;
         return v;
     }
-    let r = clip_info.misc.x;
-    let l = i / (r * r * r);
-    let s = i % (r * r * r);
-    let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
-    let o = clip_info.origins[l].xyz;
-    let ri = i32(r);
-    let g = o + ((m - o) % ri + ri) % ri;
-    v.size = clip_info.voxel.x * f32(1u << l);
-    v.p = (vec3<f32>(g) + 0.5) * v.size;
+    let centre = clip_slot_centre(i);
+    v.size = centre.w;
+    v.p = centre.xyz;
     v.n = unpack4x8snorm(normals[i]).xyz;
     v.has_normal = dot(v.n, v.n) > 0.01;
     if v.has_normal {

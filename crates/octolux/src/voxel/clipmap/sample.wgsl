@@ -24,6 +24,20 @@ fn clip_slot(l: u32, g: vec3<i32>) -> u32 {
     return l * r * r * r + m.x + r * (m.y + r * m.z);
 }
 
+// The inverse of `clip_slot`: the centre (xyz, world) and edge (w) of the voxel that slot `i`
+// of the whole array holds now, from its level's origin.
+fn clip_slot_centre(i: u32) -> vec4<f32> {
+    let r = clip_info.misc.x;
+    let l = i / (r * r * r);
+    let s = i % (r * r * r);
+    let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
+    let o = clip_info.origins[l].xyz;
+    let ri = i32(r);
+    let g = o + ((m - o) % ri + ri) % ri;
+    let size = clip_info.voxel.x * f32(1u << l);
+    return vec4<f32>((vec3<f32>(g) + 0.5) * size, size);
+}
+
 fn clip_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {
     return unpack4x8unorm(clip_voxels[clip_slot(l, g)]);
 }
