@@ -179,6 +179,14 @@ pub struct GiArgs {
     /// moments, against leaks through thin walls; `none` does not (default moments).
     #[arg(long)]
     pub probes_visibility: Option<octolux::gi::probes::Visibility>,
+    /// Probes: what the surfel rays run through, `bvh` (the scene's triangles, exact) or
+    /// `voxels` (the scene's sparse voxel octree, exact to a voxel) (default bvh).
+    #[arg(long)]
+    pub probes_rays: Option<octolux::gi::probes::RayBackend>,
+    /// Probes with `--probes-rays voxels`: voxels per side of the octree, a power of two in
+    /// 16..=1024 (default 128).
+    #[arg(long)]
+    pub probes_voxel_resolution: Option<u32>,
     /// VPL GI: light bounces, 1..=3; later bounces are spawned through the octree (default 1).
     #[arg(long)]
     pub vpl_bounces: Option<u32>,
@@ -256,6 +264,8 @@ impl GiArgs {
         set(&mut probes.gather, self.probes_gather);
         set(&mut probes.surfel_range, self.probes_surfel_range);
         set(&mut probes.visibility, self.probes_visibility);
+        set(&mut probes.rays, self.probes_rays);
+        set(&mut probes.voxel_resolution, self.probes_voxel_resolution);
     }
 }
 

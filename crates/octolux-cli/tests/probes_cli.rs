@@ -1,4 +1,4 @@
-//! End-to-end tests of the probe octree's flags of `octolux render`: valid values render,
+//! End-to-end tests of the probe octree's and ray flags of `octolux render`: valid values render,
 //! invalid ones are clear errors (an `error:` line naming the setting, no panic).
 
 use std::process::{Command, Output};
@@ -37,6 +37,10 @@ fn octree_flags_render_and_bad_values_are_clear_errors() {
         "0",
         "--probes-surfels",
         "32",
+        "--probes-rays",
+        "voxels",
+        "--probes-voxel-resolution",
+        "32",
     ]);
     assert!(
         ok.status.success(),
@@ -53,6 +57,12 @@ fn octree_flags_render_and_bad_values_are_clear_errors() {
         (&["--probes-max-depth", "9"][..], "probes max_depth", 1),
         (&["--probes-min-depth=-1"][..], "--probes-min-depth", 2),
         (&["--probes-min-depth", "two"][..], "--probes-min-depth", 2),
+        (&["--probes-rays", "cones"][..], "--probes-rays", 2),
+        (
+            &["--probes-rays", "voxels", "--probes-voxel-resolution", "48"][..],
+            "probes voxel_resolution",
+            1,
+        ),
     ] {
         let out = render(flags);
         let stderr = String::from_utf8_lossy(&out.stderr);

@@ -5,7 +5,9 @@
 //! sphere on a ground plane). Bad settings are clear errors.
 
 use glam::Vec3;
-use octolux::gi::probes::{Encoding, OctreeGather, ProbeSettings, SurfelRange, Visibility};
+use octolux::gi::probes::{
+    Encoding, OctreeGather, ProbeSettings, RayBackend, SurfelRange, Visibility,
+};
 use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
@@ -71,15 +73,18 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     .total;
     let options = MetricOptions::default();
     let mut none = None;
-    for (technique, encoding) in [
-        ("none", Encoding::ShL1),
-        ("probes-grid", Encoding::ShL1),
-        ("probes-grid", Encoding::Octahedron),
+    for (technique, encoding, rays) in [
+        ("none", Encoding::ShL1, RayBackend::Bvh),
+        ("probes-grid", Encoding::ShL1, RayBackend::Bvh),
+        ("probes-grid", Encoding::Octahedron, RayBackend::Bvh),
+        ("probes-grid", Encoding::ShL1, RayBackend::Voxels),
     ] {
         // Smaller than the default 21^3 x 64, which lavapipe traces slowly.
         let probes = ProbeSettings {
             grid: [12; 3],
             encoding,
+            rays,
+            voxel_resolution: 64,
             ..Default::default()
         };
         let mut r = Renderer::new(&ctx, &scene, settings(technique, probes)).unwrap();
@@ -89,7 +94,9 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
         let ceiling = mean_over(&image, &mask);
         let rel = rel_mse(&image, &reference, None).unwrap();
         let fl = flip(&image, &reference, None, &options).unwrap();
-        println!("{technique} {encoding:?}: ceiling {ceiling}, relMSE {rel:.4}, FLIP {fl:.4}");
+        println!(
+            "{technique} {encoding:?} {rays:?}: ceiling {ceiling}, relMSE {rel:.4}, FLIP {fl:.4}"
+        );
         match none {
             None => {
                 assert_eq!(ceiling, 0.0, "no direct light on the ceiling");
@@ -168,8 +175,9 @@ fn multiple_bounces_converge_towards_the_full_reference() {
 #[test]
 fn moving_objects_are_lit_where_they_are() {
     // The animated box at t = 1.5 s (the short block moved and turned, the spot swung): the
-    // animated objects' BVH is rebuilt every frame and the surfels re-placed, so the image
-    // beats GI off against the one-bounce reference at that time.
+    // animated objects' BVH (or the voxel octree's dynamic part) is rebuilt every frame and
+    // the surfels re-placed, so the image beats GI off against the one-bounce reference at
+    // that time, and equals a fresh render at that time (nothing of the earlier pose stays).
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let path = concat!(
@@ -179,22 +187,32 @@ fn moving_objects_are_lit_where_they_are() {
     let scene = octolux::scene::Scene::load(path).unwrap();
     let one = reference(&scene, 1.5, Bounces::Indirect(1));
     let mut errors = Vec::new();
-    for technique in ["none", "probes-grid"] {
+    for (technique, rays) in [
+        ("none", RayBackend::Bvh),
+        ("probes-grid", RayBackend::Bvh),
+        ("probes-grid", RayBackend::Voxels),
+    ] {
         let probes = ProbeSettings {
             grid: [12; 3],
+            rays,
+            voxel_resolution: 64,
             ..Default::default()
         };
-        let mut r = Renderer::new(&ctx, &scene, settings(technique, probes)).unwrap();
+        let mut r = Renderer::new(&ctx, &scene, settings(technique, probes.clone())).unwrap();
         // Two frames: the second re-places the surfels around the moved block.
         r.render(&scene, 1.4).unwrap();
         r.render(&scene, 1.5).unwrap();
-        errors.push(rel_mse(&r.read_hdr().unwrap(), &one, None).unwrap());
+        let image = r.read_hdr().unwrap();
+        errors.push(rel_mse(&image, &one, None).unwrap());
+        let mut fresh = Renderer::new(&ctx, &scene, settings(technique, probes)).unwrap();
+        fresh.render(&scene, 1.5).unwrap();
+        // Both place and light the same surfels; only the order of float sums may differ.
+        let drift = rel_mse(&image, &fresh.read_hdr().unwrap(), None).unwrap();
+        assert!(drift < 1e-6, "{technique} {rays:?}: after 1.4 s {drift}");
     }
-    println!(
-        "animated box relMSE: none {}, probes-grid {}",
-        errors[0], errors[1]
-    );
+    println!("animated box relMSE: none, probes-grid with BVH and voxel rays {errors:?}");
     assert!(errors[1] < 0.8 * errors[0], "{errors:?}");
+    assert!(errors[2] < 0.8 * errors[0], "{errors:?}");
 }
 
 #[test]
@@ -330,7 +348,7 @@ fn scene_files_set_the_probe_settings() {
     let table: toml::Table = toml::from_str(
         "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true\n\
          max_depth = 4\nmin_depth = 1\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"\n\
-         visibility = \"none\"",
+         visibility = \"none\"\nrays = \"voxels\"\nvoxel_resolution = 64",
     )
     .unwrap();
     let s = GiSettings::from_table(&table, origin).unwrap().probes;
@@ -346,11 +364,14 @@ fn scene_files_set_the_probe_settings() {
     assert_eq!(s.surfel_range, SurfelRange::Cube);
     assert_eq!(s.visibility, Visibility::None);
     assert_eq!(ProbeSettings::default().visibility, Visibility::Moments);
+    assert_eq!((s.rays, s.voxel_resolution), (RayBackend::Voxels, 64));
+    assert_eq!(ProbeSettings::default().rays, RayBackend::Bvh);
     for (text, what) in [
         ("[probes]\nvisibility = \"rays\"", "rays"),
         ("[probes]\nlattice = \"spiral\"", "spiral"),
         ("[probes]\nsurfel = 64", "surfel"),
         ("[probes]\ngather = \"some\"", "some"),
+        ("[probes]\nrays = \"cones\"", "cones"),
     ] {
         let table: toml::Table = toml::from_str(text).unwrap();
         let err = GiSettings::from_table(&table, origin)
@@ -367,7 +388,7 @@ fn bad_probe_settings_are_clear_errors() {
     let scene = octolux::scene::cornell::scene();
     // The grid's settings (the octree checks them as well), then the octree's own.
     type Change = fn(&mut ProbeSettings);
-    let cases: [(&str, Change, &str); 13] = [
+    let cases: [(&str, Change, &str); 15] = [
         ("probes-grid", |s| s.grid = [21, 1, 21], "probes grid"),
         ("probes-grid", |s| s.surfels = Some(4), "probes surfels"),
         (
@@ -393,6 +414,22 @@ fn bad_probe_settings_are_clear_errors() {
         ),
         // 13.8M surfels, 663 MiB: more than one storage binding may hold.
         ("probes-grid", |s| s.grid = [60; 3], "per storage binding"),
+        (
+            "probes-grid",
+            |s| {
+                s.rays = RayBackend::Voxels;
+                s.voxel_resolution = 100;
+            },
+            "probes voxel_resolution",
+        ),
+        (
+            "probes-octree",
+            |s| {
+                s.rays = RayBackend::Voxels;
+                s.voxel_resolution = 2048;
+            },
+            "probes voxel_resolution",
+        ),
         ("probes-octree", |s| s.max_depth = 6, "probes max_depth"),
         ("probes-octree", |s| s.max_depth = 1, "probes max_depth"),
         ("probes-octree", |s| s.min_depth = 4, "probes min_depth"),

@@ -222,7 +222,7 @@ impl GiTechnique for ProbesGrid {
     }
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
-        self.passes.begin_frame(ctx, frame)?;
+        self.passes.begin_frame(ctx, frame, timer)?;
         // 1. Surfels: rays from every probe along its lattice (once for a static scene), and
         //    the probes' depth moments from them.
         if !self.placed || self.passes.animated {
@@ -245,6 +245,10 @@ impl GiTechnique for ProbesGrid {
 
     fn reference_bounces(&self) -> crate::reference::Bounces {
         self.passes.reference_bounces()
+    }
+
+    fn other_ledger_owners(&self) -> &[&'static str] {
+        self.passes.other_ledger_owners()
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

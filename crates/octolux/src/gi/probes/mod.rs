@@ -8,6 +8,8 @@
 //! - [`bvh`]: the rays. No ray-tracing hardware is assumed: the scene's triangles sit in a
 //!   binary BVH built on the CPU and traversed in WGSL, a static part built once and a small
 //!   part for the animated objects rebuilt every frame.
+//! - [`rays`]: the choice between that BVH and the scene's sparse voxel octree, walked as
+//!   the VPL technique walks it (no CPU build, exact to a voxel).
 //! - [`encoding`]: the probes' irradiance: `004`'s 8 octahedron-facet bins or SH L1.
 //! - [`moments`]: depth moments per probe and DDGI's Chebyshev visibility in the gather,
 //!   against leaks through thin walls.
@@ -33,12 +35,16 @@ pub mod octree_gpu;
 #[cfg(test)]
 mod octree_tests;
 mod passes;
+pub mod rays;
+#[cfg(test)]
+mod voxel_ray_tests;
 
 pub use encoding::Encoding;
 pub use grid::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
 pub use lattice::Lattice;
 pub use moments::Visibility;
 pub use octree_gpu::{OctreeView, ProbesOctree};
+pub use rays::RayBackend;
 
 use crate::{Error, Result};
 
@@ -153,6 +159,13 @@ pub struct ProbeSettings {
     /// Whether the gather weighs each probe by its visibility from the shaded point:
     /// `"moments"` (default: depth moments per probe and DDGI's Chebyshev test) or `"none"`.
     pub visibility: Visibility,
+    /// What the surfel rays run through: `"bvh"` (default: the scene's triangles, exact) or
+    /// `"voxels"` (the scene's sparse voxel octree, exact to a voxel; docs/probes.md
+    /// compares the two).
+    pub rays: RayBackend,
+    /// With `rays = "voxels"`: voxels per side of the octree, a power of two in 16..=1024
+    /// (default 128).
+    pub voxel_resolution: u32,
 }
 
 impl Default for ProbeSettings {
@@ -172,6 +185,8 @@ impl Default for ProbeSettings {
             gather: OctreeGather::Octree,
             surfel_range: SurfelRange::Scene,
             visibility: Visibility::Moments,
+            rays: RayBackend::Bvh,
+            voxel_resolution: 128,
         }
     }
 }
@@ -251,6 +266,12 @@ impl ProbeSettings {
                 && self.split_fraction <= 1.0,
             "probes free_fraction and split_fraction",
             "0 <= free_fraction < split_fraction <= 1",
+        )?;
+        check(
+            (16..=crate::voxel::MAX_RESOLUTION).contains(&self.voxel_resolution)
+                && self.voxel_resolution.is_power_of_two(),
+            "probes voxel_resolution",
+            "a power of two in 16..=1024",
         )?;
         let count =
             self.grid.iter().map(|&n| n as u64).product::<u64>() * self.surfel_count() as u64;

@@ -591,7 +591,7 @@ impl GiTechnique for ProbesOctree {
     }
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
-        self.passes.begin_frame(ctx, frame)?;
+        self.passes.begin_frame(ctx, frame, timer)?;
         let now = &frame.frame.object_transforms;
         self.moved = match &self.last_transforms {
             Some(before) => moved_boxes(frame.scene, before, now),
@@ -636,6 +636,10 @@ impl GiTechnique for ProbesOctree {
 
     fn reference_bounces(&self) -> crate::reference::Bounces {
         self.passes.reference_bounces()
+    }
+
+    fn other_ledger_owners(&self) -> &[&'static str] {
+        self.passes.other_ledger_owners()
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

@@ -1,17 +1,16 @@
 //! The passes every probe technique shares (docs/probes.md): surfel placement through the
-//! scene's BVH, surfel light, probe integration and the pixel gather, over a *probe set* that
+//! scene's BVH or voxels ([`super::rays`]), surfel light, probe integration and the pixel gather, over a *probe set* that
 //! says where the probes are, which are live, which to (re)place and how a point reads them:
 //! the uniform grid (grid.wgsl, grid_sample.wgsl) or the octree (octree_set.wgsl,
 //! octree_sample.wgsl, with its buffers in bind group 1).
 
-use super::bvh::{Bvh, GpuNode, GpuTri, BVH_WGSL};
 use super::encoding::ENCODING_WGSL;
 use super::lattice::LATTICE_WGSL;
 use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
+use super::rays::Rays;
 use super::ProbeSettings;
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::objects_triangles;
 use crate::voxel::voxelize::dispatch_size;
 use crate::{Error, Result};
 use glam::{UVec3, Vec3};
@@ -19,8 +18,6 @@ use glam::{UVec3, Vec3};
 /// `vec4`s per probe and per surfel (`PROBE_VEC4`, `SURFEL_VEC4` in probes.wgsl).
 pub(crate) const PROBE_VEC4: u64 = 9;
 pub(crate) const SURFEL_VEC4: u64 = 3;
-/// Root of an absent BVH part.
-const NO_ROOT: u32 = u32::MAX;
 
 /// `ProbeParams` in probes.wgsl.
 #[repr(C)]
@@ -30,7 +27,7 @@ pub(crate) struct ProbeParams {
     spacing: [f32; 4],
     dims: [u32; 4],
     misc: [u32; 4],
-    roots: [u32; 4],
+    pub(crate) roots: [u32; 4],
     limits: [u32; 4],
     vis: [f32; 4],
 }
@@ -146,11 +143,8 @@ pub(crate) struct ProbePasses {
     pub settings: ProbeSettings,
     params: ProbeParams,
     pub params_buffer: wgpu::Buffer,
-    nodes: wgpu::Buffer,
-    tris: wgpu::Buffer,
-    /// Nodes and triangles of the static part (the animated part follows them).
-    static_size: (u32, u32),
-    /// Whether any object moves: then the animated part is rebuilt every frame.
+    rays: Rays,
+    /// Whether any object moves: then the rays' animated part is rebuilt every frame.
     pub animated: bool,
     surfels: wgpu::Buffer,
     radiance: wgpu::Buffer,
@@ -180,31 +174,7 @@ impl ProbePasses {
         set: &ProbeSetWgsl,
     ) -> Result<ProbePasses> {
         let bounds = scene.bounds_at(0.0);
-        let frame = scene.frame(0.0, 0);
-        let still = Bvh::build(&objects_triangles(scene, &frame, false));
-        let moving = objects_triangles(scene, &frame, true);
         let animated = scene.objects.iter().any(|o| o.animation.is_some());
-        let (nodes, tris) = still.flatten_at(0, 0);
-        let static_size = (nodes.len() as u32, tris.len() as u32);
-        // The animated part's BVH has at most 2n - 1 nodes for n triangles.
-        let node_bytes = std::mem::size_of::<GpuNode>() as u64;
-        let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
-        let node_buffer = storage(
-            ctx,
-            owner,
-            "bvh nodes",
-            (nodes.len() + 2 * moving.len()) as u64 * node_bytes,
-        )?;
-        let tri_buffer = storage(
-            ctx,
-            owner,
-            "bvh triangles",
-            (tris.len() + moving.len()) as u64 * tri_bytes,
-        )?;
-        ctx.queue
-            .write_buffer(&node_buffer, 0, bytemuck::cast_slice(&nodes));
-        ctx.queue
-            .write_buffer(&tri_buffer, 0, bytemuck::cast_slice(&tris));
         let probes = layout.probes;
         let surfels = probes as u64 * settings.surfel_count() as u64;
         if surfels > u32::MAX as u64 / SURFEL_VEC4 as u32 as u64 {
@@ -213,7 +183,7 @@ impl ProbePasses {
             )));
         }
         let (lo, hi) = bounds;
-        let params = ProbeParams {
+        let mut params = ProbeParams {
             lo: layout.lo.extend((hi - lo).length() * 1.01).to_array(),
             spacing: layout.spacing.extend(layout.bias).to_array(),
             dims: layout.dims.extend(settings.surfel_count()).to_array(),
@@ -223,12 +193,8 @@ impl ProbePasses {
                 0,
                 settings.multi_bounce as u32,
             ],
-            roots: [
-                if nodes.is_empty() { NO_ROOT } else { 0 },
-                NO_ROOT,
-                probes,
-                surfels as u32,
-            ],
+            // The BVH roots are set by `Rays::new`.
+            roots: [0, 0, probes, surfels as u32],
             limits: [
                 settings.max_back_faces(),
                 settings.visibility.gpu_kind(),
@@ -237,6 +203,14 @@ impl ProbePasses {
             ],
             vis: [variance_floor(layout.cell), 0.0, 0.0, 0.0],
         };
+        let rays = Rays::new(
+            ctx,
+            owner,
+            settings.rays,
+            settings.voxel_resolution,
+            scene,
+            &mut params,
+        )?;
         let params_buffer = storage(
             ctx,
             owner,
@@ -262,14 +236,12 @@ impl ProbePasses {
             ctx.compute_pipeline(name, &module, "main")
         };
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
+        let place_wgsl = rays.place_wgsl();
         Ok(ProbePasses {
             owner,
             settings: settings.clone(),
             params,
             params_buffer,
-            nodes: node_buffer,
-            tris: tri_buffer,
-            static_size,
             animated,
             surfels: storage(ctx, owner, "surfels", surfels * SURFEL_VEC4 * 16)?,
             radiance: storage(ctx, owner, "surfel radiance", surfels * 16)?,
@@ -285,10 +257,11 @@ impl ProbePasses {
                 },
             )?,
             matrices: None,
+            rays,
             place: pipeline(
                 "probes place",
                 include_str!("place.wgsl"),
-                &[BVH_WGSL],
+                place_wgsl,
                 false,
             ),
             moments_build: pipeline(
@@ -342,50 +315,23 @@ impl ProbePasses {
         (&self.surfels, &self.radiance)
     }
 
-    /// Brings the rays and lights up to date with `frame`: the animated objects' BVH, the
-    /// light count, the shadow matrices.
-    pub fn begin_frame(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
+    /// Brings the rays and lights up to date with `frame`: the animated objects in the ray
+    /// structure (a BVH rebuilt on the CPU, or the octree's dynamic part rebuilt by passes
+    /// recorded into `timer`), the light count, the shadow matrices.
+    pub fn begin_frame(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &GiFrame,
+        timer: &mut PassTimer,
+    ) -> Result<()> {
         if self.animated {
-            self.sync_moving(ctx, frame)?;
+            self.rays
+                .sync_moving(ctx, self.owner, frame, timer, &mut self.params)?;
         }
         self.params.misc[2] = frame.frame.lights.len() as u32;
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         self.sync_matrices(ctx, frame)
-    }
-
-    /// Rebuilds the animated objects' BVH for this frame after the static part.
-    fn sync_moving(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
-        let moving = Bvh::build(&objects_triangles(frame.scene, frame.frame, true));
-        let (node_base, tri_base) = self.static_size;
-        let (nodes, tris) = moving.flatten_at(node_base, tri_base);
-        let node_bytes = std::mem::size_of::<GpuNode>() as u64;
-        let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
-        let end = |base: u32, count: usize, bytes: u64| (base as u64 + count as u64) * bytes;
-        if end(node_base, nodes.len(), node_bytes) > self.nodes.size()
-            || end(tri_base, tris.len(), tri_bytes) > self.tris.size()
-        {
-            return Err(Error::InvalidArgument(format!(
-                "{}: the animated objects have {} triangles at t = {} s, more than at the start",
-                self.owner,
-                tris.len(),
-                frame.frame.time
-            )));
-        }
-        if !nodes.is_empty() {
-            ctx.queue.write_buffer(
-                &self.nodes,
-                node_base as u64 * node_bytes,
-                bytemuck::cast_slice(&nodes),
-            );
-            ctx.queue.write_buffer(
-                &self.tris,
-                tri_base as u64 * tri_bytes,
-                bytemuck::cast_slice(&tris),
-            );
-        }
-        self.params.roots[1] = if nodes.is_empty() { NO_ROOT } else { node_base };
-        Ok(())
     }
 
     /// Uploads this frame's shadow matrices, growing their buffer when needed.
@@ -421,17 +367,9 @@ impl ProbePasses {
 
     /// Surfels: rays from the probes the set asks for along their lattices.
     pub fn place(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<&wgpu::BindGroup>) {
-        let group = bind(
-            ctx,
-            "probes place",
-            &self.place,
-            &[
-                buf(&self.params_buffer),
-                buf(&self.nodes),
-                buf(&self.tris),
-                buf(&self.surfels),
-            ],
-        );
+        let mut entries = vec![buf(&self.params_buffer), buf(&self.surfels)];
+        entries.extend(self.rays.place_bindings());
+        let group = bind(ctx, "probes place", &self.place, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         run_pass(
             timer,
@@ -559,6 +497,14 @@ impl ProbePasses {
             &groups,
             (w.div_ceil(8), h.div_ceil(8)),
         );
+    }
+
+    /// The ledger owners of what the passes use but do not own: the voxel rays' octree.
+    pub fn other_ledger_owners(&self) -> &'static [&'static str] {
+        match self.rays.svo() {
+            Some(_) => &[crate::voxel::svo::OWNER],
+            None => &[],
+        }
     }
 
     /// The light transport the passes compute.

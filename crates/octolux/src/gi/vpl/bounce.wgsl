@@ -29,56 +29,6 @@ struct Vpl {
 @group(0) @binding(5) var<storage, read_write> vpls: array<Vpl>;
 @group(0) @binding(6) var<storage, read> bp: BounceParams;
 
-const SUM_WORDS: u32 = 10u;
-
-// Fragment sums of voxel v (static and dynamic): albedo x255 (xyz) and count (w), and the
-// snorm8 normal sums.
-struct VoxelSums {
-    albedo_count: vec4<f32>,
-    normal: vec3<f32>,
-};
-
-fn add_sums(s: ptr<function, VoxelSums>, w: u32, dynamic: bool) {
-    var k = array<u32, 10>();
-    for (var i = 0u; i < SUM_WORDS; i++) {
-        k[i] = select(svo_leaf[w + i], svo_dyn_sums[w + i], dynamic);
-    }
-    (*s).albedo_count += vec4<f32>(f32(k[0]), f32(k[1]), f32(k[2]), f32(k[3]));
-    (*s).normal += vec3<f32>(f32(bitcast<i32>(k[7])), f32(bitcast<i32>(k[8])), f32(bitcast<i32>(k[9])));
-}
-
-fn voxel_sums(v: vec3<i32>) -> VoxelSums {
-    var s = VoxelSums(vec4<f32>(0.0), vec3<f32>(0.0));
-    var node = 0u;
-    var k = vo.depth;
-    while k > 1u {
-        let c = svo_child[node];
-        if c == 0u {
-            return s;
-        }
-        k -= 1u;
-        let o = (v >> vec3<u32>(k)) & vec3<i32>(1);
-        node = c + u32(o.x | (o.y << 1u) | (o.z << 2u));
-    }
-    let o = u32((v.x & 1) | ((v.y & 1) << 1u) | ((v.z & 1) << 2u));
-    let leaf = node - vo.first_leaf;
-    if leaf < vo.leaf_count {
-        let entry = svo_leaf[leaf];
-        let mask = entry & 255u;
-        if (mask & (1u << o)) != 0u {
-            let slot = (entry >> 8u) + countOneBits(mask & ((1u << o) - 1u));
-            add_sums(&s, vo.leaf_count + slot * SUM_WORDS, false);
-        }
-    }
-    if vo.dynamic != 0u {
-        let slot = svo_state[node] >> 2u;
-        if slot != 0u {
-            add_sums(&s, ((slot - 1u) * 8u + o) * SUM_WORDS, true);
-        }
-    }
-    return s;
-}
-
 @compute @workgroup_size(64)
 fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
@@ -120,13 +70,14 @@ fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
         vpls[dst] = out;
         return;
     }
-    let s = voxel_sums(hit.xyz);
-    if s.albedo_count.w <= 0.0 {
+    let s = svo_voxel_sums(hit.xyz);
+    if s[3] == 0u {
         vpls[dst] = out;
         return;
     }
-    let albedo = s.albedo_count.rgb / (255.0 * s.albedo_count.w);
-    var nv = s.normal / max(length(s.normal), 1e-6);
+    let albedo = vec3<f32>(f32(s[0]), f32(s[1]), f32(s[2])) / (255.0 * f32(s[3]));
+    let ns = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
+    var nv = ns / max(length(ns), 1e-6);
     if dot(nv, dir) > 0.0 {
         nv = -nv;
     }

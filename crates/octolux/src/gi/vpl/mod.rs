@@ -20,9 +20,8 @@ pub mod trace;
 use crate::gi::lpv::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::svo::dynamic::DynamicReserve;
+use crate::voxel::objects_triangles;
 use crate::voxel::svo::{Svo, SvoBuilder};
-use crate::voxel::{objects_triangles, scene_triangles_split, VoxelGrid};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 
@@ -228,31 +227,14 @@ impl VplGi {
         height: u32,
     ) -> Result<VplGi> {
         settings.validate()?;
-        let bounds = scene.bounds_at(0.0);
-        if !(bounds.0.is_finite() && bounds.1.is_finite() && bounds.0.cmple(bounds.1).all()) {
-            return Err(Error::InvalidArgument(format!(
-                "vpl needs a scene with geometry; its bounds are {} to {}",
-                bounds.0, bounds.1
-            )));
-        }
-        let grid = VoxelGrid::enclosing(bounds, settings.resolution)?;
-        let (still, moving) = scene_triangles_split(scene, &scene.frame(0.0, 0));
         let builder = SvoBuilder::new(ctx);
-        let animated = !moving.is_empty();
-        let (svo, _) = if animated {
-            // Room for the animated objects: their voxels at time 0, with a margin for the
-            // 26-neighbourhoods of every level and for poses that touch more voxels.
-            let voxels = crate::voxel::cpu::voxelize(&grid, &moving).len() as u32;
-            let reserve = DynamicReserve::new(voxels.saturating_mul(16).clamp(4096, 1 << 22));
-            builder.build_with_reserve(ctx, &grid, &still, reserve)?
-        } else {
-            builder.build(ctx, &grid, &still)?
-        };
+        let svo = builder.build_scene(ctx, scene, settings.resolution, OWNER)?;
+        let animated = svo.dynamic.is_some();
         let octree = trace::VplOctree::new(&svo, settings.end_offset)?;
         let usage = wgpu::BufferUsages::STORAGE;
         let octree_params =
             ctx.create_buffer_init(OWNER, "octree walk", bytemuck::bytes_of(&octree), usage);
-        let b = settings.clamp * grid.voxel_size;
+        let b = settings.clamp * svo.grid.voxel_size;
         let shade = ShadeParams {
             count: settings.count * settings.bounces,
             interleave: settings.interleave,

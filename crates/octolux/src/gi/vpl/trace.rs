@@ -9,6 +9,7 @@
 //! neighbouring surface in a corner, which would otherwise block every segment from there).
 
 use crate::gpu::GpuContext;
+use crate::voxel::svo::inject::LEAF_SUM_WORDS;
 use crate::voxel::svo::Svo;
 use crate::voxel::VoxelGrid;
 use crate::{Error, Result};
@@ -122,10 +123,16 @@ pub struct OctreeCpu {
     pub leaf_masks: Vec<u32>,
     /// Per node, the occupancy its dynamic fragments add (empty without a dynamic part).
     pub dynamic_masks: Vec<u32>,
+    /// The whole `leaf_sums` buffer: index words, then the static voxels' sums.
+    pub leaf_sums: Vec<u32>,
+    /// Per node, its dynamic sums slot + 1 (0 = none; empty without a dynamic part).
+    pub dynamic_slots: Vec<u32>,
+    /// The dynamic part's sums, [`LEAF_SUM_WORDS`] per voxel of each slot's 8.
+    pub dynamic_sums: Vec<u32>,
 }
 
 impl OctreeCpu {
-    /// Reads `svo`'s child links and leaf occupancy back.
+    /// Reads `svo`'s child links, leaf occupancy and fragment sums back.
     pub fn read(ctx: &GpuContext, svo: &Svo, params: VplOctree) -> Result<OctreeCpu> {
         let words = |b: Vec<u8>| bytemuck::cast_slice::<u8, u32>(&b).to_vec();
         let child = words(crate::gpu::read_buffer(
@@ -134,46 +141,98 @@ impl OctreeCpu {
             0,
             svo.node_count as u64 * 4,
         )?);
-        let leaf_masks = words(crate::gpu::read_buffer(
+        let leaf_sums = words(crate::gpu::read_buffer(
             ctx,
             &svo.leaf_sums,
             0,
-            (params.leaf_count as u64 * 4).max(4),
-        )?)
-        .into_iter()
-        .take(params.leaf_count as usize)
-        .map(|w| w & 255)
-        .collect();
-        let dynamic_masks = match svo.dynamic.as_ref() {
-            None => Vec::new(),
-            Some(d) => {
-                let state = words(crate::gpu::read_buffer(
+            svo.leaf_sums.size(),
+        )?);
+        let leaf_masks = leaf_sums
+            .iter()
+            .take(params.leaf_count as usize)
+            .map(|w| w & 255)
+            .collect();
+        let (dynamic_slots, dynamic_sums) = match svo.dynamic.as_ref() {
+            None => (Vec::new(), Vec::new()),
+            Some(d) => (
+                words(crate::gpu::read_buffer(
                     ctx,
                     d.state(),
                     0,
                     d.state().size(),
-                )?);
-                let sums = words(crate::gpu::read_buffer(ctx, &d.sums, 0, d.sums.size())?);
-                state
-                    .iter()
-                    .map(|&s| match s >> 2 {
-                        0 => 0,
-                        slot => (0..8)
-                            .filter(|o| {
-                                let at = (((slot - 1) * 8 + o) * 10 + 3) as usize;
-                                sums.get(at).is_some_and(|&c| c != 0)
-                            })
-                            .fold(0, |m, o| m | 1 << o),
-                    })
-                    .collect()
-            }
+                )?)
+                .iter()
+                .map(|s| s >> 2)
+                .collect(),
+                words(crate::gpu::read_buffer(ctx, &d.sums, 0, d.sums.size())?),
+            ),
         };
+        let words_per_voxel = LEAF_SUM_WORDS as usize;
+        let dynamic_masks = dynamic_slots
+            .iter()
+            .map(|&slot| match slot {
+                0 => 0,
+                slot => (0..8)
+                    .filter(|o| {
+                        let at = ((slot - 1) * 8 + o) as usize * words_per_voxel + 3;
+                        dynamic_sums.get(at).is_some_and(|&c| c != 0)
+                    })
+                    .fold(0, |m, o| m | 1 << o),
+            })
+            .collect();
         Ok(OctreeCpu {
             params,
             child,
             leaf_masks,
             dynamic_masks,
+            leaf_sums,
+            dynamic_slots,
+            dynamic_sums,
         })
+    }
+
+    /// CPU twin of `svo_voxel_sums` (`trace.wgsl`): the fragment sums of voxel `v`, static
+    /// and dynamic ([`LEAF_SUM_WORDS`] words; zero where `v` is empty).
+    pub fn voxel_sums(&self, v: IVec3) -> [u32; LEAF_SUM_WORDS as usize] {
+        let p = &self.params;
+        let mut s = [0u32; LEAF_SUM_WORDS as usize];
+        let mut node = 0u32;
+        let mut k = p.depth;
+        while k > 1 {
+            let c = self.child.get(node as usize).copied().unwrap_or(0);
+            if c == 0 {
+                return s;
+            }
+            k -= 1;
+            let o = (v >> k as i32) & IVec3::ONE;
+            node = c + (o.x | (o.y << 1) | (o.z << 2)) as u32;
+        }
+        let o = ((v.x & 1) | ((v.y & 1) << 1) | ((v.z & 1) << 2)) as u32;
+        let mut add = |words: &[u32], at: usize| {
+            for (i, w) in s.iter_mut().enumerate() {
+                *w = w.wrapping_add(words.get(at + i).copied().unwrap_or(0));
+            }
+        };
+        let leaf = node.wrapping_sub(p.first_leaf);
+        if leaf < p.leaf_count {
+            let entry = self.leaf_sums[leaf as usize];
+            let mask = entry & 255;
+            if mask & (1 << o) != 0 {
+                let slot = (entry >> 8) + (mask & ((1 << o) - 1)).count_ones();
+                add(
+                    &self.leaf_sums,
+                    (p.leaf_count + slot * LEAF_SUM_WORDS) as usize,
+                );
+            }
+        }
+        match self.dynamic_slots.get(node as usize) {
+            Some(&slot) if slot != 0 => add(
+                &self.dynamic_sums,
+                (((slot - 1) * 8 + o) * LEAF_SUM_WORDS) as usize,
+            ),
+            _ => {}
+        }
+        s
     }
 
     /// CPU twin of `svo_occluded` (`trace.wgsl`): the same integer steps.
@@ -424,6 +483,9 @@ mod tests {
             child: vec![0],
             leaf_masks: vec![],
             dynamic_masks: vec![],
+            leaf_sums: vec![],
+            dynamic_slots: vec![],
+            dynamic_sums: vec![],
         };
         let f = 1 << tree.params.shift;
         let (hit, steps) = tree.walk(IVec3::splat(3), IVec3::new(60 * f, 61 * f, 2));

@@ -144,3 +144,46 @@ fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
     }
     return none;
 }
+
+// Words of fragment sums per leaf voxel (`LEAF_SUM_WORDS`): albedo x255 (0..2), fragment
+// count (3), emission x1024 (4..6), snorm8 normals (7..9, two's complement).
+const SVO_SUM_WORDS: u32 = 10u;
+const SVO_EMISSION_SCALE: f32 = 1024.0;
+
+// The fragment sums of voxel v, static and dynamic (zero where v is empty).
+fn svo_voxel_sums(v: vec3<i32>) -> array<u32, 10> {
+    var s = array<u32, 10>();
+    var node = 0u;
+    var k = vo.depth;
+    while k > 1u {
+        let c = svo_child[node];
+        if c == 0u {
+            return s;
+        }
+        k -= 1u;
+        let o = (v >> vec3<u32>(k)) & vec3<i32>(1);
+        node = c + u32(o.x | (o.y << 1u) | (o.z << 2u));
+    }
+    let o = u32((v.x & 1) | ((v.y & 1) << 1u) | ((v.z & 1) << 2u));
+    let leaf = node - vo.first_leaf;
+    if leaf < vo.leaf_count {
+        let entry = svo_leaf[leaf];
+        let mask = entry & 255u;
+        if (mask & (1u << o)) != 0u {
+            let at = vo.leaf_count + ((entry >> 8u) + countOneBits(mask & ((1u << o) - 1u))) * SVO_SUM_WORDS;
+            for (var i = 0u; i < SVO_SUM_WORDS; i++) {
+                s[i] += svo_leaf[at + i];
+            }
+        }
+    }
+    if vo.dynamic != 0u {
+        let slot = svo_state[node] >> 2u;
+        if slot != 0u {
+            let at = ((slot - 1u) * 8u + o) * SVO_SUM_WORDS;
+            for (var i = 0u; i < SVO_SUM_WORDS; i++) {
+                s[i] += svo_dyn_sums[at + i];
+            }
+        }
+    }
+    return s;
+}

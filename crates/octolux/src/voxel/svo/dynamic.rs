@@ -372,6 +372,37 @@ fn no_dynamic_part() -> Error {
 }
 
 impl SvoBuilder {
+    /// The octree of `scene` (at time 0) in the cube grid of `resolution`^3 voxels enclosing
+    /// its bounds: its static objects built once, and room for a dynamic part where it has
+    /// animated objects (their voxels at time 0 x 16, for the 26-neighbourhoods of every level
+    /// and for poses that touch more voxels), which [`SvoBuilder::record_dynamic`] fills every
+    /// frame. `owner` names the technique in the error for a scene without geometry.
+    pub fn build_scene(
+        &self,
+        ctx: &GpuContext,
+        scene: &crate::scene::Scene,
+        resolution: u32,
+        owner: &str,
+    ) -> Result<Svo> {
+        let bounds = scene.bounds_at(0.0);
+        if !(bounds.0.is_finite() && bounds.1.is_finite() && bounds.0.cmple(bounds.1).all()) {
+            return Err(Error::InvalidArgument(format!(
+                "{owner} needs a scene with geometry; its bounds are {} to {}",
+                bounds.0, bounds.1
+            )));
+        }
+        let grid = crate::voxel::VoxelGrid::enclosing(bounds, resolution)?;
+        let (still, moving) = crate::voxel::scene_triangles_split(scene, &scene.frame(0.0, 0));
+        let (svo, _) = if moving.is_empty() {
+            self.build(ctx, &grid, &still)?
+        } else {
+            let voxels = crate::voxel::cpu::voxelize(&grid, &moving).len() as u32;
+            let reserve = DynamicReserve::new(voxels.saturating_mul(16).clamp(4096, 1 << 22));
+            self.build_with_reserve(ctx, &grid, &still, reserve)?
+        };
+        Ok(svo)
+    }
+
     /// Replaces the dynamic part of `svo` (built with [`SvoBuilder::build_with_reserve`]) by
     /// the voxels of `tris`, leaving the static part as built, and waits for the result: it
     /// records [`SvoBuilder::record_dynamic`] into a timer of its own, submits it and calls

@@ -1,0 +1,315 @@
+//! The structure the surfel rays run through (`rays` in `[settings.probes]`): the scene's
+//! triangles in a BVH ([`super::bvh`], exact) or the scene's sparse voxel octree
+//! ([`crate::voxel::svo`], walked with the VPL technique's integer walk; exact to a voxel).
+//!
+//! - **BVH**: a static part built on the CPU once and an animated part rebuilt on the CPU
+//!   every frame and uploaded (`place.wgsl`).
+//! - **Voxels**: the octree's static part is built on the GPU once, its dynamic part is
+//!   rebuilt on the GPU every frame from the animated triangles (`place_voxels.wgsl`); the
+//!   first occupied voxel along a ray becomes the surfel, with its fragments' mean albedo,
+//!   emission and normal.
+//!
+//! docs/probes.md compares the two on the same scenes.
+
+use super::bvh::{Bvh, GpuNode, GpuTri, BVH_WGSL};
+use super::passes::{storage, ProbeParams};
+use crate::gi::vpl::trace::{walk_buffers, VplOctree, TRACE_WGSL};
+use crate::gi::GiFrame;
+use crate::gpu::{GpuContext, PassTimer};
+use crate::voxel::objects_triangles;
+use crate::voxel::svo::{Svo, SvoBuilder};
+use crate::{Error, Result};
+
+/// Which structure the surfel rays run through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RayBackend {
+    /// The scene's triangles in a BVH: exact hits (default).
+    Bvh,
+    /// The scene's sparse voxel octree at `voxel_resolution`: hits exact to a voxel.
+    Voxels,
+}
+
+impl std::str::FromStr for RayBackend {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "bvh" => Ok(RayBackend::Bvh),
+            "voxels" => Ok(RayBackend::Voxels),
+            other => Err(Error::InvalidArgument(format!(
+                "probes rays '{other}': expected bvh or voxels"
+            ))),
+        }
+    }
+}
+
+/// WGSL of the voxel rays' functions (`voxel_ray`, `voxel_closest`), after the walk's.
+pub(crate) const VOXEL_RAYS_WGSL: &str = include_str!("voxel_rays.wgsl");
+
+/// Root of an absent BVH part.
+const NO_ROOT: u32 = u32::MAX;
+
+/// The ray structure of a probe technique with its buffers.
+pub(crate) enum Rays {
+    Bvh(BvhRays),
+    /// Boxed: the octree and its builder's pipelines are large.
+    Voxels(Box<VoxelRays>),
+}
+
+/// The two-part BVH in two storage buffers.
+pub(crate) struct BvhRays {
+    nodes: wgpu::Buffer,
+    tris: wgpu::Buffer,
+    /// Nodes and triangles of the static part (the animated part follows them).
+    static_size: (u32, u32),
+}
+
+/// The scene's octree and its walk's parameters.
+pub(crate) struct VoxelRays {
+    svo: Svo,
+    builder: SvoBuilder,
+    walk: wgpu::Buffer,
+    placeholder: wgpu::Buffer,
+}
+
+impl Rays {
+    /// The structure `backend` for `scene` (octree of `resolution`^3 voxels); sets the BVH
+    /// roots in `params`.
+    pub fn new(
+        ctx: &GpuContext,
+        owner: &str,
+        backend: RayBackend,
+        resolution: u32,
+        scene: &crate::scene::Scene,
+        params: &mut ProbeParams,
+    ) -> Result<Rays> {
+        params.roots[0] = NO_ROOT;
+        params.roots[1] = NO_ROOT;
+        match backend {
+            RayBackend::Bvh => {
+                let frame = scene.frame(0.0, 0);
+                let still = Bvh::build(&objects_triangles(scene, &frame, false));
+                let moving = objects_triangles(scene, &frame, true);
+                let (nodes, tris) = still.flatten_at(0, 0);
+                // The animated part's BVH has at most 2n - 1 nodes for n triangles.
+                let node_bytes = std::mem::size_of::<GpuNode>() as u64;
+                let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
+                let node_buffer = storage(
+                    ctx,
+                    owner,
+                    "bvh nodes",
+                    (nodes.len() + 2 * moving.len()) as u64 * node_bytes,
+                )?;
+                let tri_buffer = storage(
+                    ctx,
+                    owner,
+                    "bvh triangles",
+                    (tris.len() + moving.len()) as u64 * tri_bytes,
+                )?;
+                ctx.queue
+                    .write_buffer(&node_buffer, 0, bytemuck::cast_slice(&nodes));
+                ctx.queue
+                    .write_buffer(&tri_buffer, 0, bytemuck::cast_slice(&tris));
+                if !nodes.is_empty() {
+                    params.roots[0] = 0;
+                }
+                Ok(Rays::Bvh(BvhRays {
+                    nodes: node_buffer,
+                    tris: tri_buffer,
+                    static_size: (nodes.len() as u32, tris.len() as u32),
+                }))
+            }
+            RayBackend::Voxels => {
+                let builder = SvoBuilder::new(ctx);
+                let svo = builder.build_scene(ctx, scene, resolution, owner)?;
+                // The walk starts at the probe: no offset along a normal.
+                let walk = VplOctree::new(&svo, 0.0)?;
+                let usage = wgpu::BufferUsages::STORAGE;
+                Ok(Rays::Voxels(Box::new(VoxelRays {
+                    walk: ctx.create_buffer_init(
+                        owner,
+                        "voxel walk",
+                        bytemuck::bytes_of(&walk),
+                        usage,
+                    ),
+                    placeholder: ctx.create_buffer_init(owner, "placeholder", &[0; 16], usage),
+                    svo,
+                    builder,
+                })))
+            }
+        }
+    }
+
+    /// What the placement pass (`place.wgsl`) includes for this structure: its bindings
+    /// (from 2 on) and `surfel_hit`.
+    pub fn place_wgsl(&self) -> &'static [&'static str] {
+        match self {
+            Rays::Bvh(_) => &[BVH_WGSL, include_str!("place_bvh.wgsl")],
+            Rays::Voxels(_) => &[
+                TRACE_WGSL,
+                VOXEL_RAYS_WGSL,
+                include_str!("place_voxels.wgsl"),
+            ],
+        }
+    }
+
+    /// The placement pass's bindings from 2 on (0: parameters, 1: surfels).
+    pub fn place_bindings(&self) -> Vec<wgpu::BindingResource<'_>> {
+        match self {
+            Rays::Bvh(b) => vec![b.nodes.as_entire_binding(), b.tris.as_entire_binding()],
+            Rays::Voxels(v) => {
+                let [child, leaf, state, sums] = walk_buffers(&v.svo, &v.placeholder);
+                [&v.walk, child, leaf, state, sums]
+                    .iter()
+                    .map(|b| b.as_entire_binding())
+                    .collect()
+            }
+        }
+    }
+
+    /// The octree the voxel rays walk (`None` for the BVH).
+    pub fn svo(&self) -> Option<&Svo> {
+        match self {
+            Rays::Bvh(_) => None,
+            Rays::Voxels(v) => Some(&v.svo),
+        }
+    }
+
+    /// Brings the animated objects up to date with `frame`: the BVH's animated part is
+    /// rebuilt on the CPU and uploaded (its root goes to `params`), the octree's dynamic part
+    /// is rebuilt by passes recorded into `timer`.
+    pub fn sync_moving(
+        &mut self,
+        ctx: &GpuContext,
+        owner: &str,
+        frame: &GiFrame,
+        timer: &mut PassTimer,
+        params: &mut ProbeParams,
+    ) -> Result<()> {
+        let moving = objects_triangles(frame.scene, frame.frame, true);
+        match self {
+            Rays::Voxels(v) => {
+                v.builder.record_dynamic(ctx, timer, &mut v.svo, &moving)?;
+                Ok(())
+            }
+            Rays::Bvh(b) => {
+                let moving = Bvh::build(&moving);
+                let (node_base, tri_base) = b.static_size;
+                let (nodes, tris) = moving.flatten_at(node_base, tri_base);
+                let node_bytes = std::mem::size_of::<GpuNode>() as u64;
+                let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
+                let end =
+                    |base: u32, count: usize, bytes: u64| (base as u64 + count as u64) * bytes;
+                if end(node_base, nodes.len(), node_bytes) > b.nodes.size()
+                    || end(tri_base, tris.len(), tri_bytes) > b.tris.size()
+                {
+                    return Err(Error::InvalidArgument(format!(
+                        "{owner}: the animated objects have {} triangles at t = {} s, more than \
+                         at the start",
+                        tris.len(),
+                        frame.frame.time
+                    )));
+                }
+                if !nodes.is_empty() {
+                    ctx.queue.write_buffer(
+                        &b.nodes,
+                        node_base as u64 * node_bytes,
+                        bytemuck::cast_slice(&nodes),
+                    );
+                    ctx.queue.write_buffer(
+                        &b.tris,
+                        tri_base as u64 * tri_bytes,
+                        bytemuck::cast_slice(&tris),
+                    );
+                }
+                params.roots[1] = if nodes.is_empty() { NO_ROOT } else { node_base };
+                Ok(())
+            }
+        }
+    }
+}
+
+/// A surfel as the voxel rays place it (CPU twin of `voxel_closest` in `voxel_rays.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VoxelSurfel {
+    /// The first occupied voxel along the walk.
+    pub voxel: glam::IVec3,
+    /// Distance along the ray: where it meets the plane through the voxel's centre with the
+    /// voxel's normal, kept within the voxel (where it enters without a normal).
+    pub t: f32,
+    /// The voxel's unit mean normal, zero where its fragments' normals cancel.
+    pub normal: glam::Vec3,
+    /// Mean albedo x255, rounded.
+    pub albedo: [u32; 3],
+    /// Mean emission.
+    pub emission: glam::Vec3,
+}
+
+/// The lattice ends of the walk for the ray `o + t d`, t in [0, `t_max`], clipped to the
+/// octree's grid (CPU twin of `voxel_ray`; the float rounding of the ends may differ from a
+/// GPU's by one lattice step), or `None` where the ray misses the grid.
+pub fn voxel_ray(
+    walk: &VplOctree,
+    o: glam::Vec3,
+    d: glam::Vec3,
+    t_max: f32,
+) -> Option<(glam::IVec3, glam::IVec3)> {
+    let lo = glam::Vec3::from(walk.origin);
+    let hi = lo + glam::Vec3::splat((1u32 << walk.depth) as f32 * walk.voxel);
+    let (t0, t1) = ray_span_box(o, d, lo, hi);
+    let t1 = t1.min(t_max);
+    (t0 <= t1).then(|| {
+        (
+            walk.fixed_point(o + d * t0, glam::Vec3::ZERO),
+            walk.fixed_point(o + d * t1, glam::Vec3::ZERO),
+        )
+    })
+}
+
+/// The ray `o + t d`, t >= 0, through the box `lo..hi`: (t_in, t_out).
+fn ray_span_box(o: glam::Vec3, d: glam::Vec3, lo: glam::Vec3, hi: glam::Vec3) -> (f32, f32) {
+    let inv = glam::Vec3::select(d.cmpeq(glam::Vec3::ZERO), glam::Vec3::splat(1e-30), d).recip();
+    let (a, b) = ((lo - o) * inv, (hi - o) * inv);
+    (a.min(b).max_element().max(0.0), a.max(b).min_element())
+}
+
+/// The surfel of the ray `o + t d` whose walk runs from lattice point `a` to `b` through
+/// `tree` (CPU twin of `voxel_closest`), or `None` where it meets no occupied voxel.
+pub fn voxel_surfel(
+    tree: &crate::gi::vpl::trace::OctreeCpu,
+    o: glam::Vec3,
+    d: glam::Vec3,
+    a: glam::IVec3,
+    b: glam::IVec3,
+) -> Option<VoxelSurfel> {
+    let voxel = tree.walk(a, b).0?;
+    let s = tree.voxel_sums(voxel);
+    let count = s[3];
+    if count == 0 {
+        return None;
+    }
+    let c = count as f32;
+    let sums = |i: usize| glam::Vec3::new(s[i] as f32, s[i + 1] as f32, s[i + 2] as f32);
+    let n = glam::Vec3::new(s[7] as i32 as f32, s[8] as i32 as f32, s[9] as i32 as f32);
+    let normal = if n.length_squared() > 0.01 * c * c * 127.0 * 127.0 {
+        n.normalize()
+    } else {
+        glam::Vec3::ZERO
+    };
+    let size = tree.params.voxel;
+    let lo = glam::Vec3::from(tree.params.origin) + voxel.as_vec3() * size;
+    let (t_in, t_out) = ray_span_box(o, d, lo, lo + glam::Vec3::splat(size));
+    let facing = d.dot(normal);
+    let t = if facing.abs() > 1e-3 {
+        (lo + glam::Vec3::splat(0.5 * size) - o).dot(normal) / facing
+    } else {
+        t_in
+    };
+    Some(VoxelSurfel {
+        voxel,
+        t: t.clamp(t_in, t_in.max(t_out)),
+        normal,
+        albedo: std::array::from_fn(|i| (s[i] + count / 2) / count),
+        emission: sums(4) / (c * crate::voxel::clipmap::EMISSION_SCALE),
+    })
+}
