@@ -258,6 +258,18 @@ pub fn objects_triangles(scene: &Scene, frame: &SceneFrame, animated: bool) -> V
         .collect()
 }
 
+/// The voxel triangles of object `index` alone, placed by `frame`'s transform of it.
+pub fn object_triangles(scene: &Scene, frame: &SceneFrame, index: usize) -> Vec<VoxelTriangle> {
+    let Some(object) = scene.objects.get(index) else {
+        return Vec::new();
+    };
+    scene
+        .world_triangles_where(frame, |o| std::ptr::eq(o, object))
+        .iter()
+        .filter_map(|t| voxel_triangle(scene, t))
+        .collect()
+}
+
 /// Packs voxel coordinates (each < 1024) into one word, 10 bits per axis.
 pub fn pack_coord(x: u32, y: u32, z: u32) -> u32 {
     (x & 1023) | (y & 1023) << 10 | (z & 1023) << 20

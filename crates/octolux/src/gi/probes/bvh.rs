@@ -8,9 +8,11 @@
 //! wants them: a vertex and two edges, with the packed RGBA8 albedo in the first `w` (the
 //! per-triangle albedo of [`crate::voxel::scene_triangles`]) and the emission in the last.
 //!
-//! Several BVHs share one node and one triangle buffer (a static part built once, the
-//! animated objects' part rebuilt every frame): [`Bvh::flatten_at`] writes a BVH's indices
-//! for its place in the buffers, and the shader traverses each part from its root.
+//! Several BVHs share one node and one triangle buffer ([`SceneBvh`], a two-level BVH: the
+//! static objects' BVH in world space, and one BVH per animated object in its model space,
+//! all built once; each frame only the animated objects' transforms are uploaded):
+//! [`Bvh::flatten_at`] writes a BVH's indices for its place in the buffers, and the shader
+//! traverses each from its root, the animated ones with the ray in the object's space.
 
 use crate::voxel::VoxelTriangle;
 use glam::Vec3;
@@ -437,6 +439,166 @@ fn slab(node: &GpuNode, o: Vec3, inv: Vec3, t_max: f32) -> Option<f32> {
     let near = t0.min(t1).max_element().max(0.0);
     let far = t0.max(t1).min_element().min(t_max);
     (near <= far).then_some(near)
+}
+
+/// One animated object of a [`SceneBvh`] as the shader reads it (`BvhInstance` in
+/// `bvh.wgsl`): where its model-space BVH starts and its transform this frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuInstance {
+    /// Rows of the world-to-object matrix (3 x 4: linear part and translation).
+    pub world_to_object: [[f32; 4]; 3],
+    /// The object's root node in the shared node buffer.
+    pub root: u32,
+    /// +1, or -1 for a mirroring transform (whose world winding, and so geometric normal,
+    /// is the model's flipped).
+    pub sign: f32,
+    /// Padding.
+    pub pad: [u32; 2],
+}
+
+impl GpuInstance {
+    /// The object-space point (`w` = 1) or direction (`w` = 0) of world `p` (as
+    /// `bvh_to_object` in `bvh.wgsl`).
+    pub fn to_object(&self, p: Vec3, w: f32) -> Vec3 {
+        let row = |r: [f32; 4]| Vec3::new(r[0], r[1], r[2]).dot(p) + r[3] * w;
+        let [a, b, c] = self.world_to_object;
+        Vec3::new(row(a), row(b), row(c))
+    }
+
+    /// The world geometric normal of a model-space one (as `bvh_hit_normal` in `bvh.wgsl`):
+    /// the inverse transpose of the object's transform, i.e. the transpose of its inverse.
+    pub fn normal_to_world(&self, n: Vec3) -> Vec3 {
+        let [a, b, c] = self.world_to_object.map(|r| Vec3::new(r[0], r[1], r[2]));
+        ((a * n.x + b * n.y + c * n.z) * self.sign).normalize_or_zero()
+    }
+}
+
+/// The scene's triangles for rays, as a two-level BVH: the static objects in one BVH in
+/// world space, built once, and each animated object in its own BVH in model space, also
+/// built once; every frame only the animated objects' transforms change
+/// ([`SceneBvh::instances`]), so nothing is rebuilt or re-uploaded but one matrix per
+/// object, whatever its triangle count. Rigid and affine animation (the scene format's
+/// translate, rotate, scale keys) is exact this way.
+#[derive(Clone, Debug, Default)]
+pub struct SceneBvh {
+    /// The static objects, world space.
+    pub still: Bvh,
+    /// The animated objects, each in model space, with its index in the scene's objects.
+    pub objects: Vec<(usize, Bvh)>,
+}
+
+/// A closest hit in a [`SceneBvh`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneHit {
+    /// The hit; its triangle indexes the static BVH or the animated object's own.
+    pub hit: BvhHit,
+    /// The animated object hit (index into [`SceneBvh::objects`]), or `None` for a static
+    /// triangle.
+    pub object: Option<usize>,
+}
+
+impl SceneBvh {
+    /// The BVHs of `scene`'s objects (animated ones in model space).
+    pub fn build(scene: &crate::scene::Scene) -> SceneBvh {
+        let frame = scene.frame(0.0, 0);
+        let mut model = frame.clone();
+        model.object_transforms.fill(glam::Mat4::IDENTITY);
+        let objects = (0..scene.objects.len())
+            .filter(|&i| scene.objects[i].animation.is_some())
+            .map(|i| {
+                (
+                    i,
+                    Bvh::build(&crate::voxel::object_triangles(scene, &model, i)),
+                )
+            })
+            .collect();
+        SceneBvh {
+            still: Bvh::build(&crate::voxel::objects_triangles(scene, &frame, false)),
+            objects,
+        }
+    }
+
+    /// Every BVH in the shared buffers, static first: nodes, triangles, and each animated
+    /// object's root node (the static root is node 0 where it has triangles).
+    pub fn flatten(&self) -> (Vec<GpuNode>, Vec<GpuTri>, Vec<u32>) {
+        let (mut nodes, mut tris) = self.still.flatten_at(0, 0);
+        let mut roots = Vec::new();
+        for (_, bvh) in &self.objects {
+            let (n, t) = bvh.flatten_at(nodes.len() as u32, tris.len() as u32);
+            roots.push(nodes.len() as u32);
+            nodes.extend(n);
+            tris.extend(t);
+        }
+        (nodes, tris, roots)
+    }
+
+    /// The animated objects' instances at `frame` (`roots` from [`SceneBvh::flatten`]), or
+    /// an error naming an object whose transform cannot be inverted there.
+    pub fn instances(
+        &self,
+        scene: &crate::scene::Scene,
+        frame: &crate::scene::SceneFrame,
+        roots: &[u32],
+    ) -> crate::Result<Vec<GpuInstance>> {
+        self.objects
+            .iter()
+            .zip(roots)
+            .map(|(&(index, _), &root)| {
+                let m = frame.object_transforms[index];
+                let det = m.determinant();
+                if !(det.is_finite() && det.abs() > 1e-12) {
+                    return Err(crate::Error::InvalidArgument(format!(
+                        "object '{}' has a singular transform at t = {} s (determinant {det})",
+                        scene.objects[index].name, frame.time
+                    )));
+                }
+                let inv = m.inverse().transpose();
+                Ok(GpuInstance {
+                    world_to_object: [inv.x_axis, inv.y_axis, inv.z_axis].map(|r| r.to_array()),
+                    root,
+                    sign: det.signum(),
+                    pad: [0; 2],
+                })
+            })
+            .collect()
+    }
+
+    /// Closest hit along `o + t d`, t in (0, t_max), with the animated objects placed by
+    /// `instances` (CPU twin of `bvh_closest`: the static part, then each object in order up
+    /// to the closest hit so far).
+    pub fn closest(
+        &self,
+        instances: &[GpuInstance],
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+    ) -> Option<SceneHit> {
+        let mut best = self
+            .still
+            .closest(o, d, t_max)
+            .map(|hit| SceneHit { hit, object: None });
+        for (k, (inst, (_, bvh))) in instances.iter().zip(&self.objects).enumerate() {
+            let reach = best.map_or(t_max, |b| b.hit.t);
+            if let Some(hit) = bvh.closest(inst.to_object(o, 1.0), inst.to_object(d, 0.0), reach) {
+                best = Some(SceneHit {
+                    hit,
+                    object: Some(k),
+                });
+            }
+        }
+        best
+    }
+
+    /// The world geometric normal of `hit` (`instances` as for [`SceneBvh::closest`]).
+    pub fn normal(&self, instances: &[GpuInstance], hit: &SceneHit) -> Vec3 {
+        match hit.object {
+            None => self.still.tris[hit.hit.tri as usize].normal(),
+            Some(k) => {
+                instances[k].normal_to_world(self.objects[k].1.tris[hit.hit.tri as usize].normal())
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,10 @@
-// BVH traversal (gi/probes/bvh.rs, whose `Bvh::closest` and `Bvh::occluded` are the CPU
-// twins, step for step). The includer declares
-//   bvh_nodes: array<BvhNode>, bvh_tris: array<BvhTri>
+// BVH traversal (gi/probes/bvh.rs, whose `Bvh::closest`, `Bvh::occluded` and
+// `SceneBvh::closest` are the CPU twins, step for step). The includer declares
+//   bvh_nodes: array<BvhNode>, bvh_tris: array<BvhTri>, bvh_instances: array<BvhInstance>
 // Nodes: inner (b == 0): left child = this + 1, right child = a; leaf: triangles a .. a + b.
+// A two-level BVH: the static objects' BVH in world space, and one BVH per animated object
+// in its model space, traversed with the ray moved into that space by the object's
+// world-to-object transform of this frame (`bvh_instances`).
 
 struct BvhNode {
     min: vec3<f32>,
@@ -25,6 +28,20 @@ struct BvhHit {
     t: f32,
     u: f32,
     v: f32,
+    // the animated object hit (index into bvh_instances), 0xffffffff for a static triangle
+    instance: u32,
+};
+
+struct BvhInstance {
+    // rows of the world-to-object matrix
+    row0: vec4<f32>,
+    row1: vec4<f32>,
+    row2: vec4<f32>,
+    root: u32,
+    // -1 for a mirroring transform (flips the winding's normal)
+    sign: f32,
+    pad0: u32,
+    pad1: u32,
 };
 
 const BVH_MISS: u32 = 0xffffffffu;
@@ -78,7 +95,7 @@ fn bvh_intersect(i: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec4<f32> {
 
 // Closest hit (any_hit false) or the first hit found (any_hit true) in the BVH at `root`.
 fn bvh_trace(root: u32, o: vec3<f32>, d: vec3<f32>, t_max_in: f32, any_hit: bool) -> BvhHit {
-    var best = BvhHit(BVH_MISS, t_max_in, 0.0, 0.0);
+    var best = BvhHit(BVH_MISS, t_max_in, 0.0, 0.0, BVH_MISS);
     if root == BVH_MISS {
         return best;
     }
@@ -97,7 +114,7 @@ fn bvh_trace(root: u32, o: vec3<f32>, d: vec3<f32>, t_max_in: f32, any_hit: bool
             for (var i = node.a; i < node.a + node.b; i++) {
                 let h = bvh_intersect(i, o, d, best.t);
                 if h.w > 0.0 {
-                    best = BvhHit(i, h.x, h.y, h.z);
+                    best = BvhHit(i, h.x, h.y, h.z, BVH_MISS);
                     if any_hit {
                         return best;
                     }
@@ -130,20 +147,52 @@ fn bvh_trace(root: u32, o: vec3<f32>, d: vec3<f32>, t_max_in: f32, any_hit: bool
     return best;
 }
 
-// Closest hit over the parts whose roots are `roots` (BVH_MISS: no such part).
-fn bvh_closest(roots: vec2<u32>, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BvhHit {
-    let a = bvh_trace(roots.x, o, d, t_max, false);
-    let b = bvh_trace(roots.y, o, d, a.t, false);
-    if b.tri != BVH_MISS {
-        return b;
-    }
-    return a;
+// The object-space point (w = 1) or direction (w = 0) of world `p` for instance `k`.
+fn bvh_to_object(k: u32, p: vec4<f32>) -> vec3<f32> {
+    let inst = bvh_instances[k];
+    return vec3<f32>(dot(inst.row0, p), dot(inst.row1, p), dot(inst.row2, p));
 }
 
-// Whether any triangle of the parts at `roots` lies on o + t d, t in (0, t_max).
+// Closest hit: the static BVH at `roots.x` (BVH_MISS: none), then the `roots.y` animated
+// objects in order, each up to the closest hit so far.
+fn bvh_closest(roots: vec2<u32>, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> BvhHit {
+    var best = bvh_trace(roots.x, o, d, t_max, false);
+    for (var k = 0u; k < roots.y; k++) {
+        let oo = bvh_to_object(k, vec4<f32>(o, 1.0));
+        let dd = bvh_to_object(k, vec4<f32>(d, 0.0));
+        let h = bvh_trace(bvh_instances[k].root, oo, dd, best.t, false);
+        if h.tri != BVH_MISS {
+            best = h;
+            best.instance = k;
+        }
+    }
+    return best;
+}
+
+// Whether any triangle lies on o + t d, t in (0, t_max) (`roots` as for `bvh_closest`).
 fn bvh_occluded(roots: vec2<u32>, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
-    return bvh_trace(roots.x, o, d, t_max, true).tri != BVH_MISS
-        || bvh_trace(roots.y, o, d, t_max, true).tri != BVH_MISS;
+    if bvh_trace(roots.x, o, d, t_max, true).tri != BVH_MISS {
+        return true;
+    }
+    for (var k = 0u; k < roots.y; k++) {
+        let oo = bvh_to_object(k, vec4<f32>(o, 1.0));
+        let dd = bvh_to_object(k, vec4<f32>(d, 0.0));
+        if bvh_trace(bvh_instances[k].root, oo, dd, t_max, true).tri != BVH_MISS {
+            return true;
+        }
+    }
+    return false;
+}
+
+// Unit world geometric normal of `hit`: the winding's, moved out of the object's space by
+// the inverse transpose of its transform (the transpose of its world-to-object matrix).
+fn bvh_hit_normal(hit: BvhHit) -> vec3<f32> {
+    let n = bvh_normal(hit.tri);
+    if hit.instance == BVH_MISS {
+        return n;
+    }
+    let inst = bvh_instances[hit.instance];
+    return normalize((inst.row0.xyz * n.x + inst.row1.xyz * n.y + inst.row2.xyz * n.z) * inst.sign);
 }
 
 // Unit albedo (linear) of triangle `i`.

@@ -1,12 +1,13 @@
 //! GPU twins of the probe kernels: lattice directions and BVH traversal on the GPU against the
 //! CPU code in `lattice.rs` and `bvh.rs`, and the BVH against the reference's ray queries.
 
-use super::bvh::{Bvh, BvhHit};
+use super::bvh::{BvhHit, SceneBvh, SceneHit};
 use super::lattice::{direction, Lattice, LATTICE_WGSL};
 use crate::gpu::{read_buffer, GpuContext, GpuOptions};
 use crate::reference::ReferenceAccel;
 use crate::scene::Scene;
 use crate::voxel::objects_triangles;
+
 use glam::Vec3;
 
 const OWNER: &str = "probes test";
@@ -106,18 +107,6 @@ fn gpu_lattices_equal_the_cpu_lattices() {
     }
 }
 
-/// The two-part closest hit as bvh.wgsl's `bvh_closest` computes it: the static part, then
-/// the animated part up to the static hit; triangle indices over both parts.
-fn closest(parts: &[Bvh; 2], o: Vec3, d: Vec3, t_max: f32) -> Option<BvhHit> {
-    let a = parts[0].closest(o, d, t_max);
-    let b = parts[1].closest(o, d, a.map_or(t_max, |h| h.t));
-    b.map(|h| BvhHit {
-        tri: h.tri + parts[0].tris.len() as u32,
-        ..h
-    })
-    .or(a)
-}
-
 /// Whether the hit lies within `eps` (barycentric) of its triangle's edges.
 fn near_edge(h: &BvhHit, eps: f32) -> bool {
     h.u < eps || h.v < eps || 1.0 - h.u - h.v < eps
@@ -125,15 +114,18 @@ fn near_edge(h: &BvhHit, eps: f32) -> bool {
 
 #[test]
 fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
-    // The shipped animated Cornell box at t = 1.3 s (the short block moved and turned): its
-    // static part and its animated part, as `probes-grid` holds them. 4096 random rays from
-    // inside the box: the GPU's closest hit equals the CPU traversal of the same BVH and the
-    // reference's obvhs BVH (hit or miss, and distance).
+    // The shipped animated Cornell box at t = 1.3 s (the short block moved and turned): the
+    // two-level BVH as `probes-grid` holds it, the static objects in world space and the
+    // short block in its model space placed by its transform at 1.3 s. 4096 random rays from
+    // inside the box: the GPU's closest hit equals the CPU traversal of the same BVHs
+    // (triangle, object, distance, world normal) and the reference's obvhs BVH over the
+    // world triangles of that frame (hit or miss, and distance).
     //
     // Tolerances: the same Möller-Trumbore arithmetic runs on both sides, but WGSL may fuse
-    // multiply-adds and divides to 2.5 ULPs, so t, u, v agree to ~1e-6 relative, and a ray
-    // through an edge (a barycentric within 1e-4 of 0) may go to either of the triangles
-    // sharing it, or slip between them; such rays are allowed to differ and must be rare.
+    // multiply-adds and divides to 2.5 ULPs, so t, u, v agree to ~1e-6 relative (the ray's
+    // move into the object's space adds a few ULPs on both sides), and a ray through an edge
+    // (a barycentric within 1e-4 of 0) may go to either of the triangles sharing it, or slip
+    // between them; such rays are allowed to differ and must be rare.
     let ctx = ctx();
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -141,15 +133,16 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
     );
     let scene = Scene::load(path).unwrap();
     let frame = scene.frame(1.3, 0);
-    let parts = [
-        Bvh::build(&objects_triangles(&scene, &frame, false)),
-        Bvh::build(&objects_triangles(&scene, &frame, true)),
-    ];
-    assert!(!parts[1].tris.is_empty(), "the short block moves");
-    let (nodes0, tris0) = parts[0].flatten_at(0, 0);
-    let (nodes1, tris1) = parts[1].flatten_at(nodes0.len() as u32, tris0.len() as u32);
-    let nodes = [nodes0.clone(), nodes1].concat();
-    let tris = [tris0, tris1].concat();
+    let bvh = SceneBvh::build(&scene);
+    assert_eq!(bvh.objects.len(), 1, "the short block moves");
+    let (nodes, tris, roots) = bvh.flatten();
+    let instances = bvh.instances(&scene, &frame, &roots).unwrap();
+    assert_ne!(
+        instances[0].world_to_object[0],
+        [1.0, 0.0, 0.0, 0.0],
+        "the block is moved and turned at 1.3 s"
+    );
+    let tri_base = bvh.still.tris.len() as u32;
     let reference = ReferenceAccel::build(&scene, &frame).unwrap();
     let (lo, hi) = scene.bounds_at(1.3);
     let mut seed = 12345u32;
@@ -174,43 +167,55 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
         rays.push([d.x, d.y, d.z, 0.0]);
         cases.push((o, d, t_max));
     }
-    let params: [u32; 8] = [0, 0, count, 0, 0, nodes0.len() as u32, 0, 0];
+    let params: [u32; 8] = [0, 0, count, 0, 0, instances.len() as u32, 0, 0];
     let p = upload(&ctx, "params", bytemuck::cast_slice(&params));
     let n = upload(&ctx, "nodes", bytemuck::cast_slice(&nodes));
     let t = upload(&ctx, "tris", bytemuck::cast_slice(&tris));
     let r = upload(&ctx, "rays", bytemuck::cast_slice(&rays));
+    let inst = upload(&ctx, "instances", bytemuck::cast_slice(&instances));
     let gpu = run(
         &ctx,
         "trace",
-        &[(0, &p), (1, &n), (2, &t), (3, &r)],
+        &[(0, &p), (1, &n), (2, &t), (3, &r), (5, &inst)],
         count,
         2 * count as usize,
     );
-    let (mut hits, mut edges) = (0, 0);
+    let (mut hits, mut moving, mut edges) = (0, 0, 0);
     for (i, &(o, d, t_max)) in cases.iter().enumerate() {
         let g = gpu[2 * i];
         let g_tri = g[0].to_bits();
-        let g_hit = (g_tri != MISS).then_some(BvhHit {
-            tri: g_tri,
-            t: g[1],
-            u: g[2],
-            v: g[3],
+        let g_object = gpu[2 * i + 1][1].to_bits();
+        // The GPU's triangle in the buffers, as the CPU's object and local triangle.
+        let g_hit = (g_tri != MISS).then(|| SceneHit {
+            hit: BvhHit {
+                tri: if g_object == MISS {
+                    g_tri
+                } else {
+                    g_tri - tri_base
+                },
+                t: g[1],
+                u: g[2],
+                v: g[3],
+            },
+            object: (g_object != MISS).then_some(g_object as usize),
         });
         let occluded = gpu[2 * i + 1][0] > 0.5;
-        let cpu = closest(&parts, o, d, t_max);
+        let cpu = bvh.closest(&instances, o, d, t_max);
         let r = reference.closest(o, d, t_max);
         hits += cpu.is_some() as u32;
+        moving += cpu.is_some_and(|h| h.object.is_some()) as u32;
         assert_eq!(occluded, g_hit.is_some(), "ray {i}: occluded vs closest");
-        let edge =
-            cpu.is_some_and(|h| near_edge(&h, 1e-4)) || g_hit.is_some_and(|h| near_edge(&h, 1e-4));
+        let edge = cpu.is_some_and(|h| near_edge(&h.hit, 1e-4))
+            || g_hit.is_some_and(|h| near_edge(&h.hit, 1e-4));
         let same = |a: Option<f32>, b: Option<f32>| match (a, b) {
             (Some(a), Some(b)) => (a - b).abs() <= 1e-5 * a.max(1.0),
             (None, None) => true,
             _ => false,
         };
-        let ok_gpu = g_hit.map(|h| h.tri) == cpu.map(|h| h.tri)
-            && same(g_hit.map(|h| h.t), cpu.map(|h| h.t));
-        let ok_ref = same(r.as_ref().map(|h| h.t), cpu.map(|h| h.t));
+        let key = |h: &SceneHit| (h.hit.tri, h.object);
+        let ok_gpu = g_hit.map(|h| key(&h)) == cpu.map(|h| key(&h))
+            && same(g_hit.map(|h| h.hit.t), cpu.map(|h| h.hit.t));
+        let ok_ref = same(r.as_ref().map(|h| h.t), cpu.map(|h| h.hit.t));
         if !(ok_gpu && ok_ref) {
             assert!(
                 edge,
@@ -218,10 +223,21 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
                 r.map(|h| h.t)
             );
             edges += 1;
+        } else if let Some(h) = cpu {
+            let normal = bvh.normal(&instances, &h);
+            let g_normal = gpu[2 * i + 1];
+            assert!(
+                (normal.x - g_normal[2]).abs() < 1e-5 && (normal.y - g_normal[3]).abs() < 1e-5,
+                "ray {i}: normal {normal} against {g_normal:?}"
+            );
+            // The world normal of the moved block is the world triangle's.
+            let world = objects_triangles(&scene, &frame, h.object.is_some());
+            assert!(world.iter().any(|w| w.normal.dot(normal) > 1.0 - 1e-4));
         }
     }
-    println!("{hits} of {count} rays hit; {edges} differ at an edge");
+    println!("{hits} of {count} rays hit, {moving} the moving block; {edges} differ at an edge");
     assert!(hits > count / 2, "{hits}");
+    assert!(moving > count / 50, "{moving}");
     assert!(edges * 200 < count, "{edges} rays differ at edges");
 }
 

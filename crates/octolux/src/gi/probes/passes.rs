@@ -325,8 +325,7 @@ impl ProbePasses {
         timer: &mut PassTimer,
     ) -> Result<()> {
         if self.animated {
-            self.rays
-                .sync_moving(ctx, self.owner, frame, timer, &mut self.params)?;
+            self.rays.sync_moving(ctx, frame, timer, &mut self.params)?;
         }
         self.params.misc[2] = frame.frame.lights.len() as u32;
         ctx.queue

@@ -2,16 +2,18 @@
 //! triangles in a BVH ([`super::bvh`], exact) or the scene's sparse voxel octree
 //! ([`crate::voxel::svo`], walked with the VPL technique's integer walk; exact to a voxel).
 //!
-//! - **BVH**: a static part built on the CPU once and an animated part rebuilt on the CPU
-//!   every frame and uploaded (`place.wgsl`).
+//! - **BVH**: a two-level BVH ([`super::bvh::SceneBvh`]) built on the CPU once: the static
+//!   objects in world space, each animated object in its model space; every frame only the
+//!   animated objects' transforms are uploaded (`place_bvh.wgsl`).
 //! - **Voxels**: the octree's static part is built on the GPU once, its dynamic part is
-//!   rebuilt on the GPU every frame from the animated triangles (`place_voxels.wgsl`); the
+//!   voxelized and rebuilt on the GPU every frame from the animated triangles
+//!   (`place_voxels.wgsl`); the
 //!   first occupied voxel along a ray becomes the surfel, with its fragments' mean albedo,
 //!   emission and normal.
 //!
 //! docs/probes.md compares the two on the same scenes.
 
-use super::bvh::{Bvh, GpuNode, GpuTri, BVH_WGSL};
+use super::bvh::{GpuInstance, SceneBvh, BVH_WGSL};
 use super::passes::{storage, ProbeParams};
 use crate::gi::vpl::trace::{walk_buffers, VplOctree, TRACE_WGSL};
 use crate::gi::GiFrame;
@@ -56,12 +58,15 @@ pub(crate) enum Rays {
     Voxels(Box<VoxelRays>),
 }
 
-/// The two-part BVH in two storage buffers.
+/// The two-level BVH in storage buffers.
 pub(crate) struct BvhRays {
+    bvh: SceneBvh,
     nodes: wgpu::Buffer,
     tris: wgpu::Buffer,
-    /// Nodes and triangles of the static part (the animated part follows them).
-    static_size: (u32, u32),
+    /// The animated objects' transforms (one placeholder instance without any).
+    instances: wgpu::Buffer,
+    /// The animated objects' root nodes.
+    roots: Vec<u32>,
 }
 
 /// The scene's octree and its walk's parameters.
@@ -87,36 +92,29 @@ impl Rays {
         params.roots[1] = NO_ROOT;
         match backend {
             RayBackend::Bvh => {
-                let frame = scene.frame(0.0, 0);
-                let still = Bvh::build(&objects_triangles(scene, &frame, false));
-                let moving = objects_triangles(scene, &frame, true);
-                let (nodes, tris) = still.flatten_at(0, 0);
-                // The animated part's BVH has at most 2n - 1 nodes for n triangles.
-                let node_bytes = std::mem::size_of::<GpuNode>() as u64;
-                let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
-                let node_buffer = storage(
-                    ctx,
-                    owner,
-                    "bvh nodes",
-                    (nodes.len() + 2 * moving.len()) as u64 * node_bytes,
-                )?;
-                let tri_buffer = storage(
-                    ctx,
-                    owner,
-                    "bvh triangles",
-                    (tris.len() + moving.len()) as u64 * tri_bytes,
-                )?;
-                ctx.queue
-                    .write_buffer(&node_buffer, 0, bytemuck::cast_slice(&nodes));
-                ctx.queue
-                    .write_buffer(&tri_buffer, 0, bytemuck::cast_slice(&tris));
-                if !nodes.is_empty() {
+                let bvh = SceneBvh::build(scene);
+                let (nodes, tris, roots) = bvh.flatten();
+                let upload = |label: &str, bytes: &[u8]| -> Result<wgpu::Buffer> {
+                    let buffer = storage(ctx, owner, label, bytes.len() as u64)?;
+                    ctx.queue.write_buffer(&buffer, 0, bytes);
+                    Ok(buffer)
+                };
+                if !bvh.still.nodes.is_empty() {
                     params.roots[0] = 0;
                 }
+                params.roots[1] = 0;
+                let instances = bvh.instances(scene, &scene.frame(0.0, 0), &roots)?;
+                let instances = if instances.is_empty() {
+                    vec![GpuInstance::default()]
+                } else {
+                    instances
+                };
                 Ok(Rays::Bvh(BvhRays {
-                    nodes: node_buffer,
-                    tris: tri_buffer,
-                    static_size: (nodes.len() as u32, tris.len() as u32),
+                    nodes: upload("bvh nodes", bytemuck::cast_slice(&nodes))?,
+                    tris: upload("bvh triangles", bytemuck::cast_slice(&tris))?,
+                    instances: upload("bvh instances", bytemuck::cast_slice(&instances))?,
+                    bvh,
+                    roots,
                 }))
             }
             RayBackend::Voxels => {
@@ -156,7 +154,10 @@ impl Rays {
     /// The placement pass's bindings from 2 on (0: parameters, 1: surfels).
     pub fn place_bindings(&self) -> Vec<wgpu::BindingResource<'_>> {
         match self {
-            Rays::Bvh(b) => vec![b.nodes.as_entire_binding(), b.tris.as_entire_binding()],
+            Rays::Bvh(b) => [&b.nodes, &b.tris, &b.instances]
+                .iter()
+                .map(|b| b.as_entire_binding())
+                .collect(),
             Rays::Voxels(v) => {
                 let [child, leaf, state, sums] = walk_buffers(&v.svo, &v.placeholder);
                 [&v.walk, child, leaf, state, sums]
@@ -175,57 +176,29 @@ impl Rays {
         }
     }
 
-    /// Brings the animated objects up to date with `frame`: the BVH's animated part is
-    /// rebuilt on the CPU and uploaded (its root goes to `params`), the octree's dynamic part
-    /// is rebuilt by passes recorded into `timer`.
+    /// Brings the animated objects up to date with `frame`: their transforms go to the
+    /// BVH's instances (the number of instances to `params`), or the octree's dynamic part is
+    /// rebuilt by passes recorded into `timer`.
     pub fn sync_moving(
         &mut self,
         ctx: &GpuContext,
-        owner: &str,
         frame: &GiFrame,
         timer: &mut PassTimer,
         params: &mut ProbeParams,
     ) -> Result<()> {
-        let moving = objects_triangles(frame.scene, frame.frame, true);
         match self {
             Rays::Voxels(v) => {
+                let moving = objects_triangles(frame.scene, frame.frame, true);
                 v.builder.record_dynamic(ctx, timer, &mut v.svo, &moving)?;
-                Ok(())
             }
             Rays::Bvh(b) => {
-                let moving = Bvh::build(&moving);
-                let (node_base, tri_base) = b.static_size;
-                let (nodes, tris) = moving.flatten_at(node_base, tri_base);
-                let node_bytes = std::mem::size_of::<GpuNode>() as u64;
-                let tri_bytes = std::mem::size_of::<GpuTri>() as u64;
-                let end =
-                    |base: u32, count: usize, bytes: u64| (base as u64 + count as u64) * bytes;
-                if end(node_base, nodes.len(), node_bytes) > b.nodes.size()
-                    || end(tri_base, tris.len(), tri_bytes) > b.tris.size()
-                {
-                    return Err(Error::InvalidArgument(format!(
-                        "{owner}: the animated objects have {} triangles at t = {} s, more than \
-                         at the start",
-                        tris.len(),
-                        frame.frame.time
-                    )));
-                }
-                if !nodes.is_empty() {
-                    ctx.queue.write_buffer(
-                        &b.nodes,
-                        node_base as u64 * node_bytes,
-                        bytemuck::cast_slice(&nodes),
-                    );
-                    ctx.queue.write_buffer(
-                        &b.tris,
-                        tri_base as u64 * tri_bytes,
-                        bytemuck::cast_slice(&tris),
-                    );
-                }
-                params.roots[1] = if nodes.is_empty() { NO_ROOT } else { node_base };
-                Ok(())
+                let instances = b.bvh.instances(frame.scene, frame.frame, &b.roots)?;
+                ctx.queue
+                    .write_buffer(&b.instances, 0, bytemuck::cast_slice(&instances));
+                params.roots[1] = instances.len() as u32;
             }
         }
+        Ok(())
     }
 }
 

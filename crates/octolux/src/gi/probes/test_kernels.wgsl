@@ -3,7 +3,7 @@
 struct TestParams {
     // x: lattice kind, y: directions, z: rays
     misc: vec4<u32>,
-    // x, y: BVH roots
+    // x: static BVH root, y: animated objects
     roots: vec4<u32>,
 };
 
@@ -13,6 +13,7 @@ struct TestParams {
 // Per ray: (origin, t_max), (direction, 0).
 @group(0) @binding(3) var<storage, read> rays: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> bvh_instances: array<BvhInstance>;
 
 @compute @workgroup_size(64)
 fn dirs(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -21,7 +22,7 @@ fn dirs(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// Per ray: (triangle bits, t, u, v), (occluded, 0, 0, 0).
+// Per ray: (triangle bits, t, u, v), (occluded, instance bits, world normal xy).
 @compute @workgroup_size(64)
 fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= T.misc.z {
@@ -31,5 +32,10 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     let d = rays[2u * id.x + 1u].xyz;
     let hit = bvh_closest(T.roots.xy, o.xyz, d, o.w);
     out[2u * id.x] = vec4<f32>(bitcast<f32>(hit.tri), hit.t, hit.u, hit.v);
-    out[2u * id.x + 1u] = vec4<f32>(select(0.0, 1.0, bvh_occluded(T.roots.xy, o.xyz, d, o.w)), 0.0, 0.0, 0.0);
+    let occluded = select(0.0, 1.0, bvh_occluded(T.roots.xy, o.xyz, d, o.w));
+    var n = vec3<f32>(0.0);
+    if hit.tri != BVH_MISS {
+        n = bvh_hit_normal(hit);
+    }
+    out[2u * id.x + 1u] = vec4<f32>(occluded, bitcast<f32>(hit.instance), n.x, n.y);
 }

@@ -2,7 +2,7 @@
 //! first occupied voxel on the GPU against `rays::voxel_ray` and `rays::voxel_surfel` over the
 //! octree read back, static and dynamic parts; and the voxel hits against the BVH's exact ones.
 
-use super::bvh::Bvh;
+use super::bvh::SceneBvh;
 use super::rays::{voxel_ray, voxel_surfel, VoxelSurfel, VOXEL_RAYS_WGSL};
 use crate::gi::vpl::trace::{walk_buffers, OctreeCpu, VplOctree, TRACE_WGSL};
 use crate::gpu::{read_buffer, GpuContext, GpuOptions};
@@ -199,22 +199,17 @@ fn voxel_hits_agree_with_the_bvh_to_a_voxel() {
     let (scene, svo) = animated_box(&ctx, 64);
     let walk = VplOctree::new(&svo, 0.0).unwrap();
     let frame = scene.frame(1.3, 0);
-    let parts = [
-        Bvh::build(&objects_triangles(&scene, &frame, false)),
-        Bvh::build(&objects_triangles(&scene, &frame, true)),
-    ];
+    let bvh = SceneBvh::build(&scene);
+    let (_, _, roots) = bvh.flatten();
+    let instances = bvh.instances(&scene, &frame, &roots).unwrap();
     let rays = probe_rays(scene.bounds_at(1.3));
     let gpu = trace(&ctx, &svo, &walk, &rays);
     let voxel = walk.voxel;
     let (mut agree, mut both, mut far) = (0usize, 0usize, 0usize);
     for (&(o, d, t_max), g) in rays.iter().zip(&gpu) {
-        let a = parts[0].closest(o, d, t_max).map(|h| (h, &parts[0]));
-        let b = parts[1]
-            .closest(o, d, a.map_or(t_max, |h| h.0.t))
-            .map(|h| (h, &parts[1]));
-        let exact = b
-            .or(a)
-            .map(|(h, part)| (h.t, part.tris[h.tri as usize].normal()));
+        let exact = bvh
+            .closest(&instances, o, d, t_max)
+            .map(|h| (h.hit.t, bvh.normal(&instances, &h)));
         match (g.surfel, exact) {
             (None, None) => agree += 1,
             (Some(s), Some((t, n))) => {

@@ -374,8 +374,9 @@ fn no_dynamic_part() -> Error {
 impl SvoBuilder {
     /// The octree of `scene` (at time 0) in the cube grid of `resolution`^3 voxels enclosing
     /// its bounds: its static objects built once, and room for a dynamic part where it has
-    /// animated objects (their voxels at time 0 x 16, for the 26-neighbourhoods of every level
-    /// and for poses that touch more voxels), which [`SvoBuilder::record_dynamic`] fills every
+    /// animated objects (nodes and bricks: their distinct voxels at time 0 x 16, for the
+    /// 26-neighbourhoods of every level and for poses that touch more voxels; fragments: at
+    /// least twice theirs at time 0), which [`SvoBuilder::record_dynamic`] fills every
     /// frame. `owner` names the technique in the error for a scene without geometry.
     pub fn build_scene(
         &self,
@@ -396,8 +397,17 @@ impl SvoBuilder {
         let (svo, _) = if moving.is_empty() {
             self.build(ctx, &grid, &still)?
         } else {
-            let voxels = crate::voxel::cpu::voxelize(&grid, &moving).len() as u32;
-            let reserve = DynamicReserve::new(voxels.saturating_mul(16).clamp(4096, 1 << 22));
+            // Fragments, one per triangle piece and voxel: a dense mesh has several per voxel.
+            let fragments = crate::voxel::cpu::voxelize(&grid, &moving);
+            let voxels: std::collections::HashSet<[u32; 3]> =
+                fragments.iter().map(|(v, _)| *v).collect();
+            let nodes = (voxels.len() as u32)
+                .saturating_mul(16)
+                .clamp(4096, 1 << 22);
+            let mut reserve = DynamicReserve::new(nodes);
+            reserve.fragments = reserve
+                .fragments
+                .max((fragments.len() as u32).saturating_mul(2));
             self.build_with_reserve(ctx, &grid, &still, reserve)?
         };
         Ok(svo)
