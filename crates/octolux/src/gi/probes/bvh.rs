@@ -668,4 +668,25 @@ mod tests {
         assert_eq!(hit.t, 1.0);
         assert!(Bvh::build(&[]).closest(Vec3::ZERO, Vec3::Z, 1.0).is_none());
     }
+
+    #[test]
+    fn a_singular_transform_of_an_animated_object_is_a_clear_error() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../scenes/cornell-animated.toml"
+        );
+        let scene = crate::scene::Scene::load(path).unwrap();
+        let bvh = SceneBvh::build(&scene);
+        let (_, _, roots) = bvh.flatten();
+        let mut frame = scene.frame(1.0, 0);
+        assert_eq!(bvh.instances(&scene, &frame, &roots).unwrap().len(), 1);
+        let (index, _) = bvh.objects[0];
+        frame.object_transforms[index] = glam::Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0));
+        let err = bvh
+            .instances(&scene, &frame, &roots)
+            .unwrap_err()
+            .to_string();
+        let name = &scene.objects[index].name;
+        assert!(err.contains(name) && err.contains("singular"), "{err}");
+    }
 }
