@@ -60,19 +60,22 @@ pub struct GiArgs {
     /// Cone tracing: clipmap levels, 1..=8 (default 4).
     #[arg(long)]
     pub vct_levels: Option<u32>,
-    /// Cone tracing: diffuse cones per gather, 6 (003's set) or 8..=64; for both techniques
-    /// (default: each technique's own, 16; vct-clipmap with one bounce 6).
+    /// Cone tracing: diffuse cones per gather, 6 (003's set) or 8..=64; for both techniques and
+    /// both gathers, pixels' and voxels' (default: each technique's own: vct-svo 64 per pixel,
+    /// vct-clipmap 16, with one bounce 6; 16 for the voxels' bounce gather).
     #[arg(long)]
     pub vct_cones: Option<u32>,
-    /// Cone tracing: full aperture of the diffuse cones in degrees; for both techniques
-    /// (default: each technique's own, 36; vct-clipmap with one bounce 60).
+    /// Cone tracing: full aperture of the diffuse cones in degrees; for both techniques and
+    /// both gathers (default: each technique's own: vct-svo 18 per pixel, vct-clipmap 36, with
+    /// one bounce 60; 36 for the voxels' bounce gather).
     #[arg(long)]
     pub vct_aperture: Option<f32>,
     /// Cone tracing: step as a fraction of the cone's footprint (default 0.5).
     #[arg(long)]
     pub vct_step: Option<f32>,
     /// Cone tracing: apex offset of the diffuse cones off the surface, in voxels of its level;
-    /// for both techniques (default: each technique's own, 2; vct-clipmap with one bounce 1.5).
+    /// for both techniques and both gathers (default: each technique's own, 2; vct-clipmap
+    /// with one bounce 1.5).
     #[arg(long)]
     pub vct_start: Option<f32>,
     /// Cone tracing: accumulated opacity at which a cone stops (default 0.95).

@@ -222,10 +222,9 @@ fn a_denser_cone_set_gathers_what_the_six_cones_gather() {
 fn multiple_bounces_converge_to_the_unlimited_reference() {
     // With multi_bounce the voxels (the octree's static leaves, every clipmap voxel) gather
     // indirect irradiance every frame and add it to their direct light at the next injection:
-    // frame 1 is one bounce, frame k holds k bounces. Measured on the Cornell box (48x48,
-    // octree 64^3) against the unlimited reference: the octree's ceiling goes 0.175 (1
-    // frame), 0.256 (2), 0.320 (4), 0.345 (8), 0.348 (16) against 0.350, and FLIP from 0.431
-    // to 0.262, while one bounce stays at 0.175. The clipmap: see `BounceBounds::CLIPMAP`.
+    // frame 1 is one bounce, frame k holds k bounces. After 10 frames on the Cornell box
+    // (48x48, octree 64^3) against the unlimited reference, the ceiling's radiance and FLIP
+    // with and without: see `BounceBounds`.
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let scene = octolux::scene::cornell::scene();
@@ -305,9 +304,12 @@ struct BounceBounds {
 }
 
 impl BounceBounds {
+    // Measured (default cones: 64 for the pixels, 16 for the voxels' bounce gather): ceiling
+    // 1.082 against one bounce's 0.776 (the ratio, 0.72, is about what one bounce is of all
+    // of them in the reference, where more bounces add about 37 %), FLIP 0.260 against 0.415.
     const SVO: BounceBounds = BounceBounds {
         ceiling: 0.85..1.15,
-        one_bounce_below: 0.7,
+        one_bounce_below: 0.8,
         flip_ratio: 0.8,
     };
     // Measured (default cones: 16 with multiple bounces, six with one): ceiling 0.626 (one

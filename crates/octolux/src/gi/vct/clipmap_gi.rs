@@ -96,6 +96,7 @@ impl VctClipmap {
             ],
             settings,
             settings.diffuse_cones(VctStructure::Clipmap),
+            settings.bounce_cones(VctStructure::Clipmap),
             width,
             height,
         );
@@ -112,8 +113,8 @@ impl VctClipmap {
                         mapped_at_creation: false,
                     },
                 ),
-                gather: tracer.pipeline(ctx, "bounce"),
-                clear: tracer.pipeline(ctx, "bounce_clear"),
+                gather: tracer.bounce_pipeline(ctx, "bounce"),
+                clear: tracer.bounce_pipeline(ctx, "bounce_clear"),
                 params: ctx.create_buffer_init(
                     OWNER,
                     "bounce params",
@@ -260,13 +261,7 @@ impl VctClipmap {
         };
         self.tracer.set_cone(
             ctx,
-            cone_params(
-                s,
-                self.tracer.diffuse(),
-                voxel,
-                coarsest,
-                0.5 * span * voxel,
-            ),
+            |cones| cone_params(s, cones, voxel, coarsest, 0.5 * span * voxel),
             s,
         );
         Clipmap::with_owner(
@@ -329,7 +324,7 @@ impl GiTechnique for VctClipmap {
             let entries = [
                 (3, self.info.as_entire_binding()),
                 (4, radiance.as_entire_binding()),
-                (5, self.tracer.params().as_entire_binding()),
+                (5, self.tracer.bounce_params().as_entire_binding()),
                 (7, clipmap.voxels.as_entire_binding()),
                 (13, self.tail.buffer.as_entire_binding()),
                 (20, b.params.as_entire_binding()),

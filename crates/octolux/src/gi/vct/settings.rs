@@ -1,9 +1,10 @@
 //! Settings shared by both cone-tracing techniques (`[settings.vct]`).
 //!
 //! The diffuse cones (`cones`, `aperture`, `start`) are the exception: each technique has its
-//! own defaults ([`VctStructure::default_cones`], by structure and `multi_bounce`), measured
-//! on the shipped scenes (docs/vct.md), and a value given in the settings overrides them for
-//! both techniques.
+//! own defaults for the pixels' gather ([`VctStructure::default_cones`], by structure and
+//! `multi_bounce`) and for the voxels' bounce gather ([`VctStructure::default_bounce_cones`]),
+//! measured on the shipped scenes (docs/vct.md), and a value given in the settings overrides
+//! them for both techniques and both gathers.
 
 use crate::{Error, Result};
 
@@ -55,26 +56,46 @@ pub struct DiffuseCones {
 }
 
 impl VctStructure {
-    /// The structure's own diffuse cones, used where the settings give none, for multiple
-    /// bounces (`multi_bounce`) or one (measured on the shipped scenes, docs/vct.md): 16
-    /// cones of 36 degrees started 2 voxels out, except the clipmap at one bounce, which
-    /// keeps `003`'s six cones of 60 degrees started 1.5 voxels out (16 cones double its
-    /// relMSE on the McGuire box against the one-bounce reference; with multiple bounces they
-    /// lower it on every shipped scene).
+    /// The structure's own cones for the pixels' diffuse gather, used where the settings give
+    /// none, for multiple bounces (`multi_bounce`) or one (measured on the shipped scenes,
+    /// docs/vct.md):
+    /// - the octree: 64 cones of 18 degrees started 2 voxels out (the Cornell box's error
+    ///   falls with every doubling of the cone count from 16 to 64, for a pixel pass that is a
+    ///   small part of the octree's frame);
+    /// - the clipmap: 16 cones of 36 degrees started 2 voxels out, or at one bounce `003`'s
+    ///   six cones of 60 degrees started 1.5 voxels out (16 cones double its relMSE on the
+    ///   McGuire box against the one-bounce reference; with multiple bounces they lower it on
+    ///   every shipped scene).
     pub fn default_cones(self, multi_bounce: bool) -> DiffuseCones {
         match (self, multi_bounce) {
+            (VctStructure::Octree, _) => DiffuseCones {
+                cones: 64,
+                aperture: 18.0,
+                start: 2.0,
+            },
             (VctStructure::Clipmap, false) => DiffuseCones {
                 cones: 6,
                 aperture: 60.0,
                 start: 1.5,
             },
-            _ => DiffuseCones {
-                cones: 16,
-                aperture: 36.0,
-                start: 2.0,
-            },
+            (VctStructure::Clipmap, true) => Self::BOUNCE_CONES,
         }
     }
+
+    /// The structure's own cones for the voxels' bounce gather (`multi_bounce`), used where
+    /// the settings give none: 16 cones of 36 degrees started 2 voxels out for both. The
+    /// bounce gathers at every voxel, so its cost grows with the cone count far faster than
+    /// the pixels' (2.8x the octree's bounce pass from 16 to 32 cones), and the light it
+    /// feeds back is smooth.
+    pub fn default_bounce_cones(self) -> DiffuseCones {
+        Self::BOUNCE_CONES
+    }
+
+    const BOUNCE_CONES: DiffuseCones = DiffuseCones {
+        cones: 16,
+        aperture: 36.0,
+        start: 2.0,
+    };
 }
 
 /// Settings of voxel cone tracing. Scene files: `[settings.vct]`.
@@ -94,12 +115,14 @@ pub struct VctSettings {
     /// is at the first frame (with 10 % to spare).
     pub levels: u32,
     /// Diffuse cones per gather: 6 (`003`'s set) or a cosine-distributed set of 8..=64 (lower
-    /// `aperture` with it: the cones of a denser set are closer together). Default `None`: the
-    /// technique's own (16; `vct-clipmap` with `multi_bounce = false`: 6).
+    /// `aperture` with it: the cones of a denser set are closer together); a value applies to
+    /// the pixels' gather and to the voxels' bounce gather. Default `None`: the technique's
+    /// own ([`VctStructure::default_cones`]: `vct-svo` 64 per pixel, `vct-clipmap` 16, with
+    /// `multi_bounce = false` 6; [`VctStructure::default_bounce_cones`]: 16 per voxel).
     pub cones: Option<u32>,
-    /// Full aperture of the diffuse cones in degrees. Default `None`: the technique's own (36;
-    /// `vct-clipmap` with `multi_bounce = false`: 60, the six cones' ring, 60 degrees apart,
-    /// touches).
+    /// Full aperture of the diffuse cones in degrees. Default `None`: the technique's own
+    /// (`vct-svo` 18 per pixel; `vct-clipmap` 36, with `multi_bounce = false` 60, the six
+    /// cones' ring, 60 degrees apart, touches; 36 per voxel for the bounce gather).
     pub aperture: Option<f32>,
     /// Step along a cone as a fraction of its footprint (default 0.5).
     pub step: f32,
@@ -245,7 +268,17 @@ impl VctSettings {
     /// The diffuse cones of the technique tracing `structure`: the values given here, the
     /// structure's own defaults for the others.
     pub fn diffuse_cones(&self, structure: VctStructure) -> DiffuseCones {
-        let own = structure.default_cones(self.multi_bounce);
+        self.resolve_cones(structure.default_cones(self.multi_bounce))
+    }
+
+    /// The cones the voxels gather with for multiple bounces on `structure`: the values the
+    /// settings give (they apply to both gathers), else the structure's own bounce cones
+    /// ([`VctStructure::default_bounce_cones`]).
+    pub fn bounce_cones(&self, structure: VctStructure) -> DiffuseCones {
+        self.resolve_cones(structure.default_bounce_cones())
+    }
+
+    fn resolve_cones(&self, own: DiffuseCones) -> DiffuseCones {
         DiffuseCones {
             cones: self.cones.unwrap_or(own.cones),
             aperture: self.aperture.unwrap_or(own.aperture),
@@ -277,6 +310,16 @@ mod tests {
             for structure in [VctStructure::Octree, VctStructure::Clipmap] {
                 let own = structure.default_cones(multi_bounce);
                 assert_eq!(s.diffuse_cones(structure), own);
+                assert_eq!(s.bounce_cones(structure), structure.default_bounce_cones());
+                let bounce = structure.default_bounce_cones();
+                VctSettings {
+                    cones: Some(bounce.cones),
+                    aperture: Some(bounce.aperture),
+                    start: Some(bounce.start),
+                    ..s.clone()
+                }
+                .validate()
+                .unwrap();
                 // Every default is a valid value.
                 let given = VctSettings {
                     cones: Some(own.cones),
@@ -287,9 +330,11 @@ mod tests {
                 given.validate().unwrap();
             }
         }
-        // The clipmap at one bounce keeps 003's six cones; the octree does not.
+        // The clipmap at one bounce keeps 003's six cones; the octree's pixels gather with 64,
+        // its voxels with 16.
         assert_eq!(VctStructure::Clipmap.default_cones(false).cones, 6);
-        assert_eq!(VctStructure::Octree.default_cones(false).cones, 16);
+        assert_eq!(VctStructure::Octree.default_cones(false).cones, 64);
+        assert_eq!(VctStructure::Octree.default_bounce_cones().cones, 16);
         // A value given applies to both structures; the others stay each one's own.
         let s = parse("cones = 8\nstart = 3.0\nmulti_bounce = false\n").unwrap();
         s.validate().unwrap();
@@ -297,6 +342,9 @@ mod tests {
             let c = s.diffuse_cones(structure);
             assert_eq!((c.cones, c.start), (8, 3.0));
             assert_eq!(c.aperture, structure.default_cones(false).aperture);
+            let b = s.bounce_cones(structure);
+            assert_eq!((b.cones, b.start), (8, 3.0));
+            assert_eq!(b.aperture, structure.default_bounce_cones().aperture);
         }
     }
 

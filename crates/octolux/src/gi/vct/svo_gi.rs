@@ -94,6 +94,7 @@ impl VctSvo {
             ],
             settings,
             settings.diffuse_cones(VctStructure::Octree),
+            settings.bounce_cones(VctStructure::Octree),
             width,
             height,
         );
@@ -101,13 +102,15 @@ impl VctSvo {
         // Cones end where they leave the grid at the latest (its diagonal).
         tracer.set_cone(
             ctx,
-            cone_params(
-                settings,
-                tracer.diffuse(),
-                grid.voxel_size,
-                0.5 * span,
-                3f32.sqrt() * span,
-            ),
+            |cones| {
+                cone_params(
+                    settings,
+                    cones,
+                    grid.voxel_size,
+                    0.5 * span,
+                    3f32.sqrt() * span,
+                )
+            },
             settings,
         );
         let info = ctx.create_buffer_init(
@@ -140,7 +143,12 @@ impl VctSvo {
                 bytemuck::cast_slice(&[slots, 0, 0, 0]),
                 wgpu::BufferUsages::STORAGE,
             );
-            (buffers, tracer.pipeline(ctx, "bounce"), params, slots)
+            (
+                buffers,
+                tracer.bounce_pipeline(ctx, "bounce"),
+                params,
+                slots,
+            )
         });
         Ok(VctSvo {
             builder,
@@ -199,7 +207,7 @@ impl GiTechnique for VctSvo {
         if let Some((buffers, pipeline, params, slots)) = &self.bounce {
             let mut entries = structure.clone();
             entries.extend([
-                (5, self.tracer.params().as_entire_binding()),
+                (5, self.tracer.bounce_params().as_entire_binding()),
                 (20, params.as_entire_binding()),
                 (21, buffers.geometry.as_entire_binding()),
                 (22, buffers.irradiance.as_entire_binding()),

@@ -28,8 +28,13 @@ struct Stage {
 /// The gather, reconstruction and specular passes over one structure.
 pub(crate) struct ConeTracer {
     /// The trace module: the gather, the specular cone and any entry point the structure's
-    /// WGSL adds (the octree's bounce gather).
+    /// WGSL adds (the bounce gather).
     module: wgpu::ShaderModule,
+    /// The voxels' bounce gather: its cones, and its module where the cone set differs from
+    /// the pixels' (`None`: `module`), and its parameters (binding 5 of its passes).
+    bounce: DiffuseCones,
+    bounce_module: Option<wgpu::ShaderModule>,
+    bounce_params: wgpu::Buffer,
     sparse: u32,
     trace: wgpu::ComputePipeline,
     /// Sparse tracing: the reduced image and the reconstruction into the full one.
@@ -63,33 +68,41 @@ fn image(
 
 impl ConeTracer {
     /// The passes for images of `width` x `height` over the structure whose sampling WGSL is
-    /// `structure` (its sampler, then its `*_trace.wgsl`), recorded under `owner`, gathering
-    /// with the `diffuse` cones.
+    /// `structure` (its sampler, then its `*_trace.wgsl`), recorded under `owner`, the pixels
+    /// gathering with the `diffuse` cones and the voxels' bounce gather with the `bounce`
+    /// cones.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         ctx: &GpuContext,
         owner: &str,
         structure: &[&str],
         settings: &VctSettings,
         diffuse: DiffuseCones,
+        bounce: DiffuseCones,
         width: u32,
         height: u32,
     ) -> ConeTracer {
         let common = include_str!("../../render/common.wgsl");
         let sparse_wgsl = include_str!("sparse.wgsl");
-        let cone_set = super::gather::cone_set_wgsl(diffuse.cones);
-        let source = [common, cone_set.as_str()]
-            .iter()
-            .chain(structure)
-            .chain(&[
-                CONE_WGSL,
-                GATHER_WGSL,
-                sparse_wgsl,
-                include_str!("trace.wgsl"),
-            ])
-            .copied()
-            .collect::<Vec<_>>()
-            .join("\n");
-        let module = ctx.shader("vct trace", &source);
+        let module_with = |label: &str, cones: u32| {
+            let cone_set = super::gather::cone_set_wgsl(cones);
+            let source = [common, cone_set.as_str()]
+                .iter()
+                .chain(structure)
+                .chain(&[
+                    CONE_WGSL,
+                    GATHER_WGSL,
+                    sparse_wgsl,
+                    include_str!("trace.wgsl"),
+                ])
+                .copied()
+                .collect::<Vec<_>>()
+                .join("\n");
+            ctx.shader(label, &source)
+        };
+        let module = module_with("vct trace", diffuse.cones);
+        let bounce_module =
+            (bounce.cones != diffuse.cones).then(|| module_with("vct bounce", bounce.cones));
         let trace = ctx.compute_pipeline("vct trace", &module, "main");
         let specular = settings.specular.then(|| {
             let (texture, view) = image(ctx, owner, "specular radiance", width, height);
@@ -116,18 +129,25 @@ impl ConeTracer {
                 pipeline: ctx.compute_pipeline("vct upsample", &module, "main"),
             }
         });
-        let params = ctx.create_buffer(
-            owner,
-            &wgpu::BufferDescriptor {
-                label: Some("trace params"),
-                size: std::mem::size_of::<TraceParams>() as u64,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            },
-        );
+        let params_buffer = |label| {
+            ctx.create_buffer(
+                owner,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: std::mem::size_of::<TraceParams>() as u64,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        let params = params_buffer("trace params");
+        let bounce_params = params_buffer("bounce trace params");
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
         ConeTracer {
             module,
+            bounce,
+            bounce_module,
+            bounce_params,
             sparse: f,
             trace,
             upsample,
@@ -139,26 +159,32 @@ impl ConeTracer {
         }
     }
 
-    /// The diffuse cones this tracer gathers with.
-    pub(crate) fn diffuse(&self) -> DiffuseCones {
-        self.diffuse
-    }
-
-    /// Sets how cones are marched: `cone` (its `voxel` the finest voxel, its `start` unused:
-    /// the trace derives both from the voxel where each surface is) and the diffuse cones' start
-    /// offset, the settings' sparse factor, specular aperture and the specular cone's fixed sample count.
-    pub(crate) fn set_cone(&self, ctx: &GpuContext, cone: ConeParams, settings: &VctSettings) {
-        let params = TraceParams {
-            cone,
-            misc: [
-                self.diffuse.start,
-                settings.sparse as f32,
-                settings.specular_aperture(),
-                settings.specular_steps as f32,
-            ],
-        };
-        ctx.queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+    /// Sets how cones are marched: `cone(cones)` for the pixels' and the bounce's cones (its
+    /// `voxel` the finest voxel, its `start` unused: the trace derives both from the voxel
+    /// where each surface is), their start offsets, the settings' sparse factor, specular
+    /// aperture and the specular cone's fixed sample count.
+    pub(crate) fn set_cone(
+        &self,
+        ctx: &GpuContext,
+        cone: impl Fn(DiffuseCones) -> ConeParams,
+        settings: &VctSettings,
+    ) {
+        for (cones, buffer) in [
+            (self.diffuse, &self.params),
+            (self.bounce, &self.bounce_params),
+        ] {
+            let params = TraceParams {
+                cone: cone(cones),
+                misc: [
+                    cones.start,
+                    settings.sparse as f32,
+                    settings.specular_aperture(),
+                    settings.specular_steps as f32,
+                ],
+            };
+            ctx.queue
+                .write_buffer(buffer, 0, bytemuck::bytes_of(&params));
+        }
     }
 
     /// Records the gather (and the reconstruction and specular cone where enabled) with the
@@ -238,14 +264,16 @@ impl ConeTracer {
         }
     }
 
-    /// The trace parameters (`TraceParams`, binding 5 of the trace module).
-    pub(crate) fn params(&self) -> &wgpu::Buffer {
-        &self.params
+    /// The bounce gather's parameters (`TraceParams`, binding 5 of its passes).
+    pub(crate) fn bounce_params(&self) -> &wgpu::Buffer {
+        &self.bounce_params
     }
 
-    /// A pipeline of the trace module's entry point `entry` (one the structure's WGSL adds).
-    pub(crate) fn pipeline(&self, ctx: &GpuContext, entry: &str) -> wgpu::ComputePipeline {
-        ctx.compute_pipeline(entry, &self.module, entry)
+    /// A pipeline of the bounce gather's entry point `entry` (one the structure's WGSL adds),
+    /// compiled with the bounce's cone set.
+    pub(crate) fn bounce_pipeline(&self, ctx: &GpuContext, entry: &str) -> wgpu::ComputePipeline {
+        let module = self.bounce_module.as_ref().unwrap_or(&self.module);
+        ctx.compute_pipeline(entry, module, entry)
     }
 
     /// Indirect irradiance (rgb, W/m^2) and ambient occlusion (alpha).
