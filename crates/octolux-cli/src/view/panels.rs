@@ -243,7 +243,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             return changed;
         }
         "probes-grid" | "probes-octree" => {
-            use octolux::gi::probes::{Encoding, Lattice, OctreeGather, SurfelRange, Visibility};
+            use octolux::gi::probes::{
+                Encoding, Lattice, OctreeGather, RayBackend, SurfelRange, Visibility,
+            };
             let p = &mut s.probes;
             if technique == "probes-grid" {
                 let mut side = p.grid[0];
@@ -277,7 +279,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     });
                 changed |= before != (p.gather, p.surfel_range);
             }
-            let before = (p.surfels, p.lattice, p.encoding, p.visibility);
+            let before = (p.surfels, p.lattice, p.encoding, p.visibility, p.rays);
             ComboBox::from_label("surfels per probe")
                 .selected_text(p.surfels.map_or("default".to_string(), |n| n.to_string()))
                 .show_ui(ui, |ui| {
@@ -304,7 +306,13 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     ui.selectable_value(&mut p.visibility, Visibility::Moments, "depth moments");
                     ui.selectable_value(&mut p.visibility, Visibility::None, "none");
                 });
-            changed |= before != (p.surfels, p.lattice, p.encoding, p.visibility);
+            ComboBox::from_label("rays")
+                .selected_text(format!("{:?}", p.rays))
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut p.rays, RayBackend::Bvh, "BVH (exact)");
+                    ui.selectable_value(&mut p.rays, RayBackend::Voxels, "voxel octree");
+                });
+            changed |= before != (p.surfels, p.lattice, p.encoding, p.visibility, p.rays);
             changed |= ui
                 .checkbox(&mut p.multi_bounce, "multiple bounces")
                 .changed();
