@@ -50,8 +50,9 @@ bench() { # json scene fps flags...
 # sizing allows to the octree's (levels of (R/2)^3 covering 0.55, 1.1 and 2.2 times the
 # scene from the flight's start, as 003's Table 1 levels 1-3).
 sizes() { echo --vct-octree-resolution "$1" --vct-resolution $(($1 / 2)) --vct-levels 3; }
-# One bounce (003 has no multiple bounces).
-common=(--vct-multi-bounce false)
+# One bounce (003 has no multiple bounces), and 003's six cones of 60 degrees for both, so
+# that the two differ only in the structure (each technique's own default cones differ).
+common=(--vct-multi-bounce false --vct-cones 6 --vct-aperture 60 --vct-start 1.5)
 
 for c in $cases; do
   case $c in
