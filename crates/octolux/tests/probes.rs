@@ -175,9 +175,11 @@ fn multiple_bounces_converge_towards_the_full_reference() {
 #[test]
 fn moving_objects_are_lit_where_they_are() {
     // The animated box at t = 1.5 s (the short block moved and turned, the spot swung): the
-    // animated objects' BVH (or the voxel octree's dynamic part) is rebuilt every frame and
-    // the surfels re-placed, so the image beats GI off against the one-bounce reference at
-    // that time, and equals a fresh render at that time (nothing of the earlier pose stays).
+    // animated objects' transforms (or the voxel octree's dynamic part) follow every frame
+    // and the surfels whose rays cross the block's old or new bounds are traced again, so the
+    // image beats GI off against the one-bounce reference at that time, and equals a fresh
+    // render at that time, which traces every ray (nothing of the earlier pose stays: keeping
+    // every surfel of the frame at 1.4 s instead gives a relMSE of 3.5e-3 between the two).
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let path = concat!(

@@ -67,6 +67,12 @@ impl Track {
         }
         let i = self.keys.partition_point(|k| k.time <= t);
         let (a, b) = (self.keys[i - 1], self.keys[i]);
+        // Between equal keys the object holds still exactly (slerp's rounding would move it
+        // by a few ULPs from one frame to the next, and everything that watches for motion
+        // would update).
+        if (a.translation, a.rotation) == (b.translation, b.rotation) {
+            return (a.translation, a.rotation);
+        }
         let s = ((t - a.time) / (b.time - a.time).max(1e-9)).clamp(0.0, 1.0);
         (
             a.translation.lerp(b.translation, s),
@@ -105,5 +111,27 @@ mod tests {
             ..track
         };
         assert!((looping.sample(1.25).0.x - 0.25).abs() < 1e-6);
+    }
+
+    #[test]
+    fn equal_keys_hold_still_exactly() {
+        // A turned object resting between two equal keys: every time in between gives the
+        // same transform bit for bit, so nothing sees it move.
+        let rest = Quat::from_rotation_y(0.7);
+        let key = |time| Keyframe {
+            time,
+            translation: Vec3::new(0.4, 0.0, 0.1),
+            rotation: rest,
+        };
+        let track = Track::new(vec![key(0.0), key(3.0)], false).unwrap();
+        let first = track.transform_at(0.0);
+        for i in 0..300 {
+            assert_eq!(
+                track.transform_at(i as f32 / 100.0),
+                first,
+                "t = {}",
+                i as f32 / 100.0
+            );
+        }
     }
 }

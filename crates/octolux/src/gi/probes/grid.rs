@@ -145,6 +145,8 @@ pub struct ProbesGrid {
     grid: ProbeGrid,
     passes: ProbePasses,
     placed: bool,
+    /// Object transforms of the previous frame (None before the first).
+    last_transforms: Option<Vec<glam::Mat4>>,
 }
 
 impl ProbesGrid {
@@ -176,6 +178,7 @@ impl ProbesGrid {
             grid,
             passes,
             placed: false,
+            last_transforms: None,
         })
     }
 
@@ -223,9 +226,18 @@ impl GiTechnique for ProbesGrid {
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         self.passes.begin_frame(ctx, frame, timer)?;
-        // 1. Surfels: rays from every probe along its lattice (once for a static scene), and
-        //    the probes' depth moments from them.
-        if !self.placed || self.passes.animated {
+        let now = &frame.frame.object_transforms;
+        let moved = match &self.last_transforms {
+            Some(before) => super::octree_gpu::moved_boxes(frame.scene, before, now),
+            None => Vec::new(),
+        };
+        self.last_transforms = Some(now.clone());
+        // 1. Surfels: rays from every probe along its lattice (once for a static scene; after
+        //    that only the rays that cross an object that moved), and the probes' depth
+        //    moments from them.
+        if !self.placed || !moved.is_empty() {
+            let keep = self.placed.then_some(moved.as_slice());
+            self.passes.set_moved(ctx, keep)?;
             self.passes.place(ctx, timer, None);
             self.passes.build_moments(ctx, timer, None);
             self.placed = true;

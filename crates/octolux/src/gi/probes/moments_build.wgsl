@@ -1,5 +1,6 @@
 // Depth moments (moments.wgsl): one invocation per probe and texel of its map, over the
-// probes the set has just placed. Each texel holds the kernel-weighted mean distance and mean
+// probes the set has just placed (with a placement that keeps unchanged surfels, P.limits.w,
+// only those with a ray traced again this frame, stamped by the placement). Each texel holds the kernel-weighted mean distance and mean
 // squared distance of the probe's surfels (misses at the ray's maximum distance, P.lo.w),
 // weighted by max(0, t . d)^8 for the texel's direction t and the surfel's lattice direction
 // d. Each invocation writes its own texel: no atomics.
@@ -7,6 +8,7 @@
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> moments: array<vec2<f32>>;
+@group(0) @binding(3) var<storage, read> probe_stamps: array<u32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
@@ -14,6 +16,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     let id = linear_index(wg, nwg, li);
     let probe = id / MOMENT_TEXELS;
     if probe >= P.roots.z || !probe_wants_place(probe) {
+        return;
+    }
+    if P.limits.w != 0u && probe_stamps[probe] != P.frame.x {
         return;
     }
     let t = moment_texel_dir(id % MOMENT_TEXELS);

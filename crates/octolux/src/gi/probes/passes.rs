@@ -30,6 +30,7 @@ pub(crate) struct ProbeParams {
     pub(crate) roots: [u32; 4],
     limits: [u32; 4],
     vis: [f32; 4],
+    frame: [u32; 4],
 }
 
 /// A probe set's WGSL: what every pass includes (positions, liveness, placement), and what
@@ -146,6 +147,11 @@ pub(crate) struct ProbePasses {
     rays: Rays,
     /// Whether any object moves: then the rays' animated part is rebuilt every frame.
     pub animated: bool,
+    /// The boxes of the objects that moved since the surfels were placed (two per animated
+    /// object at most: old and new bounds), for a placement that keeps the other surfels.
+    moved: wgpu::Buffer,
+    /// Per probe, the last frame that traced any of its rays (`P.frame.x`).
+    stamps: wgpu::Buffer,
     surfels: wgpu::Buffer,
     radiance: wgpu::Buffer,
     probes: wgpu::Buffer,
@@ -174,7 +180,12 @@ impl ProbePasses {
         set: &ProbeSetWgsl,
     ) -> Result<ProbePasses> {
         let bounds = scene.bounds_at(0.0);
-        let animated = scene.objects.iter().any(|o| o.animation.is_some());
+        let animated_objects = scene
+            .objects
+            .iter()
+            .filter(|o| o.animation.is_some())
+            .count();
+        let animated = animated_objects > 0;
         let probes = layout.probes;
         let surfels = probes as u64 * settings.surfel_count() as u64;
         if surfels > u32::MAX as u64 / SURFEL_VEC4 as u32 as u64 {
@@ -202,6 +213,7 @@ impl ProbePasses {
                 0,
             ],
             vis: [variance_floor(layout.cell), 0.0, 0.0, 0.0],
+            frame: [0; 4],
         };
         let rays = Rays::new(
             ctx,
@@ -258,6 +270,8 @@ impl ProbePasses {
             )?,
             matrices: None,
             rays,
+            moved: storage(ctx, owner, "moved boxes", animated_objects as u64 * 2 * 32)?,
+            stamps: storage(ctx, owner, "probe stamps", probes as u64 * 4)?,
             place: pipeline(
                 "probes place",
                 include_str!("place.wgsl"),
@@ -328,6 +342,7 @@ impl ProbePasses {
             self.rays.sync_moving(ctx, frame, timer, &mut self.params)?;
         }
         self.params.misc[2] = frame.frame.lights.len() as u32;
+        self.params.frame[0] = self.params.frame[0].wrapping_add(1).max(1);
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         self.sync_matrices(ctx, frame)
@@ -360,15 +375,56 @@ impl ProbePasses {
         Ok(())
     }
 
+    /// What the next placement re-traces: every surfel of the probes the set asks for
+    /// (`None`), or only those whose rays cross one of `boxes` (the old and new bounds of the
+    /// objects that moved since the surfels were placed; the others keep their hits, which
+    /// nothing that moved can have changed). At most two boxes per animated object.
+    pub fn set_moved(&mut self, ctx: &GpuContext, boxes: Option<&[(Vec3, Vec3)]>) -> Result<()> {
+        let selective = boxes.is_some();
+        let boxes = boxes.unwrap_or(&[]);
+        let margin = self.rays.hit_margin();
+        let words: Vec<[f32; 4]> = boxes
+            .iter()
+            .flat_map(|&(lo, hi)| {
+                // Padded: a hit on a face of the box must count as inside on every adapter,
+                // and a voxel hit may lie beyond the triangles' bounds.
+                let pad = (hi - lo).length() * 1e-3 + 1e-5 + margin;
+                [
+                    (lo - pad).extend(0.0).to_array(),
+                    (hi + pad).extend(0.0).to_array(),
+                ]
+            })
+            .collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&words);
+        if bytes.len() as u64 > self.moved.size() {
+            return Err(Error::InvalidArgument(format!(
+                "{}: {} moved boxes, more than two per animated object",
+                self.owner,
+                boxes.len()
+            )));
+        }
+        ctx.queue.write_buffer(&self.moved, 0, bytes);
+        self.params.limits[2] = boxes.len() as u32;
+        self.params.limits[3] = u32::from(selective);
+        ctx.queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        Ok(())
+    }
+
     fn surfel_groups(&self) -> (u32, u32) {
         dispatch_size(self.params.roots[3])
     }
 
     /// Surfels: rays from the probes the set asks for along their lattices.
     pub fn place(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<&wgpu::BindGroup>) {
-        let mut entries = vec![buf(&self.params_buffer), buf(&self.surfels)];
-        entries.extend(self.rays.place_bindings());
-        let group = bind(ctx, "probes place", &self.place, &entries);
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.surfels)),
+            (7, buf(&self.moved)),
+            (8, buf(&self.stamps)),
+        ];
+        entries.extend((2..).zip(self.rays.place_bindings()));
+        let group = bind_at(ctx, "probes place", &self.place, 0, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         run_pass(
             timer,
@@ -397,6 +453,7 @@ impl ProbePasses {
                 buf(&self.params_buffer),
                 buf(&self.surfels),
                 buf(&self.moments),
+                buf(&self.stamps),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();

@@ -4,10 +4,34 @@
 // place_voxels.wgsl, gi/probes/rays.rs) provides `surfel_hit` and its bindings from 2 on.
 // Only probes the probe set asks for are placed; a hit beyond the probe's region (the
 // octree's cube) is marked by a negative distance, or is a miss where the set keeps no far
-// hits.
+// hits. With P.limits.w set (surfels placed by an earlier frame, objects moved since), a
+// surfel whose ray, from the probe to its hit (or to the ray's end for a miss), crosses none
+// of the moved objects' old and new boxes keeps its hit: only the rays that may have changed
+// are traced again.
 
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read_write> surfels: array<vec4<f32>>;
+// Per moved box: (lower corner, 0), (upper corner, 0).
+@group(0) @binding(7) var<storage, read> moved_boxes: array<vec4<f32>>;
+// Per probe, the last frame that traced any of its rays again (for the moments' pass). Every
+// invocation that stores writes the same value: a plain store, no read-modify-write.
+@group(0) @binding(8) var<storage, read_write> probe_stamps: array<atomic<u32>>;
+
+// Whether the segment a -> b meets any of the P.limits.z moved boxes.
+fn segment_meets_moved(a: vec3<f32>, b: vec3<f32>) -> bool {
+    let d = b - a;
+    let inv = 1.0 / select(d, vec3<f32>(1e-30), d == vec3<f32>(0.0));
+    for (var i = 0u; i < P.limits.z; i++) {
+        let t0 = (moved_boxes[2u * i].xyz - a) * inv;
+        let t1 = (moved_boxes[2u * i + 1u].xyz - a) * inv;
+        let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
+        let far = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), 1.0));
+        if near <= far {
+            return true;
+        }
+    }
+    return false;
+}
 
 // What a ray structure reports for a surfel ray: distance (negative: no hit), the surface's
 // normal as stored (not turned towards the ray; zero: none, the surface counts as seen
@@ -33,9 +57,17 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     let d = lattice_dir(P.misc.x, s % n, n).xyz;
     let o = probe_origin(probe);
+    let b = s * SURFEL_VEC4;
+    if P.limits.w != 0u {
+        let old = surfels[b];
+        let end = select(old.xyz, o + d * P.lo.w, old.w == 0.0);
+        if !segment_meets_moved(o, end) {
+            return;
+        }
+    }
+    atomicStore(&probe_stamps[probe], P.frame.x);
     let hit = surfel_hit(o, d, P.lo.w);
     let inside = hit.t <= probe_region_exit(probe, d);
-    let b = s * SURFEL_VEC4;
     if hit.t < 0.0 || !(inside || probe_keeps_far_hits()) {
         surfels[b] = vec4<f32>(o, 0.0);
         surfels[b + 1u] = vec4<f32>(0.0);

@@ -13,10 +13,13 @@ struct ProbeParams {
     misc: vec4<u32>,
     // x, y: BVH roots (static, animated; 0xffffffff none), z: probe slots, w: surfel count
     roots: vec4<u32>,
-    // x: most back-face hits of a probe still gathered; y: visibility (0 none, 1 moments)
+    // x: most back-face hits of a probe still gathered; y: visibility (0 none, 1 moments);
+    // z: moved boxes; w: 1 = placement keeps the surfels whose rays cross no moved box
     limits: vec4<u32>,
     // x: variance floor of the depth moments (m^2)
     vis: vec4<f32>,
+    // x: this frame's number (1, 2, ...), which placement stamps on the probes it re-traces
+    frame: vec4<u32>,
 };
 
 // Words (vec4) per probe: 8 encoding coefficients, then (back-face share, hit share, valid, 0).

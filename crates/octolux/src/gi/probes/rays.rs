@@ -168,6 +168,16 @@ impl Rays {
         }
     }
 
+    /// How far a hit may lie outside the bounds of the triangles it stands for: nothing for
+    /// the BVH; two voxels for the octree (a conservatively voxelised triangle marks voxels
+    /// beyond its bounds, and a voxel hit lies anywhere in its voxel).
+    pub fn hit_margin(&self) -> f32 {
+        match self {
+            Rays::Bvh(_) => 0.0,
+            Rays::Voxels(v) => 2.0 * v.svo.grid.voxel_size,
+        }
+    }
+
     /// The octree the voxel rays walk (`None` for the BVH).
     pub fn svo(&self) -> Option<&Svo> {
         match self {
