@@ -11,7 +11,8 @@ struct ProbeParams {
     dims: vec4<u32>,
     // x: lattice kind, y: encoding kind, z: light count, w: 1 = surfels get probe light
     misc: vec4<u32>,
-    // x, y: BVH roots (static, animated; 0xffffffff none), z: probe slots, w: surfel count
+    // x: static BVH root (0xffffffff none), y: animated objects (BVH instances), z: probe
+    // slots, w: surfel count
     roots: vec4<u32>,
     // x: most back-face hits of a probe still gathered; y: visibility (0 none, 1 moments);
     // z: moved boxes; w: 1 = placement keeps the surfels whose rays cross no moved box

@@ -7,9 +7,8 @@
 //!   animated objects' transforms are uploaded (`place_bvh.wgsl`).
 //! - **Voxels**: the octree's static part is built on the GPU once, its dynamic part is
 //!   voxelized and rebuilt on the GPU every frame from the animated triangles
-//!   (`place_voxels.wgsl`); the
-//!   first occupied voxel along a ray becomes the surfel, with its fragments' mean albedo,
-//!   emission and normal.
+//!   (`place_voxels.wgsl`); the first occupied voxel along a ray becomes the surfel, with its
+//!   fragments' mean albedo, emission and normal.
 //!
 //! docs/probes.md compares the two on the same scenes.
 
@@ -48,7 +47,7 @@ impl std::str::FromStr for RayBackend {
 /// WGSL of the voxel rays' functions (`voxel_ray`, `voxel_closest`), after the walk's.
 pub(crate) const VOXEL_RAYS_WGSL: &str = include_str!("voxel_rays.wgsl");
 
-/// Root of an absent BVH part.
+/// Root of an absent static BVH.
 const NO_ROOT: u32 = u32::MAX;
 
 /// The ray structure of a probe technique with its buffers.
@@ -78,8 +77,9 @@ pub(crate) struct VoxelRays {
 }
 
 impl Rays {
-    /// The structure `backend` for `scene` (octree of `resolution`^3 voxels); sets the BVH
-    /// roots in `params`.
+    /// The structure `backend` for `scene` (octree of `resolution`^3 voxels); sets the static
+    /// BVH's root in `params` (the animated objects' count follows every frame,
+    /// [`Rays::sync_moving`]).
     pub fn new(
         ctx: &GpuContext,
         owner: &str,
@@ -89,7 +89,7 @@ impl Rays {
         params: &mut ProbeParams,
     ) -> Result<Rays> {
         params.roots[0] = NO_ROOT;
-        params.roots[1] = NO_ROOT;
+        params.roots[1] = 0;
         match backend {
             RayBackend::Bvh => {
                 let bvh = SceneBvh::build(scene);
@@ -102,7 +102,6 @@ impl Rays {
                 if !bvh.still.nodes.is_empty() {
                     params.roots[0] = 0;
                 }
-                params.roots[1] = 0;
                 let instances = bvh.instances(scene, &scene.frame(0.0, 0), &roots)?;
                 let instances = if instances.is_empty() {
                     vec![GpuInstance::default()]
