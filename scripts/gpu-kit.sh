@@ -81,8 +81,14 @@ done
 # BENCH_ARGS replaces the size and frame counts (e.g. for a quick try on a CPU adapter).
 read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 5 --frames 20}"
 (cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/cornell-afternoon.toml scenes/crytek-sponza.toml \
-  --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
+  --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
   tee "$results/bench.txt"
+# The probes' two ray structures while the bunny turns (docs/probes.md, "Rays").
+for rays in bvh voxels; do
+  (cd "$root" && "$bin" bench scenes/cornell-bunny-turn.toml --gi probes-grid,probes-octree \
+    --probes-rays "$rays" --time 4.0 --fps 60 --no-reference "${args[@]}" \
+    --json "$results/bench-probe-rays-$rays.json") 2>&1 | tee "$results/bench-probe-rays-$rays.txt"
+done
 # The voxel structures' measuring tests, with their tables (docs/voxels.md, docs/performance.md).
 for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
   set -- $spec
