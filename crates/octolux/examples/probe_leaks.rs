@@ -126,26 +126,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 fn room_of_pixels(r: &Renderer) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
     let g = r.read_gbuffer()?;
     let view = *r.last_view().ok_or("no frame rendered")?;
-    let width = view.width;
-    Ok(g.depth
-        .iter()
-        .enumerate()
-        .map(|(i, &depth)| {
-            if depth >= 1.0 {
-                return 0;
-            }
-            let (x, y) = (
-                (i as u32 % width) as f32 + 0.5,
-                (i as u32 / width) as f32 + 0.5,
-            );
-            let p = view.world_point(x, y, depth);
-            if p.x < WALL.0 - 1e-3 {
-                1
-            } else if p.x > WALL.1 + 1e-3 {
-                2
-            } else {
-                0
-            }
+    Ok(view
+        .world_points(&g.depth)
+        .into_iter()
+        .map(|p| match p {
+            Some(p) if p.x < WALL.0 - 1e-3 => 1,
+            Some(p) if p.x > WALL.1 + 1e-3 => 2,
+            _ => 0,
         })
         .collect())
 }

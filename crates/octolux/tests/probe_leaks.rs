@@ -27,25 +27,12 @@ fn scene() -> Scene {
 fn rooms(r: &Renderer) -> Vec<u8> {
     let g = r.read_gbuffer().unwrap();
     let view = *r.last_view().unwrap();
-    g.depth
-        .iter()
-        .enumerate()
-        .map(|(i, &depth)| {
-            if depth >= 1.0 {
-                return 0;
-            }
-            let (x, y) = (
-                (i as u32 % SIZE) as f32 + 0.5,
-                (i as u32 / SIZE) as f32 + 0.5,
-            );
-            let p = view.world_point(x, y, depth);
-            if p.x < WALL.0 - 1e-3 {
-                1
-            } else if p.x > WALL.1 + 1e-3 {
-                2
-            } else {
-                0
-            }
+    view.world_points(&g.depth)
+        .into_iter()
+        .map(|p| match p {
+            Some(p) if p.x < WALL.0 - 1e-3 => 1,
+            Some(p) if p.x > WALL.1 + 1e-3 => 2,
+            _ => 0,
         })
         .collect()
 }

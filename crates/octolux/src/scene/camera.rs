@@ -145,4 +145,19 @@ impl CameraView {
         self.inv_view_proj
             .project_point3(Vec3::new(ndc_x, ndc_y, depth))
     }
+
+    /// The world position at every pixel's centre of a depth buffer of this view's size
+    /// (row by row, as [`crate::render::GBufferImages::depth`]), `None` where it holds the
+    /// background (depth 1).
+    pub fn world_points(&self, depth: &[f32]) -> Vec<Option<Vec3>> {
+        let width = self.width.max(1) as usize;
+        depth
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| {
+                let (x, y) = ((i % width) as f32 + 0.5, (i / width) as f32 + 0.5);
+                (d < 1.0).then(|| self.world_point(x, y, d))
+            })
+            .collect()
+    }
 }

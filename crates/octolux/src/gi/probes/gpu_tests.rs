@@ -400,12 +400,11 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
         let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
         let indirect: &[u16] = bytemuck::cast_slice(&bytes);
         let mut lit = 0;
-        for (i, (&depth, normal)) in g.depth.iter().zip(&g.normal).enumerate() {
-            if depth >= 1.0 {
+        let points = view.world_points(&g.depth);
+        for (i, (point, normal)) in points.iter().zip(&g.normal).enumerate() {
+            let Some(p) = *point else {
                 continue;
-            }
-            let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
-            let p = view.world_point(x, y, depth);
+            };
             let moments = (visibility == Visibility::Moments).then(|| MomentMaps {
                 maps: &maps,
                 floor: technique.variance_floor(),

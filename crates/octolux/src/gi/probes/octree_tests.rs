@@ -271,12 +271,11 @@ fn octree_gather_equals_its_cpu_twin() {
         let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
         let indirect: &[u16] = bytemuck::cast_slice(&bytes);
         let (mut lit, mut off) = (0, 0);
-        for (i, (&depth, normal)) in g.depth.iter().zip(&g.normal).enumerate() {
-            if depth >= 1.0 {
+        let points = camera.world_points(&g.depth);
+        for (i, (point, normal)) in points.iter().zip(&g.normal).enumerate() {
+            let Some(p) = *point else {
                 continue;
-            }
-            let (x, y) = ((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
-            let p = camera.world_point(x, y, depth);
+            };
             let want = view.irradiance(&probes, &probe_data, p, normal.normalize());
             let got = Vec3::from_array(std::array::from_fn(|c| {
                 crate::render::f16_to_f32(indirect[4 * i + c])
