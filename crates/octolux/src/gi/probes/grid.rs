@@ -225,19 +225,23 @@ impl GiTechnique for ProbesGrid {
     }
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
-        self.passes.begin_frame(ctx, frame, timer)?;
         let now = &frame.frame.object_transforms;
         let moved = match &self.last_transforms {
             Some(before) => super::octree_gpu::moved_boxes(frame.scene, before, now),
             None => Vec::new(),
         };
         self.last_transforms = Some(now.clone());
-        // 1. Surfels: rays from every probe along its lattice (once for a static scene; after
-        //    that only the rays that cross an object that moved), and the probes' depth
-        //    moments from them.
-        if !self.placed || !moved.is_empty() {
-            let keep = self.placed.then_some(moved.as_slice());
-            self.passes.set_moved(ctx, keep)?;
+        // Surfels are placed once, then again where an object moved: only the rays that cross
+        // its old or new bounds.
+        let place = !self.placed || !moved.is_empty();
+        if place {
+            self.passes
+                .set_moved(ctx, self.placed.then_some(moved.as_slice()))?;
+        }
+        self.passes.begin_frame(ctx, frame, timer)?;
+        // 1. Surfels: rays from every probe along its lattice (see above), and the probes'
+        //    depth moments from them.
+        if place {
             self.passes.place(ctx, timer, None);
             self.passes.build_moments(ctx, timer, None);
             self.placed = true;

@@ -378,7 +378,8 @@ impl ProbePasses {
     /// What the next placement re-traces: every surfel of the probes the set asks for
     /// (`None`), or only those whose rays cross one of `boxes` (the old and new bounds of the
     /// objects that moved since the surfels were placed; the others keep their hits, which
-    /// nothing that moved can have changed). At most two boxes per animated object.
+    /// nothing that moved can have changed). At most two boxes per animated object. Call it
+    /// before [`ProbePasses::begin_frame`], which uploads the parameters.
     pub fn set_moved(&mut self, ctx: &GpuContext, boxes: Option<&[(Vec3, Vec3)]>) -> Result<()> {
         let selective = boxes.is_some();
         let boxes = boxes.unwrap_or(&[]);
@@ -406,8 +407,6 @@ impl ProbePasses {
         ctx.queue.write_buffer(&self.moved, 0, bytes);
         self.params.limits[2] = boxes.len() as u32;
         self.params.limits[3] = u32::from(selective);
-        ctx.queue
-            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         Ok(())
     }
 
