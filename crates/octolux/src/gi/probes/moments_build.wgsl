@@ -1,9 +1,10 @@
 // Depth moments (moments.wgsl): one invocation per probe and texel of its map, over the
 // probes the set has just placed (with a placement that keeps unchanged surfels, P.limits.w,
-// only those with a ray traced again this frame, stamped by the placement). Each texel holds the kernel-weighted mean distance and mean
-// squared distance of the probe's surfels (misses at the ray's maximum distance, P.lo.w),
-// weighted by max(0, t . d)^8 for the texel's direction t and the surfel's lattice direction
-// d. Each invocation writes its own texel: no atomics.
+// only those with a ray traced again this frame, stamped by the placement). Each texel holds
+// the kernel-weighted mean distance and mean squared distance of the probe's surfels (misses
+// at the ray's maximum distance, P.lo.w), weighted by `moment_kernel`, max(0, t . d)^32, for
+// the texel's direction t and the surfel's lattice direction d. Each invocation writes its
+// own texel: no atomics.
 
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;

@@ -1,6 +1,7 @@
 //! The passes every probe technique shares (docs/probes.md): surfel placement through the
-//! scene's BVH or voxels ([`super::rays`]), surfel light, probe integration and the pixel gather, over a *probe set* that
-//! says where the probes are, which are live, which to (re)place and how a point reads them:
+//! scene's BVH or voxels ([`super::rays`]), surfel light, probe integration and the pixel
+//! gather, over a *probe set* that says where the probes are, which are live, which to
+//! (re)place and how a point reads them:
 //! the uniform grid (grid.wgsl, grid_sample.wgsl) or the octree (octree_set.wgsl,
 //! octree_sample.wgsl, with its buffers in bind group 1).
 
@@ -145,7 +146,8 @@ pub(crate) struct ProbePasses {
     params: ProbeParams,
     pub params_buffer: wgpu::Buffer,
     rays: Rays,
-    /// Whether any object moves: then the rays' animated part is rebuilt every frame.
+    /// Whether any object moves: then the ray structure follows the animated objects every
+    /// frame.
     pub animated: bool,
     /// The boxes of the objects that moved since the surfels were placed (two per animated
     /// object at most: old and new bounds), for a placement that keeps the other surfels.
@@ -330,8 +332,8 @@ impl ProbePasses {
     }
 
     /// Brings the rays and lights up to date with `frame`: the animated objects in the ray
-    /// structure (a BVH rebuilt on the CPU, or the octree's dynamic part rebuilt by passes
-    /// recorded into `timer`), the light count, the shadow matrices.
+    /// structure (their transforms in the two-level BVH, or the octree's dynamic part rebuilt
+    /// by passes recorded into `timer`), the light count, the shadow matrices.
     pub fn begin_frame(
         &mut self,
         ctx: &GpuContext,

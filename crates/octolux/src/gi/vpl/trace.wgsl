@@ -170,7 +170,8 @@ fn svo_voxel_sums(v: vec3<i32>) -> array<u32, 10> {
         let entry = svo_leaf[leaf];
         let mask = entry & 255u;
         if (mask & (1u << o)) != 0u {
-            let at = vo.leaf_count + ((entry >> 8u) + countOneBits(mask & ((1u << o) - 1u))) * SVO_SUM_WORDS;
+            let slot = (entry >> 8u) + countOneBits(mask & ((1u << o) - 1u));
+            let at = vo.leaf_count + slot * SVO_SUM_WORDS;
             for (var i = 0u; i < SVO_SUM_WORDS; i++) {
                 s[i] += svo_leaf[at + i];
             }
