@@ -2,62 +2,10 @@
 //! `[settings.lpv]` table: valid values render, invalid ones are clear errors (exit code 1, an
 //! `error:` line naming the setting or the file, no panic).
 
+mod common;
+
+use common::{assert_fails_with, assert_succeeds, render_small as render, temp_dir};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn octolux(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octolux"))
-        .args(args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .expect("run octolux")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-lpv-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// `octolux render` of the built-in Cornell box at 16 x 16 with extra arguments.
-fn render(dir: &Path, scene: Option<&Path>, extra: &[&str]) -> Output {
-    let out = dir.join("out.png");
-    let mut args = vec!["render"];
-    if let Some(scene) = scene {
-        args.push(scene.to_str().unwrap());
-    }
-    args.extend([
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--shadow-map-size",
-        "64",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    args.extend(extra);
-    octolux(&args)
-}
-
-fn assert_succeeds(output: &Output) {
-    assert!(
-        output.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
-
-/// Asserts a clean failure: exit code 1, every `needle` in stderr, no panic.
-fn assert_fails_with(output: &Output, needles: &[&str]) {
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(1), "stderr: {stderr}");
-    assert!(!stderr.contains("panicked"), "panic: {stderr}");
-    assert!(stderr.contains("error"), "no error line: {stderr}");
-    for needle in needles {
-        assert!(stderr.contains(needle), "'{needle}' not in: {stderr}");
-    }
-}
 
 /// The MiB the `--stats` memory table lists for `owner`.
 fn owner_mib(stdout: &str, owner: &str) -> f64 {
@@ -90,7 +38,7 @@ fn scene_file(dir: &Path, settings: &str) -> PathBuf {
 
 #[test]
 fn lpv_flags_render() {
-    let dir = temp_dir("flags");
+    let dir = temp_dir("lpv-cli-flags");
     for args in [
         &["--gi", "lpv", "--lpv-size", "16", "--lpv-iterations", "8"][..],
         &[
@@ -138,7 +86,7 @@ fn lpv_flags_render() {
 
 #[test]
 fn bad_lpv_values_are_clear_errors() {
-    let dir = temp_dir("bad");
+    let dir = temp_dir("lpv-cli-bad");
     let cases: [(&[&str], &[&str]); 8] = [
         (
             &["--gi", "lpv", "--lpv-size", "0"],
@@ -172,7 +120,7 @@ fn bad_lpv_values_are_clear_errors() {
 
 #[test]
 fn scene_file_lpv_table_is_applied() {
-    let dir = temp_dir("table");
+    let dir = temp_dir("lpv-cli-table");
     // Applied: a value the file sets shows in the technique's memory (the RSM dominates it),
     // and an invalid value from the file is refused like the same flag.
     let small = scene_file(&dir, "[settings.lpv]\nrsm_size = 32\nsize = 8\n");
@@ -202,7 +150,7 @@ fn scene_file_lpv_table_is_applied() {
 
 #[test]
 fn unknown_key_in_the_lpv_table_names_the_file() {
-    let dir = temp_dir("unknown");
+    let dir = temp_dir("lpv-cli-unknown");
     let path = scene_file(&dir, "[settings.lpv]\nsize = 16\niteratons = 8\n");
     let output = render(&dir, Some(&path), &["--gi", "lpv"]);
     assert_fails_with(&output, &["scene.toml", "iteratons"]);

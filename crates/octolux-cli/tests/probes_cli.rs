@@ -1,31 +1,15 @@
 //! End-to-end tests of the probe octree's and ray flags of `octolux render`: valid values render,
 //! invalid ones are clear errors (an `error:` line naming the setting, no panic).
 
-use std::process::{Command, Output};
+mod common;
 
+use std::process::Output;
+
+/// A small render with `--gi probes-octree` and `extra`.
 fn render(extra: &[&str]) -> Output {
-    let dir = std::env::temp_dir().join(format!("octolux-probes-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join("out.png");
-    let mut args = vec![
-        "render",
-        "--gi",
-        "probes-octree",
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--shadow-map-size",
-        "64",
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let mut args = vec!["--gi", "probes-octree"];
     args.extend(extra);
-    Command::new(env!("CARGO_BIN_EXE_octolux"))
-        .args(&args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .expect("run octolux")
+    common::render_small(&common::temp_dir("probes-cli"), None, &args)
 }
 
 #[test]
