@@ -99,6 +99,10 @@ pub struct GiArgs {
     /// Cone tracing (vct-svo): nodes reserved for the animated objects' voxels (default 65536).
     #[arg(long)]
     pub vct_dynamic_reserve: Option<u32>,
+    /// Cone tracing (vct-svo): read the octree's radiance per travel direction (6 values per
+    /// node), `true` or `false` (default: isotropic, scaled by the footprint).
+    #[arg(long)]
+    pub vct_anisotropic: Option<bool>,
     /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over
     /// frames, `true` (default) or `false` (one bounce).
     #[arg(long)]
@@ -238,6 +242,7 @@ impl GiArgs {
         set(&mut vct.sparse, self.vct_sparse);
         set(&mut vct.octree_resolution, self.vct_octree_resolution);
         set(&mut vct.dynamic_reserve, self.vct_dynamic_reserve);
+        set(&mut vct.anisotropic, self.vct_anisotropic);
         set(&mut vct.roughness, self.vct_roughness);
         set(&mut vct.specular_steps, self.vct_specular_steps);
         set(&mut vct.multi_bounce, self.vct_multi_bounce);

@@ -1,4 +1,5 @@
-//! `vct-svo` and `vct-clipmap` on the Cornell box against the one-bounce reference: each
+//! `vct-svo` (also with anisotropic radiance) and `vct-clipmap` on the Cornell box against the
+//! one-bounce reference: each
 //! lights the ceiling, which the spot light does not reach (within a factor 2 of the
 //! reference), and its image is closer to the reference than no GI at all in relMSE and FLIP.
 //! Their ambient occlusion closes in corners; the specular cone sees the lit walls. Bad
@@ -57,10 +58,21 @@ fn cornell_box_ceiling_is_lit_and_the_image_beats_no_gi() {
     // Smaller than the defaults (clipmap 64^3 x 4 levels, octree 128^3), which lavapipe
     // injects slowly.
     let vct = small();
-    let techniques = ["none", "vct-svo", "vct-clipmap"];
+    // The octree also with its anisotropic radiance (not its default).
+    let anisotropic = octolux::gi::vct::VctSettings {
+        anisotropic: true,
+        ..small()
+    };
+    let variants = [
+        ("none", &vct),
+        ("vct-svo", &vct),
+        ("vct-clipmap", &vct),
+        ("vct-svo", &anisotropic),
+    ];
+    let techniques = ["none", "vct-svo", "vct-clipmap", "vct-svo (anisotropic)"];
     let mut images = Vec::new();
     let mut mask = Vec::new();
-    for technique in techniques {
+    for (technique, vct) in variants {
         let mut r = Renderer::new(&ctx, &scene, settings(technique, vct.clone())).unwrap();
         r.render(&scene, 0.0).unwrap();
         mask = ceiling_mask(&r);

@@ -1,6 +1,7 @@
 //! CPU reference implementations of the voxel kernels, written for clarity; the tests compare
 //! the GPU structures with them.
 
+use super::svo::SvoCpu;
 use super::voxelize::snap::{piece_voxels, snap_triangles, SnapRegion};
 use super::{VoxelGrid, VoxelTriangle};
 use glam::{IVec3, Vec3, Vec4};
@@ -527,16 +528,8 @@ pub fn svo_aniso(
 /// Direction `d` (+x, -x, +y, -y, +z, -z) of a 2x2x2 block of RGBA8 values `fine(octant)`:
 /// the two met along the direction composited front to back, averaged over the 4 pairs.
 fn composite_pairs(d: usize, fine: impl Fn(usize) -> [u32; 4]) -> u32 {
-    let axis = d / 2;
-    let bit = 1usize << axis;
     let mut acc = [0u32; 4];
-    for j in 0..4usize {
-        let k0 = ((j >> axis) << (axis + 1)) | (j & (bit - 1));
-        let (front, back) = if d.is_multiple_of(2) {
-            (k0, k0 | bit)
-        } else {
-            (k0 | bit, k0)
-        };
+    for (front, back) in (0..4).map(|j| pair_along(d, j)) {
         let f = fine(front);
         let b = fine(back);
         for i in 0..4 {
@@ -544,6 +537,74 @@ fn composite_pairs(d: usize, fine: impl Fn(usize) -> [u32; 4]) -> u32 {
         }
     }
     pack_u8(acc.map(|a| (a + 2) / 4))
+}
+
+/// Pair `j` (0..4) of octants (x + 2y + 4z) met one after the other travelling along
+/// direction `d` (+x, -x, +y, -y, +z, -z): (front, back).
+fn pair_along(d: usize, j: usize) -> (usize, usize) {
+    let axis = d / 2;
+    let bit = 1usize << axis;
+    let k0 = ((j >> axis) << (axis + 1)) | (j & (bit - 1));
+    if d.is_multiple_of(2) {
+        (k0, k0 | bit)
+    } else {
+        (k0 | bit, k0)
+    }
+}
+
+/// CPU twin of `svo/aniso_radiance.wgsl`: the anisotropic radiance of every brick of `svo`
+/// (order of its bricks), from the injected radiance of its leaf voxels (`voxel_radiance`,
+/// [`crate::voxel::svo::Svo::read_voxel_radiance`]): per direction (+x, -x, +y, -y, +z, -z),
+/// the 4 pairs of finer values met along it composited front to back (premultiplied,
+/// `front + (1 - front.a) back`) and averaged; the finer values are the leaf's voxels, or the
+/// children's values for the same direction. In f32: the GPU rounds every level to f16.
+pub fn svo_aniso_radiance(svo: &SvoCpu, voxel_radiance: &[Vec4]) -> Vec<[Vec4; 6]> {
+    let depth = svo.levels.len();
+    let mut values = vec![[Vec4::ZERO; 6]; svo.bricks.len()];
+    let Some(&(first_leaf, end_leaf)) = svo.levels.last() else {
+        return values;
+    };
+    let static_leaves = (end_leaf - first_leaf) as usize;
+    let dynamic_leaf = svo.dynamic_levels.last().map_or(0, |r| r.0);
+    let composite = |fine: &dyn Fn(usize) -> Vec4, d: usize| {
+        (0..4)
+            .map(|j| {
+                let (front, back) = pair_along(d, j);
+                let f = fine(front);
+                f + (1.0 - f.w) * fine(back)
+            })
+            .sum::<Vec4>()
+            * 0.25
+    };
+    for d in (0..depth).rev() {
+        let ranges = [Some(svo.levels[d]), svo.dynamic_levels.get(d).copied()];
+        for n in ranges.into_iter().flatten().flat_map(|(a, b)| a..b) {
+            let b = svo.brick_of[n as usize];
+            if b == 0 {
+                continue;
+            }
+            let node: [Vec4; 6] = if d + 1 == depth {
+                let slot = if n >= first_leaf && n < end_leaf {
+                    (n - first_leaf) as usize
+                } else {
+                    static_leaves + (n - dynamic_leaf) as usize
+                };
+                let voxel = |o: usize| voxel_radiance[slot * 8 + o];
+                std::array::from_fn(|dir| composite(&voxel, dir))
+            } else {
+                let first = svo.child[n as usize];
+                std::array::from_fn(|dir| {
+                    let child = |o: usize| match (first, svo.brick_of.get(first as usize + o)) {
+                        (0, _) | (_, None | Some(0)) => Vec4::ZERO,
+                        (_, Some(&cb)) => values[cb as usize - 1][dir],
+                    };
+                    composite(&child, dir)
+                })
+            };
+            values[b as usize - 1] = node;
+        }
+    }
+    values
 }
 
 fn weight(o: i32) -> f32 {

@@ -157,6 +157,34 @@ pub fn svo_node_brick(svo: &SvoCpu, c: IVec3, d: u32) -> u32 {
     svo.brick_of[node as usize]
 }
 
+/// CPU twin of `svo_node_cell` + the per-node value: node-centred trilinear interpolation of
+/// `value(brick index + 1)` over the nodes of level `d` around grid position `g` (voxels);
+/// zero where no node or brick exists.
+fn svo_node_level(svo: &SvoCpu, depth: u32, g: Vec3, d: u32, value: impl Fn(u32) -> Vec4) -> Vec4 {
+    let x = g / (1u32 << (depth - d)) as f32 - Vec3::splat(0.5);
+    if x.cmplt(Vec3::splat(-1.0)).any() || x.cmpgt(Vec3::splat((1u32 << d) as f32)).any() {
+        return Vec4::ZERO;
+    }
+    let i0 = x.floor().as_ivec3();
+    let f = x - x.floor();
+    trilinear(f, |o| match svo_node_brick(svo, i0 + o.as_ivec3(), d) {
+        0 => Vec4::ZERO,
+        b => value(b),
+    })
+}
+
+/// CPU twin of `svo_faces`: the faces (+x, -x, +y, -y, +z, -z = 0..5) a cone travelling along
+/// `dir` enters a node through, and their weights |dir| normalised to sum to one.
+fn svo_faces(dir: Vec3) -> ([usize; 3], Vec3) {
+    let a = dir.abs();
+    let faces = [
+        if dir.x >= 0.0 { 0 } else { 1 },
+        if dir.y >= 0.0 { 2 } else { 3 },
+        if dir.z >= 0.0 { 4 } else { 5 },
+    ];
+    (faces, a / (a.x + a.y + a.z).max(1e-20))
+}
+
 /// CPU twin of `svo_aniso_level`: node-centred trilinear sample of level `d`'s directional
 /// values `aniso` (per brick, [`super::svo::aniso::SvoAnisoValues::read_back`]) at grid
 /// position `g` (voxels), seen travelling along `dir`.
@@ -168,28 +196,52 @@ pub fn svo_aniso_level(
     d: u32,
     dir: Vec3,
 ) -> Vec4 {
-    let x = g / (1u32 << (depth - d)) as f32 - Vec3::splat(0.5);
-    if x.cmplt(Vec3::splat(-1.0)).any() || x.cmpgt(Vec3::splat((1u32 << d) as f32)).any() {
-        return Vec4::ZERO;
-    }
-    let a = dir.abs();
-    let w = a / (a.x + a.y + a.z).max(1e-20);
-    let faces = [
-        if dir.x >= 0.0 { 0 } else { 1 },
-        if dir.y >= 0.0 { 2 } else { 3 },
-        if dir.z >= 0.0 { 4 } else { 5 },
-    ];
-    let i0 = x.floor().as_ivec3();
-    let f = x - x.floor();
-    trilinear(f, |o| match svo_node_brick(svo, i0 + o.as_ivec3(), d) {
-        0 => Vec4::ZERO,
-        b => {
-            let v = &aniso[b as usize - 1];
-            w.x * unpack_unorm8(v[faces[0]])
-                + w.y * unpack_unorm8(v[faces[1]])
-                + w.z * unpack_unorm8(v[faces[2]])
-        }
+    let (faces, w) = svo_faces(dir);
+    svo_node_level(svo, depth, g, d, |b| {
+        let v = &aniso[b as usize - 1];
+        (0..3).map(|a| w[a] * unpack_unorm8(v[faces[a]])).sum()
     })
+}
+
+/// CPU twin of `svo_radiance_aniso` ([`super::svo::aniso_radiance::SVO_RADIANCE_ANISO_WGSL`]):
+/// the anisotropic radiance `values` (per brick,
+/// [`super::svo::aniso_radiance::SvoAnisoRadiance::read_back`]) of the level whose node size
+/// matches `footprint` (two finest voxels or more; the finest level below), quadrilinear
+/// between two levels, seen travelling along `dir`.
+pub fn svo_radiance_aniso(
+    svo: &SvoCpu,
+    values: &[[Vec4; 6]],
+    grid: &VoxelGrid,
+    p: Vec3,
+    footprint: f32,
+    dir: Vec3,
+) -> Vec4 {
+    let depth = grid.depth();
+    let g = (p - grid.origin) / grid.voxel_size;
+    let (faces, w) = svo_faces(dir);
+    let level = |d: u32| {
+        svo_node_level(svo, depth, g, d, |b| {
+            let v = &values[b as usize - 1];
+            (0..3).map(|a| w[a] * v[faces[a]]).sum()
+        })
+    };
+    node_levels(grid, footprint, level)
+}
+
+/// CPU twin of `svo_node_lod`'s level choice at two finest voxels and more: `level(d)` of the
+/// level whose node size matches `footprint` (the finest below two voxels), quadrilinear
+/// towards the next coarser one.
+fn node_levels(grid: &VoxelGrid, footprint: f32, level: impl Fn(u32) -> Vec4) -> Vec4 {
+    let depth = grid.depth();
+    let s = (footprint / grid.voxel_size).max(1.0).log2();
+    let lod = (s - 1.0).clamp(0.0, (depth - 1) as f32);
+    let fine = depth - 1 - lod.floor() as u32;
+    let t = lod - lod.floor();
+    let a = level(fine);
+    if t <= 0.0 || fine == 0 {
+        return a;
+    }
+    a.lerp(level(fine - 1), t)
 }
 
 /// CPU twin of `svo_sample_aniso` ([`super::svo::aniso::SVO_ANISO_SAMPLE_WGSL`]): the
@@ -206,22 +258,16 @@ pub fn svo_sample_aniso(
 ) -> Vec4 {
     let depth = grid.depth();
     let g = (p - grid.origin) / grid.voxel_size;
+    let level = |d: u32| svo_aniso_level(svo, aniso, depth, g, d, dir);
     let s = (footprint / grid.voxel_size).max(1.0).log2();
     if s < 1.0 {
         let iso = svo_sample(svo, grid, p, footprint);
         if s <= 0.0 {
             return iso;
         }
-        return iso.lerp(svo_aniso_level(svo, aniso, depth, g, depth - 1, dir), s);
+        return iso.lerp(level(depth - 1), s);
     }
-    let lod = (s - 1.0).min((depth - 1) as f32);
-    let fine = depth - 1 - lod.floor() as u32;
-    let t = lod - lod.floor();
-    let a = svo_aniso_level(svo, aniso, depth, g, fine, dir);
-    if t <= 0.0 || fine == 0 {
-        return a;
-    }
-    a.lerp(svo_aniso_level(svo, aniso, depth, g, fine - 1, dir), t)
+    node_levels(grid, footprint, level)
 }
 
 fn clip_voxel(voxels: &[u32], res: u32, l: u32, g: IVec3) -> Vec4 {

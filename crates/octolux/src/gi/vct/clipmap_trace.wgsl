@@ -18,7 +18,8 @@
 // past it, the tail, quadrilinear between its levels (without the tail, wide cones
 // point-sampled the coarsest level with steps of many voxels and the indirect light showed
 // blotches of its voxels).
-fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+// Isotropic: `dir` is not read.
+fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
     let last = clip_info.misc.y - 1u;
     let coarsest = clip_info.voxel.x * f32(1u << last);
     if footprint <= coarsest {

@@ -12,7 +12,7 @@
 use glam::{Vec3, Vec4};
 
 /// WGSL: `march_cone(origin, dir, params)` and `cone_composite`; the includer provides
-/// `vct_sample(p, footprint) -> vec4<f32>`.
+/// `vct_sample(p, footprint, dir) -> vec4<f32>`.
 pub const CONE_WGSL: &str = include_str!("cone.wgsl");
 
 /// How one cone is marched (the WGSL `ConeParams`, a storage block).

@@ -1,7 +1,9 @@
 // One cone marched front to back through a filtered voxel structure (`003`, eq. 3, with the
 // step-length opacity correction it lacks). The includer declares
-//   fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32>
-// returning premultiplied radiance (rgb) and opacity (a) filtered over `footprint` metres.
+//   fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32>
+// returning premultiplied radiance (rgb) and opacity (a) filtered over `footprint` metres, as
+// seen by a cone travelling along the unit vector `dir` (structures with isotropic voxels
+// ignore it).
 // CPU twin: `gi/vct/cone.rs`, `march_cone`; keep the two in step.
 
 struct ConeParams {
@@ -48,7 +50,7 @@ fn march_cone(origin: vec3<f32>, dir: vec3<f32>, c: ConeParams) -> vec4<f32> {
         // that footprint and its step, so it cannot step over a wall of coarse voxels.
         let footprint = min(max(spread * t, c.voxel), c.max_footprint);
         let step = c.step * footprint;
-        acc = cone_composite(acc, vct_sample(origin + t * dir, footprint), step, footprint);
+        acc = cone_composite(acc, vct_sample(origin + t * dir, footprint, dir), step, footprint);
         t += step;
     }
     return acc;

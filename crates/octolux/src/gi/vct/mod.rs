@@ -2,8 +2,8 @@
 //! (`vct-clipmap`).
 //!
 //! [`cone`] holds the marcher in WGSL ([`CONE_WGSL`]) and its CPU twin ([`march_cone`]),
-//! written against one sampling function, `vct_sample(p, footprint) -> vec4<f32>` (premultiplied
-//! radiance and opacity filtered over `footprint` metres), which the includer provides from
+//! written against one sampling function, `vct_sample(p, footprint, dir) -> vec4<f32>` (premultiplied
+//! radiance and opacity filtered over `footprint` metres, seen travelling along `dir`), which the includer provides from
 //! the structure it traces: the octree's or the clipmap's radiance sampler
 //! (`svo_trace.wgsl`, `clipmap_trace.wgsl`). [`gather`] holds the diffuse gather's cone set
 //! and weights; `tracer.rs` the passes both techniques share (gather, sparse reconstruction,

@@ -10,6 +10,7 @@ use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use crate::voxel::svo::aniso_radiance::{SvoAnisoRadiance, SVO_RADIANCE_ANISO_WGSL};
 use crate::voxel::svo::dynamic::DynamicReserve;
 use crate::voxel::svo::inject::{SvoBounce, SVO_RADIANCE_SAMPLE_WGSL};
 use crate::voxel::svo::{Svo, SvoBuilder};
@@ -27,6 +28,8 @@ pub struct VctSvo {
     animated: bool,
     tracer: ConeTracer,
     info: wgpu::Buffer,
+    /// The anisotropic radiance (`anisotropic`), or a placeholder for its binding.
+    aniso: Result<SvoAnisoRadiance, wgpu::Buffer>,
     /// Multiple bounces: the buffers the injection and the bounce gather share, the gather
     /// and its parameters (static leaf voxel slots).
     bounce: Option<(SvoBounce, wgpu::ComputePipeline, wgpu::Buffer, u32)>,
@@ -83,12 +86,15 @@ impl VctSvo {
         let builder = SvoBuilder::new(ctx);
         let still = objects_triangles(scene, &scene.frame(0.0, 0), false);
         let (svo, _) = builder.build_with_reserve(ctx, &grid, &still, reserve)?;
+        let constants = format!("const SVO_ANISOTROPIC: bool = {};", settings.anisotropic);
         let tracer = ConeTracer::new(
             ctx,
             OWNER,
             &[
+                &constants,
                 SVO_SAMPLE_WGSL,
                 SVO_RADIANCE_SAMPLE_WGSL,
+                SVO_RADIANCE_ANISO_WGSL,
                 include_str!("svo_trace.wgsl"),
                 include_str!("svo_bounce.wgsl"),
             ],
@@ -119,6 +125,19 @@ impl VctSvo {
             bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
             wgpu::BufferUsages::STORAGE,
         );
+        let aniso = if settings.anisotropic {
+            Ok(SvoAnisoRadiance::new(ctx, &svo)?)
+        } else {
+            Err(ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some("anisotropic radiance (placeholder)"),
+                    size: 16,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                },
+            ))
+        };
         let bounce = settings.multi_bounce.then(|| {
             let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
             let slots = (end - first) * 8;
@@ -156,6 +175,7 @@ impl VctSvo {
             animated,
             tracer,
             info,
+            aniso,
             bounce,
         })
     }
@@ -191,11 +211,20 @@ impl GiTechnique for VctSvo {
             frame.frame.lights.len() as u32,
             self.bounce.as_ref().map(|b| &b.0),
         )?;
+        // 3. With `anisotropic`: the radiance per travel direction, composited up the levels.
         let svo = &self.svo;
+        let aniso = match &self.aniso {
+            Ok(aniso) => {
+                aniso.record(timer, svo);
+                aniso.buffer()
+            }
+            Err(placeholder) => placeholder,
+        };
         let mut structure = vec![
             (3, self.info.as_entire_binding()),
             (4, svo.child.as_entire_binding()),
             (7, svo.brick_index.as_entire_binding()),
+            (16, aniso.as_entire_binding()),
         ];
         structure.extend(
             svo.radiance
@@ -203,7 +232,7 @@ impl GiTechnique for VctSvo {
                 .zip(8..)
                 .map(|(buffer, binding)| (binding, buffer.as_entire_binding())),
         );
-        // 3. Multiple bounces: every static voxel gathers irradiance for the next frame.
+        // 4. Multiple bounces: every static voxel gathers irradiance for the next frame.
         if let Some((buffers, pipeline, params, slots)) = &self.bounce {
             let mut entries = structure.clone();
             entries.extend([
@@ -222,7 +251,7 @@ impl GiTechnique for VctSvo {
             });
             dispatch(timer, "vct bounce", pipeline, &group, *slots);
         }
-        // 4. Six cones per pixel through the injected radiance (sparse, then reconstructed;
+        // 5. The diffuse cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).
         self.tracer.record(ctx, frame, timer, &structure);
         Ok(())

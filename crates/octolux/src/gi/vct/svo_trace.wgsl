@@ -13,14 +13,32 @@
 @group(0) @binding(14) var<storage, read> svo_bricks2: array<u32>;
 @group(0) @binding(15) var<storage, read> svo_bricks3: array<u32>;
 
-// The octree's levels hold mean occupancy: a one-voxel-thick surface filling a voxel of side
-// s (in finest voxels) averages to opacity 1/s there, so surfaces fade as cones widen. Scaling
-// by s (the sample's footprint over the finest voxel) gives such a surface its coverage back,
-// radiance alike (premultiplied); clamped at opacity 1.
-fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+// The octree's anisotropic radiance (`anisotropic` setting; a placeholder word otherwise).
+@group(0) @binding(16) var<storage, read> svo_aniso_radiance: array<u32>;
+
+// The isotropic lattice holds mean occupancy: a one-voxel-thick surface filling a voxel of
+// side s (in finest voxels) averages to opacity 1/s there, so surfaces fade as cones widen.
+// Scaling by s (the sample's footprint over the finest voxel) gives such a surface its
+// coverage back, radiance alike (premultiplied); clamped at opacity 1. It over-counts
+// surfaces seen edge-on, which the anisotropic values (composited per travel direction) do
+// not: with `anisotropic`, footprints of two finest voxels and more read those, and between
+// one and two voxels the sample blends from the scaled lattice to them.
+fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
+    var below = 0.0;
+    if SVO_ANISOTROPIC {
+        let lod = svo_node_lod(p, footprint);
+        if lod.below >= 1.0 {
+            return svo_radiance_aniso(p, footprint, dir);
+        }
+        below = lod.below;
+    }
     let s = svo_radiance_sample(p, footprint);
     let k = min(max(footprint / svo_info.origin.w, 1.0), 1.0 / max(s.a, 1e-6));
-    return s * k;
+    if below <= 0.0 {
+        return s * k;
+    }
+    let lod = svo_node_lod(p, footprint);
+    return mix(s * k, svo_radiance_aniso_level(lod.g, lod.fine, dir), below);
 }
 
 // One grid, but a surface reaches further off itself than in the clipmap: the octree's

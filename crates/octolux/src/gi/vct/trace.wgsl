@@ -5,7 +5,7 @@
 // sparse tracing (misc.y = f > 1) one invocation traces the centre pixel of each f x f block
 // and writes the block's texel of a reduced image; `upsample.wgsl` fills the full image.
 // The includer provides the structure (`clipmap_trace.wgsl`, `svo_trace.wgsl`):
-//   fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32>
+//   fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32>
 //   fn vct_surface_voxel(p: vec3<f32>) -> f32   (the voxel size where a surface at p is)
 // on bindings 3, 4 and from 7 on.
 

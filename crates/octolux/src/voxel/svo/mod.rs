@@ -30,6 +30,7 @@
 //! each frame without voxelizing or rebuilding the static one, and without waiting for the GPU.
 
 pub mod aniso;
+pub mod aniso_radiance;
 pub mod dynamic;
 pub mod inject;
 
@@ -173,6 +174,8 @@ pub struct Svo {
     pub brick_index: wgpu::Buffer,
     /// Number of bricks (with a dynamic part: as [`Svo::node_count`]).
     pub brick_count: u32,
+    /// Bricks the pools hold: the static part's and the dynamic reserve's.
+    pub brick_capacity: u32,
     /// Node index range of every level.
     pub levels: Vec<(u32, u32)>,
     /// Voxel fragments the octree was built from; after a dynamic update, those of its
@@ -766,6 +769,7 @@ impl SvoBuilder {
             pool_bricks,
             brick_index,
             brick_count,
+            brick_capacity: brick_capacity as u32,
             levels,
             fragment_count: list.count,
             coord: coord_exact,
@@ -1109,7 +1113,7 @@ impl Svo {
     }
 }
 
-fn unpack_half4(lo: u32, hi: u32) -> glam::Vec4 {
+pub(crate) fn unpack_half4(lo: u32, hi: u32) -> glam::Vec4 {
     let [x, y] = unpack_half2(lo);
     let [z, w] = unpack_half2(hi);
     glam::Vec4::new(x, y, z, w)

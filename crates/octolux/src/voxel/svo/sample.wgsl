@@ -107,3 +107,91 @@ fn svo_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     }
     return mix(a, svo_sample_level(lod.g, lod.fine - 1u), lod.t);
 }
+
+// The octree's per-node values (anisotropic albedo and radiance) sit at node centres: level d
+// has nodes of voxel * 2^(depth - d) metres.
+
+// Brick index + 1 of the node of level d at node coordinates c (0 where no node, or no brick).
+fn svo_node_brick(c: vec3<i32>, d: u32) -> u32 {
+    let size = i32(1u << d);
+    if any(c < vec3<i32>(0)) || any(c >= vec3<i32>(size)) {
+        return 0u;
+    }
+    let u = vec3<u32>(c);
+    var node = 0u;
+    for (var l = 0u; l < d; l++) {
+        let first = svo_child[node];
+        if first == 0u {
+            return 0u;
+        }
+        let s = d - 1u - l;
+        node = first + ((u.x >> s) & 1u) + (((u.y >> s) & 1u) << 1u) + (((u.z >> s) & 1u) << 2u);
+    }
+    return svo_brick_index[node];
+}
+
+// The 8 nodes of level d around grid position g (voxels), for a node-centred trilinear
+// sample: their brick index + 1 (0 where no node or no brick, also outside the grid) and
+// weights. All zero more than one node outside the level.
+struct SvoNodeCell {
+    bricks: array<u32, 8>,
+    weights: array<f32, 8>,
+}
+
+fn svo_node_cell(g: vec3<f32>, d: u32) -> SvoNodeCell {
+    var cell: SvoNodeCell;
+    let depth = svo_info.misc.x;
+    let x = g / f32(1u << (depth - d)) - 0.5;
+    if any(x < vec3<f32>(-1.0)) || any(x > vec3<f32>(f32(1u << d))) {
+        return cell;
+    }
+    let i0 = vec3<i32>(floor(x));
+    let f = x - floor(x);
+    for (var k = 0u; k < 8u; k++) {
+        let o = svo_corner(k);
+        cell.bricks[k] = svo_node_brick(i0 + vec3<i32>(o), d);
+        let t = select(1.0 - f, f, o == vec3<u32>(1u));
+        cell.weights[k] = t.x * t.y * t.z;
+    }
+    return cell;
+}
+
+// The three faces a cone travelling along `dir` enters a node through (directions +x, -x,
+// +y, -y, +z, -z = 0..5; +x when dir.x >= 0) and their weights |dir.x|, |dir.y|, |dir.z|
+// normalised to sum to one.
+struct SvoFaces {
+    face: vec3<u32>,
+    w: vec3<f32>,
+}
+
+fn svo_faces(dir: vec3<f32>) -> SvoFaces {
+    let a = abs(dir);
+    return SvoFaces(
+        vec3<u32>(select(1u, 0u, dir.x >= 0.0), select(3u, 2u, dir.y >= 0.0), select(5u, 4u, dir.z >= 0.0)),
+        a / max(a.x + a.y + a.z, 1e-20),
+    );
+}
+
+// Level choice for the per-node values at a footprint: the level whose node size matches it
+// (`fine`), the blend `t` towards the next coarser one, and the grid position `g`. Below two
+// finest voxels (the finest node size) `fine` is the finest level and `below` in [0, 1) says
+// how far the footprint is from one voxel to two, for a blend from the isotropic lattice
+// (`below` = 1 otherwise).
+struct SvoNodeLod {
+    fine: u32,
+    t: f32,
+    below: f32,
+    g: vec3<f32>,
+}
+
+fn svo_node_lod(p: vec3<f32>, footprint: f32) -> SvoNodeLod {
+    let depth = svo_info.misc.x;
+    let s = log2(max(footprint / svo_info.origin.w, 1.0));
+    let lod = clamp(s - 1.0, 0.0, f32(depth - 1u));
+    return SvoNodeLod(
+        depth - 1u - u32(floor(lod)),
+        lod - floor(lod),
+        min(s, 1.0),
+        (p - svo_info.origin.xyz) / svo_info.origin.w,
+    );
+}

@@ -1,0 +1,278 @@
+//! Anisotropic (6-direction) injected radiance of the sparse voxel octree (Arnebäck 2017
+//! §3.1.4 applied to the radiance the cone tracer reads): every node with a brick gets 6
+//! RGBA16F values (premultiplied radiance, opacity), one per travel direction +x, -x, +y, -y,
+//! +z, -z, composited front to back from its children (its voxels on the leaf level) and
+//! averaged across the direction, as [`crate::voxel::svo::aniso`] does for albedo.
+//!
+//! Why: the isotropic lattice holds mean occupancy, so a one-voxel-thick wall fades to `1/s`
+//! at a level of voxels `s` times larger (the cone tracer scales it back, over-counting walls
+//! seen edge-on); composited values keep a wall seen face-on opaque on every level and one seen
+//! edge-on at the share of the node it covers, and a red wall in front of a green one stays red
+//! seen from the front.
+//!
+//! Rebuilt every frame after the injection ([`SvoAnisoRadiance::record`], pass `svo
+//! anisotropic radiance`: one dispatch per level and node range, finest first; the dynamic
+//! ranges are read on the GPU, no readback). Storage: 12 words per brick of the octree's
+//! capacity (48 bytes; the dynamic reserve's bricks included). Sampling:
+//! [`SVO_RADIANCE_ANISO_WGSL`]. CPU twin of the values: [`crate::voxel::cpu::svo_aniso_radiance`].
+
+use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use crate::voxel::svo::{Svo, ARGS_DYN_NODES, OWNER};
+use crate::voxel::voxelize::dispatch_size;
+use crate::{Error, Result};
+use glam::Vec4;
+
+fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// WGSL: `svo_radiance_aniso(p, footprint, dir)`, directional radiance for footprints of two
+/// finest voxels and more; goes after `svo/sample.wgsl`, and the includer also declares
+/// `var<storage, read> svo_aniso_radiance: array<u32>` ([`SvoAnisoRadiance::buffer`]).
+pub const SVO_RADIANCE_ANISO_WGSL: &str = include_str!("radiance_sample_aniso.wgsl");
+
+/// Words per brick: one RGBA16F value (two words) per direction.
+pub const ANISO_RADIANCE_WORDS: u32 = 12;
+/// Ledger label of the values buffer (owner [`OWNER`]).
+pub const LEDGER_LABEL: &str = "anisotropic radiance";
+
+/// Parameters of one level's node range (`AnisoRadianceParams` in `aniso_radiance.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    misc: [u32; 4],
+    range: [u32; 4],
+}
+
+/// Parameter slots are this many bytes apart (the adapter's storage offset alignment).
+const SLOT: u64 = 256;
+
+/// The anisotropic radiance of one octree and the kernel that rebuilds it.
+pub struct SvoAnisoRadiance {
+    pipeline: wgpu::ComputePipeline,
+    /// `array<u32>`: per brick `b` (node with `brick_index = b + 1`), 6 RGBA16F values (two
+    /// `pack2x16float` words each) for travel along +x, -x, +y, -y, +z, -z.
+    buffer: wgpu::Buffer,
+    /// Per level, finest first: its static range's group and size, then, with a dynamic part,
+    /// its dynamic range's group and indirect argument slot.
+    steps: Vec<(wgpu::BindGroup, Step)>,
+}
+
+enum Step {
+    Static(u32),
+    Dynamic(u32),
+}
+
+impl SvoAnisoRadiance {
+    /// Room for `svo`'s values (its whole brick capacity) and the kernel's bindings.
+    pub fn new(ctx: &GpuContext, svo: &Svo) -> Result<SvoAnisoRadiance> {
+        let bytes = svo.brick_capacity as u64 * ANISO_RADIANCE_WORDS as u64 * 4;
+        let limit = ctx.device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(Error::InvalidArgument(format!(
+                "anisotropic radiance of {} bricks needs {bytes} bytes, more than one storage \
+                 binding holds on this GPU ({limit}); lower the octree resolution or turn \
+                 `anisotropic` off",
+                svo.brick_capacity
+            )));
+        }
+        let module = ctx.shader(
+            "svo anisotropic radiance",
+            include_str!("aniso_radiance.wgsl"),
+        );
+        let pipeline = ctx.compute_pipeline("svo anisotropic radiance", &module, "build_level");
+        let buffer = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some(LEDGER_LABEL),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            },
+        );
+        let depth = svo.levels.len();
+        let dynamic = svo.dynamic.is_some();
+        let (first_leaf, end_leaf) = svo.levels.last().copied().unwrap_or((0, 0));
+        // Finest level first: static range, then dynamic range.
+        let mut slots = Vec::new();
+        for d in (0..depth).rev() {
+            let (start, end) = svo.levels[d];
+            let leaf = (d + 1 == depth) as u32;
+            let misc = [d as u32, 0, leaf, end_leaf - first_leaf];
+            slots.push((misc, [start, end - start, 0, 0], Step::Static(end - start)));
+            if dynamic {
+                let misc = [d as u32, 1, leaf, end_leaf - first_leaf];
+                slots.push((misc, [0; 4], Step::Dynamic(ARGS_DYN_NODES + d as u32)));
+            }
+        }
+        let mut words = vec![0u8; SLOT as usize * slots.len().max(1)];
+        for (i, (misc, range, _)) in slots.iter().enumerate() {
+            let p = Params {
+                misc: *misc,
+                range: *range,
+            };
+            let at = i * SLOT as usize;
+            words[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        let params = ctx.create_buffer_init(
+            OWNER,
+            "anisotropic radiance params",
+            &words,
+            wgpu::BufferUsages::STORAGE,
+        );
+        let layout = pipeline.get_bind_group_layout(0);
+        let steps = slots
+            .into_iter()
+            .enumerate()
+            .map(|(i, (_, _, step))| {
+                let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("svo anisotropic radiance"),
+                    layout: &layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &params,
+                                offset: i as u64 * SLOT,
+                                size: wgpu::BufferSize::new(32),
+                            }),
+                        },
+                        storage(1, &svo.child),
+                        storage(2, &svo.brick_index),
+                        storage(3, &svo.control),
+                        storage(4, &svo.voxel_radiance),
+                        storage(5, &buffer),
+                    ],
+                });
+                (group, step)
+            })
+            .collect();
+        Ok(SvoAnisoRadiance {
+            pipeline,
+            buffer,
+            steps,
+        })
+    }
+
+    /// Records the rebuild of the values from `svo`'s injected voxel radiance as the timed
+    /// pass `svo anisotropic radiance` (after [`crate::voxel::svo::SvoBuilder::inject`]).
+    pub fn record(&self, timer: &mut PassTimer, svo: &Svo) {
+        let last = self.steps.len().saturating_sub(1);
+        timer.pass("svo anisotropic radiance", |encoder, stamps| {
+            for (i, (group, step)) in self.steps.iter().enumerate() {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("svo anisotropic radiance level"),
+                    timestamp_writes: stamps.compute_part(i == 0, i == last),
+                });
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, group, &[]);
+                match *step {
+                    Step::Static(0) => {}
+                    Step::Static(count) => {
+                        let (x, y) = dispatch_size(count);
+                        pass.dispatch_workgroups(x, y, 1);
+                    }
+                    Step::Dynamic(slot) => {
+                        pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
+                    }
+                }
+            }
+        });
+    }
+
+    /// The values (`svo_aniso_radiance` of [`SVO_RADIANCE_ANISO_WGSL`]).
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.buffer
+    }
+
+    /// Bytes kept on the GPU: 48 per brick of the octree's capacity.
+    pub fn bytes(&self) -> u64 {
+        self.buffer.size()
+    }
+
+    /// Reads the values of `svo`'s current bricks back: per brick (order of
+    /// [`crate::voxel::svo::SvoCpu::bricks`]), (radiance, opacity) for +x, -x, +y, -y, +z, -z.
+    pub fn read_back(&self, ctx: &GpuContext, svo: &Svo) -> Result<Vec<[Vec4; 6]>> {
+        if svo.brick_count == 0 {
+            return Ok(Vec::new());
+        }
+        let bytes = read_buffer(
+            ctx,
+            &self.buffer,
+            0,
+            svo.brick_count as u64 * ANISO_RADIANCE_WORDS as u64 * 4,
+        )?;
+        let words: &[u32] = bytemuck::cast_slice(&bytes);
+        Ok(words
+            .chunks_exact(ANISO_RADIANCE_WORDS as usize)
+            .map(|w| {
+                std::array::from_fn(|d| crate::voxel::svo::unpack_half4(w[2 * d], w[2 * d + 1]))
+            })
+            .collect())
+    }
+
+    /// Evaluates `svo_radiance_aniso` on the GPU at `points` (xyz position, w footprint), one
+    /// travel direction per point. Blocks.
+    pub fn probe(
+        &self,
+        ctx: &GpuContext,
+        svo: &Svo,
+        points: &[Vec4],
+        dirs: &[glam::Vec3],
+    ) -> Result<Vec<Vec4>> {
+        if dirs.len() != points.len() {
+            return Err(Error::InvalidArgument(format!(
+                "{} directions for {} points",
+                dirs.len(),
+                points.len()
+            )));
+        }
+        if points.is_empty() {
+            return Ok(Vec::new());
+        }
+        let owner = "svo probe";
+        let source = format!("{SVO_SAMPLE_WGSL}\n{SVO_RADIANCE_ANISO_WGSL}\n{PROBE_WGSL}");
+        let info = ctx.create_buffer_init(
+            owner,
+            "info",
+            bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let fixed = [
+            (0, &info),
+            (1, &svo.child),
+            (2, &svo.brick_index),
+            (3, &self.buffer),
+        ];
+        let dirs: Vec<Vec4> = dirs.iter().map(|d| d.extend(1.0)).collect();
+        crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dirs)
+    }
+}
+
+const PROBE_WGSL: &str = "
+@group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
+@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(2) var<storage, read> svo_brick_index: array<u32>;
+@group(0) @binding(3) var<storage, read> svo_aniso_radiance: array<u32>;
+@group(0) @binding(4) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> dirs: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> samples: array<vec4<f32>>;
+// Declared for the isotropic sampler, which the probe does not read.
+@group(0) @binding(7) var<storage, read> svo_bricks0: array<u32>;
+@group(0) @binding(8) var<storage, read> svo_bricks1: array<u32>;
+@group(0) @binding(9) var<storage, read> svo_bricks2: array<u32>;
+@group(0) @binding(10) var<storage, read> svo_bricks3: array<u32>;
+
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&points) {
+        return;
+    }
+    let q = points[id.x];
+    samples[id.x] = svo_radiance_aniso(q.xyz, q.w, dirs[id.x].xyz);
+}
+";
