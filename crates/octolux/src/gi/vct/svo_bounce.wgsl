@@ -1,11 +1,14 @@
 // Multiple bounces on the octree (`multi_bounce`): one invocation per static leaf voxel slot
-// gathers the indirect irradiance at the voxel with the six diffuse cones of `trace.wgsl`
+// gathers the indirect irradiance at the voxel with the diffuse cones of `trace.wgsl`
 // through the radiance injected this frame, from the voxel's centre along its mean normal
 // (the geometry the injection wrote, `SvoBounce`). The next frame's injection adds it to the
 // voxel's direct irradiance, so each frame carries the light one bounce further and the
-// octree converges to multi-bounce radiance.
+// octree converges to multi-bounce radiance. The dynamic part's voxels (`bounce_dynamic`)
+// gather the same way; their leaves are rebuilt every frame in another order, so their
+// irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`) instead of by slot.
 
-// x: static leaf voxel slots
+// x: static leaf voxel slots (the dynamic leaves' slots follow), y: capacity of the dynamic
+// voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z])
 struct BounceParams {
     misc: vec4<u32>,
 }
@@ -13,14 +16,13 @@ struct BounceParams {
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
 @group(0) @binding(21) var<storage, read> bounce_geometry: array<u32>;
 @group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
+@group(0) @binding(23) var<storage, read> svo_control: array<u32>;
+@group(0) @binding(24) var<storage, read_write> table_keys: array<atomic<u32>>;
+@group(0) @binding(25) var<storage, read_write> table_values: array<u32>;
 
-@compute @workgroup_size(64)
-fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-          @builtin(local_invocation_index) li: u32) {
-    let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    if i >= bounce_params.misc.x {
-        return;
-    }
+// Indirect irradiance at the voxel of geometry slot `i` (zero for an empty one or one without
+// a dominant normal).
+fn voxel_bounce(i: u32) -> vec3<f32> {
     let g = bounce_geometry[2u * i];
     let n = unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz;
     var e = vec3<f32>(0.0);
@@ -34,6 +36,56 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         }
         e *= 3.14159265;
     }
+    return e;
+}
+
+@compute @workgroup_size(64)
+fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    if i >= bounce_params.misc.x {
+        return;
+    }
+    let e = voxel_bounce(i);
     bounce_irradiance[2u * i] = pack2x16float(e.rg);
     bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+}
+
+// One invocation per dynamic leaf node (the range the octree's last dynamic update left on
+// the GPU): its 8 voxels gather, and each occupied one enters the table (cleared before).
+// Keys are distinct (one slot per voxel), so an insert competes only with the few keys that
+// hash near it.
+@compute @workgroup_size(64)
+fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                  @builtin(local_invocation_index) li: u32) {
+    let l = (wg.y * nwg.x + wg.x) * 64u + li;
+    let leaf = bounce_params.misc.z;
+    if l >= svo_control[65u + 2u * leaf] - svo_control[64u + 2u * leaf] {
+        return;
+    }
+    for (var o = 0u; o < 8u; o++) {
+        let i = bounce_params.misc.x + 8u * l + o;
+        let key = bounce_geometry[2u * i];
+        if key == 0u {
+            continue;
+        }
+        let e = voxel_bounce(i);
+        let mask = bounce_params.misc.y - 1u;
+        var at = bounce_table_hash(key) & mask;
+        var probes = 0u;
+        // Bounded even if weak exchanges kept failing spuriously.
+        for (var tries = 0u; tries < 4u * BOUNCE_TABLE_PROBES && probes < BOUNCE_TABLE_PROBES; tries++) {
+            let r = atomicCompareExchangeWeak(&table_keys[at], 0u, key);
+            if r.exchanged || r.old_value == key {
+                table_values[2u * at] = pack2x16float(e.rg);
+                table_values[2u * at + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+                break;
+            }
+            // A weak exchange may fail spuriously on an empty entry: try it again.
+            if r.old_value != 0u {
+                at = (at + 1u) & mask;
+                probes++;
+            }
+        }
+    }
 }

@@ -12,8 +12,10 @@ use crate::scene::Scene;
 use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use crate::voxel::svo::aniso_radiance::{SvoAnisoRadiance, SVO_RADIANCE_ANISO_WGSL};
 use crate::voxel::svo::dynamic::DynamicReserve;
-use crate::voxel::svo::inject::{SvoBounce, SVO_RADIANCE_SAMPLE_WGSL};
-use crate::voxel::svo::{Svo, SvoBuilder};
+use crate::voxel::svo::inject::{
+    SvoBounce, SvoBounceTable, BOUNCE_TABLE_WGSL, SVO_RADIANCE_SAMPLE_WGSL,
+};
+use crate::voxel::svo::{Svo, SvoBuilder, ARGS_DYN_NODES};
 use crate::voxel::voxelize::dispatch;
 use crate::voxel::{objects_triangles, VoxelGrid};
 use crate::{Error, Result};
@@ -30,9 +32,21 @@ pub struct VctSvo {
     info: wgpu::Buffer,
     /// The anisotropic radiance (`anisotropic`), or a placeholder for its binding.
     aniso: Result<SvoAnisoRadiance, wgpu::Buffer>,
-    /// Multiple bounces: the buffers the injection and the bounce gather share, the gather
-    /// and its parameters (static leaf voxel slots).
-    bounce: Option<(SvoBounce, wgpu::ComputePipeline, wgpu::Buffer, u32)>,
+    /// Multiple bounces.
+    bounce: Option<Bounce>,
+}
+
+/// Multiple bounces: the buffers the injection and the bounce gathers share, the gathers and
+/// their parameters.
+struct Bounce {
+    buffers: SvoBounce,
+    /// The static leaf voxels' gather (one invocation per slot).
+    pipeline: wgpu::ComputePipeline,
+    /// With animated objects: the dynamic leaf voxels' gather into the bounce table.
+    dynamic: Option<wgpu::ComputePipeline>,
+    params: wgpu::Buffer,
+    /// Static leaf voxel slots.
+    slots: u32,
 }
 
 /// Bounds of everything the scene's geometry covers: at rest and, for animated objects, at
@@ -95,6 +109,7 @@ impl VctSvo {
                 SVO_SAMPLE_WGSL,
                 SVO_RADIANCE_SAMPLE_WGSL,
                 SVO_RADIANCE_ANISO_WGSL,
+                BOUNCE_TABLE_WGSL,
                 include_str!("svo_trace.wgsl"),
                 include_str!("svo_bounce.wgsl"),
             ],
@@ -138,36 +153,50 @@ impl VctSvo {
                 },
             ))
         };
+        let dynamic_slots = reserve.nodes as u64 * 8;
         let bounce = settings.multi_bounce.then(|| {
             let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
             let slots = (end - first) * 8;
-            let buffer = |label| {
+            let buffer = |label, bytes: u64| {
                 ctx.create_buffer(
                     OWNER,
                     &wgpu::BufferDescriptor {
                         label: Some(label),
-                        size: (slots as u64 * 8).max(16),
-                        usage: wgpu::BufferUsages::STORAGE,
+                        size: bytes.max(16),
+                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                         mapped_at_creation: false,
                     },
                 )
             };
-            let buffers = SvoBounce {
-                irradiance: buffer("bounce irradiance"),
-                geometry: buffer("bounce geometry"),
-            };
+            // Room for every voxel the dynamic reserve can hold (the probe limit drops what
+            // does not fit in a table that full).
+            let capacity = (dynamic_slots as u32).next_power_of_two();
+            let tables = animated.then(|| {
+                [0, 1].map(|_| SvoBounceTable {
+                    keys: buffer("bounce table keys", capacity as u64 * 4),
+                    values: buffer("bounce table values", capacity as u64 * 8),
+                    capacity,
+                })
+            });
+            let leaf = svo.levels.len().saturating_sub(1) as u32;
             let params = ctx.create_buffer_init(
                 OWNER,
                 "bounce params",
-                bytemuck::cast_slice(&[slots, 0, 0, 0]),
+                bytemuck::cast_slice(&[slots, capacity, leaf, 0]),
                 wgpu::BufferUsages::STORAGE,
             );
-            (
-                buffers,
-                tracer.bounce_pipeline(ctx, "bounce"),
+            Bounce {
+                buffers: SvoBounce {
+                    irradiance: buffer("bounce irradiance", slots as u64 * 8),
+                    geometry: buffer("bounce geometry", (slots as u64 + dynamic_slots) * 8),
+                    tables,
+                    frame: 0,
+                },
+                pipeline: tracer.bounce_pipeline(ctx, "bounce"),
+                dynamic: animated.then(|| tracer.bounce_pipeline(ctx, "bounce_dynamic")),
                 params,
                 slots,
-            )
+            }
         });
         Ok(VctSvo {
             builder,
@@ -183,6 +212,65 @@ impl VctSvo {
     /// The octree (for tests and tools).
     pub fn octree(&self) -> &Svo {
         &self.svo
+    }
+}
+
+impl Bounce {
+    /// Records the static voxels' gather and, with a dynamic part, the dynamic voxels'
+    /// gather into this frame's table; then flips the tables for the next frame.
+    fn record(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        structure: &[(u32, wgpu::BindingResource<'_>)],
+        cone_params: &wgpu::Buffer,
+    ) {
+        let group = |pipeline: &wgpu::ComputePipeline, extra: &[(u32, &wgpu::Buffer)]| {
+            let mut entries: Vec<wgpu::BindGroupEntry> = structure
+                .iter()
+                .map(|(binding, resource)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: resource.clone(),
+                })
+                .collect();
+            let common = [
+                (5, cone_params),
+                (20, &self.params),
+                (21, &self.buffers.geometry),
+            ];
+            entries.extend(common.iter().chain(extra).map(|&(binding, buffer)| {
+                wgpu::BindGroupEntry {
+                    binding,
+                    resource: buffer.as_entire_binding(),
+                }
+            }));
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("vct bounce"),
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            })
+        };
+        let statics = group(&self.pipeline, &[(22, &self.buffers.irradiance)]);
+        dispatch(timer, "vct bounce", &self.pipeline, &statics, self.slots);
+        if let (Some(pipeline), Some(table)) = (&self.dynamic, self.buffers.write_table()) {
+            let dynamics = group(
+                pipeline,
+                &[(23, &svo.control), (24, &table.keys), (25, &table.values)],
+            );
+            let leaf = svo.levels.len().saturating_sub(1) as u32;
+            timer.pass("vct bounce (dynamic)", |encoder, stamps| {
+                encoder.clear_buffer(&table.keys, 0, None);
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("vct bounce (dynamic)"),
+                    timestamp_writes: stamps.compute(),
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &dynamics, &[]);
+                pass.dispatch_workgroups_indirect(&svo.args, (ARGS_DYN_NODES + leaf) as u64 * 12);
+            });
+        }
+        self.buffers.frame = self.buffers.frame.wrapping_add(1);
     }
 }
 
@@ -209,7 +297,7 @@ impl GiTechnique for VctSvo {
             frame.shadow_layers,
             frame.lights,
             frame.frame.lights.len() as u32,
-            self.bounce.as_ref().map(|b| &b.0),
+            self.bounce.as_ref().map(|b| &b.buffers),
         )?;
         // 3. With `anisotropic`: the radiance per travel direction, composited up the levels.
         let svo = &self.svo;
@@ -232,24 +320,10 @@ impl GiTechnique for VctSvo {
                 .zip(8..)
                 .map(|(buffer, binding)| (binding, buffer.as_entire_binding())),
         );
-        // 4. Multiple bounces: every static voxel gathers irradiance for the next frame.
-        if let Some((buffers, pipeline, params, slots)) = &self.bounce {
-            let mut entries = structure.clone();
-            entries.extend([
-                (5, self.tracer.bounce_params().as_entire_binding()),
-                (20, params.as_entire_binding()),
-                (21, buffers.geometry.as_entire_binding()),
-                (22, buffers.irradiance.as_entire_binding()),
-            ]);
-            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("vct bounce"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries
-                    .into_iter()
-                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
-                    .collect::<Vec<_>>(),
-            });
-            dispatch(timer, "vct bounce", pipeline, &group, *slots);
+        // 4. Multiple bounces: every voxel gathers irradiance for the next frame (static
+        //    ones by slot, dynamic ones into the bounce table the next injection reads).
+        if let Some(bounce) = &mut self.bounce {
+            bounce.record(ctx, timer, svo, &structure, self.tracer.bounce_params());
         }
         // 5. The diffuse cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).

@@ -30,6 +30,9 @@ pub const LEAF_SUM_WORDS: u32 = 10;
 /// occupied voxel; `leaf_sum_offset` finds a voxel's words.
 pub const LEAF_SUMS_WGSL: &str = include_str!("leaf_sums.wgsl");
 
+/// WGSL: the hash and probe limit of the dynamic voxels' bounce table ([`SvoBounceTable`]).
+pub const BOUNCE_TABLE_WGSL: &str = include_str!("bounce_table.wgsl");
+
 /// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
 /// `svo/dynamic.wgsl`).
 const DYN_NODES: u32 = 64;
@@ -46,16 +49,49 @@ struct InjectParams {
     range: [u32; 4],
 }
 
-/// Multiple bounces through the octree's static leaves: per `voxel_radiance` slot, the
-/// indirect irradiance to add to a voxel's direct irradiance (RGBA16F pairs, written by a
-/// cone gather) and the voxel geometry that the injection writes for that gather (coordinates
-/// with bit 30 set for an occupied voxel, then the snorm8x4 normal). Both are 8 bytes per
-/// slot, as `voxel_radiance`.
+/// Multiple bounces through the octree's leaves: per `voxel_radiance` slot, the indirect
+/// irradiance to add to a voxel's direct irradiance (RGBA16F pairs, written by a cone gather)
+/// and the voxel geometry that the injection writes for that gather (coordinates with bit 30
+/// set for an occupied voxel, then the snorm8x4 normal). Both are 8 bytes per slot, as
+/// `voxel_radiance`; `irradiance` covers the static leaves, `geometry` also the dynamic
+/// part's reserve.
+///
+/// The static leaves keep their slots from frame to frame, the dynamic ones do not (the part
+/// is rebuilt every frame): their irradiance goes through `tables`, two tables keyed by voxel
+/// coordinates, one filled by this frame's gather while the injection reads the other.
 pub struct SvoBounce {
-    /// Indirect irradiance per slot, read by the injection.
+    /// Indirect irradiance per static slot, read by the injection.
     pub irradiance: wgpu::Buffer,
-    /// Voxel geometry per slot, written by the injection.
+    /// Voxel geometry per slot (static, then the dynamic reserve's), written by the injection.
     pub geometry: wgpu::Buffer,
+    /// With a dynamic part: the two tables of the dynamic voxels' irradiance.
+    pub tables: Option<[SvoBounceTable; 2]>,
+    /// Which table the injection reads (`frame % 2`); the gather fills the other.
+    pub frame: u32,
+}
+
+/// Irradiance gathered at the dynamic voxels, by voxel ([`BOUNCE_TABLE_WGSL`]).
+pub struct SvoBounceTable {
+    /// `capacity` keys (the geometry word, 0 = empty).
+    pub keys: wgpu::Buffer,
+    /// `capacity` RGBA16F values (two words each).
+    pub values: wgpu::Buffer,
+    /// Entries, a power of two.
+    pub capacity: u32,
+}
+
+impl SvoBounce {
+    /// The table the injection reads this frame.
+    pub fn read_table(&self) -> Option<&SvoBounceTable> {
+        self.tables.as_ref().map(|t| &t[(self.frame % 2) as usize])
+    }
+
+    /// The table this frame's gather fills.
+    pub fn write_table(&self) -> Option<&SvoBounceTable> {
+        self.tables
+            .as_ref()
+            .map(|t| &t[(self.frame % 2) as usize ^ 1])
+    }
 }
 
 /// The accumulation and injection kernels.
@@ -73,6 +109,7 @@ impl SvoLight {
             OVERLAP_WGSL,
             include_str!("../../render/lights.wgsl"),
             LEAF_SUMS_WGSL,
+            BOUNCE_TABLE_WGSL,
             include_str!("inject.wgsl"),
         ]
         .join("\n");
@@ -233,17 +270,24 @@ impl SvoLight {
             Some(d) => (&d.sums, d.state()),
             None => (&placeholder, &placeholder),
         };
+        let table = bounce.and_then(SvoBounce::read_table);
+        let (keys, values) = table.map_or((&placeholder, &placeholder), |t| (&t.keys, &t.values));
         for (i, &(node, count, slot, indirect)) in parts.iter().enumerate() {
             let params = InjectParams {
                 origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
                 misc: [node, count, light_count, svo.pool_bricks],
                 part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
-                // Only the static leaves keep their slots from frame to frame.
+                // The static leaves keep their slots from frame to frame; the dynamic ones
+                // find last frame's irradiance in the bounce table.
                 range: [
                     indirect.is_some() as u32,
                     node,
-                    (bounce.is_some() && i == 0) as u32,
-                    0,
+                    (i == 0 && bounce.is_some() || i == 1 && table.is_some()) as u32,
+                    if i == 0 {
+                        0
+                    } else {
+                        table.map_or(0, |t| t.capacity)
+                    },
                 ],
             };
             let params_buffer = ctx.create_buffer_init(
@@ -262,8 +306,8 @@ impl SvoLight {
                 timer,
                 svo,
                 [&params_buffer, &matrices, lights, dyn_sums, dyn_state],
-                bounce.map_or([&placeholder, &placeholder_out], |b| {
-                    [&b.irradiance, &b.geometry]
+                bounce.map_or([&placeholder, &placeholder_out, keys, values], |b| {
+                    [&b.irradiance, &b.geometry, keys, values]
                 }),
                 &view,
                 (name, count, indirect),
@@ -289,11 +333,11 @@ impl SvoLight {
         timer: &mut PassTimer,
         svo: &crate::voxel::svo::Svo,
         [params_buffer, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
-        [bounce_in, bounce_out]: [&wgpu::Buffer; 2],
+        [bounce_in, bounce_out, table_keys, table_values]: [&wgpu::Buffer; 4],
         view: &wgpu::TextureView,
         (name, count, indirect): (&str, u32, Option<u32>),
     ) {
-        let buffers: [(u32, &wgpu::Buffer); 16] = [
+        let buffers: [(u32, &wgpu::Buffer); 18] = [
             (10, params_buffer),
             (11, &svo.leaf_sums),
             (12, &svo.coord),
@@ -310,6 +354,8 @@ impl SvoLight {
             (25, &svo.control),
             (26, bounce_in),
             (27, bounce_out),
+            (28, table_keys),
+            (29, table_values),
         ];
         let mut entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()

@@ -107,7 +107,9 @@ struct InjectParams {
     part: vec4<u32>,
     // x: 1 when this dispatch's leaves are the range [control[y], control[y + 1]) that the
     // octree's last dynamic update left on the GPU (misc.x and misc.y unused), 0 otherwise;
-    // z: 1 when this dispatch takes part in multiple bounces (`bounce_*` below)
+    // z: 1 when this dispatch takes part in multiple bounces (`bounce_*` below); w: for the
+    // dynamic leaves, the capacity of the table of last frame's gathered irradiance
+    // (`dyn_bounce_*`; 0: their irradiance comes from `bounce_irradiance` by slot)
     range: vec4<u32>,
 }
 
@@ -137,6 +139,11 @@ struct InjectParams {
 // occupied voxel, 0 for an empty one) and its normal (snorm8x4).
 @group(0) @binding(26) var<storage, read> bounce_irradiance: array<u32>;
 @group(0) @binding(27) var<storage, read_write> bounce_geometry: array<u32>;
+// The dynamic leaves are rebuilt every frame in another order, so the irradiance they
+// gathered last frame is kept by voxel coordinates: an open-addressing table of keys (the
+// geometry word, 0 = empty; `svo_bounce.wgsl` fills it) and RGBA16F values.
+@group(0) @binding(28) var<storage, read> dyn_bounce_keys: array<u32>;
+@group(0) @binding(29) var<storage, read> dyn_bounce_values: array<u32>;
 
 const PI: f32 = 3.14159265358979;
 
@@ -217,6 +224,24 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> vec4<f32> {
     return vec4<f32>(emission + albedo / PI * e, 1.0);
 }
 
+// Last frame's irradiance of the dynamic voxel `key` (zero where it was not there).
+fn dyn_bounce_lookup(key: u32) -> vec3<f32> {
+    let mask = P.range.w - 1u;
+    var e = bounce_table_hash(key) & mask;
+    for (var i = 0u; i < BOUNCE_TABLE_PROBES; i++) {
+        let k = dyn_bounce_keys[e];
+        if k == key {
+            return vec3<f32>(unpack2x16float(dyn_bounce_values[2u * e]),
+                             unpack2x16float(dyn_bounce_values[2u * e + 1u]).x);
+        }
+        if k == 0u {
+            break;
+        }
+        e = (e + 1u) & mask;
+    }
+    return vec3<f32>(0.0);
+}
+
 fn octant(o: u32) -> vec3<u32> {
     return vec3<u32>(o & 1u, (o >> 1u) & 1u, (o >> 2u) & 1u);
 }
@@ -245,9 +270,14 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let sums = leaf_voxel_sums(n, o);
         var e0 = vec3<f32>(0.0);
         if P.range.z != 0u {
-            e0 = vec3<f32>(unpack2x16float(bounce_irradiance[2u * slot]),
-                           unpack2x16float(bounce_irradiance[2u * slot + 1u]).x);
-            bounce_geometry[2u * slot] = select(0u, v.x | (v.y << 10u) | (v.z << 20u) | (1u << 30u), sums[3] != 0u);
+            let key = select(0u, v.x | (v.y << 10u) | (v.z << 20u) | (1u << 30u), sums[3] != 0u);
+            if P.range.w == 0u {
+                e0 = vec3<f32>(unpack2x16float(bounce_irradiance[2u * slot]),
+                               unpack2x16float(bounce_irradiance[2u * slot + 1u]).x);
+            } else if key != 0u {
+                e0 = dyn_bounce_lookup(key);
+            }
+            bounce_geometry[2u * slot] = key;
             bounce_geometry[2u * slot + 1u] = pack4x8snorm(vec4<f32>(voxel_normal(sums), 0.0));
         }
         voxels[o] = voxel_value(sums, p, e0);
