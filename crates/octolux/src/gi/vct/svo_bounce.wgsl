@@ -51,41 +51,39 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
 }
 
-// One invocation per dynamic leaf node (the range the octree's last dynamic update left on
-// the GPU): its 8 voxels gather, and each occupied one enters the table (cleared before).
-// Keys are distinct (one slot per voxel), so an insert competes only with the few keys that
-// hash near it.
-@compute @workgroup_size(64)
+// One workgroup per dynamic leaf node (the range the octree's last dynamic update left on
+// the GPU), one invocation per voxel: each occupied voxel gathers and enters the table
+// (cleared before). Keys are distinct (one slot per voxel), so an insert competes only with
+// the few keys that hash near it.
+@compute @workgroup_size(8)
 fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                  @builtin(local_invocation_index) li: u32) {
-    let l = (wg.y * nwg.x + wg.x) * 64u + li;
+                  @builtin(local_invocation_index) o: u32) {
+    let l = wg.y * nwg.x + wg.x;
     let leaf = bounce_params.misc.z;
     if l >= svo_control[65u + 2u * leaf] - svo_control[64u + 2u * leaf] {
         return;
     }
-    for (var o = 0u; o < 8u; o++) {
-        let i = bounce_params.misc.x + 8u * l + o;
-        let key = bounce_geometry[2u * i];
-        if key == 0u {
-            continue;
+    let i = bounce_params.misc.x + 8u * l + o;
+    let key = bounce_geometry[2u * i];
+    if key == 0u {
+        return;
+    }
+    let e = voxel_bounce(i);
+    let mask = bounce_params.misc.y - 1u;
+    var at = bounce_table_hash(key) & mask;
+    var probes = 0u;
+    // Bounded even if weak exchanges kept failing spuriously.
+    for (var tries = 0u; tries < 4u * BOUNCE_TABLE_PROBES && probes < BOUNCE_TABLE_PROBES; tries++) {
+        let r = atomicCompareExchangeWeak(&table_keys[at], 0u, key);
+        if r.exchanged || r.old_value == key {
+            table_values[2u * at] = pack2x16float(e.rg);
+            table_values[2u * at + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+            return;
         }
-        let e = voxel_bounce(i);
-        let mask = bounce_params.misc.y - 1u;
-        var at = bounce_table_hash(key) & mask;
-        var probes = 0u;
-        // Bounded even if weak exchanges kept failing spuriously.
-        for (var tries = 0u; tries < 4u * BOUNCE_TABLE_PROBES && probes < BOUNCE_TABLE_PROBES; tries++) {
-            let r = atomicCompareExchangeWeak(&table_keys[at], 0u, key);
-            if r.exchanged || r.old_value == key {
-                table_values[2u * at] = pack2x16float(e.rg);
-                table_values[2u * at + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
-                break;
-            }
-            // A weak exchange may fail spuriously on an empty entry: try it again.
-            if r.old_value != 0u {
-                at = (at + 1u) & mask;
-                probes++;
-            }
+        // A weak exchange may fail spuriously on an empty entry: try it again.
+        if r.old_value != 0u {
+            at = (at + 1u) & mask;
+            probes++;
         }
     }
 }

@@ -15,7 +15,7 @@ use crate::voxel::svo::dynamic::DynamicReserve;
 use crate::voxel::svo::inject::{
     SvoBounce, SvoBounceTable, BOUNCE_TABLE_WGSL, SVO_RADIANCE_SAMPLE_WGSL,
 };
-use crate::voxel::svo::{Svo, SvoBuilder, ARGS_DYN_NODES};
+use crate::voxel::svo::{Svo, SvoBuilder, ARGS_DYN_NODES, NODE_ARGS};
 use crate::voxel::voxelize::dispatch;
 use crate::voxel::{objects_triangles, VoxelGrid};
 use crate::{Error, Result};
@@ -267,7 +267,9 @@ impl Bounce {
                 });
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, &dynamics, &[]);
-                pass.dispatch_workgroups_indirect(&svo.args, (ARGS_DYN_NODES + leaf) as u64 * 12);
+                // One workgroup per dynamic leaf node (the octree's per-node argument slot).
+                let slot = ARGS_DYN_NODES + leaf + NODE_ARGS;
+                pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
             });
         }
         self.buffers.frame = self.buffers.frame.wrapping_add(1);
