@@ -161,7 +161,7 @@ fn sample_level(p: vec3<f32>, l: u32) -> vec4<f32> {
     return sum;
 }
 
-fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
     let lambda = clamp(log2(footprint / info.origin.w), 0.0, f32(info.misc.y - 1u));
     let l0 = floor(lambda);
     let f = lambda - l0;
@@ -542,7 +542,7 @@ const CLIPMAP_TEST_WGSL: &str = r#"
 @group(0) @binding(2) var<storage, read> clip_radiance: array<u32>;
 
 // The clipmap back-end of the marcher's sampling function.
-fn vct_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
     return clip_radiance_sample(p, footprint);
 }
 

@@ -66,7 +66,9 @@ pub fn cone_composite(acc: Vec4, s: Vec4, step: f32, footprint: f32) -> Vec4 {
 }
 
 /// Marches `cone` through `sample(p, footprint)` (CPU twin of the WGSL `march_cone`):
-/// accumulated premultiplied radiance (xyz) and opacity (w).
+/// accumulated premultiplied radiance (xyz) and opacity (w). The WGSL sampler also gets the
+/// cone's direction; it is constant along a cone, so a directional sampler here captures
+/// `cone.dir` in the closure.
 pub fn march_cone(sample: impl Fn(Vec3, f32) -> Vec4, cone: &ConeMarch) -> Vec4 {
     let c = &cone.params;
     let spread = 2.0 * (0.5 * c.aperture).tan();
