@@ -1,7 +1,9 @@
 //! `vct-svo`: voxel cone tracing on the sparse voxel octree (`003` §3.1-3.2): the octree of
 //! the scene's static geometry is built once; per frame its dynamic part is rebuilt from the
-//! animated objects, direct light is injected into its leaves from the renderer's shadow maps
-//! and filtered up the levels, and every pixel gathers one bounce through six cones.
+//! animated objects, direct light (plus, with multiple bounces, the irradiance every voxel
+//! gathered last frame) is injected into its leaves from the renderer's shadow maps and
+//! filtered up the levels (and, with `anisotropic`, composited per direction), the voxels
+//! gather the next bounce, and every traced pixel gathers through the diffuse cones.
 
 use super::clipmap_gi::cone_params;
 use super::tracer::ConeTracer;
@@ -30,10 +32,17 @@ pub struct VctSvo {
     animated: bool,
     tracer: ConeTracer,
     info: wgpu::Buffer,
-    /// The anisotropic radiance (`anisotropic`), or a placeholder for its binding.
-    aniso: Result<SvoAnisoRadiance, wgpu::Buffer>,
+    /// What the tracer's anisotropic radiance binding holds.
+    aniso: AnisoBinding,
     /// Multiple bounces.
     bounce: Option<Bounce>,
+}
+
+/// The anisotropic radiance (`anisotropic`), or a placeholder word for its binding (the
+/// tracer's WGSL declares it either way).
+enum AnisoBinding {
+    Values(SvoAnisoRadiance),
+    Placeholder(wgpu::Buffer),
 }
 
 /// Multiple bounces: the buffers the injection and the bounce gathers share, the gathers and
@@ -141,9 +150,9 @@ impl VctSvo {
             wgpu::BufferUsages::STORAGE,
         );
         let aniso = if settings.anisotropic {
-            Ok(SvoAnisoRadiance::new(ctx, &svo)?)
+            AnisoBinding::Values(SvoAnisoRadiance::new(ctx, &svo)?)
         } else {
-            Err(ctx.create_buffer(
+            AnisoBinding::Placeholder(ctx.create_buffer(
                 OWNER,
                 &wgpu::BufferDescriptor {
                     label: Some("anisotropic radiance (placeholder)"),
@@ -304,11 +313,11 @@ impl GiTechnique for VctSvo {
         // 3. With `anisotropic`: the radiance per travel direction, composited up the levels.
         let svo = &self.svo;
         let aniso = match &self.aniso {
-            Ok(aniso) => {
+            AnisoBinding::Values(aniso) => {
                 aniso.record(timer, svo);
                 aniso.buffer()
             }
-            Err(placeholder) => placeholder,
+            AnisoBinding::Placeholder(placeholder) => placeholder,
         };
         let mut structure = vec![
             (3, self.info.as_entire_binding()),
