@@ -1,0 +1,34 @@
+//! The cone tracers' flags on the command line: `--vct-anisotropic` renders both ways, and a
+//! value that is not a boolean is a usage error naming the flag.
+
+mod common;
+
+#[test]
+fn the_anisotropic_flag_renders_and_a_bad_value_is_refused() {
+    let dir = common::temp_dir("vct-cli");
+    for value in ["true", "false"] {
+        let output = common::render_small(
+            &dir,
+            None,
+            &[
+                "--gi",
+                "vct-svo",
+                "--vct-octree-resolution",
+                "32",
+                "--vct-anisotropic",
+                value,
+            ],
+        );
+        common::assert_succeeds(&output);
+    }
+    let output = common::render_small(
+        &dir,
+        None,
+        &["--gi", "vct-svo", "--vct-anisotropic", "maybe"],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    // clap's usage errors exit with 2.
+    assert_eq!(output.status.code(), Some(2), "stderr: {stderr}");
+    assert!(stderr.contains("--vct-anisotropic"), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "stderr: {stderr}");
+}
