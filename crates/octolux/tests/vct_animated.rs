@@ -174,3 +174,26 @@ fn the_octrees_moving_voxels_carry_bounces_like_its_static_ones() {
     assert!(bounces > 0.01, "the bounces add {bounces}");
     assert!(difference < 1e-4, "{difference} (one bounce: {bounces})");
 }
+
+#[test]
+fn a_dynamic_reserve_beyond_the_adapters_bindings_is_a_clear_error() {
+    // With multiple bounces a reserve of 2^22 nodes needs a bounce table of 2^25 entries
+    // (256 MiB of values). Where one storage binding holds less (lavapipe: 128 MiB), the
+    // technique says so, before building the octree, instead of failing in wgpu; where it
+    // holds that much, the technique is made.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let mut settings = settings_with("vct-svo", true);
+    settings.gi_settings.vct.dynamic_reserve = 1 << 22;
+    let too_large = (1u64 << 28) > ctx.device.limits().max_storage_buffer_binding_size;
+    match Renderer::new(&ctx, &scene(), settings) {
+        Ok(_) => assert!(!too_large, "a 256 MiB bounce table was accepted"),
+        Err(e) => {
+            let message = e.to_string();
+            println!("{message}");
+            assert!(too_large, "{message}");
+            assert!(message.contains("bounce table"), "{message}");
+            assert!(message.contains("dynamic_reserve"), "{message}");
+        }
+    }
+}

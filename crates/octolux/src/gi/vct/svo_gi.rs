@@ -58,6 +58,26 @@ struct Bounce {
     slots: u32,
 }
 
+/// Entries of a dynamic bounce table for a reserve of `nodes`: room for every voxel the
+/// reserve can hold, rounded up to a power of two (the probe limit drops what does not fit
+/// in a table that full).
+fn bounce_table_entries(nodes: u32) -> u64 {
+    (nodes as u64 * 8).next_power_of_two()
+}
+
+/// A clear error where a buffer of `bytes` would not fit one storage binding.
+fn check_binding(ctx: &GpuContext, what: &str, bytes: u64) -> Result<()> {
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    if bytes > limit {
+        return Err(Error::InvalidArgument(format!(
+            "vct-svo: the {what} needs {bytes} bytes, more than one storage binding holds on \
+             this GPU ({limit}); lower `dynamic_reserve` or `octree_resolution`, or turn \
+             `multi_bounce` off"
+        )));
+    }
+    Ok(())
+}
+
 /// Bounds of everything the scene's geometry covers: at rest and, for animated objects, at
 /// 256 instants over their tracks' key range (a moving object outside the octree's grid would
 /// not be voxelised).
@@ -106,6 +126,10 @@ impl VctSvo {
         } else {
             DynamicReserve::NONE
         };
+        if settings.multi_bounce && animated {
+            // Checked before the octree is built: the bounce table follows from the reserve.
+            check_binding(ctx, "bounce table", bounce_table_entries(reserve.nodes) * 8)?;
+        }
         let builder = SvoBuilder::new(ctx);
         let still = objects_triangles(scene, &scene.frame(0.0, 0), false);
         let (svo, _) = builder.build_with_reserve(ctx, &grid, &still, reserve)?;
@@ -162,51 +186,16 @@ impl VctSvo {
                 },
             ))
         };
-        let dynamic_slots = reserve.nodes as u64 * 8;
-        let bounce = settings.multi_bounce.then(|| {
-            let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
-            let slots = (end - first) * 8;
-            let buffer = |label, bytes: u64| {
-                ctx.create_buffer(
-                    OWNER,
-                    &wgpu::BufferDescriptor {
-                        label: Some(label),
-                        size: bytes.max(16),
-                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    },
-                )
-            };
-            // Room for every voxel the dynamic reserve can hold (the probe limit drops what
-            // does not fit in a table that full).
-            let capacity = (dynamic_slots as u32).next_power_of_two();
-            let tables = animated.then(|| {
-                [0, 1].map(|_| SvoBounceTable {
-                    keys: buffer("bounce table keys", capacity as u64 * 4),
-                    values: buffer("bounce table values", capacity as u64 * 8),
-                    capacity,
-                })
-            });
-            let leaf = svo.levels.len().saturating_sub(1) as u32;
-            let params = ctx.create_buffer_init(
-                OWNER,
-                "bounce params",
-                bytemuck::cast_slice(&[slots, capacity, leaf, 0]),
-                wgpu::BufferUsages::STORAGE,
-            );
-            Bounce {
-                buffers: SvoBounce {
-                    irradiance: buffer("bounce irradiance", slots as u64 * 8),
-                    geometry: buffer("bounce geometry", (slots as u64 + dynamic_slots) * 8),
-                    tables,
-                    frame: 0,
-                },
-                pipeline: tracer.bounce_pipeline(ctx, "bounce"),
-                dynamic: animated.then(|| tracer.bounce_pipeline(ctx, "bounce_dynamic")),
-                params,
-                slots,
-            }
-        });
+        let bounce = if settings.multi_bounce {
+            Some(Bounce::new(
+                ctx,
+                &tracer,
+                &svo,
+                animated.then_some(reserve.nodes),
+            )?)
+        } else {
+            None
+        };
         Ok(VctSvo {
             builder,
             svo,
@@ -225,6 +214,61 @@ impl VctSvo {
 }
 
 impl Bounce {
+    /// The bounce buffers and gathers of `svo`; with `dynamic_reserve` (nodes, for animated
+    /// scenes) also the dynamic voxels' tables and gather.
+    fn new(
+        ctx: &GpuContext,
+        tracer: &ConeTracer,
+        svo: &Svo,
+        dynamic_reserve: Option<u32>,
+    ) -> Result<Bounce> {
+        let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
+        let slots = (end - first) * 8;
+        let dynamic_slots = dynamic_reserve.unwrap_or(0) as u64 * 8;
+        let capacity = bounce_table_entries(dynamic_reserve.unwrap_or(0));
+        let geometry_bytes = (slots as u64 + dynamic_slots) * 8;
+        check_binding(ctx, "bounce geometry", geometry_bytes)?;
+        check_binding(ctx, "bounce table", capacity * 8)?;
+        let buffer = |label: &str, bytes: u64| {
+            ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: bytes.max(16),
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        // Two tables, each under its own ledger name.
+        let tables = dynamic_reserve.map(|_| {
+            ["a", "b"].map(|t| SvoBounceTable {
+                keys: buffer(&format!("bounce table {t} keys"), capacity * 4),
+                values: buffer(&format!("bounce table {t} values"), capacity * 8),
+                capacity: capacity as u32,
+            })
+        });
+        let leaf = svo.levels.len().saturating_sub(1) as u32;
+        let params = ctx.create_buffer_init(
+            OWNER,
+            "bounce params",
+            bytemuck::cast_slice(&[slots, capacity as u32, leaf, 0]),
+            wgpu::BufferUsages::STORAGE,
+        );
+        Ok(Bounce {
+            buffers: SvoBounce {
+                irradiance: buffer("bounce irradiance", slots as u64 * 8),
+                geometry: buffer("bounce geometry", geometry_bytes),
+                tables,
+                frame: 0,
+            },
+            pipeline: tracer.bounce_pipeline(ctx, "bounce"),
+            dynamic: dynamic_reserve.map(|_| tracer.bounce_pipeline(ctx, "bounce_dynamic")),
+            params,
+            slots,
+        })
+    }
+
     /// Records the static voxels' gather and, with a dynamic part, the dynamic voxels'
     /// gather into this frame's table; then flips the tables for the next frame.
     fn record(
