@@ -206,27 +206,52 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             }
             changed |= drag(ui, "iterations per level", &mut s.olpv.iterations, 0, 64);
         }
-        "vct-clipmap" => {
+        "vct-clipmap" | "vct-svo" => {
+            use octolux::gi::vct::VctStructure;
             let v = &mut s.vct;
-            let mut resolution = v.resolution;
-            ComboBox::from_label("voxels per level side")
-                .selected_text(resolution.to_string())
-                .show_ui(ui, |ui| {
-                    for n in [16, 32, 64, 128] {
-                        ui.selectable_value(&mut resolution, n, n.to_string());
-                    }
-                });
-            if resolution != v.resolution {
-                v.resolution = resolution;
-                changed = true;
-            }
-            changed |= drag(ui, "levels", &mut v.levels, 1, 8);
+            let combo = |ui: &mut Ui, label: &str, value: &mut u32, choices: &[u32]| {
+                let mut chosen = *value;
+                ComboBox::from_label(label)
+                    .selected_text(chosen.to_string())
+                    .show_ui(ui, |ui| {
+                        for &n in choices {
+                            ui.selectable_value(&mut chosen, n, n.to_string());
+                        }
+                    });
+                let changed = chosen != *value;
+                *value = chosen;
+                changed
+            };
+            let structure = if technique == "vct-svo" {
+                changed |= combo(
+                    ui,
+                    "octree voxels per side",
+                    &mut v.octree_resolution,
+                    &[32, 64, 128, 256],
+                );
+                changed |= ui
+                    .checkbox(&mut v.anisotropic, "anisotropic radiance")
+                    .changed();
+                VctStructure::Octree
+            } else {
+                changed |= combo(
+                    ui,
+                    "voxels per level side",
+                    &mut v.resolution,
+                    &[16, 32, 64, 128],
+                );
+                changed |= drag(ui, "levels", &mut v.levels, 1, 8);
+                VctStructure::Clipmap
+            };
+            changed |= ui
+                .checkbox(&mut v.multi_bounce, "multiple bounces")
+                .changed();
             let slider = |ui: &mut Ui, label: &str, x: &mut f32, lo: f32, hi: f32| {
                 ui.add(Slider::new(x, lo..=hi).text(label)).changed()
             };
             // The diffuse cones' settings are optional (the technique's own defaults); the
-            // sliders show the clipmap's values and an edit sets them.
-            let cones = v.diffuse_cones(octolux::gi::vct::VctStructure::Clipmap);
+            // sliders show the technique's values and an edit sets them.
+            let cones = v.diffuse_cones(structure);
             let (mut aperture, mut start) = (cones.aperture, cones.start);
             if slider(ui, "aperture (degrees)", &mut aperture, 10.0, 120.0) {
                 v.aperture = Some(aperture);
@@ -238,7 +263,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 changed = true;
             }
             changed |= slider(ui, "stop opacity", &mut v.stop_opacity, 0.5, 1.0);
-            changed |= drag(ui, "injection steps", &mut v.inject_steps, 8, 1024);
+            if technique == "vct-clipmap" {
+                changed |= drag(ui, "injection steps", &mut v.inject_steps, 8, 1024);
+            }
             changed |= drag(ui, "sparse (N x N block)", &mut v.sparse, 1, 8);
             return changed;
         }
