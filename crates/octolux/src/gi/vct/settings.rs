@@ -150,8 +150,8 @@ pub struct VctSettings {
     /// per travel direction, composited front to back from its children
     /// ([`crate::voxel::svo::aniso_radiance`]), instead of the isotropic lattice scaled by
     /// the sample's footprint; 48 bytes more per brick and one pass per frame. Default
-    /// false: measured on the Cornell box, the directional values shadow the cones' own
-    /// surfaces more and double the error (docs/vct.md, "Anisotropic radiance").
+    /// false: measured, it stops the leaks through walls as thin as a voxel but doubles the
+    /// error in rooms lit by their bounce light (docs/vct.md, "Anisotropic radiance").
     pub anisotropic: bool,
     /// Multiple bounces: every frame the voxels (the octree's static voxels, every clipmap
     /// voxel) gather indirect irradiance with the diffuse cones and add it to their direct
