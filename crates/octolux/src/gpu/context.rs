@@ -360,6 +360,21 @@ impl GpuContext {
         texture
     }
 
+    /// A clear error where a storage buffer of `bytes` (for `what`, e.g. "vct-svo: the bounce
+    /// table") exceeds what one binding holds on this adapter; `remedy` says what to change.
+    pub fn check_storage_binding(&self, what: &str, bytes: u64, remedy: &str) -> Result<()> {
+        let limit = self.device.limits().max_storage_buffer_binding_size;
+        if bytes > limit {
+            return Err(Error::InvalidArgument(format!(
+                "{what} needs {} MiB, more than the adapter's {} MiB per storage binding; \
+                 {remedy}",
+                bytes.div_ceil(1 << 20),
+                limit >> 20
+            )));
+        }
+        Ok(())
+    }
+
     /// Compiles WGSL source into a shader module.
     pub fn shader(&self, label: &str, source: &str) -> wgpu::ShaderModule {
         self.device

@@ -65,15 +65,11 @@ pub(crate) fn storage(
     label: &str,
     bytes: u64,
 ) -> Result<wgpu::Buffer> {
-    let limit = ctx.device.limits().max_storage_buffer_binding_size;
-    if bytes > limit {
-        return Err(Error::InvalidArgument(format!(
-            "{owner}: its {label} need {} MiB, more than the adapter's {} MiB per storage \
-             binding; use fewer probes or surfels",
-            bytes.div_ceil(1 << 20),
-            limit >> 20
-        )));
-    }
+    ctx.check_storage_binding(
+        &format!("{owner}: its {label}"),
+        bytes,
+        "use fewer probes or surfels",
+    )?;
     Ok(ctx.create_buffer(
         owner,
         &wgpu::BufferDescriptor {

@@ -65,17 +65,13 @@ fn bounce_table_entries(nodes: u32) -> u64 {
     (nodes as u64 * 8).next_power_of_two()
 }
 
-/// A clear error where a buffer of `bytes` would not fit one storage binding.
+/// A clear error where a bounce buffer of `bytes` would not fit one storage binding.
 fn check_binding(ctx: &GpuContext, what: &str, bytes: u64) -> Result<()> {
-    let limit = ctx.device.limits().max_storage_buffer_binding_size;
-    if bytes > limit {
-        return Err(Error::InvalidArgument(format!(
-            "vct-svo: the {what} needs {bytes} bytes, more than one storage binding holds on \
-             this GPU ({limit}); lower `dynamic_reserve` or `octree_resolution`, or turn \
-             `multi_bounce` off"
-        )));
-    }
-    Ok(())
+    ctx.check_storage_binding(
+        &format!("vct-svo: the {what}"),
+        bytes,
+        "lower `dynamic_reserve` or `octree_resolution`, or turn `multi_bounce` off",
+    )
 }
 
 /// Bounds of everything the scene's geometry covers: at rest and, for animated objects, at

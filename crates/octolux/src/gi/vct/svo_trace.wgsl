@@ -24,21 +24,19 @@
 // not: with `anisotropic`, footprints of two finest voxels and more read those, and between
 // one and two voxels the sample blends from the scaled lattice to them.
 fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
-    var below = 0.0;
+    var lod: SvoNodeLod;
     if SVO_ANISOTROPIC {
-        let lod = svo_node_lod(p, footprint);
+        lod = svo_node_lod(p, footprint);
         if lod.below >= 1.0 {
             return svo_radiance_aniso(p, footprint, dir);
         }
-        below = lod.below;
     }
     let s = svo_radiance_sample(p, footprint);
     let k = min(max(footprint / svo_info.origin.w, 1.0), 1.0 / max(s.a, 1e-6));
-    if below <= 0.0 {
+    if !SVO_ANISOTROPIC || lod.below <= 0.0 {
         return s * k;
     }
-    let lod = svo_node_lod(p, footprint);
-    return mix(s * k, svo_radiance_aniso_level(lod.g, lod.fine, dir), below);
+    return mix(s * k, svo_radiance_aniso_level(lod.g, lod.fine, dir), lod.below);
 }
 
 // One grid, but a surface reaches further off itself than in the clipmap: the octree's

@@ -106,19 +106,10 @@ fn filter_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
         return;
     }
     for (var d = 0u; d < 6u; d++) {
-        let a = d / 2u;
-        let bit = 1u << a;
         var acc = vec4<u32>(0u);
         for (var j = 0u; j < 4u; j++) {
-            // Child index with bit `a` cleared, the other two bits from j.
-            let k0 = ((j >> a) << (a + 1u)) | (j & (bit - 1u));
-            var front = fine[k0];
-            var back = fine[k0 | bit];
-            if (d & 1u) == 1u {
-                front = fine[k0 | bit];
-                back = fine[k0];
-            }
-            acc += over(fine_dir(fl, front, d), fine_dir(fl, back, d));
+            let pair = pair_along(d, j);
+            acc += over(fine_dir(fl, fine[pair.x], d), fine_dir(fl, fine[pair.y], d));
         }
         aniso[((l - 1u) * n + cs) * 6u + d] = pack_u8((acc + vec4<u32>(2u)) / 4u);
     }

@@ -38,6 +38,7 @@ use crate::voxel::voxelize::{
     bind_buffers, dispatch, upload_triangles, work_items, VoxParams, OVERLAP_WGSL,
 };
 use crate::voxel::VoxelTriangle;
+use crate::voxel::PAIRS_WGSL;
 use crate::{Error, Result};
 use bytemuck::Zeroable;
 use glam::{DVec3, IVec3, Vec3};
@@ -558,7 +559,7 @@ impl Clipmap {
         );
         let module = ctx.shader("clipmap", &source);
         let source = format!(
-            "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{}",
+            "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{PAIRS_WGSL}\n{}",
             include_str!("filter.wgsl")
         );
         let filter_module = ctx.shader("clipmap filter", &source);

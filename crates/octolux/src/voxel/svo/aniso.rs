@@ -84,8 +84,9 @@ impl SvoAniso {
     /// Compiles the kernel.
     pub fn new(ctx: &GpuContext) -> SvoAniso {
         let source = format!(
-            "{}\n{}",
+            "{}\n{}\n{}",
             crate::voxel::svo::inject::LEAF_SUMS_WGSL,
+            crate::voxel::PAIRS_WGSL,
             include_str!("aniso.wgsl")
         );
         let module = ctx.shader("svo anisotropic", &source);
@@ -105,14 +106,11 @@ impl SvoAniso {
         svo: &Svo,
     ) -> Result<SvoAnisoValues> {
         let bytes = svo.brick_count as u64 * ANISO_WORDS as u64 * 4;
-        let limit = ctx.device.limits().max_storage_buffer_binding_size;
-        if bytes > limit {
-            return Err(Error::InvalidArgument(format!(
-                "anisotropic values of {} bricks need {bytes} bytes, more than one storage \
-                 binding holds on this GPU ({limit})",
-                svo.brick_count
-            )));
-        }
+        ctx.check_storage_binding(
+            &format!("the anisotropic values of {} bricks", svo.brick_count),
+            bytes,
+            "lower the octree resolution",
+        )?;
         let buffer = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
@@ -204,43 +202,47 @@ impl SvoAniso {
         points: &[Vec4],
         dirs: Option<&[Vec3]>,
     ) -> Result<Vec<Vec4>> {
-        let dir_words: Vec<Vec4> = match dirs {
-            Some(d) if d.len() != points.len() => {
-                return Err(Error::InvalidArgument(format!(
-                    "{} directions for {} points",
-                    d.len(),
-                    points.len()
-                )))
-            }
-            Some(d) => d.iter().map(|d| d.extend(1.0)).collect(),
-            None => vec![Vec4::ZERO; points.len()],
-        };
-        if points.is_empty() {
-            return Ok(Vec::new());
-        }
-        let owner = "svo probe";
-        let source = format!("{SVO_SAMPLE_WGSL}\n{SVO_ANISO_SAMPLE_WGSL}\n{PROBE_WGSL}");
-        let info = ctx.create_buffer_init(
-            owner,
-            "info",
-            bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
-            wgpu::BufferUsages::STORAGE,
-        );
-        let fixed = [
-            (0, &info),
-            (1, &svo.child),
-            (2, &svo.bricks[0]),
-            (3, &svo.bricks[1]),
-            (4, &svo.bricks[2]),
-            (5, &svo.bricks[3]),
-            (6, &svo.brick_index),
-            (7, &values.buffer),
-        ];
-        crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
+        let none = vec![Vec3::ZERO; points.len()];
+        probe_node_values(
+            ctx,
+            svo,
+            (&values.buffer, "svo_aniso"),
+            SVO_ANISO_SAMPLE_WGSL,
+            "select(svo_sample(q.xyz, q.w), svo_sample_aniso(q.xyz, q.w, d.xyz), d.w > 0.5)",
+            points,
+            dirs.map_or((&none[..], 0.0), |d| (d, 1.0)),
+        )
     }
 }
 
-const PROBE_WGSL: &str = "
+/// Runs `sample` (a WGSL expression of the point `q`, xyz position and w footprint, and the
+/// direction `d`, xyz and w = the flag in `dirs`) on the GPU at every point, with `sampler`
+/// (WGSL after `svo/sample.wgsl`) reading the per-brick node values `values` (the buffer and
+/// its WGSL name). Blocks. For the octree's directional probes (albedo and radiance).
+pub(crate) fn probe_node_values(
+    ctx: &GpuContext,
+    svo: &Svo,
+    (values, name): (&wgpu::Buffer, &str),
+    sampler: &str,
+    sample: &str,
+    points: &[Vec4],
+    (dirs, flag): (&[Vec3], f32),
+) -> Result<Vec<Vec4>> {
+    if dirs.len() != points.len() {
+        return Err(Error::InvalidArgument(format!(
+            "{} directions for {} points",
+            dirs.len(),
+            points.len()
+        )));
+    }
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let owner = "svo probe";
+    // Every declared pool binding takes part in the layout: the isotropic sample at a huge
+    // footprint (read, weighted by zero) keeps it so whatever `sample` reads.
+    let probe = format!(
+        "
 @group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
 @group(0) @binding(1) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(2) var<storage, read> svo_bricks0: array<u32>;
@@ -248,22 +250,40 @@ const PROBE_WGSL: &str = "
 @group(0) @binding(4) var<storage, read> svo_bricks2: array<u32>;
 @group(0) @binding(5) var<storage, read> svo_bricks3: array<u32>;
 @group(0) @binding(6) var<storage, read> svo_brick_index: array<u32>;
-@group(0) @binding(7) var<storage, read> svo_aniso: array<u32>;
+@group(0) @binding(7) var<storage, read> {name}: array<u32>;
 @group(0) @binding(8) var<storage, read> points: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> dirs: array<vec4<f32>>;
 @group(0) @binding(10) var<storage, read_write> samples: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
-fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&points) {
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
+    if id.x >= arrayLength(&points) {{
         return;
-    }
+    }}
     let q = points[id.x];
     let d = dirs[id.x];
-    if d.w > 0.5 {
-        samples[id.x] = svo_sample_aniso(q.xyz, q.w, d.xyz);
-    } else {
-        samples[id.x] = svo_sample(q.xyz, q.w);
-    }
+    let keep = svo_sample(q.xyz, 1e9) * 0.0;
+    samples[id.x] = {sample} + keep;
+}}
+"
+    );
+    let source = format!("{SVO_SAMPLE_WGSL}\n{sampler}\n{probe}");
+    let info = ctx.create_buffer_init(
+        owner,
+        "info",
+        bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let fixed = [
+        (0, &info),
+        (1, &svo.child),
+        (2, &svo.bricks[0]),
+        (3, &svo.bricks[1]),
+        (4, &svo.bricks[2]),
+        (5, &svo.bricks[3]),
+        (6, &svo.brick_index),
+        (7, values),
+    ];
+    let dirs: Vec<Vec4> = dirs.iter().map(|d| d.extend(flag)).collect();
+    crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dirs)
 }
-";

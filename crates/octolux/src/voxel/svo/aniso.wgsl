@@ -90,19 +90,10 @@ fn build_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
                 }
             }
         }
-        let a = d / 2u;
-        let bit = 1u << a;
         var acc = vec4<u32>(0u);
         for (var j = 0u; j < 4u; j++) {
-            // Octant with bit `a` cleared, the other two bits from j.
-            let k0 = ((j >> a) << (a + 1u)) | (j & (bit - 1u));
-            var front = fine[k0];
-            var back = fine[k0 | bit];
-            if (d & 1u) == 1u {
-                front = fine[k0 | bit];
-                back = fine[k0];
-            }
-            acc += over(front, back);
+            let pair = pair_along(d, j);
+            acc += over(fine[pair.x], fine[pair.y]);
         }
         aniso[(b - 1u) * 6u + d] = pack_u8((acc + vec4<u32>(2u)) / 4u);
     }

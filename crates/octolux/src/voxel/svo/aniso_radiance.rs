@@ -17,11 +17,10 @@
 //! [`SVO_RADIANCE_ANISO_WGSL`]. CPU twin of the values: [`crate::voxel::cpu::svo_aniso_radiance`].
 
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
-use crate::voxel::svo::{Svo, ARGS_DYN_NODES, OWNER};
+use crate::voxel::svo::{Svo, ARGS_DYN_NODES, OWNER, PARAM_STRIDE};
 use crate::voxel::voxelize::dispatch_size;
-use crate::{Error, Result};
-use glam::Vec4;
+use crate::Result;
+use glam::{Vec3, Vec4};
 
 fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
@@ -48,9 +47,6 @@ struct Params {
     range: [u32; 4],
 }
 
-/// Parameter slots are this many bytes apart (the adapter's storage offset alignment).
-const SLOT: u64 = 256;
-
 /// The anisotropic radiance of one octree and the kernel that rebuilds it.
 pub struct SvoAnisoRadiance {
     pipeline: wgpu::ComputePipeline,
@@ -71,19 +67,17 @@ impl SvoAnisoRadiance {
     /// Room for `svo`'s values (its whole brick capacity) and the kernel's bindings.
     pub fn new(ctx: &GpuContext, svo: &Svo) -> Result<SvoAnisoRadiance> {
         let bytes = svo.brick_capacity as u64 * ANISO_RADIANCE_WORDS as u64 * 4;
-        let limit = ctx.device.limits().max_storage_buffer_binding_size;
-        if bytes > limit {
-            return Err(Error::InvalidArgument(format!(
-                "anisotropic radiance of {} bricks needs {bytes} bytes, more than one storage \
-                 binding holds on this GPU ({limit}); lower the octree resolution or turn \
-                 `anisotropic` off",
-                svo.brick_capacity
-            )));
-        }
-        let module = ctx.shader(
-            "svo anisotropic radiance",
-            include_str!("aniso_radiance.wgsl"),
+        ctx.check_storage_binding(
+            &format!("the anisotropic radiance of {} bricks", svo.brick_capacity),
+            bytes,
+            "lower the octree resolution or turn `anisotropic` off",
+        )?;
+        let source = format!(
+            "{}\n{}",
+            crate::voxel::PAIRS_WGSL,
+            include_str!("aniso_radiance.wgsl")
         );
+        let module = ctx.shader("svo anisotropic radiance", &source);
         let pipeline = ctx.compute_pipeline("svo anisotropic radiance", &module, "build_level");
         let buffer = ctx.create_buffer(
             OWNER,
@@ -109,13 +103,13 @@ impl SvoAnisoRadiance {
                 slots.push((misc, [0; 4], Step::Dynamic(ARGS_DYN_NODES + d as u32)));
             }
         }
-        let mut words = vec![0u8; SLOT as usize * slots.len().max(1)];
+        let mut words = vec![0u8; PARAM_STRIDE as usize * slots.len().max(1)];
         for (i, (misc, range, _)) in slots.iter().enumerate() {
             let p = Params {
                 misc: *misc,
                 range: *range,
             };
-            let at = i * SLOT as usize;
+            let at = i * PARAM_STRIDE as usize;
             words[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
         }
         let params = ctx.create_buffer_init(
@@ -137,7 +131,7 @@ impl SvoAnisoRadiance {
                             binding: 0,
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                 buffer: &params,
-                                offset: i as u64 * SLOT,
+                                offset: i as u64 * PARAM_STRIDE,
                                 size: wgpu::BufferSize::new(32),
                             }),
                         },
@@ -222,57 +216,16 @@ impl SvoAnisoRadiance {
         ctx: &GpuContext,
         svo: &Svo,
         points: &[Vec4],
-        dirs: &[glam::Vec3],
+        dirs: &[Vec3],
     ) -> Result<Vec<Vec4>> {
-        if dirs.len() != points.len() {
-            return Err(Error::InvalidArgument(format!(
-                "{} directions for {} points",
-                dirs.len(),
-                points.len()
-            )));
-        }
-        if points.is_empty() {
-            return Ok(Vec::new());
-        }
-        let owner = "svo probe";
-        let source = format!("{SVO_SAMPLE_WGSL}\n{SVO_RADIANCE_ANISO_WGSL}\n{PROBE_WGSL}");
-        let info = ctx.create_buffer_init(
-            owner,
-            "info",
-            bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
-            wgpu::BufferUsages::STORAGE,
-        );
-        let fixed = [
-            (0, &info),
-            (1, &svo.child),
-            (2, &svo.brick_index),
-            (3, &self.buffer),
-        ];
-        let dirs: Vec<Vec4> = dirs.iter().map(|d| d.extend(1.0)).collect();
-        crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dirs)
+        crate::voxel::svo::aniso::probe_node_values(
+            ctx,
+            svo,
+            (&self.buffer, "svo_aniso_radiance"),
+            SVO_RADIANCE_ANISO_WGSL,
+            "svo_radiance_aniso(q.xyz, q.w, d.xyz)",
+            points,
+            (dirs, 1.0),
+        )
     }
 }
-
-const PROBE_WGSL: &str = "
-@group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
-@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(2) var<storage, read> svo_brick_index: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_aniso_radiance: array<u32>;
-@group(0) @binding(4) var<storage, read> points: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> dirs: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read_write> samples: array<vec4<f32>>;
-// Declared for the isotropic sampler, which the probe does not read.
-@group(0) @binding(7) var<storage, read> svo_bricks0: array<u32>;
-@group(0) @binding(8) var<storage, read> svo_bricks1: array<u32>;
-@group(0) @binding(9) var<storage, read> svo_bricks2: array<u32>;
-@group(0) @binding(10) var<storage, read> svo_bricks3: array<u32>;
-
-@compute @workgroup_size(64)
-fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&points) {
-        return;
-    }
-    let q = points[id.x];
-    samples[id.x] = svo_radiance_aniso(q.xyz, q.w, dirs[id.x].xyz);
-}
-";

@@ -85,19 +85,11 @@ fn build_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
                 fine[o] = child_value(children[o], d);
             }
         }
-        let a = d / 2u;
-        let bit = 1u << a;
         var acc = vec4<f32>(0.0);
         for (var j = 0u; j < 4u; j++) {
-            // Octant with bit `a` cleared, the other two bits from j.
-            let k0 = ((j >> a) << (a + 1u)) | (j & (bit - 1u));
-            var front = fine[k0];
-            var back = fine[k0 | bit];
-            if (d & 1u) == 1u {
-                front = fine[k0 | bit];
-                back = fine[k0];
-            }
-            acc += front + (1.0 - front.a) * back;
+            let pair = pair_along(d, j);
+            let front = fine[pair.x];
+            acc += front + (1.0 - front.a) * fine[pair.y];
         }
         acc *= 0.25;
         let w = (b - 1u) * ANISO_RADIANCE_WORDS + 2u * d;
