@@ -5,18 +5,21 @@
 mod report;
 
 use crate::gi_args::GiArgs;
-use crate::render::{load_scene, progress_bar, GpuArgs, SamplingArgs};
+use crate::inputs::{load_scene, GpuArgs};
+use crate::render::{progress_bar, SamplingArgs};
 use crate::stats::mib;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::ProgressBar;
 use octolux::gi::{GiSettings, TECHNIQUES};
 use octolux::gpu::GpuContext;
+use octolux::image_io::check_image_size;
 use octolux::image_io::HdrImage;
 use octolux::metrics;
-use octolux::reference::{self, Bounces, ReferenceImages, ReferenceSettings};
-use octolux::render::{check_image_size, RenderSettings, Renderer};
+use octolux::reference::{self, ReferenceImages, ReferenceSettings};
+use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::Scene;
+use octolux::transport::Bounces;
 use report::{
     frame_stats, AdapterReport, BenchReport, MemoryEntry, OwnerMemory, ReferenceReport,
     SceneReport, TechniqueReport,

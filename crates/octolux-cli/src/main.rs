@@ -4,6 +4,7 @@
 mod bench;
 mod diff;
 mod gi_args;
+mod inputs;
 mod render;
 mod sky_args;
 mod stats;

@@ -1,16 +1,18 @@
 //! `octolux render`.
 
 use crate::gi_args::GiArgs;
+use crate::inputs::{load_scene, parse_output, GpuArgs};
 use crate::sky_args::SkyArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use octolux::gi::GiSettings;
-use octolux::gpu::{AdapterChoice, GpuContext, GpuOptions, Timestamps};
-use octolux::image_io::{write_rgb8_png, HdrImage};
-use octolux::reference::{self, Bounces, ReferenceImages, ReferenceSettings};
-use octolux::render::{check_image_size, RenderSettings, Renderer};
-use octolux::scene::{cornell, Scene};
+use octolux::gpu::GpuContext;
+use octolux::image_io::{check_image_size, write_rgb8_png, HdrImage};
+use octolux::reference::{self, ReferenceImages, ReferenceSettings};
+use octolux::render::{RenderSettings, Renderer};
+use octolux::scene::Scene;
+use octolux::transport::Bounces;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -146,37 +148,6 @@ pub struct SamplingArgs {
     /// Random seed (same seed, same image).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-}
-
-/// GPU options (shared by `render` and `bench`).
-#[derive(Args, Debug, Clone)]
-pub struct GpuArgs {
-    /// Shadow-map resolution per layer.
-    #[arg(long, default_value_t = 2048)]
-    pub shadow_map_size: u32,
-    /// GPU adapter to use (substring of its name; see -v output). Also OCTOLUX_ADAPTER.
-    #[arg(long)]
-    pub adapter: Option<String>,
-    /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
-    #[arg(long)]
-    pub no_timestamps: bool,
-    /// Soft shadows for the sky's lights (percentage-closer, by each light's angular size).
-    #[arg(long)]
-    pub soft_sky_shadows: bool,
-}
-
-impl GpuArgs {
-    /// Device options from the flags and the environment.
-    pub fn options(&self) -> GpuOptions {
-        let mut options = GpuOptions::from_env();
-        if let Some(name) = &self.adapter {
-            options.adapter = AdapterChoice::Named(name.clone());
-        }
-        if self.no_timestamps {
-            options.timestamps = Timestamps::Off;
-        }
-        options
-    }
 }
 
 impl ReferenceArgs {
@@ -342,7 +313,7 @@ fn run_probe_view(args: &RenderArgs, scene: &Scene, gi_settings: GiSettings) -> 
     let settings = render_settings(args, scene, gi_settings)?;
     let mut renderer = Renderer::new(&ctx, scene, settings).context("setting up the renderer")?;
     // The marks go over whichever image --output names (e.g. `indirect`).
-    renderer.set_output(crate::view::parse_output(&args.output)?);
+    renderer.set_output(parse_output(&args.output)?);
     for _ in 0..args.probe_frames {
         renderer.render(scene, args.start_time())?;
     }
@@ -364,30 +335,6 @@ fn run_probe_view(args: &RenderArgs, scene: &Scene, gi_settings: GiSettings) -> 
         args.out.display()
     );
     Ok(())
-}
-
-/// Loads the scene named on the command line (default: the built-in Cornell box) and the GI
-/// settings of its scene file, with the command-line flags (technique settings, sky) applied
-/// on top.
-pub fn load_scene(
-    path: Option<&Path>,
-    flags: &GiArgs,
-    sky: &SkyArgs,
-) -> Result<(Scene, GiSettings)> {
-    let (mut scene, mut settings) = match path {
-        None => (cornell::scene(), GiSettings::default()),
-        Some(p)
-            if p.extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("toml")) =>
-        {
-            let (scene, table) = octolux::scene::file::load_with_settings(p)?;
-            (scene, GiSettings::from_table(&table, p)?)
-        }
-        Some(p) => (Scene::load(p)?, GiSettings::default()),
-    };
-    flags.apply(&mut settings);
-    sky.apply(&mut scene)?;
-    Ok((scene, settings))
 }
 
 /// Output path of frame `i` of `n`.
@@ -493,7 +440,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     log::info!("adapter: {}", ctx.describe());
     let settings = render_settings(args, &scene, gi_settings)?;
     let start = std::time::Instant::now();
-    let output = crate::view::parse_output(&args.output)?;
+    let output = parse_output(&args.output)?;
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;
     renderer.set_output(output);
     let progress = if args.frames > 1 {

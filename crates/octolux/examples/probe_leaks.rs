@@ -12,10 +12,12 @@
 
 use octolux::gi::probes::{ProbeSettings, ProbesGrid, ProbesOctree, Visibility};
 use octolux::gi::GiSettings;
+use octolux::gpu::pack::f16_to_f32;
 use octolux::gpu::{GpuContext, GpuOptions};
-use octolux::reference::{Bounces, ReferenceSettings};
-use octolux::render::{f16_to_f32, RenderSettings, Renderer};
+use octolux::reference::ReferenceSettings;
+use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::Scene;
+use octolux::transport::Bounces;
 
 /// The wall between the rooms spans x = 0.95 .. 0.97 m.
 const WALL: (f32, f32) = (0.95, 0.97);

@@ -5,6 +5,30 @@ use crate::{Error, Result};
 use glam::Vec3;
 use std::path::Path;
 
+/// Largest accepted image side.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest accepted pixel count (64 Mpixel).
+pub const MAX_PIXELS: u64 = 1 << 26;
+
+/// Checks an output size, with an error a person can act on.
+pub fn check_image_size(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 {
+        return Err(Error::InvalidArgument(format!(
+            "image size {width}x{height}: width and height must be at least 1"
+        )));
+    }
+    if width > MAX_IMAGE_SIDE
+        || height > MAX_IMAGE_SIDE
+        || width as u64 * height as u64 > MAX_PIXELS
+    {
+        return Err(Error::InvalidArgument(format!(
+            "image size {width}x{height} is too large (at most {MAX_IMAGE_SIDE} per side and {} Mpixel)",
+            MAX_PIXELS >> 20
+        )));
+    }
+    Ok(())
+}
+
 /// A linear-light RGB image, row-major, top row first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HdrImage {

@@ -10,6 +10,7 @@
 //! image comparisons.
 
 pub mod error;
+pub mod frame;
 pub mod gi;
 pub mod gpu;
 pub mod image_io;
@@ -17,6 +18,7 @@ pub mod metrics;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod transport;
 pub mod voxel;
 
 pub use error::{Error, Result};

@@ -2,15 +2,14 @@
 //! (lavapipe in CI): G-buffer contents, direct lighting against the analytic irradiance, shadows
 //! of every light type, the GPU tone map against the CPU one, timers and the memory ledger.
 
+mod common;
+
+use common::context;
 use glam::{Mat4, Vec2, Vec3};
 use octolux::gpu::{GpuContext, GpuOptions, Timestamps, TimingSource};
 use octolux::image_io::tone_map_to_srgb8;
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Camera, Light, LightKind, Material, Mesh, Object, Scene};
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
 
 /// A square of side `2 * half` centred at `centre`, facing `normal`.
 fn quad(centre: Vec3, normal: Vec3, half: f32, material: u32) -> Mesh {

@@ -3,6 +3,9 @@
 //! (colour bleeding, plausibility), animation (no per-frame allocation, light follows), and
 //! printed measurements (octree error per iteration, pass-time ratios).
 
+mod common;
+
+use common::{context, Rng};
 mod floor_flux;
 
 use glam::{Quat, Vec3};
@@ -13,35 +16,12 @@ use octolux::image_io::HdrImage;
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Keyframe, Track};
 
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
-
 /// The LPV technique of a renderer set up with `lpv`, `clpv` or `olpv`.
 fn lpv_of(r: &Renderer) -> &octolux::gi::LpvGi {
     r.technique()
         .as_any()
         .and_then(|t| t.downcast_ref::<octolux::gi::LpvGi>())
         .expect("an LPV-family renderer")
-}
-
-/// Small deterministic pseudo-random numbers (xorshift).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
-            if v.length_squared() > 0.01 && v.length_squared() <= 1.0 {
-                return v.normalize();
-            }
-        }
-    }
 }
 
 /// A volume with Lambertian emitters of positive flux in a fraction of the cells.
@@ -719,7 +699,7 @@ fn gpu_lookup_matches_cpu_lookup_of_the_accumulated_volume() {
     let bytes = octolux::gpu::read_texture(&ctx, lpv.indirect_texture(), 0).unwrap();
     let gpu: Vec<f32> = bytes
         .chunks_exact(2)
-        .map(|c| octolux::render::f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
+        .map(|c| octolux::gpu::pack::f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
         .collect();
     let g = r.read_gbuffer().unwrap();
     let view = *r.last_view().unwrap();
@@ -762,7 +742,7 @@ fn technique_irradiance(ctx: &GpuContext, r: &Renderer) -> Vec<Vec3> {
     bytes
         .chunks_exact(8)
         .map(|c| {
-            let f = |k: usize| octolux::render::f16_to_f32(u16::from_le_bytes([c[k], c[k + 1]]));
+            let f = |k: usize| octolux::gpu::pack::f16_to_f32(u16::from_le_bytes([c[k], c[k + 1]]));
             Vec3::new(f(0), f(2), f(4))
         })
         .collect()
@@ -803,7 +783,8 @@ fn cornell_region(p: Vec3, n: Vec3, a: Vec3) -> Option<&'static str> {
 /// one cell per step, 16 of the 32 the ceiling lies above the floor.
 #[test]
 fn cornell_irradiance_per_region_against_the_reference() {
-    use octolux::reference::{Bounces, ReferenceSettings};
+    use octolux::reference::ReferenceSettings;
+    use octolux::transport::Bounces;
     let ctx = context();
     let scene = octolux::scene::cornell::scene();
     let (w, h) = (64u32, 64u32);

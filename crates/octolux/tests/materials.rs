@@ -4,11 +4,12 @@
 
 use glam::{Mat4, Vec2, Vec3};
 use octolux::gpu::{GpuContext, GpuOptions};
-use octolux::reference::{self, Bounces, ReferenceSettings};
+use octolux::reference::{self, ReferenceSettings};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{
     AlphaMode, Camera, Light, LightKind, Material, Mesh, Object, Scene, SceneFrame,
 };
+use octolux::transport::Bounces;
 use octolux::voxel::scene_triangles;
 use std::path::PathBuf;
 

@@ -12,8 +12,9 @@ use octolux::gi::GiSettings;
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
 use octolux::metrics::{flip, rel_mse, MetricOptions};
-use octolux::reference::{Bounces, ReferenceSettings};
+use octolux::reference::ReferenceSettings;
 use octolux::render::{RenderSettings, Renderer};
+use octolux::transport::Bounces;
 
 const SIZE: u32 = 48;
 

@@ -3,10 +3,11 @@
 
 use glam::{Mat4, Vec2, Vec3};
 use octolux::image_io::HdrImage;
-use octolux::reference::{render, Bounces, ReferenceImages, ReferenceSettings};
+use octolux::reference::{render, ReferenceImages, ReferenceSettings};
 use octolux::scene::{
     cornell, AlphaMode, Camera, Light, LightKind, Material, Mesh, Object, Scene, Texture,
 };
+use octolux::transport::Bounces;
 use octolux::Error;
 
 fn settings(spp: u32, bounces: Bounces, seed: u64) -> ReferenceSettings {

@@ -4,9 +4,10 @@
 
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::metrics;
-use octolux::reference::{self, Bounces, ReferenceSettings};
+use octolux::reference::{self, ReferenceSettings};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::cornell;
+use octolux::transport::Bounces;
 
 #[test]
 fn direct_light_of_the_cornell_box_matches_the_reference() {

@@ -5,11 +5,12 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::image_io::HdrImage;
 use octolux::metrics;
-use octolux::reference::{render, Bounces, ReferenceImages, ReferenceSettings};
+use octolux::reference::{render, ReferenceImages, ReferenceSettings};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{
     cornell, uv_to_direction, Camera, EnvironmentMap, Material, Mesh, Object, Scene, Sky,
 };
+use octolux::transport::Bounces;
 use std::f32::consts::PI;
 
 fn settings(spp: u32, bounces: Bounces) -> ReferenceSettings {

@@ -1,17 +1,15 @@
 //! Run-time technique switches (`Renderer::set_technique`) and the renderer's outputs
 //! (`Renderer::set_output`), on the built-in Cornell box.
 
+mod common;
+
+use common::context;
 use glam::Vec3;
 use octolux::gi::GiSettings;
-use octolux::gpu::{GpuContext, GpuOptions};
 use octolux::render::{Output, RenderSettings, Renderer};
 use octolux::scene::cornell;
 
 const SIZE: u32 = 48;
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
 
 fn settings(gi: &str) -> RenderSettings {
     RenderSettings {

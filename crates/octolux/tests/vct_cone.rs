@@ -555,7 +555,7 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
     // marches the radiance read back, through the CPU twin of the same sampler. Radiance is
     // stored as f16 and read back as stored, so both sides sample the same values; every
     // sample stays 0.1 m (3 voxels) inside level 0, far from the level-choice boundary.
-    use octolux::voxel::sample::{
+    use octolux::voxel::clipmap::sample::{
         clip_radiance_sample, ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL,
     };
     let ctx = GpuContext::shared(&GpuOptions::default())

@@ -3,39 +3,15 @@
 //! (structure, neighbour links, brick borders, mipmaps), the clipmap (incremental update equals
 //! a rebuild) and the common sampling interface.
 
+mod common;
+
+use common::{context, tri, Rng};
 mod lit_floor;
 use glam::Vec3;
-use octolux::gpu::{GpuContext, GpuOptions};
+use octolux::gpu::GpuContext;
 use octolux::voxel::voxelize::{read_fragments, Voxelizer};
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
 use std::collections::BTreeSet;
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
-
-fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3]) -> VoxelTriangle {
-    VoxelTriangle {
-        positions: [a, b, c],
-        albedo,
-        normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
-        emission: Vec3::ZERO,
-    }
-}
-
-/// A small deterministic pseudo-random generator (xorshift) for generic test geometry.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + Vec3::splat(lo)
-    }
-}
 
 /// A closed box with axis `a`-`b` and square cross-section of side `width` (12 triangles).
 fn thin_box(a: Vec3, b: Vec3, width: f32, albedo: [u8; 3]) -> Vec<VoxelTriangle> {
@@ -603,9 +579,10 @@ fn clipmap_update_rewrites_only_exposed_slabs_and_equals_rebuild() {
 fn gpu_sampling_matches_cpu_twins() {
     use glam::Vec4;
     use octolux::gpu::PassTimer;
+    use octolux::voxel::clipmap::sample::{clip_sample, ClipInfo};
     use octolux::voxel::clipmap::{Clipmap, ClipmapSettings};
     use octolux::voxel::debug::{probe, Structure};
-    use octolux::voxel::sample::{clip_sample, svo_sample, ClipInfo};
+    use octolux::voxel::svo::sample::svo_sample;
     use octolux::voxel::svo::SvoBuilder;
     let ctx = context();
     let tris = small_scene();
@@ -911,7 +888,7 @@ fn clipmap_light_injection_matches_analytic_irradiance_and_shadows() {
     }
     assert_eq!(lit, 4);
     // Filtered radiance through the sampling interface: GPU equals the CPU twin.
-    let info = octolux::voxel::sample::ClipInfo::new(&clipmap.settings, &clipmap.origins);
+    let info = octolux::voxel::clipmap::sample::ClipInfo::new(&clipmap.settings, &clipmap.origins);
     let mut rng = Rng(4242);
     let points: Vec<glam::Vec4> = (0..200)
         .map(|i| {
@@ -927,7 +904,12 @@ fn clipmap_light_injection_matches_analytic_irradiance_and_shadows() {
     .unwrap();
     let mut nonzero = 0;
     for (q, g) in points.iter().zip(&gpu) {
-        let c = octolux::voxel::sample::clip_radiance_sample(&info, &radiance, q.truncate(), q.w);
+        let c = octolux::voxel::clipmap::sample::clip_radiance_sample(
+            &info,
+            &radiance,
+            q.truncate(),
+            q.w,
+        );
         assert!(
             (*g - c).abs().max_element() < 1e-3,
             "radiance at {q}: GPU {g} CPU {c}"

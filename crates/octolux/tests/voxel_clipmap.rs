@@ -1,42 +1,19 @@
 //! Clipmap level filtering, blending between levels by distance and anisotropic voxels, on
 //! whatever adapter is present, against their CPU twins.
 
+mod common;
+
+use common::{context, tri, Rng};
 use glam::{IVec3, Vec3, Vec4};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
+use octolux::voxel::clipmap::sample::ClipInfo;
 use octolux::voxel::clipmap::sample::{
     blend_choice, clip_sample_aniso, clip_sample_blend, clip_sample_blend_with, probe_blend,
 };
 use octolux::voxel::clipmap::{
     decode_emission, injected_radiance, Clipmap, ClipmapOptions, ClipmapSettings,
 };
-use octolux::voxel::sample::ClipInfo;
 use octolux::voxel::{cpu, VoxelTriangle};
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
-
-fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3]) -> VoxelTriangle {
-    VoxelTriangle {
-        positions: [a, b, c],
-        albedo,
-        normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
-        emission: Vec3::ZERO,
-    }
-}
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + Vec3::splat(lo)
-    }
-}
 
 /// Random triangles, most of them emissive.
 fn scene() -> Vec<VoxelTriangle> {
@@ -650,7 +627,7 @@ fn half(x: f32) -> u16 {
     let bits = x.to_bits();
     let h = ((((bits >> 23) & 255) as i32 - 112) << 10) as u32 | ((bits >> 13) & 1023);
     assert_eq!(
-        octolux::voxel::svo::half_to_f32(h as u16),
+        octolux::gpu::pack::f16_to_f32(h as u16),
         x,
         "{x} is not an f16"
     );

@@ -9,8 +9,8 @@
 mod growth;
 use glam::{Mat4, Vec3};
 use growth::snapshot;
+use octolux::frame::LayerView;
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
-use octolux::render::LayerView;
 use octolux::scene::{Light, LightKind};
 use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use octolux::voxel::svo::dynamic::DynamicReserve;

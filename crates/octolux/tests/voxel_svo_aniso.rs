@@ -3,38 +3,15 @@
 //! seen from both sides, GPU directional samples against the CPU twin, the memory recorded in
 //! the ledger, and the memory and pass time on the Cornell box.
 
+mod common;
+
+use common::{context, tri, Rng};
 use glam::{Vec3, Vec4};
-use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
-use octolux::voxel::sample::{svo_sample, svo_sample_aniso};
+use octolux::gpu::{GpuContext, PassTimer};
 use octolux::voxel::svo::aniso::{SvoAniso, SvoAnisoValues, LEDGER_LABEL};
+use octolux::voxel::svo::sample::{svo_sample, svo_sample_aniso};
 use octolux::voxel::svo::{Svo, SvoBuilder};
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
-
-fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3]) -> VoxelTriangle {
-    VoxelTriangle {
-        positions: [a, b, c],
-        albedo,
-        normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
-        emission: Vec3::ZERO,
-    }
-}
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn vec(&mut self, lo: f32, hi: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + Vec3::splat(lo)
-    }
-}
 
 /// Random triangles of different colours, some large, some small.
 fn scene(seed: u64, count: usize) -> Vec<VoxelTriangle> {

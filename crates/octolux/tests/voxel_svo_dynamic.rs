@@ -4,25 +4,15 @@
 //! faces identical, every texel the exact CPU lattice within a stated tolerance; and the
 //! update must not voxelize the static geometry again.
 
+mod common;
+
+use common::{context, tri};
 use glam::Vec3;
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::svo::dynamic::DynamicReserve;
 use octolux::voxel::svo::{SvoBuilder, SvoCpu};
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
 use std::collections::{BTreeMap, BTreeSet};
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
-
-fn tri(a: Vec3, b: Vec3, c: Vec3, albedo: [u8; 3]) -> VoxelTriangle {
-    VoxelTriangle {
-        positions: [a, b, c],
-        albedo,
-        normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
-        emission: Vec3::ZERO,
-    }
-}
 
 /// An axis-aligned box from `lo` to `hi` (12 triangles).
 fn cube(lo: Vec3, hi: Vec3, albedo: [u8; 3]) -> Vec<VoxelTriangle> {

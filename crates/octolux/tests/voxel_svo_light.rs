@@ -3,17 +3,17 @@
 //! voxels in an occluder's shadow, emission carried into radiance, and every radiance mip
 //! level against the CPU mip filter of the injected leaf voxels.
 
+mod common;
+
+use common::context;
 use glam::{IVec3, Mat4, Vec3, Vec4};
-use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
-use octolux::render::{LayerView, RenderSettings, Renderer};
+use octolux::frame::LayerView;
+use octolux::gpu::{GpuContext, PassTimer};
+use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Camera, Light, LightKind, Material, Mesh, Object, Scene};
 use octolux::voxel::svo::{Svo, SvoBuilder, SvoCpu};
 use octolux::voxel::{cpu, scene_triangles, VoxelGrid, VoxelTriangle};
 use std::collections::BTreeMap;
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
 
 /// Node indices of level `d`, static then dynamic.
 fn level_nodes(svo: &Svo, d: usize) -> impl Iterator<Item = u32> {
@@ -431,8 +431,8 @@ fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
 
 #[test]
 fn gpu_radiance_samples_equal_the_cpu_twin() {
-    use octolux::voxel::sample::{svo_sample, SvoInfo, SVO_SAMPLE_WGSL};
     use octolux::voxel::svo::inject::SVO_RADIANCE_SAMPLE_WGSL;
+    use octolux::voxel::svo::sample::{svo_sample, SvoInfo, SVO_SAMPLE_WGSL};
     let ctx = context();
     let (grid, _, svo) = emissive_octree(&ctx);
     let mut cpu_svo = svo.read_back(&ctx).unwrap();
@@ -554,8 +554,8 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
 /// level composites rounded values (a convex combination per channel), so the error stays
 /// below one rounding per level of the largest radiance: depth x 2^-10 of it, with margin.
 fn check_aniso_radiance(ctx: &GpuContext, svo: &Svo, largest: f32) {
-    use octolux::voxel::sample::svo_radiance_aniso;
     use octolux::voxel::svo::aniso_radiance::SvoAnisoRadiance;
+    use octolux::voxel::svo::sample::svo_radiance_aniso;
     let aniso = SvoAnisoRadiance::new(ctx, svo).unwrap();
     let mut timer = PassTimer::new(ctx);
     aniso.record(&mut timer, svo);

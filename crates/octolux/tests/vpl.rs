@@ -2,25 +2,24 @@
 //! flux against closed forms, the shading of one VPL against the closed-form geometry term,
 //! and the Cornell box against the one-bounce reference. Bad settings are clear errors.
 
+mod common;
+
+use common::context;
 mod floor_flux;
 
 use glam::{IVec3, Vec3};
 use octolux::gi::vpl::generate::{sample_cpu, Vpl};
-use octolux::gi::vpl::trace::{
-    first_blocker_brute, segment_blocked_brute, OctreeCpu, Tracer, VplOctree,
-};
 use octolux::gi::vpl::{geometry_term, VplGi, VplSettings};
 use octolux::gi::GiSettings;
-use octolux::gpu::{GpuContext, GpuOptions};
+use octolux::gpu::GpuContext;
 use octolux::render::{RenderSettings, Renderer};
 use octolux::voxel::svo::dynamic::DynamicReserve;
+use octolux::voxel::svo::walk::{
+    first_blocker_brute, segment_blocked_brute, SvoWalk, SvoWalkCpu, Tracer,
+};
 use octolux::voxel::svo::SvoBuilder;
 use octolux::voxel::{VoxelGrid, VoxelTriangle};
 use std::collections::BTreeSet;
-
-fn context() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
 
 struct Rng(u64);
 
@@ -132,8 +131,8 @@ fn compare_walks(
     name: &str,
 ) -> usize {
     let res = grid.resolution;
-    let params = VplOctree::new(svo, 1.75).unwrap();
-    let cpu = OctreeCpu::read(ctx, svo, params).unwrap();
+    let params = SvoWalk::new(svo, 1.75).unwrap();
+    let cpu = SvoWalkCpu::read(ctx, svo, params).unwrap();
     let voxels: BTreeSet<[u32; 3]> = octolux::voxel::cpu::voxelize(grid, tris)
         .into_iter()
         .map(|(v, _)| v)
@@ -419,7 +418,7 @@ fn irradiance(ctx: &GpuContext, texture: &wgpu::Texture) -> Vec<Vec3> {
     bytes
         .chunks_exact(8)
         .map(|c| {
-            let f = |k: usize| octolux::render::f16_to_f32(u16::from_le_bytes([c[k], c[k + 1]]));
+            let f = |k: usize| octolux::gpu::pack::f16_to_f32(u16::from_le_bytes([c[k], c[k + 1]]));
             Vec3::new(f(0), f(2), f(4))
         })
         .collect()
@@ -490,7 +489,7 @@ fn reference(
 ) -> octolux::image_io::HdrImage {
     let settings = octolux::reference::ReferenceSettings {
         spp: 256,
-        bounces: octolux::reference::Bounces::Indirect(bounces),
+        bounces: octolux::transport::Bounces::Indirect(bounces),
         ..octolux::reference::ReferenceSettings::default()
     };
     octolux::reference::render(
@@ -524,7 +523,7 @@ fn cornell_box_against_the_one_bounce_reference() {
     // 0.3 x and FLIP under 0.4 x GI off's (48 x 48, 256 spp; docs/vpl.md has the 160 x 90
     // table).
     use octolux::metrics::{flip, rel_mse, MetricOptions};
-    use octolux::reference::Bounces;
+    use octolux::transport::Bounces;
     let ctx = context();
     let scene = octolux::scene::cornell::scene();
     let size = 48;
@@ -734,7 +733,7 @@ fn second_bounce_vpls_bring_the_image_closer_to_the_two_bounce_reference() {
     // and the second bounce's VPLs must carry between 10% and 100% of the first's flux (the
     // walls' albedos are below 1, and most rays hit the box: energy shrinks but stays).
     use octolux::metrics::{flip, rel_mse, MetricOptions};
-    use octolux::reference::Bounces;
+    use octolux::transport::Bounces;
     let ctx = context();
     let scene = octolux::scene::cornell::scene();
     let size = 48;

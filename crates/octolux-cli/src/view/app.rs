@@ -7,14 +7,16 @@ use super::compare::{Compare, Key, Progress, Shown, TestImage};
 use super::panels::{self, Action, Controls, Facts};
 use super::screenshot;
 use super::timing::TimingHistory;
-use super::{parse_output, parse_size, ViewArgs, NO_DISPLAY_HINT};
+use super::{parse_size, ViewArgs, NO_DISPLAY_HINT};
 use crate::gi_args::GiArgs;
+use crate::inputs::parse_output;
 use anyhow::{anyhow, bail, Context, Result};
 use octolux::gi::{GiSettings, TECHNIQUES};
 use octolux::gpu::{GpuContext, GpuOptions, ResourceCounts};
-use octolux::reference::Bounces;
-use octolux::render::{check_image_size, Output, RenderSettings, Renderer};
+use octolux::image_io::check_image_size;
+use octolux::render::{Output, RenderSettings, Renderer};
 use octolux::scene::{Camera, Scene};
+use octolux::transport::Bounces;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -189,7 +191,7 @@ impl Config {
 /// Opens the window and runs until it is closed or a scripted run ends.
 pub fn run(config: Config, verbose: bool) -> Result<()> {
     let (mut scene, gi_settings) =
-        crate::render::load_scene(config.scene.as_deref(), &config.gi_args, &config.sky_args)?;
+        crate::inputs::load_scene(config.scene.as_deref(), &config.gi_args, &config.sky_args)?;
     let camera_index = scene.camera_index(&config.camera)?;
     if let Some(ev) = config.exposure {
         scene.exposure = ev;

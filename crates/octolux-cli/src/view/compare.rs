@@ -6,9 +6,10 @@
 use glam::Vec3;
 use octolux::image_io::HdrImage;
 use octolux::metrics::{self, MetricOptions};
-use octolux::reference::{self, Bounces, ReferenceSettings};
+use octolux::reference::{self, ReferenceSettings};
 use octolux::render::Output;
 use octolux::scene::{Scene, SceneFrame};
+use octolux::transport::Bounces;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;

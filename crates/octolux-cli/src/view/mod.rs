@@ -17,10 +17,9 @@ mod screenshot;
 mod timing;
 
 use crate::gi_args::{GiArgs, DEFAULT_GI};
-use crate::render::GpuArgs;
+use crate::inputs::GpuArgs;
 use anyhow::{bail, Result};
 use clap::Args;
-use octolux::render::Output;
 use std::path::PathBuf;
 
 /// Arguments of `octolux view`.
@@ -114,18 +113,6 @@ pub fn parse_size(text: &str, flag: &str) -> Result<(u32, u32)> {
     }
 }
 
-/// Parses an output name.
-pub fn parse_output(text: &str) -> Result<Output> {
-    match text {
-        "final" => Ok(Output::Final),
-        "direct" => Ok(Output::Direct),
-        "indirect" | "indirect-irradiance" => Ok(Output::IndirectIrradiance),
-        "ao" | "ambient-occlusion" => Ok(Output::AmbientOcclusion),
-        "specular" => Ok(Output::Specular),
-        other => bail!("--output {other}: expected final, direct, indirect, ao or specular"),
-    }
-}
-
 /// The explanation given whenever no window can be opened.
 pub(super) const NO_DISPLAY_HINT: &str =
     "`octolux view` needs a display (X11, or XWayland on a Wayland \
@@ -167,15 +154,5 @@ mod tests {
             let err = parse_size(bad, "--size").unwrap_err().to_string();
             assert!(err.contains("WIDTHxHEIGHT"), "{bad}: {err}");
         }
-    }
-
-    #[test]
-    fn outputs_parse() {
-        assert_eq!(parse_output("direct").unwrap(), Output::Direct);
-        assert_eq!(
-            parse_output("indirect").unwrap(),
-            Output::IndirectIrradiance
-        );
-        assert!(parse_output("depth").is_err());
     }
 }

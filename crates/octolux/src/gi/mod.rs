@@ -13,8 +13,8 @@ pub mod vpl;
 pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;
 
+use crate::frame::{GBuffer, LayerView, SceneGpu, ShadowMaps};
 use crate::gpu::{GpuContext, PassTimer};
-use crate::render::{GBuffer, LayerView, SceneGpu, ShadowMaps};
 use crate::scene::{CameraView, Scene, SceneFrame};
 use crate::{Error, Result};
 
@@ -28,7 +28,7 @@ pub struct GiFrame<'a> {
     pub view: &'a CameraView,
     /// G-buffer of this frame.
     pub gbuffer: &'a GBuffer,
-    /// The camera uniform (`Camera` in `render/common.wgsl`).
+    /// The camera uniform (`Camera` in `frame/common.wgsl`).
     pub camera_uniform: &'a wgpu::Buffer,
     /// The scene on the GPU: techniques rasterise it with their own pipelines (RSMs,
     /// voxelisation) through `SceneGpu::draw`; view uniform `1 + i` holds shadow layer `i`.
@@ -41,7 +41,7 @@ pub struct GiFrame<'a> {
     /// `frame.lights`.
     pub lights: &'a wgpu::Buffer,
     /// How many of `frame.lights`, at its end, are the directional lights that stand in for
-    /// the sky ([`crate::render::sky_lights`]).
+    /// the sky ([`crate::frame::sky_lights`]).
     pub sky_lights: usize,
 }
 
@@ -67,7 +67,7 @@ pub trait GiTechnique {
     }
     /// The light transport this technique claims to compute, so that it is judged against the
     /// matching reference (LPV and VPL methods compute one indirect bounce).
-    fn reference_bounces(&self) -> crate::reference::Bounces;
+    fn reference_bounces(&self) -> crate::transport::Bounces;
     /// The concrete technique, for tests and tools that inspect its state (None by default).
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         None
@@ -114,7 +114,7 @@ pub(crate) fn indirect_target(
     width: u32,
     height: u32,
 ) -> (wgpu::Texture, wgpu::TextureView) {
-    crate::render::render_target(
+    crate::gpu::alloc::image_target(
         ctx,
         owner,
         "indirect irradiance",

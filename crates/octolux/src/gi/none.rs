@@ -40,7 +40,7 @@ impl GiTechnique for NoGi {
         &self.view
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
-        crate::reference::Bounces::DirectOnly
+    fn reference_bounces(&self) -> crate::transport::Bounces {
+        crate::transport::Bounces::DirectOnly
     }
 }

@@ -1,8 +1,13 @@
-//! GPU plumbing: device and adapter choice ([`GpuContext`]), per-pass timers ([`PassTimer`])
-//! and the memory ledger ([`MemoryLedger`]) every GPU resource is counted in.
+//! GPU plumbing, the bottom layer every pass stands on: device and adapter choice
+//! ([`GpuContext`]), per-pass timers ([`PassTimer`]), the memory ledger ([`MemoryLedger`])
+//! every GPU resource is counted in, allocation ([`alloc`]), bind-group and dispatch helpers
+//! ([`pass`]) and the CPU decoders of packed GPU values ([`pack`]).
 
+pub mod alloc;
 mod context;
 mod ledger;
+pub mod pack;
+pub mod pass;
 mod readback;
 mod timer;
 
@@ -23,27 +28,4 @@ pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntr
         },
         count: None,
     }
-}
-
-/// A bind group for group `index` of `pipeline` (whose layout is derived from its shader)
-/// with exactly the given (binding, resource) entries.
-pub(crate) fn bind_group_at(
-    ctx: &GpuContext,
-    label: Option<&str>,
-    pipeline: &wgpu::ComputePipeline,
-    index: u32,
-    entries: &[(u32, wgpu::BindingResource)],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = entries
-        .iter()
-        .map(|(binding, resource)| wgpu::BindGroupEntry {
-            binding: *binding,
-            resource: resource.clone(),
-        })
-        .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label,
-        layout: &pipeline.get_bind_group_layout(index),
-        entries: &entries,
-    })
 }

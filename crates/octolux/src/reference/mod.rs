@@ -25,7 +25,7 @@
 //! - Russian roulette from [`ReferenceSettings::roulette_start`] on, with survival probability
 //!   equal to the surface albedo's largest channel (at most 0.95), which is unbiased and keeps
 //!   the path weight constant in a grey furnace; unlimited paths are cut at
-//!   [`MAX_PATH_VERTICES`] vertices, where the remaining energy is below 0.95^256.
+//!   [`crate::transport::MAX_PATH_VERTICES`] vertices, where the remaining energy is below 0.95^256.
 //!
 //! Output split ([`ReferenceImages`]), with path vertices x1 (primary hit), x2, ...:
 //! - `direct` = emission of x1 + punctual and sky light reflected at x1 (or the sky itself
@@ -46,10 +46,8 @@ mod sky;
 
 use crate::image_io::HdrImage;
 use crate::scene::{LightKind, Scene, SceneFrame};
+use crate::transport::Bounces;
 use crate::{Error, Result};
-/// For GPU ray traversal tests against the reference's ray queries.
-#[cfg(test)]
-pub(crate) use accel::Accel as ReferenceAccel;
 use accel::{Accel, Hit};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -57,65 +55,6 @@ use sampling::{cosine_hemisphere, r2, Rng};
 use sky::{power_heuristic, SkySampler};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::time::{Duration, Instant};
-
-/// Hard limit on path length for [`Bounces::Unlimited`] (vertices after the primary hit).
-pub const MAX_PATH_VERTICES: u32 = 256;
-
-/// Which light paths the reference computes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Bounces {
-    /// Emission seen directly and punctual light reflected once; `indirect` stays black.
-    DirectOnly,
-    /// Direct light plus exactly `n` indirect bounces (`Indirect(1)` is one-bounce GI).
-    Indirect(u32),
-    /// Full multi-bounce transport (Russian roulette, unbiased).
-    Unlimited,
-}
-
-impl Bounces {
-    /// Largest number of indirect bounces.
-    fn max_indirect(self) -> u32 {
-        match self {
-            Bounces::DirectOnly => 0,
-            Bounces::Indirect(n) => n.min(MAX_PATH_VERTICES),
-            Bounces::Unlimited => MAX_PATH_VERTICES,
-        }
-    }
-}
-
-impl std::str::FromStr for Bounces {
-    type Err = Error;
-
-    /// `direct`, `unlimited` (or `all`), or a number of indirect bounces (`0` = direct).
-    ///
-    /// ```
-    /// use octolux::reference::Bounces;
-    /// assert_eq!("1".parse::<Bounces>().unwrap(), Bounces::Indirect(1));
-    /// assert_eq!("direct".parse::<Bounces>().unwrap(), Bounces::DirectOnly);
-    /// assert!("lots".parse::<Bounces>().is_err());
-    /// ```
-    fn from_str(s: &str) -> Result<Bounces> {
-        match s.trim().to_lowercase().as_str() {
-            "direct" | "0" => Ok(Bounces::DirectOnly),
-            "unlimited" | "all" | "inf" => Ok(Bounces::Unlimited),
-            n => n.parse::<u32>().map(Bounces::Indirect).map_err(|_| {
-                Error::InvalidArgument(format!(
-                    "bounces '{s}': expected 'direct', 'unlimited' or a number"
-                ))
-            }),
-        }
-    }
-}
-
-impl std::fmt::Display for Bounces {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Bounces::DirectOnly => write!(f, "direct"),
-            Bounces::Indirect(n) => write!(f, "{n} bounce{}", if *n == 1 { "" } else { "s" }),
-            Bounces::Unlimited => write!(f, "unlimited"),
-        }
-    }
-}
 
 /// Settings of a reference render.
 #[derive(Clone, Debug)]
@@ -176,7 +115,7 @@ pub fn render(
     settings: &ReferenceSettings,
     progress: &dyn Fn(u32, u32),
 ) -> Result<ReferenceImages> {
-    crate::render::check_image_size(width, height)?;
+    crate::image_io::check_image_size(width, height)?;
     if settings.spp == 0 {
         return Err(Error::InvalidArgument("spp must be at least 1".into()));
     }
@@ -483,5 +422,23 @@ impl Tracer<'_> {
         out.indirect = out.albedo * incoming;
         out.irradiance = PI * incoming;
         out
+    }
+}
+
+/// Ray queries against a frame's geometry through the reference's own BVH, so that other ray
+/// tracers (the probes' GPU BVH, the voxel walks) can be compared with it.
+pub struct RayQueries<'a>(Accel<'a>);
+
+impl<'a> RayQueries<'a> {
+    /// Builds the reference's BVH over `frame`'s world triangles (clear materials and
+    /// degenerate triangles left out, as the reference renders them).
+    pub fn build(scene: &'a Scene, frame: &SceneFrame) -> Result<RayQueries<'a>> {
+        Accel::build(scene, frame).map(RayQueries)
+    }
+
+    /// The distance to the closest hit from `origin` along the unit vector `dir` within
+    /// `t_max`, if any.
+    pub fn closest_distance(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+        self.0.closest(origin, dir, t_max).map(|h| h.t)
     }
 }

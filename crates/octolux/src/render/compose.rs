@@ -1,8 +1,9 @@
 //! Compose and tone map (`compose.wgsl`): direct + albedo/pi x indirect irradiance, then
 //! exposure, the filmic curve and sRGB encoding for display.
 
-use super::direct::{dispatch_2d, tex};
-use super::gbuffer::{target, GBuffer};
+use crate::frame::GBuffer;
+use crate::gpu::alloc::image_target;
+use crate::gpu::pass::{dispatch_2d, texture_entry};
 use crate::gpu::{GpuContext, PassTimer};
 
 const OWNER: &str = "compose";
@@ -22,12 +23,16 @@ pub(crate) struct Compose {
 
 impl Compose {
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Compose {
-        let source = [include_str!("common.wgsl"), include_str!("compose.wgsl")].concat();
+        let source = [
+            include_str!("../frame/common.wgsl"),
+            include_str!("compose.wgsl"),
+        ]
+        .concat();
         let module = ctx.shader("compose", &source);
         let pipeline = ctx.compute_pipeline("compose", &module, "main");
         let layout = pipeline.get_bind_group_layout(0);
         let usage = wgpu::TextureUsages::STORAGE_BINDING;
-        let (hdr, hdr_view) = target(
+        let (hdr, hdr_view) = image_target(
             ctx,
             OWNER,
             "hdr",
@@ -36,7 +41,7 @@ impl Compose {
             wgpu::TextureFormat::Rgba32Float,
             usage,
         );
-        let (ldr, ldr_view) = target(
+        let (ldr, ldr_view) = image_target(
             ctx,
             OWNER,
             "ldr",
@@ -45,7 +50,7 @@ impl Compose {
             wgpu::TextureFormat::Rgba8Unorm,
             usage,
         );
-        let (_, no_specular) = target(
+        let (_, no_specular) = image_target(
             ctx,
             OWNER,
             "no specular",
@@ -84,12 +89,12 @@ impl Compose {
                     binding: 0,
                     resource: camera.as_entire_binding(),
                 },
-                tex(1, direct),
-                tex(2, &gbuffer.albedo_view),
-                tex(3, indirect),
-                tex(4, &self.hdr_view),
-                tex(5, &self.ldr_view),
-                tex(6, specular.unwrap_or(&self.no_specular)),
+                texture_entry(1, direct),
+                texture_entry(2, &gbuffer.albedo_view),
+                texture_entry(3, indirect),
+                texture_entry(4, &self.hdr_view),
+                texture_entry(5, &self.ldr_view),
+                texture_entry(6, specular.unwrap_or(&self.no_specular)),
             ],
         }));
     }

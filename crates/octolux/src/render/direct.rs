@@ -1,23 +1,15 @@
 //! Deferred direct lighting (`direct.wgsl`): emission plus the Lambertian response to every
 //! light and the sky, shadowed through the shadow-map array; the sky where nothing was drawn.
 
-use super::gbuffer::{target, GBuffer};
-use super::shadow::ShadowMaps;
-use super::sky::SkyGpu;
+use crate::frame::sky::SkyGpu;
+use crate::frame::GBuffer;
+use crate::frame::GpuLight;
+use crate::frame::ShadowMaps;
+use crate::gpu::alloc::image_target;
+use crate::gpu::pass::{dispatch_2d, texture_entry};
 use crate::gpu::{GpuContext, PassTimer};
-use bytemuck::{Pod, Zeroable};
 
 const OWNER: &str = "direct";
-
-/// One light as `direct.wgsl` reads it.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable, Default)]
-pub(crate) struct GpuLight {
-    pub position_kind: [f32; 4],
-    pub direction_cos_inner: [f32; 4],
-    pub radiant_cos_outer: [f32; 4],
-    pub shadow: [f32; 4],
-}
 
 /// Direct-light pass and its output.
 pub(crate) struct DirectLight {
@@ -53,14 +45,14 @@ impl DirectLight {
             storage,
         );
         let source = [
-            include_str!("common.wgsl"),
-            include_str!("lights.wgsl"),
+            include_str!("../frame/common.wgsl"),
+            include_str!("../frame/lights.wgsl"),
             include_str!("direct.wgsl"),
         ]
         .concat();
         let module = ctx.shader("direct", &source);
         let pipeline = ctx.compute_pipeline("direct", &module, "main");
-        let (output, output_view) = target(
+        let (output, output_view) = image_target(
             ctx,
             OWNER,
             "direct radiance",
@@ -77,10 +69,10 @@ impl DirectLight {
                     binding: 0,
                     resource: camera.as_entire_binding(),
                 },
-                tex(1, &gbuffer.albedo_view),
-                tex(2, &gbuffer.normal_view),
-                tex(3, &gbuffer.emission_view),
-                tex(4, &gbuffer.depth_view),
+                texture_entry(1, &gbuffer.albedo_view),
+                texture_entry(2, &gbuffer.normal_view),
+                texture_entry(3, &gbuffer.emission_view),
+                texture_entry(4, &gbuffer.depth_view),
                 wgpu::BindGroupEntry {
                     binding: 5,
                     resource: lights.as_entire_binding(),
@@ -89,12 +81,12 @@ impl DirectLight {
                     binding: 6,
                     resource: shadow_matrices.as_entire_binding(),
                 },
-                tex(7, &shadows.array_view),
+                texture_entry(7, &shadows.array_view),
                 wgpu::BindGroupEntry {
                     binding: 8,
                     resource: wgpu::BindingResource::Sampler(&shadows.sampler),
                 },
-                tex(9, &output_view),
+                texture_entry(9, &output_view),
                 wgpu::BindGroupEntry {
                     binding: 10,
                     resource: sky.params.as_entire_binding(),
@@ -135,32 +127,4 @@ impl DirectLight {
             height,
         );
     }
-}
-
-/// A texture-view bind group entry.
-pub(crate) fn tex(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: wgpu::BindingResource::TextureView(view),
-    }
-}
-
-/// Runs an 8x8-workgroup compute pass over every pixel.
-pub(crate) fn dispatch_2d(
-    timer: &mut PassTimer,
-    name: &str,
-    pipeline: &wgpu::ComputePipeline,
-    bind_group: &wgpu::BindGroup,
-    width: u32,
-    height: u32,
-) {
-    timer.pass(name, |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(name),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind_group, &[]);
-        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-    });
 }

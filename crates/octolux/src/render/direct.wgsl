@@ -3,7 +3,7 @@
 // nothing was drawn. Output: outgoing radiance per pixel.
 //
 // Sky: unshadowed irradiance from the sky's spherical-harmonic irradiance coefficients, times
-// the visible fraction of the directional lights that stand in for the sky (`render/sky.rs`).
+// the visible fraction of the directional lights that stand in for the sky (`frame/sky.rs`).
 
 // `Light`, `light_incidence` and `shadow_visibility` come from `lights.wgsl`.
 

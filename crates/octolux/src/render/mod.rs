@@ -6,51 +6,22 @@
 
 mod compose;
 mod direct;
-mod gbuffer;
-pub(crate) mod scene_gpu;
-mod shadow;
-mod sky;
 
-pub(crate) use direct::dispatch_2d;
-pub(crate) use gbuffer::target as render_target;
-pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
-pub use scene_gpu::SceneGpu;
-pub(crate) use shadow::shadow_lookup;
-pub use shadow::{LayerView, ShadowMaps};
-pub use sky::{sh_irradiance, sh_irradiance_coefficients, sky_lights};
+use crate::frame::sky::SkyGpu;
+use crate::frame::{
+    shadow, shadow_layer_count, sky_regions_of, CameraUniform, GBuffer, GpuLight, SceneGpu,
+    ShadowMaps,
+};
+use crate::gpu::pack::f16_to_f32;
+use crate::image_io::check_image_size;
 
 use crate::gi::{self, GiFrame, GiTechnique};
 use crate::gpu::{read_texture, GpuContext, PassTimer, PassTiming};
 use crate::image_io::HdrImage;
 use crate::scene::{CameraView, Light, LightKind, Scene};
 use crate::{Error, Result};
-use bytemuck::{Pod, Zeroable};
-use direct::GpuLight;
+use bytemuck::Zeroable;
 use glam::{Vec3, Vec4};
-
-/// Largest accepted image side.
-pub const MAX_IMAGE_SIDE: u32 = 16384;
-/// Largest accepted pixel count (64 Mpixel).
-pub const MAX_PIXELS: u64 = 1 << 26;
-
-/// Checks an output size, with an error a person can act on.
-pub fn check_image_size(width: u32, height: u32) -> Result<()> {
-    if width == 0 || height == 0 {
-        return Err(Error::InvalidArgument(format!(
-            "image size {width}x{height}: width and height must be at least 1"
-        )));
-    }
-    if width > MAX_IMAGE_SIDE
-        || height > MAX_IMAGE_SIDE
-        || width as u64 * height as u64 > MAX_PIXELS
-    {
-        return Err(Error::InvalidArgument(format!(
-            "image size {width}x{height} is too large (at most {MAX_IMAGE_SIDE} per side and {} Mpixel)",
-            MAX_PIXELS >> 20
-        )));
-    }
-    Ok(())
-}
 
 /// Frame settings.
 #[derive(Clone, Debug)]
@@ -138,17 +109,6 @@ impl Output {
     }
 }
 
-/// `Camera` of `common.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct CameraUniform {
-    view_proj: [[f32; 4]; 4],
-    inv_view_proj: [[f32; 4]; 4],
-    position: [f32; 4],
-    size: [f32; 4],
-    params: [f32; 4],
-}
-
 /// G-buffer contents read back to the CPU (for tests and debugging).
 #[derive(Clone, Debug)]
 pub struct GBufferImages {
@@ -162,52 +122,11 @@ pub struct GBufferImages {
     pub depth: Vec<f32>,
 }
 
-/// The lights the GPU renderer lights `scene` with: the scene's own, then the directional
-/// lights that stand in for its sky ([`sky_lights`]), which every technique sees like any sun.
-pub fn render_lights(scene: &Scene) -> Vec<Light> {
-    let mut lights = scene.lights.clone();
-    lights.extend(sky_lights_of(scene));
-    lights
-}
-
-fn sky_lights_of(scene: &Scene) -> Vec<Light> {
-    sky_regions_of(scene).into_iter().map(|(l, _)| l).collect()
-}
-
-/// The sky lights of `scene` with the tangents of their angular radii (none without a sky).
-fn sky_regions_of(scene: &Scene) -> Vec<(Light, f32)> {
-    scene
-        .sky
-        .as_ref()
-        .filter(|s| !s.is_black())
-        .map(sky::sky_regions)
-        .unwrap_or_default()
-}
-
-/// The number of directional lights [`render_lights`] adds for `scene`'s sky.
-/// (Counted without cutting the sky.)
-pub fn sky_light_count(scene: &Scene) -> usize {
-    scene
-        .sky
-        .as_ref()
-        .filter(|s| !s.is_black())
-        .map_or(0, sky::sky_light_count)
-}
-
-/// Shadow views (matrices, and reflective shadow maps) `lights` need: one per spot or
-/// directional light, six per point light.
-pub fn shadow_layer_count(lights: &[Light]) -> u32 {
-    lights
-        .iter()
-        .map(|l| if l.kind == LightKind::Point { 6 } else { 1 })
-        .sum()
-}
-
 /// The GPU renderer for one scene and output size.
 pub struct Renderer {
     ctx: GpuContext,
     settings: RenderSettings,
-    scene_gpu: scene_gpu::SceneGpu,
+    scene_gpu: SceneGpu,
     shadows: ShadowMaps,
     gbuffer: GBuffer,
     direct: direct::DirectLight,
@@ -248,7 +167,7 @@ impl Renderer {
             sky_regions_of(scene).into_iter().unzip();
         let mut lights = scene.lights.clone();
         lights.extend(sky_lights.iter().cloned());
-        let scene_gpu = scene_gpu::SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
+        let scene_gpu = SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
         let shadows = ShadowMaps::new(
             ctx,
             &scene_gpu,
@@ -256,7 +175,7 @@ impl Renderer {
             sky_lights.len(),
             settings.shadow_map_size,
         );
-        let sky = sky::SkyGpu::new(ctx, scene.sky.as_ref());
+        let sky = SkyGpu::new(ctx, scene.sky.as_ref());
         let gbuffer = GBuffer::new(ctx, &scene_gpu, w, h);
         let camera_uniform = ctx.create_buffer_init(
             "frame",
@@ -552,23 +471,5 @@ impl Renderer {
             },
             alpha,
         ))
-    }
-}
-
-/// IEEE 754 half to single precision.
-pub fn f16_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exponent = ((h >> 10) & 0x1f) as i32;
-    let mantissa = (h & 0x3ff) as f32;
-    match exponent {
-        0 => sign * mantissa * (2f32).powi(-24),
-        31 => {
-            if mantissa == 0.0 {
-                sign * f32::INFINITY
-            } else {
-                f32::NAN
-            }
-        }
-        e => sign * (1.0 + mantissa / 1024.0) * (2f32).powi(e - 15),
     }
 }

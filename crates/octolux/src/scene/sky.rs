@@ -35,7 +35,7 @@ pub struct Sky {
     /// Rotation from the map's frame to the world (orthonormal).
     pub to_world: Mat3,
     /// How many directional lights with shadow maps stand in for the sky in the GPU renderer
-    /// (regions of equal light; see `render/sky.rs`). More give softer, truer sky shadows at
+    /// (regions of equal light; see `frame/sky.rs`). More give softer, truer sky shadows at
     /// one shadow-map layer each. The reference path tracer ignores it.
     pub directions: u32,
 }

@@ -4,10 +4,9 @@
 //! by the opacity gradient where the ray first passes half opacity, so that equally coloured
 //! surfaces stay apart), so a person can check that the structure matches the scene.
 
+use super::clipmap::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
 use super::clipmap::Clipmap;
-use super::sample::{
-    ClipInfo, SvoInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL, SVO_SAMPLE_WGSL,
-};
+use super::svo::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use super::svo::Svo;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::scene::CameraView;
@@ -165,7 +164,7 @@ impl Structure<'_> {
             }
         }
         buffers.extend_from_slice(extra);
-        super::voxelize::bind_buffers(ctx, pipeline, &buffers)
+        crate::gpu::pass::bind_buffers(ctx, pipeline, &buffers)
     }
 }
 

@@ -38,6 +38,7 @@
 pub mod clipmap;
 pub mod cpu;
 pub mod debug;
+pub mod pairs;
 pub mod sample;
 pub mod svo;
 pub mod voxelize;
@@ -48,10 +49,6 @@ use glam::{Vec2, Vec3, Vec4};
 
 /// Largest grid edge accepted by the voxel structures (1024^3 voxels).
 pub const MAX_RESOLUTION: u32 = 1024;
-
-/// WGSL: `pair_along(d, j)`, the octants composited front to back per travel direction by
-/// every anisotropic voxel kernel (CPU twin: `pair_along` in [`cpu`]).
-pub const PAIRS_WGSL: &str = include_str!("pairs.wgsl");
 
 /// A cubic voxel grid: `resolution`^3 voxels of edge `voxel_size` starting at `origin`.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,8 +1,8 @@
 //! Injection of VPLs into the light volumes and of surfels into the geometry volumes.
 
 use super::propagate::Volumes;
-use super::rsm::{RsmLayer, RsmTargets};
 use super::{bind, groups, wgsl, GiFrame};
+use crate::frame::rsm::{RsmLayer, RsmTargets};
 use crate::gpu::{GpuContext, PassTimer};
 
 /// At most this many G-buffer samples per side feed the camera's geometry volume: larger
@@ -31,7 +31,7 @@ pub struct Inject {
 /// WGSL source of the injection passes.
 pub fn source() -> String {
     wgsl(&[
-        include_str!("../../render/common.wgsl"),
+        include_str!("../../frame/common.wgsl"),
         include_str!("sh.wgsl"),
         include_str!("inject.wgsl"),
     ])
@@ -165,7 +165,7 @@ impl Inject {
 /// leaves the largest possible sum (all reflected flux in one cell) 2^58 units, well inside the
 /// signed 64-bit range, so the smallest unit is 2^-58 of the light's total reflected flux.
 pub fn light_scale(layers: &[RsmLayer]) -> f32 {
-    let bound = super::rsm::reflected_flux_bound(layers);
+    let bound = crate::frame::rsm::reflected_flux_bound(layers);
     if !(bound.is_finite() && bound > 0.0) {
         return 1.0;
     }

@@ -9,9 +9,9 @@
 //!   between two cells may land in either on another adapter. Its magnitude goes into `slack`
 //!   of the cell the CPU chose and of the cells across the boundaries it is near.
 
-use super::rsm::RsmImage;
 use super::sh::{self, Cell, Sh};
 use super::GpuGrids;
+use crate::frame::rsm::RsmImage;
 use glam::{Mat4, UVec2, Vec3, Vec4};
 
 /// Distance (in cells) from a cell boundary under which a cell decision counts as ambiguous.

@@ -28,7 +28,7 @@ pub struct Lookup {
 /// WGSL source of the lookup.
 pub fn source() -> String {
     wgsl(&[
-        include_str!("../../render/common.wgsl"),
+        include_str!("../../frame/common.wgsl"),
         include_str!("sh.wgsl"),
         include_str!("lookup.wgsl"),
     ])

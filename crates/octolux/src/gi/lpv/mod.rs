@@ -21,10 +21,12 @@ pub mod kernels;
 pub mod lookup;
 pub mod octree;
 pub mod propagate;
-pub mod rsm;
 pub mod sh;
 
 use super::{GiFrame, GiTechnique};
+use crate::frame::rsm;
+use crate::gpu::alloc::{param_slots, storage};
+use crate::gpu::pass::{bind, groups, slot, SLOT};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
@@ -154,8 +156,6 @@ impl Variant {
 
 /// Most grids (cascades or octree levels) one technique uses.
 pub const MAX_GRIDS: usize = 8;
-/// Bytes per grid uniform slot (uniform offsets must be multiples of 256).
-pub(crate) const SLOT: u64 = 256;
 
 /// `Grid` of `sh.wgsl`.
 #[repr(C)]
@@ -237,74 +237,6 @@ pub(crate) fn layouts(sides: &[u32], flags: impl Fn(usize) -> u32) -> (Vec<Layou
 /// Concatenates WGSL sources (shared declarations first).
 pub(crate) fn wgsl(parts: &[&str]) -> String {
     parts.concat()
-}
-
-/// A bind group for `pipeline`'s group 0 with exactly the given bindings.
-pub(crate) fn bind(
-    ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    entries: &[(u32, wgpu::BindingResource)],
-) -> wgpu::BindGroup {
-    crate::gpu::bind_group_at(ctx, None, pipeline, 0, entries)
-}
-
-/// A slice of a uniform buffer holding one struct of `size` bytes at slot `slot`.
-pub(crate) fn slot(buffer: &wgpu::Buffer, slot: u64, size: u64) -> wgpu::BindingResource<'_> {
-    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-        buffer,
-        offset: slot * SLOT,
-        size: wgpu::BufferSize::new(size),
-    })
-}
-
-/// Number of workgroups of `group` threads covering `n`.
-pub(crate) fn groups(n: u32, group: u32) -> u32 {
-    n.div_ceil(group)
-}
-
-/// A storage buffer recorded in the ledger.
-pub(crate) fn storage(ctx: &GpuContext, owner: &str, label: &str, bytes: u64) -> wgpu::Buffer {
-    ctx.create_buffer(
-        owner,
-        &wgpu::BufferDescriptor {
-            label: Some(label),
-            size: bytes.max(16),
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        },
-    )
-}
-
-/// A read-only parameter buffer of `slots` 256-byte slots recorded in the ledger, for parameters
-/// that differ between dispatches of one pipeline (one slot per cascade or octree level).
-/// These are storage, not uniform, buffers: Mesa's lavapipe specialises a shader on the values
-/// of small uniform blocks that decide branches, compiling a new variant whenever they change
-/// between dispatches and keeping every variant, which grew memory by every frame.
-pub(crate) fn param_slots(ctx: &GpuContext, owner: &str, label: &str, slots: u64) -> wgpu::Buffer {
-    ctx.create_buffer(
-        owner,
-        &wgpu::BufferDescriptor {
-            label: Some(label),
-            size: slots.max(1) * SLOT,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        },
-    )
-}
-
-/// A uniform buffer of `slots` 256-byte slots recorded in the ledger.
-pub(crate) fn uniform(ctx: &GpuContext, owner: &str, label: &str, slots: u64) -> wgpu::Buffer {
-    ctx.create_buffer(
-        owner,
-        &wgpu::BufferDescriptor {
-            label: Some(label),
-            size: slots.max(1) * SLOT,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        },
-    )
 }
 
 /// Bytes of one cell (3 channels x 4 coefficients x f32).
@@ -452,7 +384,7 @@ impl LpvGi {
         }
         let layer_count = rsm::rsm_layer_count(
             &scene.lights,
-            crate::render::sky_light_count(scene),
+            crate::frame::sky_light_count(scene),
             s.sky_rsms,
         );
         Ok(LpvGi {
@@ -608,7 +540,13 @@ impl GiTechnique for LpvGi {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         let name = self.variant.name();
         let placed = self.place(frame);
-        let layers = rsm::rsm_layers(frame, self.rsm.size, self.settings.sky_rsms);
+        let layers = rsm::rsm_layers(
+            &frame.frame.lights,
+            frame.sky_lights,
+            frame.shadow_layers,
+            self.rsm.size,
+            self.settings.sky_rsms,
+        );
         let grids = self.gpu_grids(&placed, inject::light_scale(&layers));
         self.last_grids = Some(grids);
         ctx.queue
@@ -669,9 +607,9 @@ impl GiTechnique for LpvGi {
         &self.output.view
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
+    fn reference_bounces(&self) -> crate::transport::Bounces {
         // RSM VPLs propagated once: exactly one indirect bounce.
-        crate::reference::Bounces::Indirect(1)
+        crate::transport::Bounces::Indirect(1)
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

@@ -9,7 +9,7 @@
 //! draws on the CPU, so it cannot disturb what it shows.
 
 use super::encoding::COEFFS;
-use super::passes::{PROBE_VEC4, SURFEL_VEC4};
+use super::engine::{PROBE_VEC4, SURFEL_VEC4};
 use super::{Encoding, ProbesGrid, ProbesOctree};
 use crate::gi::GiTechnique;
 use crate::gpu::{read_buffer, GpuContext};

@@ -1,5 +1,5 @@
 // Surfel light: outgoing radiance emission + albedo / pi x E of every front-facing surfel,
-// with E the direct irradiance from the renderer's lights and shadow maps (`render/lights.wgsl`,
+// with E the direct irradiance from the renderer's lights and shadow maps (`frame/lights.wgsl`,
 // as the deferred pass lights pixels) plus, with multiple bounces, the probes' irradiance of
 // the previous frame at the surfel. Back faces and misses send no light (the sky seen directly
 // is the direct pass's).

@@ -13,37 +13,33 @@
 //! - [`encoding`]: the probes' irradiance: `004`'s 8 octahedron-facet bins or SH L1.
 //! - [`moments`]: depth moments per probe and DDGI's Chebyshev visibility in the gather,
 //!   against leaks through thin walls.
-//! - `passes`: what both techniques share (placement, surfel light, probe integration,
+//! - [`engine`]: what both techniques share (placement, surfel light, probe integration,
 //!   gather) over a probe set.
-//! - [`grid`]: the `probes-grid` technique, probes on a uniform grid.
+//! - [`grid_gi`]: the `probes-grid` technique, probes on a uniform grid.
 //! - [`octree`]: `004`'s adaptive octree (encoding, allocation, state machine) on the CPU, the
 //!   specification of the GPU's.
 //! - [`debug`]: the probe debug view (`--view probes`), drawn on the CPU from read-back state.
-//! - [`octree_gpu`]: the `probes-octree` technique: that octree on the GPU, driven by the
+//! - [`octree_gi`]: the `probes-octree` technique: that octree on the GPU, driven by the
 //!   probes' surfel hit fractions, rebuilt around moving objects, gathered through the tree.
 
 pub mod bvh;
 pub mod debug;
 pub mod encoding;
-#[cfg(test)]
-mod gpu_tests;
-mod grid;
+mod engine;
+mod grid_gi;
 pub mod lattice;
 pub mod moments;
 pub mod octree;
-pub mod octree_gpu;
-#[cfg(test)]
-mod octree_tests;
-mod passes;
+pub mod octree_gi;
+mod params;
 pub mod rays;
-#[cfg(test)]
-mod voxel_ray_tests;
 
 pub use encoding::Encoding;
-pub use grid::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
+pub use engine::{PROBE_VEC4, SURFEL_VEC4};
+pub use grid_gi::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
 pub use lattice::Lattice;
 pub use moments::Visibility;
-pub use octree_gpu::{OctreeView, ProbesOctree};
+pub use octree_gi::{OctreeView, ProbesOctree};
 pub use rays::RayBackend;
 
 use crate::{Error, Result};

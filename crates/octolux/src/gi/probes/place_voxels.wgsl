@@ -1,10 +1,10 @@
 // Surfel rays through the scene's sparse voxel octree (`rays = "voxels"`, voxel_rays.wgsl):
 // the first occupied voxel along the ray, walked with the VPL technique's integer walk
-// (gi/vpl/trace.wgsl); its fragments' mean albedo, emission and normal, at the point where
+// (voxel/svo/walk.wgsl); its fragments' mean albedo, emission and normal, at the point where
 // the ray meets the plane through the voxel's centre with that normal, kept inside the
 // voxel. No BVH is built; the result is exact only to a voxel.
 
-@group(0) @binding(2) var<storage, read> vo: VplOctree;
+@group(0) @binding(2) var<storage, read> vo: SvoWalk;
 @group(0) @binding(3) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(4) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(5) var<storage, read> svo_state: array<u32>;

@@ -13,11 +13,11 @@
 //! docs/probes.md compares the two on the same scenes.
 
 use super::bvh::{GpuInstance, SceneBvh, BVH_WGSL};
-use super::passes::{storage, ProbeParams};
-use crate::gi::vpl::trace::{walk_buffers, VplOctree, TRACE_WGSL};
+use super::params::{storage, ProbeParams};
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
+use crate::voxel::svo::walk::{walk_buffers, SvoWalk, WALK_WGSL};
 use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::{Error, Result};
 
@@ -45,7 +45,7 @@ impl std::str::FromStr for RayBackend {
 }
 
 /// WGSL of the voxel rays' functions (`voxel_ray`, `voxel_closest`), after the walk's.
-pub(crate) const VOXEL_RAYS_WGSL: &str = include_str!("voxel_rays.wgsl");
+pub const VOXEL_RAYS_WGSL: &str = include_str!("voxel_rays.wgsl");
 
 /// Root of an absent static BVH.
 const NO_ROOT: u32 = u32::MAX;
@@ -120,7 +120,7 @@ impl Rays {
                 let builder = SvoBuilder::new(ctx);
                 let svo = builder.build_scene(ctx, scene, resolution, owner)?;
                 // The walk starts at the probe: no offset along a normal.
-                let walk = VplOctree::new(&svo, 0.0)?;
+                let walk = SvoWalk::new(&svo, 0.0)?;
                 let usage = wgpu::BufferUsages::STORAGE;
                 Ok(Rays::Voxels(Box::new(VoxelRays {
                     walk: ctx.create_buffer_init(
@@ -143,7 +143,7 @@ impl Rays {
         match self {
             Rays::Bvh(_) => &[BVH_WGSL, include_str!("place_bvh.wgsl")],
             Rays::Voxels(_) => &[
-                TRACE_WGSL,
+                WALK_WGSL,
                 VOXEL_RAYS_WGSL,
                 include_str!("place_voxels.wgsl"),
             ],
@@ -231,7 +231,7 @@ pub struct VoxelSurfel {
 /// octree's grid (CPU twin of `voxel_ray`; the float rounding of the ends may differ from a
 /// GPU's by one lattice step), or `None` where the ray misses the grid.
 pub fn voxel_ray(
-    walk: &VplOctree,
+    walk: &SvoWalk,
     o: glam::Vec3,
     d: glam::Vec3,
     t_max: f32,
@@ -258,7 +258,7 @@ fn ray_span_box(o: glam::Vec3, d: glam::Vec3, lo: glam::Vec3, hi: glam::Vec3) ->
 /// The surfel of the ray `o + t d` whose walk runs from lattice point `a` to `b` through
 /// `tree` (CPU twin of `voxel_closest`), or `None` where it meets no occupied voxel.
 pub fn voxel_surfel(
-    tree: &crate::gi::vpl::trace::OctreeCpu,
+    tree: &crate::voxel::svo::walk::SvoWalkCpu,
     o: glam::Vec3,
     d: glam::Vec3,
     a: glam::IVec3,

@@ -1,6 +1,6 @@
 // Rays through the scene's sparse voxel octree (`rays = "voxels"`): the ray clipped to the
 // octree's grid and turned into lattice ends for the VPL technique's integer walk
-// (gi/vpl/trace.wgsl, which goes before this file), and the surfel of the first occupied voxel
+// (voxel/svo/walk.wgsl, which goes before this file), and the surfel of the first occupied voxel
 // it meets. The includer declares the walk's buffers (`vo`, `svo_child`, `svo_leaf`,
 // `svo_state`, `svo_dyn_sums`). CPU twin: `rays::voxel_surfel`.
 

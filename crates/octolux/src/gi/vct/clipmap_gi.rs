@@ -8,12 +8,12 @@ use super::cone::ConeParams;
 use super::tracer::ConeTracer;
 use super::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::pass::dispatch_1d;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::CLIPMAP_BLEND_WGSL;
+use crate::voxel::clipmap::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
 use crate::voxel::clipmap::UpdateBox;
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
-use crate::voxel::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
-use crate::voxel::voxelize::dispatch;
 use crate::voxel::{objects_triangles, scene_triangles_split, VoxelTriangle};
 use crate::{Error, Result};
 
@@ -195,7 +195,7 @@ impl VctClipmap {
                     },
                 ],
             });
-            dispatch(
+            dispatch_1d(
                 timer,
                 "vct bounce clear",
                 &b.clear,
@@ -337,7 +337,7 @@ impl GiTechnique for VctClipmap {
                 entries: &entries
                     .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
             });
-            dispatch(timer, "vct bounce", &b.gather, &group, b.slots);
+            dispatch_1d(timer, "vct bounce", &b.gather, &group, b.slots);
         }
         // 6. Six cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).
@@ -362,11 +362,11 @@ impl GiTechnique for VctClipmap {
         self.tracer.specular().map(|(_, view)| view)
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
+    fn reference_bounces(&self) -> crate::transport::Bounces {
         if self.bounce.is_some() {
-            crate::reference::Bounces::Unlimited
+            crate::transport::Bounces::Unlimited
         } else {
-            crate::reference::Bounces::Indirect(1)
+            crate::transport::Bounces::Indirect(1)
         }
     }
 

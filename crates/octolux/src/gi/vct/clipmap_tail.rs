@@ -11,7 +11,7 @@
 //! coarsest voxel (`clipmap_trace.wgsl`), quadrilinear between them.
 
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::sample::CLIPMAP_SAMPLE_WGSL;
+use crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL;
 use glam::{IVec3, Vec4};
 
 /// The tail of a clipmap of `res` voxels per side: its levels k = 1..=K have `res >> k`
@@ -165,10 +165,10 @@ pub fn tail_cpu(res: u32, origin: IVec3, coarsest: impl Fn(IVec3) -> Vec4) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::pack::f16_to_f32;
     use crate::gpu::{read_buffer, GpuOptions};
-    use crate::render::f16_to_f32;
+    use crate::voxel::clipmap::sample::ClipInfo;
     use crate::voxel::clipmap::ClipmapSettings;
-    use crate::voxel::sample::ClipInfo;
 
     #[test]
     fn tail_sizes() {

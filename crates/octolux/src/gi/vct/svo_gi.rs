@@ -9,16 +9,16 @@ use super::clipmap_gi::cone_params;
 use super::tracer::ConeTracer;
 use super::{VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::pass::dispatch_1d;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
-use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use crate::voxel::svo::aniso_radiance::{SvoAnisoRadiance, SVO_RADIANCE_ANISO_WGSL};
 use crate::voxel::svo::dynamic::DynamicReserve;
 use crate::voxel::svo::inject::{
     SvoBounce, SvoBounceTable, BOUNCE_TABLE_WGSL, SVO_RADIANCE_SAMPLE_WGSL,
 };
+use crate::voxel::svo::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use crate::voxel::svo::{Svo, SvoBuilder, ARGS_DYN_NODES, NODE_ARGS};
-use crate::voxel::voxelize::dispatch;
 use crate::voxel::{objects_triangles, VoxelGrid};
 use crate::{Error, Result};
 
@@ -301,7 +301,7 @@ impl Bounce {
             })
         };
         let statics = group(&self.pipeline, &[(22, &self.buffers.irradiance)]);
-        dispatch(timer, "vct bounce", &self.pipeline, &statics, self.slots);
+        dispatch_1d(timer, "vct bounce", &self.pipeline, &statics, self.slots);
         if let (Some(pipeline), Some(table)) = (&self.dynamic, self.buffers.write_table()) {
             let dynamics = group(
                 pipeline,
@@ -390,11 +390,11 @@ impl GiTechnique for VctSvo {
         self.tracer.specular().map(|(_, view)| view)
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
+    fn reference_bounces(&self) -> crate::transport::Bounces {
         if self.bounce.is_some() {
-            crate::reference::Bounces::Unlimited
+            crate::transport::Bounces::Unlimited
         } else {
-            crate::reference::Bounces::Indirect(1)
+            crate::transport::Bounces::Indirect(1)
         }
     }
 

@@ -7,8 +7,8 @@
 use super::cone::ConeParams;
 use super::{DiffuseCones, VctSettings, CONE_WGSL, GATHER_WGSL};
 use crate::gi::GiFrame;
+use crate::gpu::pass::dispatch_2d;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::render::dispatch_2d;
 
 /// `TraceParams` of `trace.wgsl` (a read-only storage block).
 #[repr(C)]
@@ -55,7 +55,7 @@ fn image(
     width: u32,
     height: u32,
 ) -> (wgpu::Texture, wgpu::TextureView) {
-    crate::render::render_target(
+    crate::gpu::alloc::image_target(
         ctx,
         owner,
         label,
@@ -82,7 +82,7 @@ impl ConeTracer {
         width: u32,
         height: u32,
     ) -> ConeTracer {
-        let common = include_str!("../../render/common.wgsl");
+        let common = include_str!("../../frame/common.wgsl");
         let sparse_wgsl = include_str!("sparse.wgsl");
         let module_with = |label: &str, cones: u32| {
             let cone_set = super::gather::cone_set_wgsl(cones);

@@ -21,7 +21,7 @@ struct Vpl {
     flux: vec4<f32>,
 };
 
-@group(0) @binding(0) var<storage, read> vo: VplOctree;
+@group(0) @binding(0) var<storage, read> vo: SvoWalk;
 @group(0) @binding(1) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(3) var<storage, read> svo_state: array<u32>;

@@ -2,7 +2,7 @@
 //! it by inverting its distribution at stratified points (`generate.wgsl`), each carrying
 //! physical flux. [`sample_cpu`] is the CPU twin.
 
-use crate::gi::lpv::rsm::{RsmImage, RsmTargets};
+use crate::frame::rsm::{RsmImage, RsmTargets};
 use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -139,9 +139,9 @@ impl Generate {
                     ));
                 }
                 entries.push((4, pyramid.as_entire_binding()));
-                crate::gi::lpv::bind(ctx, pipeline, &entries)
+                crate::gpu::pass::bind(ctx, pipeline, &entries)
             })
-            .chain(std::iter::once(crate::gi::lpv::bind(
+            .chain(std::iter::once(crate::gpu::pass::bind(
                 ctx,
                 &sample,
                 &[

@@ -1,7 +1,7 @@
 // VPL generation from the reflective shadow maps, importance-sampled by flux on the GPU.
 //
 // 1. `pyramid_base`: per RSM texel its reflected flux (albedo x incident, W: `flux.rgb` x the
-//    texel measure `position.w`, see gi/lpv/rsm.wgsl) and its mean over r, g, b, the weight.
+//    texel measure `position.w`, see frame/rsm.wgsl) and its mean over r, g, b, the weight.
 // 2. `pyramid_level` (once per level): every node sums its 2x2 children, up to one node per
 //    layer.
 // 3. `sample_vpls`: VPL i inverts the weight's distribution at u = (i + 0.5) / N: it picks a

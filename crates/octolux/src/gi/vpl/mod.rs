@@ -6,7 +6,7 @@
 //!    animated objects at this frame's time ([`SvoBuilder::record_dynamic`]). The static
 //!    objects' octree ([`crate::voxel::svo`]) is built once, when the technique is created.
 //! 2. `vpl rsm`: reflective shadow maps of every light view (the LPV's RSM pass,
-//!    [`crate::gi::lpv::rsm`]: spot and directional lights one, point lights six cube faces).
+//!    [`crate::frame::rsm`]: spot and directional lights one, point lights six cube faces).
 //! 3. `vpl generate`: N VPLs importance-sampled by reflected flux, each with physical flux
 //!    ([`generate`]); with `bounces` 2 or 3, `vpl bounce` adds the next bounce's VPLs where
 //!    rays from the previous bounce's VPLs hit the octree (`bounce.wgsl`).
@@ -15,12 +15,12 @@
 //! 5. `vpl merge`: geometry-aware I x I merge into the indirect irradiance image.
 
 pub mod generate;
-pub mod trace;
 
-use crate::gi::lpv::rsm::{self, RsmLayer, RsmPass, RsmTargets};
+use crate::frame::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
+use crate::voxel::svo::walk;
 use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
@@ -179,7 +179,7 @@ pub struct VplGi {
     /// Whether the scene has animated objects (the octree then has a dynamic part).
     animated: bool,
     placeholder: wgpu::Buffer,
-    octree: trace::VplOctree,
+    octree: walk::SvoWalk,
     octree_params: wgpu::Buffer,
     rsm: RsmTargets,
     shade_params: wgpu::Buffer,
@@ -230,7 +230,7 @@ impl VplGi {
         let builder = SvoBuilder::new(ctx);
         let svo = builder.build_scene(ctx, scene, settings.resolution, OWNER)?;
         let animated = svo.dynamic.is_some();
-        let octree = trace::VplOctree::new(&svo, settings.end_offset)?;
+        let octree = walk::SvoWalk::new(&svo, settings.end_offset)?;
         let usage = wgpu::BufferUsages::STORAGE;
         let octree_params =
             ctx.create_buffer_init(OWNER, "octree walk", bytemuck::bytes_of(&octree), usage);
@@ -249,7 +249,7 @@ impl VplGi {
             ctx.create_buffer_init(OWNER, "shade params", bytemuck::bytes_of(&shade), usage);
         let layers = rsm::rsm_layer_count(
             &scene.lights,
-            crate::render::sky_light_count(scene),
+            crate::frame::sky_light_count(scene),
             settings.sky_rsms,
         );
         let raw = ctx.create_buffer(
@@ -291,7 +291,7 @@ impl VplGi {
     }
 
     /// The walk's parameters.
-    pub fn octree(&self) -> &trace::VplOctree {
+    pub fn octree(&self) -> &walk::SvoWalk {
         &self.octree
     }
 
@@ -323,20 +323,20 @@ impl VplGi {
 
     fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
         let source = [
-            include_str!("../../render/common.wgsl"),
-            trace::TRACE_WGSL,
+            include_str!("../../frame/common.wgsl"),
+            walk::WALK_WGSL,
             include_str!("shade.wgsl"),
         ]
         .join("\n");
         let module = ctx.shader("vpl shade", &source);
         let shade = ctx.compute_pipeline("vpl shade", &module, "shade");
         let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
-        let [child, leaf, state, sums] = trace::walk_buffers(&self.svo, &self.placeholder);
+        let [child, leaf, state, sums] = walk::walk_buffers(&self.svo, &self.placeholder);
         let (count, bounces) = (self.settings.count, self.settings.bounces);
         let generate = generate::Generate::new(ctx, OWNER, &self.rsm, count, count * bounces);
         let bounce_module = ctx.shader(
             "vpl bounce",
-            &[trace::TRACE_WGSL, include_str!("bounce.wgsl")].join("\n"),
+            &[walk::WALK_WGSL, include_str!("bounce.wgsl")].join("\n"),
         );
         let bounce = ctx.compute_pipeline("vpl bounce", &bounce_module, "bounce");
         let bounce_groups = (1..bounces)
@@ -348,7 +348,7 @@ impl VplGi {
                     bytemuck::bytes_of(&params),
                     wgpu::BufferUsages::STORAGE,
                 );
-                crate::voxel::voxelize::bind_buffers(
+                crate::gpu::pass::bind_buffers(
                     ctx,
                     &bounce,
                     &[
@@ -365,7 +365,7 @@ impl VplGi {
             .collect();
         let tex = wgpu::BindingResource::TextureView;
         let shade_group = |c: u32| {
-            crate::gi::lpv::bind(
+            crate::gpu::pass::bind(
                 ctx,
                 &shade,
                 &[
@@ -392,7 +392,7 @@ impl VplGi {
             )
         };
         let shade_groups = (0..chunk_count(&self.settings)).map(shade_group).collect();
-        let merge_group = crate::gi::lpv::bind(
+        let merge_group = crate::gpu::pass::bind(
             ctx,
             &merge,
             &[
@@ -452,7 +452,13 @@ impl GiTechnique for VplGi {
         let Some(p) = &self.passes else {
             return Ok(());
         };
-        let layers: Vec<RsmLayer> = rsm::rsm_layers(frame, self.rsm.size, self.settings.sky_rsms);
+        let layers: Vec<RsmLayer> = rsm::rsm_layers(
+            &frame.frame.lights,
+            frame.sky_lights,
+            frame.shadow_layers,
+            self.rsm.size,
+            self.settings.sky_rsms,
+        );
         p.rsm.update(ctx, &self.rsm, &layers);
         p.rsm
             .record(timer, frame.scene_gpu, &self.rsm, &layers, "vpl rsm");
@@ -502,8 +508,8 @@ impl GiTechnique for VplGi {
         &self.view
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
-        crate::reference::Bounces::Indirect(self.settings.bounces)
+    fn reference_bounces(&self) -> crate::transport::Bounces {
+        crate::transport::Bounces::Indirect(self.settings.bounces)
     }
 
     fn other_ledger_owners(&self) -> &[&'static str] {

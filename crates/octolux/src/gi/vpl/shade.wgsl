@@ -30,7 +30,7 @@ struct ShadeParams {
 };
 
 @group(0) @binding(0) var<uniform> cam: Camera;
-@group(0) @binding(1) var<storage, read> vo: VplOctree;
+@group(0) @binding(1) var<storage, read> vo: SvoWalk;
 @group(0) @binding(2) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(3) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(4) var depth_tex: texture_depth_2d;

@@ -389,3 +389,11 @@ impl<'a> Loader<'a> {
         index
     }
 }
+
+/// Numbers separated by commas and/or white space.
+fn numbers(text: &str) -> Option<Vec<f32>> {
+    text.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|w| !w.is_empty())
+        .map(|w| w.parse::<f32>().ok().filter(|x| x.is_finite()))
+        .collect()
+}

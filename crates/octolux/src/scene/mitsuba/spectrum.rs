@@ -1,6 +1,6 @@
 //! Spectra of the Mitsuba importer: `wavelength:value` lists converted to linear RGB.
 
-use super::xml::numbers;
+use super::numbers;
 use glam::{Mat3, Vec3};
 
 /// A spectrum value: one number (grey), or `wavelength:value` pairs (nm), which are converted

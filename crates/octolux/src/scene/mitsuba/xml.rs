@@ -4,6 +4,7 @@
 //! transforms) are parsed from it. Every error names the file and the element's line and
 //! column.
 
+use super::numbers;
 use crate::{Error, Result};
 use glam::{Mat3, Mat4, Vec3};
 use std::path::{Path, PathBuf};
@@ -293,14 +294,6 @@ fn snake_case(name: &str) -> String {
         }
     }
     out
-}
-
-/// Numbers separated by commas and/or white space.
-pub(super) fn numbers(text: &str) -> Option<Vec<f32>> {
-    text.split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|w| !w.is_empty())
-        .map(|w| w.parse::<f32>().ok().filter(|x| x.is_finite()))
-        .collect()
 }
 
 impl Document {

@@ -1,8 +1,8 @@
 // Light injection into the clipmap from the renderer's shadow maps (`003` §4.2's "inject
 // direct light from the shadow map", per voxel): direct irradiance from the renderer's
-// lights (`render/lights.wgsl`, the same incidence and PCF lookup as the deferred lighting),
+// lights (`frame/lights.wgsl`, the same incidence and PCF lookup as the deferred lighting),
 // looked up half a voxel off the voxel centre along its normal, where a surface in the voxel
-// may lie. Needs `render/lights.wgsl` and `clipmap/inject_common.wgsl` before this file.
+// may lie. Needs `frame/lights.wgsl` and `clipmap/inject_common.wgsl` before this file.
 
 @group(0) @binding(3) var<storage, read> lights: array<Light>;
 @group(0) @binding(7) var<storage, read> shadow_matrices: array<mat4x4<f32>>;

@@ -28,17 +28,17 @@
 //! back from the finer level along each axis. Sampling with blending by distance to a level's
 //! border and with directional values: [`crate::voxel::clipmap::sample`].
 
+pub mod cpu;
 pub mod index;
 pub mod sample;
 
+use crate::gpu::pass::{bind_buffers, dispatch_1d};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::clipmap::index::TriangleIndex;
+use crate::voxel::pairs::PAIRS_WGSL;
 use crate::voxel::voxelize::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
-use crate::voxel::voxelize::{
-    bind_buffers, dispatch, upload_triangles, work_items, VoxParams, OVERLAP_WGSL,
-};
+use crate::voxel::voxelize::{upload_triangles, work_items, VoxParams, OVERLAP_WGSL};
 use crate::voxel::VoxelTriangle;
-use crate::voxel::PAIRS_WGSL;
 use crate::{Error, Result};
 use bytemuck::Zeroable;
 use glam::{DVec3, IVec3, Vec3};
@@ -1083,7 +1083,7 @@ impl Clipmap {
                     ),
                 ],
             );
-            dispatch(
+            dispatch_1d(
                 timer,
                 &format!("{name} voxelize"),
                 &self.accumulate,
@@ -1102,7 +1102,7 @@ impl Clipmap {
                     (7, whole(&self.emission)),
                 ],
             );
-            dispatch(
+            dispatch_1d(
                 timer,
                 &format!("{name} resolve"),
                 &self.resolve,
@@ -1152,7 +1152,7 @@ impl Clipmap {
             buffers.push((4, &self.emission));
         }
         let group = bind_buffers(ctx, pipeline, &buffers);
-        dispatch(timer, name, pipeline, &group, b.volume() as u32);
+        dispatch_1d(timer, name, pipeline, &group, b.volume() as u32);
     }
 
     /// Directional values of the revoxelised coarse boxes (a copy of the isotropic value),
@@ -1269,7 +1269,7 @@ impl Clipmap {
             Some(p) => p.clone(),
             None => {
                 let source = [
-                    crate::voxel::sample::CLIPMAP_SAMPLE_WGSL,
+                    crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
                     CLIPMAP_EMISSION_WGSL,
                     INJECT_COMMON_WGSL,
                     include_str!("inject.wgsl"),
@@ -1296,7 +1296,7 @@ impl Clipmap {
 
     /// Injects light as [`Clipmap::inject`] does, with visibility from the renderer's shadow
     /// maps instead of voxel shadow rays: the first `light_count` lights of `lights` (the
-    /// renderer's light buffer, `array<Light>` of `render/lights.wgsl`), `shadow_array` (its
+    /// renderer's light buffer, `array<Light>` of `frame/lights.wgsl`), `shadow_array` (its
     /// `Depth32Float` shadow-map array) and the layers' matrices `shadow_layers`, looked up
     /// with the deferred lighting's PCF half a voxel off each voxel's centre along its normal.
     /// Every voxel costs one lookup per light instead of a march per light. The pass is
@@ -1308,9 +1308,9 @@ impl Clipmap {
         lights: &wgpu::Buffer,
         light_count: u32,
         shadow_array: &wgpu::Texture,
-        shadow_layers: &[crate::render::LayerView],
+        shadow_layers: &[crate::frame::LayerView],
     ) -> Result<()> {
-        let needed = light_count as u64 * crate::voxel::svo::inject::LIGHT_BYTES;
+        let needed = light_count as u64 * crate::frame::LIGHT_BYTES;
         if lights.size() < needed {
             return Err(Error::InvalidArgument(format!(
                 "clipmap injection: {light_count} lights need a light buffer of {needed} \
@@ -1322,8 +1322,8 @@ impl Clipmap {
             Some(made) => made.clone(),
             None => {
                 let source = [
-                    include_str!("../../render/lights.wgsl"),
-                    crate::voxel::sample::CLIPMAP_SAMPLE_WGSL,
+                    include_str!("../../frame/lights.wgsl"),
+                    crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
                     CLIPMAP_EMISSION_WGSL,
                     INJECT_COMMON_WGSL,
                     include_str!("inject_shadow.wgsl"),
@@ -1343,7 +1343,7 @@ impl Clipmap {
                 (p, sampler)
             }
         };
-        let (matrices, view) = crate::render::shadow_lookup(
+        let (matrices, view) = crate::frame::shadow_lookup(
             ctx,
             self.owner,
             "inject shadow matrices",
@@ -1392,7 +1392,7 @@ impl Clipmap {
         let info = ctx.create_buffer_init(
             self.owner,
             "inject info",
-            bytemuck::bytes_of(&crate::voxel::sample::ClipInfo::new(
+            bytemuck::bytes_of(&crate::voxel::clipmap::sample::ClipInfo::new(
                 &self.settings,
                 &self.origins,
             )),
@@ -1438,7 +1438,7 @@ impl Clipmap {
             layout: &pipeline.get_bind_group_layout(0),
             entries: &entries,
         });
-        dispatch(timer, name, pipeline, &group, slots);
+        dispatch_1d(timer, name, pipeline, &group, slots);
         self.radiance = Some(radiance);
     }
 
@@ -1453,8 +1453,8 @@ impl Clipmap {
         Ok(words
             .chunks_exact(2)
             .map(|w| {
-                let a = crate::voxel::svo::unpack_half2(w[0]);
-                let b = crate::voxel::svo::unpack_half2(w[1]);
+                let a = crate::gpu::pack::unpack_half2(w[0]);
+                let b = crate::gpu::pack::unpack_half2(w[1]);
                 glam::Vec4::new(a[0], a[1], b[0], b[1])
             })
             .collect())

@@ -1,6 +1,12 @@
-//! Clipmap sampling that blends between levels by distance to a level's border and reads
-//! anisotropic voxels: the WGSL [`CLIPMAP_BLEND_WGSL`] (`clip_sample_blend`,
-//! `clip_sample_aniso`; goes after [`crate::voxel::sample::CLIPMAP_SAMPLE_WGSL`]), its CPU twins
+//! Sampling the clipmap. `clip_sample(p, footprint)` ([`CLIPMAP_SAMPLE_WGSL`], CPU twin
+//! [`clip_sample`]) reads the finest level whose voxel is at least the footprint and which holds
+//! `p`'s whole trilinear neighbourhood; `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU
+//! twin [`clip_radiance_sample`]) reads the injected radiance the same way; both read the
+//! parameter block [`ClipInfo`]. A level that does not contain `p` is never read.
+//!
+//! Blending between levels by distance to a level's border and reading anisotropic voxels: the
+//! WGSL [`CLIPMAP_BLEND_WGSL`] (`clip_sample_blend`, `clip_sample_aniso`; goes after
+//! [`CLIPMAP_SAMPLE_WGSL`]), its CPU twins
 //! [`clip_sample_blend`] and [`clip_sample_aniso`], and [`probe_blend`], which evaluates the
 //! WGSL at given points for tests.
 //!
@@ -10,11 +16,124 @@
 //! from 0 at [`BLEND_CELLS`] voxels inside the border of level `l` to 1 on it. A level that
 //! does not contain the point is never read.
 
+use super::ClipmapSettings;
 use crate::gpu::GpuContext;
 use crate::voxel::clipmap::Clipmap;
-use crate::voxel::sample::ClipInfo;
+use crate::voxel::sample::trilinear;
 use crate::{Error, Result};
-use glam::{IVec3, UVec3, Vec3, Vec4};
+use glam::{IVec3, Vec3, Vec4};
+
+/// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
+pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample.wgsl");
+
+/// WGSL: `clip_radiance_sample(p, footprint)` over the injected radiance; goes after
+/// [`CLIPMAP_SAMPLE_WGSL`]; the includer also declares `clip_radiance`.
+pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("radiance_sample.wgsl");
+
+/// Parameter block `ClipInfo` of [`CLIPMAP_SAMPLE_WGSL`] (a read-only storage buffer).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ClipInfo {
+    /// Finest voxel size (x).
+    pub voxel: [f32; 4],
+    /// Resolution, levels.
+    pub misc: [u32; 4],
+    /// First voxel of each level.
+    pub origins: [[i32; 4]; 8],
+}
+
+impl ClipInfo {
+    /// The block for a clipmap with these settings and level origins (levels without an
+    /// origin are treated as empty by placing them far away).
+    pub fn new(settings: &ClipmapSettings, origins: &[Option<IVec3>]) -> ClipInfo {
+        let mut o = [[i32::MIN / 2; 4]; 8];
+        for (slot, origin) in o.iter_mut().zip(origins) {
+            if let Some(origin) = origin {
+                *slot = origin.extend(0).to_array();
+            }
+        }
+        ClipInfo {
+            voxel: [settings.voxel_size, 0.0, 0.0, 0.0],
+            misc: [settings.resolution, settings.levels, 0, 0],
+            origins: o,
+        }
+    }
+}
+
+fn clip_voxel(voxels: &[u32], res: u32, l: u32, g: IVec3) -> Vec4 {
+    let r = res as i32;
+    let m = g.rem_euclid(IVec3::splat(r)).as_uvec3();
+    let w = voxels[(l * res * res * res + m.x + res * (m.y + res * m.z)) as usize];
+    Vec4::new(
+        (w & 255) as f32 / 255.0,
+        ((w >> 8) & 255) as f32 / 255.0,
+        ((w >> 16) & 255) as f32 / 255.0,
+        (w >> 24) as f32 / 255.0,
+    )
+}
+
+fn clip_contains(info: &ClipInfo, p: Vec3, l: u32) -> bool {
+    let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
+    let o = info.origins[l as usize];
+    let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
+    g.cmpge(lo).all() && g.cmplt(lo + Vec3::splat(info.misc[0] as f32 - 1.0)).all()
+}
+
+fn clip_sample_level(
+    info: &ClipInfo,
+    p: Vec3,
+    l: u32,
+    fetch: &impl Fn(u32, IVec3) -> Vec4,
+) -> Vec4 {
+    let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
+    let i0 = g.floor().as_ivec3();
+    let f = g - g.floor();
+    trilinear(f, |o| fetch(l, i0 + o.as_ivec3()))
+}
+
+/// CPU twin of `clip_sample`, over voxels read back with
+/// [`super::clipmap::Clipmap::read_voxels`].
+pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
+    clip_sample_with(info, p, footprint, &|l, g| {
+        clip_voxel(voxels, info.misc[0], l, g)
+    })
+}
+
+/// CPU twin of `clip_radiance_sample`, over radiance read back with
+/// [`super::clipmap::Clipmap::read_radiance`].
+pub fn clip_radiance_sample(info: &ClipInfo, radiance: &[Vec4], p: Vec3, footprint: f32) -> Vec4 {
+    let res = info.misc[0];
+    clip_sample_with(info, p, footprint, &|l, g| {
+        let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
+        radiance[(l * res * res * res + m.x + res * (m.y + res * m.z)) as usize]
+    })
+}
+
+fn clip_sample_with(
+    info: &ClipInfo,
+    p: Vec3,
+    footprint: f32,
+    fetch: &impl Fn(u32, IVec3) -> Vec4,
+) -> Vec4 {
+    let levels = info.misc[1];
+    let lod = (footprint / info.voxel[0])
+        .max(1.0)
+        .log2()
+        .clamp(0.0, (levels - 1) as f32);
+    let mut l = lod.floor() as u32;
+    while l < levels && !clip_contains(info, p, l) {
+        l += 1;
+    }
+    if l >= levels {
+        return Vec4::ZERO;
+    }
+    let a = clip_sample_level(info, p, l, fetch);
+    let t = lod - lod.floor();
+    if t <= 0.0 || l as f32 > lod.floor() || l + 1 >= levels || !clip_contains(info, p, l + 1) {
+        return a;
+    }
+    a.lerp(clip_sample_level(info, p, l + 1, fetch), t)
+}
 
 /// WGSL: `clip_sample_blend(p, footprint)` and `clip_sample_aniso(p, footprint, dir)`.
 pub const CLIPMAP_BLEND_WGSL: &str = include_str!("blend.wgsl");
@@ -73,16 +192,6 @@ pub fn blend_choice(info: &ClipInfo, p: Vec3, footprint: f32) -> Option<(u32, f3
     let x = (border_distance(info, p, l) / BLEND_CELLS).clamp(0.0, 1.0);
     let e = 1.0 - x * x * (3.0 - 2.0 * x);
     Some((l, 1.0 - (1.0 - t) * (1.0 - e)))
-}
-
-fn trilinear(f: Vec3, mut texel: impl FnMut(UVec3) -> Vec4) -> Vec4 {
-    let mut sum = Vec4::ZERO;
-    for k in 0..8u32 {
-        let o = UVec3::new(k & 1, (k >> 1) & 1, (k >> 2) & 1);
-        let w = Vec3::select(o.cmpeq(UVec3::ONE), f, Vec3::ONE - f);
-        sum += w.x * w.y * w.z * texel(o);
-    }
-    sum
 }
 
 fn unorm8(w: u32) -> Vec4 {
@@ -228,7 +337,7 @@ pub fn probe_blend(
     let owner = "clipmap probe";
     let source = format!(
         "{}\n{CLIPMAP_BLEND_WGSL}\n{PROBE_WGSL}",
-        crate::voxel::sample::CLIPMAP_SAMPLE_WGSL
+        crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL
     );
     let info = ctx.create_buffer_init(
         owner,

@@ -2,7 +2,7 @@
 //! option built on demand after the octree: every node is the voxel of its level (level `d` has
 //! `2^d` nodes per axis) and gets 6 RGBA8 values (premultiplied albedo, opacity), one per travel
 //! direction +x, -x, +y, -y, +z, -z, meaning what a cone travelling along that direction sees
-//! (the clipmap's convention, [`crate::voxel::cpu::clipmap_aniso`]). Mipmapping them keeps a red wall
+//! (the clipmap's convention, [`crate::voxel::clipmap::cpu::clipmap_aniso`]). Mipmapping them keeps a red wall
 //! in front of a green one red seen from the front and green from behind, where the isotropic
 //! bricks mix the two.
 //!
@@ -20,12 +20,12 @@
 //! values are zero.
 //!
 //! Sampling: [`SVO_ANISO_SAMPLE_WGSL`] (`svo_sample_aniso(p, footprint, dir)`), CPU twin
-//! [`crate::voxel::sample::svo_sample_aniso`]. CPU twin of the values: [`crate::voxel::cpu::svo_aniso`].
+//! [`crate::voxel::svo::sample::svo_sample_aniso`]. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso`].
 
+use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use crate::voxel::svo::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use crate::voxel::svo::{Svo, OWNER, PARAM_STRIDE};
-use crate::voxel::voxelize::dispatch_size;
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};
 
@@ -86,7 +86,7 @@ impl SvoAniso {
         let source = format!(
             "{}\n{}\n{}",
             crate::voxel::svo::inject::LEAF_SUMS_WGSL,
-            crate::voxel::PAIRS_WGSL,
+            crate::voxel::pairs::PAIRS_WGSL,
             include_str!("aniso.wgsl")
         );
         let module = ctx.shader("svo anisotropic", &source);

@@ -14,11 +14,11 @@
 //! anisotropic radiance`: one dispatch per level and node range, finest first; the dynamic
 //! ranges are read on the GPU, no readback). Storage: 12 words per brick of the octree's
 //! capacity (48 bytes; the dynamic reserve's bricks included). Sampling:
-//! [`SVO_RADIANCE_ANISO_WGSL`]. CPU twin of the values: [`crate::voxel::cpu::svo_aniso_radiance`].
+//! [`SVO_RADIANCE_ANISO_WGSL`]. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso_radiance`].
 
+use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::svo::{Svo, ARGS_DYN_NODES, OWNER, PARAM_STRIDE};
-use crate::voxel::voxelize::dispatch_size;
 use crate::Result;
 use glam::{Vec3, Vec4};
 
@@ -74,7 +74,7 @@ impl SvoAnisoRadiance {
         )?;
         let source = format!(
             "{}\n{}",
-            crate::voxel::PAIRS_WGSL,
+            crate::voxel::pairs::PAIRS_WGSL,
             include_str!("aniso_radiance.wgsl")
         );
         let module = ctx.shader("svo anisotropic radiance", &source);
@@ -204,7 +204,7 @@ impl SvoAnisoRadiance {
         Ok(words
             .chunks_exact(ANISO_RADIANCE_WORDS as usize)
             .map(|w| {
-                std::array::from_fn(|d| crate::voxel::svo::unpack_half4(w[2 * d], w[2 * d + 1]))
+                std::array::from_fn(|d| crate::gpu::pack::unpack_half4(w[2 * d], w[2 * d + 1]))
             })
             .collect())
     }

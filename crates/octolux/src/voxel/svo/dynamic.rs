@@ -40,7 +40,7 @@
 //!
 //! Gathered texels are filtered from the finer level's 8-bit texels where the build filters
 //! 16-bit ones, so they can differ from a full rebuild by a few 8-bit steps; both agree with
-//! the exact lattice ([`crate::voxel::cpu::lattices`]) within the tolerance the tests state.
+//! the exact lattice ([`crate::voxel::svo::cpu::lattices`]) within the tolerance the tests state.
 
 use crate::gpu::{GpuContext, PassTimer, PassTiming};
 use crate::voxel::svo::{
@@ -398,7 +398,7 @@ impl SvoBuilder {
             self.build(ctx, &grid, &still)?
         } else {
             // Fragments, one per triangle piece and voxel: a dense mesh has several per voxel.
-            let fragments = crate::voxel::cpu::voxelize(&grid, &moving);
+            let fragments = crate::voxel::voxelize::cpu::voxelize(&grid, &moving);
             let voxels: std::collections::HashSet<[u32; 3]> =
                 fragments.iter().map(|(v, _)| *v).collect();
             let nodes = (voxels.len() as u32)

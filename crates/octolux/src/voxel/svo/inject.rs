@@ -5,20 +5,21 @@
 //! leaf radiance fills the leaf bricks of an RGBA16F radiance pool (radiance, opacity) exactly
 //! as albedo fills the albedo bricks, and the octree's neighbour transfer and mip kernels then
 //! filter it upward, so every level holds the same corner-sampled lattice filter of radiance
-//! as of albedo ([`crate::voxel::cpu::lattices`] of the voxel radiance is the reference).
+//! as of albedo ([`crate::voxel::svo::cpu::lattices`] of the voxel radiance is the reference).
 //!
 //! Per leaf voxel the build keeps the sums of its fragments' albedo, emission and normal
 //! ([`LEAF_SUM_WORDS`] words), which is what injection reads.
 
+use crate::frame::LayerView;
+use crate::gpu::pass::{bind_buffers, dispatch_1d};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
-use crate::render::LayerView;
-use crate::voxel::voxelize::{bind_buffers, dispatch, FragmentList, OVERLAP_WGSL};
+use crate::voxel::voxelize::{FragmentList, OVERLAP_WGSL};
 use crate::{Error, Result};
 
 /// WGSL: `svo_radiance_sample(p, footprint)`, the injected radiance filtered like
-/// `svo_sample` ([`crate::voxel::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
+/// `svo_sample` ([`crate::voxel::svo::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
 /// declares `svo_radiance0..3` (the buffers of [`crate::voxel::svo::Svo::radiance`]). CPU twin:
-/// [`crate::voxel::sample::svo_sample`] over the bricks of [`crate::voxel::svo::Svo::read_radiance`].
+/// [`crate::voxel::svo::sample::svo_sample`] over the bricks of [`crate::voxel::svo::Svo::read_radiance`].
 pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("radiance_sample.wgsl");
 
 /// Words kept per occupied leaf voxel: albedo sums (3), fragment count, emission sums (3,
@@ -36,9 +37,6 @@ pub const BOUNCE_TABLE_WGSL: &str = include_str!("bounce_table.wgsl");
 /// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
 /// `svo/dynamic.wgsl`).
 const DYN_NODES: u32 = 64;
-
-/// Bytes of one light in the renderer's light buffer (`Light` in `render/direct.wgsl`).
-pub const LIGHT_BYTES: u64 = 64;
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -107,7 +105,7 @@ impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
         let source = [
             OVERLAP_WGSL,
-            include_str!("../../render/lights.wgsl"),
+            include_str!("../../frame/lights.wgsl"),
             LEAF_SUMS_WGSL,
             BOUNCE_TABLE_WGSL,
             include_str!("inject.wgsl"),
@@ -176,9 +174,9 @@ impl SvoLight {
             bind_buffers(ctx, pipeline, &buffers)
         };
         let group = fragments_group(&self.leaf_mask, &index);
-        dispatch(timer, "svo leaf masks", &self.leaf_mask, &group, list.count);
+        dispatch_1d(timer, "svo leaf masks", &self.leaf_mask, &group, list.count);
         let group = bind_buffers(ctx, &self.leaf_slots, &[(0, &params), (4, &index)]);
-        dispatch(
+        dispatch_1d(
             timer,
             "svo leaf slots",
             &self.leaf_slots,
@@ -202,7 +200,7 @@ impl SvoLight {
             encoder.copy_buffer_to_buffer(&index, 0, &sums, 0, Some(leaf_count as u64 * 4))
         });
         let group = fragments_group(&self.accumulate, &sums);
-        dispatch(timer, "svo leaf sums", &self.accumulate, &group, list.count);
+        dispatch_1d(timer, "svo leaf sums", &self.accumulate, &group, list.count);
         ctx.ledger.record(owner, "leaf sum params", 0);
         ctx.ledger.record(owner, "leaf index (build)", 0);
         Ok((sums, timings))
@@ -239,7 +237,7 @@ impl SvoLight {
             ));
         }
         let owner = crate::voxel::svo::OWNER;
-        let (matrices, view) = crate::render::shadow_lookup(
+        let (matrices, view) = crate::frame::shadow_lookup(
             ctx,
             owner,
             "inject shadow matrices",
@@ -378,7 +376,7 @@ impl SvoLight {
             entries: &entries,
         });
         let Some(slot) = indirect else {
-            dispatch(timer, name, &self.inject, &group, count);
+            dispatch_1d(timer, name, &self.inject, &group, count);
             return;
         };
         timer.pass(name, |encoder, stamps| {

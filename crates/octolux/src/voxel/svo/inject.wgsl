@@ -95,7 +95,7 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     }
 }
 
-// `Light`, `light_incidence` and `shadow_visibility` come from `render/lights.wgsl`.
+// `Light`, `light_incidence` and `shadow_visibility` come from `frame/lights.wgsl`.
 
 struct InjectParams {
     // xyz grid origin, w voxel size

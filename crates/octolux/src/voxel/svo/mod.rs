@@ -14,7 +14,7 @@
 //!
 //! The values define one corner-sampled lattice per level: on the finest level, each lattice
 //! point (a voxel corner) holds the sum of the touching voxels' values / 8; each coarser
-//! level applies the separable [1/4 1/2 1/4] filter ([`crate::voxel::cpu::lattices`] is the reference).
+//! level applies the separable [1/4 1/2 1/4] filter ([`crate::voxel::svo::cpu::lattices`] is the reference).
 //! A brick holds the lattice restricted to its node, so neighbouring bricks agree on their
 //! shared faces, and trilinear interpolation inside a brick is continuous across nodes.
 //!
@@ -31,12 +31,17 @@
 
 pub mod aniso;
 pub mod aniso_radiance;
+pub mod cpu;
 pub mod dynamic;
 pub mod inject;
+pub mod sample;
+pub mod walk;
 
+use crate::gpu::pack::{unpack_half4, unpack_unorm8};
+use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::svo::dynamic::DynamicReserve;
-use crate::voxel::voxelize::{dispatch_size, FragmentList, Voxelizer, OVERLAP_WGSL};
+use crate::voxel::voxelize::{FragmentList, Voxelizer, OVERLAP_WGSL};
 use crate::voxel::{VoxelGrid, VoxelTriangle};
 use crate::{Error, Result};
 
@@ -690,7 +695,7 @@ impl SvoBuilder {
             bytemuck::cast_slice(&[brick_count * 27, pool_bricks, 0, 0]),
             wgpu::BufferUsages::STORAGE,
         );
-        let pack_group = crate::voxel::voxelize::bind_buffers(
+        let pack_group = crate::gpu::pass::bind_buffers(
             ctx,
             &self.pack,
             &[
@@ -705,7 +710,7 @@ impl SvoBuilder {
                 (8, &packed[3]),
             ],
         );
-        crate::voxel::voxelize::dispatch(
+        crate::gpu::pass::dispatch_1d(
             &mut timer,
             "svo pack bricks",
             &self.pack,
@@ -800,7 +805,7 @@ impl SvoBuilder {
     /// Injects direct light into `svo`'s radiance pool: per leaf voxel, emission + albedo/pi x
     /// direct irradiance from the first `light_count` lights of `lights` (the renderer's light
     /// buffer, `array<Light>` of `render/direct.wgsl`), with visibility from `shadow_array`
-    /// (the renderer's `Depth32Float` shadow-map array, [`crate::render::ShadowMaps::texture`])
+    /// (the renderer's `Depth32Float` shadow-map array, [`crate::frame::ShadowMaps::texture`])
     /// and its layer matrices `shadow_layers`; then the neighbour transfer and mip filter
     /// upward, level by level. Units: radiance in W/(m^2 sr).
     #[allow(clippy::too_many_arguments)]
@@ -810,7 +815,7 @@ impl SvoBuilder {
         timer: &mut PassTimer,
         svo: &Svo,
         shadow_array: &wgpu::Texture,
-        shadow_layers: &[crate::render::LayerView],
+        shadow_layers: &[crate::frame::LayerView],
         lights: &wgpu::Buffer,
         light_count: u32,
     ) -> Result<()> {
@@ -836,13 +841,13 @@ impl SvoBuilder {
         timer: &mut PassTimer,
         svo: &Svo,
         shadow_array: &wgpu::Texture,
-        shadow_layers: &[crate::render::LayerView],
+        shadow_layers: &[crate::frame::LayerView],
         lights: &wgpu::Buffer,
         light_count: u32,
         bounce: Option<&crate::voxel::svo::inject::SvoBounce>,
     ) -> Result<()> {
-        let needed = light_count as u64 * crate::voxel::svo::inject::LIGHT_BYTES;
-        if lights.size() < needed.max(crate::voxel::svo::inject::LIGHT_BYTES) {
+        let needed = light_count as u64 * crate::frame::LIGHT_BYTES;
+        if lights.size() < needed.max(crate::frame::LIGHT_BYTES) {
             return Err(Error::InvalidArgument(format!(
                 "octree injection: {light_count} lights need a light buffer of {needed} bytes \
                  (at least one light's), it has {}",
@@ -1110,44 +1115,5 @@ impl Svo {
             .chunks_exact(2)
             .map(|w| unpack_half4(w[0], w[1]))
             .collect())
-    }
-}
-
-pub(crate) fn unpack_half4(lo: u32, hi: u32) -> glam::Vec4 {
-    let [x, y] = unpack_half2(lo);
-    let [z, w] = unpack_half2(hi);
-    glam::Vec4::new(x, y, z, w)
-}
-
-/// Decodes a `pack4x8unorm` word.
-pub fn unpack_unorm8(w: u32) -> glam::Vec4 {
-    glam::Vec4::new(
-        (w & 255) as f32,
-        ((w >> 8) & 255) as f32,
-        ((w >> 16) & 255) as f32,
-        (w >> 24) as f32,
-    ) / 255.0
-}
-
-/// Decodes a `pack2x16float` word.
-pub fn unpack_half2(w: u32) -> [f32; 2] {
-    [half_to_f32(w as u16), half_to_f32((w >> 16) as u16)]
-}
-
-/// IEEE half to f32.
-pub fn half_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = ((h >> 10) & 31) as i32;
-    let mant = (h & 1023) as f32;
-    sign * match exp {
-        0 => mant * 2f32.powi(-24),
-        31 => {
-            if mant == 0.0 {
-                f32::INFINITY
-            } else {
-                f32::NAN
-            }
-        }
-        e => (1.0 + mant / 1024.0) * 2f32.powi(e - 15),
     }
 }

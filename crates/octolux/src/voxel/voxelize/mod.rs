@@ -10,8 +10,10 @@
 //! pass: the list holds one 8-byte fragment per (piece, voxel) pair (one per (triangle,
 //! voxel) pair, except on the seams of triangles split into pieces).
 
+pub mod cpu;
 pub mod snap;
 
+use crate::gpu::pass::{bind_buffers, dispatch_1d};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::voxelize::snap::{snap_triangles, Piece, SnapRegion};
 use crate::voxel::{VoxelGrid, VoxelTriangle};
@@ -30,17 +32,6 @@ pub struct VoxParams {
     pub hi: [i32; 4],
     /// Work-item count, then kernel-specific values.
     pub misc: [u32; 4],
-}
-
-/// Workgroup counts for `n` invocations of 64-wide workgroups, spread over two dimensions so
-/// that no dimension exceeds the 65535 limit (`linear_index` in `voxelize/overlap.wgsl` undoes it).
-pub fn dispatch_size(n: u32) -> (u32, u32) {
-    let groups = n.div_ceil(64).max(1);
-    if groups <= 65535 {
-        (groups, 1)
-    } else {
-        (65535, groups.div_ceil(65535))
-    }
 }
 
 /// Uploads triangles in the GPU layout under `owner`.
@@ -102,45 +93,6 @@ pub struct Voxelizer {
     count: wgpu::ComputePipeline,
     emit: wgpu::ComputePipeline,
     append: wgpu::ComputePipeline,
-}
-
-pub(crate) fn bind_buffers(
-    ctx: &GpuContext,
-    pipeline: &wgpu::ComputePipeline,
-    buffers: &[(u32, &wgpu::Buffer)],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .map(|&(binding, buffer)| wgpu::BindGroupEntry {
-            binding,
-            resource: buffer.as_entire_binding(),
-        })
-        .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    })
-}
-
-/// Records a 2D-spread compute dispatch of `n` invocations as the named pass `name`.
-pub(crate) fn dispatch(
-    timer: &mut PassTimer,
-    name: &str,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    n: u32,
-) {
-    let (x, y) = dispatch_size(n);
-    timer.pass(name, |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(name),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-    });
 }
 
 impl Voxelizer {
@@ -211,7 +163,7 @@ impl Voxelizer {
                 (4, &items_buffer),
             ],
         );
-        dispatch(&mut timer, "voxelize count", &self.count, &group, n_items);
+        dispatch_1d(&mut timer, "voxelize count", &self.count, &group, n_items);
         timings.extend(timer.finish_frame()?);
         let bytes = read_buffer(ctx, &counts, 0, n_items as u64 * 4)?;
         let counts_cpu: &[u32] = bytemuck::cast_slice(&bytes);
@@ -254,7 +206,7 @@ impl Voxelizer {
                 (4, &items_buffer),
             ],
         );
-        dispatch(&mut timer, "voxelize emit", &self.emit, &group, n_items);
+        dispatch_1d(&mut timer, "voxelize emit", &self.emit, &group, n_items);
         timings.extend(timer.finish_frame()?);
         // The counts are scratch: forget them in the ledger once the list exists.
         ctx.ledger.record(owner, "fragment counts", 0);
@@ -322,7 +274,7 @@ impl Voxelizer {
                 (5, counter),
             ],
         );
-        dispatch(timer, name, &self.append, &group, n_items);
+        dispatch_1d(timer, name, &self.append, &group, n_items);
         for label in ["voxelize params", "work items", "triangle pieces"] {
             ctx.ledger.record(owner, label, 0);
         }

@@ -13,7 +13,7 @@ struct Light {
     radiant_cos_outer: vec4<f32>,
     // x: first shadow view, its matrix (negative = no shadow), y: world size of a shadow texel
     // per metre of distance (perspective) or absolute (orthographic), z: 1 if orthographic,
-    // w: for the directional lights that stand in for the sky (`render/sky.rs`), 1 + the
+    // w: for the directional lights that stand in for the sky (`frame/sky.rs`), 1 + the
     // texture layer that holds their tile, else 0
     shadow: vec4<f32>,
 };

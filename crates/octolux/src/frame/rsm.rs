@@ -2,10 +2,11 @@
 //! lights six cube faces). Each texel stores world position, light-facing normal and what the
 //! injection needs for the VPL's physical flux and the surfel's area (see `rsm.wgsl`).
 
-use super::GiFrame;
+use super::shadow::LayerView;
+use crate::frame::scene_gpu::{raster_pipeline, SceneGpu, UNIFORM_STRIDE};
+use crate::gpu::pass::SLOT;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::render::scene_gpu::{raster_pipeline, SceneGpu, UNIFORM_STRIDE};
-use crate::scene::LightKind;
+use crate::scene::{Light, LightKind};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -109,7 +110,7 @@ impl RsmTargets {
             normal_array: array(&normal),
             flux_array: array(&flux),
             layer_views,
-            uniforms: super::uniform(ctx, owner, "rsm layers", layers as u64),
+            uniforms: crate::gpu::alloc::uniform(ctx, owner, "rsm layers", layers as u64),
             position,
             normal,
             flux,
@@ -154,11 +155,7 @@ impl RsmPass {
         });
         let module = ctx.shader(
             "rsm",
-            &[
-                include_str!("../../render/raster.wgsl"),
-                include_str!("rsm.wgsl"),
-            ]
-            .concat(),
+            &[include_str!("raster.wgsl"), include_str!("rsm.wgsl")].concat(),
         );
         let target = |format| {
             Some(wgpu::ColorTargetState {
@@ -197,9 +194,9 @@ impl RsmPass {
 
     /// Uploads the per-layer light parameters of this frame.
     pub(crate) fn update(&self, ctx: &GpuContext, targets: &RsmTargets, layers: &[RsmLayer]) {
-        let mut data = vec![0u8; targets.layers as usize * super::SLOT as usize];
+        let mut data = vec![0u8; targets.layers as usize * SLOT as usize];
         for (i, l) in layers.iter().enumerate().take(targets.layers as usize) {
-            let start = i * super::SLOT as usize;
+            let start = i * SLOT as usize;
             data[start..start + 64].copy_from_slice(bytemuck::bytes_of(l));
         }
         if !data.is_empty() {
@@ -252,7 +249,7 @@ impl RsmPass {
                 let view = layers.get(i).map_or(i, |l| l.cone[3] as usize);
                 let view_offset = ((view as u64 + 1) * UNIFORM_STRIDE) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
-                pass.set_bind_group(3, &self.group, &[(i as u64 * super::SLOT) as u32]);
+                pass.set_bind_group(3, &self.group, &[(i as u64 * SLOT) as u32]);
                 scene_gpu.draw(&mut pass, view + 1);
             }
         });
@@ -288,16 +285,21 @@ pub fn sky_scale(sky: &[crate::scene::Light], chosen: &[usize], first_sky: usize
 /// RSM layers for the scene's own `lights` and `sky_lights` sky lights when at most
 /// `sky_rsms` of those get one: every view of the scene's lights, then the chosen sky lights.
 pub fn rsm_layer_count(lights: &[crate::scene::Light], sky_lights: usize, sky_rsms: u32) -> u32 {
-    crate::render::shadow_layer_count(lights) + sky_subset(sky_lights, sky_rsms).len() as u32
+    crate::frame::shadow_layer_count(lights) + sky_subset(sky_lights, sky_rsms).len() as u32
 }
 
 /// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow views'
 /// matrices: every light's views except the sky's, of which only [`sky_subset`] is drawn,
 /// with the flux scaled so that the chosen ones carry the whole sky's (an unbiased choice of
 /// an equal-share sample). `cone.w` holds the shadow view each layer is drawn through.
-pub fn rsm_layers(frame: &GiFrame, rsm_size: u32, sky_rsms: u32) -> Vec<RsmLayer> {
-    let lights = &frame.frame.lights;
-    let first_sky = lights.len() - frame.sky_lights.min(lights.len());
+pub fn rsm_layers(
+    lights: &[Light],
+    sky_lights: usize,
+    shadow_layers: &[LayerView],
+    rsm_size: u32,
+    sky_rsms: u32,
+) -> Vec<RsmLayer> {
+    let first_sky = lights.len() - sky_lights.min(lights.len());
     let chosen: Vec<usize> = sky_subset(lights.len() - first_sky, sky_rsms)
         .into_iter()
         .map(|k| first_sky + k)
@@ -319,7 +321,7 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32, sky_rsms: u32) -> Vec<RsmLayer
             light.radiant()
         };
         let dir = light.direction.normalize_or(Vec3::NEG_Y);
-        let Some(view) = frame.shadow_layers.get(first_view) else {
+        let Some(view) = shadow_layers.get(first_view) else {
             break;
         };
         let view_slot = first_view as f32;
@@ -351,8 +353,7 @@ pub fn rsm_layers(frame: &GiFrame, rsm_size: u32, sky_rsms: u32) -> Vec<RsmLayer
             }),
             LightKind::Point => {
                 for (face, axis) in FACE_AXES.iter().enumerate() {
-                    let tan = frame
-                        .shadow_layers
+                    let tan = shadow_layers
                         .get(first_view + face)
                         .map_or(width, |v| v.extent)
                         * 0.5;
@@ -421,7 +422,7 @@ impl RsmImage {
                 .chunks_exact(8)
                 .map(|c| {
                     std::array::from_fn(|k| {
-                        crate::render::f16_to_f32(u16::from_le_bytes([c[2 * k], c[2 * k + 1]]))
+                        crate::gpu::pack::f16_to_f32(u16::from_le_bytes([c[2 * k], c[2 * k + 1]]))
                     })
                 })
                 .collect()

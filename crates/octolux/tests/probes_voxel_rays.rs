@@ -2,14 +2,14 @@
 //! first occupied voxel on the GPU against `rays::voxel_ray` and `rays::voxel_surfel` over the
 //! octree read back, static and dynamic parts; and the voxel hits against the BVH's exact ones.
 
-use super::bvh::SceneBvh;
-use super::rays::{voxel_ray, voxel_surfel, VoxelSurfel, VOXEL_RAYS_WGSL};
-use crate::gi::vpl::trace::{walk_buffers, OctreeCpu, VplOctree, TRACE_WGSL};
-use crate::gpu::{read_buffer, GpuContext, GpuOptions};
-use crate::scene::Scene;
-use crate::voxel::objects_triangles;
-use crate::voxel::svo::{Svo, SvoBuilder};
 use glam::{IVec3, Vec3};
+use octolux::gi::probes::bvh::SceneBvh;
+use octolux::gi::probes::rays::{voxel_ray, voxel_surfel, VoxelSurfel, VOXEL_RAYS_WGSL};
+use octolux::gpu::{read_buffer, GpuContext, GpuOptions};
+use octolux::scene::Scene;
+use octolux::voxel::objects_triangles;
+use octolux::voxel::svo::walk::{walk_buffers, SvoWalk, SvoWalkCpu, WALK_WGSL};
+use octolux::voxel::svo::{Svo, SvoBuilder};
 
 const OWNER: &str = "voxel rays test";
 
@@ -20,11 +20,11 @@ struct GpuRay {
 }
 
 /// Runs `voxel_ray` and `voxel_closest` on the GPU for `rays` (origin, direction, t_max).
-fn trace(ctx: &GpuContext, svo: &Svo, walk: &VplOctree, rays: &[(Vec3, Vec3, f32)]) -> Vec<GpuRay> {
+fn trace(ctx: &GpuContext, svo: &Svo, walk: &SvoWalk, rays: &[(Vec3, Vec3, f32)]) -> Vec<GpuRay> {
     let source = [
-        TRACE_WGSL,
+        WALK_WGSL,
         VOXEL_RAYS_WGSL,
-        include_str!("test_voxel_rays.wgsl"),
+        include_str!("shaders/probes_voxel_rays.wgsl"),
     ]
     .join("\n");
     let module = ctx.shader("voxel rays test", &source);
@@ -42,7 +42,7 @@ fn trace(ctx: &GpuContext, svo: &Svo, walk: &VplOctree, rays: &[(Vec3, Vec3, f32
     let [child, leaf, state, sums] = walk_buffers(svo, &placeholder);
     let buffers = [&params, child, leaf, state, sums, &input, &out];
     let buffers: Vec<(u32, &wgpu::Buffer)> = (0..).zip(buffers).collect();
-    let group = crate::voxel::voxelize::bind_buffers(ctx, &pipeline, &buffers);
+    let group = octolux::gpu::pass::bind_buffers(ctx, &pipeline, &buffers);
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -83,7 +83,12 @@ fn probe_rays(bounds: (Vec3, Vec3)) -> Vec<(Vec3, Vec3, f32)> {
         let cell = Vec3::new((i % 5) as f32, (i / 5 % 5) as f32, (i / 25) as f32);
         let o = lo + (hi - lo) * (cell + 0.5) / 5.0;
         for k in 0..64 {
-            let d = super::lattice::direction(super::Lattice::Fibonacci, k, 64).0;
+            let d = octolux::gi::probes::lattice::direction(
+                octolux::gi::probes::Lattice::Fibonacci,
+                k,
+                64,
+            )
+            .0;
             rays.push((o, d, reach));
         }
     }
@@ -117,8 +122,8 @@ fn gpu_voxel_rays_equal_their_cpu_twin() {
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let (scene, svo) = animated_box(&ctx, 64);
-    let walk = VplOctree::new(&svo, 0.0).unwrap();
-    let tree = OctreeCpu::read(&ctx, &svo, walk).unwrap();
+    let walk = SvoWalk::new(&svo, 0.0).unwrap();
+    let tree = SvoWalkCpu::read(&ctx, &svo, walk).unwrap();
     let rays = probe_rays(scene.bounds_at(1.3));
     let gpu = trace(&ctx, &svo, &walk, &rays);
     let (mut hits, mut dynamic_hits, mut same_ends) = (0, 0, 0);
@@ -172,7 +177,7 @@ fn gpu_voxel_rays_equal_their_cpu_twin() {
 }
 
 /// The leaf node holding voxel `v`.
-fn tree_node_of(tree: &OctreeCpu, v: IVec3) -> u32 {
+fn tree_node_of(tree: &SvoWalkCpu, v: IVec3) -> u32 {
     let mut node = 0u32;
     for k in (1..tree.params.depth).rev() {
         let c = tree.child[node as usize];
@@ -197,7 +202,7 @@ fn voxel_hits_agree_with_the_bvh_to_a_voxel() {
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let (scene, svo) = animated_box(&ctx, 64);
-    let walk = VplOctree::new(&svo, 0.0).unwrap();
+    let walk = SvoWalk::new(&svo, 0.0).unwrap();
     let frame = scene.frame(1.3, 0);
     let bvh = SceneBvh::build(&scene);
     let (_, _, roots) = bvh.flatten();

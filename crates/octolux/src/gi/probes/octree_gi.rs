@@ -9,12 +9,13 @@
 //! probes of the few leaves around it ([`OctreeView::irradiance`] is the CPU twin).
 
 use super::encoding::COEFFS;
-use super::grid::facing_weight;
+use super::engine::{
+    bind_at, buf, facing_weight, moved_boxes, run_pass, ProbeEngine, ProbeLayout, ProbeSetWgsl,
+    PROBE_VEC4,
+};
 use super::moments::MomentMaps;
 use super::octree::{OctreeProbe, OctreeRule, State};
-use super::passes::{
-    bind_at, buf, run_pass, storage, ProbeLayout, ProbePasses, ProbeSetWgsl, PROBE_VEC4,
-};
+use super::params::storage;
 use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
@@ -76,8 +77,9 @@ impl GpuOctree {
         Self::with_room(ctx, rule, lo, size, len, capacity)
     }
 
-    /// [`GpuOctree::new`] with a tree buffer of `len` words and `capacity` probe slots.
-    pub(crate) fn with_room(
+    /// [`GpuOctree::new`] with a tree buffer of `len` words and `capacity` probe slots (a tree
+    /// smaller than the full one, to exercise allocation failures and reuse).
+    pub fn with_room(
         ctx: &GpuContext,
         rule: OctreeRule,
         lo: Vec3,
@@ -432,35 +434,9 @@ pub fn root_cube(bounds: (Vec3, Vec3)) -> Result<(Vec3, f32)> {
     Ok(((lo + hi) * 0.5 - Vec3::splat(size * 0.5), size))
 }
 
-/// World bounds of object `i` of `scene` under `m`.
-fn object_bounds(scene: &Scene, i: usize, m: &Mat4) -> (Vec3, Vec3) {
-    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for &mesh in &scene.objects[i].meshes {
-        for &p in &scene.meshes[mesh as usize].positions {
-            let w = m.transform_point3(p);
-            lo = lo.min(w);
-            hi = hi.max(w);
-        }
-    }
-    (lo, hi)
-}
-
-/// The boxes of the objects that moved between two frames' transforms: old and new bounds of
-/// each.
-pub fn moved_boxes(scene: &Scene, before: &[Mat4], now: &[Mat4]) -> Vec<(Vec3, Vec3)> {
-    let mut out = Vec::new();
-    for (i, (a, b)) in before.iter().zip(now).enumerate() {
-        if a != b {
-            out.push(object_bounds(scene, i, a));
-            out.push(object_bounds(scene, i, b));
-        }
-    }
-    out
-}
-
 /// Probe + surfel GI on `004`'s adaptive octree.
 pub struct ProbesOctree {
-    passes: ProbePasses,
+    passes: ProbeEngine,
     octree: GpuOctree,
     root: (Vec3, f32),
     bias: f32,
@@ -499,7 +475,7 @@ impl ProbesOctree {
             set: &[TREE_WGSL, include_str!("octree_set.wgsl")],
             sample: &[include_str!("octree_sample.wgsl")],
         };
-        let passes = ProbePasses::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
+        let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits.
         let groups = [
             octree.set_group(ctx, &passes.place, [true, false, true, true, false]),
@@ -634,7 +610,7 @@ impl GiTechnique for ProbesOctree {
         self.passes.view()
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
+    fn reference_bounces(&self) -> crate::transport::Bounces {
         self.passes.reference_bounces()
     }
 

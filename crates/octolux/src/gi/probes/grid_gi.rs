@@ -3,9 +3,11 @@
 //! and interpolated per pixel (see the module documentation of [`super`] and docs/probes.md).
 
 use super::encoding::COEFFS;
+use super::engine::{
+    facing_weight, moved_boxes, ProbeEngine, ProbeLayout, ProbeSetWgsl, PROBE_VEC4,
+};
 use super::lattice::direction;
 use super::moments::MomentMaps;
-use super::passes::{ProbeLayout, ProbePasses, ProbeSetWgsl, PROBE_VEC4};
 use super::ProbeSettings;
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
@@ -88,18 +90,6 @@ pub fn integrate_probe(
     )
 }
 
-/// CPU twin of `probe_facing_weight` (probes.wgsl): DDGI's smooth back-face weight
-/// ((1 + cos)/2)^2 + 0.2 of a probe at `to_probe` from a point with unit normal `n`.
-pub(crate) fn facing_weight(to_probe: Vec3, n: Vec3) -> f32 {
-    let len = to_probe.length();
-    let facing = if len > 1e-6 {
-        (to_probe.dot(n) / len + 1.0) * 0.5
-    } else {
-        1.0
-    };
-    facing * facing + 0.2
-}
-
 /// CPU twin of `probes_irradiance` in grid_sample.wgsl: irradiance at `p` (unit normal `n`)
 /// from `probes` (the probe buffer's `vec4`s) on `grid`, each probe weighed by its visibility
 /// from `moments` where given.
@@ -143,7 +133,7 @@ pub fn grid_irradiance(
 /// Probe + surfel GI on a uniform grid.
 pub struct ProbesGrid {
     grid: ProbeGrid,
-    passes: ProbePasses,
+    passes: ProbeEngine,
     placed: bool,
     /// Object transforms of the previous frame (None before the first).
     last_transforms: Option<Vec<glam::Mat4>>,
@@ -173,7 +163,7 @@ impl ProbesGrid {
             set: &[include_str!("grid.wgsl")],
             sample: &[include_str!("grid_sample.wgsl")],
         };
-        let passes = ProbePasses::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
+        let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         Ok(ProbesGrid {
             grid,
             passes,
@@ -227,7 +217,7 @@ impl GiTechnique for ProbesGrid {
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         let now = &frame.frame.object_transforms;
         let moved = match &self.last_transforms {
-            Some(before) => super::octree_gpu::moved_boxes(frame.scene, before, now),
+            Some(before) => moved_boxes(frame.scene, before, now),
             None => Vec::new(),
         };
         self.last_transforms = Some(now.clone());
@@ -259,7 +249,7 @@ impl GiTechnique for ProbesGrid {
         self.passes.view()
     }
 
-    fn reference_bounces(&self) -> crate::reference::Bounces {
+    fn reference_bounces(&self) -> crate::transport::Bounces {
         self.passes.reference_bounces()
     }
 

@@ -8,31 +8,21 @@
 use super::encoding::ENCODING_WGSL;
 use super::lattice::LATTICE_WGSL;
 use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
+use super::params::{storage, ProbeParams};
 use super::rays::Rays;
 use super::ProbeSettings;
 use crate::gi::GiFrame;
+use crate::gpu::pass::dispatch_size;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::voxelize::dispatch_size;
+use crate::scene::Scene;
 use crate::{Error, Result};
-use glam::{UVec3, Vec3};
+use glam::{Mat4, UVec3, Vec3};
 
-/// `vec4`s per probe and per surfel (`PROBE_VEC4`, `SURFEL_VEC4` in probes.wgsl).
-pub(crate) const PROBE_VEC4: u64 = 9;
-pub(crate) const SURFEL_VEC4: u64 = 3;
-
-/// `ProbeParams` in probes.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct ProbeParams {
-    lo: [f32; 4],
-    spacing: [f32; 4],
-    dims: [u32; 4],
-    misc: [u32; 4],
-    pub(crate) roots: [u32; 4],
-    limits: [u32; 4],
-    vis: [f32; 4],
-    frame: [u32; 4],
-}
+/// `vec4`s per probe in the probe buffer (`PROBE_VEC4` in probes.wgsl): the encoding's 8
+/// coefficients, then the probe's state.
+pub const PROBE_VEC4: u64 = 9;
+/// `vec4`s per surfel in the surfel buffer (`SURFEL_VEC4` in probes.wgsl).
+pub const SURFEL_VEC4: u64 = 3;
 
 /// A probe set's WGSL: what every pass includes (positions, liveness, placement), and what
 /// the passes that read probes include (`probes_irradiance`).
@@ -57,32 +47,6 @@ pub(crate) struct ProbeLayout {
     pub probes: u32,
 }
 
-/// A storage buffer of `bytes` under `owner`, or a clear error where one binding of that size
-/// exceeds what the adapter allows.
-pub(crate) fn storage(
-    ctx: &GpuContext,
-    owner: &str,
-    label: &str,
-    bytes: u64,
-) -> Result<wgpu::Buffer> {
-    ctx.check_storage_binding(
-        &format!("{owner}: its {label}"),
-        bytes,
-        "use fewer probes or surfels",
-    )?;
-    Ok(ctx.create_buffer(
-        owner,
-        &wgpu::BufferDescriptor {
-            label: Some(label),
-            size: bytes.max(16),
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_DST
-                | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        },
-    ))
-}
-
 pub(crate) fn buf(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
     b.as_entire_binding()
 }
@@ -95,7 +59,7 @@ pub(crate) fn bind_at(
     index: u32,
     entries: &[(u32, wgpu::BindingResource)],
 ) -> wgpu::BindGroup {
-    crate::gpu::bind_group_at(ctx, Some(label), pipeline, index, entries)
+    crate::gpu::pass::bind_group_at(ctx, Some(label), pipeline, index, entries)
 }
 
 /// A bind group of group 0 of `pipeline` with `entries` at bindings 0, 1, ...
@@ -136,7 +100,7 @@ pub(crate) fn run_pass(
 }
 
 /// The shared state and pipelines of a probe technique.
-pub(crate) struct ProbePasses {
+pub(crate) struct ProbeEngine {
     owner: &'static str,
     pub settings: ProbeSettings,
     params: ProbeParams,
@@ -165,7 +129,7 @@ pub(crate) struct ProbePasses {
     size: (u32, u32),
 }
 
-impl ProbePasses {
+impl ProbeEngine {
     /// The passes for `scene` at `width` x `height` over the probe set `set` laid out as
     /// `layout`; buffers are recorded under `owner`.
     pub fn new(
@@ -176,7 +140,7 @@ impl ProbePasses {
         (width, height): (u32, u32),
         layout: &ProbeLayout,
         set: &ProbeSetWgsl,
-    ) -> Result<ProbePasses> {
+    ) -> Result<ProbeEngine> {
         let bounds = scene.bounds_at(0.0);
         let animated_objects = scene
             .objects
@@ -229,7 +193,7 @@ impl ProbePasses {
         )?;
         let pipeline = |name: &str, pass: &str, extra: &[&str], sample: bool| {
             let mut parts = vec![
-                include_str!("../../render/common.wgsl"),
+                include_str!("../../frame/common.wgsl"),
                 LATTICE_WGSL,
                 ENCODING_WGSL,
                 include_str!("probes.wgsl"),
@@ -247,7 +211,7 @@ impl ProbePasses {
         };
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
         let place_wgsl = rays.place_wgsl();
-        Ok(ProbePasses {
+        Ok(ProbeEngine {
             owner,
             settings: settings.clone(),
             params,
@@ -285,7 +249,7 @@ impl ProbePasses {
             light: pipeline(
                 "probes light",
                 include_str!("light.wgsl"),
-                &[include_str!("../../render/lights.wgsl")],
+                &[include_str!("../../frame/lights.wgsl")],
                 true,
             ),
             integrate: pipeline(
@@ -377,7 +341,7 @@ impl ProbePasses {
     /// (`None`), or only those whose rays cross one of `boxes` (the old and new bounds of the
     /// objects that moved since the surfels were placed; the others keep their hits, which
     /// nothing that moved can have changed). At most two boxes per animated object. Call it
-    /// before [`ProbePasses::begin_frame`], which uploads the parameters.
+    /// before [`ProbeEngine::begin_frame`], which uploads the parameters.
     pub fn set_moved(&mut self, ctx: &GpuContext, boxes: Option<&[(Vec3, Vec3)]>) -> Result<()> {
         let selective = boxes.is_some();
         let boxes = boxes.unwrap_or(&[]);
@@ -561,11 +525,49 @@ impl ProbePasses {
     }
 
     /// The light transport the passes compute.
-    pub fn reference_bounces(&self) -> crate::reference::Bounces {
+    pub fn reference_bounces(&self) -> crate::transport::Bounces {
         if self.settings.multi_bounce {
-            crate::reference::Bounces::Unlimited
+            crate::transport::Bounces::Unlimited
         } else {
-            crate::reference::Bounces::Indirect(1)
+            crate::transport::Bounces::Indirect(1)
         }
     }
+}
+
+/// CPU twin of `probe_facing_weight` (probes.wgsl): DDGI's smooth back-face weight
+/// ((1 + cos)/2)^2 + 0.2 of a probe at `to_probe` from a point with unit normal `n`.
+pub(crate) fn facing_weight(to_probe: Vec3, n: Vec3) -> f32 {
+    let len = to_probe.length();
+    let facing = if len > 1e-6 {
+        (to_probe.dot(n) / len + 1.0) * 0.5
+    } else {
+        1.0
+    };
+    facing * facing + 0.2
+}
+
+/// World bounds of object `i` of `scene` under `m`.
+fn object_bounds(scene: &Scene, i: usize, m: &Mat4) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    for &mesh in &scene.objects[i].meshes {
+        for &p in &scene.meshes[mesh as usize].positions {
+            let w = m.transform_point3(p);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    (lo, hi)
+}
+
+/// The boxes of the objects that moved between two frames' transforms: old and new bounds of
+/// each.
+pub(crate) fn moved_boxes(scene: &Scene, before: &[Mat4], now: &[Mat4]) -> Vec<(Vec3, Vec3)> {
+    let mut out = Vec::new();
+    for (i, (a, b)) in before.iter().zip(now).enumerate() {
+        if a != b {
+            out.push(object_bounds(scene, i, a));
+            out.push(object_bounds(scene, i, b));
+        }
+    }
+    out
 }

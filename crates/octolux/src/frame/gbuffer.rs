@@ -3,6 +3,7 @@
 //! the colour attachments within the 32 bytes per pixel every adapter allows.
 
 use super::scene_gpu::{raster_pipeline, SceneGpu};
+use crate::gpu::alloc::image_target;
 use crate::gpu::{GpuContext, PassTimer};
 
 const OWNER: &str = "gbuffer";
@@ -30,46 +31,16 @@ pub struct GBuffer {
     pipeline: wgpu::RenderPipeline,
 }
 
-pub(crate) fn target(
-    ctx: &GpuContext,
-    owner: &str,
-    label: &str,
-    width: u32,
-    height: u32,
-    format: wgpu::TextureFormat,
-    usage: wgpu::TextureUsages,
-) -> (wgpu::Texture, wgpu::TextureView) {
-    let texture = ctx.create_texture(
-        owner,
-        &wgpu::TextureDescriptor {
-            label: Some(label),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: usage | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        },
-    );
-    let view = texture.create_view(&Default::default());
-    (texture, view)
-}
-
 impl GBuffer {
     pub(crate) fn new(ctx: &GpuContext, scene_gpu: &SceneGpu, width: u32, height: u32) -> GBuffer {
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
         let (albedo, albedo_view) =
-            target(ctx, OWNER, "albedo", width, height, GBUFFER_FORMAT, usage);
+            image_target(ctx, OWNER, "albedo", width, height, GBUFFER_FORMAT, usage);
         let (normal, normal_view) =
-            target(ctx, OWNER, "normal", width, height, GBUFFER_FORMAT, usage);
+            image_target(ctx, OWNER, "normal", width, height, GBUFFER_FORMAT, usage);
         let (emission, emission_view) =
-            target(ctx, OWNER, "emission", width, height, GBUFFER_FORMAT, usage);
-        let (depth, depth_view) = target(
+            image_target(ctx, OWNER, "emission", width, height, GBUFFER_FORMAT, usage);
+        let (depth, depth_view) = image_target(
             ctx,
             OWNER,
             "depth",

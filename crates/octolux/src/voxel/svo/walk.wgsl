@@ -1,5 +1,5 @@
 // VPL visibility: a stackless walk of the sparse voxel octree along a shadow segment (002's
-// SVO-restart, Fig. 3, in integer arithmetic). The includer declares `vo: VplOctree` (read-only
+// SVO-restart, Fig. 3, in integer arithmetic). The includer declares `vo: SvoWalk` (read-only
 // storage), `svo_child: array<u32>` (the octree's `child`) and `svo_leaf: array<u32>` (the
 // octree's `leaf_sums`, whose first `leaf_count` words are the static leaves' index words:
 // bits 0..7 the occupancy of their 2x2x2 voxels).
@@ -15,7 +15,7 @@
 // an occupied one voxel by voxel. The cell is then left through its exit face: the next voxel
 // is the one holding the point just after the exit time, found exactly (no t-epsilon).
 
-struct VplOctree {
+struct SvoWalk {
     // World position of the grid's corner, voxel edge (m).
     origin: vec3<f32>,
     voxel: f32,

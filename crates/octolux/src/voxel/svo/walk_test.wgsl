@@ -1,7 +1,7 @@
 // Test kernel: traces segments given as lattice points and writes, per segment, 0 when nothing
 // blocks it, else 1 + the first blocking voxel packed as x + 1024 (y + 1024 z).
 
-@group(0) @binding(0) var<storage, read> vo: VplOctree;
+@group(0) @binding(0) var<storage, read> vo: SvoWalk;
 @group(0) @binding(1) var<storage, read> svo_child: array<u32>;
 @group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(3) var<storage, read> segments: array<vec4<i32>>;

@@ -1,14 +1,13 @@
 //! The GPU octree against its CPU specification: the same frames from the same hit counts
 //! give the same buffers word for word (tree, probe records, free lists, marks, ring).
 
-use super::octree::{OctreeProbe, OctreeRule, ProbeOctree};
-use super::octree_gpu::GpuOctree;
-use crate::gpu::{read_buffer, GpuContext, GpuOptions, PassTimer};
-use glam::Vec3;
+mod common;
 
-fn ctx() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
+use common::context;
+use glam::Vec3;
+use octolux::gi::probes::octree::{OctreeProbe, OctreeRule, ProbeOctree};
+use octolux::gi::probes::octree_gi::GpuOctree;
+use octolux::gpu::{read_buffer, GpuContext, PassTimer};
 
 fn read<T: bytemuck::Pod>(ctx: &GpuContext, b: &wgpu::Buffer) -> Vec<T> {
     bytemuck::cast_slice(&read_buffer(ctx, b, 0, b.size()).unwrap()).to_vec()
@@ -116,7 +115,7 @@ fn scripted(p: &OctreeProbe, epoch: u32, surfels: u32) -> u32 {
 
 #[test]
 fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
-    let ctx = ctx();
+    let ctx = context();
     // Full room at depths 2 and 3, and a small room where splits fail for want of probes and
     // clusters; `004`'s rule (min_depth 0) and levels kept down to depth 1 and 2.
     for (depth, min_depth, room) in [
@@ -164,28 +163,28 @@ fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
 /// A renderer with `probes-octree` and `probes` at `size` x `size`.
 fn octree_renderer(
     ctx: &GpuContext,
-    scene: &crate::scene::Scene,
-    probes: &super::ProbeSettings,
+    scene: &octolux::scene::Scene,
+    probes: &octolux::gi::probes::ProbeSettings,
     size: u32,
-) -> crate::render::Renderer {
-    let settings = crate::render::RenderSettings {
+) -> octolux::render::Renderer {
+    let settings = octolux::render::RenderSettings {
         width: size,
         height: size,
         gi: "probes-octree".into(),
-        gi_settings: crate::gi::GiSettings {
+        gi_settings: octolux::gi::GiSettings {
             probes: probes.clone(),
             ..Default::default()
         },
         ..Default::default()
     };
-    crate::render::Renderer::new(ctx, scene, settings).unwrap()
+    octolux::render::Renderer::new(ctx, scene, settings).unwrap()
 }
 
 /// The renderer's `probes-octree`.
-fn technique(r: &crate::render::Renderer) -> &super::ProbesOctree {
+fn technique(r: &octolux::render::Renderer) -> &octolux::gi::probes::ProbesOctree {
     r.technique()
         .as_any()
-        .and_then(|a| a.downcast_ref::<super::ProbesOctree>())
+        .and_then(|a| a.downcast_ref::<octolux::gi::probes::ProbesOctree>())
         .unwrap()
 }
 
@@ -194,20 +193,20 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
     // `probes-octree` on the shipped animated Cornell box, 30 frames through the block's
     // motion: after every frame the CPU octree, fed the same boxes of moved objects and the
     // GPU's hit counts (surfels inside each probe's cube), holds the same buffers.
-    let ctx = ctx();
+    let ctx = context();
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../scenes/cornell-animated.toml"
     );
-    let scene = crate::scene::Scene::load(path).unwrap();
-    let probes = super::ProbeSettings {
+    let scene = octolux::scene::Scene::load(path).unwrap();
+    let probes = octolux::gi::probes::ProbeSettings {
         max_depth: 3,
         ..Default::default()
     };
     let mut r = octree_renderer(&ctx, &scene, &probes, 24);
     let rule = probes.octree_rule();
     let (len, capacity) = rule.full_capacity();
-    let (lo, size) = super::octree_gpu::root_cube(scene.bounds_at(0.0)).unwrap();
+    let (lo, size) = octolux::gi::probes::octree_gi::root_cube(scene.bounds_at(0.0)).unwrap();
     let mut cpu = ProbeOctree::new(len, capacity, lo, size, rule);
     let (mut counts, mut moving) = (Vec::new(), 0);
     for f in 0..30 {
@@ -238,15 +237,18 @@ fn octree_gather_equals_its_cpu_twin() {
     // Tolerance: the output is f16 (2^-11 relative) of a sum the CPU forms in the same
     // order, from a world position rebuilt from the depth buffer on both sides; a point within
     // rounding of a cube face may pick another leaf on either side, which must be rare.
-    let ctx = ctx();
-    let scene = crate::scene::cornell::scene();
-    use super::Visibility;
+    let ctx = context();
+    let scene = octolux::scene::cornell::scene();
+    use octolux::gi::probes::Visibility;
     for (gather, visibility) in [
-        (super::OctreeGather::Octree, Visibility::Moments),
-        (super::OctreeGather::All, Visibility::Moments),
-        (super::OctreeGather::Octree, Visibility::None),
+        (
+            octolux::gi::probes::OctreeGather::Octree,
+            Visibility::Moments,
+        ),
+        (octolux::gi::probes::OctreeGather::All, Visibility::Moments),
+        (octolux::gi::probes::OctreeGather::Octree, Visibility::None),
     ] {
-        let probes = super::ProbeSettings {
+        let probes = octolux::gi::probes::ProbeSettings {
             gather,
             visibility,
             ..Default::default()
@@ -268,7 +270,7 @@ fn octree_gather_equals_its_cpu_twin() {
         );
         let g = r.read_gbuffer().unwrap();
         let camera = *r.last_view().unwrap();
-        let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
+        let bytes = octolux::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
         let indirect: &[u16] = bytemuck::cast_slice(&bytes);
         let (mut lit, mut off) = (0, 0);
         let points = camera.world_points(&g.depth);
@@ -278,7 +280,7 @@ fn octree_gather_equals_its_cpu_twin() {
             };
             let want = view.irradiance(&probes, &probe_data, p, normal.normalize());
             let got = Vec3::from_array(std::array::from_fn(|c| {
-                crate::render::f16_to_f32(indirect[4 * i + c])
+                octolux::gpu::pack::f16_to_f32(indirect[4 * i + c])
             }));
             if (got - want).abs().max_element() > 2e-3 * want.max_element() + 1e-5 {
                 off += 1;

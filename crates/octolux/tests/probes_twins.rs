@@ -1,21 +1,20 @@
 //! GPU twins of the probe kernels: lattice directions and BVH traversal on the GPU against the
 //! CPU code in `lattice.rs` and `bvh.rs`, and the BVH against the reference's ray queries.
 
-use super::bvh::{BvhHit, SceneBvh, SceneHit};
-use super::lattice::{direction, Lattice, LATTICE_WGSL};
-use crate::gpu::{read_buffer, GpuContext, GpuOptions};
-use crate::reference::ReferenceAccel;
-use crate::scene::Scene;
-use crate::voxel::objects_triangles;
+mod common;
+
+use common::context;
+use octolux::gi::probes::bvh::{BvhHit, SceneBvh, SceneHit};
+use octolux::gi::probes::lattice::{direction, Lattice, LATTICE_WGSL};
+use octolux::gpu::{read_buffer, GpuContext};
+use octolux::reference::RayQueries;
+use octolux::scene::Scene;
+use octolux::voxel::objects_triangles;
 
 use glam::Vec3;
 
 const OWNER: &str = "probes test";
 const MISS: u32 = u32::MAX;
-
-fn ctx() -> GpuContext {
-    GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter (install mesa-vulkan-drivers)")
-}
 
 fn upload(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
     ctx.create_buffer_init(
@@ -37,8 +36,8 @@ fn run(
 ) -> Vec<[f32; 4]> {
     let source = [
         LATTICE_WGSL,
-        super::bvh::BVH_WGSL,
-        include_str!("test_kernels.wgsl"),
+        octolux::gi::probes::bvh::BVH_WGSL,
+        include_str!("shaders/probes_kernels.wgsl"),
     ]
     .join("\n");
     let module = ctx.shader("probes test", &source);
@@ -80,7 +79,7 @@ fn gpu_lattices_equal_the_cpu_lattices() {
     // component is a product of at most two such values, so 3 x 2^-11 bounds it on any
     // adapter. The solid angles use only cos of angles in [0, pi] and division: same bound.
     // Fibonacci's z uses only division, so it agrees to a few ULPs.
-    let ctx = ctx();
+    let ctx = context();
     for (lattice, n) in [
         (Lattice::Fibonacci, 64),
         (Lattice::Fibonacci, 1024),
@@ -126,7 +125,7 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
     // move into the object's space adds a few ULPs on both sides), and a ray through an edge
     // (a barycentric within 1e-4 of 0) may go to either of the triangles sharing it, or slip
     // between them; such rays are allowed to differ and must be rare.
-    let ctx = ctx();
+    let ctx = context();
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../scenes/cornell-animated.toml"
@@ -143,7 +142,7 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
         "the block is moved and turned at 1.3 s"
     );
     let tri_base = bvh.still.tris.len() as u32;
-    let reference = ReferenceAccel::build(&scene, &frame).unwrap();
+    let reference = RayQueries::build(&scene, &frame).unwrap();
     let (lo, hi) = scene.bounds_at(1.3);
     let mut seed = 12345u32;
     let mut rnd = move || {
@@ -201,7 +200,7 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
         });
         let occluded = gpu[2 * i + 1][0] > 0.5;
         let cpu = bvh.closest(&instances, o, d, t_max);
-        let r = reference.closest(o, d, t_max);
+        let r = reference.closest_distance(o, d, t_max);
         hits += cpu.is_some() as u32;
         moving += cpu.is_some_and(|h| h.object.is_some()) as u32;
         assert_eq!(occluded, g_hit.is_some(), "ray {i}: occluded vs closest");
@@ -215,12 +214,12 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
         let key = |h: &SceneHit| (h.hit.tri, h.object);
         let ok_gpu = g_hit.map(|h| key(&h)) == cpu.map(|h| key(&h))
             && same(g_hit.map(|h| h.hit.t), cpu.map(|h| h.hit.t));
-        let ok_ref = same(r.as_ref().map(|h| h.t), cpu.map(|h| h.hit.t));
+        let ok_ref = same(r, cpu.map(|h| h.hit.t));
         if !(ok_gpu && ok_ref) {
             assert!(
                 edge,
                 "ray {i} {o} {d}: gpu {g_hit:?}, cpu {cpu:?}, reference {:?}",
-                r.map(|h| h.t)
+                r
             );
             edges += 1;
         } else if let Some(h) = cpu {
@@ -252,25 +251,29 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
     // may differ by that share of the probe's total sum_j |L_j| dw_j; the gather's output is
     // f16 (11-bit mantissa, 2^-11 relative) of a sum the CPU forms in the same order, from a
     // world position rebuilt from the depth buffer on both sides.
-    use crate::render::{RenderSettings, Renderer};
-    let ctx = ctx();
-    let scene = crate::scene::cornell::scene();
-    use super::moments::{build_map, MomentMaps, MOMENT_TEXELS};
-    use super::Visibility;
+    use octolux::render::{RenderSettings, Renderer};
+    let ctx = context();
+    let scene = octolux::scene::cornell::scene();
+    use octolux::gi::probes::moments::{build_map, MomentMaps, MOMENT_TEXELS};
+    use octolux::gi::probes::Visibility;
     for (encoding, lattice, visibility) in [
         (
-            super::Encoding::ShL1,
+            octolux::gi::probes::Encoding::ShL1,
             Lattice::Fibonacci,
             Visibility::Moments,
         ),
         (
-            super::Encoding::Octahedron,
+            octolux::gi::probes::Encoding::Octahedron,
             Lattice::LatLong,
             Visibility::None,
         ),
-        (super::Encoding::ShL1, Lattice::LatLong, Visibility::Moments),
+        (
+            octolux::gi::probes::Encoding::ShL1,
+            Lattice::LatLong,
+            Visibility::Moments,
+        ),
     ] {
-        let probes = super::ProbeSettings {
+        let probes = octolux::gi::probes::ProbeSettings {
             grid: [10; 3],
             encoding,
             lattice,
@@ -281,7 +284,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             width: 40,
             height: 40,
             gi: "probes-grid".into(),
-            gi_settings: crate::gi::GiSettings {
+            gi_settings: octolux::gi::GiSettings {
                 probes: probes.clone(),
                 ..Default::default()
             },
@@ -292,7 +295,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
         let technique = r
             .technique()
             .as_any()
-            .and_then(|a| a.downcast_ref::<super::ProbesGrid>())
+            .and_then(|a| a.downcast_ref::<octolux::gi::probes::ProbesGrid>())
             .unwrap();
         let read = |b: &wgpu::Buffer| -> Vec<[f32; 4]> {
             bytemuck::cast_slice(&read_buffer(&ctx, b, 0, b.size()).unwrap()).to_vec()
@@ -314,15 +317,15 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
         )
         .to_vec();
         let n = probes.surfel_count() as usize;
-        let vec4s = super::passes::PROBE_VEC4 as usize;
+        let vec4s = octolux::gi::probes::PROBE_VEC4 as usize;
         let dirs: Vec<Vec3> = (0..probes.surfel_count())
-            .map(|k| super::lattice::direction(lattice, k, probes.surfel_count()).0)
+            .map(|k| octolux::gi::probes::lattice::direction(lattice, k, probes.surfel_count()).0)
             .collect();
         // The scene's maximum ray distance (ProbeParams.lo.w): a miss's distance.
         let (lo, hi) = scene.bounds_at(0.0);
         let far = (hi - lo).length() * 1.01;
         let mut worst_moment = 0.0f32;
-        let surfel_vec4 = super::passes::SURFEL_VEC4 as usize;
+        let surfel_vec4 = octolux::gi::probes::SURFEL_VEC4 as usize;
         let mut valid = 0;
         for probe in 0..technique.grid().count() as usize {
             let states: Vec<f32> = (0..n)
@@ -331,7 +334,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             let l: Vec<Vec3> = (0..n)
                 .map(|k| Vec3::from_slice(&radiance[probe * n + k]))
                 .collect();
-            let (coeffs, meta) = super::integrate_probe(&probes, &states, &l);
+            let (coeffs, meta) = octolux::gi::probes::integrate_probe(&probes, &states, &l);
             let scale: f32 = l.iter().map(|x| x.max_element()).sum::<f32>() * 4.0 * 3.15 / n as f32;
             let b = probe * vec4s;
             for (k, c) in coeffs.iter().enumerate() {
@@ -397,7 +400,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
         );
         let g = r.read_gbuffer().unwrap();
         let view = *r.last_view().unwrap();
-        let bytes = crate::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
+        let bytes = octolux::gpu::read_texture(&ctx, technique.indirect_texture(), 0).unwrap();
         let indirect: &[u16] = bytemuck::cast_slice(&bytes);
         let mut lit = 0;
         let points = view.world_points(&g.depth);
@@ -409,7 +412,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
                 maps: &maps,
                 floor: technique.variance_floor(),
             });
-            let want = super::grid_irradiance(
+            let want = octolux::gi::probes::grid_irradiance(
                 technique.grid(),
                 &probes,
                 &probe_data,
@@ -418,7 +421,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
                 normal.normalize(),
             );
             let got = Vec3::from_array(std::array::from_fn(|c| {
-                crate::render::f16_to_f32(indirect[4 * i + c])
+                octolux::gpu::pack::f16_to_f32(indirect[4 * i + c])
             }));
             assert!(
                 (got - want).abs().max_element() <= 2e-3 * want.max_element() + 1e-5,

@@ -1,6 +1,6 @@
 // Reflective shadow maps: rasterise the scene from a light (the shadow layer's matrix) and
 // store, per texel, the world position, the normal facing the light and what the injection
-// needs to turn the texel into a VPL with physical flux (after `render/raster.wgsl`):
+// needs to turn the texel into a VPL with physical flux (after `frame/raster.wgsl`):
 //   perspective (spot, point face): measure m = solid angle of the texel
 //     = (2 tan(half fov) / N)^2 cos^3(angle to the axis); incident flux = I(w) m
 //   orthographic (directional): m = texel area across the beam; incident flux = E m

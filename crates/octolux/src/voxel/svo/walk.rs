@@ -1,5 +1,5 @@
-//! VPL visibility through the sparse voxel octree: the WGSL walk ([`TRACE_WGSL`]), its CPU twin
-//! ([`OctreeCpu::occluded`]), an independent CPU reference over a dense voxel set
+//! Visibility through the sparse voxel octree (VPL shadow segments, probe rays): the WGSL walk ([`WALK_WGSL`]), its CPU twin
+//! ([`SvoWalkCpu::occluded`]), an independent CPU reference over a dense voxel set
 //! ([`segment_blocked_brute`]) and a GPU harness that traces given segments ([`Tracer`]).
 //!
 //! Both ends of a shadow segment lie on voxelised surfaces. They are moved out of their own
@@ -18,16 +18,16 @@ use glam::{IVec3, Vec3};
 use std::collections::BTreeSet;
 
 /// WGSL of the walk (`trace.wgsl`).
-pub const TRACE_WGSL: &str = include_str!("trace.wgsl");
+pub const WALK_WGSL: &str = include_str!("walk.wgsl");
 
 /// Bits of the fixed-point lattice per grid side: segment ends are points of a lattice of
 /// 2^14 steps across the grid.
 pub const FIXED_BITS: u32 = 14;
 
-/// `VplOctree` of `trace.wgsl`.
+/// `SvoWalk` of `trace.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct VplOctree {
+pub struct SvoWalk {
     /// World position of the grid's corner.
     pub origin: [f32; 3],
     /// Voxel edge (m).
@@ -55,19 +55,16 @@ const _: () = assert!(crate::voxel::svo::inject::LEAF_SUM_WORDS == 10);
 
 /// The buffers the walk binds: child links, leaf sums, and the dynamic part's node state and
 /// sums (16-byte placeholders without one).
-pub(crate) fn walk_buffers<'a>(
-    svo: &'a Svo,
-    placeholder: &'a wgpu::Buffer,
-) -> [&'a wgpu::Buffer; 4] {
+pub fn walk_buffers<'a>(svo: &'a Svo, placeholder: &'a wgpu::Buffer) -> [&'a wgpu::Buffer; 4] {
     match svo.dynamic.as_ref() {
         Some(d) => [&svo.child, &svo.leaf_sums, d.state(), &d.sums],
         None => [&svo.child, &svo.leaf_sums, placeholder, placeholder],
     }
 }
 
-impl VplOctree {
+impl SvoWalk {
     /// Parameters of the walk through `svo` with ends moved `end_offset` voxels.
-    pub fn new(svo: &Svo, end_offset: f32) -> Result<VplOctree> {
+    pub fn new(svo: &Svo, end_offset: f32) -> Result<SvoWalk> {
         let mut p = Self::from_parts(&svo.grid, svo.levels.last().copied(), end_offset)?;
         p.dynamic = svo.dynamic.is_some() as u32;
         Ok(p)
@@ -77,7 +74,7 @@ impl VplOctree {
         grid: &VoxelGrid,
         leaves: Option<(u32, u32)>,
         end_offset: f32,
-    ) -> Result<VplOctree> {
+    ) -> Result<SvoWalk> {
         let depth = grid.depth();
         if !(2..=10).contains(&depth) {
             return Err(Error::InvalidArgument(format!(
@@ -86,7 +83,7 @@ impl VplOctree {
             )));
         }
         let (first_leaf, end) = leaves.unwrap_or((0, 0));
-        Ok(VplOctree {
+        Ok(SvoWalk {
             origin: grid.origin.to_array(),
             voxel: grid.voxel_size,
             depth,
@@ -114,9 +111,9 @@ impl VplOctree {
 
 /// The octree's structure on the CPU, as the walk reads it.
 #[derive(Clone, Debug)]
-pub struct OctreeCpu {
+pub struct SvoWalkCpu {
     /// Walk parameters.
-    pub params: VplOctree,
+    pub params: SvoWalk,
     /// First child per node (0 = none).
     pub child: Vec<u32>,
     /// Per static leaf, the occupancy of its 2x2x2 voxels (bit x + 2y + 4z).
@@ -131,9 +128,9 @@ pub struct OctreeCpu {
     pub dynamic_sums: Vec<u32>,
 }
 
-impl OctreeCpu {
+impl SvoWalkCpu {
     /// Reads `svo`'s child links, leaf occupancy and fragment sums back.
-    pub fn read(ctx: &GpuContext, svo: &Svo, params: VplOctree) -> Result<OctreeCpu> {
+    pub fn read(ctx: &GpuContext, svo: &Svo, params: SvoWalk) -> Result<SvoWalkCpu> {
         let words = |b: Vec<u8>| bytemuck::cast_slice::<u8, u32>(&b).to_vec();
         let child = words(crate::gpu::read_buffer(
             ctx,
@@ -180,7 +177,7 @@ impl OctreeCpu {
                     .fold(0, |m, o| m | 1 << o),
             })
             .collect();
-        Ok(OctreeCpu {
+        Ok(SvoWalkCpu {
             params,
             child,
             leaf_masks,
@@ -394,7 +391,7 @@ pub struct Tracer {
 impl Tracer {
     /// Compiles the test kernel.
     pub fn new(ctx: &GpuContext) -> Tracer {
-        let source = [TRACE_WGSL, include_str!("trace_test.wgsl")].join("\n");
+        let source = [WALK_WGSL, include_str!("walk_test.wgsl")].join("\n");
         let module = ctx.shader("vpl trace test", &source);
         Tracer {
             pipeline: ctx.compute_pipeline("vpl trace test", &module, "main"),
@@ -406,7 +403,7 @@ impl Tracer {
         &self,
         ctx: &GpuContext,
         svo: &Svo,
-        params: &VplOctree,
+        params: &SvoWalk,
         segments: &[(IVec3, IVec3)],
     ) -> Result<Vec<Option<IVec3>>> {
         let owner = "vpl trace test";
@@ -427,7 +424,7 @@ impl Tracer {
         );
         let placeholder = ctx.create_buffer_init(owner, "placeholder", &[0; 16], usage);
         let [child, leaf, state, sums] = walk_buffers(svo, &placeholder);
-        let group = crate::voxel::voxelize::bind_buffers(
+        let group = crate::gpu::pass::bind_buffers(
             ctx,
             &self.pipeline,
             &[
@@ -470,15 +467,15 @@ impl Tracer {
 mod tests {
     use super::*;
 
-    fn params(res: u32) -> VplOctree {
+    fn params(res: u32) -> SvoWalk {
         let grid = VoxelGrid::new(Vec3::ZERO, 1.0, res).unwrap();
-        VplOctree::from_parts(&grid, None, 1.75).unwrap()
+        SvoWalk::from_parts(&grid, None, 1.75).unwrap()
     }
 
     #[test]
     fn an_empty_octree_blocks_nothing_and_the_walk_skips_empty_space() {
         // A root without children: one cell, one step, whatever the segment.
-        let tree = OctreeCpu {
+        let tree = SvoWalkCpu {
             params: params(64),
             child: vec![0],
             leaf_masks: vec![],

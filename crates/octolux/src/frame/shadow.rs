@@ -4,7 +4,7 @@
 //! the outer cone; point faces are 90-degree frusta widened slightly so filtering never reads
 //! past a face edge.
 //!
-//! The directional lights that stand in for the sky (`render/sky.rs`) share layers: each gets
+//! The directional lights that stand in for the sky (`frame/sky.rs`) share layers: each gets
 //! a tile of a quarter of the side (16 per layer), drawn through a viewport, so dozens of sky
 //! lights cost a few layers. Their lookup matrices map into the tile.
 
@@ -366,7 +366,7 @@ pub(crate) fn shadow_params(slot: Option<&ShadowSlot>, first: Option<&LayerView>
     }
 }
 
-/// What a compute pass needs to look up the renderer's shadow maps with `render/lights.wgsl`
+/// What a compute pass needs to look up the renderer's shadow maps with `frame/lights.wgsl`
 /// (`shadow_matrices`, `shadow_maps`): the layers' matrices in a storage buffer (recorded
 /// under `owner` as `label`) and an array view of the shadow-map texture.
 pub(crate) fn shadow_lookup(
