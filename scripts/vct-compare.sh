@@ -129,10 +129,13 @@ def load(name):
     return run, techniques
 
 def passes(t, pick):
-    """Sum of the mean times of the technique's passes that `pick` selects."""
-    return sum(p["mean_ms"] for p in t["passes"] if p["gi"] and pick(p["name"]))
+    """Sum of the mean times of the technique's passes that `pick` selects (by the pass's
+    name after the technique's, `<technique> <pass>`)."""
+    prefix = t["technique"] + " "
+    return sum(p["mean_ms"] for p in t["passes"]
+               if p["gi"] and pick(p["name"].removeprefix(prefix)))
 
-TRACE = ("vct trace", "vct upsample", "vct specular", "vct bounce")
+TRACE = ("trace", "upsample", "specular", "bounce")
 # Light: the octree's injection and its filtering up the levels; the clipmap's injection
 # (into every level; its "clipmap Lk filter" passes filter the voxels after a revoxelisation).
 INJECT = ("svo inject", "svo radiance mip", "clipmap inject")
@@ -162,7 +165,7 @@ def case(name, pick):
 thesis_thin = {"64": (4.16, 0.96), "128": (7.11, 1.96), "256": (13.19, 3.36)}
 rows = []
 for r in resolutions:
-    m = case(f"thin-{r}", lambda n: n == "vct specular")
+    m = case(f"thin-{r}", lambda n: n == "specular")
     if m:
         s, c, _ = m
         th = thesis_thin.get(r)

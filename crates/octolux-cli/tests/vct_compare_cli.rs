@@ -115,7 +115,7 @@ fn the_flight_and_the_moving_sun_bench_with_a_fixed_work_specular_cone() {
         for technique in ["vct-svo", "vct-clipmap"] {
             let passes = gi_passes(&report, technique);
             assert!(
-                passes.iter().any(|p| p == "vct specular"),
+                passes.iter().any(|p| *p == format!("{technique} specular")),
                 "{name}, {technique}: {passes:?}"
             );
         }

@@ -9,7 +9,7 @@
 mod growth;
 use glam::{Mat4, Vec3};
 use growth::snapshot;
-use octolux::frame::LayerView;
+use octolux::frame::{LayerView, ShadowLookupBuffers};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::scene::{Light, LightKind};
 use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
@@ -246,6 +246,7 @@ fn voxel_updates_do_not_grow_from_frame_to_frame() {
             depth_range: 0.0,
         },
     ];
+    let shadows = ShadowLookupBuffers::new(&ctx, "test", &shadow, &layers);
     let lights = ctx.create_buffer_init(
         "test",
         "lights",
@@ -281,7 +282,7 @@ fn voxel_updates_do_not_grow_from_frame_to_frame() {
                 ctx.queue
                     .write_buffer(&lights, 0, bytemuck::cast_slice(&gpu_lights(f)));
                 builder
-                    .inject(&ctx, &mut timer, &svo, &shadow, &layers, &lights, 2)
+                    .inject(&ctx, &mut timer, &svo, shadows.lookup(), &lights, 2)
                     .unwrap();
             }
             Part::OctreeRebuild => {

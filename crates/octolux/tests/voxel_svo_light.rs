@@ -7,7 +7,7 @@ mod common;
 
 use common::context;
 use glam::{IVec3, Mat4, Vec3, Vec4};
-use octolux::frame::LayerView;
+use octolux::frame::{LayerView, ShadowLookupBuffers};
 use octolux::gpu::{GpuContext, PassTimer};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Camera, Light, LightKind, Material, Mesh, Object, Scene};
@@ -250,16 +250,9 @@ fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow
     let builder = SvoBuilder::new(&ctx);
     let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
     let mut timer = PassTimer::new(&ctx);
+    let shadows = ShadowLookupBuffers::new(&ctx, "test", renderer.shadow_maps().texture(), &layers);
     builder
-        .inject(
-            &ctx,
-            &mut timer,
-            &svo,
-            renderer.shadow_maps().texture(),
-            &layers,
-            &lights,
-            1,
-        )
+        .inject(&ctx, &mut timer, &svo, shadows.lookup(), &lights, 1)
         .unwrap();
     let timings = timer.finish_frame().unwrap();
     let cpu_svo = svo.read_back(&ctx).unwrap();
@@ -358,8 +351,9 @@ fn inject_nothing(ctx: &GpuContext, builder: &SvoBuilder, svo: &Svo) {
     });
     let lights = storage_init(&ctx, "no lights", &[0.0; 16]);
     let mut timer = PassTimer::new(&ctx);
+    let shadows = ShadowLookupBuffers::new(&ctx, "test", &shadows, &[]);
     builder
-        .inject(&ctx, &mut timer, svo, &shadows, &[], &lights, 0)
+        .inject(&ctx, &mut timer, svo, shadows.lookup(), &lights, 0)
         .unwrap();
     timer.finish_frame().unwrap();
 }

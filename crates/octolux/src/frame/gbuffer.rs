@@ -10,7 +10,7 @@ const OWNER: &str = "gbuffer";
 /// Format of the albedo, normal and emission targets.
 pub const GBUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
-/// G-buffer targets. GI techniques read these (the boundary of DESIGN.md §2).
+/// G-buffer targets. GI techniques read these (the boundary of docs/architecture.md, "The GI boundary").
 pub struct GBuffer {
     /// Linear albedo (rgb), a = 1 where there is geometry.
     pub albedo: wgpu::Texture,

@@ -17,8 +17,7 @@ pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub(crate) use lights::sky_regions_of;
 pub use lights::{render_lights, shadow_layer_count, sky_light_count, GpuLight, LIGHT_BYTES};
 pub use scene_gpu::SceneGpu;
-pub(crate) use shadow::shadow_lookup;
-pub use shadow::{LayerView, ShadowMaps};
+pub use shadow::{LayerView, ShadowLookup, ShadowLookupBuffers, ShadowMaps};
 pub use sky::{sh_irradiance, sh_irradiance_coefficients, sky_lights};
 
 use bytemuck::{Pod, Zeroable};

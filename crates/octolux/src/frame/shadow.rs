@@ -68,8 +68,72 @@ pub struct ShadowMaps {
     texture: wgpu::Texture,
     pub(crate) array_view: wgpu::TextureView,
     layer_views: Vec<wgpu::TextureView>,
+    /// Per view, the lookup matrix (`mat4x4<f32>`, view order), uploaded every frame.
+    matrices: wgpu::Buffer,
     pipeline: wgpu::RenderPipeline,
     pub(crate) sampler: wgpu::Sampler,
+}
+
+/// What a compute pass binds to look up shadow maps with `lights.wgsl`: the views' lookup
+/// matrices (`shadow_matrices`: one `mat4x4<f32>` per view, in view order) and the shadow-map
+/// array (`shadow_maps`). The renderer's is [`ShadowMaps::lookup`]; [`ShadowLookupBuffers`]
+/// makes one for callers without a renderer.
+#[derive(Clone, Copy)]
+pub struct ShadowLookup<'a> {
+    /// The lookup matrices (a storage buffer).
+    pub matrices: &'a wgpu::Buffer,
+    /// The shadow-map array as a `texture_depth_2d_array`.
+    pub view: &'a wgpu::TextureView,
+}
+
+/// A [`ShadowLookup`] that owns its matrices, for passes run outside the renderer (tests and
+/// tools that render shadow maps themselves).
+pub struct ShadowLookupBuffers {
+    /// The lookup matrices.
+    pub matrices: wgpu::Buffer,
+    /// The array view of the shadow-map texture.
+    pub view: wgpu::TextureView,
+}
+
+impl ShadowLookupBuffers {
+    /// Uploads the matrices of `shadow_layers` (under `owner`) and views `shadow_array` as an
+    /// array.
+    pub fn new(
+        ctx: &GpuContext,
+        owner: &str,
+        shadow_array: &wgpu::Texture,
+        shadow_layers: &[LayerView],
+    ) -> ShadowLookupBuffers {
+        let matrices = ctx.create_buffer_init(
+            owner,
+            "shadow lookup matrices",
+            bytemuck::cast_slice(&lookup_matrices(shadow_layers)),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        ShadowLookupBuffers { matrices, view }
+    }
+
+    /// The lookup these buffers make.
+    pub fn lookup(&self) -> ShadowLookup<'_> {
+        ShadowLookup {
+            matrices: &self.matrices,
+            view: &self.view,
+        }
+    }
+}
+
+/// The lookup matrices of `layers` as `lights.wgsl` reads them (one identity matrix when there
+/// is no layer: a binding must not be empty).
+fn lookup_matrices(layers: &[LayerView]) -> Vec<[f32; 16]> {
+    let mut matrices: Vec<[f32; 16]> = layers.iter().map(|l| l.view_proj.to_cols_array()).collect();
+    if matrices.is_empty() {
+        matrices.push(Mat4::IDENTITY.to_cols_array());
+    }
+    matrices
 }
 
 /// Cube face directions and up vectors, in the order the lighting shader's `cube_face` uses.
@@ -180,6 +244,12 @@ impl ShadowMaps {
             compare: Some(wgpu::CompareFunction::LessEqual),
             ..Default::default()
         });
+        let matrices = ctx.create_buffer_init(
+            OWNER,
+            "shadow matrices",
+            &vec![0u8; view_count.max(1) as usize * 64],
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        );
         ShadowMaps {
             slots,
             view_count,
@@ -189,8 +259,28 @@ impl ShadowMaps {
             texture,
             array_view,
             layer_views,
+            matrices,
             pipeline,
             sampler,
+        }
+    }
+
+    /// Uploads this frame's lookup matrices (from [`ShadowMaps::layer_views`], in view order).
+    pub(crate) fn upload_matrices(&self, queue: &wgpu::Queue, layers: &[LayerView]) {
+        if !layers.is_empty() {
+            queue.write_buffer(
+                &self.matrices,
+                0,
+                bytemuck::cast_slice(&lookup_matrices(layers)),
+            );
+        }
+    }
+
+    /// The shadow lookup compute passes bind: this frame's matrices and the array view.
+    pub fn lookup(&self) -> ShadowLookup<'_> {
+        ShadowLookup {
+            matrices: &self.matrices,
+            view: &self.array_view,
         }
     }
 
@@ -364,36 +454,6 @@ pub(crate) fn shadow_params(slot: Option<&ShadowSlot>, first: Option<&LayerView>
         ),
         _ => Vec4::new(-1.0, 0.0, 0.0, 0.0),
     }
-}
-
-/// What a compute pass needs to look up the renderer's shadow maps with `frame/lights.wgsl`
-/// (`shadow_matrices`, `shadow_maps`): the layers' matrices in a storage buffer (recorded
-/// under `owner` as `label`) and an array view of the shadow-map texture.
-pub(crate) fn shadow_lookup(
-    ctx: &GpuContext,
-    owner: &str,
-    label: &str,
-    shadow_array: &wgpu::Texture,
-    shadow_layers: &[LayerView],
-) -> (wgpu::Buffer, wgpu::TextureView) {
-    let mut matrices: Vec<[f32; 16]> = shadow_layers
-        .iter()
-        .map(|l| l.view_proj.to_cols_array())
-        .collect();
-    if matrices.is_empty() {
-        matrices.push(Mat4::IDENTITY.to_cols_array());
-    }
-    let matrices = ctx.create_buffer_init(
-        owner,
-        label,
-        bytemuck::cast_slice(&matrices),
-        wgpu::BufferUsages::STORAGE,
-    );
-    let view = shadow_array.create_view(&wgpu::TextureViewDescriptor {
-        dimension: Some(wgpu::TextureViewDimension::D2Array),
-        ..Default::default()
-    });
-    (matrices, view)
 }
 
 #[cfg(test)]

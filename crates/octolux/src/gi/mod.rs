@@ -1,6 +1,6 @@
 //! Global-illumination techniques, all behind [`GiTechnique`].
 //!
-//! The boundary (DESIGN.md §2): a technique reads the G-buffer, the lights, the shadow maps and
+//! The boundary (docs/architecture.md, "The GI boundary"): a technique reads the G-buffer, the lights, the shadow maps and
 //! the scene geometry, and writes an HDR *indirect irradiance* image (W/m^2, `Rgba16Float`,
 //! aligned with the G-buffer). Compose turns it into outgoing radiance as albedo/pi x E.
 

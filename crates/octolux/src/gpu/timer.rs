@@ -126,6 +126,8 @@ pub struct PassTimer {
     in_flight: std::collections::VecDeque<InFlight>,
     spare: Vec<wgpu::Buffer>,
     submissions: u64,
+    /// Inside [`PassTimer::scoped`]: the technique whose passes are being recorded.
+    scope: Option<String>,
 }
 
 impl PassTimer {
@@ -163,6 +165,7 @@ impl PassTimer {
             in_flight: Default::default(),
             spare: Vec::new(),
             submissions: 0,
+            scope: None,
         }
     }
 
@@ -191,6 +194,17 @@ impl PassTimer {
         }
     }
 
+    /// Runs `record` with every pass it records named `<scope> <pass>` (unless the pass's name
+    /// already starts with `scope`): the renderer scopes a technique's update by the
+    /// technique's name, so that shared machinery (the cone tracer, the octree build, the
+    /// probe engine) shows under the technique that ran it.
+    pub fn scoped<R>(&mut self, scope: &str, record: impl FnOnce(&mut PassTimer) -> R) -> R {
+        let outer = self.scope.replace(scope.to_string());
+        let result = record(self);
+        self.scope = outer;
+        result
+    }
+
     /// Records one named pass: `record` gets the encoder and the timestamp slots for its pass
     /// descriptor(s).
     pub fn pass<R>(
@@ -198,6 +212,7 @@ impl PassTimer {
         name: &str,
         record: impl FnOnce(&mut wgpu::CommandEncoder, PassStamps<'_>) -> R,
     ) -> R {
+        let name = &scoped_name(self.scope.as_deref(), name);
         match &self.queries {
             Some(q) => {
                 let index = self.names.len() as u32;
@@ -209,7 +224,7 @@ impl PassTimer {
                         })
                 });
                 let stamps = if index * 2 + 1 < q.capacity {
-                    self.names.push(name.to_string());
+                    self.names.push(name.clone());
                     PassStamps {
                         set: Some(&q.set),
                         begin: index * 2,
@@ -383,5 +398,39 @@ impl PassTimer {
             latest = Some(self.timings(frame.names, &ticks));
         }
         Ok(latest)
+    }
+}
+
+/// The name a pass called `name` is recorded under inside `scope`: `<scope> <name>`, unless the
+/// name already starts with the scope's word.
+fn scoped_name(scope: Option<&str>, name: &str) -> String {
+    match scope {
+        Some(scope)
+            if name != scope
+                && !name
+                    .strip_prefix(scope)
+                    .is_some_and(|rest| rest.starts_with(' ')) =>
+        {
+            format!("{scope} {name}")
+        }
+        _ => name.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod scope_tests {
+    use super::scoped_name;
+
+    #[test]
+    fn passes_are_named_after_the_technique_that_runs_them() {
+        assert_eq!(scoped_name(None, "svo inject"), "svo inject");
+        assert_eq!(
+            scoped_name(Some("vct-svo"), "svo inject"),
+            "vct-svo svo inject"
+        );
+        assert_eq!(scoped_name(Some("vct-svo"), "trace"), "vct-svo trace");
+        assert_eq!(scoped_name(Some("lpv"), "lpv propagate"), "lpv propagate");
+        assert_eq!(scoped_name(Some("lpv"), "lpvx"), "lpv lpvx");
+        assert_eq!(scoped_name(Some("vpl"), "vpl"), "vpl");
     }
 }

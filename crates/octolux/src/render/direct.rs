@@ -18,7 +18,6 @@ pub(crate) struct DirectLight {
     pub output: wgpu::Texture,
     pub output_view: wgpu::TextureView,
     pub lights: wgpu::Buffer,
-    shadow_matrices: wgpu::Buffer,
 }
 
 impl DirectLight {
@@ -36,12 +35,6 @@ impl DirectLight {
             OWNER,
             "lights",
             &vec![0u8; shadows.slots.len().max(1) * std::mem::size_of::<GpuLight>()],
-            storage,
-        );
-        let shadow_matrices = ctx.create_buffer_init(
-            OWNER,
-            "shadow matrices",
-            &vec![0u8; shadows.view_count.max(1) as usize * 64],
             storage,
         );
         let source = [
@@ -79,7 +72,7 @@ impl DirectLight {
                 },
                 wgpu::BindGroupEntry {
                     binding: 6,
-                    resource: shadow_matrices.as_entire_binding(),
+                    resource: shadows.lookup().matrices.as_entire_binding(),
                 },
                 texture_entry(7, &shadows.array_view),
                 wgpu::BindGroupEntry {
@@ -103,17 +96,13 @@ impl DirectLight {
             output,
             output_view,
             lights,
-            shadow_matrices,
         }
     }
 
     /// Uploads this frame's lights and shadow-layer matrices (column-major 4x4).
-    pub fn upload(&self, queue: &wgpu::Queue, lights: &[GpuLight], matrices: &[[f32; 16]]) {
+    pub fn upload(&self, queue: &wgpu::Queue, lights: &[GpuLight]) {
         if !lights.is_empty() {
             queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(lights));
-        }
-        if !matrices.is_empty() {
-            queue.write_buffer(&self.shadow_matrices, 0, bytemuck::cast_slice(matrices));
         }
     }
 

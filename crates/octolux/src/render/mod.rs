@@ -360,8 +360,8 @@ impl Renderer {
                 }
             })
             .collect();
-        let matrices: Vec<[f32; 16]> = layers.iter().map(|l| l.view_proj.to_cols_array()).collect();
-        self.direct.upload(queue, &gpu_lights, &matrices);
+        self.direct.upload(queue, &gpu_lights);
+        self.shadows.upload_matrices(queue, &layers);
         let camera = CameraUniform {
             view_proj: view.view_proj.to_cols_array_2d(),
             inv_view_proj: view.inv_view_proj.to_cols_array_2d(),
@@ -396,7 +396,10 @@ impl Renderer {
             lights: &self.direct.lights,
             sky_lights: self.sky_lights.len(),
         };
-        self.gi.update(&self.ctx, &gi_frame, &mut self.timer)?;
+        let (gi, ctx) = (&mut self.gi, &self.ctx);
+        let name = gi.name().to_string();
+        self.timer
+            .scoped(&name, |timer| gi.update(ctx, &gi_frame, timer))?;
         self.compose.render(&mut self.timer, w, h);
         self.last_view = Some(view);
         Ok(())

@@ -1,6 +1,6 @@
 //! The scene model shared by the GPU renderer and the reference path tracer.
 //!
-//! Units are physical (DESIGN.md §2): lengths in metres, point and spot lights in radiant
+//! Units are physical (docs/scene-format.md): lengths in metres, point and spot lights in radiant
 //! intensity (W/sr), directional lights in irradiance (W/m^2), emissive surfaces in radiance
 //! (W/(m^2 sr)), surfaces Lambertian with BRDF albedo/pi. Colours are linear RGB.
 //!

@@ -2,7 +2,7 @@
 //! (propagation step, octree downsample, index volume, merge, error measures). The GPU shaders
 //! implement the same formulas; tests compare the two.
 //!
-//! Conventions (DESIGN.md §3): 2 bands, 4 coefficients per colour channel, basis
+//! Conventions (docs/lpv.md, "Radiometry"): 2 bands, 4 coefficients per colour channel, basis
 //! (0.282095, -0.488603 y, 0.488603 z, -0.488603 x). A cell stores the SH projection of a
 //! *radiant intensity* distribution I(w) in W/sr, w = direction of travel. Volumes are stored
 //! as `[Sh; 3]` (r, g, b) per cell, cell index `x + n (y + n z)`.

@@ -118,7 +118,6 @@ pub(crate) struct ProbeEngine {
     radiance: wgpu::Buffer,
     probes: wgpu::Buffer,
     moments: wgpu::Buffer,
-    matrices: Option<(wgpu::Buffer, usize)>,
     pub place: wgpu::ComputePipeline,
     pub moments_build: wgpu::ComputePipeline,
     pub light: wgpu::ComputePipeline,
@@ -230,35 +229,24 @@ impl ProbeEngine {
                     Visibility::None => 16,
                 },
             )?,
-            matrices: None,
             rays,
             moved: storage(ctx, owner, "moved boxes", animated_objects as u64 * 2 * 32)?,
             stamps: storage(ctx, owner, "probe stamps", probes as u64 * 4)?,
-            place: pipeline(
-                "probes place",
-                include_str!("place.wgsl"),
-                place_wgsl,
-                false,
-            ),
+            place: pipeline("place", include_str!("place.wgsl"), place_wgsl, false),
             moments_build: pipeline(
-                "probes moments",
+                "moments",
                 include_str!("moments_build.wgsl"),
                 &[include_str!("moments.wgsl")],
                 false,
             ),
             light: pipeline(
-                "probes light",
+                "light",
                 include_str!("light.wgsl"),
                 &[include_str!("../../frame/lights.wgsl")],
                 true,
             ),
-            integrate: pipeline(
-                "probes integrate",
-                include_str!("integrate.wgsl"),
-                &[],
-                false,
-            ),
-            gather: pipeline("probes gather", include_str!("gather.wgsl"), &[], true),
+            integrate: pipeline("integrate", include_str!("integrate.wgsl"), &[], false),
+            gather: pipeline("gather", include_str!("gather.wgsl"), &[], true),
             texture,
             view,
             size: (width, height),
@@ -293,7 +281,7 @@ impl ProbeEngine {
 
     /// Brings the rays and lights up to date with `frame`: the animated objects in the ray
     /// structure (their transforms in the two-level BVH, or the octree's dynamic part rebuilt
-    /// by passes recorded into `timer`), the light count, the shadow matrices.
+    /// by passes recorded into `timer`) and the light count.
     pub fn begin_frame(
         &mut self,
         ctx: &GpuContext,
@@ -307,33 +295,6 @@ impl ProbeEngine {
         self.params.frame[0] = self.params.frame[0].wrapping_add(1).max(1);
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
-        self.sync_matrices(ctx, frame)
-    }
-
-    /// Uploads this frame's shadow matrices, growing their buffer when needed.
-    fn sync_matrices(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
-        let mut matrices: Vec<[f32; 16]> = frame
-            .shadow_layers
-            .iter()
-            .map(|l| l.view_proj.to_cols_array())
-            .collect();
-        if matrices.is_empty() {
-            matrices.push(glam::Mat4::IDENTITY.to_cols_array());
-        }
-        let buffer = match &mut self.matrices {
-            Some((buffer, room)) if *room >= matrices.len() => buffer,
-            slot => {
-                let buffer = storage(
-                    ctx,
-                    self.owner,
-                    "shadow matrices",
-                    matrices.len() as u64 * 64,
-                )?;
-                &slot.insert((buffer, matrices.len())).0
-            }
-        };
-        ctx.queue
-            .write_buffer(buffer, 0, bytemuck::cast_slice(&matrices));
         Ok(())
     }
 
@@ -385,15 +346,9 @@ impl ProbeEngine {
             (8, buf(&self.stamps)),
         ];
         entries.extend((2..).zip(self.rays.place_bindings()));
-        let group = bind_at(ctx, "probes place", &self.place, 0, &entries);
+        let group = bind_at(ctx, "place", &self.place, 0, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
-        run_pass(
-            timer,
-            "probes place",
-            &self.place,
-            &groups,
-            self.surfel_groups(),
-        );
+        run_pass(timer, "place", &self.place, &groups, self.surfel_groups());
     }
 
     /// Depth moments of the probes just placed (nothing without visibility).
@@ -408,7 +363,7 @@ impl ProbeEngine {
         }
         let group = bind(
             ctx,
-            "probes moments",
+            "moments",
             &self.moments_build,
             &[
                 buf(&self.params_buffer),
@@ -419,7 +374,7 @@ impl ProbeEngine {
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         let size = dispatch_size(self.params.roots[2] * super::moments::MOMENT_TEXELS);
-        run_pass(timer, "probes moments", &self.moments_build, &groups, size);
+        run_pass(timer, "moments", &self.moments_build, &groups, size);
     }
 
     /// Surfel light: direct light with shadow-map visibility (+ last frame's probes).
@@ -430,12 +385,10 @@ impl ProbeEngine {
         timer: &mut PassTimer,
         set: Option<&wgpu::BindGroup>,
     ) -> Result<()> {
-        let Some((matrices, _)) = &self.matrices else {
-            return Err(Error::Gpu(format!("{}: no shadow matrices", self.owner)));
-        };
+        let shadows = frame.shadows.lookup();
         let group = bind(
             ctx,
-            "probes light",
+            "light",
             &self.light,
             &[
                 buf(&self.params_buffer),
@@ -443,20 +396,14 @@ impl ProbeEngine {
                 buf(&self.radiance),
                 buf(&self.probes),
                 buf(frame.lights),
-                buf(matrices),
-                wgpu::BindingResource::TextureView(&frame.shadows.array_view),
+                buf(shadows.matrices),
+                wgpu::BindingResource::TextureView(shadows.view),
                 wgpu::BindingResource::Sampler(&frame.shadows.sampler),
                 buf(&self.moments),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
-        run_pass(
-            timer,
-            "probes light",
-            &self.light,
-            &groups,
-            self.surfel_groups(),
-        );
+        run_pass(timer, "light", &self.light, &groups, self.surfel_groups());
         Ok(())
     }
 
@@ -469,7 +416,7 @@ impl ProbeEngine {
     ) {
         let group = bind(
             ctx,
-            "probes integrate",
+            "integrate",
             &self.integrate,
             &[
                 buf(&self.params_buffer),
@@ -480,7 +427,7 @@ impl ProbeEngine {
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         let size = dispatch_size(self.params.roots[2]);
-        run_pass(timer, "probes integrate", &self.integrate, &groups, size);
+        run_pass(timer, "integrate", &self.integrate, &groups, size);
     }
 
     /// Pixels: the probe set's irradiance at each.
@@ -493,7 +440,7 @@ impl ProbeEngine {
     ) {
         let group = bind(
             ctx,
-            "probes gather",
+            "gather",
             &self.gather,
             &[
                 buf(&self.params_buffer),
@@ -509,7 +456,7 @@ impl ProbeEngine {
         let (w, h) = self.size;
         run_pass(
             timer,
-            "probes gather",
+            "gather",
             &self.gather,
             &groups,
             (w.div_ceil(8), h.div_ceil(8)),

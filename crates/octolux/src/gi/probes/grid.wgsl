@@ -1,4 +1,4 @@
-// The probe set of `probes-grid` (gi/probes/grid.rs): probes at the cell centres of a uniform
+// The probe set of `probes-grid` (gi/probes/grid_gi.rs): probes at the cell centres of a uniform
 // grid; every probe is live and re-placed whenever placement runs.
 
 fn probe_coord(probe: u32) -> vec3<u32> {

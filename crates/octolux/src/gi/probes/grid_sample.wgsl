@@ -3,7 +3,7 @@
 
 // Irradiance at p (unit normal n) from the 8 probes around p + bias n: trilinear weights times
 // the back-face weight for the direction to the probe; probes inside geometry (too many
-// back-face hits) are left out. CPU twin: `grid_irradiance` in grid.rs.
+// back-face hits) are left out. CPU twin: `grid_irradiance` in grid_gi.rs.
 fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let q = p + n * P.spacing.w;
     let g = (q - P.lo.xyz) / P.spacing.xyz - 0.5;

@@ -123,9 +123,9 @@ impl GpuOctree {
             ring: init(ctx, "octree leaf ring", bytemuck::cast_slice(&ring))?,
             boxes: init(ctx, "octree moved boxes", &zeros(8))?,
             box_room: 1,
-            memory_update: ctx.compute_pipeline("probes memory update", &module, "memory_update"),
-            light_select: ctx.compute_pipeline("probes light select", &module, "light_select"),
-            light_decide: ctx.compute_pipeline("probes light decide", &module, "light_decide"),
+            memory_update: ctx.compute_pipeline("memory update", &module, "memory_update"),
+            light_select: ctx.compute_pipeline("light select", &module, "light_select"),
+            light_decide: ctx.compute_pipeline("light decide", &module, "light_decide"),
             origin: 0,
         })
     }
@@ -188,7 +188,7 @@ impl GpuOctree {
     pub fn memory_update(&self, ctx: &GpuContext, timer: &mut PassTimer) {
         let group = bind_at(
             ctx,
-            "probes memory update",
+            "memory update",
             &self.memory_update,
             0,
             &[
@@ -201,7 +201,7 @@ impl GpuOctree {
         );
         run_pass(
             timer,
-            "probes memory update",
+            "memory update",
             &self.memory_update,
             &[&group],
             (1, 1),
@@ -216,7 +216,7 @@ impl GpuOctree {
     pub fn light_select(&self, ctx: &GpuContext, timer: &mut PassTimer) {
         let group = bind_at(
             ctx,
-            "probes light select",
+            "light select",
             &self.light_select,
             0,
             &[
@@ -229,20 +229,14 @@ impl GpuOctree {
             ],
         );
         let size = self.node_groups();
-        run_pass(
-            timer,
-            "probes light select",
-            &self.light_select,
-            &[&group],
-            size,
-        );
+        run_pass(timer, "light select", &self.light_select, &[&group], size);
     }
 
     /// The light update's second half: the split/free rule from the hit counts.
     pub fn light_decide(&self, ctx: &GpuContext, timer: &mut PassTimer) {
         let group = bind_at(
             ctx,
-            "probes light decide",
+            "light decide",
             &self.light_decide,
             0,
             &[
@@ -256,13 +250,7 @@ impl GpuOctree {
             ],
         );
         let size = self.node_groups();
-        run_pass(
-            timer,
-            "probes light decide",
-            &self.light_decide,
-            &[&group],
-            size,
-        );
+        run_pass(timer, "light decide", &self.light_decide, &[&group], size);
     }
 
     /// Ends the frame: the next pull origin (`004`: p <- (p + 2) mod 3).

@@ -1,5 +1,5 @@
 // Irradiance from the probe octree (probes.wgsl, octree_tree.wgsl, octree_set.wgsl and
-// probe_values.wgsl go before it). CPU twin: `OctreeView::irradiance` in octree_gpu.rs.
+// probe_values.wgsl go before it). CPU twin: `OctreeView::irradiance` in octree_gi.rs.
 
 // Through the octree: at q = p + bias n, the leaves holding the 8 corners of a box of the
 // size of q's leaf around q; their probes are blended with tent weights (radius: the larger of

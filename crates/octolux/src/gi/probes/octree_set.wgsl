@@ -1,4 +1,4 @@
-// The probe set of `probes-octree` (gi/probes/octree_gpu.rs): one probe at the centre of each
+// The probe set of `probes-octree` (gi/probes/octree_gi.rs): one probe at the centre of each
 // leaf that holds one; a probe's surfels are placed when the state machine asks for them (or
 // every frame while objects move and surfels beyond the cube are kept). The includer declares
 // `P: ProbeParams`; octree_tree.wgsl goes with it.

@@ -174,7 +174,7 @@ impl VctClipmap {
         let layout = b.clear.get_bind_group_layout(0);
         for (k, ub) in boxes.iter().enumerate() {
             let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("vct bounce clear"),
+                label: Some("bounce clear"),
                 layout: &layout,
                 entries: &[
                     wgpu::BindGroupEntry {
@@ -195,13 +195,7 @@ impl VctClipmap {
                     },
                 ],
             });
-            dispatch_1d(
-                timer,
-                "vct bounce clear",
-                &b.clear,
-                &group,
-                ub.volume() as u32,
-            );
+            dispatch_1d(timer, "bounce clear", &b.clear, &group, ub.volume() as u32);
         }
     }
 
@@ -307,8 +301,7 @@ impl GiTechnique for VctClipmap {
                 timer,
                 frame.lights,
                 frame.frame.lights.len() as u32,
-                frame.shadows.texture(),
-                frame.shadow_layers,
+                frame.shadows.lookup(),
             )?,
             ClipmapInjection::VoxelRays => {
                 clipmap.inject(ctx, timer, &frame.frame.lights, self.settings.inject_steps)?
@@ -337,7 +330,7 @@ impl GiTechnique for VctClipmap {
                 entries: &entries
                     .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
             });
-            dispatch_1d(timer, "vct bounce", &b.gather, &group, b.slots);
+            dispatch_1d(timer, "bounce", &b.gather, &group, b.slots);
         }
         // 6. Six cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).

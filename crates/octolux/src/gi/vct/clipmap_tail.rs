@@ -115,7 +115,7 @@ impl ClipmapTail {
             })
             .collect();
         let last = groups.len().saturating_sub(1);
-        timer.pass("vct tail", |encoder, stamps| {
+        timer.pass("tail", |encoder, stamps| {
             // One compute pass per level: each reads what the one before wrote.
             for (k, group) in groups.iter().enumerate() {
                 let n = self.res >> (k + 1);

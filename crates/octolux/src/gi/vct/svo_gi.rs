@@ -301,14 +301,14 @@ impl Bounce {
             })
         };
         let statics = group(&self.pipeline, &[(22, &self.buffers.irradiance)]);
-        dispatch_1d(timer, "vct bounce", &self.pipeline, &statics, self.slots);
+        dispatch_1d(timer, "bounce", &self.pipeline, &statics, self.slots);
         if let (Some(pipeline), Some(table)) = (&self.dynamic, self.buffers.write_table()) {
             let dynamics = group(
                 pipeline,
                 &[(23, &svo.control), (24, &table.keys), (25, &table.values)],
             );
             let leaf = svo.levels.len().saturating_sub(1) as u32;
-            timer.pass("vct bounce (dynamic)", |encoder, stamps| {
+            timer.pass("bounce (dynamic)", |encoder, stamps| {
                 encoder.clear_buffer(&table.keys, 0, None);
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("vct bounce (dynamic)"),
@@ -344,8 +344,7 @@ impl GiTechnique for VctSvo {
             ctx,
             timer,
             &self.svo,
-            frame.shadows.texture(),
-            frame.shadow_layers,
+            frame.shadows.lookup(),
             frame.lights,
             frame.frame.lights.len() as u32,
             self.bounce.as_ref().map(|b| &b.buffers),

@@ -234,7 +234,7 @@ impl ConeTracer {
         let f = self.sparse;
         dispatch_2d(
             timer,
-            "vct trace",
+            "trace",
             &self.trace,
             &group,
             w.div_ceil(f),
@@ -255,12 +255,12 @@ impl ConeTracer {
                 ]
                 .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
             });
-            dispatch_2d(timer, "vct upsample", &up.pipeline, &group, w, h);
+            dispatch_2d(timer, "upsample", &up.pipeline, &group, w, h);
         }
         // 3. The optional specular cone, every pixel.
         if let Some(spec) = &self.specular {
             let group = bind("vct specular", &spec.pipeline, 30, &spec.view);
-            dispatch_2d(timer, "vct specular", &spec.pipeline, &group, w, h);
+            dispatch_2d(timer, "specular", &spec.pipeline, &group, w, h);
         }
     }
 

@@ -1296,9 +1296,8 @@ impl Clipmap {
 
     /// Injects light as [`Clipmap::inject`] does, with visibility from the renderer's shadow
     /// maps instead of voxel shadow rays: the first `light_count` lights of `lights` (the
-    /// renderer's light buffer, `array<Light>` of `frame/lights.wgsl`), `shadow_array` (its
-    /// `Depth32Float` shadow-map array) and the layers' matrices `shadow_layers`, looked up
-    /// with the deferred lighting's PCF half a voxel off each voxel's centre along its normal.
+    /// renderer's light buffer, `array<Light>` of `frame/lights.wgsl`) and its shadow maps
+    /// (`shadows`, [`crate::frame::ShadowMaps::lookup`]), looked up with the deferred lighting's PCF half a voxel off each voxel's centre along its normal.
     /// Every voxel costs one lookup per light instead of a march per light. The pass is
     /// `clipmap inject (shadow maps)`.
     pub fn inject_shadow_maps(
@@ -1307,8 +1306,7 @@ impl Clipmap {
         timer: &mut PassTimer,
         lights: &wgpu::Buffer,
         light_count: u32,
-        shadow_array: &wgpu::Texture,
-        shadow_layers: &[crate::frame::LayerView],
+        shadows: crate::frame::ShadowLookup<'_>,
     ) -> Result<()> {
         let needed = light_count as u64 * crate::frame::LIGHT_BYTES;
         if lights.size() < needed {
@@ -1343,13 +1341,6 @@ impl Clipmap {
                 (p, sampler)
             }
         };
-        let (matrices, view) = crate::frame::shadow_lookup(
-            ctx,
-            self.owner,
-            "inject shadow matrices",
-            shadow_array,
-            shadow_layers,
-        );
         self.inject_with(
             ctx,
             timer,
@@ -1358,13 +1349,11 @@ impl Clipmap {
             [light_count, 0],
             lights,
             &[
-                (7, matrices.as_entire_binding()),
-                (8, wgpu::BindingResource::TextureView(&view)),
+                (7, shadows.matrices.as_entire_binding()),
+                (8, wgpu::BindingResource::TextureView(shadows.view)),
                 (9, wgpu::BindingResource::Sampler(&sampler)),
             ],
         );
-        // The matrices live as long as the frame's commands; the ledger keeps the kept buffers.
-        ctx.ledger.record(self.owner, "inject shadow matrices", 0);
         Ok(())
     }
 

@@ -10,8 +10,8 @@
 //! Per leaf voxel the build keeps the sums of its fragments' albedo, emission and normal
 //! ([`LEAF_SUM_WORDS`] words), which is what injection reads.
 
-use crate::frame::LayerView;
-use crate::gpu::pass::{bind_buffers, dispatch_1d};
+use crate::frame::ShadowLookup;
+use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::voxelize::{FragmentList, OVERLAP_WGSL};
 use crate::{Error, Result};
@@ -99,6 +99,15 @@ pub(crate) struct SvoLight {
     accumulate: wgpu::ComputePipeline,
     inject: wgpu::ComputePipeline,
     sampler: wgpu::Sampler,
+    /// The injection's parameters, one [`SLOT`] per part (static leaves, dynamic leaves).
+    params: wgpu::Buffer,
+    /// The timer submission the parameters were last written before: a second injection
+    /// recorded before that submission would overwrite the first's, so it gets its own buffer.
+    params_written: std::cell::Cell<Option<u64>>,
+    /// 16-byte stand-ins for absent bindings: one read, one written (a dispatch may not use
+    /// one buffer as both).
+    placeholder: wgpu::Buffer,
+    placeholder_out: wgpu::Buffer,
 }
 
 impl SvoLight {
@@ -119,12 +128,28 @@ impl SvoLight {
             compare: Some(wgpu::CompareFunction::LessEqual),
             ..Default::default()
         });
+        let owner = crate::voxel::svo::OWNER;
+        let small = |label: &str| {
+            ctx.create_buffer(
+                owner,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: 16,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                },
+            )
+        };
         SvoLight {
             leaf_mask: ctx.compute_pipeline("svo leaf masks", &module, "leaf_mask"),
             leaf_slots: ctx.compute_pipeline("svo leaf slots", &module, "leaf_slots"),
             accumulate: ctx.compute_pipeline("svo leaf sums", &module, "accumulate"),
             inject: ctx.compute_pipeline("svo inject", &module, "inject"),
             sampler,
+            params: crate::gpu::alloc::param_slots(ctx, owner, "inject params", 2),
+            params_written: std::cell::Cell::new(None),
+            placeholder: small("inject placeholder"),
+            placeholder_out: small("inject placeholder (bounce)"),
         }
     }
 
@@ -214,8 +239,7 @@ impl SvoLight {
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &crate::voxel::svo::Svo,
-        shadow_array: &wgpu::Texture,
-        shadow_layers: &[LayerView],
+        shadows: ShadowLookup<'_>,
         lights: &wgpu::Buffer,
         light_count: u32,
         bounce: Option<&SvoBounce>,
@@ -236,40 +260,26 @@ impl SvoLight {
                 Some(crate::voxel::svo::ARGS_DYN_NODES + leaf),
             ));
         }
-        let owner = crate::voxel::svo::OWNER;
-        let (matrices, view) = crate::frame::shadow_lookup(
-            ctx,
-            owner,
-            "inject shadow matrices",
-            shadow_array,
-            shadow_layers,
-        );
-        let placeholder = ctx.create_buffer(
-            owner,
-            &wgpu::BufferDescriptor {
-                label: Some("inject placeholder"),
-                size: 16,
-                usage: wgpu::BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            },
-        );
-        // Written (binding 27) where no bounce buffers are given: a buffer of its own, since a
-        // dispatch may not use one buffer as read-only and read-write.
-        let placeholder_out = ctx.create_buffer(
-            owner,
-            &wgpu::BufferDescriptor {
-                label: Some("inject placeholder (bounce)"),
-                size: 16,
-                usage: wgpu::BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            },
-        );
+        // One parameter slot per part; a second injection before the next submission (tests
+        // that record several) writes a buffer of its own instead.
+        let fresh = self.params_written.get() == Some(timer.submissions());
+        self.params_written.set(Some(timer.submissions()));
+        let own_params = fresh.then(|| {
+            crate::gpu::alloc::param_slots(
+                ctx,
+                crate::voxel::svo::OWNER,
+                "inject params (extra)",
+                2,
+            )
+        });
+        let params_buffer = own_params.as_ref().unwrap_or(&self.params);
+        let (placeholder, placeholder_out) = (&self.placeholder, &self.placeholder_out);
         let (dyn_sums, dyn_state) = match dynamic {
             Some(d) => (&d.sums, d.state()),
-            None => (&placeholder, &placeholder),
+            None => (placeholder, placeholder),
         };
         let table = bounce.and_then(SvoBounce::read_table);
-        let (keys, values) = table.map_or((&placeholder, &placeholder), |t| (&t.keys, &t.values));
+        let (keys, values) = table.map_or((placeholder, placeholder), |t| (&t.keys, &t.values));
         for (i, &(node, count, slot, indirect)) in parts.iter().enumerate() {
             let params = InjectParams {
                 origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
@@ -288,12 +298,8 @@ impl SvoLight {
                     },
                 ],
             };
-            let params_buffer = ctx.create_buffer_init(
-                owner,
-                "inject params",
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::STORAGE,
-            );
+            ctx.queue
+                .write_buffer(params_buffer, i as u64 * SLOT, bytemuck::bytes_of(&params));
             let name = if i == 0 {
                 "svo inject"
             } else {
@@ -303,22 +309,18 @@ impl SvoLight {
                 ctx,
                 timer,
                 svo,
-                [&params_buffer, &matrices, lights, dyn_sums, dyn_state],
-                bounce.map_or([&placeholder, &placeholder_out, keys, values], |b| {
+                crate::gpu::pass::slot(params_buffer, i as u64, size_of::<InjectParams>() as u64),
+                [shadows.matrices, lights, dyn_sums, dyn_state],
+                bounce.map_or([placeholder, placeholder_out, keys, values], |b| {
                     [&b.irradiance, &b.geometry, keys, values]
                 }),
-                &view,
+                shadows.view,
                 (name, count, indirect),
             );
         }
-        for label in [
-            "inject params",
-            "inject shadow matrices",
-            "inject placeholder",
-            "inject placeholder (bounce)",
-        ] {
-            ctx.ledger.record(owner, label, 0);
-        }
+        // An extra parameter buffer lives as long as this frame's commands.
+        ctx.ledger
+            .record(crate::voxel::svo::OWNER, "inject params (extra)", 0);
     }
 
     /// One injection dispatch over `count` leaves, or indirectly from slot `indirect` of the
@@ -330,13 +332,13 @@ impl SvoLight {
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &crate::voxel::svo::Svo,
-        [params_buffer, matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 5],
+        params: wgpu::BindingResource<'_>,
+        [matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 4],
         [bounce_in, bounce_out, table_keys, table_values]: [&wgpu::Buffer; 4],
         view: &wgpu::TextureView,
         (name, count, indirect): (&str, u32, Option<u32>),
     ) {
-        let buffers: [(u32, &wgpu::Buffer); 18] = [
-            (10, params_buffer),
+        let buffers: [(u32, &wgpu::Buffer); 17] = [
             (11, &svo.leaf_sums),
             (12, &svo.coord),
             (13, &svo.brick_index),
@@ -362,6 +364,10 @@ impl SvoLight {
                 resource: buffer.as_entire_binding(),
             })
             .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 10,
+            resource: params,
+        });
         entries.push(wgpu::BindGroupEntry {
             binding: 16,
             resource: wgpu::BindingResource::TextureView(view),

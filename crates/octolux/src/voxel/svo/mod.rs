@@ -278,6 +278,8 @@ pub struct SvoBuilder {
     pack: wgpu::ComputePipeline,
     pool_limit: Option<u32>,
     pub(super) light: crate::voxel::svo::inject::SvoLight,
+    /// Stands in for the fragments and triangles the transfer and mip kernels do not read.
+    mip_placeholder: wgpu::Buffer,
 }
 
 pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
@@ -422,6 +424,15 @@ impl SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
             pool_limit: None,
             light: crate::voxel::svo::inject::SvoLight::new(ctx),
+            mip_placeholder: ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some("mip placeholder"),
+                    size: 64,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                },
+            ),
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
@@ -804,31 +815,20 @@ impl SvoBuilder {
 
     /// Injects direct light into `svo`'s radiance pool: per leaf voxel, emission + albedo/pi x
     /// direct irradiance from the first `light_count` lights of `lights` (the renderer's light
-    /// buffer, `array<Light>` of `render/direct.wgsl`), with visibility from `shadow_array`
-    /// (the renderer's `Depth32Float` shadow-map array, [`crate::frame::ShadowMaps::texture`])
-    /// and its layer matrices `shadow_layers`; then the neighbour transfer and mip filter
-    /// upward, level by level. Units: radiance in W/(m^2 sr).
+    /// buffer, `array<Light>` of `frame/lights.wgsl`), with visibility from the shadow maps
+    /// (`shadows`, the renderer's [`crate::frame::ShadowMaps::lookup`]); then the neighbour
+    /// transfer and mip filter upward, level by level. Units: radiance in W/(m^2 sr).
     #[allow(clippy::too_many_arguments)]
     pub fn inject(
         &self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &Svo,
-        shadow_array: &wgpu::Texture,
-        shadow_layers: &[crate::frame::LayerView],
+        shadows: crate::frame::ShadowLookup<'_>,
         lights: &wgpu::Buffer,
         light_count: u32,
     ) -> Result<()> {
-        self.inject_with_bounce(
-            ctx,
-            timer,
-            svo,
-            shadow_array,
-            shadow_layers,
-            lights,
-            light_count,
-            None,
-        )
+        self.inject_with_bounce(ctx, timer, svo, shadows, lights, light_count, None)
     }
 
     /// [`SvoBuilder::inject`] with multiple bounces: the static leaves add the irradiance of
@@ -840,8 +840,7 @@ impl SvoBuilder {
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &Svo,
-        shadow_array: &wgpu::Texture,
-        shadow_layers: &[crate::frame::LayerView],
+        shadows: crate::frame::ShadowLookup<'_>,
         lights: &wgpu::Buffer,
         light_count: u32,
         bounce: Option<&crate::voxel::svo::inject::SvoBounce>,
@@ -857,32 +856,16 @@ impl SvoBuilder {
         if svo.levels.is_empty() {
             return Ok(());
         }
-        self.light.inject_leaves(
-            ctx,
-            timer,
-            svo,
-            shadow_array,
-            shadow_layers,
-            lights,
-            light_count,
-            bounce,
-        );
+        self.light
+            .inject_leaves(ctx, timer, svo, shadows, lights, light_count, bounce);
         // The transfer and mip kernels bind the build layout: no fragments or triangles.
-        let placeholder = ctx.create_buffer(
-            OWNER,
-            &wgpu::BufferDescriptor {
-                label: Some("inject placeholder"),
-                size: 64,
-                usage: wgpu::BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            },
-        );
+        let placeholder = &self.mip_placeholder;
         let group = self.group0(
             ctx,
             &svo.level_params,
             [
-                &placeholder,
-                &placeholder,
+                placeholder,
+                placeholder,
                 &svo.child,
                 &svo.neighbours,
                 &svo.coord,
@@ -922,7 +905,6 @@ impl SvoBuilder {
             0,
             &steps,
         );
-        ctx.ledger.record(OWNER, "inject placeholder", 0);
         Ok(())
     }
 
