@@ -4,6 +4,7 @@
 
 use super::scene_gpu::{raster_pipeline, SceneGpu};
 use crate::gpu::alloc::image_target;
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 
 const OWNER: &str = "gbuffer";
@@ -49,10 +50,7 @@ impl GBuffer {
             wgpu::TextureFormat::Depth32Float,
             usage,
         );
-        let module = ctx.shader(
-            "gbuffer",
-            &[include_str!("raster.wgsl"), include_str!("gbuffer.wgsl")].concat(),
-        );
+        let module = ctx.shader("gbuffer", &library_shader("frame/gbuffer", &[]));
         let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
         let color = Some(wgpu::ColorTargetState {
             format: GBUFFER_FORMAT,

@@ -1,5 +1,8 @@
-// G-buffer and shadow-map fragment shaders (after `raster.wgsl`): the G-buffer writes albedo,
-// normal and emission, the shadow pass only runs the alpha test of masked materials.
+// G-buffer and shadow-map fragment shaders over `raster.wgsl`'s vertex shader: the G-buffer
+// writes albedo, normal and emission, the shadow pass only runs the alpha test of masked
+// materials.
+
+import package::frame::raster::{VertexOut, masked_base_color, material, view};
 
 struct GBufferOut {
     @location(0) albedo: vec4<f32>,
@@ -9,10 +12,7 @@ struct GBufferOut {
 
 @fragment
 fn fs_gbuffer(in: VertexOut) -> GBufferOut {
-    let color = base_color(in.uv);
-    if material.base_color.a >= 0.0 && color.a < material.base_color.a {
-        discard;
-    }
+    let color = masked_base_color(in.uv);
     // Surfaces reflect on both sides: the shading normal faces the viewer. They emit from the
     // front face (the side the vertex normals point to) unless marked two-sided.
     var n = normalize(in.normal);
@@ -30,8 +30,5 @@ fn fs_gbuffer(in: VertexOut) -> GBufferOut {
 
 @fragment
 fn fs_shadow(in: VertexOut) {
-    let color = base_color(in.uv);
-    if material.base_color.a >= 0.0 && color.a < material.base_color.a {
-        discard;
-    }
+    _ = masked_base_color(in.uv);
 }

@@ -19,6 +19,31 @@ pub struct GpuLight {
     pub shadow: [f32; 4],
 }
 
+/// The first binding of the lights and shadow maps in group 0 of every shader that imports
+/// `frame/lights.wgsl` (lights, lookup matrices, shadow maps, comparison sampler: four in a
+/// row), above every pass's own bindings.
+pub const LIGHT_BINDINGS: u32 = 40;
+
+/// The bind-group entries of `frame/lights.wgsl`'s bindings: `lights` (the renderer's
+/// [`GpuLight`] buffer) and the shadow maps' lookup.
+pub fn light_bindings<'a>(
+    lights: &'a wgpu::Buffer,
+    shadows: super::ShadowLookup<'a>,
+) -> [(u32, wgpu::BindingResource<'a>); 4] {
+    [
+        (LIGHT_BINDINGS, lights.as_entire_binding()),
+        (LIGHT_BINDINGS + 1, shadows.matrices.as_entire_binding()),
+        (
+            LIGHT_BINDINGS + 2,
+            wgpu::BindingResource::TextureView(shadows.view),
+        ),
+        (
+            LIGHT_BINDINGS + 3,
+            wgpu::BindingResource::Sampler(shadows.sampler),
+        ),
+    ]
+}
+
 /// Bytes of one [`GpuLight`] in a lights buffer.
 pub const LIGHT_BYTES: u64 = std::mem::size_of::<GpuLight>() as u64;
 

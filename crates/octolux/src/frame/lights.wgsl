@@ -1,8 +1,9 @@
-// Punctual lights as the renderer uploads them (`render/direct.rs`, `GpuLight`), their
-// irradiance and their PCF-filtered shadow-map visibility. Shared by the direct-light pass and
-// voxel light injection so both light surfaces identically. The including shader declares
-// `shadow_matrices: array<mat4x4<f32>>`, `shadow_maps: texture_depth_2d_array` and
-// `shadow_sampler: sampler_comparison`.
+// Punctual lights as the renderer uploads them (`frame/lights.rs`, `GpuLight`), their
+// irradiance and their PCF-filtered shadow-map visibility, with the bindings they are read
+// from. Shared by the direct-light pass, the voxel light injections and the probes' surfel
+// light so that all of them light surfaces identically. The bindings are the same in every
+// shader that imports them (`frame::light_bindings` binds them in Rust): group 0 from
+// binding 40 on, above every pass's own.
 
 struct Light {
     // xyz position, w: kind (0 point, 1 spot, 2 directional)
@@ -17,6 +18,11 @@ struct Light {
     // texture layer that holds their tile, else 0
     shadow: vec4<f32>,
 };
+
+@group(0) @binding(40) var<storage, read> lights: array<Light>;
+@group(0) @binding(41) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
+@group(0) @binding(42) var shadow_maps: texture_depth_2d_array;
+@group(0) @binding(43) var shadow_sampler: sampler_comparison;
 
 // Cube face of direction `d` in the order +x, -x, +y, -y, +z, -z.
 fn cube_face(d: vec3<f32>) -> u32 {

@@ -15,7 +15,10 @@ pub(crate) mod sky;
 
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub(crate) use lights::sky_regions_of;
-pub use lights::{render_lights, shadow_layer_count, sky_light_count, GpuLight, LIGHT_BYTES};
+pub use lights::{
+    light_bindings, render_lights, shadow_layer_count, sky_light_count, GpuLight, LIGHT_BINDINGS,
+    LIGHT_BYTES,
+};
 pub use scene_gpu::SceneGpu;
 pub use shadow::{LayerView, ShadowLookup, ShadowLookupBuffers, ShadowMaps};
 pub use sky::{sh_irradiance, sh_irradiance_coefficients, sky_lights};

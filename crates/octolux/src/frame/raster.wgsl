@@ -1,6 +1,6 @@
 // Scene rasterisation shared by every pass that draws the meshes (G-buffer, shadow maps,
 // reflective shadow maps): the bind groups of `SceneGpu` (0 view, 1 material, 2 object), the
-// vertex shader and the material's base colour. Prepended to each pass's fragment shader.
+// vertex shader `vs` and the material's base colour. The passes' fragment shaders import it.
 
 struct View {
     view_proj: mat4x4<f32>,
@@ -50,3 +50,11 @@ fn base_color(uv: vec2<f32>) -> vec4<f32> {
     return select(factor, factor * texel, material.emission.w > 0.5);
 }
 
+// The base colour at `uv`, with the alpha test of masked materials (fragment shaders only).
+fn masked_base_color(uv: vec2<f32>) -> vec4<f32> {
+    let color = base_color(uv);
+    if material.base_color.a >= 0.0 && color.a < material.base_color.a {
+        discard;
+    }
+    return color;
+}

@@ -5,6 +5,7 @@
 use super::shadow::LayerView;
 use crate::frame::scene_gpu::{raster_pipeline, SceneGpu, UNIFORM_STRIDE};
 use crate::gpu::pass::SLOT;
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::{Light, LightKind};
 use bytemuck::{Pod, Zeroable};
@@ -153,10 +154,7 @@ impl RsmPass {
             ],
             immediate_size: 0,
         });
-        let module = ctx.shader(
-            "rsm",
-            &[include_str!("raster.wgsl"), include_str!("rsm.wgsl")].concat(),
-        );
+        let module = ctx.shader("rsm", &library_shader("frame/rsm", &[]));
         let target = |format| {
             Some(wgpu::ColorTargetState {
                 format,

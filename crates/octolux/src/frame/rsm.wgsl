@@ -1,11 +1,14 @@
 // Reflective shadow maps: rasterise the scene from a light (the shadow layer's matrix) and
 // store, per texel, the world position, the normal facing the light and what the injection
-// needs to turn the texel into a VPL with physical flux (after `frame/raster.wgsl`):
+// needs to turn the texel into a VPL with physical flux (over `frame/raster.wgsl`'s vertex
+// shader):
 //   perspective (spot, point face): measure m = solid angle of the texel
 //     = (2 tan(half fov) / N)^2 cos^3(angle to the axis); incident flux = I(w) m
 //   orthographic (directional): m = texel area across the beam; incident flux = E m
 // reflected flux = albedo x incident flux (Lambertian: everything not absorbed leaves).
 // Surfel area = m r^2 / cos (perspective) or m / cos (orthographic).
+
+import package::frame::raster::{VertexOut, masked_base_color};
 
 struct RsmLayer {
     // xyz light position, w: kind (0 point, 1 spot, 2 directional)
@@ -42,10 +45,7 @@ fn face_of(d: vec3<f32>) -> f32 {
 // the layer kind cost a compile and ~100 KB per draw there.
 @fragment
 fn fs_rsm(in: VertexOut) -> RsmOut {
-    let color = base_color(in.uv);
-    if material.base_color.a >= 0.0 && color.a < material.base_color.a {
-        discard;
-    }
+    let color = masked_base_color(in.uv);
     let kind = layer.position_kind.w;
     let axis = layer.axis_tan.xyz;
     let perspective = kind < 1.5;

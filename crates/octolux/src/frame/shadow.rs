@@ -9,6 +9,7 @@
 //! lights cost a few layers. Their lookup matrices map into the tile.
 
 use super::scene_gpu::{raster_pipeline, SceneGpu};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::{Light, LightKind};
 use glam::{Mat4, Vec3, Vec4};
@@ -84,6 +85,8 @@ pub struct ShadowLookup<'a> {
     pub matrices: &'a wgpu::Buffer,
     /// The shadow-map array as a `texture_depth_2d_array`.
     pub view: &'a wgpu::TextureView,
+    /// The comparison sampler of the percentage-closer filter.
+    pub sampler: &'a wgpu::Sampler,
 }
 
 /// A [`ShadowLookup`] that owns its matrices, for passes run outside the renderer (tests and
@@ -93,6 +96,8 @@ pub struct ShadowLookupBuffers {
     pub matrices: wgpu::Buffer,
     /// The array view of the shadow-map texture.
     pub view: wgpu::TextureView,
+    /// The comparison sampler.
+    pub sampler: wgpu::Sampler,
 }
 
 impl ShadowLookupBuffers {
@@ -114,7 +119,11 @@ impl ShadowLookupBuffers {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        ShadowLookupBuffers { matrices, view }
+        ShadowLookupBuffers {
+            matrices,
+            view,
+            sampler: comparison_sampler(ctx),
+        }
     }
 
     /// The lookup these buffers make.
@@ -122,8 +131,20 @@ impl ShadowLookupBuffers {
         ShadowLookup {
             matrices: &self.matrices,
             view: &self.view,
+            sampler: &self.sampler,
         }
     }
+}
+
+/// The bilinear depth-comparison sampler of the shadow lookups' percentage-closer filter.
+fn comparison_sampler(ctx: &GpuContext) -> wgpu::Sampler {
+    ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("shadow compare"),
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        compare: Some(wgpu::CompareFunction::LessEqual),
+        ..Default::default()
+    })
 }
 
 /// The lookup matrices of `layers` as `lights.wgsl` reads them (one identity matrix when there
@@ -217,10 +238,7 @@ impl ShadowMaps {
                 })
             })
             .collect();
-        let module = ctx.shader(
-            "shadow",
-            &[include_str!("raster.wgsl"), include_str!("gbuffer.wgsl")].concat(),
-        );
+        let module = ctx.shader("shadow", &library_shader("frame/gbuffer", &[]));
         let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
         // Slope-scaled bias against acne on surfaces at grazing angles to the light.
         let bias = wgpu::DepthBiasState {
@@ -237,13 +255,7 @@ impl ShadowMaps {
             &[],
             bias,
         );
-        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("shadow compare"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            ..Default::default()
-        });
+        let sampler = comparison_sampler(ctx);
         let matrices = ctx.create_buffer_init(
             OWNER,
             "shadow matrices",
@@ -281,6 +293,7 @@ impl ShadowMaps {
         ShadowLookup {
             matrices: &self.matrices,
             view: &self.array_view,
+            sampler: &self.sampler,
         }
     }
 

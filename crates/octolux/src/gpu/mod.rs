@@ -1,7 +1,8 @@
 //! GPU plumbing, the bottom layer every pass stands on: device and adapter choice
 //! ([`GpuContext`]), per-pass timers ([`PassTimer`]), the memory ledger ([`MemoryLedger`])
 //! every GPU resource is counted in, allocation ([`alloc`]), bind-group and dispatch helpers
-//! ([`pass`]) and the CPU decoders of packed GPU values ([`pack`]).
+//! ([`pass`]), the CPU decoders of packed GPU values ([`pack`]) and the composition of the
+//! library's WGSL modules ([`shader`]).
 
 pub mod alloc;
 mod context;
@@ -9,6 +10,7 @@ mod ledger;
 pub mod pack;
 pub mod pass;
 mod readback;
+pub mod shader;
 mod timer;
 
 pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timestamps, ADAPTER_ENV};

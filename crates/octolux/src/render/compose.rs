@@ -4,6 +4,7 @@
 use crate::frame::GBuffer;
 use crate::gpu::alloc::image_target;
 use crate::gpu::pass::{dispatch_2d, texture_entry};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 
 const OWNER: &str = "compose";
@@ -23,12 +24,7 @@ pub(crate) struct Compose {
 
 impl Compose {
     pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Compose {
-        let source = [
-            include_str!("../frame/common.wgsl"),
-            include_str!("compose.wgsl"),
-        ]
-        .concat();
-        let module = ctx.shader("compose", &source);
+        let module = ctx.shader("compose", &library_shader("render/compose", &[]));
         let pipeline = ctx.compute_pipeline("compose", &module, "main");
         let layout = pipeline.get_bind_group_layout(0);
         let usage = wgpu::TextureUsages::STORAGE_BINDING;

@@ -2,6 +2,8 @@
 // see below); then exposure, the filmic curve (same as image_io::filmic) and the sRGB transfer
 // function for display.
 
+import package::frame::common::{Camera, PI};
+
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var direct_tex: texture_2d<f32>;
 @group(0) @binding(2) var albedo_tex: texture_2d<f32>;

@@ -1,12 +1,14 @@
 //! Deferred direct lighting (`direct.wgsl`): emission plus the Lambertian response to every
 //! light and the sky, shadowed through the shadow-map array; the sky where nothing was drawn.
 
+use crate::frame::light_bindings;
 use crate::frame::sky::SkyGpu;
 use crate::frame::GBuffer;
 use crate::frame::GpuLight;
 use crate::frame::ShadowMaps;
 use crate::gpu::alloc::image_target;
-use crate::gpu::pass::{dispatch_2d, texture_entry};
+use crate::gpu::pass::{bind, dispatch_2d};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 
 const OWNER: &str = "direct";
@@ -37,13 +39,7 @@ impl DirectLight {
             &vec![0u8; shadows.slots.len().max(1) * std::mem::size_of::<GpuLight>()],
             storage,
         );
-        let source = [
-            include_str!("../frame/common.wgsl"),
-            include_str!("../frame/lights.wgsl"),
-            include_str!("direct.wgsl"),
-        ]
-        .concat();
-        let module = ctx.shader("direct", &source);
+        let module = ctx.shader("direct", &library_shader("render/direct", &[]));
         let pipeline = ctx.compute_pipeline("direct", &module, "main");
         let (output, output_view) = image_target(
             ctx,
@@ -54,42 +50,18 @@ impl DirectLight {
             wgpu::TextureFormat::Rgba16Float,
             wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
         );
-        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("direct"),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: camera.as_entire_binding(),
-                },
-                texture_entry(1, &gbuffer.albedo_view),
-                texture_entry(2, &gbuffer.normal_view),
-                texture_entry(3, &gbuffer.emission_view),
-                texture_entry(4, &gbuffer.depth_view),
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: lights.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: shadows.lookup().matrices.as_entire_binding(),
-                },
-                texture_entry(7, &shadows.array_view),
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: wgpu::BindingResource::Sampler(&shadows.sampler),
-                },
-                texture_entry(9, &output_view),
-                wgpu::BindGroupEntry {
-                    binding: 10,
-                    resource: sky.params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 11,
-                    resource: sky.map.as_entire_binding(),
-                },
-            ],
-        });
+        let mut entries = vec![
+            (0, camera.as_entire_binding()),
+            (1, texture(&gbuffer.albedo_view)),
+            (2, texture(&gbuffer.normal_view)),
+            (3, texture(&gbuffer.emission_view)),
+            (4, texture(&gbuffer.depth_view)),
+            (9, texture(&output_view)),
+            (10, sky.params.as_entire_binding()),
+            (11, sky.map.as_entire_binding()),
+        ];
+        entries.extend(light_bindings(&lights, shadows.lookup()));
+        let bind_group = bind(ctx, &pipeline, &entries);
         DirectLight {
             pipeline,
             bind_group,
@@ -116,4 +88,8 @@ impl DirectLight {
             height,
         );
     }
+}
+
+fn texture(view: &wgpu::TextureView) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::TextureView(view)
 }

@@ -5,17 +5,14 @@
 // Sky: unshadowed irradiance from the sky's spherical-harmonic irradiance coefficients, times
 // the visible fraction of the directional lights that stand in for the sky (`frame/sky.rs`).
 
-// `Light`, `light_incidence` and `shadow_visibility` come from `lights.wgsl`.
+import package::frame::common::{Camera, PI, world_from_depth};
+import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var albedo_tex: texture_2d<f32>;
 @group(0) @binding(2) var normal_tex: texture_2d<f32>;
 @group(0) @binding(3) var emission_tex: texture_2d<f32>;
 @group(0) @binding(4) var depth_tex: texture_depth_2d;
-@group(0) @binding(5) var<storage, read> lights: array<Light>;
-@group(0) @binding(6) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
-@group(0) @binding(7) var shadow_maps: texture_depth_2d_array;
-@group(0) @binding(8) var shadow_sampler: sampler_comparison;
 @group(0) @binding(9) var out_direct: texture_storage_2d<rgba16float, write>;
 
 struct SkyParams {

@@ -1,8 +1,9 @@
 //! Injection of VPLs into the light volumes and of surfels into the geometry volumes.
 
 use super::propagate::Volumes;
-use super::{bind, groups, wgsl, GiFrame};
+use super::{bind, groups, GiFrame};
 use crate::frame::rsm::{RsmLayer, RsmTargets};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 
 /// At most this many G-buffer samples per side feed the camera's geometry volume: larger
@@ -30,11 +31,7 @@ pub struct Inject {
 
 /// WGSL source of the injection passes.
 pub fn source() -> String {
-    wgsl(&[
-        include_str!("../../frame/common.wgsl"),
-        include_str!("sh.wgsl"),
-        include_str!("inject.wgsl"),
-    ])
+    library_shader("gi/lpv/inject", &[])
 }
 
 impl Inject {

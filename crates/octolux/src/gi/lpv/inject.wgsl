@@ -10,8 +10,12 @@
 // their order, so every adapter gets the same volume. `resolve_light` and `combine_gv` turn the
 // sums back into floats for propagation.
 
+import package::frame::common::{Camera, PI, world_from_depth};
+import package::gi::lpv::sh::{Grid, Grids, sh_lobe};
+
 // Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or
 // loop bounds depend on a small uniform block every time its pipeline is bound.
+
 @group(0) @binding(0) var<storage, read> grids: Grids;
 @group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
 @group(0) @binding(2) var rsm_normal: texture_2d_array<f32>;
@@ -120,7 +124,7 @@ fn inject_blocking(g: Grid, p: vec3<f32>, n: vec3<f32>, area: f32, section: u32)
 
 // One VPL of flux `flux` at `pos` with normal `n`, into every grid that receives light.
 fn inject_vpl(pos: vec3<f32>, n: vec3<f32>, flux: vec3<f32>) {
-    let lobe = sh_lobe(n) / LPV_PI;
+    let lobe = sh_lobe(n) / PI;
     for (var gi = 0u; gi < grids.count; gi++) {
         let g = grids.grids[gi];
         if (g.flags & 2u) == 0u {

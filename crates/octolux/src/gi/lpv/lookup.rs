@@ -1,6 +1,7 @@
 //! Lookup: indirect irradiance per G-buffer pixel from the accumulated (or merged) volume.
 
-use super::{bind, groups, wgsl, GiFrame};
+use super::{bind, groups, GiFrame};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 
 /// The indirect-irradiance image.
@@ -27,11 +28,7 @@ pub struct Lookup {
 
 /// WGSL source of the lookup.
 pub fn source() -> String {
-    wgsl(&[
-        include_str!("../../frame/common.wgsl"),
-        include_str!("sh.wgsl"),
-        include_str!("lookup.wgsl"),
-    ])
+    library_shader("gi/lpv/lookup", &[])
 }
 
 impl Lookup {

@@ -234,11 +234,6 @@ pub(crate) fn layouts(sides: &[u32], flags: impl Fn(usize) -> u32) -> (Vec<Layou
     (out, cells, gv)
 }
 
-/// Concatenates WGSL sources (shared declarations first).
-pub(crate) fn wgsl(parts: &[&str]) -> String {
-    parts.concat()
-}
-
 /// Bytes of one cell (3 channels x 4 coefficients x f32).
 pub const CELL_BYTES: u64 = 48;
 

@@ -3,7 +3,8 @@
 //! volume of each level is injected directly (its level-0 part drives the occupancy).
 
 use super::propagate::Volumes;
-use super::{bind, groups, slot, storage, wgsl, CELL_BYTES};
+use super::{bind, groups, slot, storage, CELL_BYTES};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
 
@@ -75,7 +76,7 @@ impl OctreeBuffers {
 
 /// WGSL source of the octree passes.
 pub fn source() -> String {
-    wgsl(&[include_str!("octree.wgsl")])
+    library_shader("gi/lpv/octree", &[])
 }
 
 /// Octree pipelines and per-level bind groups.

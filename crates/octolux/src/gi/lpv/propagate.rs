@@ -1,7 +1,8 @@
 //! Propagation: `iterations` gather steps on every grid, ping-ponging between two light buffers
 //! and adding each step to the accumulation buffer (which starts as the injected light).
 
-use super::{bind, groups, storage, wgsl, GpuGrid, Layout, CELL_BYTES, SLOT};
+use super::{bind, groups, storage, GpuGrid, Layout, CELL_BYTES, SLOT};
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 
 /// The light and geometry buffers every pass of the family shares.
@@ -73,7 +74,7 @@ pub fn slot_data(grids: &[GpuGrid], directional: f32) -> Vec<u8> {
 
 /// WGSL source of the propagation step.
 pub fn source() -> String {
-    wgsl(&[include_str!("sh.wgsl"), include_str!("propagate.wgsl")])
+    library_shader("gi/lpv/propagate", &[])
 }
 
 impl Propagate {

@@ -4,8 +4,14 @@
 // it crossed the face and a Lambertian lobe about the face normal, mixed by `directional`),
 // writes the result and adds it to the accumulation buffer.
 
+import package::frame::common::PI;
+import package::gi::lpv::sh::{
+    FRONT_SOLID_ANGLE, Grid, LOBE_C0, LOBE_C1, SH_C0, SH_C1, SIDE_SOLID_ANGLE, sh_basis, sh_lobe,
+};
+
 // Every grid (cascade, octree level) in one 256-byte slot each (`param_slots` in mod.rs), with
 // the first of its 4x4x4-cell bricks; one dispatch steps all of them (`propagate::slot_data`).
+
 struct GridSlot {
     grid: Grid,
     first_brick: u32,
@@ -110,7 +116,7 @@ fn main(
                 dw = SIDE_SOLID_ANGLE;
             }
             let y = sh_basis(w);
-            let l = (sh_lobe(nf) * ((1.0 - directional) / LPV_PI) + y * directional) * (dw * t);
+            let l = (sh_lobe(nf) * ((1.0 - directional) / PI) + y * directional) * (dw * t);
             r += l * dot(sr, y);
             g += l * dot(sg, y);
             b += l * dot(sb, y);

@@ -8,7 +8,6 @@ const LOBE_C1: f32 = 1.0233267;
 const LOOKUP_OFFSET: f32 = 1.0;
 const FRONT_SOLID_ANGLE: f32 = 0.4006697;
 const SIDE_SOLID_ANGLE: f32 = 0.42343135;
-const LPV_PI: f32 = 3.14159265358979;
 
 // One uniform grid of cells (a whole LPV, a cascade or an octree level).
 struct Grid {

@@ -11,8 +11,10 @@ use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
 use super::params::{storage, ProbeParams};
 use super::rays::Rays;
 use super::ProbeSettings;
+use crate::frame::light_bindings;
 use crate::gi::GiFrame;
 use crate::gpu::pass::dispatch_size;
+use crate::gpu::shader::library_shader_text;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -191,6 +193,7 @@ impl ProbeEngine {
             std::mem::size_of::<ProbeParams>() as u64,
         )?;
         let pipeline = |name: &str, pass: &str, extra: &[&str], sample: bool| {
+            // Fragments pasted together; a part that imports modules goes through wesl.
             let mut parts = vec![
                 include_str!("../../frame/common.wgsl"),
                 LATTICE_WGSL,
@@ -205,7 +208,17 @@ impl ProbeEngine {
             }
             parts.extend(extra);
             parts.push(pass);
-            let module = ctx.shader(name, &parts.join("\n"));
+            let source = parts.join("\n");
+            let module = match source.contains("\nimport ") {
+                true => {
+                    // Imports go first in a module.
+                    let (imports, rest): (Vec<&str>, Vec<&str>) =
+                        source.lines().partition(|l| l.starts_with("import "));
+                    let text = [imports.join("\n"), rest.join("\n")].join("\n");
+                    ctx.shader(name, &library_shader_text(name, &text))
+                }
+                false => ctx.shader(name, &source),
+            };
             ctx.compute_pipeline(name, &module, "main")
         };
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
@@ -239,12 +252,7 @@ impl ProbeEngine {
                 &[include_str!("moments.wgsl")],
                 false,
             ),
-            light: pipeline(
-                "light",
-                include_str!("light.wgsl"),
-                &[include_str!("../../frame/lights.wgsl")],
-                true,
-            ),
+            light: pipeline("light", include_str!("light.wgsl"), &[], true),
             integrate: pipeline("integrate", include_str!("integrate.wgsl"), &[], false),
             gather: pipeline("gather", include_str!("gather.wgsl"), &[], true),
             texture,
@@ -385,23 +393,15 @@ impl ProbeEngine {
         timer: &mut PassTimer,
         set: Option<&wgpu::BindGroup>,
     ) -> Result<()> {
-        let shadows = frame.shadows.lookup();
-        let group = bind(
-            ctx,
-            "light",
-            &self.light,
-            &[
-                buf(&self.params_buffer),
-                buf(&self.surfels),
-                buf(&self.radiance),
-                buf(&self.probes),
-                buf(frame.lights),
-                buf(shadows.matrices),
-                wgpu::BindingResource::TextureView(shadows.view),
-                wgpu::BindingResource::Sampler(&frame.shadows.sampler),
-                buf(&self.moments),
-            ],
-        );
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.surfels)),
+            (2, buf(&self.radiance)),
+            (3, buf(&self.probes)),
+            (8, buf(&self.moments)),
+        ];
+        entries.extend(light_bindings(frame.lights, frame.shadows.lookup()));
+        let group = bind_at(ctx, "light", &self.light, 0, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         run_pass(timer, "light", &self.light, &groups, self.surfel_groups());
         Ok(())

@@ -4,14 +4,12 @@
 // the previous frame at the surfel. Back faces and misses send no light (the sky seen directly
 // is the direct pass's).
 
+import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+
 @group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> radiance: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read> probes: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> lights: array<Light>;
-@group(0) @binding(5) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
-@group(0) @binding(6) var shadow_maps: texture_depth_2d_array;
-@group(0) @binding(7) var shadow_sampler: sampler_comparison;
 @group(0) @binding(8) var<storage, read> moments: array<vec2<f32>>;
 
 @compute @workgroup_size(64)

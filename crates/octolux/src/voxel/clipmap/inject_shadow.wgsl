@@ -2,12 +2,8 @@
 // direct light from the shadow map", per voxel): direct irradiance from the renderer's
 // lights (`frame/lights.wgsl`, the same incidence and PCF lookup as the deferred lighting),
 // looked up half a voxel off the voxel centre along its normal, where a surface in the voxel
-// may lie. Needs `frame/lights.wgsl` and `clipmap/inject_common.wgsl` before this file.
+// may lie. Imports `frame/lights.wgsl`; needs `clipmap/inject_common.wgsl` before this file.
 
-@group(0) @binding(3) var<storage, read> lights: array<Light>;
-@group(0) @binding(7) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
-@group(0) @binding(8) var shadow_maps: texture_depth_2d_array;
-@group(0) @binding(9) var shadow_sampler: sampler_comparison;
 
 @compute @workgroup_size(64)
 fn inject_shadow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,

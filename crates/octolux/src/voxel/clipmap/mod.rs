@@ -33,6 +33,7 @@ pub mod index;
 pub mod sample;
 
 use crate::gpu::pass::{bind_buffers, dispatch_1d};
+use crate::gpu::shader::library_shader_text;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::clipmap::index::TriangleIndex;
 use crate::voxel::pairs::PAIRS_WGSL;
@@ -366,7 +367,7 @@ pub struct Clipmap {
     inject: Option<wgpu::ComputePipeline>,
     /// The injection from the renderer's shadow maps and its comparison sampler, made at
     /// its first use.
-    inject_shadow: Option<(wgpu::ComputePipeline, wgpu::Sampler)>,
+    inject_shadow: Option<wgpu::ComputePipeline>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
@@ -1288,8 +1289,7 @@ impl Clipmap {
             "clipmap inject",
             &pipeline,
             params,
-            &lights_buffer,
-            &[],
+            &[(3, lights_buffer.as_entire_binding())],
         );
         Ok(())
     }
@@ -1316,29 +1316,22 @@ impl Clipmap {
                 lights.size()
             )));
         }
-        let (pipeline, sampler) = match &self.inject_shadow {
+        let pipeline = match &self.inject_shadow {
             Some(made) => made.clone(),
             None => {
                 let source = [
-                    include_str!("../../frame/lights.wgsl"),
+                    "import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};",
                     crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
                     CLIPMAP_EMISSION_WGSL,
                     INJECT_COMMON_WGSL,
                     include_str!("inject_shadow.wgsl"),
                 ]
                 .join("\n");
-                let module = ctx.shader("clipmap inject (shadow maps)", &source);
-                let p =
-                    ctx.compute_pipeline("clipmap inject (shadow maps)", &module, "inject_shadow");
-                let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
-                    label: Some("clipmap shadow compare"),
-                    mag_filter: wgpu::FilterMode::Linear,
-                    min_filter: wgpu::FilterMode::Linear,
-                    compare: Some(wgpu::CompareFunction::LessEqual),
-                    ..Default::default()
-                });
-                self.inject_shadow = Some((p.clone(), sampler.clone()));
-                (p, sampler)
+                let label = "clipmap inject (shadow maps)";
+                let module = ctx.shader(label, &library_shader_text(label, &source));
+                let p = ctx.compute_pipeline(label, &module, "inject_shadow");
+                self.inject_shadow = Some(p.clone());
+                p
             }
         };
         self.inject_with(
@@ -1347,18 +1340,13 @@ impl Clipmap {
             "clipmap inject (shadow maps)",
             &pipeline,
             [light_count, 0],
-            lights,
-            &[
-                (7, shadows.matrices.as_entire_binding()),
-                (8, wgpu::BindingResource::TextureView(shadows.view)),
-                (9, wgpu::BindingResource::Sampler(&sampler)),
-            ],
+            &crate::frame::light_bindings(lights, shadows),
         );
         Ok(())
     }
 
     /// One injection dispatch over every voxel slot: `params` are the light count and the
-    /// march's step limit, `extra` the variant's own bindings (from 7 on).
+    /// march's step limit, `extra` the variant's own bindings (its lights).
     #[allow(clippy::too_many_arguments)]
     fn inject_with(
         &mut self,
@@ -1367,7 +1355,6 @@ impl Clipmap {
         name: &str,
         pipeline: &wgpu::ComputePipeline,
         params: [u32; 2],
-        lights: &wgpu::Buffer,
         extra: &[(u32, wgpu::BindingResource)],
     ) {
         let res = self.settings.resolution as u64;
@@ -1403,7 +1390,6 @@ impl Clipmap {
             (0, &info),
             (1, &self.voxels),
             (2, &self.normals),
-            (3, lights),
             (4, &radiance),
             (5, &params),
             (6, &self.emission),

@@ -10,8 +10,10 @@
 //! Per leaf voxel the build keeps the sums of its fragments' albedo, emission and normal
 //! ([`LEAF_SUM_WORDS`] words), which is what injection reads.
 
+use crate::frame::light_bindings;
 use crate::frame::ShadowLookup;
-use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
+use crate::gpu::pass::{bind, bind_buffers, dispatch_1d, SLOT};
+use crate::gpu::shader::library_shader_text;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::voxelize::{FragmentList, OVERLAP_WGSL};
 use crate::{Error, Result};
@@ -98,7 +100,6 @@ pub(crate) struct SvoLight {
     leaf_slots: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     inject: wgpu::ComputePipeline,
-    sampler: wgpu::Sampler,
     /// The injection's parameters, one [`SLOT`] per part (static leaves, dynamic leaves).
     params: wgpu::Buffer,
     /// The timer submission the parameters were last written before: a second injection
@@ -113,21 +114,14 @@ pub(crate) struct SvoLight {
 impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
         let source = [
+            "import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};",
             OVERLAP_WGSL,
-            include_str!("../../frame/lights.wgsl"),
             LEAF_SUMS_WGSL,
             BOUNCE_TABLE_WGSL,
             include_str!("inject.wgsl"),
         ]
         .join("\n");
-        let module = ctx.shader("svo inject", &source);
-        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("svo shadow compare"),
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            compare: Some(wgpu::CompareFunction::LessEqual),
-            ..Default::default()
-        });
+        let module = ctx.shader("svo inject", &library_shader_text("svo inject", &source));
         let owner = crate::voxel::svo::OWNER;
         let small = |label: &str| {
             ctx.create_buffer(
@@ -145,7 +139,6 @@ impl SvoLight {
             leaf_slots: ctx.compute_pipeline("svo leaf slots", &module, "leaf_slots"),
             accumulate: ctx.compute_pipeline("svo leaf sums", &module, "accumulate"),
             inject: ctx.compute_pipeline("svo inject", &module, "inject"),
-            sampler,
             params: crate::gpu::alloc::param_slots(ctx, owner, "inject params", 2),
             params_written: std::cell::Cell::new(None),
             placeholder: small("inject placeholder"),
@@ -310,11 +303,11 @@ impl SvoLight {
                 timer,
                 svo,
                 crate::gpu::pass::slot(params_buffer, i as u64, size_of::<InjectParams>() as u64),
-                [shadows.matrices, lights, dyn_sums, dyn_state],
+                [dyn_sums, dyn_state],
                 bounce.map_or([placeholder, placeholder_out, keys, values], |b| {
                     [&b.irradiance, &b.geometry, keys, values]
                 }),
-                shadows.view,
+                light_bindings(lights, shadows),
                 (name, count, indirect),
             );
         }
@@ -324,8 +317,8 @@ impl SvoLight {
     }
 
     /// One injection dispatch over `count` leaves, or indirectly from slot `indirect` of the
-    /// octree's dispatch arguments; `buffers` are the parameters, the shadow matrices, the
-    /// lights and the dynamic part's sums and state.
+    /// octree's dispatch arguments, with its parameters, the dynamic part's sums and state, the
+    /// bounce buffers and the lights with their shadow maps.
     #[allow(clippy::too_many_arguments)]
     fn inject_part(
         &self,
@@ -333,17 +326,15 @@ impl SvoLight {
         timer: &mut PassTimer,
         svo: &crate::voxel::svo::Svo,
         params: wgpu::BindingResource<'_>,
-        [matrices, lights, dyn_sums, dyn_state]: [&wgpu::Buffer; 4],
+        [dyn_sums, dyn_state]: [&wgpu::Buffer; 2],
         [bounce_in, bounce_out, table_keys, table_values]: [&wgpu::Buffer; 4],
-        view: &wgpu::TextureView,
+        lights: [(u32, wgpu::BindingResource<'_>); 4],
         (name, count, indirect): (&str, u32, Option<u32>),
     ) {
-        let buffers: [(u32, &wgpu::Buffer); 17] = [
+        let buffers: [(u32, &wgpu::Buffer); 15] = [
             (11, &svo.leaf_sums),
             (12, &svo.coord),
             (13, &svo.brick_index),
-            (14, lights),
-            (15, matrices),
             (18, &svo.voxel_radiance),
             (19, &svo.radiance[0]),
             (20, &svo.radiance[1]),
@@ -357,30 +348,13 @@ impl SvoLight {
             (28, table_keys),
             (29, table_values),
         ];
-        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+        let mut entries: Vec<(u32, wgpu::BindingResource)> = buffers
             .iter()
-            .map(|&(binding, buffer)| wgpu::BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            })
+            .map(|&(binding, buffer)| (binding, buffer.as_entire_binding()))
             .collect();
-        entries.push(wgpu::BindGroupEntry {
-            binding: 10,
-            resource: params,
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: 16,
-            resource: wgpu::BindingResource::TextureView(view),
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: 17,
-            resource: wgpu::BindingResource::Sampler(&self.sampler),
-        });
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("svo inject"),
-            layout: &self.inject.get_bind_group_layout(0),
-            entries: &entries,
-        });
+        entries.push((10, params));
+        entries.extend(lights);
+        let group = bind(ctx, &self.inject, &entries);
         let Some(slot) = indirect else {
             dispatch_1d(timer, name, &self.inject, &group, count);
             return;

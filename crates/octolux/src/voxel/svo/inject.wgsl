@@ -95,7 +95,8 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     }
 }
 
-// `Light`, `light_incidence` and `shadow_visibility` come from `frame/lights.wgsl`.
+// `Light`, `light_incidence`, `shadow_visibility` and the `lights` buffer are imported from
+// `frame/lights.wgsl` (the Rust side puts the import first).
 
 struct InjectParams {
     // xyz grid origin, w voxel size
@@ -118,10 +119,6 @@ struct InjectParams {
 @group(0) @binding(11) var<storage, read> leaf_sums: array<u32>;
 @group(0) @binding(12) var<storage, read> node_coord: array<u32>;
 @group(0) @binding(13) var<storage, read> brick_index: array<u32>;
-@group(0) @binding(14) var<storage, read> lights: array<Light>;
-@group(0) @binding(15) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
-@group(0) @binding(16) var shadow_maps: texture_depth_2d_array;
-@group(0) @binding(17) var shadow_sampler: sampler_comparison;
 @group(0) @binding(18) var<storage, read_write> voxel_radiance: array<u32>;
 @group(0) @binding(19) var<storage, read_write> pool0: array<u32>;
 @group(0) @binding(20) var<storage, read_write> pool1: array<u32>;
