@@ -86,6 +86,26 @@ pub fn dispatch_size(n: u32) -> (u32, u32) {
     }
 }
 
+/// Records one compute dispatch of `workgroups` (x, y, z) with `group` at group 0 as the named
+/// pass `name`.
+pub fn dispatch_groups(
+    timer: &mut PassTimer,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    group: &wgpu::BindGroup,
+    workgroups: [u32; 3],
+) {
+    timer.pass(name, |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(name),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(workgroups[0], workgroups[1], workgroups[2]);
+    });
+}
+
 /// Records a compute dispatch of `n` invocations (workgroups of 64, [`dispatch_size`]) as the
 /// named pass `name`.
 pub fn dispatch_1d(
@@ -96,15 +116,7 @@ pub fn dispatch_1d(
     n: u32,
 ) {
     let (x, y) = dispatch_size(n);
-    timer.pass(name, |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(name),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(x, y, 1);
-    });
+    dispatch_groups(timer, name, pipeline, group, [x, y, 1]);
 }
 
 /// Records an 8x8-workgroup compute pass over every pixel of a `width` x `height` image as the
@@ -117,13 +129,6 @@ pub fn dispatch_2d(
     width: u32,
     height: u32,
 ) {
-    timer.pass(name, |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(name),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, bind_group, &[]);
-        pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-    });
+    let workgroups = [width.div_ceil(8), height.div_ceil(8), 1];
+    dispatch_groups(timer, name, pipeline, bind_group, workgroups);
 }

@@ -18,6 +18,7 @@ pub mod generate;
 
 use crate::frame::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::pass::dispatch_groups;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
 use crate::voxel::svo::walk;
@@ -417,24 +418,6 @@ impl VplGi {
     }
 }
 
-fn record_compute(
-    timer: &mut PassTimer,
-    name: &str,
-    pipeline: &wgpu::ComputePipeline,
-    group: &wgpu::BindGroup,
-    size: [u32; 3],
-) {
-    timer.pass(name, |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some(name),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(size[0], size[1], size[2]);
-    });
-}
-
 impl GiTechnique for VplGi {
     fn name(&self) -> &str {
         "vpl"
@@ -494,7 +477,7 @@ impl GiTechnique for VplGi {
                 );
             }
         });
-        record_compute(
+        dispatch_groups(
             timer,
             "vpl merge",
             &p.merge,

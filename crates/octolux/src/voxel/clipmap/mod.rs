@@ -365,9 +365,13 @@ pub struct Clipmap {
     replicate: wgpu::ComputePipeline,
     no_aniso: wgpu::Buffer,
     inject: Option<wgpu::ComputePipeline>,
-    /// The injection from the renderer's shadow maps and its comparison sampler, made at
-    /// its first use.
+    /// The injection from the renderer's shadow maps, made at its first use.
     inject_shadow: Option<wgpu::ComputePipeline>,
+    /// The injection's parameters and sampling block, written before each injection, and the
+    /// timer submission they were last written before (a second injection recorded before it
+    /// gets buffers of its own, since writes land at the submission).
+    inject_params: [wgpu::Buffer; 2],
+    inject_written: Option<u64>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
@@ -578,6 +582,8 @@ impl Clipmap {
             no_aniso,
             inject: None,
             inject_shadow: None,
+            inject_params: inject_param_buffers(ctx, owner, "inject params", "inject info"),
+            inject_written: None,
             accum,
             written,
             accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
@@ -1359,21 +1365,27 @@ impl Clipmap {
     ) {
         let res = self.settings.resolution as u64;
         let slots = (self.settings.levels as u64 * res * res * res) as u32;
-        let params = ctx.create_buffer_init(
-            self.owner,
-            "inject params",
-            bytemuck::cast_slice(&[params[0], params[1], slots, self.bounce.is_some() as u32]),
-            wgpu::BufferUsages::STORAGE,
-        );
-        let info = ctx.create_buffer_init(
-            self.owner,
-            "inject info",
-            bytemuck::bytes_of(&crate::voxel::clipmap::sample::ClipInfo::new(
-                &self.settings,
-                &self.origins,
-            )),
-            wgpu::BufferUsages::STORAGE,
-        );
+        let params = [params[0], params[1], slots, self.bounce.is_some() as u32];
+        let info = crate::voxel::clipmap::sample::ClipInfo::new(&self.settings, &self.origins);
+        let again = self.inject_written == Some(timer.submissions());
+        self.inject_written = Some(timer.submissions());
+        let extra_buffers = again.then(|| {
+            inject_param_buffers(
+                ctx,
+                self.owner,
+                "inject params (extra)",
+                "inject info (extra)",
+            )
+        });
+        let [params_buffer, info_buffer] = extra_buffers.as_ref().unwrap_or(&self.inject_params);
+        ctx.queue
+            .write_buffer(params_buffer, 0, bytemuck::cast_slice(&params));
+        ctx.queue
+            .write_buffer(info_buffer, 0, bytemuck::bytes_of(&info));
+        let (params, info) = (params_buffer.clone(), info_buffer.clone());
+        for label in ["inject params (extra)", "inject info (extra)"] {
+            ctx.ledger.record(self.owner, label, 0);
+        }
         let radiance = match self.radiance.take() {
             Some(r) => r,
             None => ctx.create_buffer(
@@ -1452,6 +1464,35 @@ impl Clipmap {
         let bytes = read_buffer(ctx, &self.emission, 0, self.emission.size())?;
         Ok(bytemuck::cast_slice(&bytes).to_vec())
     }
+}
+
+/// The clipmap injection's parameter words and `ClipInfo` block (storage, rewritten per
+/// injection), recorded under `owner`.
+fn inject_param_buffers(
+    ctx: &GpuContext,
+    owner: &str,
+    params: &str,
+    info: &str,
+) -> [wgpu::Buffer; 2] {
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+    [
+        (params, 16),
+        (
+            info,
+            std::mem::size_of::<crate::voxel::clipmap::sample::ClipInfo>() as u64,
+        ),
+    ]
+    .map(|(label, size)| {
+        ctx.create_buffer(
+            owner,
+            &wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            },
+        )
+    })
 }
 
 #[cfg(test)]
