@@ -164,7 +164,10 @@ fn moving_spheres_update_both_structures_every_frame() {
     let report = bench_both(file.to_str().unwrap(), &["--fps", "4"]);
     assert_eq!(report["scenes"][0]["triangles"], 2 + 2 * 528);
     let svo = gi_passes(&report, "vct-svo");
-    assert!(svo.iter().any(|p| p.starts_with("svo dynamic")), "{svo:?}");
+    assert!(
+        svo.iter().any(|p| p.starts_with("vct-svo svo dynamic")),
+        "{svo:?}"
+    );
     let clipmap = gi_passes(&report, "vct-clipmap");
     assert!(
         clipmap.iter().any(|p| p.ends_with(" voxelize")),

@@ -5,10 +5,11 @@
 use glam::{IVec3, Vec3};
 use octolux::gi::probes::bvh::SceneBvh;
 use octolux::gi::probes::rays::{voxel_ray, voxel_surfel, VoxelSurfel, VOXEL_RAYS_WGSL};
+use octolux::gpu::shader::library_shader_parts;
 use octolux::gpu::{read_buffer, GpuContext, GpuOptions};
 use octolux::scene::Scene;
 use octolux::voxel::objects_triangles;
-use octolux::voxel::svo::walk::{walk_buffers, SvoWalk, SvoWalkCpu, WALK_WGSL};
+use octolux::voxel::svo::walk::{walk_bindings, SvoWalk, SvoWalkCpu};
 use octolux::voxel::svo::{Svo, SvoBuilder};
 
 const OWNER: &str = "voxel rays test";
@@ -21,12 +22,13 @@ struct GpuRay {
 
 /// Runs `voxel_ray` and `voxel_closest` on the GPU for `rays` (origin, direction, t_max).
 fn trace(ctx: &GpuContext, svo: &Svo, walk: &SvoWalk, rays: &[(Vec3, Vec3, f32)]) -> Vec<GpuRay> {
-    let source = [
-        WALK_WGSL,
-        VOXEL_RAYS_WGSL,
-        include_str!("shaders/probes_voxel_rays.wgsl"),
-    ]
-    .join("\n");
+    let source = library_shader_parts(
+        "voxel rays test",
+        &[
+            VOXEL_RAYS_WGSL,
+            include_str!("shaders/probes_voxel_rays.wgsl"),
+        ],
+    );
     let module = ctx.shader("voxel rays test", &source);
     let pipeline = ctx.compute_pipeline("voxel rays test", &module, "main");
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
@@ -39,10 +41,9 @@ fn trace(ctx: &GpuContext, svo: &Svo, walk: &SvoWalk, rays: &[(Vec3, Vec3, f32)]
     let out_bytes = rays.len() as u64 * 5 * 16;
     let out = ctx.create_buffer_init(OWNER, "out", &vec![0u8; out_bytes as usize], usage);
     let placeholder = ctx.create_buffer_init(OWNER, "placeholder", &[0; 16], usage);
-    let [child, leaf, state, sums] = walk_buffers(svo, &placeholder);
-    let buffers = [&params, child, leaf, state, sums, &input, &out];
-    let buffers: Vec<(u32, &wgpu::Buffer)> = (0..).zip(buffers).collect();
-    let group = octolux::gpu::pass::bind_buffers(ctx, &pipeline, &buffers);
+    let mut entries = vec![(5, input.as_entire_binding()), (6, out.as_entire_binding())];
+    entries.extend(walk_bindings(&params, svo, &placeholder));
+    let group = octolux::gpu::pass::bind(ctx, &pipeline, &entries);
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     {
         let mut pass = encoder.begin_compute_pass(&Default::default());

@@ -602,7 +602,7 @@ fn animated_scene_updates_the_octree_keeps_memory_constant_and_follows_the_light
         assert!(first.iter().any(|t| t.name == pass), "{pass} missing");
     }
     assert!(
-        first.iter().any(|t| t.name.starts_with("svo dyn")),
+        first.iter().any(|t| t.name.starts_with("vpl svo dyn")),
         "no octree update pass: {:?}",
         first.iter().map(|t| &t.name).collect::<Vec<_>>()
     );

@@ -37,6 +37,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "gi/lpv/lookup",
     "gi/lpv/propagate",
     "gi/lpv/octree",
+    "voxel/svo/walk",
 ];
 
 /// The module path wesl uses for a file `path` under `src/` (`frame/common` ->
@@ -114,10 +115,53 @@ pub fn library_shader(main: &str, features: &[(&str, bool)]) -> String {
     compose(main, features, None).unwrap_or_else(|e| panic!("internal shader error: {e}"))
 }
 
-/// [`compose_text`] for a shader of the library's assembled from fragments; as
-/// [`library_shader`], a failure is a broken shader (the tests compose every one).
-pub fn library_shader_text(label: &str, main: &str) -> String {
-    compose_text(label, main, &[]).unwrap_or_else(|e| panic!("internal shader error: {e}"))
+/// A shader of the library's still assembled from fragments (`parts`, pasted in order) whose
+/// fragments import modules: their `import` lines are gathered at the top (one per module,
+/// the items merged) and the text is composed with [`compose_text`]. As with
+/// [`library_shader`], a failure is a broken shader, which the tests that build every pipeline
+/// catch.
+pub fn library_shader_parts(label: &str, parts: &[&str]) -> String {
+    let text = hoist_imports(&parts.join("\n"));
+    compose_text(label, &text, &[]).unwrap_or_else(|e| panic!("internal shader error: {e}"))
+}
+
+/// `text` with its `import` lines (`import a::b::{x, y};` or `import a::b::x;`, one line each)
+/// replaced by one import per module at the top.
+fn hoist_imports(text: &str) -> String {
+    let mut modules: Vec<(String, Vec<String>)> = Vec::new();
+    let mut body = Vec::new();
+    for line in text.lines() {
+        let Some(import) = line
+            .trim()
+            .strip_prefix("import ")
+            .and_then(|l| l.strip_suffix(';'))
+        else {
+            body.push(line);
+            continue;
+        };
+        let (path, items) = match import.split_once("::{") {
+            Some((path, items)) => (path, items.trim_end_matches('}')),
+            None => import.rsplit_once("::").unwrap_or(("", import)),
+        };
+        let slot = match modules.iter().position(|(p, _)| p == path) {
+            Some(i) => &mut modules[i].1,
+            None => {
+                modules.push((path.to_string(), Vec::new()));
+                &mut modules.last_mut().unwrap().1
+            }
+        };
+        for item in items.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            if !slot.iter().any(|i| i == item) {
+                slot.push(item.to_string());
+            }
+        }
+    }
+    let mut out: Vec<String> = modules
+        .iter()
+        .map(|(path, items)| format!("import {path}::{{{}}};", items.join(", ")))
+        .collect();
+    out.extend(body.iter().map(|l| l.to_string()));
+    out.join("\n")
 }
 
 #[cfg(test)]
@@ -165,6 +209,15 @@ mod tests {
         flags.sort_unstable();
         flags.dedup();
         flags
+    }
+
+    #[test]
+    fn fragments_imports_are_gathered_at_the_top_once_per_module() {
+        let text = "// a\nimport package::m::{x, y};\nfn f() {}\nimport package::m::y;\nimport package::n::z;";
+        assert_eq!(
+            hoist_imports(text),
+            "import package::m::{x, y};\nimport package::n::{z};\n// a\nfn f() {}"
+        );
     }
 
     #[test]

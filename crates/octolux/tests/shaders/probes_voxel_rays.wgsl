@@ -1,10 +1,5 @@
 // Test kernel: the voxel rays' lattice ends and hits on the GPU, for their CPU twins.
 
-@group(0) @binding(0) var<storage, read> vo: SvoWalk;
-@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_state: array<u32>;
-@group(0) @binding(4) var<storage, read> svo_dyn_sums: array<u32>;
 // Per ray: (origin, t_max), (direction, 0).
 @group(0) @binding(5) var<storage, read> rays: array<vec4<f32>>;
 // Per ray: a (xyz, w = meets the grid), b, (voxel, albedo bits), (t, normal), (emission, 0).

@@ -14,7 +14,7 @@ use super::ProbeSettings;
 use crate::frame::light_bindings;
 use crate::gi::GiFrame;
 use crate::gpu::pass::dispatch_size;
-use crate::gpu::shader::library_shader_text;
+use crate::gpu::shader::library_shader_parts;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -209,14 +209,8 @@ impl ProbeEngine {
             parts.extend(extra);
             parts.push(pass);
             let source = parts.join("\n");
-            let module = match source.contains("\nimport ") {
-                true => {
-                    // Imports go first in a module.
-                    let (imports, rest): (Vec<&str>, Vec<&str>) =
-                        source.lines().partition(|l| l.starts_with("import "));
-                    let text = [imports.join("\n"), rest.join("\n")].join("\n");
-                    ctx.shader(name, &library_shader_text(name, &text))
-                }
+            let module = match source.lines().any(|l| l.starts_with("import ")) {
+                true => ctx.shader(name, &library_shader_parts(name, &parts)),
                 false => ctx.shader(name, &source),
             };
             ctx.compute_pipeline(name, &module, "main")
@@ -353,7 +347,7 @@ impl ProbeEngine {
             (7, buf(&self.moved)),
             (8, buf(&self.stamps)),
         ];
-        entries.extend((2..).zip(self.rays.place_bindings()));
+        entries.extend(self.rays.place_bindings());
         let group = bind_at(ctx, "place", &self.place, 0, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         run_pass(timer, "place", &self.place, &groups, self.surfel_groups());

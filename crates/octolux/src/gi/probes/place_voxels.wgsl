@@ -4,12 +4,6 @@
 // the ray meets the plane through the voxel's centre with that normal, kept inside the
 // voxel. No BVH is built; the result is exact only to a voxel.
 
-@group(0) @binding(2) var<storage, read> vo: SvoWalk;
-@group(0) @binding(3) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(4) var<storage, read> svo_leaf: array<u32>;
-@group(0) @binding(5) var<storage, read> svo_state: array<u32>;
-@group(0) @binding(6) var<storage, read> svo_dyn_sums: array<u32>;
-
 fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
     let hit = voxel_closest(o, d, voxel_ray(o, d, t_max));
     return SurfelHit(hit.t, hit.normal, hit.albedo, hit.emission);

@@ -17,7 +17,7 @@ use super::params::{storage, ProbeParams};
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
-use crate::voxel::svo::walk::{walk_buffers, SvoWalk, WALK_WGSL};
+use crate::voxel::svo::walk::{walk_bindings, SvoWalk};
 use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::{Error, Result};
 
@@ -142,28 +142,19 @@ impl Rays {
     pub fn place_wgsl(&self) -> &'static [&'static str] {
         match self {
             Rays::Bvh(_) => &[BVH_WGSL, include_str!("place_bvh.wgsl")],
-            Rays::Voxels(_) => &[
-                WALK_WGSL,
-                VOXEL_RAYS_WGSL,
-                include_str!("place_voxels.wgsl"),
-            ],
+            Rays::Voxels(_) => &[VOXEL_RAYS_WGSL, include_str!("place_voxels.wgsl")],
         }
     }
 
-    /// The placement pass's bindings from 2 on (0: parameters, 1: surfels).
-    pub fn place_bindings(&self) -> Vec<wgpu::BindingResource<'_>> {
+    /// The placement pass's bindings of the ray structure: the BVH's at 2, 3 and 4, the
+    /// octree walk's where `walk.wgsl` declares them.
+    pub fn place_bindings(&self) -> Vec<(u32, wgpu::BindingResource<'_>)> {
         match self {
-            Rays::Bvh(b) => [&b.nodes, &b.tris, &b.instances]
-                .iter()
-                .map(|b| b.as_entire_binding())
+            Rays::Bvh(b) => (2..)
+                .zip([&b.nodes, &b.tris, &b.instances])
+                .map(|(i, b)| (i, b.as_entire_binding()))
                 .collect(),
-            Rays::Voxels(v) => {
-                let [child, leaf, state, sums] = walk_buffers(&v.svo, &v.placeholder);
-                [&v.walk, child, leaf, state, sums]
-                    .iter()
-                    .map(|b| b.as_entire_binding())
-                    .collect()
-            }
+            Rays::Voxels(v) => walk_bindings(&v.walk, &v.svo, &v.placeholder).into(),
         }
     }
 

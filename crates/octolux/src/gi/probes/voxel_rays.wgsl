@@ -4,6 +4,8 @@
 // it meets. The includer declares the walk's buffers (`vo`, `svo_child`, `svo_leaf`,
 // `svo_state`, `svo_dyn_sums`). CPU twin: `rays::voxel_surfel`.
 
+import package::voxel::svo::walk::{SVO_EMISSION_SCALE, svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+
 // The ray o + t d, t in [0, t_max], clipped to the octree's grid: (t_in, t_out), empty when
 // t_in > t_out.
 fn voxel_ray_span(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec2<f32> {

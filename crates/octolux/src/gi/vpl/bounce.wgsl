@@ -7,6 +7,8 @@
 // flux is an unbiased estimate of the light the source generation's surfaces reflect once more.
 // Rays that leave the grid, or hit a voxel without fragments, give a zero VPL.
 
+import package::voxel::svo::walk::{svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+
 struct BounceParams {
     // VPLs per generation, first VPL of the source generation.
     count: u32,
@@ -21,11 +23,6 @@ struct Vpl {
     flux: vec4<f32>,
 };
 
-@group(0) @binding(0) var<storage, read> vo: SvoWalk;
-@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_state: array<u32>;
-@group(0) @binding(4) var<storage, read> svo_dyn_sums: array<u32>;
 @group(0) @binding(5) var<storage, read_write> vpls: array<Vpl>;
 @group(0) @binding(6) var<storage, read> bp: BounceParams;
 

@@ -19,6 +19,7 @@ pub mod generate;
 use crate::frame::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_groups;
+use crate::gpu::shader::library_shader_parts;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
 use crate::voxel::svo::walk;
@@ -323,21 +324,22 @@ impl VplGi {
     }
 
     fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
-        let source = [
-            include_str!("../../frame/common.wgsl"),
-            walk::WALK_WGSL,
-            include_str!("shade.wgsl"),
-        ]
-        .join("\n");
+        let source = library_shader_parts(
+            "vpl shade",
+            &[
+                include_str!("../../frame/common.wgsl"),
+                include_str!("shade.wgsl"),
+            ],
+        );
         let module = ctx.shader("vpl shade", &source);
         let shade = ctx.compute_pipeline("vpl shade", &module, "shade");
         let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
-        let [child, leaf, state, sums] = walk::walk_buffers(&self.svo, &self.placeholder);
+        let walk = walk::walk_bindings(&self.octree_params, &self.svo, &self.placeholder);
         let (count, bounces) = (self.settings.count, self.settings.bounces);
         let generate = generate::Generate::new(ctx, OWNER, &self.rsm, count, count * bounces);
         let bounce_module = ctx.shader(
             "vpl bounce",
-            &[walk::WALK_WGSL, include_str!("bounce.wgsl")].join("\n"),
+            &library_shader_parts("vpl bounce", &[include_str!("bounce.wgsl")]),
         );
         let bounce = ctx.compute_pipeline("vpl bounce", &bounce_module, "bounce");
         let bounce_groups = (1..bounces)
@@ -349,48 +351,34 @@ impl VplGi {
                     bytemuck::bytes_of(&params),
                     wgpu::BufferUsages::STORAGE,
                 );
-                crate::gpu::pass::bind_buffers(
-                    ctx,
-                    &bounce,
-                    &[
-                        (0, &self.octree_params),
-                        (1, child),
-                        (2, leaf),
-                        (3, state),
-                        (4, sums),
-                        (5, &generate.vpls),
-                        (6, &params),
-                    ],
-                )
+                let mut entries = vec![
+                    (5, generate.vpls.as_entire_binding()),
+                    (6, params.as_entire_binding()),
+                ];
+                entries.extend(walk.clone());
+                crate::gpu::pass::bind(ctx, &bounce, &entries)
             })
             .collect();
         let tex = wgpu::BindingResource::TextureView;
         let shade_group = |c: u32| {
-            crate::gpu::pass::bind(
-                ctx,
-                &shade,
-                &[
-                    (
-                        13,
-                        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &self.chunks,
-                            offset: c as u64 * SLOT,
-                            size: wgpu::BufferSize::new(4),
-                        }),
-                    ),
-                    (0, frame.camera_uniform.as_entire_binding()),
-                    (1, self.octree_params.as_entire_binding()),
-                    (2, child.as_entire_binding()),
-                    (3, leaf.as_entire_binding()),
-                    (11, state.as_entire_binding()),
-                    (12, sums.as_entire_binding()),
-                    (4, tex(&frame.gbuffer.depth_view)),
-                    (5, tex(&frame.gbuffer.normal_view)),
-                    (6, generate.vpls.as_entire_binding()),
-                    (7, self.shade_params.as_entire_binding()),
-                    (8, self.raw.as_entire_binding()),
-                ],
-            )
+            let mut entries = vec![
+                (
+                    13,
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &self.chunks,
+                        offset: c as u64 * SLOT,
+                        size: wgpu::BufferSize::new(4),
+                    }),
+                ),
+                (0, frame.camera_uniform.as_entire_binding()),
+                (4, tex(&frame.gbuffer.depth_view)),
+                (5, tex(&frame.gbuffer.normal_view)),
+                (6, generate.vpls.as_entire_binding()),
+                (7, self.shade_params.as_entire_binding()),
+                (8, self.raw.as_entire_binding()),
+            ];
+            entries.extend(walk.clone());
+            crate::gpu::pass::bind(ctx, &shade, &entries)
         };
         let shade_groups = (0..chunk_count(&self.settings)).map(shade_group).collect();
         let merge_group = crate::gpu::pass::bind(

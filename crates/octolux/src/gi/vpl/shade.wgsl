@@ -18,6 +18,8 @@
 // weights are 0 or 1 and normalised, so a pixel's value stays an average of unbiased
 // estimates of its full VPL sum.
 
+import package::voxel::svo::walk::{svo_occluded, vpl_fixed_point};
+
 struct ShadeParams {
     count: u32,
     interleave: u32,
@@ -30,9 +32,6 @@ struct ShadeParams {
 };
 
 @group(0) @binding(0) var<uniform> cam: Camera;
-@group(0) @binding(1) var<storage, read> vo: SvoWalk;
-@group(0) @binding(2) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(4) var depth_tex: texture_depth_2d;
 @group(0) @binding(5) var normal_tex: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read> vpls: array<Vpl>;
@@ -42,8 +41,6 @@ struct ShadeParams {
 @group(0) @binding(8) var<storage, read_write> raw: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> raw_in: array<vec4<f32>>;
 @group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
-@group(0) @binding(11) var<storage, read> svo_state: array<u32>;
-@group(0) @binding(12) var<storage, read> svo_dyn_sums: array<u32>;
 // The chunk of VPLs a `shade` dispatch sums (one slot per dispatch).
 @group(0) @binding(13) var<storage, read> chunk: u32;
 
@@ -57,7 +54,6 @@ struct Vpl {
     normal: vec4<f32>,
     flux: vec4<f32>,
 };
-
 
 // Eq. 2-4: the geometry term of a VPL at `pv` (normal `nv`) for a receiver at `p` (normal `n`).
 fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>) -> f32 {

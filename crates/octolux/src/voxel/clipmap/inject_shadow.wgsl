@@ -2,7 +2,9 @@
 // direct light from the shadow map", per voxel): direct irradiance from the renderer's
 // lights (`frame/lights.wgsl`, the same incidence and PCF lookup as the deferred lighting),
 // looked up half a voxel off the voxel centre along its normal, where a surface in the voxel
-// may lie. Imports `frame/lights.wgsl`; needs `clipmap/inject_common.wgsl` before this file.
+// may lie. Needs `clipmap/inject_common.wgsl` before this file.
+
+import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
 
 @compute @workgroup_size(64)

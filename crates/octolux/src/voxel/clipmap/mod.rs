@@ -33,7 +33,7 @@ pub mod index;
 pub mod sample;
 
 use crate::gpu::pass::{bind_buffers, dispatch_1d};
-use crate::gpu::shader::library_shader_text;
+use crate::gpu::shader::library_shader_parts;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::clipmap::index::TriangleIndex;
 use crate::voxel::pairs::PAIRS_WGSL;
@@ -1325,16 +1325,17 @@ impl Clipmap {
         let pipeline = match &self.inject_shadow {
             Some(made) => made.clone(),
             None => {
-                let source = [
-                    "import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};",
-                    crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
-                    CLIPMAP_EMISSION_WGSL,
-                    INJECT_COMMON_WGSL,
-                    include_str!("inject_shadow.wgsl"),
-                ]
-                .join("\n");
                 let label = "clipmap inject (shadow maps)";
-                let module = ctx.shader(label, &library_shader_text(label, &source));
+                let source = library_shader_parts(
+                    label,
+                    &[
+                        crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
+                        CLIPMAP_EMISSION_WGSL,
+                        INJECT_COMMON_WGSL,
+                        include_str!("inject_shadow.wgsl"),
+                    ],
+                );
+                let module = ctx.shader(label, &source);
                 let p = ctx.compute_pipeline(label, &module, "inject_shadow");
                 self.inject_shadow = Some(p.clone());
                 p

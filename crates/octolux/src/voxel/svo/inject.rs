@@ -13,7 +13,7 @@
 use crate::frame::light_bindings;
 use crate::frame::ShadowLookup;
 use crate::gpu::pass::{bind, bind_buffers, dispatch_1d, SLOT};
-use crate::gpu::shader::library_shader_text;
+use crate::gpu::shader::library_shader_parts;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::voxelize::{FragmentList, OVERLAP_WGSL};
 use crate::{Error, Result};
@@ -113,15 +113,16 @@ pub(crate) struct SvoLight {
 
 impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
-        let source = [
-            "import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};",
-            OVERLAP_WGSL,
-            LEAF_SUMS_WGSL,
-            BOUNCE_TABLE_WGSL,
-            include_str!("inject.wgsl"),
-        ]
-        .join("\n");
-        let module = ctx.shader("svo inject", &library_shader_text("svo inject", &source));
+        let source = library_shader_parts(
+            "svo inject",
+            &[
+                OVERLAP_WGSL,
+                LEAF_SUMS_WGSL,
+                BOUNCE_TABLE_WGSL,
+                include_str!("inject.wgsl"),
+            ],
+        );
+        let module = ctx.shader("svo inject", &source);
         let owner = crate::voxel::svo::OWNER;
         let small = |label: &str| {
             ctx.create_buffer(

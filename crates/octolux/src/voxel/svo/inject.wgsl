@@ -95,8 +95,7 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
     }
 }
 
-// `Light`, `light_incidence`, `shadow_visibility` and the `lights` buffer are imported from
-// `frame/lights.wgsl` (the Rust side puts the import first).
+import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
 struct InjectParams {
     // xyz grid origin, w voxel size

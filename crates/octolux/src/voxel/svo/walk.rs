@@ -1,6 +1,7 @@
-//! Visibility through the sparse voxel octree (VPL shadow segments, probe rays): the WGSL walk ([`WALK_WGSL`]), its CPU twin
-//! ([`SvoWalkCpu::occluded`]), an independent CPU reference over a dense voxel set
-//! ([`segment_blocked_brute`]) and a GPU harness that traces given segments ([`Tracer`]).
+//! Visibility through the sparse voxel octree (VPL shadow segments, probe rays): the WGSL walk
+//! ([`WALK_WGSL`], bound by [`walk_bindings`]), its CPU twin ([`SvoWalkCpu::occluded`]), an
+//! independent CPU reference over a dense voxel set ([`segment_blocked_brute`]) and a GPU
+//! harness that traces given segments ([`Tracer`]).
 //!
 //! Both ends of a shadow segment lie on voxelised surfaces. They are moved out of their own
 //! voxels in two documented steps: each end moves `end_offset` voxels along its surface normal
@@ -8,6 +9,7 @@
 //! and the voxels holding the moved ends are never counted as occluders (they may still hold a
 //! neighbouring surface in a corner, which would otherwise block every segment from there).
 
+use crate::gpu::shader::library_shader_parts;
 use crate::gpu::GpuContext;
 use crate::voxel::svo::inject::LEAF_SUM_WORDS;
 use crate::voxel::svo::Svo;
@@ -17,8 +19,13 @@ use bytemuck::{Pod, Zeroable};
 use glam::{IVec3, Vec3};
 use std::collections::BTreeSet;
 
-/// WGSL of the walk (`trace.wgsl`).
+/// WGSL of the walk (`walk.wgsl`, the module `package::voxel::svo::walk`).
 pub const WALK_WGSL: &str = include_str!("walk.wgsl");
+
+/// The first of the walk's five bindings in group 0 of every shader that imports
+/// `voxel/svo/walk.wgsl` (parameters, child links, leaf sums, dynamic state, dynamic sums),
+/// above every pass's own.
+pub const WALK_BINDINGS: u32 = 44;
 
 /// Bits of the fixed-point lattice per grid side: segment ends are points of a lattice of
 /// 2^14 steps across the grid.
@@ -53,13 +60,25 @@ pub struct SvoWalk {
 // `vpl_leaf_mask` reads a voxel's fragment count as word 3 of its dynamic sums.
 const _: () = assert!(crate::voxel::svo::inject::LEAF_SUM_WORDS == 10);
 
-/// The buffers the walk binds: child links, leaf sums, and the dynamic part's node state and
-/// sums (16-byte placeholders without one).
+/// The buffers the walk binds after its parameters: child links, leaf sums, and the dynamic
+/// part's node state and sums (16-byte placeholders without one).
 pub fn walk_buffers<'a>(svo: &'a Svo, placeholder: &'a wgpu::Buffer) -> [&'a wgpu::Buffer; 4] {
     match svo.dynamic.as_ref() {
         Some(d) => [&svo.child, &svo.leaf_sums, d.state(), &d.sums],
         None => [&svo.child, &svo.leaf_sums, placeholder, placeholder],
     }
+}
+
+/// The bind-group entries of `walk.wgsl`'s bindings ([`WALK_BINDINGS`] on): `params` holds
+/// the [`SvoWalk`] block, `placeholder` stands in for an absent dynamic part.
+pub fn walk_bindings<'a>(
+    params: &'a wgpu::Buffer,
+    svo: &'a Svo,
+    placeholder: &'a wgpu::Buffer,
+) -> [(u32, wgpu::BindingResource<'a>); 5] {
+    let [child, leaf, state, sums] = walk_buffers(svo, placeholder);
+    let buffers = [params, child, leaf, state, sums];
+    std::array::from_fn(|i| (WALK_BINDINGS + i as u32, buffers[i].as_entire_binding()))
 }
 
 impl SvoWalk {
@@ -391,8 +410,8 @@ pub struct Tracer {
 impl Tracer {
     /// Compiles the test kernel.
     pub fn new(ctx: &GpuContext) -> Tracer {
-        let source = [WALK_WGSL, include_str!("walk_test.wgsl")].join("\n");
-        let module = ctx.shader("vpl trace test", &source);
+        let source = library_shader_parts("walk test", &[include_str!("walk_test.wgsl")]);
+        let module = ctx.shader("walk test", &source);
         Tracer {
             pipeline: ctx.compute_pipeline("vpl trace test", &module, "main"),
         }
@@ -423,20 +442,12 @@ impl Tracer {
             usage,
         );
         let placeholder = ctx.create_buffer_init(owner, "placeholder", &[0; 16], usage);
-        let [child, leaf, state, sums] = walk_buffers(svo, &placeholder);
-        let group = crate::gpu::pass::bind_buffers(
-            ctx,
-            &self.pipeline,
-            &[
-                (0, &params_buf),
-                (1, child),
-                (2, leaf),
-                (3, &seg_buf),
-                (4, &out),
-                (5, state),
-                (6, sums),
-            ],
-        );
+        let mut entries = vec![
+            (3, seg_buf.as_entire_binding()),
+            (4, out.as_entire_binding()),
+        ];
+        entries.extend(walk_bindings(&params_buf, svo, &placeholder));
+        let group = crate::gpu::pass::bind(ctx, &self.pipeline, &entries);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());

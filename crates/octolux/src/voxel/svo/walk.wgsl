@@ -1,8 +1,11 @@
-// VPL visibility: a stackless walk of the sparse voxel octree along a shadow segment (002's
-// SVO-restart, Fig. 3, in integer arithmetic). The includer declares `vo: SvoWalk` (read-only
-// storage), `svo_child: array<u32>` (the octree's `child`) and `svo_leaf: array<u32>` (the
-// octree's `leaf_sums`, whose first `leaf_count` words are the static leaves' index words:
-// bits 0..7 the occupancy of their 2x2x2 voxels).
+// Visibility through the sparse voxel octree: a stackless walk along a segment (002's
+// SVO-restart, Fig. 3, in integer arithmetic), for VPL shadow rays and the probes' voxel rays.
+// It reads the bindings declared below, the same in every shader that imports them
+// (`voxel::svo::walk::walk_bindings` binds them in Rust): group 0 from binding 44 on. `vo` are
+// the walk's parameters, `svo_child` the octree's `child`, `svo_leaf` its `leaf_sums` (whose
+// first `leaf_count` words are the static leaves' index words: bits 0..7 the occupancy of
+// their 2x2x2 voxels), `svo_state` and `svo_dyn_sums` the dynamic part's (placeholders
+// without one).
 //
 // Every decision is made on integers: segment ends are points of a lattice of 2^14 steps per
 // grid side (`1 << shift` steps per voxel), and the time along the segment is the fraction
@@ -34,6 +37,12 @@ struct SvoWalk {
     dynamic: u32,
     pad: u32,
 };
+
+@group(0) @binding(44) var<storage, read> vo: SvoWalk;
+@group(0) @binding(45) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(46) var<storage, read> svo_leaf: array<u32>;
+@group(0) @binding(47) var<storage, read> svo_state: array<u32>;
+@group(0) @binding(48) var<storage, read> svo_dyn_sums: array<u32>;
 
 // Occupancy of the 8 voxels of leaf node `node` (bit x + 2y + 4z): static and dynamic
 // fragments.

@@ -1,13 +1,10 @@
 // Test kernel: traces segments given as lattice points and writes, per segment, 0 when nothing
 // blocks it, else 1 + the first blocking voxel packed as x + 1024 (y + 1024 z).
 
-@group(0) @binding(0) var<storage, read> vo: SvoWalk;
-@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(2) var<storage, read> svo_leaf: array<u32>;
+import package::voxel::svo::walk::svo_first_hit;
+
 @group(0) @binding(3) var<storage, read> segments: array<vec4<i32>>;
 @group(0) @binding(4) var<storage, read_write> results: array<u32>;
-@group(0) @binding(5) var<storage, read> svo_state: array<u32>;
-@group(0) @binding(6) var<storage, read> svo_dyn_sums: array<u32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
