@@ -6,7 +6,7 @@
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::ConeTracer;
-use super::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
+use super::{ClipmapInjection, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_1d;
 use crate::gpu::{GpuContext, PassTimer};
@@ -255,7 +255,7 @@ impl VctClipmap {
         };
         self.tracer.set_cone(
             ctx,
-            |cones| cone_params(s, cones, voxel, coarsest, 0.5 * span * voxel),
+            |cones| ConeParams::for_settings(s, cones, voxel, coarsest, 0.5 * span * voxel),
             s,
         );
         Clipmap::with_owner(
@@ -365,26 +365,5 @@ impl GiTechnique for VctClipmap {
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
-    }
-}
-
-/// The marcher's parameters for the settings `s` and the `diffuse` cones, a finest voxel of
-/// `voxel` metres, a coarsest of `coarsest` metres and cones that end at `max_distance` metres.
-pub(crate) fn cone_params(
-    s: &VctSettings,
-    diffuse: DiffuseCones,
-    voxel: f32,
-    coarsest: f32,
-    max_distance: f32,
-) -> ConeParams {
-    ConeParams {
-        aperture: diffuse.aperture.to_radians(),
-        start: diffuse.start * voxel,
-        step: s.step,
-        max_distance,
-        voxel,
-        stop_opacity: s.stop_opacity,
-        max_steps: 1024,
-        max_footprint: coarsest.max(voxel),
     }
 }

@@ -9,6 +9,7 @@
 //! The march starts at `start` (against self-occlusion by the surface's own voxels) and stops
 //! at `max_distance`, at `stop_opacity` or after `max_steps`.
 
+use super::{DiffuseCones, VctSettings};
 use glam::{Vec3, Vec4};
 
 /// WGSL: `march_cone(origin, dir, params)` and `cone_composite`; the includer provides
@@ -89,6 +90,29 @@ pub fn march_cone(sample: impl Fn(Vec3, f32) -> Vec4, cone: &ConeMarch) -> Vec4 
         t += step;
     }
     acc
+}
+
+impl ConeParams {
+    /// The marcher's parameters for the settings `s` and the `diffuse` cones, a finest voxel of
+    /// `voxel` metres, a coarsest of `coarsest` metres and cones that end at `max_distance` metres.
+    pub(crate) fn for_settings(
+        s: &VctSettings,
+        diffuse: DiffuseCones,
+        voxel: f32,
+        coarsest: f32,
+        max_distance: f32,
+    ) -> ConeParams {
+        ConeParams {
+            aperture: diffuse.aperture.to_radians(),
+            start: diffuse.start * voxel,
+            step: s.step,
+            max_distance,
+            voxel,
+            stop_opacity: s.stop_opacity,
+            max_steps: 1024,
+            max_footprint: coarsest.max(voxel),
+        }
+    }
 }
 
 #[cfg(test)]

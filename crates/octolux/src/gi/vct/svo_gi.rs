@@ -5,7 +5,7 @@
 //! filtered up the levels (and, with `anisotropic`, composited per direction), the voxels
 //! gather the next bounce, and every traced pixel gathers through the diffuse cones.
 
-use super::clipmap_gi::cone_params;
+use super::cone::ConeParams;
 use super::tracer::ConeTracer;
 use super::{VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
@@ -153,7 +153,7 @@ impl VctSvo {
         tracer.set_cone(
             ctx,
             |cones| {
-                cone_params(
+                ConeParams::for_settings(
                     settings,
                     cones,
                     grid.voxel_size,
