@@ -132,3 +132,97 @@ pub fn dispatch_2d(
     let workgroups = [width.div_ceil(8), height.div_ceil(8), 1];
     dispatch_groups(timer, name, pipeline, bind_group, workgroups);
 }
+
+/// A bind group kept from frame to frame while the resources it binds stay the same: a pass
+/// whose inputs live as long as the technique (the frame's G-buffer and camera, the
+/// technique's own buffers) binds the same group every frame instead of making a new one.
+/// Resources are compared by identity; the kept group holds its resources until a different
+/// set replaces it.
+#[derive(Default)]
+pub struct KeptBindGroup {
+    kept: std::sync::Mutex<Option<(Vec<(u32, ResourceKey)>, wgpu::BindGroup)>>,
+}
+
+/// What identifies a bound resource (handles compare by identity).
+#[derive(Clone, PartialEq)]
+enum ResourceKey {
+    Buffer(wgpu::Buffer, u64, Option<u64>),
+    Sampler(wgpu::Sampler),
+    View(wgpu::TextureView),
+    /// Any other kind: never matches, so the group is made again.
+    Other,
+}
+
+impl ResourceKey {
+    fn of(resource: &wgpu::BindingResource) -> ResourceKey {
+        match resource {
+            wgpu::BindingResource::Buffer(b) => {
+                ResourceKey::Buffer(b.buffer.clone(), b.offset, b.size.map(|s| s.get()))
+            }
+            wgpu::BindingResource::Sampler(s) => ResourceKey::Sampler((*s).clone()),
+            wgpu::BindingResource::TextureView(v) => ResourceKey::View((*v).clone()),
+            _ => ResourceKey::Other,
+        }
+    }
+}
+
+impl KeptBindGroup {
+    /// The bind group of group 0 of `pipeline` with exactly `entries`: the kept one where the
+    /// entries bind the same resources as last time, else a new one, kept in its place.
+    pub fn get(
+        &self,
+        ctx: &GpuContext,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        entries: &[(u32, wgpu::BindingResource)],
+    ) -> wgpu::BindGroup {
+        let key: Vec<(u32, ResourceKey)> = entries
+            .iter()
+            .map(|(binding, resource)| (*binding, ResourceKey::of(resource)))
+            .collect();
+        let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((old, group)) = kept.as_ref() {
+            if *old == key && !key.iter().any(|(_, k)| *k == ResourceKey::Other) {
+                return group.clone();
+            }
+        }
+        let group = bind_group_at(ctx, Some(label), pipeline, 0, entries);
+        *kept = Some((key, group.clone()));
+        group
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::GpuOptions;
+
+    /// The same resources give the kept group back; another buffer or offset gives a new one.
+    #[test]
+    fn a_kept_bind_group_is_made_again_only_for_other_resources() {
+        let ctx = GpuContext::shared(&GpuOptions::default()).expect("a GPU adapter");
+        let module = ctx.shader(
+            "kept test",
+            "@group(0) @binding(0) var<storage, read_write> b: array<u32>;\n\
+             @compute @workgroup_size(1) fn main() { b[0] = 1u; }",
+        );
+        let pipeline = ctx.compute_pipeline("kept test", &module, "main");
+        let buffer = |label| crate::gpu::alloc::storage(&ctx, "kept test", label, 512);
+        let (a, b) = (buffer("a"), buffer("b"));
+        let kept = KeptBindGroup::default();
+        let group = |buffer: &wgpu::Buffer, offset| {
+            let resource = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                buffer,
+                offset,
+                size: wgpu::BufferSize::new(16),
+            });
+            kept.get(&ctx, "kept test", &pipeline, &[(0, resource)])
+        };
+        let first = group(&a, 0);
+        assert_eq!(group(&a, 0), first);
+        let other = group(&b, 0);
+        assert_ne!(other, first);
+        assert_ne!(group(&b, 256), other);
+        ctx.ledger.release_owner("kept test");
+    }
+}

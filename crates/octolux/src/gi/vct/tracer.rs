@@ -7,7 +7,7 @@
 use super::cone::ConeParams;
 use super::{DiffuseCones, VctSettings, CONE_WGSL, GATHER_WGSL};
 use crate::gi::GiFrame;
-use crate::gpu::pass::dispatch_2d;
+use crate::gpu::pass::{dispatch_2d, KeptBindGroup};
 use crate::gpu::{GpuContext, PassTimer};
 
 /// `TraceParams` of `trace.wgsl` (a read-only storage block).
@@ -45,6 +45,8 @@ pub(crate) struct ConeTracer {
     view: wgpu::TextureView,
     /// The technique's diffuse cones (the settings' or its structure's defaults).
     diffuse: DiffuseCones,
+    /// The trace, upsample and specular passes' bind groups, kept while their resources are.
+    groups: [KeptBindGroup; 3],
 }
 
 /// A texture of the technique's (`Rgba16Float`, written by compute, read by the next pass).
@@ -156,6 +158,7 @@ impl ConeTracer {
             texture,
             view,
             diffuse,
+            groups: Default::default(),
         }
     }
 
@@ -197,40 +200,21 @@ impl ConeTracer {
         structure: &[(u32, wgpu::BindingResource)],
     ) {
         let tex = wgpu::BindingResource::TextureView;
-        let bind = |label: &str, pipeline: &wgpu::ComputePipeline, out: u32, view| {
-            let mut entries: Vec<wgpu::BindGroupEntry> = [
+        let bind = |kept: &KeptBindGroup, label: &str, pipeline, out: u32, view| {
+            let mut entries = vec![
                 (0, frame.camera_uniform.as_entire_binding()),
-                (
-                    1,
-                    wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
-                ),
-                (
-                    2,
-                    wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
-                ),
+                (1, tex(&frame.gbuffer.depth_view)),
+                (2, tex(&frame.gbuffer.normal_view)),
                 (5, self.params.as_entire_binding()),
-                (out, wgpu::BindingResource::TextureView(view)),
-            ]
-            .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
-            .into();
-            entries.extend(
-                structure
-                    .iter()
-                    .map(|(binding, resource)| wgpu::BindGroupEntry {
-                        binding: *binding,
-                        resource: resource.clone(),
-                    }),
-            );
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
+                (out, tex(view)),
+            ];
+            entries.extend(structure.iter().cloned());
+            kept.get(ctx, label, pipeline, &entries)
         };
         let (w, h) = (self.texture.width(), self.texture.height());
         // 1. Six cones per traced pixel.
         let traced = self.upsample.as_ref().map_or(&self.view, |s| &s.view);
-        let group = bind("vct trace", &self.trace, 6, traced);
+        let group = bind(&self.groups[0], "vct trace", &self.trace, 6, traced);
         let f = self.sparse;
         dispatch_2d(
             timer,
@@ -242,24 +226,26 @@ impl ConeTracer {
         );
         // 2. Sparse tracing: the untraced pixels from the traced ones.
         if let Some(up) = &self.upsample {
-            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("vct upsample"),
-                layout: &up.pipeline.get_bind_group_layout(0),
-                entries: &[
-                    (0, frame.camera_uniform.as_entire_binding()),
-                    (1, tex(&frame.gbuffer.depth_view)),
-                    (2, tex(&frame.gbuffer.normal_view)),
-                    (3, tex(&up.view)),
-                    (4, self.params.as_entire_binding()),
-                    (5, tex(&self.view)),
-                ]
-                .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
-            });
+            let entries = [
+                (0, frame.camera_uniform.as_entire_binding()),
+                (1, tex(&frame.gbuffer.depth_view)),
+                (2, tex(&frame.gbuffer.normal_view)),
+                (3, tex(&up.view)),
+                (4, self.params.as_entire_binding()),
+                (5, tex(&self.view)),
+            ];
+            let group = self.groups[1].get(ctx, "vct upsample", &up.pipeline, &entries);
             dispatch_2d(timer, "upsample", &up.pipeline, &group, w, h);
         }
         // 3. The optional specular cone, every pixel.
         if let Some(spec) = &self.specular {
-            let group = bind("vct specular", &spec.pipeline, 30, &spec.view);
+            let group = bind(
+                &self.groups[2],
+                "vct specular",
+                &spec.pipeline,
+                30,
+                &spec.view,
+            );
             dispatch_2d(timer, "specular", &spec.pipeline, &group, w, h);
         }
     }
