@@ -140,8 +140,11 @@ pub fn dispatch_2d(
 /// set replaces it.
 #[derive(Default)]
 pub struct KeptBindGroup {
-    kept: std::sync::Mutex<Option<(Vec<(u32, ResourceKey)>, wgpu::BindGroup)>>,
+    kept: std::sync::Mutex<Option<(BindingKey, wgpu::BindGroup)>>,
 }
+
+/// The resources of a bind group by binding.
+type BindingKey = Vec<(u32, ResourceKey)>;
 
 /// What identifies a bound resource (handles compare by identity).
 #[derive(Clone, PartialEq)]
@@ -176,7 +179,7 @@ impl KeptBindGroup {
         pipeline: &wgpu::ComputePipeline,
         entries: &[(u32, wgpu::BindingResource)],
     ) -> wgpu::BindGroup {
-        let key: Vec<(u32, ResourceKey)> = entries
+        let key: BindingKey = entries
             .iter()
             .map(|(binding, resource)| (*binding, ResourceKey::of(resource)))
             .collect();
