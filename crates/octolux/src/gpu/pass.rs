@@ -210,7 +210,17 @@ mod tests {
              @compute @workgroup_size(1) fn main() { b[0] = 1u; }",
         );
         let pipeline = ctx.compute_pipeline("kept test", &module, "main");
-        let buffer = |label| crate::gpu::alloc::storage(&ctx, "kept test", label, 512);
+        let buffer = |label| {
+            ctx.create_buffer(
+                "kept test",
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: 512,
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                },
+            )
+        };
         let (a, b) = (buffer("a"), buffer("b"));
         let kept = KeptBindGroup::default();
         let group = |buffer: &wgpu::Buffer, offset| {
