@@ -5,7 +5,7 @@ mod common;
 
 use common::context;
 use octolux::gi::probes::bvh::{BvhHit, SceneBvh, SceneHit};
-use octolux::gi::probes::lattice::{direction, Lattice, LATTICE_WGSL};
+use octolux::gi::probes::lattice::{direction, Lattice};
 use octolux::gpu::{read_buffer, GpuContext};
 use octolux::reference::RayQueries;
 use octolux::scene::Scene;
@@ -26,7 +26,7 @@ fn upload(ctx: &GpuContext, label: &str, bytes: &[u8]) -> wgpu::Buffer {
 }
 
 /// Runs entry `entry` of the test kernels over `count` invocations with `buffers` at their
-/// bindings; returns the output (binding 4) as `vec4`s.
+/// bindings; returns the output (binding 7) as `vec4`s.
 fn run(
     ctx: &GpuContext,
     entry: &str,
@@ -34,12 +34,13 @@ fn run(
     count: u32,
     out_vec4: usize,
 ) -> Vec<[f32; 4]> {
-    let source = [
-        LATTICE_WGSL,
-        octolux::gi::probes::bvh::BVH_WGSL,
+    let source = octolux::gpu::shader::compose_text(
+        "probes test",
         include_str!("shaders/probes_kernels.wgsl"),
-    ]
-    .join("\n");
+        &[],
+        &[],
+    )
+    .unwrap();
     let module = ctx.shader("probes test", &source);
     let pipeline = ctx.compute_pipeline(entry, &module, entry);
     let out = upload(ctx, "out", &vec![0u8; out_vec4 * 16]);
@@ -51,7 +52,7 @@ fn run(
         })
         .collect();
     entries.push(wgpu::BindGroupEntry {
-        binding: 4,
+        binding: 7,
         resource: out.as_entire_binding(),
     });
     let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -175,7 +176,7 @@ fn gpu_traversal_equals_the_cpu_bvh_and_agrees_with_the_reference() {
     let gpu = run(
         &ctx,
         "trace",
-        &[(0, &p), (1, &n), (2, &t), (3, &r), (5, &inst)],
+        &[(0, &p), (2, &n), (3, &t), (4, &inst), (6, &r)],
         count,
         2 * count as usize,
     );

@@ -4,8 +4,7 @@
 
 use glam::{IVec3, Vec3};
 use octolux::gi::probes::bvh::SceneBvh;
-use octolux::gi::probes::rays::{voxel_ray, voxel_surfel, VoxelSurfel, VOXEL_RAYS_WGSL};
-use octolux::gpu::shader::library_shader_parts;
+use octolux::gi::probes::rays::{voxel_ray, voxel_surfel, VoxelSurfel};
 use octolux::gpu::{read_buffer, GpuContext, GpuOptions};
 use octolux::scene::Scene;
 use octolux::voxel::objects_triangles;
@@ -22,13 +21,13 @@ struct GpuRay {
 
 /// Runs `voxel_ray` and `voxel_closest` on the GPU for `rays` (origin, direction, t_max).
 fn trace(ctx: &GpuContext, svo: &Svo, walk: &SvoWalk, rays: &[(Vec3, Vec3, f32)]) -> Vec<GpuRay> {
-    let source = library_shader_parts(
+    let source = octolux::gpu::shader::compose_text(
         "voxel rays test",
-        &[
-            VOXEL_RAYS_WGSL,
-            include_str!("shaders/probes_voxel_rays.wgsl"),
-        ],
-    );
+        include_str!("shaders/probes_voxel_rays.wgsl"),
+        &[],
+        &[],
+    )
+    .unwrap();
     let module = ctx.shader("voxel rays test", &source);
     let pipeline = ctx.compute_pipeline("voxel rays test", &module, "main");
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;

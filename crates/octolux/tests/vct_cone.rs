@@ -17,9 +17,7 @@ mod lit_floor;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use octolux::gi::vct::gather::diffuse_cone_dir;
-use octolux::gi::vct::{
-    cone_set_wgsl, gather_irradiance, march_cone, ConeMarch, ConeParams, CONE_WGSL, GATHER_WGSL,
-};
+use octolux::gi::vct::{cone_set_wgsl, gather_irradiance, march_cone, ConeMarch, ConeParams};
 use octolux::gpu::{read_buffer, storage_entry, GpuContext, GpuOptions};
 
 const N: usize = 8;
@@ -107,8 +105,13 @@ impl Grid {
 }
 
 /// The cones to march and their results (bindings 8 and 9, after any sampler's), and the
-/// kernel marching one cone per invocation through the includer's `vct_sample`.
+/// kernel marching one cone per invocation through the structure's `vct_sample` (the module
+/// composed in as `gi/vct/structure`).
 const CONE_KERNEL_WGSL: &str = r#"
+import octolux::gi::vct::cone::{ConeParams, march_cone};
+import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
+import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+
 struct Cone { origin: vec4<f32>, dir: vec4<f32>, params: ConeParams }
 @group(0) @binding(8) var<storage, read> cones: array<Cone>;
 @group(0) @binding(9) var<storage, read_write> results: array<vec4<f32>>;
@@ -123,6 +126,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
+/// The test's structure: a dense mipmapped grid, sampled quadrilinearly.
 const SAMPLER_WGSL: &str = r#"
 struct GridInfo { origin: vec4<f32>, misc: vec4<u32> }
 @group(0) @binding(0) var<storage, read> info: GridInfo;
@@ -169,8 +173,10 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
     let b = sample_level(p, min(u32(l0) + 1u, info.misc.y - 1u));
     return a + f * (b - a);
 }
+"#;
 
-
+/// Entry points of the gather test (after [`CONE_KERNEL_WGSL`]).
+const GATHER_KERNEL_WGSL: &str = r#"
 // The diffuse gather at apex `origin` around the normal `dir`: irradiance in rgb.
 @compute @workgroup_size(64)
 fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -215,9 +221,9 @@ fn gpu_run(
 ) -> Vec<Vec4> {
     let module = ctx.shader(
         "cone test",
-        &format!(
-            "{}\n{CONE_WGSL}\n{GATHER_WGSL}\n{CONE_KERNEL_WGSL}\n{SAMPLER_WGSL}",
-            cone_set_wgsl(6)
+        &compose_kernel(
+            &format!("{CONE_KERNEL_WGSL}\n{GATHER_KERNEL_WGSL}"),
+            SAMPLER_WGSL,
         ),
     );
     // One explicit layout for every entry point (some read only part of the bindings).
@@ -536,10 +542,21 @@ fn gpu_gather_equals_the_cpu_and_a_closed_uniform_shell_gives_pi_l() {
     }
 }
 
+/// `kernel` (text importing the library's modules) with `structure` as the module
+/// `gi/vct/structure` the marcher samples, and the six-cone set.
+fn compose_kernel(kernel: &str, structure: &str) -> String {
+    let cones = cone_set_wgsl(6);
+    octolux::gpu::shader::compose_text(
+        "cone test",
+        kernel,
+        &[],
+        &[("gi/vct/cone_set", &cones), ("gi/vct/structure", structure)],
+    )
+    .unwrap()
+}
+
 const CLIPMAP_TEST_WGSL: &str = r#"
-@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
-@group(0) @binding(2) var<storage, read> clip_radiance: array<u32>;
+import octolux::voxel::clipmap::radiance_sample::clip_radiance_sample;
 
 // The clipmap back-end of the marcher's sampling function.
 fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
@@ -556,7 +573,7 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
     // stored as f16 and read back as stored, so both sides sample the same values; every
     // sample stays 0.1 m (3 voxels) inside level 0, far from the level-choice boundary.
     use octolux::voxel::clipmap::sample::{
-        clip_radiance_sample, ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL,
+        clip_radiance_sample, ClipInfo, CLIP_BINDINGS, CLIP_RADIANCE_BINDING,
     };
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
@@ -637,9 +654,7 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
 
     let module = ctx.shader(
         "cone clipmap test",
-        &format!(
-            "{CONE_WGSL}\n{CLIPMAP_SAMPLE_WGSL}\n{CLIPMAP_RADIANCE_WGSL}\n{CONE_KERNEL_WGSL}\n{CLIPMAP_TEST_WGSL}"
-        ),
+        &compose_kernel(CONE_KERNEL_WGSL, CLIPMAP_TEST_WGSL),
     );
     let pipeline = ctx.compute_pipeline("cone clipmap test", &module, "main");
     let info_buffer = ctx.create_buffer_init(
@@ -649,13 +664,16 @@ fn cones_through_a_lit_clipmap_equal_the_cpu_twin() {
         wgpu::BufferUsages::STORAGE,
     );
     let layout = pipeline.get_bind_group_layout(0);
-    // (binding 1, the albedo voxels, is declared by the sampler but unused here)
+    // (the albedo voxels are declared by the sampler but unused here)
     let radiance_buffer = clipmap.radiance.as_ref().unwrap();
     let gpu = dispatch_cones(
         &ctx,
         &pipeline,
         &layout,
-        &[(0, &info_buffer), (2, radiance_buffer)],
+        &[
+            (CLIP_BINDINGS, &info_buffer),
+            (CLIP_RADIANCE_BINDING, radiance_buffer),
+        ],
         &cones,
         cones.len(),
     );

@@ -425,40 +425,26 @@ fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
 
 #[test]
 fn gpu_radiance_samples_equal_the_cpu_twin() {
-    use octolux::voxel::svo::inject::SVO_RADIANCE_SAMPLE_WGSL;
-    use octolux::voxel::svo::sample::{svo_sample, SvoInfo, SVO_SAMPLE_WGSL};
+    use octolux::voxel::svo::sample::{svo_bindings, svo_radiance_bindings, svo_sample, SvoInfo};
     let ctx = context();
     let (grid, _, svo) = emissive_octree(&ctx);
     let mut cpu_svo = svo.read_back(&ctx).unwrap();
     cpu_svo.bricks = svo.read_radiance(&ctx).unwrap();
-    let source = format!(
-        "@group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
-@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(2) var<storage, read> svo_brick_index: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_bricks0: array<u32>;
-@group(0) @binding(4) var<storage, read> svo_bricks1: array<u32>;
-@group(0) @binding(5) var<storage, read> svo_bricks2: array<u32>;
-@group(0) @binding(6) var<storage, read> svo_bricks3: array<u32>;
-@group(0) @binding(7) var<storage, read> svo_radiance0: array<u32>;
-@group(0) @binding(8) var<storage, read> svo_radiance1: array<u32>;
-@group(0) @binding(9) var<storage, read> svo_radiance2: array<u32>;
-@group(0) @binding(10) var<storage, read> svo_radiance3: array<u32>;
-@group(0) @binding(11) var<storage, read> points: array<vec4<f32>>;
-@group(0) @binding(12) var<storage, read_write> out: array<vec4<f32>>;
-{SVO_SAMPLE_WGSL}
-{SVO_RADIANCE_SAMPLE_WGSL}
+    // The sampler's own bindings (`voxel/svo/sample.wgsl`, `radiance_sample.wgsl`) are bound
+    // by the library's entries; the kernel adds its points and output.
+    let kernel = "import octolux::voxel::svo::radiance_sample::svo_radiance_sample;
+@group(0) @binding(0) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
 @compute @workgroup_size(64)
-fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
-    if id.x >= arrayLength(&points) {{
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&points) {
         return;
-    }}
+    }
     let q = points[id.x];
-    // Touch the albedo pool so that every declared binding is part of the layout.
-    let unused = svo_sample(q.xyz, 1e9) * 0.0;
-    out[id.x] = svo_radiance_sample(q.xyz, q.w) + unused;
-}}
-"
-    );
+    out[id.x] = svo_radiance_sample(q.xyz, q.w);
+}
+";
+    let source = octolux::gpu::shader::compose_text("radiance probe", kernel, &[], &[]).unwrap();
     let module = ctx.shader("radiance probe", &source);
     let pipeline = ctx.compute_pipeline("radiance probe", &module, "probe");
     // Points spread over the emitter's neighbourhood, footprints from a voxel to 8 voxels.
@@ -490,22 +476,13 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
             mapped_at_creation: false,
         },
     );
-    let mut buffers: Vec<(u32, &wgpu::Buffer)> =
-        vec![(0, &info), (1, &svo.child), (2, &svo.brick_index)];
-    for (k, b) in svo.bricks.iter().enumerate() {
-        buffers.push((3 + k as u32, b));
-    }
-    for (k, b) in svo.radiance.iter().enumerate() {
-        buffers.push((7 + k as u32, b));
-    }
-    buffers.push((11, &input));
-    buffers.push((12, &out));
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .map(|&(binding, b)| wgpu::BindGroupEntry {
-            binding,
-            resource: b.as_entire_binding(),
-        })
+    let mut bindings = svo_bindings(&info, &svo).to_vec();
+    bindings.extend(svo_radiance_bindings(&svo));
+    bindings.push((0, input.as_entire_binding()));
+    bindings.push((1, out.as_entire_binding()));
+    let entries: Vec<wgpu::BindGroupEntry> = bindings
+        .into_iter()
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
         .collect();
     let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,

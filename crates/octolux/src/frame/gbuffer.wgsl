@@ -2,7 +2,7 @@
 // writes albedo, normal and emission, the shadow pass only runs the alpha test of masked
 // materials.
 
-import package::frame::raster::{VertexOut, masked_base_color, material, view};
+import octolux::frame::raster::{VertexOut, masked_base_color, material, view};
 
 struct GBufferOut {
     @location(0) albedo: vec4<f32>,

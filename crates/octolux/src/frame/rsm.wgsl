@@ -8,7 +8,7 @@
 // reflected flux = albedo x incident flux (Lambertian: everything not absorbed leaves).
 // Surfel area = m r^2 / cos (perspective) or m / cos (orthographic).
 
-import package::frame::raster::{VertexOut, masked_base_color};
+import octolux::frame::raster::{VertexOut, masked_base_color};
 
 struct RsmLayer {
     // xyz light position, w: kind (0 point, 1 spot, 2 directional)

@@ -1,10 +1,13 @@
 //! The library's WGSL as modules, composed with [wesl](https://wesl-lang.dev): a shader file is
-//! the module named by its path under `src/` (`package::frame::common` is
+//! the module named by its path under `src/` (`octolux::frame::common` is
 //! `src/frame/common.wgsl`) and imports what it uses
-//! (`import package::frame::common::{Camera, world_from_depth};`), so every declaration is
+//! (`import octolux::frame::common::{Camera, world_from_depth};`), so every declaration is
 //! written once and a shader says what it depends on. Variants are `@if(name)` attributes,
-//! chosen per composition ([`compose`]'s `features`); numeric constants a shader needs from
-//! Rust come from a generated module mounted as the package `constants`.
+//! chosen per composition ([`compose`]'s `features`). A composition can add modules of its
+//! own beside the library's: data a shader needs from Rust (the cone set,
+//! `octolux::gi::vct::cone_set`), and a module chosen per use (the cone marcher imports
+//! `octolux::gi::vct::structure::vct_sample`, and each structure puts its sampler's module
+//! there), so a marcher is written once for every structure it reads.
 //!
 //! Composition keeps names as written (no mangling), so entry points, bindings and overrides are
 //! what the module declares, and it keeps every declaration of every module it reaches (as the
@@ -38,12 +41,84 @@ pub const MODULES: &[(&str, &str)] = modules![
     "gi/lpv/propagate",
     "gi/lpv/octree",
     "voxel/svo/walk",
+    "voxel/pairs",
+    "voxel/voxelize/overlap",
+    "voxel/voxelize/voxelize",
+    "voxel/svo/common",
+    "voxel/svo/leaf_sums",
+    "voxel/svo/build",
+    "voxel/svo/dynamic",
+    "voxel/svo/accumulate",
+    "voxel/svo/inject",
+    "voxel/svo/aniso",
+    "voxel/svo/aniso_radiance",
+    "voxel/clipmap/emission",
+    "voxel/clipmap/update",
+    "voxel/clipmap/filter",
+    "voxel/clipmap/inject_common",
+    "voxel/clipmap/inject",
+    "voxel/clipmap/inject_shadow",
+    "voxel/svo/sample",
+    "voxel/svo/radiance_sample",
+    "voxel/svo/sample_aniso",
+    "voxel/svo/radiance_sample_aniso",
+    "voxel/svo/bounce_table",
+    "voxel/clipmap/sample",
+    "voxel/clipmap/radiance_sample",
+    "voxel/clipmap/blend",
+    "gi/vct/cone",
+    "gi/vct/gather",
+    "gi/vct/sparse",
+    "gi/vct/trace",
+    "gi/vct/upsample",
+    "gi/vct/svo_trace",
+    "gi/vct/svo_bounce",
+    "gi/vct/clipmap_trace",
+    "gi/vct/clipmap_bounce",
+    "gi/vct/clipmap_tail",
+    "gi/probes/probes",
+    "gi/probes/lattice",
+    "gi/probes/encoding",
+    "gi/probes/bvh",
+    "gi/probes/voxel_rays",
+    "gi/probes/probe_values",
+    "gi/probes/moments",
+    "gi/probes/grid",
+    "gi/probes/grid_sample",
+    "gi/probes/octree_params",
+    "gi/probes/octree_tree",
+    "gi/probes/octree_tree_read",
+    "gi/probes/octree_tree_write",
+    "gi/probes/octree_set",
+    "gi/probes/octree_sample",
+    "gi/probes/octree",
+    "gi/probes/place",
+    "gi/probes/place_bvh",
+    "gi/probes/place_voxels",
+    "gi/probes/light",
+    "gi/probes/integrate",
+    "gi/probes/gather",
+    "gi/probes/moments_build",
+    "gi/vpl/generate",
+    "gi/vpl/shade",
+    "gi/vpl/bounce",
 ];
 
-/// The module path wesl uses for a file `path` under `src/` (`frame/common` ->
-/// `package::frame::common`).
-fn module_path(path: &str) -> Result<ModulePath> {
-    format!("package::{}", path.replace('/', "::"))
+/// The source of the library's module `path` (as in [`MODULES`]), to add under another path.
+pub fn module_source(path: &str) -> Option<&'static str> {
+    MODULES.iter().find(|(p, _)| *p == path).map(|(_, s)| *s)
+}
+
+/// The package the library's modules are mounted as: shaders import `octolux::frame::common`,
+/// the name a crate embedding the library's shaders would give them.
+const PACKAGE: &str = "octolux";
+
+/// The path of the file `path` under `src/` (`frame/common`) inside the library's resolver
+/// (`package::frame::common`), or, `imported`, as shaders import it
+/// (`octolux::frame::common`).
+fn module_path(path: &str, imported: bool) -> Result<ModulePath> {
+    let root = if imported { PACKAGE } else { "package" };
+    format!("{root}::{}", path.replace('/', "::"))
         .parse()
         .map_err(|e| Error::Gpu(format!("shader module '{path}': bad module path: {e}")))
 }
@@ -51,48 +126,53 @@ fn module_path(path: &str) -> Result<ModulePath> {
 /// Composes the shader whose main module is `main` (a path under `src/`, such as
 /// `"render/compose"`) with every module it imports into one WGSL source. `features` set the
 /// `@if` flags (a flag the sources use but `features` does not set is an error);
-/// `constants`, where given, is WGSL mounted as the package `constants`
-/// (`import constants::CONES;`).
-pub fn compose(main: &str, features: &[(&str, bool)], constants: Option<&str>) -> Result<String> {
-    compose_with(main, None, features, constants)
+/// `packages` are `(name, WGSL)` mounted as packages of their own (`("constants", text)` for
+/// `import octolux::gi::vct::cone_set::CONES;`), whose imports resolve like the library's.
+pub fn compose(main: &str, features: &[(&str, bool)], packages: &[(&str, &str)]) -> Result<String> {
+    compose_with(main, None, features, packages)
 }
 
 /// [`compose`] with the main module given as text (its imports resolved against the library's
 /// modules): for shaders still assembled from fragments in Rust, which import the modules they
 /// share; `label` names it in errors.
-pub fn compose_text(label: &str, main: &str, features: &[(&str, bool)]) -> Result<String> {
-    compose_with(label, Some(main), features, None)
+pub fn compose_text(
+    label: &str,
+    main: &str,
+    features: &[(&str, bool)],
+    extra: &[(&str, &str)],
+) -> Result<String> {
+    compose_with(label, Some(main), features, extra)
 }
 
 fn compose_with(
     main: &str,
     text: Option<&str>,
     features: &[(&str, bool)],
-    constants: Option<&str>,
+    extra: &[(&str, &str)],
 ) -> Result<String> {
     let mut files = VirtualResolver::new();
     for (path, source) in MODULES {
-        files.add_module(module_path(path)?, Cow::Borrowed(*source));
+        files.add_module(module_path(path, false)?, Cow::Borrowed(*source));
     }
     // A main module given as text sits beside the others under a name no file has.
     let root = match text {
         Some(text) => {
-            let root = module_path("composed")?;
-            files.add_module(root.clone(), Cow::Owned(text.to_string()));
-            root
+            files.add_module(
+                module_path("composed", false)?,
+                Cow::Owned(text.to_string()),
+            );
+            module_path("composed", true)?
         }
-        None => module_path(main)?,
+        None => module_path(main, true)?,
     };
-    let mut router = Router::new();
-    if let Some(constants) = constants {
-        let mut generated = VirtualResolver::new();
-        generated.add_module(ModulePath::new_root(), Cow::Owned(constants.to_string()));
-        let package: ModulePath = "constants"
-            .parse()
-            .map_err(|e| Error::Gpu(format!("shader '{main}': {e}")))?;
-        router.mount_resolver(package, generated);
+    for &(path, source) in extra {
+        files.add_module(module_path(path, false)?, Cow::Owned(source.to_string()));
     }
-    router.mount_fallback_resolver(files);
+    let mut router = Router::new();
+    let package: ModulePath = PACKAGE
+        .parse()
+        .map_err(|e| Error::Gpu(format!("shader '{main}': {e}")))?;
+    router.mount_resolver(package, files);
     let mut compiler = Wesl::new("").set_custom_resolver(router);
     compiler
         .set_mangler(ManglerKind::None)
@@ -112,7 +192,16 @@ fn compose_with(
 /// `every_module_composes_into_valid_wgsl` rules out; a broken one stops here with wesl's
 /// message.
 pub fn library_shader(main: &str, features: &[(&str, bool)]) -> String {
-    compose(main, features, None).unwrap_or_else(|e| panic!("internal shader error: {e}"))
+    library_shader_with(main, features, &[])
+}
+
+/// [`library_shader`] with extra modules ([`compose`]).
+pub fn library_shader_with(
+    main: &str,
+    features: &[(&str, bool)],
+    extra: &[(&str, &str)],
+) -> String {
+    compose(main, features, extra).unwrap_or_else(|e| panic!("internal shader error: {e}"))
 }
 
 /// A shader of the library's still assembled from fragments (`parts`, pasted in order) whose
@@ -122,7 +211,7 @@ pub fn library_shader(main: &str, features: &[(&str, bool)]) -> String {
 /// catch.
 pub fn library_shader_parts(label: &str, parts: &[&str]) -> String {
     let text = hoist_imports(&parts.join("\n"));
-    compose_text(label, &text, &[]).unwrap_or_else(|e| panic!("internal shader error: {e}"))
+    compose_text(label, &text, &[], &[]).unwrap_or_else(|e| panic!("internal shader error: {e}"))
 }
 
 /// `text` with its `import` lines (`import a::b::{x, y};` or `import a::b::x;`, one line each)
@@ -172,15 +261,55 @@ mod tests {
     /// validation), for both values of each `@if` flag it uses.
     #[test]
     fn every_module_composes_into_valid_wgsl() {
+        // Every flag of any module, off unless the module under test varies it.
+        let all_flags: Vec<&str> = {
+            let mut f: Vec<&str> = MODULES.iter().flat_map(|(_, s)| flags_in(s)).collect();
+            f.sort_unstable();
+            f.dedup();
+            f
+        };
+        // One cone straight up (the real sets are generated by `gi::vct::cone_set_wgsl`).
+        let cones = "const DIFFUSE_CONES: u32 = 1u;
+var<private> DIFFUSE_SET: array<vec4<f32>, 1> = array<vec4<f32>, 1>(vec4<f32>(0.0, 1.0, 0.0, 1.0));";
         for (path, source) in MODULES {
+            // The structure a cone-tracing module is mounted with in use.
+            let structure = match path.contains("clipmap") {
+                true => module_source("gi/vct/clipmap_trace").unwrap(),
+                false => module_source("gi/vct/svo_trace").unwrap(),
+            };
+            // The probe set, its sampler, ray structure and tree bindings the same way.
+            let octree = path.contains("octree");
+            let module = |p: &str| module_source(p).unwrap();
+            let packages = [
+                ("gi/vct/cone_set", cones),
+                ("gi/vct/structure", structure),
+                (
+                    "gi/probes/set",
+                    module(["gi/probes/grid", "gi/probes/octree_set"][octree as usize]),
+                ),
+                (
+                    "gi/probes/set_sample",
+                    module(["gi/probes/grid_sample", "gi/probes/octree_sample"][octree as usize]),
+                ),
+                ("gi/probes/rays", module("gi/probes/place_bvh")),
+                (
+                    "gi/probes/tree_bindings",
+                    module(match *path {
+                        "gi/probes/octree" => "gi/probes/octree_tree_write",
+                        _ => "gi/probes/octree_tree_read",
+                    }),
+                ),
+            ];
             let flags: Vec<&str> = flags_in(source);
             for bits in 0..(1u32 << flags.len()) {
-                let features: Vec<(&str, bool)> = flags
+                let features: Vec<(&str, bool)> = all_flags
                     .iter()
-                    .enumerate()
-                    .map(|(i, &f)| (f, bits & (1 << i) != 0))
+                    .map(|&f| {
+                        let i = flags.iter().position(|&g| g == f);
+                        (f, i.is_some_and(|i| bits & (1 << i) != 0))
+                    })
                     .collect();
-                let wgsl = compose(path, &features, None).unwrap_or_else(|e| panic!("{e}"));
+                let wgsl = compose(path, &features, &packages).unwrap_or_else(|e| panic!("{e}"));
                 let module = naga::front::wgsl::parse_str(&wgsl)
                     .unwrap_or_else(|e| panic!("{path}: {}", e.emit_to_string(&wgsl)));
                 naga::valid::Validator::new(
@@ -213,16 +342,16 @@ mod tests {
 
     #[test]
     fn fragments_imports_are_gathered_at_the_top_once_per_module() {
-        let text = "// a\nimport package::m::{x, y};\nfn f() {}\nimport package::m::y;\nimport package::n::z;";
+        let text = "// a\nimport octolux::m::{x, y};\nfn f() {}\nimport octolux::m::y;\nimport octolux::n::z;";
         assert_eq!(
             hoist_imports(text),
-            "import package::m::{x, y};\nimport package::n::{z};\n// a\nfn f() {}"
+            "import octolux::m::{x, y};\nimport octolux::n::{z};\n// a\nfn f() {}"
         );
     }
 
     #[test]
     fn a_missing_import_is_an_error_naming_the_shader() {
-        let err = compose("frame/nothing", &[], None).unwrap_err().to_string();
+        let err = compose("frame/nothing", &[], &[]).unwrap_err().to_string();
         assert!(err.contains("frame/nothing"), "{err}");
     }
 }

@@ -2,7 +2,7 @@
 // see below); then exposure, the filmic curve (same as image_io::filmic) and the sRGB transfer
 // function for display.
 
-import package::frame::common::{Camera, PI};
+import octolux::frame::common::{Camera, PI};
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var direct_tex: texture_2d<f32>;

@@ -5,8 +5,8 @@
 // Sky: unshadowed irradiance from the sky's spherical-harmonic irradiance coefficients, times
 // the visible fraction of the directional lights that stand in for the sky (`frame/sky.rs`).
 
-import package::frame::common::{Camera, PI, world_from_depth};
-import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+import octolux::frame::common::{Camera, PI, world_from_depth};
+import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var albedo_tex: texture_2d<f32>;

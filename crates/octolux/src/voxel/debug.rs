@@ -4,9 +4,9 @@
 //! by the opacity gradient where the ray first passes half opacity, so that equally coloured
 //! surfaces stay apart), so a person can check that the structure matches the scene.
 
-use super::clipmap::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
+use super::clipmap::sample::{clip_bindings, ClipInfo, CLIP_BINDINGS, CLIP_RADIANCE_BINDING};
 use super::clipmap::Clipmap;
-use super::svo::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use super::svo::sample::{svo_albedo_bindings, svo_bindings, SvoInfo};
 use super::svo::Svo;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::scene::CameraView;
@@ -24,27 +24,16 @@ pub enum Structure<'a> {
     ClipmapRadiance(&'a Clipmap),
 }
 
-const SVO_HEADER: &str = "
-@group(0) @binding(1) var<storage, read> svo_info: SvoInfo;
-@group(0) @binding(2) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_bricks0: array<u32>;
-@group(0) @binding(8) var<storage, read> svo_bricks1: array<u32>;
-@group(0) @binding(9) var<storage, read> svo_bricks2: array<u32>;
-@group(0) @binding(10) var<storage, read> svo_bricks3: array<u32>;
-@group(0) @binding(7) var<storage, read> svo_brick_index: array<u32>;
+/// The sampler each structure's debug kernels call (`sample_structure` in `debug.wgsl`).
+const SVO_HEADER: &str = "import octolux::voxel::svo::sample::svo_sample;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return svo_sample(p, footprint); }
 ";
 
-const RADIANCE_HEADER: &str = "
-@group(0) @binding(1) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(2) var<storage, read> clip_voxels: array<u32>;
-@group(0) @binding(3) var<storage, read> clip_radiance: array<u32>;
+const RADIANCE_HEADER: &str = "import octolux::voxel::clipmap::radiance_sample::clip_radiance_sample;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_radiance_sample(p, footprint); }
 ";
 
-const CLIP_HEADER: &str = "
-@group(0) @binding(1) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(2) var<storage, read> clip_voxels: array<u32>;
+const CLIP_HEADER: &str = "import octolux::voxel::clipmap::sample::clip_sample;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_sample(p, footprint); }
 ";
 
@@ -69,16 +58,18 @@ impl Structure<'_> {
         }
     }
 
-    fn source(&self) -> String {
-        let (functions, header) = match self {
-            Structure::Svo(_) => (SVO_SAMPLE_WGSL.to_string(), SVO_HEADER),
-            Structure::Clipmap(_) => (CLIPMAP_SAMPLE_WGSL.to_string(), CLIP_HEADER),
-            Structure::ClipmapRadiance(_) => (
-                format!("{CLIPMAP_SAMPLE_WGSL}\n{CLIPMAP_RADIANCE_WGSL}"),
-                RADIANCE_HEADER,
-            ),
+    fn source(&self) -> Result<String> {
+        let header = match self {
+            Structure::Svo(_) => SVO_HEADER,
+            Structure::Clipmap(_) => CLIP_HEADER,
+            Structure::ClipmapRadiance(_) => RADIANCE_HEADER,
         };
-        format!("{functions}\n{header}\n{}", include_str!("debug.wgsl"))
+        let text = format!(
+            "{header}
+{}",
+            include_str!("debug.wgsl")
+        );
+        crate::gpu::shader::compose_text("voxel debug", &text, &[], &[])
     }
 
     fn info(&self, ctx: &GpuContext) -> wgpu::Buffer {
@@ -146,25 +137,26 @@ impl Structure<'_> {
         info: &wgpu::Buffer,
         extra: &[(u32, &wgpu::Buffer)],
     ) -> wgpu::BindGroup {
-        let mut buffers: Vec<(u32, &wgpu::Buffer)> = vec![(0, view), (1, info)];
+        let mut entries = vec![(0, view.as_entire_binding())];
         match self {
             Structure::Svo(svo) => {
-                buffers.push((2, &svo.child));
-                for (binding, pool) in [3, 8, 9, 10].into_iter().zip(&svo.bricks) {
-                    buffers.push((binding, pool));
-                }
-                buffers.push((7, &svo.brick_index));
+                entries.extend(svo_bindings(info, svo));
+                entries.extend(svo_albedo_bindings(svo));
             }
-            Structure::Clipmap(c) => buffers.push((2, &c.voxels)),
+            Structure::Clipmap(c) => entries.extend(clip_bindings(info, &c.voxels)),
             Structure::ClipmapRadiance(c) => {
-                // `clip_voxels` is declared (the albedo functions name it) but not used.
+                entries.push((CLIP_BINDINGS, info.as_entire_binding()));
                 if let Some(radiance) = &c.radiance {
-                    buffers.push((3, radiance));
+                    entries.push((CLIP_RADIANCE_BINDING, radiance.as_entire_binding()));
                 }
             }
         }
-        buffers.extend_from_slice(extra);
-        crate::gpu::pass::bind_buffers(ctx, pipeline, &buffers)
+        entries.extend(
+            extra
+                .iter()
+                .map(|&(b, buffer)| (b, buffer.as_entire_binding())),
+        );
+        crate::gpu::pass::bind(ctx, pipeline, &entries)
     }
 }
 
@@ -183,7 +175,7 @@ fn view_block(misc: [u32; 4], step: [f32; 4]) -> ViewBlock {
 pub fn probe(ctx: &GpuContext, structure: Structure, points: &[Vec4]) -> Result<Vec<Vec4>> {
     structure.ready()?;
     let n = points.len() as u32;
-    let module = ctx.shader("voxel probe", &structure.source());
+    let module = ctx.shader("voxel probe", &structure.source()?);
     let pipeline = ctx.compute_pipeline("voxel probe", &module, "probe");
     let block = view_block([0, 0, n, 0], [0.0; 4]);
     let view = ctx.create_buffer_init(
@@ -247,7 +239,7 @@ pub fn render_view(
     block.eye = view.position.extend(1.0).to_array();
     block.lo = lo.extend(0.0).to_array();
     block.hi = hi.extend(0.0).to_array();
-    let module = ctx.shader("voxel debug view", &structure.source());
+    let module = ctx.shader("voxel debug view", &structure.source()?);
     let pipeline = ctx.compute_pipeline("voxel debug view", &module, "raymarch");
     let view_buffer = ctx.create_buffer_init(
         "voxel debug",

@@ -1,10 +1,6 @@
 //! The octant pairs every anisotropic voxel kernel composites front to back per travel
-//! direction, in WGSL ([`PAIRS_WGSL`]) and on the CPU, with the 8-bit channel packing the
+//! direction, in WGSL (the module `voxel/pairs`) and on the CPU, with the 8-bit channel packing the
 //! anisotropic values use.
-
-/// WGSL: `pair_along(d, j)`, the octants composited front to back per travel direction by
-/// every anisotropic voxel kernel (CPU twin: [`pair_along`]).
-pub const PAIRS_WGSL: &str = include_str!("pairs.wgsl");
 
 /// The four 8-bit channels of a packed word.
 pub fn unpack_u8(w: u32) -> [u32; 4] {

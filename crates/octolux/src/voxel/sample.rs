@@ -21,19 +21,37 @@ pub(crate) fn trilinear(f: Vec3, mut texel: impl FnMut(UVec3) -> Vec4) -> Vec4 {
     sum
 }
 
-/// Runs a `probe` kernel (`source`, one invocation per point, 64 wide) that samples a voxel
-/// structure at `points` travelling along `dirs`: `fixed` are the structure's bindings, and the
-/// points, directions and an output of one `vec4<f32>` per point follow at the next three
-/// bindings. Returns the samples (GPU side of the CPU-twin tests).
+/// Runs a kernel (one invocation per point) that evaluates the WGSL expression `sample` of the
+/// point `q` (xyz position, w footprint) and the direction `d` (xyz, w the caller's flag) at
+/// `points` and `dirs`, with `imports` (the sampler modules it calls) and `fixed` (their
+/// bindings). Returns the samples (GPU side of the CPU-twin tests).
 pub(crate) fn run_directional_probe(
     ctx: &crate::gpu::GpuContext,
     owner: &str,
-    source: &str,
-    fixed: &[(u32, &wgpu::Buffer)],
+    (imports, sample): (&str, &str),
+    fixed: &[(u32, wgpu::BindingResource)],
     points: &[Vec4],
     dirs: &[Vec4],
 ) -> crate::Result<Vec<Vec4>> {
-    let module = ctx.shader(owner, source);
+    let kernel = format!(
+        "{imports}
+@group(0) @binding(0) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> dirs: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> samples: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
+    if id.x >= arrayLength(&points) {{
+        return;
+    }}
+    let q = points[id.x];
+    let d = dirs[id.x];
+    samples[id.x] = {sample};
+}}
+"
+    );
+    let source = crate::gpu::shader::compose_text(owner, &kernel, &[], &[])?;
+    let module = ctx.shader(owner, &source);
     let pipeline = ctx.compute_pipeline(owner, &module, "probe");
     let storage = wgpu::BufferUsages::STORAGE;
     let input = ctx.create_buffer_init(owner, "points", bytemuck::cast_slice(points), storage);
@@ -49,10 +67,13 @@ pub(crate) fn run_directional_probe(
             mapped_at_creation: false,
         },
     );
-    let next = fixed.len() as u32;
-    let mut buffers = fixed.to_vec();
-    buffers.extend([(next, &input), (next + 1, &dir_buffer), (next + 2, &out)]);
-    let group = crate::gpu::pass::bind_buffers(ctx, &pipeline, &buffers);
+    let mut entries = fixed.to_vec();
+    entries.extend([
+        (0, input.as_entire_binding()),
+        (1, dir_buffer.as_entire_binding()),
+        (2, out.as_entire_binding()),
+    ]);
+    let group = crate::gpu::pass::bind(ctx, &pipeline, &entries);
     let mut timer = crate::gpu::PassTimer::new(ctx);
     timer.pass(owner, |encoder, stamps| {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

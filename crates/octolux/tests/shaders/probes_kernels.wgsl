@@ -1,5 +1,8 @@
 // Test kernels: the lattice and the BVH traversal on the GPU, for their CPU twins.
 
+import octolux::gi::probes::lattice::lattice_dir;
+import octolux::gi::probes::bvh::{bvh_closest, bvh_hit_normal, BVH_MISS, bvh_occluded};
+
 struct TestParams {
     // x: lattice kind, y: directions, z: rays
     misc: vec4<u32>,
@@ -7,13 +10,11 @@ struct TestParams {
     roots: vec4<u32>,
 };
 
+// The BVH's nodes, triangles and instances are bvh.wgsl's bindings (2 to 4).
 @group(0) @binding(0) var<storage, read> T: TestParams;
-@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> bvh_tris: array<BvhTri>;
 // Per ray: (origin, t_max), (direction, 0).
-@group(0) @binding(3) var<storage, read> rays: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read_write> out: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read> bvh_instances: array<BvhInstance>;
+@group(0) @binding(6) var<storage, read> rays: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read_write> out: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn dirs(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -1,6 +1,9 @@
 // Test kernel: the voxel rays' lattice ends and hits on the GPU, for their CPU twins.
 
 // Per ray: (origin, t_max), (direction, 0).
+
+import octolux::gi::probes::voxel_rays::{voxel_closest, voxel_ray};
+
 @group(0) @binding(5) var<storage, read> rays: array<vec4<f32>>;
 // Per ray: a (xyz, w = meets the grid), b, (voxel, albedo bits), (t, normal), (emission, 0).
 @group(0) @binding(6) var<storage, read_write> out: array<vec4<u32>>;

@@ -10,8 +10,8 @@
 // their order, so every adapter gets the same volume. `resolve_light` and `combine_gv` turn the
 // sums back into floats for propagation.
 
-import package::frame::common::{Camera, PI, world_from_depth};
-import package::gi::lpv::sh::{Grid, Grids, sh_lobe};
+import octolux::frame::common::{Camera, PI, world_from_depth};
+import octolux::gi::lpv::sh::{Grid, Grids, sh_lobe};
 
 // Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or
 // loop bounds depend on a small uniform block every time its pipeline is bound.

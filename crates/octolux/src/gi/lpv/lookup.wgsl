@@ -4,8 +4,8 @@
 // contains the point wins, blended towards the next coarser one over `blend` cells at its
 // border.
 
-import package::frame::common::{Camera, world_from_depth};
-import package::gi::lpv::sh::{Grid, Grids, LOOKUP_OFFSET, sh_lobe};
+import octolux::frame::common::{Camera, world_from_depth};
+import octolux::gi::lpv::sh::{Grid, Grids, LOOKUP_OFFSET, sh_lobe};
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 // Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or

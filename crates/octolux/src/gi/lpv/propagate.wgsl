@@ -4,8 +4,8 @@
 // it crossed the face and a Lambertian lobe about the face normal, mixed by `directional`),
 // writes the result and adds it to the accumulation buffer.
 
-import package::frame::common::PI;
-import package::gi::lpv::sh::{
+import octolux::frame::common::PI;
+import octolux::gi::lpv::sh::{
     FRONT_SOLID_ANGLE, Grid, LOBE_C0, LOBE_C1, SH_C0, SH_C1, SIDE_SOLID_ANGLE, sh_basis, sh_lobe,
 };
 

@@ -1,6 +1,6 @@
 //! Rays without ray-tracing hardware: a binary BVH over world triangles, built on the CPU with
 //! binned SAH, flattened depth-first into one storage buffer and traversed in WGSL
-//! ([`BVH_WGSL`]) with the same steps as [`Bvh::closest`] here.
+//! (`bvh.wgsl`, the module `gi/probes/bvh`) with the same steps as [`Bvh::closest`] here.
 //!
 //! Layout ([`GpuNode`], two `vec4` per node): bounds, and in the `w`s either (right child, 0)
 //! for an inner node, whose left child is the next node, or (first triangle, count) for a leaf.
@@ -16,11 +16,6 @@
 
 use crate::voxel::VoxelTriangle;
 use glam::Vec3;
-
-/// WGSL: `bvh_closest(root, o, d, t_max) -> BvhHit` and `bvh_occluded(root, o, d, t_max)`
-/// over `bvh_nodes: array<BvhNode>` and `bvh_tris: array<BvhTri>`, which the includer
-/// declares. CPU twin: [`Bvh::closest`], [`Bvh::occluded`].
-pub const BVH_WGSL: &str = include_str!("bvh.wgsl");
 
 /// Most triangles in a leaf.
 const LEAF_MAX: usize = 4;

@@ -1,6 +1,6 @@
 // BVH traversal (gi/probes/bvh.rs, whose `Bvh::closest`, `Bvh::occluded` and
-// `SceneBvh::closest` are the CPU twins, step for step). The includer declares
-//   bvh_nodes: array<BvhNode>, bvh_tris: array<BvhTri>, bvh_instances: array<BvhInstance>
+// `SceneBvh::closest` are the CPU twins, step for step). Its bindings (group 0, 2 to 4) are
+// the nodes, triangles and instances (`gi/probes/bvh.rs`, `BVH_BINDINGS`).
 // Nodes: inner (b == 0): left child = this + 1, right child = a; leaf: triangles a .. a + b.
 // A two-level BVH: the static objects' BVH in world space, and one BVH per animated object
 // in its model space, traversed with the ray moved into that space by the object's
@@ -43,6 +43,10 @@ struct BvhInstance {
     pad0: u32,
     pad1: u32,
 };
+
+@group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
+@group(0) @binding(4) var<storage, read> bvh_instances: array<BvhInstance>;
 
 const BVH_MISS: u32 = 0xffffffffu;
 const BVH_STACK: u32 = 42u; // MAX_DEPTH + 2 in bvh.rs

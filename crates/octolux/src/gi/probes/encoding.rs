@@ -15,10 +15,6 @@
 
 use glam::Vec3;
 
-/// WGSL: `probe_encode(kind, coeffs, l, dir, dw)` and `probe_irradiance(kind, coeffs, n)` on
-/// `array<vec3<f32>, 8>`; CPU twins [`Encoding::project`], [`Encoding::irradiance`].
-pub const ENCODING_WGSL: &str = include_str!("encoding.wgsl");
-
 /// Coefficients per probe.
 pub const COEFFS: usize = 8;
 

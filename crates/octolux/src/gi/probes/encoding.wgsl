@@ -3,6 +3,8 @@
 // facet normal k, blended trilinearly on the cube of facet normals); kind 1: SH L1 of radiance,
 // irradiance by the cosine lobe's band factors.
 
+import octolux::frame::common::PI;
+
 const SH_Y0: f32 = 0.282095;
 const SH_Y1: f32 = 0.488603;
 const INV_SQRT3: f32 = 0.57735027;

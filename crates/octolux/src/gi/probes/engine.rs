@@ -3,10 +3,10 @@
 //! gather, over a *probe set* that says where the probes are, which are live, which to
 //! (re)place and how a point reads them:
 //! the uniform grid (grid.wgsl, grid_sample.wgsl) or the octree (octree_set.wgsl,
-//! octree_sample.wgsl, with its buffers in bind group 1).
+//! octree_sample.wgsl, with its buffers in bind group 1). Each pass is a WGSL module that
+//! imports the set as `gi/probes/set` (and `set_sample`) and the ray structure as
+//! `gi/probes/rays`; the technique says which modules those are ([`ProbeSetModules`]).
 
-use super::encoding::ENCODING_WGSL;
-use super::lattice::LATTICE_WGSL;
 use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
 use super::params::{storage, ProbeParams};
 use super::rays::Rays;
@@ -14,7 +14,7 @@ use super::ProbeSettings;
 use crate::frame::light_bindings;
 use crate::gi::GiFrame;
 use crate::gpu::pass::dispatch_size;
-use crate::gpu::shader::library_shader_parts;
+use crate::gpu::shader::{library_shader_with, module_source};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -26,11 +26,19 @@ pub const PROBE_VEC4: u64 = 9;
 /// `vec4`s per surfel in the surfel buffer (`SURFEL_VEC4` in probes.wgsl).
 pub const SURFEL_VEC4: u64 = 3;
 
-/// A probe set's WGSL: what every pass includes (positions, liveness, placement), and what
-/// the passes that read probes include (`probes_irradiance`).
-pub(crate) struct ProbeSetWgsl {
-    pub set: &'static [&'static str],
-    pub sample: &'static [&'static str],
+/// A probe set's WGSL modules: the one every pass imports as `gi/probes/set` (positions,
+/// liveness, placement), the one the passes that read probes import as
+/// `gi/probes/set_sample` (`probes_irradiance`), and the bindings of the tree its functions
+/// read (`gi/probes/tree_bindings`; the octree's).
+pub(crate) struct ProbeSetModules {
+    pub set: &'static str,
+    pub sample: &'static str,
+    pub tree: Option<&'static str>,
+}
+
+/// The source of the library module `path` (one of [`crate::gpu::shader::MODULES`]).
+pub(crate) fn module(path: &str) -> &'static str {
+    module_source(path).unwrap_or_else(|| panic!("internal shader error: no module {path}"))
 }
 
 /// Where the probes sit, as the shared parameters hold it.
@@ -140,7 +148,7 @@ impl ProbeEngine {
         scene: &crate::scene::Scene,
         (width, height): (u32, u32),
         layout: &ProbeLayout,
-        set: &ProbeSetWgsl,
+        set: &ProbeSetModules,
     ) -> Result<ProbeEngine> {
         let bounds = scene.bounds_at(0.0);
         let animated_objects = scene
@@ -192,31 +200,18 @@ impl ProbeEngine {
             "params",
             std::mem::size_of::<ProbeParams>() as u64,
         )?;
-        let pipeline = |name: &str, pass: &str, extra: &[&str], sample: bool| {
-            // Fragments pasted together; a part that imports modules goes through wesl.
-            let mut parts = vec![
-                include_str!("../../frame/common.wgsl"),
-                LATTICE_WGSL,
-                ENCODING_WGSL,
-                include_str!("probes.wgsl"),
-            ];
-            parts.extend(set.set);
-            if sample {
-                parts.push(include_str!("probe_values.wgsl"));
-                parts.push(include_str!("moments.wgsl"));
-                parts.extend(set.sample);
-            }
-            parts.extend(extra);
-            parts.push(pass);
-            let source = parts.join("\n");
-            let module = match source.lines().any(|l| l.starts_with("import ")) {
-                true => ctx.shader(name, &library_shader_parts(name, &parts)),
-                false => ctx.shader(name, &source),
-            };
+        // Each pass over this set and ray structure.
+        let mut modules = vec![
+            ("gi/probes/set", module(set.set)),
+            ("gi/probes/set_sample", module(set.sample)),
+            ("gi/probes/rays", module(rays.place_module())),
+        ];
+        modules.extend(set.tree.map(|t| ("gi/probes/tree_bindings", module(t))));
+        let pipeline = |name: &str, pass: &str| {
+            let module = ctx.shader(name, &library_shader_with(pass, &[], &modules));
             ctx.compute_pipeline(name, &module, "main")
         };
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
-        let place_wgsl = rays.place_wgsl();
         Ok(ProbeEngine {
             owner,
             settings: settings.clone(),
@@ -239,16 +234,11 @@ impl ProbeEngine {
             rays,
             moved: storage(ctx, owner, "moved boxes", animated_objects as u64 * 2 * 32)?,
             stamps: storage(ctx, owner, "probe stamps", probes as u64 * 4)?,
-            place: pipeline("place", include_str!("place.wgsl"), place_wgsl, false),
-            moments_build: pipeline(
-                "moments",
-                include_str!("moments_build.wgsl"),
-                &[include_str!("moments.wgsl")],
-                false,
-            ),
-            light: pipeline("light", include_str!("light.wgsl"), &[], true),
-            integrate: pipeline("integrate", include_str!("integrate.wgsl"), &[], false),
-            gather: pipeline("gather", include_str!("gather.wgsl"), &[], true),
+            place: pipeline("place", "gi/probes/place"),
+            moments_build: pipeline("moments", "gi/probes/moments_build"),
+            light: pipeline("light", "gi/probes/light"),
+            integrate: pipeline("integrate", "gi/probes/integrate"),
+            gather: pipeline("gather", "gi/probes/gather"),
             texture,
             view,
             size: (width, height),
@@ -432,18 +422,25 @@ impl ProbeEngine {
         timer: &mut PassTimer,
         set: Option<&wgpu::BindGroup>,
     ) {
-        let group = bind(
+        let group = bind_at(
             ctx,
             "gather",
             &self.gather,
+            0,
             &[
-                buf(&self.params_buffer),
-                buf(&self.probes),
-                buf(frame.camera_uniform),
-                wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
-                wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
-                wgpu::BindingResource::TextureView(&self.view),
-                buf(&self.moments),
+                (0, buf(&self.params_buffer)),
+                (1, buf(frame.camera_uniform)),
+                (
+                    2,
+                    wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
+                ),
+                (3, buf(&self.probes)),
+                (
+                    4,
+                    wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
+                ),
+                (5, wgpu::BindingResource::TextureView(&self.view)),
+                (8, buf(&self.moments)),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();

@@ -1,12 +1,14 @@
 // Pixel gather: the indirect irradiance of every G-buffer pixel from the probes around it.
 
-@group(0) @binding(0) var<storage, read> P: ProbeParams;
-@group(0) @binding(1) var<storage, read> probes: array<vec4<f32>>;
-@group(0) @binding(2) var<uniform> cam: Camera;
-@group(0) @binding(3) var depth_tex: texture_depth_2d;
+import octolux::frame::common::{Camera, world_from_depth};
+import octolux::gi::probes::set_sample::probes_irradiance;
+
+// The probes (3) and their depth moments (8) are the sampler's bindings (probe_values.wgsl,
+// moments.wgsl).
+@group(0) @binding(1) var<uniform> cam: Camera;
+@group(0) @binding(2) var depth_tex: texture_depth_2d;
 @group(0) @binding(4) var normal_tex: texture_2d<f32>;
 @group(0) @binding(5) var out_tex: texture_storage_2d<rgba16float, write>;
-@group(0) @binding(6) var<storage, read> moments: array<vec2<f32>>;
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {

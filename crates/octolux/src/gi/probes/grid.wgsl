@@ -1,6 +1,8 @@
 // The probe set of `probes-grid` (gi/probes/grid_gi.rs): probes at the cell centres of a uniform
 // grid; every probe is live and re-placed whenever placement runs.
 
+import octolux::gi::probes::probes::P;
+
 fn probe_coord(probe: u32) -> vec3<u32> {
     let d = P.dims.xyz;
     return vec3<u32>(probe % d.x, (probe / d.x) % d.y, probe / (d.x * d.y));

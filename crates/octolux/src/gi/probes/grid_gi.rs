@@ -4,7 +4,7 @@
 
 use super::encoding::COEFFS;
 use super::engine::{
-    facing_weight, moved_boxes, ProbeEngine, ProbeLayout, ProbeSetWgsl, PROBE_VEC4,
+    facing_weight, moved_boxes, ProbeEngine, ProbeLayout, ProbeSetModules, PROBE_VEC4,
 };
 use super::lattice::direction;
 use super::moments::MomentMaps;
@@ -159,9 +159,10 @@ impl ProbesGrid {
             cell: grid.spacing.min_element(),
             probes: grid.count(),
         };
-        let set = ProbeSetWgsl {
-            set: &[include_str!("grid.wgsl")],
-            sample: &[include_str!("grid_sample.wgsl")],
+        let set = ProbeSetModules {
+            set: "gi/probes/grid",
+            sample: "gi/probes/grid_sample",
+            tree: None,
         };
         let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         Ok(ProbesGrid {

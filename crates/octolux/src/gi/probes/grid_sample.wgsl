@@ -1,5 +1,10 @@
-// Irradiance from the probe grid (probes.wgsl and grid.wgsl go before it). The includer
-// declares `probes: array<vec4<f32>>`.
+// Irradiance from the probe grid (`gi/probes/set_sample` of `probes-grid`).
+
+import octolux::gi::probes::probes::{P, probe_facing_weight};
+import octolux::gi::probes::set::probe_position;
+import octolux::gi::probes::probe_values::{probe_coeffs, probe_valid};
+import octolux::gi::probes::moments::probe_visibility;
+import octolux::gi::probes::encoding::probe_irradiance;
 
 // Irradiance at p (unit normal n) from the 8 probes around p + bias n: trilinear weights times
 // the back-face weight for the direction to the probe; probes inside geometry (too many

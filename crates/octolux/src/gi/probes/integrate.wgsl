@@ -2,7 +2,11 @@
 // lattice direction, into its encoding, and counts its back-face and total hits and the hits
 // inside its region (the octree's hit count).
 
-@group(0) @binding(0) var<storage, read> P: ProbeParams;
+import octolux::gi::probes::probes::{linear_index, P, PROBE_VEC4, SURFEL_VEC4};
+import octolux::gi::probes::set::{probe_live, probe_store_hits};
+import octolux::gi::probes::encoding::probe_encode;
+import octolux::gi::probes::lattice::lattice_dir;
+
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> probes: array<vec4<f32>>;

@@ -6,14 +6,10 @@
 //! coordinates of eq. 2.2, `(sin t cos p, cos t, sin t sin p)`.
 //!
 //! Angles are reduced to [-pi, pi) before `sin`/`cos` with the same f32 steps on the CPU and
-//! in [`LATTICE_WGSL`], because WGSL only bounds the error of `sin`/`cos` on that interval
+//! in `lattice.wgsl` (the module `gi/probes/lattice`), because WGSL only bounds the error of `sin`/`cos` on that interval
 //! (absolute 2^-11), and a Fibonacci angle `g (i + 1/2)` reaches thousands of radians.
 
 use glam::Vec3;
-
-/// WGSL: `lattice_dir(kind, k, n) -> vec4<f32>` (unit direction, solid angle) with
-/// `kind` 0 = Fibonacci, 1 = lat-long. CPU twin: [`direction`].
-pub const LATTICE_WGSL: &str = include_str!("lattice.wgsl");
 
 /// Parallels of the latitude-longitude lattice (`004` §4.1.1: 8 x 8 and 8 x 16).
 pub const PARALLELS: u32 = 8;

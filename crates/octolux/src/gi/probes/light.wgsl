@@ -4,13 +4,14 @@
 // the previous frame at the surfel. Back faces and misses send no light (the sky seen directly
 // is the direct pass's).
 
-import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+import octolux::frame::common::PI;
+import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
+import octolux::gi::probes::set::probe_live;
+import octolux::gi::probes::set_sample::probes_irradiance;
 
-@group(0) @binding(0) var<storage, read> P: ProbeParams;
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> radiance: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> probes: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read> moments: array<vec2<f32>>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,

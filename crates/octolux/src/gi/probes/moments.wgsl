@@ -1,10 +1,14 @@
 // Depth moments per probe (gi/probes/moments.rs): a MOMENT_RES x MOMENT_RES octahedral map of
 // the mean distance and mean squared distance of the probe's surfels, and DDGI's Chebyshev
-// visibility of a point from a probe. The includer of `probe_visibility` declares
-// `moments: array<vec2<f32>>` (MOMENT_TEXELS per probe).
+// visibility of a point from a probe, which reads the maps at binding 8 (MOMENT_TEXELS per
+// probe; the pass that builds them writes through its own binding).
+
+import octolux::gi::probes::probes::P;
 
 const MOMENT_RES: u32 = 8u;
 const MOMENT_TEXELS: u32 = 64u;
+
+@group(0) @binding(8) var<storage, read> moments: array<vec2<f32>>;
 
 // Octahedral map of unit d onto [-1, 1]^2 (+z on the inner diamond).
 fn oct_encode(d: vec3<f32>) -> vec2<f32> {

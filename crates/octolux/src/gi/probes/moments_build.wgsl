@@ -6,9 +6,13 @@
 // the texel's direction t and the surfel's lattice direction d. Each invocation writes its
 // own texel: no atomics.
 
-@group(0) @binding(0) var<storage, read> P: ProbeParams;
+import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
+import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
+import octolux::gi::probes::lattice::lattice_dir;
+import octolux::gi::probes::set::probe_wants_place;
+
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> moments: array<vec2<f32>>;
+@group(0) @binding(2) var<storage, read_write> moments_out: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read> probe_stamps: array<u32>;
 
 @compute @workgroup_size(64)
@@ -34,5 +38,5 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         total += w;
     }
     let far = vec2<f32>(P.lo.w, P.lo.w * P.lo.w);
-    moments[id] = select(far, sum / total, total > 0.0);
+    moments_out[id] = select(far, sum / total, total > 0.0);
 }

@@ -5,8 +5,10 @@
 // (one invocation per node: the moved-geometry test, L1 leaves ask for surfels) and, after
 // the surfels are placed and counted, `light_decide` (the split/free rule).
 
-@group(0) @binding(0) var<storage, read> O: OctreeParams;
-@group(0) @binding(1) var<storage, read_write> tree: array<i32>;
+import octolux::gi::probes::octree_tree::{octree_cube, octree_meta};
+import octolux::gi::probes::tree_bindings::{O, tree};
+
+// The parameters and the tree (bindings 0, 1) are octree_tree_write.wgsl's.
 // Per probe slot: position and depth, or (0, 0, 0, -1) when free.
 @group(0) @binding(2) var<storage, read_write> probe_info: array<vec4<f32>>;
 // Per probe slot: 1 = place its surfels this frame.

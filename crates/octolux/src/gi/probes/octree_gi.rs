@@ -10,14 +10,15 @@
 
 use super::encoding::COEFFS;
 use super::engine::{
-    bind_at, buf, facing_weight, moved_boxes, run_pass, ProbeEngine, ProbeLayout, ProbeSetWgsl,
-    PROBE_VEC4,
+    bind_at, buf, facing_weight, module, moved_boxes, run_pass, ProbeEngine, ProbeLayout,
+    ProbeSetModules, PROBE_VEC4,
 };
 use super::moments::MomentMaps;
 use super::octree::{OctreeProbe, OctreeRule, State};
 use super::params::storage;
 use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::shader::library_shader_with;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -38,8 +39,6 @@ struct OctreeParams {
 }
 
 /// The WGSL of the octree's encoding, shared by the state machine and the probe set.
-const TREE_WGSL: &str = include_str!("octree_tree.wgsl");
-
 /// The probe octree in GPU buffers and the passes of its state machine.
 pub struct GpuOctree {
     rule: OctreeRule,
@@ -106,10 +105,15 @@ impl GpuOctree {
             frame: [0, 0, rule.free_below(), rule.split_from()],
             modes: [0, 0, 0, rule.min_depth],
         };
-        let module = ctx.shader(
-            "probes octree",
-            &[TREE_WGSL, include_str!("octree.wgsl")].join("\n"),
+        let source = library_shader_with(
+            "gi/probes/octree",
+            &[],
+            &[(
+                "gi/probes/tree_bindings",
+                module("gi/probes/octree_tree_write"),
+            )],
         );
+        let module = ctx.shader("probes octree", &source);
         let zeros = |n: usize| vec![0u8; 4 * n];
         Ok(GpuOctree {
             rule,
@@ -459,9 +463,10 @@ impl ProbesOctree {
             cell: size * 2f32.powi(-(rule.max_depth as i32)),
             probes: octree.capacity(),
         };
-        let set = ProbeSetWgsl {
-            set: &[TREE_WGSL, include_str!("octree_set.wgsl")],
-            sample: &[include_str!("octree_sample.wgsl")],
+        let set = ProbeSetModules {
+            set: "gi/probes/octree_set",
+            sample: "gi/probes/octree_sample",
+            tree: Some("gi/probes/octree_tree_read"),
         };
         let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits.

@@ -1,5 +1,13 @@
-// Irradiance from the probe octree (probes.wgsl, octree_tree.wgsl, octree_set.wgsl and
-// probe_values.wgsl go before it). CPU twin: `OctreeView::irradiance` in octree_gi.rs.
+// Irradiance from the probe octree (`gi/probes/set_sample` of `probes-octree`). CPU twin:
+// `OctreeView::irradiance` in octree_gi.rs.
+
+import octolux::gi::probes::probes::{P, probe_facing_weight};
+import octolux::gi::probes::octree_tree::octree_leaf;
+import octolux::gi::probes::tree_bindings::{O, tree};
+import octolux::gi::probes::set::{probe_edge, probe_info, probe_live};
+import octolux::gi::probes::probe_values::{probe_coeffs, probe_valid};
+import octolux::gi::probes::moments::probe_visibility;
+import octolux::gi::probes::encoding::probe_irradiance;
 
 // Through the octree: at q = p + bias n, the leaves holding the 8 corners of a box of the
 // size of q's leaf around q; their probes are blended with tent weights (radius: the larger of

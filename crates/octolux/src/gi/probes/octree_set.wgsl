@@ -1,10 +1,10 @@
 // The probe set of `probes-octree` (gi/probes/octree_gi.rs): one probe at the centre of each
 // leaf that holds one; a probe's surfels are placed when the state machine asks for them (or
-// every frame while objects move and surfels beyond the cube are kept). The includer declares
-// `P: ProbeParams`; octree_tree.wgsl goes with it.
+// every frame while objects move and surfels beyond the cube are kept). Composed in as
+// `gi/probes/set`, with octree_tree_read.wgsl as the tree's bindings.
 
-@group(1) @binding(0) var<storage, read> O: OctreeParams;
-@group(1) @binding(1) var<storage, read> tree: array<i32>;
+import octolux::gi::probes::tree_bindings::O;
+
 @group(1) @binding(2) var<storage, read> probe_info: array<vec4<f32>>;
 @group(1) @binding(3) var<storage, read> place_flags: array<u32>;
 @group(1) @binding(4) var<storage, read_write> hits: array<u32>;

@@ -1,20 +1,9 @@
 // The probe octree's encoding (gi/probes/octree.rs, `ProbeOctree`): shared by the state
-// machine (octree.wgsl) and the probe set (octree_set.wgsl). The includer declares
-// `O: OctreeParams` and `tree: array<i32>`.
+// machine (octree.wgsl) and the probe set (octree_set.wgsl). Its bindings (`O`, `tree`) are
+// composed in as `gi/probes/tree_bindings`: written by the state machine
+// (octree_tree_write.wgsl), read by the probe set (octree_tree_read.wgsl).
 
-struct OctreeParams {
-    // xyz: lower corner of the root cube; w: its edge
-    root: vec4<f32>,
-    // x: words in the tree buffer, y: probe slots, z: clusters, w: deepest level
-    sizes: vec4<u32>,
-    // x: ring origin of this frame, y: moved boxes, z: hits below which a probe is freed,
-    // w: hits from which a leaf splits
-    frame: vec4<u32>,
-    // x: 1 = surfels beyond the probe's cube are kept (lit, not counted), y: gather 0 through
-    // the octree, 1 over all probes, z: 1 = place every live probe this frame, w: levels
-    // complete down to this depth (`OctreeRule::min_depth`)
-    modes: vec4<u32>,
-};
+import octolux::gi::probes::tree_bindings::{O, tree};
 
 struct Cube {
     lo: vec3<f32>,

@@ -1,7 +1,8 @@
 // Surfel placement: one ray per surfel from its probe along its lattice direction; the
 // closest hit becomes the surfel (position, normal facing the probe, albedo, emission),
 // marked front or back face, or a miss. The ray structure (place_bvh.wgsl or
-// place_voxels.wgsl, gi/probes/rays.rs) provides `surfel_hit` and its bindings from 2 on.
+// place_voxels.wgsl, gi/probes/rays.rs, composed in as `gi/probes/rays`) provides
+// `surfel_hit` and its bindings.
 // Only probes the probe set asks for are placed; a hit beyond the probe's region (the
 // octree's cube) is marked by a negative distance, or is a miss where the set keeps no far
 // hits. With P.limits.w set (surfels placed by an earlier frame, objects moved since), a
@@ -9,7 +10,11 @@
 // of the moved objects' old and new boxes keeps its hit: only the rays that may have changed
 // are traced again.
 
-@group(0) @binding(0) var<storage, read> P: ProbeParams;
+import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
+import octolux::gi::probes::lattice::lattice_dir;
+import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_wants_place};
+import octolux::gi::probes::rays::surfel_hit;
+
 @group(0) @binding(1) var<storage, read_write> surfels: array<vec4<f32>>;
 // Per moved box: (lower corner, 0), (upper corner, 0).
 @group(0) @binding(7) var<storage, read> moved_boxes: array<vec4<f32>>;
@@ -32,16 +37,6 @@ fn segment_meets_moved(a: vec3<f32>, b: vec3<f32>) -> bool {
     }
     return false;
 }
-
-// What a ray structure reports for a surfel ray: distance (negative: no hit), the surface's
-// normal as stored (not turned towards the ray; zero: none, the surface counts as seen
-// head-on), packed RGBA8 albedo, emission.
-struct SurfelHit {
-    t: f32,
-    normal: vec3<f32>,
-    albedo: u32,
-    emission: vec3<f32>,
-};
 
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,

@@ -1,9 +1,8 @@
 // Surfel rays through the scene's two-level BVH (`rays = "bvh"`, bvh.wgsl): the closest
 // triangle, its geometric normal, albedo and emission; exact.
 
-@group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
-@group(0) @binding(4) var<storage, read> bvh_instances: array<BvhInstance>;
+import octolux::gi::probes::probes::{P, SurfelHit};
+import octolux::gi::probes::bvh::{bvh_closest, bvh_hit_normal, BVH_MISS, bvh_tris};
 
 fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
     let hit = bvh_closest(P.roots.xy, o, d, t_max);

@@ -4,6 +4,9 @@
 // the ray meets the plane through the voxel's centre with that normal, kept inside the
 // voxel. No BVH is built; the result is exact only to a voxel.
 
+import octolux::gi::probes::probes::SurfelHit;
+import octolux::gi::probes::voxel_rays::{voxel_closest, voxel_ray};
+
 fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
     let hit = voxel_closest(o, d, voxel_ray(o, d, t_max));
     return SurfelHit(hit.t, hit.normal, hit.albedo, hit.emission);

@@ -1,4 +1,9 @@
-// A probe's stored values; the includer declares `probes: array<vec4<f32>>`.
+// A probe's stored values, read at binding 3 by the passes that sample the probes (the
+// integration writes them through its own binding).
+
+import octolux::gi::probes::probes::PROBE_VEC4;
+
+@group(0) @binding(3) var<storage, read> probes: array<vec4<f32>>;
 
 fn probe_coeffs(probe: u32) -> array<vec3<f32>, 8> {
     let b = probe * PROBE_VEC4;

@@ -1,6 +1,7 @@
-// What every probe pass shares (gi/probes/passes.rs): the parameters, the buffer layouts. The
-// includer declares `P: ProbeParams`; a probe set (grid.wgsl or octree_set.wgsl) follows
-// with the probes' positions and the irradiance lookup.
+// What every probe pass shares (gi/probes/engine.rs): the parameters (binding 0 of every
+// pass), the buffer layouts, what a ray structure reports. A probe set (grid.wgsl or
+// octree_set.wgsl, composed in as `gi/probes/set`, with its irradiance lookup as
+// `gi/probes/set_sample`) gives the probes' positions.
 
 struct ProbeParams {
     // xyz: lower corner of the scene's box; w: max ray distance
@@ -21,6 +22,19 @@ struct ProbeParams {
     vis: vec4<f32>,
     // x: this frame's number (1, 2, ...), which placement stamps on the probes it re-traces
     frame: vec4<u32>,
+};
+
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> P: ProbeParams;
+
+// What a ray structure reports for a surfel ray: distance (negative: no hit), the surface's
+// normal as stored (not turned towards the ray; zero: none, the surface counts as seen
+// head-on), packed RGBA8 albedo, emission.
+struct SurfelHit {
+    t: f32,
+    normal: vec3<f32>,
+    albedo: u32,
+    emission: vec3<f32>,
 };
 
 // Words (vec4) per probe: 8 encoding coefficients, then (back-face share, hit share, valid, 0).

@@ -12,7 +12,7 @@
 //!
 //! docs/probes.md compares the two on the same scenes.
 
-use super::bvh::{GpuInstance, SceneBvh, BVH_WGSL};
+use super::bvh::{GpuInstance, SceneBvh};
 use super::params::{storage, ProbeParams};
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
@@ -43,9 +43,6 @@ impl std::str::FromStr for RayBackend {
         }
     }
 }
-
-/// WGSL of the voxel rays' functions (`voxel_ray`, `voxel_closest`), after the walk's.
-pub const VOXEL_RAYS_WGSL: &str = include_str!("voxel_rays.wgsl");
 
 /// Root of an absent static BVH.
 const NO_ROOT: u32 = u32::MAX;
@@ -137,12 +134,12 @@ impl Rays {
         }
     }
 
-    /// What the placement pass (`place.wgsl`) includes for this structure: its bindings
-    /// (from 2 on) and `surfel_hit`.
-    pub fn place_wgsl(&self) -> &'static [&'static str] {
+    /// The module the placement pass (`place.wgsl`) imports as `gi/probes/rays` for this
+    /// structure: its `surfel_hit` (and, through its imports, its bindings).
+    pub fn place_module(&self) -> &'static str {
         match self {
-            Rays::Bvh(_) => &[BVH_WGSL, include_str!("place_bvh.wgsl")],
-            Rays::Voxels(_) => &[VOXEL_RAYS_WGSL, include_str!("place_voxels.wgsl")],
+            Rays::Bvh(_) => "gi/probes/place_bvh",
+            Rays::Voxels(_) => "gi/probes/place_voxels",
         }
     }
 

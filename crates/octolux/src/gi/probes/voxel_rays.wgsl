@@ -1,10 +1,9 @@
 // Rays through the scene's sparse voxel octree (`rays = "voxels"`): the ray clipped to the
 // octree's grid and turned into lattice ends for the VPL technique's integer walk
-// (voxel/svo/walk.wgsl, which goes before this file), and the surfel of the first occupied voxel
-// it meets. The includer declares the walk's buffers (`vo`, `svo_child`, `svo_leaf`,
-// `svo_state`, `svo_dyn_sums`). CPU twin: `rays::voxel_surfel`.
+// (voxel/svo/walk.wgsl, whose bindings it reads), and the surfel of the first occupied voxel
+// it meets. CPU twin: `rays::voxel_surfel`.
 
-import package::voxel::svo::walk::{SVO_EMISSION_SCALE, svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+import octolux::voxel::svo::walk::{SVO_EMISSION_SCALE, svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
 
 // The ray o + t d, t in [0, t_max], clipped to the octree's grid: (t_in, t_out), empty when
 // t_in > t_out.

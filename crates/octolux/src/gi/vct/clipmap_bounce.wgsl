@@ -7,6 +7,13 @@
 // wrapped to new voxels as the clipmap scrolled, regions moving objects left or entered), so
 // no voxel starts with another voxel's bounce.
 
+import octolux::gi::vct::cone::march_cone;
+import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
+import octolux::gi::vct::trace::trace;
+import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
+import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+import octolux::gi::vct::structure::vct_surface_voxel;
+
 // x: voxel slots (levels * res^3)
 struct BounceParams {
     misc: vec4<u32>,
@@ -41,7 +48,7 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let nn = normalize(n);
         // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to
         // half its size behind the surface it holds.
-        let voxel = max(vct_surface_voxel(p), size);
+        let voxel = max(vct_surface_voxel(p, trace.cone.voxel), size);
         var cone = trace.cone;
         cone.voxel = voxel;
         cone.start = trace.misc.x * voxel;

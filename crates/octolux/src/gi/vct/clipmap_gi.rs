@@ -5,13 +5,14 @@
 
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
-use super::tracer::ConeTracer;
+use super::tracer::{ConeTracer, TraceStructure};
 use super::{ClipmapInjection, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_1d;
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::clipmap::sample::CLIPMAP_BLEND_WGSL;
-use crate::voxel::clipmap::sample::{ClipInfo, CLIPMAP_RADIANCE_WGSL, CLIPMAP_SAMPLE_WGSL};
+use crate::voxel::clipmap::sample::{
+    clip_bindings, ClipInfo, CLIP_BINDINGS, CLIP_RADIANCE_BINDING,
+};
 use crate::voxel::clipmap::UpdateBox;
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use crate::voxel::{objects_triangles, scene_triangles_split, VoxelTriangle};
@@ -87,13 +88,11 @@ impl VctClipmap {
         let tracer = ConeTracer::new(
             ctx,
             OWNER,
-            &[
-                CLIPMAP_SAMPLE_WGSL,
-                CLIPMAP_BLEND_WGSL,
-                CLIPMAP_RADIANCE_WGSL,
-                include_str!("clipmap_trace.wgsl"),
-                include_str!("clipmap_bounce.wgsl"),
-            ],
+            TraceStructure {
+                trace: "gi/vct/clipmap_trace",
+                bounce: "gi/vct/clipmap_bounce",
+                features: Vec::new(),
+            },
             settings,
             settings.diffuse_cones(VctStructure::Clipmap),
             settings.bounce_cones(VctStructure::Clipmap),
@@ -103,6 +102,7 @@ impl VctClipmap {
         let bounce = settings.multi_bounce.then(|| {
             let res = settings.resolution as u64;
             let slots = settings.levels as u64 * res * res * res;
+            let module = tracer.bounce_module(ctx);
             ClipmapBounce {
                 irradiance: ctx.create_buffer(
                     OWNER,
@@ -113,8 +113,8 @@ impl VctClipmap {
                         mapped_at_creation: false,
                     },
                 ),
-                gather: tracer.bounce_pipeline(ctx, "bounce"),
-                clear: tracer.bounce_pipeline(ctx, "bounce_clear"),
+                gather: ctx.compute_pipeline("bounce", &module, "bounce"),
+                clear: ctx.compute_pipeline("bounce_clear", &module, "bounce_clear"),
                 params: ctx.create_buffer_init(
                     OWNER,
                     "bounce params",
@@ -178,7 +178,7 @@ impl VctClipmap {
                 layout: &layout,
                 entries: &[
                     wgpu::BindGroupEntry {
-                        binding: 3,
+                        binding: CLIP_BINDINGS,
                         resource: self.info.as_entire_binding(),
                     },
                     wgpu::BindGroupEntry {
@@ -314,11 +314,12 @@ impl GiTechnique for VctClipmap {
         self.tail.record(ctx, timer, &self.info, radiance);
         // 5. Multiple bounces: every voxel gathers indirect irradiance for the next frame.
         if let Some(b) = &self.bounce {
+            let [info, voxels] = clip_bindings(&self.info, &clipmap.voxels);
             let entries = [
-                (3, self.info.as_entire_binding()),
-                (4, radiance.as_entire_binding()),
+                info,
+                voxels,
+                (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
                 (5, self.tracer.bounce_params().as_entire_binding()),
-                (7, clipmap.voxels.as_entire_binding()),
                 (13, self.tail.buffer.as_entire_binding()),
                 (20, b.params.as_entire_binding()),
                 (21, clipmap.normals.as_entire_binding()),
@@ -339,8 +340,8 @@ impl GiTechnique for VctClipmap {
             frame,
             timer,
             &[
-                (3, self.info.as_entire_binding()),
-                (4, radiance.as_entire_binding()),
+                (CLIP_BINDINGS, self.info.as_entire_binding()),
+                (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
                 (13, self.tail.buffer.as_entire_binding()),
             ],
         );

@@ -11,7 +11,7 @@
 //! coarsest voxel (`clipmap_trace.wgsl`), quadrilinear between them.
 
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL;
+use crate::voxel::clipmap::sample::{CLIP_BINDINGS, CLIP_RADIANCE_BINDING};
 use glam::{IVec3, Vec4};
 
 /// The tail of a clipmap of `res` voxels per side: its levels k = 1..=K have `res >> k`
@@ -75,7 +75,7 @@ impl ClipmapTail {
                 )
             })
             .collect();
-        let source = [CLIPMAP_SAMPLE_WGSL, include_str!("clipmap_tail.wgsl")].join("\n");
+        let source = crate::gpu::shader::library_shader("gi/vct/clipmap_tail", &[]);
         let module = ctx.shader("clipmap tail", &source);
         let pipeline = ctx.compute_pipeline("clipmap tail", &module, "build_tail");
         ClipmapTail {
@@ -106,9 +106,9 @@ impl ClipmapTail {
                     layout: &layout,
                     entries: &[
                         (0, params.as_entire_binding()),
-                        (1, info.as_entire_binding()),
-                        (2, radiance.as_entire_binding()),
-                        (3, self.buffer.as_entire_binding()),
+                        (1, self.buffer.as_entire_binding()),
+                        (CLIP_BINDINGS, info.as_entire_binding()),
+                        (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
                     ]
                     .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
                 })

@@ -4,24 +4,21 @@
 // voxels of level k - 1 it covers (level 0: the coarsest clipmap level), premultiplied
 // radiance and opacity alike. CPU twin: `clipmap_tail::tail_cpu`.
 
+import octolux::voxel::clipmap::sample::{clip_info, clip_slot};
+import octolux::voxel::clipmap::radiance_sample::clip_radiance_voxel;
+
 struct TailParams {
     // x: k, y: res >> k (voxels per side), z: first slot of level k, w: first slot of k - 1
     misc: vec4<u32>,
 }
 
 @group(0) @binding(0) var<storage, read> tail_params: TailParams;
-@group(0) @binding(1) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(2) var<storage, read> clip_radiance: array<u32>;
-@group(0) @binding(3) var<storage, read_write> tail: array<u32>;
-// Declared for `clipmap/sample.wgsl`'s albedo path, which the tail does not read.
-@group(0) @binding(4) var<storage, read> clip_voxels: array<u32>;
+@group(0) @binding(1) var<storage, read_write> tail: array<u32>;
 
 fn tail_source(j: vec3<u32>) -> vec4<f32> {
     if tail_params.misc.x == 1u {
         let l = clip_info.misc.y - 1u;
-        let slot = clip_slot(l, clip_info.origins[l].xyz + vec3<i32>(j));
-        return vec4<f32>(unpack2x16float(clip_radiance[2u * slot]),
-                         unpack2x16float(clip_radiance[2u * slot + 1u]));
+        return clip_radiance_voxel(l, clip_info.origins[l].xyz + vec3<i32>(j));
     }
     let n = 2u * tail_params.misc.y;
     let slot = tail_params.misc.w + j.x + n * (j.y + n * j.z);

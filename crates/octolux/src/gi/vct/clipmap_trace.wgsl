@@ -1,12 +1,9 @@
-// The clipmap back-end of `trace.wgsl`: samples the clipmap's injected radiance.
+// The clipmap back-end of `trace.wgsl` (mounted as its `structure`): samples the clipmap's
+// injected radiance.
 
-@group(0) @binding(3) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(4) var<storage, read> clip_radiance: array<u32>;
-// Declared for the sampler's albedo path, which the gather does not read.
-@group(0) @binding(7) var<storage, read> clip_voxels: array<u32>;
-
-// Declared for the blending sampler's anisotropic path, which the gather does not read.
-@group(0) @binding(12) var<storage, read> clip_aniso: array<u32>;
+import octolux::voxel::clipmap::sample::{clip_contains, clip_corner, clip_info};
+import octolux::voxel::clipmap::radiance_sample::clip_radiance_level;
+import octolux::voxel::clipmap::blend::clip_blend_choice;
 
 // The clipmap's tail (`clipmap_tail.rs`): levels k = 1..=K of res / 2^k voxels over the
 // coarsest level's region, for footprints past that level's voxel.
@@ -99,8 +96,8 @@ fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
 
 // The voxel of the finest level holding p (a coarse level's voxel is thicker than a fine
 // level's offset, so the start offset grows with it).
-fn vct_surface_voxel(p: vec3<f32>) -> f32 {
-    var voxel = trace.cone.voxel;
+fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32 {
+    var voxel = finest;
     for (var l = 0u; l < clip_info.misc.y; l++) {
         if clip_contains(p, l) {
             break;

@@ -12,10 +12,6 @@
 use super::{DiffuseCones, VctSettings};
 use glam::{Vec3, Vec4};
 
-/// WGSL: `march_cone(origin, dir, params)` and `cone_composite`; the includer provides
-/// `vct_sample(p, footprint, dir) -> vec4<f32>`.
-pub const CONE_WGSL: &str = include_str!("cone.wgsl");
-
 /// How one cone is marched (the WGSL `ConeParams`, a storage block).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

@@ -1,10 +1,13 @@
 // One cone marched front to back through a filtered voxel structure (`003`, eq. 3, with the
-// step-length opacity correction it lacks). The includer declares
+// step-length opacity correction it lacks). It samples the structure composed in as the module
+// `gi/vct/structure` (`gi/vct/svo_trace.wgsl`, `clipmap_trace.wgsl`, or a test's):
 //   fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32>
 // returning premultiplied radiance (rgb) and opacity (a) filtered over `footprint` metres, as
 // seen by a cone travelling along the unit vector `dir` (structures with isotropic voxels
 // ignore it).
 // CPU twin: `gi/vct/cone.rs`, `march_cone`; keep the two in step.
+
+import octolux::gi::vct::structure::vct_sample;
 
 struct ConeParams {
     // Full aperture (radians), start offset, step (fraction of the diameter), maximum distance

@@ -12,10 +12,6 @@
 
 use glam::Vec3;
 
-/// WGSL: `diffuse_cone_dir(n, i)`, `diffuse_cone_weight(i)`; goes after the cone set's
-/// declaration ([`cone_set_wgsl`]: `DIFFUSE_CONES` and `DIFFUSE_SET`).
-pub const GATHER_WGSL: &str = include_str!("gather.wgsl");
-
 /// Cone counts the diffuse gather accepts: `003`'s 6, or a cosine-distributed set of 8..=64.
 pub fn check_cone_count(cones: u32) -> bool {
     cones == 6 || (8..=64).contains(&cones)
@@ -48,7 +44,8 @@ pub fn cone_set(cones: u32) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// WGSL declaring the cone set of `cones` cones for [`GATHER_WGSL`].
+/// WGSL declaring the cone set of `cones` cones (`DIFFUSE_CONES`, `DIFFUSE_SET`), mounted as
+/// the module `gi/vct/cone_set` that `gi/vct/gather` and its importers import.
 pub fn cone_set_wgsl(cones: u32) -> String {
     let set = cone_set(cones);
     let items: Vec<String> = set

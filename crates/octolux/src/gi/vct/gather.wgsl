@@ -3,10 +3,12 @@
 // that the weights sum to 1; irradiance = pi x the weighted mean of the cones' radiance, so a
 // uniform environment of radiance L gives exactly pi L. CPU twin: `gi/vct/gather.rs`.
 
-// The cone set comes before this file (`gather.rs`, `cone_set_wgsl`): DIFFUSE_CONES cones,
+// The cone set is the module `gi/vct/cone_set` (generated: `gather.rs`, `cone_set_wgsl`): DIFFUSE_CONES cones,
 // DIFFUSE_SET[i] = direction in the frame whose +y is the normal (xyz) and weight (w; the
 // weights sum to 1). The default is 003's six (the ring is cone 2 rotated by multiples of
 // 72 degrees about y, weights cos / 3.5); denser sets are cosine-distributed, weights 1/N.
+
+import octolux::gi::vct::cone_set::DIFFUSE_SET;
 
 fn diffuse_cone_local(i: u32) -> vec3<f32> {
     return DIFFUSE_SET[i].xyz;

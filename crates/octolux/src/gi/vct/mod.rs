@@ -1,10 +1,11 @@
 //! Voxel cone tracing (`003`) on the sparse voxel octree (`vct-svo`) and on the clipmap
 //! (`vct-clipmap`).
 //!
-//! [`cone`] holds the marcher in WGSL ([`CONE_WGSL`]) and its CPU twin ([`march_cone`]),
-//! written against one sampling function, `vct_sample(p, footprint, dir) -> vec4<f32>` (premultiplied
-//! radiance and opacity filtered over `footprint` metres, seen travelling along `dir`), which the includer provides from
-//! the structure it traces: the octree's or the clipmap's radiance sampler
+//! [`cone`] holds the marcher in WGSL (the module `gi/vct/cone`) and its CPU twin
+//! ([`march_cone`]), written against one sampling function, `vct_sample(p, footprint, dir) ->
+//! vec4<f32>` (premultiplied radiance and opacity filtered over `footprint` metres, seen
+//! travelling along `dir`), imported from the module `gi/vct/structure`, which each technique composes in
+//! with the module of the structure it traces: the octree's or the clipmap's radiance sampler
 //! (`svo_trace.wgsl`, `clipmap_trace.wgsl`). [`gather`] holds the diffuse gather's cone set
 //! and weights; `tracer.rs` the passes both techniques share (gather, sparse reconstruction,
 //! specular cone), so the two differ only in the structure they bring up to date and sample.
@@ -21,5 +22,5 @@ pub use clipmap_gi::VctClipmap;
 pub use settings::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
 pub use svo_gi::VctSvo;
 
-pub use cone::{march_cone, ConeMarch, ConeParams, CONE_WGSL};
-pub use gather::{cone_set_wgsl, diffuse_cone_dir, gather_irradiance, GATHER_WGSL};
+pub use cone::{march_cone, ConeMarch, ConeParams};
+pub use gather::{cone_set_wgsl, diffuse_cone_dir, gather_irradiance};

@@ -9,6 +9,13 @@
 
 // x: static leaf voxel slots (the dynamic leaves' slots follow), y: capacity of the dynamic
 // voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z])
+import octolux::gi::vct::cone::march_cone;
+import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
+import octolux::gi::vct::trace::surface_cone;
+import octolux::voxel::svo::sample::svo_info;
+import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
+import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+
 struct BounceParams {
     misc: vec4<u32>,
 }

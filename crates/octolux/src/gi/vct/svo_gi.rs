@@ -6,18 +6,18 @@
 //! gather the next bounce, and every traced pixel gathers through the diffuse cones.
 
 use super::cone::ConeParams;
-use super::tracer::ConeTracer;
+use super::tracer::{ConeTracer, TraceStructure};
 use super::{VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_1d;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
-use crate::voxel::svo::aniso_radiance::{SvoAnisoRadiance, SVO_RADIANCE_ANISO_WGSL};
+use crate::voxel::svo::aniso_radiance::SvoAnisoRadiance;
 use crate::voxel::svo::dynamic::DynamicReserve;
-use crate::voxel::svo::inject::{
-    SvoBounce, SvoBounceTable, BOUNCE_TABLE_WGSL, SVO_RADIANCE_SAMPLE_WGSL,
+use crate::voxel::svo::inject::{SvoBounce, SvoBounceTable};
+use crate::voxel::svo::sample::{
+    svo_bindings, svo_radiance_bindings, SvoInfo, SVO_ANISO_RADIANCE_BINDING,
 };
-use crate::voxel::svo::sample::{SvoInfo, SVO_SAMPLE_WGSL};
 use crate::voxel::svo::{Svo, SvoBuilder, ARGS_DYN_NODES, NODE_ARGS};
 use crate::voxel::{objects_triangles, VoxelGrid};
 use crate::{Error, Result};
@@ -129,19 +129,14 @@ impl VctSvo {
         let builder = SvoBuilder::new(ctx);
         let still = objects_triangles(scene, &scene.frame(0.0, 0), false);
         let (svo, _) = builder.build_with_reserve(ctx, &grid, &still, reserve)?;
-        let constants = format!("const SVO_ANISOTROPIC: bool = {};", settings.anisotropic);
         let tracer = ConeTracer::new(
             ctx,
             OWNER,
-            &[
-                &constants,
-                SVO_SAMPLE_WGSL,
-                SVO_RADIANCE_SAMPLE_WGSL,
-                SVO_RADIANCE_ANISO_WGSL,
-                BOUNCE_TABLE_WGSL,
-                include_str!("svo_trace.wgsl"),
-                include_str!("svo_bounce.wgsl"),
-            ],
+            TraceStructure {
+                trace: "gi/vct/svo_trace",
+                bounce: "gi/vct/svo_bounce",
+                features: vec![("anisotropic", settings.anisotropic)],
+            },
             settings,
             settings.diffuse_cones(VctStructure::Octree),
             settings.bounce_cones(VctStructure::Octree),
@@ -245,6 +240,7 @@ impl Bounce {
             })
         });
         let leaf = svo.levels.len().saturating_sub(1) as u32;
+        let module = tracer.bounce_module(ctx);
         let params = ctx.create_buffer_init(
             OWNER,
             "bounce params",
@@ -258,8 +254,9 @@ impl Bounce {
                 tables,
                 frame: 0,
             },
-            pipeline: tracer.bounce_pipeline(ctx, "bounce"),
-            dynamic: dynamic_reserve.map(|_| tracer.bounce_pipeline(ctx, "bounce_dynamic")),
+            pipeline: ctx.compute_pipeline("bounce", &module, "bounce"),
+            dynamic: dynamic_reserve
+                .map(|_| ctx.compute_pipeline("bounce_dynamic", &module, "bounce_dynamic")),
             params,
             slots,
         })
@@ -358,18 +355,9 @@ impl GiTechnique for VctSvo {
             }
             AnisoBinding::Placeholder(placeholder) => placeholder,
         };
-        let mut structure = vec![
-            (3, self.info.as_entire_binding()),
-            (4, svo.child.as_entire_binding()),
-            (7, svo.brick_index.as_entire_binding()),
-            (16, aniso.as_entire_binding()),
-        ];
-        structure.extend(
-            svo.radiance
-                .iter()
-                .zip(8..)
-                .map(|(buffer, binding)| (binding, buffer.as_entire_binding())),
-        );
+        let mut structure = svo_bindings(&self.info, svo).to_vec();
+        structure.extend(svo_radiance_bindings(svo));
+        structure.push((SVO_ANISO_RADIANCE_BINDING, aniso.as_entire_binding()));
         // 4. Multiple bounces: every voxel gathers irradiance for the next frame (static
         //    ones by slot, dynamic ones into the bounce table the next injection reads).
         if let Some(bounce) = &mut self.bounce {

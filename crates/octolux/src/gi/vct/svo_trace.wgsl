@@ -1,20 +1,13 @@
-// The octree back-end of `trace.wgsl`: samples the sparse voxel octree's injected radiance.
+// The octree back-end of `trace.wgsl` (mounted as its `structure`): samples the sparse voxel
+// octree's injected radiance. The flag `anisotropic` follows the setting; the anisotropic
+// radiance is bound either way (a placeholder word without it).
 
-@group(0) @binding(3) var<storage, read> svo_info: SvoInfo;
-@group(0) @binding(4) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(7) var<storage, read> svo_brick_index: array<u32>;
-@group(0) @binding(8) var<storage, read> svo_radiance0: array<u32>;
-@group(0) @binding(9) var<storage, read> svo_radiance1: array<u32>;
-@group(0) @binding(10) var<storage, read> svo_radiance2: array<u32>;
-@group(0) @binding(11) var<storage, read> svo_radiance3: array<u32>;
-// Declared for the sampler's albedo path, which the gather does not read.
-@group(0) @binding(12) var<storage, read> svo_bricks0: array<u32>;
-@group(0) @binding(13) var<storage, read> svo_bricks1: array<u32>;
-@group(0) @binding(14) var<storage, read> svo_bricks2: array<u32>;
-@group(0) @binding(15) var<storage, read> svo_bricks3: array<u32>;
+import octolux::voxel::svo::sample::{SvoNodeLod, svo_info, svo_node_lod};
+import octolux::voxel::svo::radiance_sample::svo_radiance_sample;
+import octolux::voxel::svo::radiance_sample_aniso::{svo_radiance_aniso, svo_radiance_aniso_level};
 
-// The octree's anisotropic radiance (`anisotropic` setting; a placeholder word otherwise).
-@group(0) @binding(16) var<storage, read> svo_aniso_radiance: array<u32>;
+@if(anisotropic) const SVO_ANISOTROPIC: bool = true;
+@else const SVO_ANISOTROPIC: bool = false;
 
 // The isotropic lattice holds mean occupancy: a one-voxel-thick surface filling a voxel of
 // side s (in finest voxels) averages to opacity 1/s there, so surfaces fade as cones widen.
@@ -44,6 +37,6 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
 // points, and the coverage scaling above makes what spreads opaque. Measured on the Cornell
 // box (docs/vct.md), cones that start 1.5 x 4 finest voxels off the surface halve the
 // ceiling's error against 1.5 x 1; so the octree's "surface voxel" is 4 finest voxels.
-fn vct_surface_voxel(p: vec3<f32>) -> f32 {
+fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32 {
     return 4.0 * svo_info.origin.w;
 }

@@ -4,10 +4,18 @@
 // in alpha the ambient occlusion of the same cones (1 - their weighted mean opacity). With
 // sparse tracing (misc.y = f > 1) one invocation traces the centre pixel of each f x f block
 // and writes the block's texel of a reduced image; `upsample.wgsl` fills the full image.
-// The includer provides the structure (`clipmap_trace.wgsl`, `svo_trace.wgsl`):
-//   fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32>
-//   fn vct_surface_voxel(p: vec3<f32>) -> f32   (the voxel size where a surface at p is)
-// on bindings 3, 4 and from 7 on.
+// The structure is the module `gi/vct/structure` (`clipmap_trace.wgsl`, `svo_trace.wgsl`), which
+// the marcher samples (`vct_sample`) and which gives
+//   fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32
+// the voxel size where a surface at p is (`finest`: the finest voxel); its bindings are the
+// structure's (group 0 from 50).
+
+import octolux::frame::common::{Camera, world_from_depth};
+import octolux::gi::vct::cone::{ConeParams, march_cone};
+import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
+import octolux::gi::vct::sparse::block_pixel;
+import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+import octolux::gi::vct::structure::vct_surface_voxel;
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var depth_tex: texture_depth_2d;
@@ -32,7 +40,7 @@ struct SurfaceCone {
 }
 
 fn surface_cone(p: vec3<f32>, n: vec3<f32>) -> SurfaceCone {
-    let voxel = vct_surface_voxel(p);
+    let voxel = vct_surface_voxel(p, trace.cone.voxel);
     var s: SurfaceCone;
     s.cone = trace.cone;
     s.cone.voxel = voxel;

@@ -1,14 +1,42 @@
 //! The passes both cone-tracing techniques share once their structure holds injected
 //! radiance: the diffuse gather (`trace.wgsl`, every pixel or one per sparse block), the sparse
 //! reconstruction (`upsample.wgsl`) and the optional specular cone. The structure comes in as
-//! WGSL (`vct_sample`, `vct_surface_voxel` and their bindings) and as bind-group entries, so
-//! the octree and the clipmap differ only there.
+//! a WGSL module composed in as `gi/vct/structure` (`vct_sample`, `vct_surface_voxel` and the
+//! bindings they read), its bounce module and as bind-group entries, so the octree and the
+//! clipmap differ only there.
 
 use super::cone::ConeParams;
-use super::{DiffuseCones, VctSettings, CONE_WGSL, GATHER_WGSL};
+use super::{cone_set_wgsl, DiffuseCones, VctSettings};
 use crate::gi::GiFrame;
 use crate::gpu::pass::{dispatch_2d, KeptBindGroup};
+use crate::gpu::shader::{library_shader, library_shader_with, module_source};
 use crate::gpu::{GpuContext, PassTimer};
+
+/// The structure a [`ConeTracer`] marches: its trace module (composed in as
+/// `gi/vct/structure` for `trace.wgsl` and the marcher), its bounce gather's module and the `@if`
+/// flags both are composed with.
+pub(crate) struct TraceStructure {
+    /// Module path of the structure's `vct_sample` and `vct_surface_voxel`.
+    pub trace: &'static str,
+    /// Module path of the voxels' bounce gather (its entry points).
+    pub bounce: &'static str,
+    /// The modules' `@if` flags.
+    pub features: Vec<(&'static str, bool)>,
+}
+
+impl TraceStructure {
+    /// The WGSL of `main` over this structure with the cone set of `cones` cones.
+    fn compose(&self, main: &str, cones: u32) -> String {
+        let set = cone_set_wgsl(cones);
+        let structure = module_source(self.trace)
+            .unwrap_or_else(|| panic!("internal shader error: no module {}", self.trace));
+        library_shader_with(
+            main,
+            &self.features,
+            &[("gi/vct/cone_set", &set), ("gi/vct/structure", structure)],
+        )
+    }
+}
 
 /// `TraceParams` of `trace.wgsl` (a read-only storage block).
 #[repr(C)]
@@ -27,13 +55,10 @@ struct Stage {
 
 /// The gather, reconstruction and specular passes over one structure.
 pub(crate) struct ConeTracer {
-    /// The trace module: the gather, the specular cone and any entry point the structure's
-    /// WGSL adds (the bounce gather).
-    module: wgpu::ShaderModule,
-    /// The voxels' bounce gather: its cones, and its module where the cone set differs from
-    /// the pixels' (`None`: `module`), and its parameters (binding 5 of its passes).
+    /// The structure, for the bounce gather's module (composed when asked for).
+    structure: TraceStructure,
+    /// The voxels' bounce gather: its cones and its parameters (binding 5 of its passes).
     bounce: DiffuseCones,
-    bounce_module: Option<wgpu::ShaderModule>,
     bounce_params: wgpu::Buffer,
     sparse: u32,
     trace: wgpu::ComputePipeline,
@@ -69,42 +94,24 @@ fn image(
 }
 
 impl ConeTracer {
-    /// The passes for images of `width` x `height` over the structure whose sampling WGSL is
-    /// `structure` (its sampler, then its `*_trace.wgsl`), recorded under `owner`, the pixels
-    /// gathering with the `diffuse` cones and the voxels' bounce gather with the `bounce`
-    /// cones.
+    /// The passes for images of `width` x `height` over `structure`, recorded under `owner`,
+    /// the pixels gathering with the `diffuse` cones and the voxels' bounce gather with the
+    /// `bounce` cones.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         ctx: &GpuContext,
         owner: &str,
-        structure: &[&str],
+        structure: TraceStructure,
         settings: &VctSettings,
         diffuse: DiffuseCones,
         bounce: DiffuseCones,
         width: u32,
         height: u32,
     ) -> ConeTracer {
-        let common = include_str!("../../frame/common.wgsl");
-        let sparse_wgsl = include_str!("sparse.wgsl");
-        let module_with = |label: &str, cones: u32| {
-            let cone_set = super::gather::cone_set_wgsl(cones);
-            let source = [common, cone_set.as_str()]
-                .iter()
-                .chain(structure)
-                .chain(&[
-                    CONE_WGSL,
-                    GATHER_WGSL,
-                    sparse_wgsl,
-                    include_str!("trace.wgsl"),
-                ])
-                .copied()
-                .collect::<Vec<_>>()
-                .join("\n");
-            ctx.shader(label, &source)
-        };
-        let module = module_with("vct trace", diffuse.cones);
-        let bounce_module =
-            (bounce.cones != diffuse.cones).then(|| module_with("vct bounce", bounce.cones));
+        let module = ctx.shader(
+            "vct trace",
+            &structure.compose("gi/vct/trace", diffuse.cones),
+        );
         let trace = ctx.compute_pipeline("vct trace", &module, "main");
         let specular = settings.specular.then(|| {
             let (texture, view) = image(ctx, owner, "specular radiance", width, height);
@@ -123,8 +130,7 @@ impl ConeTracer {
                 width.div_ceil(f),
                 height.div_ceil(f),
             );
-            let source = [common, sparse_wgsl, include_str!("upsample.wgsl")].join("\n");
-            let module = ctx.shader("vct upsample", &source);
+            let module = ctx.shader("vct upsample", &library_shader("gi/vct/upsample", &[]));
             Stage {
                 view,
                 texture,
@@ -146,9 +152,8 @@ impl ConeTracer {
         let bounce_params = params_buffer("bounce trace params");
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
         ConeTracer {
-            module,
+            structure,
             bounce,
-            bounce_module,
             bounce_params,
             sparse: f,
             trace,
@@ -255,11 +260,13 @@ impl ConeTracer {
         &self.bounce_params
     }
 
-    /// A pipeline of the bounce gather's entry point `entry` (one the structure's WGSL adds),
-    /// compiled with the bounce's cone set.
-    pub(crate) fn bounce_pipeline(&self, ctx: &GpuContext, entry: &str) -> wgpu::ComputePipeline {
-        let module = self.bounce_module.as_ref().unwrap_or(&self.module);
-        ctx.compute_pipeline(entry, module, entry)
+    /// The bounce gather's module (the structure's bounce module with the bounce's cone set),
+    /// whose entry points the structure makes pipelines of.
+    pub(crate) fn bounce_module(&self, ctx: &GpuContext) -> wgpu::ShaderModule {
+        let source = self
+            .structure
+            .compose(self.structure.bounce, self.bounce.cones);
+        ctx.shader("vct bounce", &source)
     }
 
     /// Indirect irradiance (rgb, W/m^2) and ambient occlusion (alpha).

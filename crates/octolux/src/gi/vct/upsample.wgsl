@@ -5,6 +5,9 @@
 // silhouette against unrelated surfaces) it takes the most alike one. Alpha (the ambient
 // occlusion) is reconstructed alike.
 
+import octolux::frame::common::{Camera, world_from_depth};
+import octolux::gi::vct::sparse::block_pixel;
+
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var depth_tex: texture_depth_2d;
 @group(0) @binding(2) var normal_tex: texture_2d<f32>;

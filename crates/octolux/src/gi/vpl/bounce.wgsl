@@ -7,7 +7,7 @@
 // flux is an unbiased estimate of the light the source generation's surfaces reflect once more.
 // Rays that leave the grid, or hit a voxel without fragments, give a zero VPL.
 
-import package::voxel::svo::walk::{svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+import octolux::voxel::svo::walk::{svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
 
 struct BounceParams {
     // VPLs per generation, first VPL of the source generation.

@@ -82,7 +82,8 @@ impl Generate {
         count: u32,
         capacity: u32,
     ) -> Generate {
-        let module = ctx.shader("vpl generate", include_str!("generate.wgsl"));
+        let source = crate::gpu::shader::library_shader("gi/vpl/generate", &[]);
+        let module = ctx.shader("vpl generate", &source);
         let base = ctx.compute_pipeline("vpl pyramid base", &module, "pyramid_base");
         let level = ctx.compute_pipeline("vpl pyramid level", &module, "pyramid_level");
         let sample = ctx.compute_pipeline("vpl sample", &module, "sample_vpls");

@@ -12,6 +12,7 @@
 //    so every VPL carries W / N of mean flux and the N of them sum to the RSMs' reflected flux
 //    (exactly in the weight, in expectation per channel) whatever N is.
 
+
 struct GenParams {
     // RSM side (a power of two), layers, pyramid levels above the base, VPL count.
     size: u32,

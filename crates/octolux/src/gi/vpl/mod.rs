@@ -19,7 +19,7 @@ pub mod generate;
 use crate::frame::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_groups;
-use crate::gpu::shader::library_shader_parts;
+use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
 use crate::voxel::svo::walk;
@@ -324,23 +324,13 @@ impl VplGi {
     }
 
     fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
-        let source = library_shader_parts(
-            "vpl shade",
-            &[
-                include_str!("../../frame/common.wgsl"),
-                include_str!("shade.wgsl"),
-            ],
-        );
-        let module = ctx.shader("vpl shade", &source);
+        let module = ctx.shader("vpl shade", &library_shader("gi/vpl/shade", &[]));
         let shade = ctx.compute_pipeline("vpl shade", &module, "shade");
         let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
         let walk = walk::walk_bindings(&self.octree_params, &self.svo, &self.placeholder);
         let (count, bounces) = (self.settings.count, self.settings.bounces);
         let generate = generate::Generate::new(ctx, OWNER, &self.rsm, count, count * bounces);
-        let bounce_module = ctx.shader(
-            "vpl bounce",
-            &library_shader_parts("vpl bounce", &[include_str!("bounce.wgsl")]),
-        );
+        let bounce_module = ctx.shader("vpl bounce", &library_shader("gi/vpl/bounce", &[]));
         let bounce = ctx.compute_pipeline("vpl bounce", &bounce_module, "bounce");
         let bounce_groups = (1..bounces)
             .map(|b| {

@@ -18,7 +18,9 @@
 // weights are 0 or 1 and normalised, so a pixel's value stays an average of unbiased
 // estimates of its full VPL sum.
 
-import package::voxel::svo::walk::{svo_occluded, vpl_fixed_point};
+import octolux::voxel::svo::walk::{svo_occluded, vpl_fixed_point};
+import octolux::frame::common::{Camera, PI, world_from_depth};
+
 
 struct ShadeParams {
     count: u32,

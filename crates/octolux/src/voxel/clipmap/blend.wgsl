@@ -1,6 +1,6 @@
 // Clipmap sampling with blending between levels by distance and with anisotropic voxels.
-// Goes after `clipmap/sample.wgsl`; `clip_sample_aniso` also needs
-//   var<storage, read> clip_aniso: array<u32>;   (Clipmap::aniso)
+// `clip_sample_aniso` reads `Clipmap::aniso` at binding 67
+// (`voxel::clipmap::sample::CLIP_ANISO_BINDING`).
 //
 // `clip_sample_blend(p, footprint)` reads the level l that `clip_sample` picks (the finest
 // whose voxel is at least the footprint and which holds p's trilinear neighbourhood) and mixes
@@ -13,6 +13,10 @@
 // `clip_sample_aniso(p, footprint, dir)` is the same with each coarse voxel's value seen along
 // the travel direction `dir`: the directional values of the three axes dir points along,
 // weighted by |dir.x|, |dir.y|, |dir.z| (normalised to sum to one). Level 0 is isotropic.
+
+import octolux::voxel::clipmap::sample::{clip_contains, clip_info, clip_sample_level};
+
+@group(0) @binding(67) var<storage, read> clip_aniso: array<u32>;
 
 const CLIP_BLEND_CELLS: f32 = 2.0;
 

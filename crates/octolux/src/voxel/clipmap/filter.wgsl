@@ -3,14 +3,18 @@
 // premultiplied colour and opacity are the rounded means of the eight (opacity becomes the
 // covered fraction), normals the normalised sum, emission the rounded integer mean of the
 // eight fixed-point values (empty voxels count as zero, so emission is premultiplied by
-// coverage like the colour; needs `clipmap/emission.wgsl` before this file). With anisotropic voxels (misc.z = 1), each of
+// coverage like the colour, `clipmap/emission.wgsl`). With anisotropic voxels (misc.z = 1), each of
 // the 6 directional values (travel +x, -x, +y, -y, +z, -z) composites the two finer voxels met
 // one after the other along that direction, front to back, and averages the 4 pairs across
 // the other two axes; the finer values are the finer level's directional values, or its
 // isotropic ones on level 0. `replicate` copies the isotropic value of the voxels of a box
 // into all 6 directions (voxels voxelized on their own have no direction).
-// lo/hi: the box of level l (world-voxel coordinates of level l); misc.y: resolution.
 
+import octolux::voxel::voxelize::overlap::linear_index;
+import octolux::voxel::clipmap::emission::{emission_decode_fixed, emission_encode};
+import octolux::voxel::pairs::pair_along;
+
+// lo/hi: the box of level l (world-voxel coordinates of level l); misc.y: resolution.
 struct FilterParams {
     lo: vec4<i32>,
     hi: vec4<i32>,

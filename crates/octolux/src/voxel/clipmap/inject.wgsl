@@ -1,6 +1,9 @@
 // Light injection into the clipmap by voxel shadow rays: direct irradiance from point, spot
 // and directional lights with visibility from marching the clipmap's own opacity towards the
-// light (no shadow maps). Needs `clipmap/inject_common.wgsl` before this file.
+// light (no shadow maps).
+
+import octolux::voxel::clipmap::inject_common::{inject_slot, inject_store, inject_voxel, params};
+import octolux::voxel::clipmap::sample::clip_sample;
 
 struct InjectLight {
     // xyz position, w: kind (0 point, 1 spot, 2 directional)

@@ -2,17 +2,20 @@
 // `inject_shadow.wgsl`: the renderer's shadow maps): every occupied voxel gets outgoing
 // radiance emission + albedo / pi x direct irradiance (both premultiplied by the voxel's
 // opacity on filtered levels). Output: RGBA16F (radiance, opacity) per voxel slot, same
-// layout as `clip_voxels`. Needs `clipmap/emission.wgsl` before this file.
+// layout as `clip_voxels`.
+
+import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
+import octolux::voxel::clipmap::emission::emission_decode;
 
 // x: lights, y: most march steps per shadow ray (voxel rays only), z: voxel slots
 // (levels * res^3), w: 1 when `bounce` holds indirect irradiance to add (multiple bounces).
+
 struct InjectParams {
     misc: vec4<u32>,
 }
 
-// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
-@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs. The clipmap's parameter
+// block and voxels are the sampler's bindings (`clip_info`, `clip_voxels`).
 @group(0) @binding(2) var<storage, read> normals: array<u32>;
 @group(0) @binding(4) var<storage, read_write> radiance: array<u32>;
 @group(0) @binding(5) var<storage, read> params: InjectParams;

@@ -2,9 +2,11 @@
 // direct light from the shadow map", per voxel): direct irradiance from the renderer's
 // lights (`frame/lights.wgsl`, the same incidence and PCF lookup as the deferred lighting),
 // looked up half a voxel off the voxel centre along its normal, where a surface in the voxel
-// may lie. Needs `clipmap/inject_common.wgsl` before this file.
+// may lie.
 
-import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+import octolux::voxel::clipmap::inject_common::{inject_slot, inject_store, inject_voxel, params};
+
 
 
 @compute @workgroup_size(64)

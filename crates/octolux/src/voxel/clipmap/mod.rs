@@ -33,12 +33,11 @@ pub mod index;
 pub mod sample;
 
 use crate::gpu::pass::{bind_buffers, dispatch_1d};
-use crate::gpu::shader::library_shader_parts;
+use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::clipmap::index::TriangleIndex;
-use crate::voxel::pairs::PAIRS_WGSL;
 use crate::voxel::voxelize::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
-use crate::voxel::voxelize::{upload_triangles, work_items, VoxParams, OVERLAP_WGSL};
+use crate::voxel::voxelize::{upload_triangles, work_items, VoxParams};
 use crate::voxel::VoxelTriangle;
 use crate::{Error, Result};
 use bytemuck::Zeroable;
@@ -72,12 +71,6 @@ const ITEM_ALIGN: u64 = 32;
 /// Fixed-point units per W/(m^2 sr) of the emission sums (`EMISSION_SCALE` in
 /// `clipmap/emission.wgsl`).
 pub const EMISSION_SCALE: f32 = 1024.0;
-/// WGSL of the emission format (`emission_encode`, `emission_decode`, ...), put in front of
-/// every clipmap kernel that reads or writes [`Clipmap::emission`].
-pub const CLIPMAP_EMISSION_WGSL: &str = include_str!("emission.wgsl");
-
-/// WGSL both light injections share (voxel decoding, output).
-const INJECT_COMMON_WGSL: &str = include_str!("inject_common.wgsl");
 
 /// Fixed-point value (x [`EMISSION_SCALE`], rounded half to even like WGSL `round`) of one
 /// triangle's emission channel, clamped to `[0, 65504]` (`emission_fixed` in WGSL).
@@ -558,15 +551,9 @@ impl Clipmap {
                 mapped_at_creation: false,
             },
         );
-        let source = format!(
-            "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{}",
-            include_str!("update.wgsl")
-        );
+        let source = library_shader("voxel/clipmap/update", &[]);
         let module = ctx.shader("clipmap", &source);
-        let source = format!(
-            "{OVERLAP_WGSL}\n{CLIPMAP_EMISSION_WGSL}\n{PAIRS_WGSL}\n{}",
-            include_str!("filter.wgsl")
-        );
+        let source = library_shader("voxel/clipmap/filter", &[]);
         let filter_module = ctx.shader("clipmap filter", &source);
         Ok(Clipmap {
             settings,
@@ -1275,13 +1262,7 @@ impl Clipmap {
         let pipeline = match &self.inject {
             Some(p) => p.clone(),
             None => {
-                let source = [
-                    crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
-                    CLIPMAP_EMISSION_WGSL,
-                    INJECT_COMMON_WGSL,
-                    include_str!("inject.wgsl"),
-                ]
-                .join("\n");
+                let source = library_shader("voxel/clipmap/inject", &[]);
                 let module = ctx.shader("clipmap inject", &source);
                 let p = ctx.compute_pipeline("clipmap inject", &module, "inject");
                 self.inject = Some(p.clone());
@@ -1326,15 +1307,7 @@ impl Clipmap {
             Some(made) => made.clone(),
             None => {
                 let label = "clipmap inject (shadow maps)";
-                let source = library_shader_parts(
-                    label,
-                    &[
-                        crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL,
-                        CLIPMAP_EMISSION_WGSL,
-                        INJECT_COMMON_WGSL,
-                        include_str!("inject_shadow.wgsl"),
-                    ],
-                );
+                let source = library_shader("voxel/clipmap/inject_shadow", &[]);
                 let module = ctx.shader(label, &source);
                 let p = ctx.compute_pipeline(label, &module, "inject_shadow");
                 self.inject_shadow = Some(p.clone());
@@ -1399,9 +1372,8 @@ impl Clipmap {
                 },
             ),
         };
+        let sampler = crate::voxel::clipmap::sample::clip_bindings(&info, &self.voxels);
         let mut entries: Vec<wgpu::BindGroupEntry> = [
-            (0, &info),
-            (1, &self.voxels),
             (2, &self.normals),
             (4, &radiance),
             (5, &params),
@@ -1413,14 +1385,12 @@ impl Clipmap {
             resource: buffer.as_entire_binding(),
         })
         .into();
-        entries.extend(
-            extra
-                .iter()
-                .map(|(binding, resource)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: resource.clone(),
-                }),
-        );
+        entries.extend(sampler.iter().chain(extra).map(|(binding, resource)| {
+            wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: resource.clone(),
+            }
+        }));
         let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some(name),
             layout: &pipeline.get_bind_group_layout(0),

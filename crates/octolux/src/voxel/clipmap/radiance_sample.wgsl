@@ -1,7 +1,10 @@
 // Filtered injected radiance of the clipmap: `clip_radiance_sample(p, footprint)` returns RGB
 // radiance (premultiplied by opacity) and opacity, with the level choice of `clip_sample`.
-// Needs `clipmap/sample.wgsl` before it; the includer also declares
-//   var<storage, read> clip_radiance: array<u32>;   (Clipmap::radiance)
+// Reads `Clipmap::radiance` at binding 66 (`voxel::clipmap::sample::CLIP_RADIANCE_BINDING`).
+
+import octolux::voxel::clipmap::sample::{clip_cell, clip_corner, clip_info, clip_lod, clip_slot, clip_weight};
+
+@group(0) @binding(66) var<storage, read> clip_radiance: array<u32>;
 
 fn clip_radiance_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {
     let slot = clip_slot(l, g);

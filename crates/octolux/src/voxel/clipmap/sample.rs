@@ -23,14 +23,26 @@ use crate::voxel::sample::trilinear;
 use crate::{Error, Result};
 use glam::{IVec3, Vec3, Vec4};
 
-/// WGSL: `clip_sample(p, footprint)`; the includer declares `clip_info`, `clip_voxels`.
-pub const CLIPMAP_SAMPLE_WGSL: &str = include_str!("sample.wgsl");
+/// First binding (group 0) of the clipmap's samplers (WGSL modules `voxel/clipmap/sample`,
+/// `radiance_sample`, `blend`): `clip_info`, `clip_voxels` ([`clip_bindings`]).
+pub const CLIP_BINDINGS: u32 = 64;
+/// The radiance sampler's `clip_radiance`.
+pub const CLIP_RADIANCE_BINDING: u32 = 66;
+/// The anisotropic sampler's `clip_aniso` (`blend.wgsl`).
+pub const CLIP_ANISO_BINDING: u32 = 67;
 
-/// WGSL: `clip_radiance_sample(p, footprint)` over the injected radiance; goes after
-/// [`CLIPMAP_SAMPLE_WGSL`]; the includer also declares `clip_radiance`.
-pub const CLIPMAP_RADIANCE_WGSL: &str = include_str!("radiance_sample.wgsl");
+/// The entries every clipmap sampler reads: `info` (a [`ClipInfo`] block) and the voxels.
+pub fn clip_bindings<'a>(
+    info: &'a wgpu::Buffer,
+    voxels: &'a wgpu::Buffer,
+) -> [(u32, wgpu::BindingResource<'a>); 2] {
+    [
+        (CLIP_BINDINGS, info.as_entire_binding()),
+        (CLIP_BINDINGS + 1, voxels.as_entire_binding()),
+    ]
+}
 
-/// Parameter block `ClipInfo` of [`CLIPMAP_SAMPLE_WGSL`] (a read-only storage buffer).
+/// Parameter block `ClipInfo` of `voxel/clipmap/sample.wgsl` (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ClipInfo {
@@ -135,8 +147,6 @@ fn clip_sample_with(
     a.lerp(clip_sample_level(info, p, l + 1, fetch), t)
 }
 
-/// WGSL: `clip_sample_blend(p, footprint)` and `clip_sample_aniso(p, footprint, dir)`.
-pub const CLIPMAP_BLEND_WGSL: &str = include_str!("blend.wgsl");
 /// Width (voxels of the finer level) of the band along a level's border over which samples
 /// fade to the next coarser level (`CLIP_BLEND_CELLS` in WGSL).
 pub const BLEND_CELLS: f32 = 2.0;
@@ -284,29 +294,6 @@ pub fn clip_sample_aniso(
     a.lerp(sample_level(info, p, l + 1, &mut fetch), t)
 }
 
-const PROBE_WGSL: &str = "
-@group(0) @binding(0) var<storage, read> clip_info: ClipInfo;
-@group(0) @binding(1) var<storage, read> clip_voxels: array<u32>;
-@group(0) @binding(2) var<storage, read> clip_aniso: array<u32>;
-@group(0) @binding(3) var<storage, read> points: array<vec4<f32>>;
-@group(0) @binding(4) var<storage, read> dirs: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> samples: array<vec4<f32>>;
-
-@compute @workgroup_size(64)
-fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&points) {
-        return;
-    }
-    let q = points[id.x];
-    let d = dirs[id.x];
-    if d.w > 0.5 {
-        samples[id.x] = clip_sample_aniso(q.xyz, q.w, d.xyz);
-    } else {
-        samples[id.x] = clip_sample_blend(q.xyz, q.w);
-    }
-}
-";
-
 /// Evaluates `clip_sample_blend` (without `dirs`) or `clip_sample_aniso` (with one travel
 /// direction per point) on the GPU at `points` (xyz position, w footprint). Blocks.
 pub fn probe_blend(
@@ -335,10 +322,9 @@ pub fn probe_blend(
         return Ok(Vec::new());
     }
     let owner = "clipmap probe";
-    let source = format!(
-        "{}\n{CLIPMAP_BLEND_WGSL}\n{PROBE_WGSL}",
-        crate::voxel::clipmap::sample::CLIPMAP_SAMPLE_WGSL
-    );
+    let imports = "import octolux::voxel::clipmap::blend::{clip_sample_aniso, clip_sample_blend};";
+    let sample =
+        "select(clip_sample_blend(q.xyz, q.w), clip_sample_aniso(q.xyz, q.w, d.xyz), d.w > 0.5)";
     let info = ctx.create_buffer_init(
         owner,
         "info",
@@ -346,6 +332,14 @@ pub fn probe_blend(
         wgpu::BufferUsages::STORAGE,
     );
     let aniso = clipmap.aniso.as_ref().unwrap_or(&clipmap.voxels);
-    let fixed = [(0, &info), (1, &clipmap.voxels), (2, aniso)];
-    crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dir_words)
+    let mut fixed = clip_bindings(&info, &clipmap.voxels).to_vec();
+    fixed.push((CLIP_ANISO_BINDING, aniso.as_entire_binding()));
+    crate::voxel::sample::run_directional_probe(
+        ctx,
+        owner,
+        (imports, sample),
+        &fixed,
+        points,
+        &dir_words,
+    )
 }

@@ -2,10 +2,9 @@
 // albedo and opacity at world position `p` from the finest level whose voxels are at least
 // `footprint` and which contains `p` with its whole trilinear neighbourhood (a level that does
 // not contain the point is never read), blended with the next level by the fractional level.
-// The includer declares:
-//   var<storage, read> clip_info: ClipInfo; (storage, not uniform: "Parameter blocks" in
-//   voxel/mod.rs)
-//   var<storage, read> clip_voxels: array<u32>;
+// Its bindings (group 0 from 64, bound by `voxel::clipmap::sample::clip_bindings`): the
+// parameter block (storage, not uniform: "Parameter blocks" in voxel/mod.rs) and the
+// voxels; the radiance and anisotropic samplers add theirs after them.
 
 struct ClipInfo {
     // x: finest voxel size.
@@ -15,6 +14,9 @@ struct ClipInfo {
     // First voxel of each level (world-voxel coordinates of that level).
     origins: array<vec4<i32>, 8>,
 }
+
+@group(0) @binding(64) var<storage, read> clip_info: ClipInfo;
+@group(0) @binding(65) var<storage, read> clip_voxels: array<u32>;
 
 // Index of the voxel at world-voxel coordinates `g` of level `l` (toroidal addressing).
 fn clip_slot(l: u32, g: vec3<i32>) -> u32 {

@@ -3,11 +3,15 @@
 // resolve each voxel of the box into its toroidal slot: RGBA8 (albedo averaged with rounding,
 // opacity 255 when any triangle touches the voxel, all zero otherwise), the normalised normal
 // sum, and the mean emission (fixed-point sums divided with rounding, RGB9E5, see
-// `clipmap/emission.wgsl`, which comes before this file).
+// `clipmap/emission.wgsl`).
 // misc: x = work items, y = first voxel of the level in `voxels`, z = resolution per axis.
+
+import octolux::voxel::voxelize::overlap::{cell_count, CHUNK, linear_index, nth_offset, Piece, piece_cells, piece_test, piece_touches, Tri, VoxParams};
+import octolux::voxel::clipmap::emission::{emission_encode, emission_fixed};
 
 // Scratch words per voxel (ACCUM_WORDS in clipmap/mod.rs): albedo r, g, b sums, fragment count,
 // normal x, y, z sums, emission r, g, b sums as 64 bits (low words, then high words).
+
 const ACCUM_WORDS: u32 = 13u;
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.

@@ -1,14 +1,11 @@
 // The leaf sums of the octree build, the one brick pass that needs atomics: every fragment
 // adds its albedo to its leaf voxel. Its own module, so that the brick pools can be plain
-// arrays everywhere else (same bind group layout as `svo/build.wgsl`; only what it reads is
-// declared).
+// arrays everywhere else (same bind group layout as `svo/build.wgsl`; the bindings they share are
+// `svo/common.wgsl`'s).
 
-// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
-@group(0) @binding(0) var<storage, read> L: LevelParams;
-@group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
-@group(0) @binding(2) var<storage, read> tris: array<Tri>;
-@group(0) @binding(3) var<storage, read_write> child: array<u32>;
-@group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
+import octolux::voxel::voxelize::overlap::linear_index;
+import octolux::voxel::svo::common::{brick_of, bw_index, fragments, INVALID, L, leaf_of_voxel, tris, unpack3};
+
 @group(0) @binding(8) var<storage, read_write> bricks0: array<atomic<u32>>;
 @group(0) @binding(9) var<storage, read_write> bricks1: array<atomic<u32>>;
 @group(0) @binding(10) var<storage, read_write> bricks2: array<atomic<u32>>;

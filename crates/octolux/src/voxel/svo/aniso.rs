@@ -19,20 +19,15 @@
 //! neither occupied nor next to an occupied node, so it contains no occupied voxel and all its
 //! values are zero.
 //!
-//! Sampling: [`SVO_ANISO_SAMPLE_WGSL`] (`svo_sample_aniso(p, footprint, dir)`), CPU twin
+//! Sampling: the WGSL module `voxel/svo/sample_aniso` (`svo_sample_aniso(p, footprint, dir)`), CPU twin
 //! [`crate::voxel::svo::sample::svo_sample_aniso`]. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso`].
 
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::svo::sample::{SvoInfo, SVO_SAMPLE_WGSL};
+use crate::voxel::svo::sample::{svo_albedo_bindings, svo_bindings, SvoInfo, SVO_ANISO_BINDING};
 use crate::voxel::svo::{Svo, OWNER, PARAM_STRIDE};
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};
-
-/// WGSL: `svo_sample_aniso(p, footprint, dir)`; goes after [`SVO_SAMPLE_WGSL`], and the
-/// includer also declares `var<storage, read> svo_aniso: array<u32>` (the buffer of
-/// [`SvoAnisoValues`]).
-pub const SVO_ANISO_SAMPLE_WGSL: &str = include_str!("sample_aniso.wgsl");
 
 /// Words per brick: one RGBA8 value per direction (+x, -x, +y, -y, +z, -z).
 pub const ANISO_WORDS: u32 = 6;
@@ -83,12 +78,7 @@ pub struct SvoAniso {
 impl SvoAniso {
     /// Compiles the kernel.
     pub fn new(ctx: &GpuContext) -> SvoAniso {
-        let source = format!(
-            "{}\n{}\n{}",
-            crate::voxel::svo::inject::LEAF_SUMS_WGSL,
-            crate::voxel::pairs::PAIRS_WGSL,
-            include_str!("aniso.wgsl")
-        );
+        let source = crate::gpu::shader::library_shader("voxel/svo/aniso", &[]);
         let module = ctx.shader("svo anisotropic", &source);
         SvoAniso {
             pipeline: ctx.compute_pipeline("svo anisotropic", &module, "build_level"),
@@ -206,8 +196,7 @@ impl SvoAniso {
         probe_node_values(
             ctx,
             svo,
-            (&values.buffer, "svo_aniso"),
-            SVO_ANISO_SAMPLE_WGSL,
+            (&values.buffer, SVO_ANISO_BINDING),
             "select(svo_sample(q.xyz, q.w), svo_sample_aniso(q.xyz, q.w, d.xyz), d.w > 0.5)",
             points,
             dirs.map_or((&none[..], 0.0), |d| (d, 1.0)),
@@ -216,14 +205,13 @@ impl SvoAniso {
 }
 
 /// Runs `sample` (a WGSL expression of the point `q`, xyz position and w footprint, and the
-/// direction `d`, xyz and w = the flag in `dirs`) on the GPU at every point, with `sampler`
-/// (WGSL after `svo/sample.wgsl`) reading the per-brick node values `values` (the buffer and
-/// its WGSL name). Blocks. For the octree's directional probes (albedo and radiance).
+/// direction `d`, xyz and w = the flag in `dirs`) on the GPU at every point, with the
+/// per-brick node values `values` bound at `binding` (the anisotropic albedo's or radiance's).
+/// Blocks. For the octree's directional probes (albedo and radiance).
 pub(crate) fn probe_node_values(
     ctx: &GpuContext,
     svo: &Svo,
-    (values, name): (&wgpu::Buffer, &str),
-    sampler: &str,
+    (values, binding): (&wgpu::Buffer, u32),
     sample: &str,
     points: &[Vec4],
     (dirs, flag): (&[Vec3], f32),
@@ -239,51 +227,28 @@ pub(crate) fn probe_node_values(
         return Ok(Vec::new());
     }
     let owner = "svo probe";
-    // Every declared pool binding takes part in the layout: the isotropic sample at a huge
-    // footprint (read, weighted by zero) keeps it so whatever `sample` reads.
-    let probe = format!(
-        "
-@group(0) @binding(0) var<storage, read> svo_info: SvoInfo;
-@group(0) @binding(1) var<storage, read> svo_child: array<u32>;
-@group(0) @binding(2) var<storage, read> svo_bricks0: array<u32>;
-@group(0) @binding(3) var<storage, read> svo_bricks1: array<u32>;
-@group(0) @binding(4) var<storage, read> svo_bricks2: array<u32>;
-@group(0) @binding(5) var<storage, read> svo_bricks3: array<u32>;
-@group(0) @binding(6) var<storage, read> svo_brick_index: array<u32>;
-@group(0) @binding(7) var<storage, read> {name}: array<u32>;
-@group(0) @binding(8) var<storage, read> points: array<vec4<f32>>;
-@group(0) @binding(9) var<storage, read> dirs: array<vec4<f32>>;
-@group(0) @binding(10) var<storage, read_write> samples: array<vec4<f32>>;
-
-@compute @workgroup_size(64)
-fn probe(@builtin(global_invocation_id) id: vec3<u32>) {{
-    if id.x >= arrayLength(&points) {{
-        return;
-    }}
-    let q = points[id.x];
-    let d = dirs[id.x];
-    let keep = svo_sample(q.xyz, 1e9) * 0.0;
-    samples[id.x] = {sample} + keep;
-}}
-"
-    );
-    let source = format!("{SVO_SAMPLE_WGSL}\n{sampler}\n{probe}");
+    // The isotropic sample at a huge footprint (weighted by zero) keeps the albedo pool in
+    // the layout whatever `sample` reads, so one set of bindings serves every probe.
+    let imports = "import octolux::voxel::svo::sample::svo_sample;
+import octolux::voxel::svo::sample_aniso::svo_sample_aniso;
+import octolux::voxel::svo::radiance_sample_aniso::svo_radiance_aniso;";
+    let sample = format!("{sample} + svo_sample(q.xyz, 1e9) * 0.0");
     let info = ctx.create_buffer_init(
         owner,
         "info",
         bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)),
         wgpu::BufferUsages::STORAGE,
     );
-    let fixed = [
-        (0, &info),
-        (1, &svo.child),
-        (2, &svo.bricks[0]),
-        (3, &svo.bricks[1]),
-        (4, &svo.bricks[2]),
-        (5, &svo.bricks[3]),
-        (6, &svo.brick_index),
-        (7, values),
-    ];
+    let mut fixed = svo_bindings(&info, svo).to_vec();
+    fixed.extend(svo_albedo_bindings(svo));
+    fixed.push((binding, values.as_entire_binding()));
     let dirs: Vec<Vec4> = dirs.iter().map(|d| d.extend(flag)).collect();
-    crate::voxel::sample::run_directional_probe(ctx, owner, &source, &fixed, points, &dirs)
+    crate::voxel::sample::run_directional_probe(
+        ctx,
+        owner,
+        (imports, &sample),
+        &fixed,
+        points,
+        &dirs,
+    )
 }

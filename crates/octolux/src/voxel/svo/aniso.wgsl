@@ -10,6 +10,9 @@
 // 8 children's values for the same direction (a child without a brick is transparent zero).
 // One dispatch per level, finest first.
 
+import octolux::voxel::svo::leaf_sums::leaf_sum_offset;
+import octolux::voxel::pairs::pair_along;
+
 struct AnisoParams {
     // x: first node of the level, y: nodes on the level, z: first leaf node, w: 1 on the leaf
     // level.

@@ -14,7 +14,7 @@
 //! anisotropic radiance`: one dispatch per level and node range, finest first; the dynamic
 //! ranges are read on the GPU, no readback). Storage: 12 words per brick of the octree's
 //! capacity (48 bytes; the dynamic reserve's bricks included). Sampling:
-//! [`SVO_RADIANCE_ANISO_WGSL`]. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso_radiance`].
+//! the WGSL module `voxel/svo/radiance_sample_aniso`. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso_radiance`].
 
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
@@ -28,11 +28,6 @@ fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
         resource: buffer.as_entire_binding(),
     }
 }
-
-/// WGSL: `svo_radiance_aniso(p, footprint, dir)`, directional radiance for footprints of two
-/// finest voxels and more; goes after `svo/sample.wgsl`, and the includer also declares
-/// `var<storage, read> svo_aniso_radiance: array<u32>` ([`SvoAnisoRadiance::buffer`]).
-pub const SVO_RADIANCE_ANISO_WGSL: &str = include_str!("radiance_sample_aniso.wgsl");
 
 /// Words per brick: one RGBA16F value (two words) per direction.
 pub const ANISO_RADIANCE_WORDS: u32 = 12;
@@ -72,11 +67,7 @@ impl SvoAnisoRadiance {
             bytes,
             "lower the octree resolution or turn `anisotropic` off",
         )?;
-        let source = format!(
-            "{}\n{}",
-            crate::voxel::pairs::PAIRS_WGSL,
-            include_str!("aniso_radiance.wgsl")
-        );
+        let source = crate::gpu::shader::library_shader("voxel/svo/aniso_radiance", &[]);
         let module = ctx.shader("svo anisotropic radiance", &source);
         let pipeline = ctx.compute_pipeline("svo anisotropic radiance", &module, "build_level");
         let buffer = ctx.create_buffer(
@@ -178,7 +169,7 @@ impl SvoAnisoRadiance {
         });
     }
 
-    /// The values (`svo_aniso_radiance` of [`SVO_RADIANCE_ANISO_WGSL`]).
+    /// The values (`svo_aniso_radiance` of `voxel/svo/radiance_sample_aniso.wgsl`).
     pub fn buffer(&self) -> &wgpu::Buffer {
         &self.buffer
     }
@@ -221,8 +212,10 @@ impl SvoAnisoRadiance {
         crate::voxel::svo::aniso::probe_node_values(
             ctx,
             svo,
-            (&self.buffer, "svo_aniso_radiance"),
-            SVO_RADIANCE_ANISO_WGSL,
+            (
+                &self.buffer,
+                crate::voxel::svo::sample::SVO_ANISO_RADIANCE_BINDING,
+            ),
             "svo_radiance_aniso(q.xyz, q.w, d.xyz)",
             points,
             (dirs, 1.0),

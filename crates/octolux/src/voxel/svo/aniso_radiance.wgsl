@@ -13,6 +13,8 @@
 // level of voxels s times larger, compositing keeps a wall seen face-on opaque on every level,
 // and one seen edge-on at the share of the node it covers.
 
+import octolux::voxel::pairs::pair_along;
+
 struct AnisoRadianceParams {
     // x: level, y: 1 for the level's dynamic nodes (range from `control`), z: 1 on the leaf
     // level, w: static leaf nodes (the dynamic leaves' voxel slots follow theirs).

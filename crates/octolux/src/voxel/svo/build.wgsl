@@ -5,14 +5,11 @@
 // brick index + 1 (0 = no brick: only needed nodes get one). A brick is 27 corner-sampled RGBA
 // texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord` is build scratch.
 
-// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
-@group(0) @binding(0) var<storage, read> L: LevelParams;
-@group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
-@group(0) @binding(2) var<storage, read> tris: array<Tri>;
-@group(0) @binding(3) var<storage, read_write> child: array<u32>;
+import octolux::voxel::voxelize::overlap::linear_index;
+import octolux::voxel::svo::common::{BRICK_COUNTER, brick_of, bw_index, child, find, flags, fragments, INVALID, L, NEEDED, OCCUPIED, octant_offset, pack3, unpack3};
+
 @group(0) @binding(4) var<storage, read_write> nbr: array<u32>;
 @group(0) @binding(5) var<storage, read_write> coord: array<u32>;
-@group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
 // [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d;
 // words 64.. belong to the dynamic part (svo/dynamic.wgsl), [60] counts bricks.
 @group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;

@@ -1,6 +1,8 @@
 // Shared by the octree's modules (`svo/build.wgsl` + `svo/dynamic.wgsl`, `svo/accumulate.wgsl`):
-// the per-level parameters and the helpers that walk nodes and address bricks. Each including
-// module declares the bindings they read (`L`, `child`, `flags`).
+// the per-level parameters, the bindings they all read (group 0, the layout of `SvoBuilder`)
+// and the helpers that walk nodes and address bricks.
+
+import octolux::voxel::voxelize::overlap::Tri;
 
 struct LevelParams {
     d: u32,
@@ -15,6 +17,14 @@ struct LevelParams {
     pad1: u32,
     pad2: u32,
 }
+
+// Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
+@group(0) @binding(0) var<storage, read> L: LevelParams;
+@group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
+@group(0) @binding(2) var<storage, read> tris: array<Tri>;
+@group(0) @binding(3) var<storage, read_write> child: array<u32>;
+// After the structure phase: each node's brick index + 1 (0 = no brick).
+@group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
 
 const INVALID: u32 = 0xffffffffu;
 const BRICK_COUNTER: u32 = 60u;

@@ -12,6 +12,11 @@
 // `dyn_sums` (its index in the occupied list). Lists hold node indices: the occupied list and
 // the needed list are appended level by level, their per-level ranges kept in `control`.
 
+import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index};
+import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
+import octolux::voxel::svo::common::{BRICK_COUNTER, child, find, flags, fragments, INVALID, L, leaf_of_voxel, octant_offset, pack3, tris, unpack3};
+import octolux::voxel::svo::build::{bricks0, bricks1, bricks2, bricks3, control, coord, group_index, group_texels, group_word, nbr, tap_weight, texel_index, write_args};
+
 struct DynParams {
     // x: static nodes S, y: static bricks B, z: node capacity, w: brick capacity
     sizes: vec4<u32>,

@@ -13,28 +13,14 @@
 use crate::frame::light_bindings;
 use crate::frame::ShadowLookup;
 use crate::gpu::pass::{bind, bind_buffers, dispatch_1d, SLOT};
-use crate::gpu::shader::library_shader_parts;
+use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
-use crate::voxel::voxelize::{FragmentList, OVERLAP_WGSL};
+use crate::voxel::voxelize::FragmentList;
 use crate::{Error, Result};
-
-/// WGSL: `svo_radiance_sample(p, footprint)`, the injected radiance filtered like
-/// `svo_sample` ([`crate::voxel::svo::sample::SVO_SAMPLE_WGSL`], which goes before it); the includer also
-/// declares `svo_radiance0..3` (the buffers of [`crate::voxel::svo::Svo::radiance`]). CPU twin:
-/// [`crate::voxel::svo::sample::svo_sample`] over the bricks of [`crate::voxel::svo::Svo::read_radiance`].
-pub const SVO_RADIANCE_SAMPLE_WGSL: &str = include_str!("radiance_sample.wgsl");
 
 /// Words kept per occupied leaf voxel: albedo sums (3), fragment count, emission sums (3,
 /// fixed point x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
-
-/// WGSL: the layout of the compact leaf sums ([`crate::voxel::svo::Svo::leaf_sums`]): one index word
-/// per static leaf node (first slot << 8 | occupancy mask), then [`LEAF_SUM_WORDS`] words per
-/// occupied voxel; `leaf_sum_offset` finds a voxel's words.
-pub const LEAF_SUMS_WGSL: &str = include_str!("leaf_sums.wgsl");
-
-/// WGSL: the hash and probe limit of the dynamic voxels' bounce table ([`SvoBounceTable`]).
-pub const BOUNCE_TABLE_WGSL: &str = include_str!("bounce_table.wgsl");
 
 /// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
 /// `svo/dynamic.wgsl`).
@@ -70,7 +56,7 @@ pub struct SvoBounce {
     pub frame: u32,
 }
 
-/// Irradiance gathered at the dynamic voxels, by voxel ([`BOUNCE_TABLE_WGSL`]).
+/// Irradiance gathered at the dynamic voxels, by voxel (`voxel/svo/bounce_table.wgsl`).
 pub struct SvoBounceTable {
     /// `capacity` keys (the geometry word, 0 = empty).
     pub keys: wgpu::Buffer,
@@ -113,15 +99,7 @@ pub(crate) struct SvoLight {
 
 impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
-        let source = library_shader_parts(
-            "svo inject",
-            &[
-                OVERLAP_WGSL,
-                LEAF_SUMS_WGSL,
-                BOUNCE_TABLE_WGSL,
-                include_str!("inject.wgsl"),
-            ],
-        );
+        let source = library_shader("voxel/svo/inject", &[]);
         let module = ctx.shader("svo inject", &source);
         let owner = crate::voxel::svo::OWNER;
         let small = |label: &str| {
@@ -148,7 +126,7 @@ impl SvoLight {
     }
 
     /// Sums every fragment into its leaf voxel; returns the compact sums buffer
-    /// ([`LEAF_SUMS_WGSL`]: an index word per leaf node, then [`LEAF_SUM_WORDS`] per occupied
+    /// (`voxel/svo/leaf_sums.wgsl`: an index word per leaf node, then [`LEAF_SUM_WORDS`] per occupied
     /// voxel) and the times of the passes submitted so far (this reads back the number of
     /// occupied voxels to size the buffer).
     pub(crate) fn accumulate(

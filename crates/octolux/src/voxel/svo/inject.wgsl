@@ -6,8 +6,14 @@
 // and opacity) the way `leaf_fill` writes albedo. The transfer and mip kernels of `svo/build.wgsl`
 // then filter the pool upward.
 
+import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index, Tri};
+import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
+import octolux::voxel::svo::bounce_table::{bounce_table_hash, BOUNCE_TABLE_PROBES};
+import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+
 // Per occupied leaf voxel (svo/leaf_sums.wgsl): albedo r, g, b x255 sums, fragment count,
 // emission r, g, b sums x EMISSION_SCALE, normal x, y, z sums (snorm8, two's complement).
+
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 const EMISSION_SCALE: f32 = 1024.0;
 
@@ -94,8 +100,6 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         atomicAdd(&sums[w + k], terms[k]);
     }
 }
-
-import package::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
 struct InjectParams {
     // xyz grid origin, w voxel size

@@ -39,9 +39,10 @@ pub mod walk;
 
 use crate::gpu::pack::{unpack_half4, unpack_unorm8};
 use crate::gpu::pass::dispatch_size;
+use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::svo::dynamic::DynamicReserve;
-use crate::voxel::voxelize::{FragmentList, Voxelizer, OVERLAP_WGSL};
+use crate::voxel::voxelize::{FragmentList, Voxelizer};
 use crate::voxel::{VoxelGrid, VoxelTriangle};
 use crate::{Error, Result};
 
@@ -58,9 +59,6 @@ pub const NODE_BYTES: u64 = 20;
 pub(crate) const PARAM_STRIDE: u64 = 256;
 
 /// Converts the RGBA16F build pool into the RGBA8 pool (values are in 0..1).
-/// What the octree's shader modules share (`svo/common.wgsl`).
-const SVO_COMMON_WGSL: &str = include_str!("common.wgsl");
-
 const PACK_WGSL: &str = "
 // Storage, not uniform: see \"Parameter blocks\" in voxel/mod.rs.
 @group(0) @binding(0) var<storage, read> count: vec4<u32>;
@@ -196,7 +194,7 @@ pub struct Svo {
     /// Per-level parameters (one 256-byte slot per level).
     pub level_params: wgpu::Buffer,
     /// Fragment sums of albedo, emission and normal of the static part's occupied leaf voxels
-    /// ([`crate::voxel::svo::inject::LEAF_SUMS_WGSL`]: an index word per static leaf node, then
+    /// (`voxel/svo/leaf_sums.wgsl`: an index word per static leaf node, then
     /// [`crate::voxel::svo::inject::LEAF_SUM_WORDS`] words per occupied voxel).
     pub leaf_sums: wgpu::Buffer,
     /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
@@ -335,19 +333,11 @@ impl SvoBuilder {
             entries: &[storage(0, false)],
         });
         let dyn_layout = crate::voxel::svo::dynamic::bind_group_layout(device);
-        let source = format!(
-            "{OVERLAP_WGSL}\n{}\n{SVO_COMMON_WGSL}\n{}\n{}",
-            crate::voxel::svo::inject::LEAF_SUMS_WGSL,
-            include_str!("build.wgsl"),
-            include_str!("dynamic.wgsl")
-        );
-        let module = ctx.shader("svo", &source);
+        // The build and the dynamic update: `dynamic` imports `build`, so it holds both.
+        let module = ctx.shader("svo", &library_shader("voxel/svo/dynamic", &[]));
         let accumulate = ctx.shader(
             "svo accumulate",
-            &format!(
-                "{OVERLAP_WGSL}\n{SVO_COMMON_WGSL}\n{}",
-                include_str!("accumulate.wgsl")
-            ),
+            &library_shader("voxel/svo/accumulate", &[]),
         );
         let plain = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("svo"),

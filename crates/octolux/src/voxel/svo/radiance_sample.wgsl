@@ -1,7 +1,14 @@
 // Filtered injected radiance of the sparse voxel octree: `svo_radiance_sample(p, footprint)`
 // returns RGB radiance (premultiplied by opacity) and opacity with the level choice and
-// interpolation of `svo_sample`. Goes after `svo/sample.wgsl`; the includer also declares
-//   var<storage, read> svo_radiance0: array<u32>; (and svo_radiance1..3: Svo::radiance)
+// interpolation of `svo_sample`, from the octree's 4 radiance buffers (`Svo::radiance`,
+// bound by `voxel::svo::sample::svo_radiance_bindings`).
+
+import octolux::voxel::svo::sample::{SvoLod, svo_corner, svo_info, svo_locate, svo_lod, svo_weight};
+
+@group(0) @binding(57) var<storage, read> svo_radiance0: array<u32>;
+@group(0) @binding(58) var<storage, read> svo_radiance1: array<u32>;
+@group(0) @binding(59) var<storage, read> svo_radiance2: array<u32>;
+@group(0) @binding(60) var<storage, read> svo_radiance3: array<u32>;
 
 fn svo_radiance_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
     let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);

@@ -1,11 +1,14 @@
-// Directional sampling of the octree's anisotropic radiance (`svo/aniso_radiance.wgsl`). Goes
-// after `svo/sample.wgsl`; the includer also declares
-//   var<storage, read> svo_aniso_radiance: array<u32>;   (SvoAnisoRadiance::buffer)
+// Directional sampling of the octree's anisotropic radiance (`svo/aniso_radiance.wgsl`), bound
+// at 62 (`SvoAnisoRadiance::buffer`, `voxel::svo::sample::SVO_ANISO_RADIANCE_BINDING`).
 //
 // The same node-centred interpolation, level choice and face weights as the anisotropic
 // albedo (`svo/sample_aniso.wgsl`), over RGBA16F values (premultiplied radiance, opacity).
 
 // Node-centred trilinear sample of level d's directional radiance at grid position g.
+import octolux::voxel::svo::sample::{svo_faces, svo_node_cell, svo_node_lod};
+
+@group(0) @binding(62) var<storage, read> svo_aniso_radiance: array<u32>;
+
 fn svo_radiance_aniso_level(g: vec3<f32>, d: u32, dir: vec3<f32>) -> vec4<f32> {
     let cell = svo_node_cell(g, d);
     let faces = svo_faces(dir);

@@ -1,21 +1,60 @@
-//! Sampling the octree: the WGSL `svo_sample(p, footprint)` ([`SVO_SAMPLE_WGSL`]) with its
-//! parameter block ([`SvoInfo`]) and CPU twins ([`svo_sample`]; the anisotropic values'
-//! [`svo_sample_aniso`] and [`svo_radiance_aniso`]).
+//! Sampling the octree: the WGSL module `voxel/svo/sample` (`svo_sample(p, footprint)`; its
+//! siblings `radiance_sample`, `sample_aniso` and `radiance_sample_aniso` sample the other
+//! payloads) with its parameter block ([`SvoInfo`]), the bind-group entries of its bindings
+//! ([`svo_bindings`] and the functions after it) and CPU twins ([`svo_sample`]; the
+//! anisotropic values' [`svo_sample_aniso`] and [`svo_radiance_aniso`]).
 //!
 //! The level whose lattice spacing matches the footprint (quadrilinear between two levels),
 //! trilinear inside the brick of the node containing `p`; zero where no node exists.
 
-use super::SvoCpu;
+use super::{Svo, SvoCpu};
 use crate::gpu::pack::unpack_unorm8;
 use crate::voxel::sample::trilinear;
 use crate::voxel::VoxelGrid;
 use glam::{IVec3, UVec3, Vec3, Vec4};
 
-/// WGSL: `svo_sample(p, footprint)`; the includer declares `svo_info`, `svo_child`,
-/// `svo_bricks0..3`, `svo_brick_index` (see the file's header).
-pub const SVO_SAMPLE_WGSL: &str = include_str!("sample.wgsl");
+/// First binding (group 0) of the octree's samplers: `svo_info`, `svo_child`,
+/// `svo_brick_index`, then the albedo pool `svo_bricks0..3` ([`svo_bindings`],
+/// [`svo_albedo_bindings`]).
+pub const SVO_BINDINGS: u32 = 50;
+/// The radiance sampler's `svo_radiance0..3` ([`svo_radiance_bindings`]).
+pub const SVO_RADIANCE_BINDINGS: u32 = 57;
+/// The anisotropic albedo sampler's values (`svo_aniso`).
+pub const SVO_ANISO_BINDING: u32 = 61;
+/// The anisotropic radiance sampler's values (`svo_aniso_radiance`).
+pub const SVO_ANISO_RADIANCE_BINDING: u32 = 62;
 
-/// Parameter block `SvoInfo` of [`SVO_SAMPLE_WGSL`] (a read-only storage buffer).
+/// The entries every octree sampler reads: `info` (an [`SvoInfo`] block), `svo`'s child links
+/// and brick of each node.
+pub fn svo_bindings<'a>(
+    info: &'a wgpu::Buffer,
+    svo: &'a Svo,
+) -> [(u32, wgpu::BindingResource<'a>); 3] {
+    let buffers = [info, &svo.child, &svo.brick_index];
+    std::array::from_fn(|i| (SVO_BINDINGS + i as u32, buffers[i].as_entire_binding()))
+}
+
+/// The albedo pool's four buffers, for `svo_sample`.
+pub fn svo_albedo_bindings(svo: &Svo) -> [(u32, wgpu::BindingResource<'_>); 4] {
+    std::array::from_fn(|i| {
+        (
+            SVO_BINDINGS + 3 + i as u32,
+            svo.bricks[i].as_entire_binding(),
+        )
+    })
+}
+
+/// The injected radiance's four buffers, for `svo_radiance_sample`.
+pub fn svo_radiance_bindings(svo: &Svo) -> [(u32, wgpu::BindingResource<'_>); 4] {
+    std::array::from_fn(|i| {
+        (
+            SVO_RADIANCE_BINDINGS + i as u32,
+            svo.radiance[i].as_entire_binding(),
+        )
+    })
+}
+
+/// Parameter block `SvoInfo` of `voxel/svo/sample.wgsl` (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SvoInfo {
@@ -150,7 +189,7 @@ pub fn svo_aniso_level(
     })
 }
 
-/// CPU twin of `svo_radiance_aniso` ([`super::svo::aniso_radiance::SVO_RADIANCE_ANISO_WGSL`]):
+/// CPU twin of `svo_radiance_aniso` (`voxel/svo/radiance_sample_aniso.wgsl`):
 /// the anisotropic radiance `values` (per brick,
 /// [`super::svo::aniso_radiance::SvoAnisoRadiance::read_back`]) of the level whose node size
 /// matches `footprint` (two finest voxels or more; the finest level below), quadrilinear
@@ -191,7 +230,7 @@ fn node_levels(grid: &VoxelGrid, footprint: f32, level: impl Fn(u32) -> Vec4) ->
     a.lerp(level(fine - 1), t)
 }
 
-/// CPU twin of `svo_sample_aniso` ([`super::svo::aniso::SVO_ANISO_SAMPLE_WGSL`]): the
+/// CPU twin of `svo_sample_aniso` (`voxel/svo/sample_aniso.wgsl`): the
 /// directional values of the level whose node size matches `footprint` (quadrilinear between
 /// two levels), seen travelling along `dir`; below two voxels a blend from the isotropic
 /// [`svo_sample`] (one voxel) to the finest directional level (two voxels).

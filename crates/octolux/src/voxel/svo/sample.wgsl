@@ -1,12 +1,10 @@
 // Filtered sampling of the sparse voxel octree: `svo_sample(p, footprint)` returns the
 // premultiplied albedo and opacity at world position `p`, filtered over a footprint of
 // `footprint` metres (the lattice spacing of the chosen level; quadrilinear between levels).
-// The includer declares:
-//   var<storage, read> svo_info: SvoInfo; (storage, not uniform: "Parameter blocks" in
-//   voxel/mod.rs)
-//   var<storage, read> svo_child: array<u32>;
-//   var<storage, read> svo_bricks0: array<u32>; (and svo_bricks1..3: the pool's 4 buffers)
-//   var<storage, read> svo_brick_index: array<u32>;
+// Its bindings (group 0 from 50, bound by `voxel::svo::sample::svo_bindings` and
+// `svo_albedo_bindings`) are the octree's: the parameter block (storage, not uniform:
+// "Parameter blocks" in voxel/mod.rs), the child links, the brick of each node and the
+// brick pool's 4 albedo buffers. The radiance and anisotropic samplers add theirs after them.
 
 struct SvoInfo {
     // xyz: grid origin, w: voxel size.
@@ -14,6 +12,14 @@ struct SvoInfo {
     // x: depth (levels), y: resolution, z: bricks per pool buffer.
     misc: vec4<u32>,
 }
+
+@group(0) @binding(50) var<storage, read> svo_info: SvoInfo;
+@group(0) @binding(51) var<storage, read> svo_child: array<u32>;
+@group(0) @binding(52) var<storage, read> svo_brick_index: array<u32>;
+@group(0) @binding(53) var<storage, read> svo_bricks0: array<u32>;
+@group(0) @binding(54) var<storage, read> svo_bricks1: array<u32>;
+@group(0) @binding(55) var<storage, read> svo_bricks2: array<u32>;
+@group(0) @binding(56) var<storage, read> svo_bricks3: array<u32>;
 
 fn svo_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
     let w = (brick % svo_info.misc.z) * 27u + t.x + 3u * t.y + 9u * t.z;

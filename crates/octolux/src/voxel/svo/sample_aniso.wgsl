@@ -1,6 +1,5 @@
-// Directional sampling of the octree's anisotropic node values (svo/aniso.wgsl). Goes after
-// `svo/sample.wgsl`; the includer also declares
-//   var<storage, read> svo_aniso: array<u32>;   (SvoAnisoValues::buffer)
+// Directional sampling of the octree's anisotropic node values (svo/aniso.wgsl), bound at 61
+// (`SvoAnisoValues::buffer`, `voxel::svo::sample::SVO_ANISO_BINDING`).
 //
 // `svo_sample_aniso(p, footprint, dir)` returns premultiplied albedo and opacity at `p` seen by
 // a cone travelling along `dir`, filtered over `footprint` metres. Level d's values sit at its
@@ -12,6 +11,10 @@
 // voxel and less) to the finest directional level (at two voxels). Zero where no node exists.
 
 // Node-centred trilinear sample of level d's directional values at grid position g (voxels).
+import octolux::voxel::svo::sample::{svo_faces, svo_node_cell, svo_node_lod, svo_sample};
+
+@group(0) @binding(61) var<storage, read> svo_aniso: array<u32>;
+
 fn svo_aniso_level(g: vec3<f32>, d: u32, dir: vec3<f32>) -> vec4<f32> {
     let cell = svo_node_cell(g, d);
     let faces = svo_faces(dir);

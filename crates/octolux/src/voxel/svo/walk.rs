@@ -1,5 +1,5 @@
 //! Visibility through the sparse voxel octree (VPL shadow segments, probe rays): the WGSL walk
-//! ([`WALK_WGSL`], bound by [`walk_bindings`]), its CPU twin ([`SvoWalkCpu::occluded`]), an
+//! (the module `voxel/svo/walk`, bound by [`walk_bindings`]), its CPU twin ([`SvoWalkCpu::occluded`]), an
 //! independent CPU reference over a dense voxel set ([`segment_blocked_brute`]) and a GPU
 //! harness that traces given segments ([`Tracer`]).
 //!
@@ -9,7 +9,6 @@
 //! and the voxels holding the moved ends are never counted as occluders (they may still hold a
 //! neighbouring surface in a corner, which would otherwise block every segment from there).
 
-use crate::gpu::shader::library_shader_parts;
 use crate::gpu::GpuContext;
 use crate::voxel::svo::inject::LEAF_SUM_WORDS;
 use crate::voxel::svo::Svo;
@@ -18,9 +17,6 @@ use crate::{Error, Result};
 use bytemuck::{Pod, Zeroable};
 use glam::{IVec3, Vec3};
 use std::collections::BTreeSet;
-
-/// WGSL of the walk (`walk.wgsl`, the module `package::voxel::svo::walk`).
-pub const WALK_WGSL: &str = include_str!("walk.wgsl");
 
 /// The first of the walk's five bindings in group 0 of every shader that imports
 /// `voxel/svo/walk.wgsl` (parameters, child links, leaf sums, dynamic state, dynamic sums),
@@ -410,7 +406,9 @@ pub struct Tracer {
 impl Tracer {
     /// Compiles the test kernel.
     pub fn new(ctx: &GpuContext) -> Tracer {
-        let source = library_shader_parts("walk test", &[include_str!("walk_test.wgsl")]);
+        let source =
+            crate::gpu::shader::compose_text("walk test", include_str!("walk_test.wgsl"), &[], &[])
+                .unwrap();
         let module = ctx.shader("walk test", &source);
         Tracer {
             pipeline: ctx.compute_pipeline("vpl trace test", &module, "main"),

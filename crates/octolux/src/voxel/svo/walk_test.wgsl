@@ -1,7 +1,7 @@
 // Test kernel: traces segments given as lattice points and writes, per segment, 0 when nothing
 // blocks it, else 1 + the first blocking voxel packed as x + 1024 (y + 1024 z).
 
-import package::voxel::svo::walk::svo_first_hit;
+import octolux::voxel::svo::walk::svo_first_hit;
 
 @group(0) @binding(3) var<storage, read> segments: array<vec4<i32>>;
 @group(0) @binding(4) var<storage, read_write> results: array<u32>;

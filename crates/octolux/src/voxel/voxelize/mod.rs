@@ -19,9 +19,6 @@ use crate::voxel::voxelize::snap::{snap_triangles, Piece, SnapRegion};
 use crate::voxel::{VoxelGrid, VoxelTriangle};
 use crate::{Error, Result};
 
-/// WGSL shared by every voxelization kernel (triangle and piece layouts, overlap test).
-pub const OVERLAP_WGSL: &str = include_str!("overlap.wgsl");
-
 /// Parameter block `VoxParams` of `voxelize/overlap.wgsl` (a read-only storage buffer).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -98,7 +95,7 @@ pub struct Voxelizer {
 impl Voxelizer {
     /// Compiles the voxelization kernels.
     pub fn new(ctx: &GpuContext) -> Voxelizer {
-        let source = format!("{OVERLAP_WGSL}\n{}", include_str!("voxelize.wgsl"));
+        let source = crate::gpu::shader::library_shader("voxel/voxelize/voxelize", &[]);
         let module = ctx.shader("voxelize", &source);
         Voxelizer {
             count: ctx.compute_pipeline("voxelize count", &module, "count_fragments"),

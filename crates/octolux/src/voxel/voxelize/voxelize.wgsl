@@ -4,6 +4,8 @@
 // A fragment is (packed voxel coordinate relative to lo, triangle index); albedo, normal and
 // emission are read from the triangle.
 
+import octolux::voxel::voxelize::overlap::{cell_count, CHUNK, linear_index, nth_offset, Piece, piece_cells, piece_test, piece_touches, VoxParams};
+
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
 @group(0) @binding(0) var<storage, read> P: VoxParams;
 @group(0) @binding(1) var<storage, read> pieces: array<Piece>;
