@@ -35,6 +35,12 @@ impl MemoryLedger {
             .insert((owner.to_string(), name.to_string()), bytes);
     }
 
+    /// Forgets the buffer `name` of `owner`: scratch that lived only while a build or a
+    /// frame's commands were recorded, dropped now.
+    pub fn forget(&self, owner: &str, name: &str) {
+        self.lock().remove(&(owner.to_string(), name.to_string()));
+    }
+
     /// Forgets everything recorded under `owner` (when it is dropped or rebuilt).
     pub fn release_owner(&self, owner: &str) {
         self.lock().retain(|(o, _), _| o != owner);

@@ -179,6 +179,18 @@ impl KeptBindGroup {
         pipeline: &wgpu::ComputePipeline,
         entries: &[(u32, wgpu::BindingResource)],
     ) -> wgpu::BindGroup {
+        self.get_at(ctx, label, pipeline, 0, entries)
+    }
+
+    /// [`KeptBindGroup::get`] for group `index` of `pipeline`.
+    pub fn get_at(
+        &self,
+        ctx: &GpuContext,
+        label: &str,
+        pipeline: &wgpu::ComputePipeline,
+        index: u32,
+        entries: &[(u32, wgpu::BindingResource)],
+    ) -> wgpu::BindGroup {
         let key: BindingKey = entries
             .iter()
             .map(|(binding, resource)| (*binding, ResourceKey::of(resource)))
@@ -189,7 +201,7 @@ impl KeptBindGroup {
                 return group.clone();
             }
         }
-        let group = bind_group_at(ctx, Some(label), pipeline, 0, entries);
+        let group = bind_group_at(ctx, Some(label), pipeline, index, entries);
         *kept = Some((key, group.clone()));
         group
     }

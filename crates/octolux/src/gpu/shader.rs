@@ -11,9 +11,11 @@
 //!
 //! Composition keeps names as written (no mangling), so entry points, bindings and overrides are
 //! what the module declares, and it keeps every declaration of every module it reaches (as the
-//! concatenation it replaces did): a binding a pass does not use stays out of its derived
-//! layout all the same. A module without imports is plain WGSL; shaders not yet moved to
-//! imports still paste such modules together.
+//! concatenation it replaced did): a binding a pass does not use stays out of its derived
+//! layout all the same. A module that several shaders share owns its bindings at fixed
+//! numbers above every pass's own (the lights from 40, the octree walk from 44, the octree's
+//! samplers from 50, the clipmap's from 64), and the Rust beside it has the function that
+//! binds them, so a binding is declared once.
 
 use crate::{Error, Result};
 use std::borrow::Cow;
@@ -126,15 +128,16 @@ fn module_path(path: &str, imported: bool) -> Result<ModulePath> {
 /// Composes the shader whose main module is `main` (a path under `src/`, such as
 /// `"render/compose"`) with every module it imports into one WGSL source. `features` set the
 /// `@if` flags (a flag the sources use but `features` does not set is an error);
-/// `packages` are `(name, WGSL)` mounted as packages of their own (`("constants", text)` for
-/// `import octolux::gi::vct::cone_set::CONES;`), whose imports resolve like the library's.
-pub fn compose(main: &str, features: &[(&str, bool)], packages: &[(&str, &str)]) -> Result<String> {
-    compose_with(main, None, features, packages)
+/// `extra` are `(path, WGSL)` modules added to the library's for this composition only: data
+/// generated in Rust (the cone set, `gi/vct/cone_set`) or a module chosen per use (the
+/// structure the cone marcher samples, `gi/vct/structure`; a probe set, `gi/probes/set`).
+pub fn compose(main: &str, features: &[(&str, bool)], extra: &[(&str, &str)]) -> Result<String> {
+    compose_with(main, None, features, extra)
 }
 
 /// [`compose`] with the main module given as text (its imports resolved against the library's
-/// modules): for shaders still assembled from fragments in Rust, which import the modules they
-/// share; `label` names it in errors.
+/// modules): for kernels written in Rust or in tests over the library's modules; `label`
+/// names it in errors.
 pub fn compose_text(
     label: &str,
     main: &str,
@@ -187,7 +190,7 @@ fn compose_with(
         .map_err(|e| Error::Gpu(format!("shader '{main}' does not compose: {e}")))
 }
 
-/// [`compose`] for one of the library's own shaders (no constants). Their composition cannot
+/// [`compose`] for one of the library's own shaders. Their composition cannot
 /// fail at run time unless a module is broken, which the test
 /// `every_module_composes_into_valid_wgsl` rules out; a broken one stops here with wesl's
 /// message.
@@ -202,55 +205,6 @@ pub fn library_shader_with(
     extra: &[(&str, &str)],
 ) -> String {
     compose(main, features, extra).unwrap_or_else(|e| panic!("internal shader error: {e}"))
-}
-
-/// A shader of the library's still assembled from fragments (`parts`, pasted in order) whose
-/// fragments import modules: their `import` lines are gathered at the top (one per module,
-/// the items merged) and the text is composed with [`compose_text`]. As with
-/// [`library_shader`], a failure is a broken shader, which the tests that build every pipeline
-/// catch.
-pub fn library_shader_parts(label: &str, parts: &[&str]) -> String {
-    let text = hoist_imports(&parts.join("\n"));
-    compose_text(label, &text, &[], &[]).unwrap_or_else(|e| panic!("internal shader error: {e}"))
-}
-
-/// `text` with its `import` lines (`import a::b::{x, y};` or `import a::b::x;`, one line each)
-/// replaced by one import per module at the top.
-fn hoist_imports(text: &str) -> String {
-    let mut modules: Vec<(String, Vec<String>)> = Vec::new();
-    let mut body = Vec::new();
-    for line in text.lines() {
-        let Some(import) = line
-            .trim()
-            .strip_prefix("import ")
-            .and_then(|l| l.strip_suffix(';'))
-        else {
-            body.push(line);
-            continue;
-        };
-        let (path, items) = match import.split_once("::{") {
-            Some((path, items)) => (path, items.trim_end_matches('}')),
-            None => import.rsplit_once("::").unwrap_or(("", import)),
-        };
-        let slot = match modules.iter().position(|(p, _)| p == path) {
-            Some(i) => &mut modules[i].1,
-            None => {
-                modules.push((path.to_string(), Vec::new()));
-                &mut modules.last_mut().unwrap().1
-            }
-        };
-        for item in items.split(',').map(str::trim).filter(|i| !i.is_empty()) {
-            if !slot.iter().any(|i| i == item) {
-                slot.push(item.to_string());
-            }
-        }
-    }
-    let mut out: Vec<String> = modules
-        .iter()
-        .map(|(path, items)| format!("import {path}::{{{}}};", items.join(", ")))
-        .collect();
-    out.extend(body.iter().map(|l| l.to_string()));
-    out.join("\n")
 }
 
 #[cfg(test)]
@@ -338,15 +292,6 @@ var<private> DIFFUSE_SET: array<vec4<f32>, 1> = array<vec4<f32>, 1>(vec4<f32>(0.
         flags.sort_unstable();
         flags.dedup();
         flags
-    }
-
-    #[test]
-    fn fragments_imports_are_gathered_at_the_top_once_per_module() {
-        let text = "// a\nimport octolux::m::{x, y};\nfn f() {}\nimport octolux::m::y;\nimport octolux::n::z;";
-        assert_eq!(
-            hoist_imports(text),
-            "import octolux::m::{x, y};\nimport octolux::n::{z};\n// a\nfn f() {}"
-        );
     }
 
     #[test]

@@ -13,7 +13,7 @@ use super::rays::Rays;
 use super::ProbeSettings;
 use crate::frame::light_bindings;
 use crate::gi::GiFrame;
-use crate::gpu::pass::dispatch_size;
+use crate::gpu::pass::{dispatch_size, KeptBindGroup};
 use crate::gpu::shader::{library_shader_with, module_source};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
@@ -72,21 +72,6 @@ pub(crate) fn bind_at(
     crate::gpu::pass::bind_group_at(ctx, Some(label), pipeline, index, entries)
 }
 
-/// A bind group of group 0 of `pipeline` with `entries` at bindings 0, 1, ...
-pub(crate) fn bind(
-    ctx: &GpuContext,
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    entries: &[wgpu::BindingResource],
-) -> wgpu::BindGroup {
-    let entries: Vec<(u32, wgpu::BindingResource)> = entries
-        .iter()
-        .enumerate()
-        .map(|(i, r)| (i as u32, r.clone()))
-        .collect();
-    bind_at(ctx, label, pipeline, 0, &entries)
-}
-
 /// Records the named pass `name`: `pipeline` with `groups` (group i = `groups[i]`) over
 /// `groups_xy` workgroups.
 pub(crate) fn run_pass(
@@ -136,6 +121,9 @@ pub(crate) struct ProbeEngine {
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     size: (u32, u32),
+    /// The bind groups of place, moments, light, integrate and gather, kept while their
+    /// resources are.
+    groups: [KeptBindGroup; 5],
 }
 
 impl ProbeEngine {
@@ -242,6 +230,7 @@ impl ProbeEngine {
             texture,
             view,
             size: (width, height),
+            groups: Default::default(),
         })
     }
 
@@ -338,7 +327,7 @@ impl ProbeEngine {
             (8, buf(&self.stamps)),
         ];
         entries.extend(self.rays.place_bindings());
-        let group = bind_at(ctx, "place", &self.place, 0, &entries);
+        let group = self.groups[0].get(ctx, "place", &self.place, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         run_pass(timer, "place", &self.place, &groups, self.surfel_groups());
     }
@@ -353,15 +342,15 @@ impl ProbeEngine {
         if self.settings.visibility == Visibility::None {
             return;
         }
-        let group = bind(
+        let group = self.groups[1].get(
             ctx,
             "moments",
             &self.moments_build,
             &[
-                buf(&self.params_buffer),
-                buf(&self.surfels),
-                buf(&self.moments),
-                buf(&self.stamps),
+                (0, buf(&self.params_buffer)),
+                (1, buf(&self.surfels)),
+                (2, buf(&self.moments)),
+                (3, buf(&self.stamps)),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
@@ -385,7 +374,7 @@ impl ProbeEngine {
             (8, buf(&self.moments)),
         ];
         entries.extend(light_bindings(frame.lights, frame.shadows.lookup()));
-        let group = bind_at(ctx, "light", &self.light, 0, &entries);
+        let group = self.groups[2].get(ctx, "light", &self.light, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         run_pass(timer, "light", &self.light, &groups, self.surfel_groups());
         Ok(())
@@ -398,15 +387,15 @@ impl ProbeEngine {
         timer: &mut PassTimer,
         set: Option<&wgpu::BindGroup>,
     ) {
-        let group = bind(
+        let group = self.groups[3].get(
             ctx,
             "integrate",
             &self.integrate,
             &[
-                buf(&self.params_buffer),
-                buf(&self.surfels),
-                buf(&self.radiance),
-                buf(&self.probes),
+                (0, buf(&self.params_buffer)),
+                (1, buf(&self.surfels)),
+                (2, buf(&self.radiance)),
+                (3, buf(&self.probes)),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
@@ -422,11 +411,10 @@ impl ProbeEngine {
         timer: &mut PassTimer,
         set: Option<&wgpu::BindGroup>,
     ) {
-        let group = bind_at(
+        let group = self.groups[4].get(
             ctx,
             "gather",
             &self.gather,
-            0,
             &[
                 (0, buf(&self.params_buffer)),
                 (1, buf(frame.camera_uniform)),

@@ -18,6 +18,7 @@ use super::octree::{OctreeProbe, OctreeRule, State};
 use super::params::storage;
 use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
+use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::shader::library_shader_with;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
@@ -38,7 +39,6 @@ struct OctreeParams {
     modes: [u32; 4],
 }
 
-/// The WGSL of the octree's encoding, shared by the state machine and the probe set.
 /// The probe octree in GPU buffers and the passes of its state machine.
 pub struct GpuOctree {
     rule: OctreeRule,
@@ -56,6 +56,9 @@ pub struct GpuOctree {
     light_select: wgpu::ComputePipeline,
     light_decide: wgpu::ComputePipeline,
     origin: u32,
+    /// The bind groups of memory update, light select and light decide, kept while their
+    /// resources are.
+    groups: [KeptBindGroup; 3],
 }
 
 /// Creates a storage buffer holding `data` under `owner`.
@@ -131,6 +134,7 @@ impl GpuOctree {
             light_select: ctx.compute_pipeline("light select", &module, "light_select"),
             light_decide: ctx.compute_pipeline("light decide", &module, "light_decide"),
             origin: 0,
+            groups: Default::default(),
         })
     }
 
@@ -190,11 +194,10 @@ impl GpuOctree {
 
     /// The memory update (M states).
     pub fn memory_update(&self, ctx: &GpuContext, timer: &mut PassTimer) {
-        let group = bind_at(
+        let group = self.groups[0].get(
             ctx,
             "memory update",
             &self.memory_update,
-            0,
             &[
                 (0, buf(&self.params_buffer)),
                 (1, buf(&self.tree)),
@@ -218,11 +221,10 @@ impl GpuOctree {
 
     /// The light update's first half: moved geometry, L1 leaves ask for surfels.
     pub fn light_select(&self, ctx: &GpuContext, timer: &mut PassTimer) {
-        let group = bind_at(
+        let group = self.groups[1].get(
             ctx,
             "light select",
             &self.light_select,
-            0,
             &[
                 (0, buf(&self.params_buffer)),
                 (1, buf(&self.tree)),
@@ -238,11 +240,10 @@ impl GpuOctree {
 
     /// The light update's second half: the split/free rule from the hit counts.
     pub fn light_decide(&self, ctx: &GpuContext, timer: &mut PassTimer) {
-        let group = bind_at(
+        let group = self.groups[2].get(
             ctx,
             "light decide",
             &self.light_decide,
-            0,
             &[
                 (0, buf(&self.params_buffer)),
                 (1, buf(&self.tree)),

@@ -8,7 +8,7 @@ use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
 use super::{ClipmapInjection, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
-use crate::gpu::pass::dispatch_1d;
+use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::{
     clip_bindings, ClipInfo, CLIP_BINDINGS, CLIP_RADIANCE_BINDING,
@@ -46,6 +46,28 @@ struct ClipmapBounce {
     clear: wgpu::ComputePipeline,
     params: wgpu::Buffer,
     slots: u32,
+    /// The boxes a frame clears, one `BounceBox` per [`BOX_STRIDE`] (grown when a frame has
+    /// more than it holds), and the clear's bind group per box and the gather's, kept while
+    /// their resources are.
+    boxes: wgpu::Buffer,
+    clear_groups: Vec<KeptBindGroup>,
+    gather_group: KeptBindGroup,
+}
+
+/// Boxes the clear's box buffer holds at first.
+const BOX_ROOM: u64 = 16;
+
+/// The clear's box buffer for `boxes` boxes.
+fn box_buffer(ctx: &GpuContext, boxes: u64) -> wgpu::Buffer {
+    ctx.create_buffer(
+        OWNER,
+        &wgpu::BufferDescriptor {
+            label: Some("bounce boxes"),
+            size: boxes * BOX_STRIDE,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        },
+    )
 }
 
 /// Stride of the boxes in the per-frame box buffer (a storage binding offset alignment).
@@ -122,6 +144,9 @@ impl VctClipmap {
                     wgpu::BufferUsages::STORAGE,
                 ),
                 slots: slots as u32,
+                boxes: box_buffer(ctx, BOX_ROOM),
+                clear_groups: Vec::new(),
+                gather_group: KeptBindGroup::default(),
             }
         });
         let info = ctx.create_buffer(
@@ -155,8 +180,8 @@ impl VctClipmap {
     /// Multiple bounces, before the injection: the slots of every box the clipmap rewrote
     /// this frame lose their bounce light (a wrapped slot holds another voxel now; a moving
     /// object changed the voxels around it).
-    fn clear_revoxelised(&self, ctx: &GpuContext, timer: &mut PassTimer, boxes: &[UpdateBox]) {
-        let Some(b) = &self.bounce else { return };
+    fn clear_revoxelised(&mut self, ctx: &GpuContext, timer: &mut PassTimer, boxes: &[UpdateBox]) {
+        let Some(b) = &mut self.bounce else { return };
         let boxes: Vec<&UpdateBox> = boxes.iter().filter(|b| b.volume() > 0).collect();
         if boxes.is_empty() {
             return;
@@ -167,34 +192,26 @@ impl VctClipmap {
             let at = k * BOX_STRIDE as usize;
             bytes[at..at + 32].copy_from_slice(bytemuck::bytes_of(&words));
         }
-        let buffer =
-            ctx.create_buffer_init(OWNER, "bounce boxes", &bytes, wgpu::BufferUsages::STORAGE);
-        // Lives as long as the frame's commands; the ledger keeps the kept buffers.
-        ctx.ledger.record(OWNER, "bounce boxes", 0);
-        let layout = b.clear.get_bind_group_layout(0);
+        if b.boxes.size() < bytes.len() as u64 {
+            b.boxes = box_buffer(ctx, (boxes.len() as u64).next_power_of_two());
+        }
+        ctx.queue.write_buffer(&b.boxes, 0, &bytes);
+        b.clear_groups
+            .resize_with(b.clear_groups.len().max(boxes.len()), Default::default);
         for (k, ub) in boxes.iter().enumerate() {
-            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("bounce clear"),
-                layout: &layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: CLIP_BINDINGS,
-                        resource: self.info.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 22,
-                        resource: b.irradiance.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 23,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &buffer,
-                            offset: k as u64 * BOX_STRIDE,
-                            size: wgpu::BufferSize::new(32),
-                        }),
-                    },
-                ],
-            });
+            let entries = [
+                (CLIP_BINDINGS, self.info.as_entire_binding()),
+                (22, b.irradiance.as_entire_binding()),
+                (
+                    23,
+                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &b.boxes,
+                        offset: k as u64 * BOX_STRIDE,
+                        size: wgpu::BufferSize::new(32),
+                    }),
+                ),
+            ];
+            let group = b.clear_groups[k].get(ctx, "bounce clear", &b.clear, &entries);
             dispatch_1d(timer, "bounce clear", &b.clear, &group, ub.volume() as u32);
         }
     }
@@ -325,12 +342,7 @@ impl GiTechnique for VctClipmap {
                 (21, clipmap.normals.as_entire_binding()),
                 (22, b.irradiance.as_entire_binding()),
             ];
-            let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("vct bounce"),
-                layout: &b.gather.get_bind_group_layout(0),
-                entries: &entries
-                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
-            });
+            let group = b.gather_group.get(ctx, "vct bounce", &b.gather, &entries);
             dispatch_1d(timer, "bounce", &b.gather, &group, b.slots);
         }
         // 6. Six cones per pixel through the injected radiance (sparse, then reconstructed;

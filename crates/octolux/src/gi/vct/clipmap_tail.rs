@@ -10,6 +10,7 @@
 //! the mean of the 8 voxels below it, and the trace samples them for footprints past the
 //! coarsest voxel (`clipmap_trace.wgsl`), quadrilinear between them.
 
+use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::{CLIP_BINDINGS, CLIP_RADIANCE_BINDING};
 use glam::{IVec3, Vec4};
@@ -41,6 +42,8 @@ pub(crate) struct ClipmapTail {
     pub buffer: wgpu::Buffer,
     params: Vec<wgpu::Buffer>,
     pipeline: wgpu::ComputePipeline,
+    /// Each level's bind group, kept while the clipmap's buffers are the same.
+    groups: Vec<KeptBindGroup>,
 }
 
 impl ClipmapTail {
@@ -57,7 +60,7 @@ impl ClipmapTail {
                 mapped_at_creation: false,
             },
         );
-        let params = (1..=levels)
+        let params: Vec<wgpu::Buffer> = (1..=levels)
             .map(|k| {
                 let p = TailParams {
                     misc: [
@@ -81,6 +84,7 @@ impl ClipmapTail {
         ClipmapTail {
             res,
             buffer,
+            groups: params.iter().map(|_| KeptBindGroup::default()).collect(),
             params,
             pipeline,
         }
@@ -96,22 +100,18 @@ impl ClipmapTail {
         info: &wgpu::Buffer,
         radiance: &wgpu::Buffer,
     ) {
-        let layout = self.pipeline.get_bind_group_layout(0);
         let groups: Vec<wgpu::BindGroup> = self
             .params
             .iter()
-            .map(|params| {
-                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("clipmap tail"),
-                    layout: &layout,
-                    entries: &[
-                        (0, params.as_entire_binding()),
-                        (1, self.buffer.as_entire_binding()),
-                        (CLIP_BINDINGS, info.as_entire_binding()),
-                        (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
-                    ]
-                    .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource }),
-                })
+            .zip(&self.groups)
+            .map(|(params, kept)| {
+                let entries = [
+                    (0, params.as_entire_binding()),
+                    (1, self.buffer.as_entire_binding()),
+                    (CLIP_BINDINGS, info.as_entire_binding()),
+                    (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
+                ];
+                kept.get(ctx, "clipmap tail", &self.pipeline, &entries)
             })
             .collect();
         let last = groups.len().saturating_sub(1);

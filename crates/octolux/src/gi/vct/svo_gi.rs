@@ -9,7 +9,7 @@ use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
 use super::{VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
-use crate::gpu::pass::dispatch_1d;
+use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::voxel::svo::aniso_radiance::SvoAnisoRadiance;
@@ -56,6 +56,9 @@ struct Bounce {
     params: wgpu::Buffer,
     /// Static leaf voxel slots.
     slots: u32,
+    /// The static gather's bind group and the dynamic one's per table written (the tables
+    /// alternate), kept while their resources are.
+    groups: [KeptBindGroup; 3],
 }
 
 /// Entries of a dynamic bounce table for a reserve of `nodes`: room for every voxel the
@@ -259,6 +262,7 @@ impl Bounce {
                 .map(|_| ctx.compute_pipeline("bounce_dynamic", &module, "bounce_dynamic")),
             params,
             slots,
+            groups: Default::default(),
         })
     }
 
@@ -272,35 +276,32 @@ impl Bounce {
         structure: &[(u32, wgpu::BindingResource<'_>)],
         cone_params: &wgpu::Buffer,
     ) {
-        let group = |pipeline: &wgpu::ComputePipeline, extra: &[(u32, &wgpu::Buffer)]| {
-            let mut entries: Vec<wgpu::BindGroupEntry> = structure
-                .iter()
-                .map(|(binding, resource)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: resource.clone(),
-                })
-                .collect();
+        let group = |kept: &KeptBindGroup,
+                     pipeline: &wgpu::ComputePipeline,
+                     extra: &[(u32, &wgpu::Buffer)]| {
+            let mut entries = structure.to_vec();
             let common = [
                 (5, cone_params),
                 (20, &self.params),
                 (21, &self.buffers.geometry),
             ];
-            entries.extend(common.iter().chain(extra).map(|&(binding, buffer)| {
-                wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                }
-            }));
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("vct bounce"),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
+            entries.extend(
+                common
+                    .iter()
+                    .chain(extra)
+                    .map(|&(binding, buffer)| (binding, buffer.as_entire_binding())),
+            );
+            kept.get(ctx, "vct bounce", pipeline, &entries)
         };
-        let statics = group(&self.pipeline, &[(22, &self.buffers.irradiance)]);
+        let statics = group(
+            &self.groups[0],
+            &self.pipeline,
+            &[(22, &self.buffers.irradiance)],
+        );
         dispatch_1d(timer, "bounce", &self.pipeline, &statics, self.slots);
         if let (Some(pipeline), Some(table)) = (&self.dynamic, self.buffers.write_table()) {
             let dynamics = group(
+                &self.groups[1 + (self.buffers.frame & 1) as usize],
                 pipeline,
                 &[(23, &svo.control), (24, &table.keys), (25, &table.values)],
             );

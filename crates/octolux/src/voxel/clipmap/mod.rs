@@ -36,6 +36,7 @@ use crate::gpu::pass::{bind_buffers, dispatch_1d};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::clipmap::index::TriangleIndex;
+use crate::voxel::clipmap::sample::CLIP_BINDINGS;
 use crate::voxel::voxelize::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
 use crate::voxel::voxelize::{upload_triangles, work_items, VoxParams};
 use crate::voxel::VoxelTriangle;
@@ -64,6 +65,13 @@ const SCRATCH_NAMES: [&str; 3] = ["triangle pieces", "work items", "box params"]
 /// Bytes between the parameter blocks of an update's boxes (storage binding offsets stay 256
 /// bytes apart, the largest `min_storage_buffer_offset_alignment` wgpu allows).
 const PARAM_STRIDE: u64 = 256;
+/// Light injections recorded before one submission (each writes its parameters to its own
+/// slot).
+const INJECT_SLOTS: u64 = 4;
+/// Bytes of one `InjectLight` (`clipmap/inject.wgsl`).
+const INJECT_LIGHT_BYTES: u64 = 48;
+/// Lights per 768-byte step of the light buffer's slots (offsets stay 256-byte aligned).
+const INJECT_LIGHT_ALIGN: u64 = 16;
 /// Pieces (48 bytes) per 768-byte alignment step of a box's block of pieces.
 const PIECE_ALIGN: u64 = 16;
 /// Work items (8 bytes) per 256-byte alignment step of a box's block of work items.
@@ -360,11 +368,15 @@ pub struct Clipmap {
     inject: Option<wgpu::ComputePipeline>,
     /// The injection from the renderer's shadow maps, made at its first use.
     inject_shadow: Option<wgpu::ComputePipeline>,
-    /// The injection's parameters and sampling block, written before each injection, and the
-    /// timer submission they were last written before (a second injection recorded before it
-    /// gets buffers of its own, since writes land at the submission).
+    /// The injection's parameters and sampling block in [`INJECT_SLOTS`] slots (writes land at
+    /// the submission, so each injection recorded before one takes the next slot), the
+    /// voxel-ray injection's lights (a slot of `inject_light_room` lights each), the timer
+    /// submission and slots used so far, and the bind groups per injection and slot.
     inject_params: [wgpu::Buffer; 2],
-    inject_written: Option<u64>,
+    inject_lights: wgpu::Buffer,
+    inject_light_room: u64,
+    inject_used: (u64, u64),
+    inject_groups: Vec<crate::gpu::pass::KeptBindGroup>,
     accum: wgpu::Buffer,
     written: wgpu::Buffer,
     accumulate: wgpu::ComputePipeline,
@@ -569,8 +581,11 @@ impl Clipmap {
             no_aniso,
             inject: None,
             inject_shadow: None,
-            inject_params: inject_param_buffers(ctx, owner, "inject params", "inject info"),
-            inject_written: None,
+            inject_params: inject_param_buffers(ctx, owner),
+            inject_lights: inject_light_buffer(ctx, owner, INJECT_LIGHT_ALIGN),
+            inject_light_room: INJECT_LIGHT_ALIGN,
+            inject_used: (u64::MAX, 0),
+            inject_groups: (0..2 * INJECT_SLOTS).map(|_| Default::default()).collect(),
             accum,
             written,
             accumulate: ctx.compute_pipeline("clipmap accumulate", &module, "accumulate"),
@@ -891,7 +906,7 @@ impl Clipmap {
             );
             return (buffer, 0);
         }
-        ctx.ledger.record(self.owner, one_off, 0);
+        ctx.ledger.forget(self.owner, one_off);
         if self.scratch_use.0 != Some(timer.submissions()) {
             self.scratch_use = (Some(timer.submissions()), [0; 3]);
         }
@@ -1253,12 +1268,24 @@ impl Clipmap {
         if gpu.is_empty() {
             gpu.push([0.0; 12]);
         }
-        let lights_buffer = ctx.create_buffer_init(
-            self.owner,
-            "inject lights",
+        let room = (gpu.len() as u64).div_ceil(INJECT_LIGHT_ALIGN) * INJECT_LIGHT_ALIGN;
+        if room > self.inject_light_room {
+            self.inject_light_room = room;
+            self.inject_lights = inject_light_buffer(ctx, self.owner, room);
+        }
+        let slot = self.inject_slot(timer)?;
+        let slot_bytes = self.inject_light_room * INJECT_LIGHT_BYTES;
+        ctx.queue.write_buffer(
+            &self.inject_lights,
+            slot * slot_bytes,
             bytemuck::cast_slice(&gpu),
-            wgpu::BufferUsages::STORAGE,
         );
+        let lights_buffer = self.inject_lights.clone();
+        let lights_binding = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &lights_buffer,
+            offset: slot * slot_bytes,
+            size: wgpu::BufferSize::new(gpu.len() as u64 * INJECT_LIGHT_BYTES),
+        });
         let pipeline = match &self.inject {
             Some(p) => p.clone(),
             None => {
@@ -1270,14 +1297,8 @@ impl Clipmap {
             }
         };
         let params = [count, max_steps.clamp(1, 4096)];
-        self.inject_with(
-            ctx,
-            timer,
-            "clipmap inject",
-            &pipeline,
-            params,
-            &[(3, lights_buffer.as_entire_binding())],
-        );
+        let lights_binding = [(3, lights_binding)];
+        self.inject_with(ctx, timer, (0, slot), &pipeline, params, &lights_binding);
         Ok(())
     }
 
@@ -1314,52 +1335,53 @@ impl Clipmap {
                 p
             }
         };
-        self.inject_with(
-            ctx,
-            timer,
-            "clipmap inject (shadow maps)",
-            &pipeline,
-            [light_count, 0],
-            &crate::frame::light_bindings(lights, shadows),
-        );
+        let slot = self.inject_slot(timer)?;
+        let lights = crate::frame::light_bindings(lights, shadows);
+        self.inject_with(ctx, timer, (1, slot), &pipeline, [light_count, 0], &lights);
         Ok(())
     }
 
-    /// One injection dispatch over every voxel slot: `params` are the light count and the
-    /// march's step limit, `extra` the variant's own bindings (its lights).
-    #[allow(clippy::too_many_arguments)]
+    /// The parameter slot of an injection recorded now: the next one of this submission.
+    fn inject_slot(&mut self, timer: &PassTimer) -> Result<u64> {
+        let submission = timer.submissions();
+        let next = match self.inject_used {
+            (s, used) if s == submission => used,
+            _ => 0,
+        };
+        if next >= INJECT_SLOTS {
+            return Err(Error::InvalidArgument(format!(
+                "clipmap: more than {INJECT_SLOTS} light injections recorded before one \
+                 submission (finish the frame between them)"
+            )));
+        }
+        self.inject_used = (submission, next + 1);
+        Ok(next)
+    }
+
+    /// One injection dispatch over every voxel slot: `kind` (0 voxel rays, 1 shadow maps)
+    /// and `slot` choose the kept bind group and the parameter slot, `params` are the light
+    /// count and the march's step limit, `extra` the variant's own bindings (its lights).
     fn inject_with(
         &mut self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
-        name: &str,
+        (kind, slot): (u64, u64),
         pipeline: &wgpu::ComputePipeline,
         params: [u32; 2],
         extra: &[(u32, wgpu::BindingResource)],
     ) {
+        let name = ["clipmap inject", "clipmap inject (shadow maps)"][kind as usize];
         let res = self.settings.resolution as u64;
         let slots = (self.settings.levels as u64 * res * res * res) as u32;
         let params = [params[0], params[1], slots, self.bounce.is_some() as u32];
         let info = crate::voxel::clipmap::sample::ClipInfo::new(&self.settings, &self.origins);
-        let again = self.inject_written == Some(timer.submissions());
-        self.inject_written = Some(timer.submissions());
-        let extra_buffers = again.then(|| {
-            inject_param_buffers(
-                ctx,
-                self.owner,
-                "inject params (extra)",
-                "inject info (extra)",
-            )
-        });
-        let [params_buffer, info_buffer] = extra_buffers.as_ref().unwrap_or(&self.inject_params);
+        let [params_buffer, info_buffer] = &self.inject_params;
+        let offset = slot * crate::gpu::pass::SLOT;
         ctx.queue
-            .write_buffer(params_buffer, 0, bytemuck::cast_slice(&params));
+            .write_buffer(params_buffer, offset, bytemuck::cast_slice(&params));
         ctx.queue
-            .write_buffer(info_buffer, 0, bytemuck::bytes_of(&info));
-        let (params, info) = (params_buffer.clone(), info_buffer.clone());
-        for label in ["inject params (extra)", "inject info (extra)"] {
-            ctx.ledger.record(self.owner, label, 0);
-        }
+            .write_buffer(info_buffer, offset, bytemuck::bytes_of(&info));
+        let at = |buffer, size: usize| crate::gpu::pass::slot(buffer, slot, size as u64);
         let radiance = match self.radiance.take() {
             Some(r) => r,
             None => ctx.create_buffer(
@@ -1372,30 +1394,22 @@ impl Clipmap {
                 },
             ),
         };
-        let sampler = crate::voxel::clipmap::sample::clip_bindings(&info, &self.voxels);
-        let mut entries: Vec<wgpu::BindGroupEntry> = [
+        let mut entries: Vec<(u32, wgpu::BindingResource)> = [
             (2, &self.normals),
             (4, &radiance),
-            (5, &params),
             (6, &self.emission),
             (10, self.bounce.as_ref().unwrap_or(&self.no_aniso)),
         ]
-        .map(|(binding, buffer)| wgpu::BindGroupEntry {
-            binding,
-            resource: buffer.as_entire_binding(),
-        })
+        .map(|(binding, buffer)| (binding, buffer.as_entire_binding()))
         .into();
-        entries.extend(sampler.iter().chain(extra).map(|(binding, resource)| {
-            wgpu::BindGroupEntry {
-                binding: *binding,
-                resource: resource.clone(),
-            }
-        }));
-        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(name),
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
+        entries.extend([
+            (5, at(params_buffer, std::mem::size_of_val(&params))),
+            (CLIP_BINDINGS, at(info_buffer, std::mem::size_of_val(&info))),
+            (CLIP_BINDINGS + 1, self.voxels.as_entire_binding()),
+        ]);
+        entries.extend(extra.iter().cloned());
+        let kept = &self.inject_groups[(kind * INJECT_SLOTS + slot) as usize];
+        let group = kept.get(ctx, name, pipeline, &entries);
         dispatch_1d(timer, name, pipeline, &group, slots);
         self.radiance = Some(radiance);
     }
@@ -1437,33 +1451,33 @@ impl Clipmap {
     }
 }
 
-/// The clipmap injection's parameter words and `ClipInfo` block (storage, rewritten per
-/// injection), recorded under `owner`.
-fn inject_param_buffers(
-    ctx: &GpuContext,
-    owner: &str,
-    params: &str,
-    info: &str,
-) -> [wgpu::Buffer; 2] {
-    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-    [
-        (params, 16),
-        (
-            info,
-            std::mem::size_of::<crate::voxel::clipmap::sample::ClipInfo>() as u64,
-        ),
-    ]
-    .map(|(label, size)| {
+/// The injection's parameter buffers: the `InjectParams` block and the clipmap's `ClipInfo`,
+/// [`INJECT_SLOTS`] slots of [`crate::gpu::pass::SLOT`] bytes each.
+fn inject_param_buffers(ctx: &GpuContext, owner: &str) -> [wgpu::Buffer; 2] {
+    ["inject params", "inject info"].map(|label| {
         ctx.create_buffer(
             owner,
             &wgpu::BufferDescriptor {
                 label: Some(label),
-                size,
-                usage,
+                size: INJECT_SLOTS * crate::gpu::pass::SLOT,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
         )
     })
+}
+
+/// The voxel-ray injection's light buffer: [`INJECT_SLOTS`] slots of `room` lights.
+fn inject_light_buffer(ctx: &GpuContext, owner: &str, room: u64) -> wgpu::Buffer {
+    ctx.create_buffer(
+        owner,
+        &wgpu::BufferDescriptor {
+            label: Some("inject lights"),
+            size: INJECT_SLOTS * room * INJECT_LIGHT_BYTES,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        },
+    )
 }
 
 #[cfg(test)]

@@ -179,7 +179,7 @@ impl SvoAniso {
                 }
             }
         });
-        ctx.ledger.record(OWNER, "anisotropic params", 0);
+        ctx.ledger.forget(OWNER, "anisotropic params");
         Ok(values)
     }
 

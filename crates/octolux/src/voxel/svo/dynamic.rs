@@ -511,7 +511,7 @@ impl SvoBuilder {
             tris,
             (&dynamic.fragments, &svo.control, DYN_FRAGMENTS as u32),
         )?;
-        ctx.ledger.record(owner, "triangles", 0);
+        ctx.ledger.forget(owner, "triangles");
 
         let (this, last) = (1 - dynamic.last, dynamic.last);
         let group0 = self.group0(

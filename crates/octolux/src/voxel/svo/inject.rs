@@ -12,11 +12,14 @@
 
 use crate::frame::light_bindings;
 use crate::frame::ShadowLookup;
-use crate::gpu::pass::{bind, bind_buffers, dispatch_1d, SLOT};
+use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::voxelize::FragmentList;
 use crate::{Error, Result};
+
+/// Injections recorded before one submission (each writes its parameters to its own slots).
+const INJECT_SLOTS: u64 = 4;
 
 /// Words kept per occupied leaf voxel: albedo sums (3), fragment count, emission sums (3,
 /// fixed point x1024), normal sums (3, snorm8 as two's complement).
@@ -86,11 +89,14 @@ pub(crate) struct SvoLight {
     leaf_slots: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     inject: wgpu::ComputePipeline,
-    /// The injection's parameters, one [`SLOT`] per part (static leaves, dynamic leaves).
+    /// The injection's parameters, one [`SLOT`] per part (static leaves, dynamic leaves) and
+    /// injection recorded before one submission (writes land at the submission), up to
+    /// [`INJECT_SLOTS`] of them.
     params: wgpu::Buffer,
-    /// The timer submission the parameters were last written before: a second injection
-    /// recorded before that submission would overwrite the first's, so it gets its own buffer.
-    params_written: std::cell::Cell<Option<u64>>,
+    /// The timer submission of the last injection and the injections recorded before it.
+    params_used: std::cell::Cell<(u64, u64)>,
+    /// The bind group per injection slot and part, kept while its resources are.
+    groups: Vec<crate::gpu::pass::KeptBindGroup>,
     /// 16-byte stand-ins for absent bindings: one read, one written (a dispatch may not use
     /// one buffer as both).
     placeholder: wgpu::Buffer,
@@ -118,8 +124,9 @@ impl SvoLight {
             leaf_slots: ctx.compute_pipeline("svo leaf slots", &module, "leaf_slots"),
             accumulate: ctx.compute_pipeline("svo leaf sums", &module, "accumulate"),
             inject: ctx.compute_pipeline("svo inject", &module, "inject"),
-            params: crate::gpu::alloc::param_slots(ctx, owner, "inject params", 2),
-            params_written: std::cell::Cell::new(None),
+            params: crate::gpu::alloc::param_slots(ctx, owner, "inject params", 2 * INJECT_SLOTS),
+            params_used: std::cell::Cell::new((u64::MAX, 0)),
+            groups: (0..2 * INJECT_SLOTS).map(|_| Default::default()).collect(),
             placeholder: small("inject placeholder"),
             placeholder_out: small("inject placeholder (bounce)"),
         }
@@ -198,8 +205,8 @@ impl SvoLight {
         });
         let group = fragments_group(&self.accumulate, &sums);
         dispatch_1d(timer, "svo leaf sums", &self.accumulate, &group, list.count);
-        ctx.ledger.record(owner, "leaf sum params", 0);
-        ctx.ledger.record(owner, "leaf index (build)", 0);
+        ctx.ledger.forget(owner, "leaf sum params");
+        ctx.ledger.forget(owner, "leaf index (build)");
         Ok((sums, timings))
     }
 
@@ -215,7 +222,7 @@ impl SvoLight {
         lights: &wgpu::Buffer,
         light_count: u32,
         bounce: Option<&SvoBounce>,
-    ) {
+    ) -> Result<()> {
         let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
         let grid = &svo.grid;
         let dynamic = svo.dynamic.as_ref();
@@ -232,19 +239,20 @@ impl SvoLight {
                 Some(crate::voxel::svo::ARGS_DYN_NODES + leaf),
             ));
         }
-        // One parameter slot per part; a second injection before the next submission (tests
-        // that record several) writes a buffer of its own instead.
-        let fresh = self.params_written.get() == Some(timer.submissions());
-        self.params_written.set(Some(timer.submissions()));
-        let own_params = fresh.then(|| {
-            crate::gpu::alloc::param_slots(
-                ctx,
-                crate::voxel::svo::OWNER,
-                "inject params (extra)",
-                2,
-            )
-        });
-        let params_buffer = own_params.as_ref().unwrap_or(&self.params);
+        // One parameter slot per part and injection of this submission (tests record several).
+        let submission = timer.submissions();
+        let injection = match self.params_used.get() {
+            (s, used) if s == submission => used,
+            _ => 0,
+        };
+        if injection >= INJECT_SLOTS {
+            return Err(Error::InvalidArgument(format!(
+                "octree injection: more than {INJECT_SLOTS} recorded before one submission \
+                 (finish the frame between them)"
+            )));
+        }
+        self.params_used.set((submission, injection + 1));
+        let params_buffer = &self.params;
         let (placeholder, placeholder_out) = (&self.placeholder, &self.placeholder_out);
         let (dyn_sums, dyn_state) = match dynamic {
             Some(d) => (&d.sums, d.state()),
@@ -270,8 +278,9 @@ impl SvoLight {
                     },
                 ],
             };
+            let at = 2 * injection + i as u64;
             ctx.queue
-                .write_buffer(params_buffer, i as u64 * SLOT, bytemuck::bytes_of(&params));
+                .write_buffer(params_buffer, at * SLOT, bytemuck::bytes_of(&params));
             let name = if i == 0 {
                 "svo inject"
             } else {
@@ -281,7 +290,10 @@ impl SvoLight {
                 ctx,
                 timer,
                 svo,
-                crate::gpu::pass::slot(params_buffer, i as u64, size_of::<InjectParams>() as u64),
+                (
+                    crate::gpu::pass::slot(params_buffer, at, size_of::<InjectParams>() as u64),
+                    &self.groups[at as usize],
+                ),
                 [dyn_sums, dyn_state],
                 bounce.map_or([placeholder, placeholder_out, keys, values], |b| {
                     [&b.irradiance, &b.geometry, keys, values]
@@ -290,9 +302,7 @@ impl SvoLight {
                 (name, count, indirect),
             );
         }
-        // An extra parameter buffer lives as long as this frame's commands.
-        ctx.ledger
-            .record(crate::voxel::svo::OWNER, "inject params (extra)", 0);
+        Ok(())
     }
 
     /// One injection dispatch over `count` leaves, or indirectly from slot `indirect` of the
@@ -304,7 +314,7 @@ impl SvoLight {
         ctx: &GpuContext,
         timer: &mut PassTimer,
         svo: &crate::voxel::svo::Svo,
-        params: wgpu::BindingResource<'_>,
+        (params, kept): (wgpu::BindingResource<'_>, &crate::gpu::pass::KeptBindGroup),
         [dyn_sums, dyn_state]: [&wgpu::Buffer; 2],
         [bounce_in, bounce_out, table_keys, table_values]: [&wgpu::Buffer; 4],
         lights: [(u32, wgpu::BindingResource<'_>); 4],
@@ -333,7 +343,7 @@ impl SvoLight {
             .collect();
         entries.push((10, params));
         entries.extend(lights);
-        let group = bind(ctx, &self.inject, &entries);
+        let group = kept.get(ctx, name, &self.inject, &entries);
         let Some(slot) = indirect else {
             dispatch_1d(timer, name, &self.inject, &group, count);
             return;

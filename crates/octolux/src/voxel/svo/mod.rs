@@ -494,8 +494,8 @@ impl SvoBuilder {
             )?;
             match attempt {
                 Some(svo) => {
-                    ctx.ledger.record(OWNER, "fragments", 0);
-                    ctx.ledger.record(OWNER, "triangles", 0);
+                    ctx.ledger.forget(OWNER, "fragments");
+                    ctx.ledger.forget(OWNER, "triangles");
                     return Ok((svo, timings));
                 }
                 None if capacity >= max_nodes => {
@@ -760,11 +760,11 @@ impl SvoBuilder {
             "placeholder",
             "pack params",
         ] {
-            ctx.ledger.record(OWNER, label, 0);
+            ctx.ledger.forget(OWNER, label);
         }
         for k in 0..POOLS {
             ctx.ledger
-                .record(OWNER, &format!("brick pool (build, RGBA16F) {k}"), 0);
+                .forget(OWNER, &format!("brick pool (build, RGBA16F) {k}"));
         }
         Ok(Some(Svo {
             grid: *grid,
@@ -847,7 +847,7 @@ impl SvoBuilder {
             return Ok(());
         }
         self.light
-            .inject_leaves(ctx, timer, svo, shadows, lights, light_count, bounce);
+            .inject_leaves(ctx, timer, svo, shadows, lights, light_count, bounce)?;
         // The transfer and mip kernels bind the build layout: no fragments or triangles.
         let placeholder = &self.mip_placeholder;
         let group = self.group0(

@@ -206,9 +206,9 @@ impl Voxelizer {
         dispatch_1d(&mut timer, "voxelize emit", &self.emit, &group, n_items);
         timings.extend(timer.finish_frame()?);
         // The counts are scratch: forget them in the ledger once the list exists.
-        ctx.ledger.record(owner, "fragment counts", 0);
-        ctx.ledger.record(owner, "work items", 0);
-        ctx.ledger.record(owner, "triangle pieces", 0);
+        ctx.ledger.forget(owner, "fragment counts");
+        ctx.ledger.forget(owner, "work items");
+        ctx.ledger.forget(owner, "triangle pieces");
         Ok(FragmentList {
             buffer,
             count: total as u32,
@@ -273,7 +273,7 @@ impl Voxelizer {
         );
         dispatch_1d(timer, name, &self.append, &group, n_items);
         for label in ["voxelize params", "work items", "triangle pieces"] {
-            ctx.ledger.record(owner, label, 0);
+            ctx.ledger.forget(owner, label);
         }
         Ok(triangles)
     }
