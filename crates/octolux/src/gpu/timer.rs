@@ -164,14 +164,15 @@ impl PassTimer {
             cpu: Vec::new(),
             in_flight: Default::default(),
             spare: Vec::new(),
-            submissions: 0,
+            submissions: next_submission(),
             scope: None,
         }
     }
 
-    /// How many command buffers this timer has submitted. Data written with
-    /// `Queue::write_buffer` lands at the next submission, so a pass that reuses a buffer it
-    /// wrote can tell from this whether its earlier write is still pending.
+    /// The submission the commands recorded now go in: a number no other submission of any
+    /// timer in this process has. Data written with `Queue::write_buffer` lands at the next
+    /// submission, so a pass that reuses a buffer it wrote can tell from this whether its
+    /// earlier write is still pending.
     pub fn submissions(&self) -> u64 {
         self.submissions
     }
@@ -253,7 +254,7 @@ impl PassTimer {
                     },
                 );
                 self.ctx.queue.submit([encoder.finish()]);
-                self.submissions += 1;
+                self.submissions = next_submission();
                 let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
                 self.cpu.push(PassTiming {
                     name: name.to_string(),
@@ -280,7 +281,7 @@ impl PassTimer {
     fn flush(&mut self) {
         if let Some(encoder) = self.encoder.take() {
             self.ctx.queue.submit([encoder.finish()]);
-            self.submissions += 1;
+            self.submissions = next_submission();
         }
     }
 
@@ -304,7 +305,7 @@ impl PassTimer {
         if let Some(mut encoder) = self.encoder.take() {
             encoder.resolve_query_set(&q.set, 0..count, &q.resolve, 0);
             self.ctx.queue.submit([encoder.finish()]);
-            self.submissions += 1;
+            self.submissions = next_submission();
         }
         let bytes = super::read_buffer(&self.ctx, &q.resolve, 0, count as u64 * 8)?;
         let ticks: &[u64] = bytemuck::try_cast_slice(&bytes)
@@ -358,7 +359,7 @@ impl PassTimer {
                 encoder.resolve_query_set(&q.set, 0..names.len() as u32 * 2, &q.resolve, 0);
                 encoder.copy_buffer_to_buffer(&q.resolve, 0, &staging, 0, bytes);
                 self.ctx.queue.submit([encoder.finish()]);
-                self.submissions += 1;
+                self.submissions = next_submission();
             }
             let mapped: Arc<Mutex<_>> = Arc::default();
             let sink = mapped.clone();
@@ -433,4 +434,10 @@ mod scope_tests {
         assert_eq!(scoped_name(Some("lpv"), "lpvx"), "lpv lpvx");
         assert_eq!(scoped_name(Some("vpl"), "vpl"), "vpl");
     }
+}
+
+/// A submission number no timer has used yet.
+fn next_submission() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }

@@ -15,7 +15,8 @@
 //! - [`clipmap`]: nested levels of equal resolution and doubling extent around the camera with
 //!   toroidal addressing; camera motion revoxelises only the exposed slabs.
 //! - [`sample`]: the common "filtered value at `p` with footprint `d`" interface of both
-//!   structures, as WGSL ([`sample::SVO_SAMPLE_WGSL`], [`sample::CLIPMAP_SAMPLE_WGSL`]) and as a CPU twin for tests.
+//!   structures, as WGSL (the modules `voxel/svo/sample`, `voxel/clipmap/sample`) and as a CPU
+//!   twin for tests.
 //! - [`cpu`]: CPU reference implementations the tests compare the GPU with.
 //! - [`debug`]: a ray-marched view of the stored albedo.
 //!

@@ -1,12 +1,12 @@
-//! Sampling the clipmap. `clip_sample(p, footprint)` ([`CLIPMAP_SAMPLE_WGSL`], CPU twin
-//! [`clip_sample`]) reads the finest level whose voxel is at least the footprint and which holds
-//! `p`'s whole trilinear neighbourhood; `clip_radiance_sample` ([`CLIPMAP_RADIANCE_WGSL`], CPU
-//! twin [`clip_radiance_sample`]) reads the injected radiance the same way; both read the
-//! parameter block [`ClipInfo`]. A level that does not contain `p` is never read.
+//! Sampling the clipmap. `clip_sample(p, footprint)` (the WGSL module `voxel/clipmap/sample`,
+//! CPU twin [`clip_sample`]) reads the finest level whose voxel is at least the footprint and
+//! which holds `p`'s whole trilinear neighbourhood; `clip_radiance_sample`
+//! (`voxel/clipmap/radiance_sample`, CPU twin [`clip_radiance_sample`]) reads the injected
+//! radiance the same way; both read the parameter block [`ClipInfo`], bound with the voxels by
+//! [`clip_bindings`]. A level that does not contain `p` is never read.
 //!
 //! Blending between levels by distance to a level's border and reading anisotropic voxels: the
-//! WGSL [`CLIPMAP_BLEND_WGSL`] (`clip_sample_blend`, `clip_sample_aniso`; goes after
-//! [`CLIPMAP_SAMPLE_WGSL`]), its CPU twins
+//! WGSL module `voxel/clipmap/blend` (`clip_sample_blend`, `clip_sample_aniso`), its CPU twins
 //! [`clip_sample_blend`] and [`clip_sample_aniso`], and [`probe_blend`], which evaluates the
 //! WGSL at given points for tests.
 //!
