@@ -418,6 +418,12 @@ fn scoped_name(scope: Option<&str>, name: &str) -> String {
     }
 }
 
+/// A submission number no timer has used yet.
+fn next_submission() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+}
+
 #[cfg(test)]
 mod scope_tests {
     use super::scoped_name;
@@ -434,10 +440,4 @@ mod scope_tests {
         assert_eq!(scoped_name(Some("lpv"), "lpvx"), "lpv lpvx");
         assert_eq!(scoped_name(Some("vpl"), "vpl"), "vpl");
     }
-}
-
-/// A submission number no timer has used yet.
-fn next_submission() -> u64 {
-    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
