@@ -8,7 +8,7 @@
 //! cargo run --release -p octolux --example shader_cost -- runs=20
 //! ```
 
-use octolux::gpu::shader::{compose, module_source, MODULES};
+use octolux::gpu::shader::{compose_alone, MODULES};
 use octolux::gpu::{GpuContext, GpuOptions};
 use std::time::Instant;
 
@@ -28,20 +28,14 @@ fn main() -> octolux::Result<()> {
     println!("| module | compose ms | shader module from it ms | lines |");
     println!("| --- | ---: | ---: | ---: |");
     let (mut compose_total, mut module_total) = (0.0, 0.0);
-    // Cone-tracing modules import a cone set and a structure: the octree's, isotropic.
-    let cones = octolux::gi::vct::cone_set_wgsl(6);
-    let structure = module_source("gi/vct/svo_trace").expect("the octree's trace module");
-    let packages = [
-        ("gi/vct/cone_set", cones.as_str()),
-        ("gi/vct/structure", structure),
-    ];
+    // Each module with what a technique would compose in (`compose_alone`), isotropic.
     let features = [("anisotropic", false)];
     for (path, _) in MODULES {
         let mut times = Vec::new();
         let mut wgsl = String::new();
         for _ in 0..runs {
             let start = Instant::now();
-            wgsl = compose(path, &features, &packages)?;
+            wgsl = compose_alone(path, &features)?;
             times.push(start.elapsed().as_secs_f64() * 1e3);
         }
         let compose_ms = median(times);
