@@ -390,11 +390,11 @@ fn octree_equals_cpu_build_and_mip_filter() {
         let mut builder = SvoBuilder::new(&ctx);
         if split {
             let (whole, _) = builder.build(&ctx, &grid, &tris).unwrap();
-            builder = builder.with_pool_limit(whole.brick_count.div_ceil(3));
+            builder = builder.with_pool_limit(whole.brick_count().div_ceil(3));
         }
         let (svo, timings) = builder.build(&ctx, &grid, &tris).unwrap();
         if split {
-            assert!(svo.brick_count > 2 * svo.pool_bricks, "pool not split");
+            assert!(svo.brick_count() > 2 * svo.pool_bricks(), "pool not split");
         }
         assert!(timings.iter().any(|t| t.name == "svo bricks"));
         let gpu = svo.read_back(&ctx).unwrap();
@@ -469,10 +469,10 @@ fn octree_equals_cpu_build_and_mip_filter() {
         assert!(checked > 1000);
         // Only needed nodes carry bricks (at 8^3 every node is needed).
         assert!(
-            res < 32 || svo.brick_count < svo.node_count,
+            res < 32 || svo.brick_count() < svo.node_count(),
             "{} bricks for {} nodes",
-            svo.brick_count,
-            svo.node_count
+            svo.brick_count(),
+            svo.node_count()
         );
         assert!(ctx
             .ledger
@@ -590,10 +590,10 @@ fn gpu_sampling_matches_cpu_twins() {
     // A brick pool split over several buffers, so that sampling crosses buffers.
     let (whole, _) = SvoBuilder::new(&ctx).build(&ctx, &grid, &tris).unwrap();
     let (svo, _) = SvoBuilder::new(&ctx)
-        .with_pool_limit(whole.brick_count.div_ceil(4))
+        .with_pool_limit(whole.brick_count().div_ceil(4))
         .build(&ctx, &grid, &tris)
         .unwrap();
-    assert!(svo.brick_count > 3 * svo.pool_bricks);
+    assert!(svo.brick_count() > 3 * svo.pool_bricks());
     let settings = ClipmapSettings {
         resolution: 16,
         levels: 3,
@@ -707,8 +707,8 @@ fn measure_memory_and_build_time() {
                     (
                         format!(
                             "{} | {} | {:.1}",
-                            svo.fragment_count,
-                            svo.node_count,
+                            svo.fragment_count(),
+                            svo.node_count(),
                             svo.bytes() as f64 / 1e6
                         ),
                         format!(
@@ -828,7 +828,7 @@ fn empty_input_gives_empty_structures() {
             .build(&ctx, &unit_grid(16), &tris)
             .unwrap();
         assert_eq!(
-            (svo.fragment_count, svo.node_count, svo.brick_count),
+            (svo.fragment_count(), svo.node_count(), svo.brick_count()),
             (0, 1, 0)
         );
         let settings = ClipmapSettings {

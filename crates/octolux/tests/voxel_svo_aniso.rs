@@ -64,14 +64,14 @@ fn node_values_equal_cpu_twin_and_bricks_cover_every_nonzero_node() {
         let tris = scene(seed, count);
         let (svo, values) = build(&ctx, &builder, &aniso, &grid, &tris);
         let gpu = values.read_back(&ctx).unwrap();
-        assert_eq!(gpu.len() as u32, svo.brick_count);
+        assert_eq!(gpu.len() as u32, svo.brick_count());
         let tree = svo.read_back(&ctx).unwrap();
         let coords = tree.coordinates();
         let voxels = cpu::voxel_words(&cpu::voxelize(&grid, &tris), &tris);
         let reference = cpu::svo_aniso(grid.depth(), &voxels);
         let mut nonzero = 0;
         let mut directional = 0;
-        for (d, &(start, end)) in svo.levels.iter().enumerate() {
+        for (d, &(start, end)) in svo.levels().iter().enumerate() {
             let mut seen = 0;
             for n in start..end {
                 let c = coords[n as usize];
@@ -100,7 +100,7 @@ fn node_values_equal_cpu_twin_and_bricks_cover_every_nonzero_node() {
             .into_iter()
             .find(|e| e.owner == "svo" && e.name == LEDGER_LABEL)
             .expect("ledger entry");
-        assert_eq!(entry.bytes, 24 * svo.brick_count as u64);
+        assert_eq!(entry.bytes, 24 * svo.brick_count() as u64);
         assert_eq!(values.bytes(), entry.bytes);
     }
 }
@@ -193,9 +193,9 @@ fn gpu_directional_samples_match_cpu_twin() {
     let aniso = SvoAniso::new(&ctx);
     // A brick pool split over four buffers, so that the isotropic fallback crosses buffers.
     let (whole, _) = SvoBuilder::new(&ctx).build(&ctx, &grid, &tris).unwrap();
-    let builder = SvoBuilder::new(&ctx).with_pool_limit(whole.brick_count.div_ceil(4));
+    let builder = SvoBuilder::new(&ctx).with_pool_limit(whole.brick_count().div_ceil(4));
     let (svo, values) = build(&ctx, &builder, &aniso, &grid, &tris);
-    assert!(svo.brick_count > 3 * svo.pool_bricks);
+    assert!(svo.brick_count() > 3 * svo.pool_bricks());
     let tree = svo.read_back(&ctx).unwrap();
     let words = values.read_back(&ctx).unwrap();
     let mut rng = Rng(99);
@@ -284,12 +284,12 @@ fn measure_memory_and_pass_time() {
             ms.push(t.iter().map(|t| t.ms).sum::<f64>());
             bytes = values.bytes();
         }
-        assert_eq!(bytes, 24 * svo.brick_count as u64);
+        assert_eq!(bytes, 24 * svo.brick_count() as u64);
         ms.sort_by(f64::total_cmp);
         println!(
             "| {res} | {} | {} | {:.1} | {:.2} | {:.1} |",
-            svo.node_count,
-            svo.brick_count,
+            svo.node_count(),
+            svo.brick_count(),
             svo.bytes() as f64 / 1e6,
             bytes as f64 / 1e6,
             ms[1]

@@ -188,7 +188,7 @@ fn dynamic_updates_equal_rebuilds() {
     let (mut svo, _) = builder
         .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(20_000))
         .unwrap();
-    let (static_nodes, static_bricks) = (svo.node_count, svo.brick_count);
+    let (static_nodes, static_bricks) = (svo.node_count(), svo.brick_count());
     check(&svo.read_back(&ctx).unwrap(), &grid, &statics, "static");
     // A block resting on the floor (sharing voxels with it and with the slanted triangle),
     // moved away, moved into the wall, removed, and back.
@@ -218,11 +218,11 @@ fn dynamic_updates_equal_rebuilds() {
         );
         // A rebuild of everything has exactly as many nodes and bricks.
         let (rebuilt, _) = builder.build(&ctx, &grid, &all).unwrap();
-        assert_eq!(svo.node_count, rebuilt.node_count, "{label}: nodes");
-        assert_eq!(svo.brick_count, rebuilt.brick_count, "{label}: bricks");
+        assert_eq!(svo.node_count(), rebuilt.node_count(), "{label}: nodes");
+        assert_eq!(svo.brick_count(), rebuilt.brick_count(), "{label}: bricks");
         if at.is_none() {
             assert_eq!(
-                (svo.node_count, svo.brick_count),
+                (svo.node_count(), svo.brick_count()),
                 (static_nodes, static_bricks)
             );
             assert_eq!((update.nodes, update.bricks), (0, 0));
@@ -330,9 +330,9 @@ fn recorded_updates(ctx: &GpuContext) {
     let all = with(&statics, moving);
     let worst = check(&svo.read_back(&ctx).unwrap(), &grid, &all, "recorded");
     let (rebuilt, _) = builder.build(&ctx, &grid, &all).unwrap();
-    assert_eq!(svo.node_count, rebuilt.node_count, "nodes");
-    assert_eq!(svo.brick_count, rebuilt.brick_count, "bricks");
-    assert_eq!(svo.node_count - svo.static_nodes, counts.nodes);
+    assert_eq!(svo.node_count(), rebuilt.node_count(), "nodes");
+    assert_eq!(svo.brick_count(), rebuilt.brick_count(), "bricks");
+    assert_eq!(svo.node_count() - svo.static_nodes(), counts.nodes);
     println!(
         "after {} recorded updates: {counts:?}, worst texel error {worst:.2e}",
         path.len()
@@ -380,8 +380,8 @@ fn an_exhausted_reserve_is_reported_after_the_frame() {
     // The second update (nothing moving) restored the static octree.
     small.sync_dynamic(&ctx).unwrap();
     assert_eq!(
-        (small.node_count, small.brick_count),
-        (small.static_nodes, small.static_bricks)
+        (small.node_count(), small.brick_count()),
+        (small.static_nodes(), small.static_bricks())
     );
     check(
         &small.read_back(&ctx).unwrap(),
@@ -465,8 +465,12 @@ fn measure_update_against_rebuild() {
                     octolux::gpu::slowest_first(&update.timings)
                 );
             }
-            assert_eq!(svo.node_count, rebuilt.node_count, "{name} at {res}^3");
-            assert_eq!(svo.brick_count, rebuilt.brick_count, "{name} at {res}^3");
+            assert_eq!(svo.node_count(), rebuilt.node_count(), "{name} at {res}^3");
+            assert_eq!(
+                svo.brick_count(),
+                rebuilt.brick_count(),
+                "{name} at {res}^3"
+            );
             println!(
                 "| {name} | {res} | {} / {} | {rebuild_gpu:.1} ({rebuild_wall:.0} wall) | {update_gpu:.1} ({update_wall:.0} wall) | {:.2} | {}, {} | {} |",
                 still.len(),

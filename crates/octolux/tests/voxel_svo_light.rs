@@ -17,8 +17,8 @@ use std::collections::BTreeMap;
 
 /// Node indices of level `d`, static then dynamic.
 fn level_nodes(svo: &Svo, d: usize) -> impl Iterator<Item = u32> {
-    let (s0, s1) = svo.levels[d];
-    let (d0, d1) = svo.dynamic_levels.get(d).copied().unwrap_or((0, 0));
+    let (s0, s1) = svo.levels()[d];
+    let (d0, d1) = svo.dynamic_levels().get(d).copied().unwrap_or((0, 0));
     (s0..s1).chain(d0..d1)
 }
 
@@ -26,7 +26,7 @@ fn level_nodes(svo: &Svo, d: usize) -> impl Iterator<Item = u32> {
 fn voxel_map(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> BTreeMap<[u32; 3], Vec4> {
     let radiance = svo.read_voxel_radiance(ctx).unwrap();
     let coords = cpu_svo.coordinates();
-    let leaf = svo.levels.len() - 1;
+    let leaf = svo.levels().len() - 1;
     let mut out = BTreeMap::new();
     // Radiance slots: static leaves in order, then dynamic leaves in order.
     for (slot, n) in level_nodes(svo, leaf).enumerate() {
@@ -52,7 +52,7 @@ fn voxel_map(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> BTreeMap<[u32; 3]
 /// leaf voxels' radiance, relative to the largest lattice value.
 fn mip_error(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> f32 {
     let voxels = voxel_map(svo, cpu_svo, ctx);
-    let depth = svo.grid.depth();
+    let depth = svo.grid().depth();
     let lattices = cpu::lattices(depth, &voxels);
     let bricks = svo.read_radiance(ctx).unwrap();
     let coords = cpu_svo.coordinates();
@@ -458,7 +458,7 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
     let info = ctx.create_buffer_init(
         "test",
         "svo info",
-        bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
+        bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks())),
         wgpu::BufferUsages::STORAGE,
     );
     let input = ctx.create_buffer_init(
@@ -537,7 +537,7 @@ fn check_aniso_radiance(ctx: &GpuContext, svo: &Svo, largest: f32) {
     let voxels = svo.read_voxel_radiance(ctx).unwrap();
     let want = cpu::svo_aniso_radiance(&tree, &voxels);
     assert_eq!(gpu.len(), want.len());
-    let tolerance = svo.levels.len() as f32 * largest / 1024.0;
+    let tolerance = svo.levels().len() as f32 * largest / 1024.0;
     let mut worst = 0.0f32;
     let mut directional = 0;
     for (g, w) in gpu.iter().zip(&want) {
@@ -559,7 +559,7 @@ fn check_aniso_radiance(ctx: &GpuContext, svo: &Svo, largest: f32) {
     // Directional samples: GPU against the CPU twin over the GPU's values, at points around
     // the emitter, footprints from 2 to 16 voxels, directions all round. Same values, same
     // arithmetic order: f32 rounding only.
-    let grid = svo.grid;
+    let grid = svo.grid();
     let mut points = Vec::new();
     let mut dirs = Vec::new();
     for i in 0..400u32 {
@@ -571,7 +571,7 @@ fn check_aniso_radiance(ctx: &GpuContext, svo: &Svo, largest: f32) {
     let samples = aniso.probe(ctx, svo, &points, &dirs).unwrap();
     let mut lit = 0;
     for ((q, d), g) in points.iter().zip(&dirs).zip(&samples) {
-        let c = svo_radiance_aniso(&tree, &gpu, &grid, q.truncate(), q.w, *d);
+        let c = svo_radiance_aniso(&tree, &gpu, grid, q.truncate(), q.w, *d);
         assert!(
             (*g - c).abs().max_element() <= 1e-5 * (1.0 + c.abs().max_element()),
             "at {q} along {d}: GPU {g} CPU {c}"
@@ -600,7 +600,7 @@ fn anisotropic_radiance_equals_the_cpu_twin_with_and_without_a_dynamic_part() {
         }
         builder.update_dynamic(&ctx, &mut svo, &[moving]).unwrap();
         inject_nothing(&ctx, &builder, &svo);
-        assert!(svo.dynamic_levels.iter().any(|&(a, b)| b > a));
+        assert!(svo.dynamic_levels().iter().any(|&(a, b)| b > a));
         check_aniso_radiance(&ctx, &svo, largest);
     }
 }

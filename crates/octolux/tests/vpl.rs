@@ -379,7 +379,7 @@ fn one_vpl_over_a_plane_gives_the_closed_form_geometry_term() {
     let t = vpl_of(&r);
     let v = t.read_vpls(&ctx).unwrap()[0];
     assert!(v.flux.x > 0.0 && (v.position.y - 1.0).abs() < 1e-3, "{v:?}");
-    let b = vpl.clamp * t.svo().grid.voxel_size;
+    let b = vpl.clamp * t.svo().grid().voxel_size;
     let g = r.read_gbuffer().unwrap();
     let view = *r.last_view().unwrap();
     let e = irradiance(&ctx, t.indirect_texture());

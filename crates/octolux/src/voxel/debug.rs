@@ -75,7 +75,7 @@ impl Structure<'_> {
     fn info(&self, ctx: &GpuContext) -> wgpu::Buffer {
         let bytes = match self {
             Structure::Svo(svo) => {
-                bytemuck::bytes_of(&SvoInfo::new(&svo.grid, svo.pool_bricks)).to_vec()
+                bytemuck::bytes_of(&SvoInfo::new(svo.grid(), svo.pool_bricks())).to_vec()
             }
             Structure::Clipmap(c) | Structure::ClipmapRadiance(c) => {
                 bytemuck::bytes_of(&ClipInfo::new(&c.settings, &c.origins)).to_vec()
@@ -88,7 +88,7 @@ impl Structure<'_> {
     pub fn bounds(&self) -> (Vec3, Vec3) {
         match self {
             Structure::Svo(svo) => {
-                let g = &svo.grid;
+                let g = svo.grid();
                 (
                     g.origin,
                     g.origin + Vec3::splat(g.voxel_size * g.resolution as f32),
@@ -108,14 +108,14 @@ impl Structure<'_> {
     pub fn level_footprint(&self, level: u32) -> Result<f32> {
         match self {
             Structure::Svo(svo) => {
-                let depth = svo.grid.depth();
+                let depth = svo.grid().depth();
                 if level >= depth {
                     return Err(Error::InvalidArgument(format!(
                         "level {level}: the octree has levels 0 to {}",
                         depth - 1
                     )));
                 }
-                Ok(svo.grid.voxel_size * (1u32 << (depth - 1 - level)) as f32)
+                Ok(svo.grid().voxel_size * (1u32 << (depth - 1 - level)) as f32)
             }
             Structure::Clipmap(c) | Structure::ClipmapRadiance(c) => {
                 if level >= c.settings.levels {
@@ -341,8 +341,8 @@ pub fn render_scene(
             let ms: f64 = timings.iter().map(|t| t.ms).sum();
             let summary = format!(
                 "octree {r}^3: {} nodes, {} fragments, {:.1} MB, build {ms:.1} ms",
-                svo.node_count,
-                svo.fragment_count,
+                svo.node_count(),
+                svo.fragment_count(),
                 svo.bytes() as f64 / 1e6,
                 r = grid.resolution
             );

@@ -161,7 +161,7 @@ impl Rays {
     pub fn hit_margin(&self) -> f32 {
         match self {
             Rays::Bvh(_) => 0.0,
-            Rays::Voxels(v) => 2.0 * v.svo.grid.voxel_size,
+            Rays::Voxels(v) => 2.0 * v.svo.grid().voxel_size,
         }
     }
 

@@ -18,7 +18,7 @@ use crate::voxel::svo::inject::{SvoBounce, SvoBounceTable};
 use crate::voxel::svo::sample::{
     svo_bindings, svo_radiance_bindings, SvoInfo, SVO_ANISO_RADIANCE_BINDING,
 };
-use crate::voxel::svo::{Svo, SvoBuilder, ARGS_DYN_NODES, NODE_ARGS};
+use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::{objects_triangles, VoxelGrid};
 use crate::{Error, Result};
 
@@ -164,7 +164,7 @@ impl VctSvo {
         let info = ctx.create_buffer_init(
             OWNER,
             "octree info",
-            bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks)),
+            bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks())),
             wgpu::BufferUsages::STORAGE,
         );
         let aniso = if settings.anisotropic {
@@ -216,7 +216,7 @@ impl Bounce {
         svo: &Svo,
         dynamic_reserve: Option<u32>,
     ) -> Result<Bounce> {
-        let (first, end) = svo.levels.last().copied().unwrap_or((0, 0));
+        let (first, end) = svo.levels().last().copied().unwrap_or((0, 0));
         let slots = (end - first) * 8;
         let dynamic_slots = dynamic_reserve.unwrap_or(0) as u64 * 8;
         let capacity = bounce_table_entries(dynamic_reserve.unwrap_or(0));
@@ -242,7 +242,7 @@ impl Bounce {
                 capacity: capacity as u32,
             })
         });
-        let leaf = svo.levels.len().saturating_sub(1) as u32;
+        let leaf = svo.levels().len().saturating_sub(1) as u32;
         let module = tracer.bounce_module(ctx);
         let params = ctx.create_buffer_init(
             OWNER,
@@ -303,9 +303,9 @@ impl Bounce {
             let dynamics = group(
                 &self.groups[1 + (self.buffers.frame & 1) as usize],
                 pipeline,
-                &[(23, &svo.control), (24, &table.keys), (25, &table.values)],
+                &[(23, svo.control()), (24, &table.keys), (25, &table.values)],
             );
-            let leaf = svo.levels.len().saturating_sub(1) as u32;
+            let (args, offset) = svo.dynamic_leaf_dispatch();
             timer.pass("bounce (dynamic)", |encoder, stamps| {
                 encoder.clear_buffer(&table.keys, 0, None);
                 let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -314,9 +314,8 @@ impl Bounce {
                 });
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, &dynamics, &[]);
-                // One workgroup per dynamic leaf node (the octree's per-node argument slot).
-                let slot = ARGS_DYN_NODES + leaf + NODE_ARGS;
-                pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
+                // One workgroup per dynamic leaf node.
+                pass.dispatch_workgroups_indirect(args, offset);
             });
         }
         self.buffers.frame = self.buffers.frame.wrapping_add(1);

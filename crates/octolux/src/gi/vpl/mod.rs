@@ -231,12 +231,12 @@ impl VplGi {
         settings.validate()?;
         let builder = SvoBuilder::new(ctx);
         let svo = builder.build_scene(ctx, scene, settings.resolution, OWNER)?;
-        let animated = svo.dynamic.is_some();
+        let animated = svo.has_dynamic();
         let octree = walk::SvoWalk::new(&svo, settings.end_offset)?;
         let usage = wgpu::BufferUsages::STORAGE;
         let octree_params =
             ctx.create_buffer_init(OWNER, "octree walk", bytemuck::bytes_of(&octree), usage);
-        let b = settings.clamp * svo.grid.voxel_size;
+        let b = settings.clamp * svo.grid().voxel_size;
         let shade = ShadeParams {
             count: settings.count * settings.bounces,
             interleave: settings.interleave,

@@ -159,59 +159,59 @@ pub const POOLS: u32 = 4;
 /// A sparse voxel octree on the GPU.
 pub struct Svo {
     /// The voxel grid the finest level resolves.
-    pub grid: VoxelGrid,
+    grid: VoxelGrid,
     /// Number of nodes (all levels). With a dynamic part, as of the latest dynamic update
     /// read back ([`Svo::poll_dynamic`], [`Svo::sync_dynamic`]).
-    pub node_count: u32,
+    node_count: u32,
     /// `array<u32>`: first child index, 0 = none.
-    pub child: wgpu::Buffer,
+    child: wgpu::Buffer,
     /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
-    pub neighbours: wgpu::Buffer,
+    neighbours: wgpu::Buffer,
     /// The brick pool, split over [`POOLS`] buffers (unused ones are 16-byte placeholders):
     /// brick `b` is slot `b % pool_bricks` of buffer `b / pool_bricks`, [`BRICK_WORDS`] words
     /// (27 texels as `pack4x8unorm`).
-    pub bricks: Vec<wgpu::Buffer>,
+    bricks: Vec<wgpu::Buffer>,
     /// Bricks per pool buffer.
-    pub pool_bricks: u32,
+    pool_bricks: u32,
     /// `array<u32>`: per node, its brick index + 1 (0 = no brick, an all-zero lattice).
-    pub brick_index: wgpu::Buffer,
+    brick_index: wgpu::Buffer,
     /// Number of bricks (with a dynamic part: as [`Svo::node_count`]).
-    pub brick_count: u32,
+    brick_count: u32,
     /// Bricks the pools hold: the static part's and the dynamic reserve's.
-    pub brick_capacity: u32,
+    brick_capacity: u32,
     /// Node index range of every level.
-    pub levels: Vec<(u32, u32)>,
+    levels: Vec<(u32, u32)>,
     /// Voxel fragments the octree was built from; after a dynamic update, those of its
     /// dynamic triangles (as [`Svo::node_count`]).
-    pub fragment_count: u32,
+    fragment_count: u32,
     /// `array<u32>`: per node, its packed coordinates on its level (10 bits per axis).
-    pub coord: wgpu::Buffer,
+    coord: wgpu::Buffer,
     /// Level ranges and counters of the build (`control` in `svo/build.wgsl`), kept for the passes
     /// that run per level after the build (injection).
-    pub control: wgpu::Buffer,
+    control: wgpu::Buffer,
     /// Indirect dispatch sizes per level.
-    pub args: wgpu::Buffer,
+    args: wgpu::Buffer,
     /// Per-level parameters (one 256-byte slot per level).
-    pub level_params: wgpu::Buffer,
+    level_params: wgpu::Buffer,
     /// Fragment sums of albedo, emission and normal of the static part's occupied leaf voxels
     /// (`voxel/svo/leaf_sums.wgsl`: an index word per static leaf node, then
     /// [`crate::voxel::svo::inject::LEAF_SUM_WORDS`] words per occupied voxel).
-    pub leaf_sums: wgpu::Buffer,
+    leaf_sums: wgpu::Buffer,
     /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
     /// 27 texels of RGBA16F (radiance, opacity). Zero until [`SvoBuilder::inject`].
-    pub radiance: Vec<wgpu::Buffer>,
+    radiance: Vec<wgpu::Buffer>,
     /// Injected radiance and opacity per leaf voxel (RGBA16F): static leaves in the order of
     /// `leaf_sums`, then the dynamic leaves in node order.
-    pub voxel_radiance: wgpu::Buffer,
+    voxel_radiance: wgpu::Buffer,
     /// Nodes of the static part (`[0, static_nodes)`); dynamic nodes follow.
-    pub static_nodes: u32,
+    static_nodes: u32,
     /// Bricks of the static part; dynamic bricks follow.
-    pub static_bricks: u32,
+    static_bricks: u32,
     /// Node index range of every level's dynamic nodes (empty without a dynamic part; as
     /// [`Svo::node_count`]).
-    pub dynamic_levels: Vec<(u32, u32)>,
+    dynamic_levels: Vec<(u32, u32)>,
     /// Room for the dynamic part, `None` for an octree built without a reserve.
-    pub(crate) dynamic: Option<crate::voxel::svo::dynamic::SvoDynamic>,
+    dynamic: Option<crate::voxel::svo::dynamic::SvoDynamic>,
 }
 
 /// The octree read back to the CPU (for tests and tools).
@@ -1010,6 +1010,72 @@ impl SvoBuilder {
 }
 
 impl Svo {
+    /// The voxel grid the finest level resolves.
+    pub fn grid(&self) -> &VoxelGrid {
+        &self.grid
+    }
+
+    /// Number of nodes (all levels); with a dynamic part, as of the latest dynamic update
+    /// read back ([`Svo::poll_dynamic`], [`Svo::sync_dynamic`]).
+    pub fn node_count(&self) -> u32 {
+        self.node_count
+    }
+
+    /// Number of bricks (with a dynamic part: as [`Svo::node_count`]).
+    pub fn brick_count(&self) -> u32 {
+        self.brick_count
+    }
+
+    /// Bricks per pool buffer ([`crate::voxel::svo::sample::SvoInfo::new`] takes it).
+    pub fn pool_bricks(&self) -> u32 {
+        self.pool_bricks
+    }
+
+    /// Node index range of every level.
+    pub fn levels(&self) -> &[(u32, u32)] {
+        &self.levels
+    }
+
+    /// Node index range of every level's dynamic nodes (empty without a dynamic part).
+    pub fn dynamic_levels(&self) -> &[(u32, u32)] {
+        &self.dynamic_levels
+    }
+
+    /// Nodes of the static part (`[0, static_nodes)`); dynamic nodes follow.
+    pub fn static_nodes(&self) -> u32 {
+        self.static_nodes
+    }
+
+    /// Bricks of the static part; dynamic bricks follow.
+    pub fn static_bricks(&self) -> u32 {
+        self.static_bricks
+    }
+
+    /// Voxel fragments the octree was built from; after a dynamic update, those of its
+    /// dynamic triangles.
+    pub fn fragment_count(&self) -> u32 {
+        self.fragment_count
+    }
+
+    /// Whether the octree has room for a dynamic part (it was built with a reserve).
+    pub fn has_dynamic(&self) -> bool {
+        self.dynamic.is_some()
+    }
+
+    /// The build's level ranges and counters (`control` in `svo/build.wgsl`): the dynamic
+    /// leaf range a pass over the dynamic leaves reads.
+    pub fn control(&self) -> &wgpu::Buffer {
+        &self.control
+    }
+
+    /// The indirect dispatch arguments (buffer, byte offset) of one workgroup per dynamic leaf
+    /// node, as the latest dynamic update left them on the GPU.
+    pub fn dynamic_leaf_dispatch(&self) -> (&wgpu::Buffer, u64) {
+        let leaf = self.levels.len().saturating_sub(1) as u32;
+        let slot = ARGS_DYN_NODES + leaf + NODE_ARGS;
+        (&self.args, slot as u64 * 12)
+    }
+
     /// Bytes the octree keeps on the GPU (nodes + bricks).
     pub fn bytes(&self) -> u64 {
         self.node_count as u64 * NODE_BYTES + self.brick_count as u64 * BRICK_WORDS as u64 * 4
