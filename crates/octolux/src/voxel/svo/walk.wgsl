@@ -9,8 +9,8 @@
 //
 // Every decision is made on integers: segment ends are points of a lattice of 2^14 steps per
 // grid side (`1 << shift` steps per voxel), and the time along the segment is the fraction
-// tn / td of two integers below 2^15. The CPU twin (`walk.rs`, `SvoWalkCpu`) runs the same integer code, so
-// both visit the same cells on every adapter. Products stay below 2^30 in i32.
+// tn / td of two integers below 2^15. The CPU twin (`walk.rs`, `SvoWalkCpu`) runs the same
+// integer code, so both visit the same cells on every adapter. Products stay below 2^30 in i32.
 //
 // Each step restarts at the root and descends along the voxel holding the current point
 // (kd-restart), stopping at the first node without children (an empty octant of any level:
