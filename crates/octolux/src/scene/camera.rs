@@ -96,16 +96,7 @@ impl Camera {
     /// Matrices for an image of `width` x `height` pixels.
     pub fn view(&self, width: u32, height: u32) -> CameraView {
         let aspect = width.max(1) as f32 / height.max(1) as f32;
-        let up = if (self.target - self.position)
-            .normalize_or_zero()
-            .cross(self.up)
-            .length()
-            < 1e-4
-        {
-            Vec3::Z
-        } else {
-            self.up
-        };
+        let up = view_up((self.target - self.position).normalize_or_zero(), self.up);
         let view = Mat4::look_at_rh(self.position, self.target, up);
         let vfov = match self.hfov {
             Some(h) => 2.0 * ((h * 0.5).tan() / aspect).atan(),
@@ -122,6 +113,24 @@ impl Camera {
             width,
             height,
         }
+    }
+}
+
+/// The up vector for a view along unit `forward`: `hint` unless it is (nearly) parallel to
+/// `forward` or zero, otherwise the world axis least aligned with `forward`, which is never
+/// parallel to it.
+pub(crate) fn view_up(forward: Vec3, hint: Vec3) -> Vec3 {
+    let hint = hint.normalize_or_zero();
+    if forward.cross(hint).length() >= 1e-4 {
+        return hint;
+    }
+    let a = forward.abs();
+    if a.y <= a.x && a.y <= a.z {
+        Vec3::Y
+    } else if a.z <= a.x {
+        Vec3::Z
+    } else {
+        Vec3::X
     }
 }
 
@@ -159,5 +168,26 @@ impl CameraView {
                 (d < 1.0).then(|| self.world_point(x, y, d))
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_up_parallel_to_the_view_gets_a_fallback_that_is_not() {
+        for forward in [Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z, Vec3::X] {
+            let camera = Camera {
+                position: Vec3::ZERO,
+                target: forward,
+                up: forward,
+                ..Camera::default()
+            };
+            let view = camera.view(8, 8);
+            assert!(view.view.is_finite(), "looking along {forward}");
+            let d = view.ray_direction(4.0, 4.0);
+            assert!((d - forward).length() < 1e-3, "{forward}: {d}");
+        }
     }
 }

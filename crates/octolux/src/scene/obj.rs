@@ -27,7 +27,7 @@ use std::sync::Mutex;
 
 /// Loads an OBJ file (and the MTL files it references): one object per `o`/`g` name.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_file(path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let warnings = Mutex::new(Vec::<String>::new());
     let options = tobj::LoadOptions {
@@ -194,7 +194,7 @@ fn load_mtl(dir: &Path, mtl: &Path, warnings: &Mutex<Vec<String>>) -> tobj::MTLL
     let path = dir.join(normalize_separators(&mtl.to_string_lossy()));
     let path = find_file(&path).unwrap_or(path);
     let mtl_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let text = match std::fs::read(&path) {
+    let text = match crate::limits::read_file_limited(&path, crate::limits::MAX_TEXT_BYTES) {
         Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
         Err(e) => {
             warn(format!(
