@@ -85,7 +85,9 @@ impl HdrImage {
         for header in &meta.headers {
             let size = header.layer_size;
             let side = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
-            crate::limits::check_image_dimensions(side(size.width()), side(size.height()))
+            let (w, h) = (side(size.width()), side(size.height()));
+            crate::limits::check_image_dimensions(w, h)
+                .and_then(|()| crate::limits::check_image_data(w, h, bytes.len()))
                 .map_err(|e| Error::parse(path, e))?;
         }
         let image = exr::prelude::read()

@@ -26,6 +26,12 @@ pub const DECOMPRESSED_SLACK_BYTES: u64 = 64 << 20;
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Largest pixel count of a decoded texture or environment map (256 Mpixel).
 pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
+/// No image format compresses by more than this (deflate's limit is about 1032:1): an image
+/// header claiming more pixels (at 4 bytes each) than this many times the size of the file,
+/// plus [`IMAGE_SLACK_BYTES`], is refused before decoding.
+pub const MAX_IMAGE_COMPRESSION: u64 = 2048;
+/// Allowance added to the compression bound, so that small files are never refused.
+pub const IMAGE_SLACK_BYTES: u64 = 16 << 20;
 /// Largest absolute world coordinate of a vertex, light or camera (metres, after the scene's
 /// unit and transforms). Far beyond any real scene, and small enough that squared distances
 /// and scene bounds stay finite in 32-bit floats.
@@ -156,6 +162,27 @@ pub fn check_image_dimensions(width: u32, height: u32) -> std::result::Result<()
     Ok(())
 }
 
+/// Checks that `encoded_bytes` of data can plausibly hold a `width` x `height` image (see
+/// [`MAX_IMAGE_COMPRESSION`]), so that a tiny file claiming a huge size fails before the
+/// decoder allocates its pixels.
+pub fn check_image_data(
+    width: u32,
+    height: u32,
+    encoded_bytes: usize,
+) -> std::result::Result<(), String> {
+    let claimed = width as u64 * height as u64 * 4;
+    let most = (encoded_bytes as u64)
+        .saturating_mul(MAX_IMAGE_COMPRESSION)
+        .saturating_add(IMAGE_SLACK_BYTES);
+    if claimed > most {
+        return Err(format!(
+            "header claims {width}x{height} pixels, more than {encoded_bytes} bytes of data can \
+             hold (truncated or corrupt file)"
+        ));
+    }
+    Ok(())
+}
+
 /// Decodes an image held in memory (`path` names it in errors). The format is `format` when
 /// given and the data decodes as it, otherwise it is guessed from the content. The size in the
 /// header is checked against [`check_image_dimensions`] before any pixel is allocated.
@@ -178,7 +205,9 @@ pub fn decode_image(
         let (width, height) = reader(format)?
             .into_dimensions()
             .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))?;
-        check_image_dimensions(width, height).map_err(|e| Error::parse(path, e))?;
+        check_image_dimensions(width, height)
+            .and_then(|()| check_image_data(width, height, bytes.len()))
+            .map_err(|e| Error::parse(path, e))?;
         let mut reader = reader(format)?;
         reader.limits(image_limits());
         reader

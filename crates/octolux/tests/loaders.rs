@@ -1190,3 +1190,31 @@ fn values_beyond_the_limits_are_errors() {
     )
     .unwrap();
 }
+
+/// Found by the fuzz test (`fuzz_loaders.rs`): inputs that panicked inside the glTF crate.
+#[test]
+fn gltf_inputs_the_fuzzer_found() {
+    let dir = temp_dir("gltf-fuzz");
+    // A primitive whose POSITION accessor does not exist (the crate's validation indexed it).
+    let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+    json["accessors"] = serde_json::json!([]);
+    let path = dir.join("no-accessor.gltf");
+    write(&path, json.to_string());
+    let msg = expect_parse_error(Scene::load(&path), "no-accessor.gltf");
+    assert!(msg.contains("POSITION accessor 0 does not exist"), "{msg}");
+    // A GLB header whose length is less than the header itself (an overflow in the crate).
+    let mut glb = b"glTF".to_vec();
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&4u32.to_le_bytes());
+    glb.extend_from_slice(&[0; 16]);
+    let path = dir.join("short.glb");
+    write(&path, glb);
+    let msg = expect_parse_error(Scene::load(&path), "short.glb");
+    assert!(msg.contains("length 4"), "{msg}");
+    // An image with neither a uri nor a buffer view (the crate unwrapped the uri).
+    let json = gltf_json(data_uri_buffer(), serde_json::json!({"name": "nothing"}));
+    let path = dir.join("no-uri.gltf");
+    write(&path, json.to_string());
+    let msg = expect_parse_error(Scene::load(&path), "no-uri.gltf");
+    assert!(msg.contains("image 0"), "{msg}");
+}

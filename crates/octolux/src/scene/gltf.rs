@@ -31,8 +31,7 @@ pub const LUMENS_PER_WATT: f32 = 683.0;
 /// Loads a `.gltf` or `.glb` file.
 pub fn load(path: &Path) -> Result<Scene> {
     let bytes = crate::limits::read_file(path)?;
-    let gltf = gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| Error::parse(path, format!("malformed glTF: {e}")))?;
+    let gltf = parse_document(&bytes).map_err(|e| Error::parse(path, e))?;
     drop(bytes);
     let base = path.parent().unwrap_or(Path::new("."));
     // Accessors are checked before they are read (`check_accessor`); should the glTF crate
@@ -44,6 +43,55 @@ pub fn load(path: &Path) -> Result<Scene> {
                 "malformed glTF (inconsistent buffers, accessors or references)",
             ))
         })
+}
+
+/// Parses and validates a glTF or GLB document, after the checks the glTF crate's own
+/// validation assumes (it indexes without checking in a few places).
+fn parse_document(bytes: &[u8]) -> std::result::Result<gltf::Gltf, String> {
+    if bytes.starts_with(b"glTF") {
+        let length = bytes
+            .get(8..12)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        match length {
+            Some(n) if n >= 12 => {}
+            Some(n) => {
+                return Err(format!(
+                    "GLB header: length {n} is less than the header's 12 bytes"
+                ))
+            }
+            None => return Err("GLB header is truncated".into()),
+        }
+    }
+    let unchecked = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| format!("malformed glTF: {e}"))?;
+    let json = unchecked.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, accessor) in &primitive.attributes {
+                if accessor.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: {} accessor {} does not exist ({} accessors)",
+                        semantic.to_string(),
+                        accessor.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    for (i, image) in json.images.iter().enumerate() {
+        let ok = match &image.buffer_view {
+            Some(_) => image.mime_type.is_some(),
+            None => image.uri.is_some(),
+        };
+        if !ok {
+            return Err(format!(
+                "image {i}: needs a uri, or a bufferView with a mimeType"
+            ));
+        }
+    }
+    drop(unchecked);
+    gltf::Gltf::from_slice(bytes).map_err(|e| format!("malformed glTF: {e}"))
 }
 
 fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
