@@ -320,7 +320,20 @@ fn obj_malformed_is_an_error() {
     let path = dir.join("bad.obj");
     write(&path, "v 1 2\nf 1 2 3\n");
     let msg = expect_parse_error(Scene::load(&path), "bad.obj");
-    assert!(msg.contains("malformed OBJ"), "{msg}");
+    assert!(
+        msg.contains("malformed OBJ") && msg.contains("line 1"),
+        "{msg}"
+    );
+    // Errors carry the line of the element at fault.
+    write(
+        &path,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1 2 3\nf 1 2 x\n",
+    );
+    let msg = expect_parse_error(Scene::load(&path), "bad.obj");
+    assert!(msg.contains("line 6: 'f 1 2 x'"), "{msg}");
+    write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n");
+    let msg = expect_parse_error(Scene::load(&path), "bad.obj");
+    assert!(msg.contains("line 5: 'f 1 2 9'"), "{msg}");
 }
 
 #[test]
