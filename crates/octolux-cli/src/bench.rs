@@ -107,7 +107,7 @@ fn validate(args: &BenchArgs) -> Result<()> {
         .with_context(|| format!("--width {} --height {}", args.width, args.height))?;
     if args.frames == 0 || args.frames > MAX_FRAMES {
         bail!(
-            "--frames {}: expected 1..={MAX_FRAMES} (the measured frames)",
+            "--frames {}: must be at least 1 (the measured frames) and at most {MAX_FRAMES}",
             args.frames
         );
     }

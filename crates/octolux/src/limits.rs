@@ -270,5 +270,12 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("100000x100000"), "{e}");
+        // Within the size limits, but more pixels than a few bytes can hold.
+        let hdr = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 16000 +X 16000\n\0\0\0\0";
+        let e = decode_image(Path::new("big.hdr"), hdr, Some(image::ImageFormat::Hdr))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("16000x16000") && e.contains("can hold"), "{e}");
+        assert!(check_image_data(1024, 1024, 10).is_ok());
     }
 }
