@@ -292,3 +292,56 @@ fn more_lights_than_the_adapter_holds_is_one_clear_error() {
     );
     assert!(stderr.lines().count() < 10, "{stderr}");
 }
+
+/// One triangle far beside the Cornell box made every GPU technique render black (the spot
+/// light's shadow map put its near plane past the box); now the direct light is unchanged.
+#[test]
+fn a_far_triangle_leaves_the_direct_light_unchanged() {
+    let dir = temp_dir("far");
+    let camera_and_light = "[[light]]\ntype = \"spot\"\nposition = [0.278, 0.538, 0.2796]\n\
+        direction = [0.0, -1.0, 0.0]\nintensity = 1.0\ninner_angle = 55.0\nouter_angle = 70.0\n\
+        [[camera]]\nposition = [0.278, 0.273, -0.8]\ntarget = [0.278, 0.273, 0.0]\nfov = 39.3\n\
+        near = 0.05\nfar = 5.0\n";
+    std::fs::write(
+        dir.join("far.obj"),
+        "v 1e5 0 0\nv 1e5 1 0\nv 1e5 0 1\nf 1 2 3\n",
+    )
+    .unwrap();
+    let render = |name: &str, extra: &str| {
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &scene,
+            format!("[[model]]\npath = \"builtin:cornell-box\"\n{extra}{camera_and_light}"),
+        )
+        .unwrap();
+        let out = dir.join(format!("{name}.exr"));
+        let output = octolux(&[
+            "render",
+            s(&scene),
+            "--gi",
+            "none",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--out",
+            s(&out),
+        ]);
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        HdrImage::read_exr(&out).unwrap()
+    };
+    let near = render("near", "");
+    let far = render("far", "[[model]]\npath = \"far.obj\"\n");
+    let mean = |i: &HdrImage| i.pixels.iter().map(|p| p.x + p.y + p.z).sum::<f32>();
+    assert!(mean(&near) > 0.0);
+    assert!(
+        (mean(&far) - mean(&near)).abs() < 1e-3 * mean(&near),
+        "{} vs {}",
+        mean(&far),
+        mean(&near)
+    );
+}
