@@ -470,7 +470,15 @@ fn bench_scene(
             metrics: None,
         });
         if reference_settings.is_some() || out_dir.is_some() {
-            images.push((name.clone(), bounces, renderer.read_hdr()?));
+            let image = renderer.read_hdr()?;
+            if let Some((x, y, v)) = image.first_non_finite() {
+                bail!(
+                    "scene '{}', {name}: the last frame holds {v} at pixel ({x}, {y}): the \
+                     light is beyond what the technique stores",
+                    scene.name
+                );
+            }
+            images.push((name.clone(), bounces, image));
         }
     }
     bar.finish_and_clear();

@@ -52,13 +52,10 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
     let a = metrics::load_image(&args.a)?;
     let b = metrics::load_image(&args.b)?;
     for (path, image) in [(&args.a, &a), (&args.b, &b)] {
-        if let Some(i) = image.pixels.iter().position(|p| !p.is_finite()) {
+        if let Some((x, y, v)) = image.first_non_finite() {
             anyhow::bail!(
-                "{}: pixel ({}, {}) is {}: the metrics need finite values",
-                path.display(),
-                i as u32 % image.width,
-                i as u32 / image.width,
-                image.pixels[i]
+                "{}: pixel ({x}, {y}) is {v}: the metrics need finite values",
+                path.display()
             );
         }
     }

@@ -538,6 +538,14 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         let t = start_time + i as f32 / args.fps;
         all_timings.push(renderer.render(&scene, t)?);
         let hdr = renderer.read_hdr()?;
+        if let Some((x, y, v)) = hdr.first_non_finite() {
+            bail!(
+                "frame {i} at t = {t} s: --gi {} produced {v} at pixel ({x}, {y}): the light is \
+                 beyond what it stores (the cone tracers keep radiance in half floats, at most \
+                 65504); lower the scene's light intensities or emission",
+                args.gi
+            );
+        }
         let display = renderer.read_display()?;
         write_image(
             &frame_path(&args.out, i, args.frames),

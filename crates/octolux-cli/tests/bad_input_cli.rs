@@ -46,6 +46,13 @@ fn fails_fast(args: &[&str], needles: &[&str]) -> String {
     stderr
 }
 
+/// `render SCENE --gi GI` at 32 x 32 pixels into `out`.
+fn small_render<'a>(scene: &'a str, gi: &'a str, out: &'a str) -> [&'a str; 10] {
+    [
+        "render", scene, "--gi", gi, "--width", "32", "--height", "32", "--out", out,
+    ]
+}
+
 fn write_exr(path: &Path, value: f32) {
     let mut image = HdrImage::new(4, 2);
     image.pixels.fill(glam::Vec3::splat(value));
@@ -315,18 +322,7 @@ fn a_far_triangle_leaves_the_direct_light_unchanged() {
         )
         .unwrap();
         let out = dir.join(format!("{name}.exr"));
-        let output = octolux(&[
-            "render",
-            s(&scene),
-            "--gi",
-            "none",
-            "--width",
-            "32",
-            "--height",
-            "32",
-            "--out",
-            s(&out),
-        ]);
+        let output = octolux(&small_render(s(&scene), "none", s(&out)));
         assert!(
             output.status.success(),
             "{}",
@@ -344,4 +340,25 @@ fn a_far_triangle_leaves_the_direct_light_unchanged() {
         mean(&far),
         mean(&near)
     );
+}
+
+/// Radiance within the scene limits that overflows the cone tracers' half-float voxels is an
+/// error, not an OpenEXR file full of inf.
+#[test]
+fn a_frame_that_overflows_is_an_error() {
+    let dir = temp_dir("overflow");
+    let scene = dir.join("bright.toml");
+    std::fs::write(
+        &scene,
+        "[[model]]\npath = \"builtin:cornell-box\"\n[[light]]\ntype = \"spot\"\n\
+         position = [0.278, 0.538, 0.2796]\ndirection = [0.0, -1.0, 0.0]\nintensity = 1e6\n\
+         outer_angle = 70.0\n",
+    )
+    .unwrap();
+    let out = dir.join("bright.exr");
+    fails_fast(
+        &small_render(s(&scene), "vct-clipmap", s(&out)),
+        &["--gi vct-clipmap", "inf", "half floats"],
+    );
+    assert!(!out.exists());
 }

@@ -60,6 +60,15 @@ impl HdrImage {
         self.pixels[(y * self.width + x) as usize] = v;
     }
 
+    /// The first pixel (x, y, value) that is NaN or infinite, if any.
+    pub fn first_non_finite(&self) -> Option<(u32, u32, Vec3)> {
+        let w = self.width.max(1);
+        self.pixels
+            .iter()
+            .position(|p| !p.is_finite())
+            .map(|i| (i as u32 % w, i as u32 / w, self.pixels[i]))
+    }
+
     /// Writes a linear 32-bit float RGB OpenEXR file, atomically (see [`write_atomically`]).
     pub fn write_exr(&self, path: &Path) -> Result<()> {
         let w = self.width as usize;
