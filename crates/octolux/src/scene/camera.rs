@@ -140,10 +140,11 @@ impl CameraView {
     pub fn ray_direction(&self, x: f32, y: f32) -> Vec3 {
         let ndc_x = x / self.width as f32 * 2.0 - 1.0;
         let ndc_y = 1.0 - y / self.height as f32 * 2.0;
-        let far = self
-            .inv_view_proj
-            .project_point3(Vec3::new(ndc_x, ndc_y, 1.0));
-        (far - self.position).normalize()
+        // From the projection's focal lengths and the view's rotation rather than by
+        // unprojecting a point on the far plane, which loses all precision when far / near is
+        // large.
+        let in_view = Vec3::new(ndc_x / self.proj.x_axis.x, ndc_y / self.proj.y_axis.y, -1.0);
+        (glam::Mat3::from_mat4(self.view).transpose() * in_view).normalize()
     }
 
     /// World position seen at image position (`x`, `y`) in pixels (as [`Self::ray_direction`])
@@ -174,6 +175,33 @@ impl CameraView {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rays_are_exact_whatever_the_depth_range() {
+        let camera = Camera {
+            position: Vec3::new(0.3, 0.2, -1.0),
+            target: Vec3::new(0.1, 0.3, 0.0),
+            ..Camera::default()
+        };
+        let view = camera.view(64, 32);
+        let far_plane = |x: f32, y: f32| {
+            let ndc = Vec3::new(x / 64.0 * 2.0 - 1.0, 1.0 - y / 32.0 * 2.0, 1.0);
+            (view.inv_view_proj.project_point3(ndc) - view.position).normalize()
+        };
+        for (x, y) in [(0.5, 0.5), (32.0, 16.0), (63.5, 2.5)] {
+            assert!((view.ray_direction(x, y) - far_plane(x, y)).length() < 1e-5);
+        }
+        let deep = Camera {
+            near: 1e-4,
+            far: 1e4,
+            ..camera
+        }
+        .view(64, 32);
+        for (x, y) in [(0.5, 0.5), (32.0, 16.0), (63.5, 2.5)] {
+            let d = deep.ray_direction(x, y);
+            assert!((d - view.ray_direction(x, y)).length() < 1e-5, "{d}");
+        }
+    }
 
     #[test]
     fn an_up_parallel_to_the_view_gets_a_fallback_that_is_not() {
