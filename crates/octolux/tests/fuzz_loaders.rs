@@ -4,7 +4,8 @@
 //! Each target starts from seeds (the shipped files under `scenes/` and small files made here
 //! with the library's own writers), mutates them with a seeded generator (so a run is
 //! reproducible) and loads the result. Every case must end in a value or an error: no panic
-//! (each case runs under `catch_unwind`), at most [`MEMORY_CAP`] bytes allocated at once by
+//! (each case runs under `catch_unwind`, and a panic hook also catches panics a loader catches
+//! itself), at most [`MEMORY_CAP`] bytes allocated at once by
 //! the loading thread, at most [`TIME_CAP`] per case, and a loaded scene must pass validation
 //! again. A failing case is saved under the temporary folder and named in the failure.
 //!
@@ -36,6 +37,20 @@ struct Counting;
 thread_local! {
     static LIVE: Cell<isize> = const { Cell::new(0) };
     static PEAK: Cell<isize> = const { Cell::new(0) };
+    /// Set by the panic hook: a panic on this thread, even one a loader catches itself.
+    static PANICKED: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Installs (once) a panic hook that marks the panicking thread, then reports as usual.
+fn watch_panics() {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let report = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let _ = PANICKED.try_with(|p| p.set(true));
+            report(info);
+        }));
+    });
 }
 
 fn count(delta: isize) {
@@ -498,6 +513,7 @@ fn load(loader: Loader, path: &Path) -> Result<Outcome, String> {
 
 /// Runs the target's cases; panics listing the failing inputs (saved to files).
 fn fuzz(name: &str, target: Target) {
+    watch_panics();
     let dir = workspace(name);
     let path = dir.join(target.file);
     let loaded_path = dir.join(target.load.unwrap_or(target.file));
@@ -518,6 +534,7 @@ fn fuzz(name: &str, target: Target) {
         let data = (target.finish)(data);
         std::fs::write(&path, &data).unwrap();
         let began = Instant::now();
+        PANICKED.with(|p| p.set(false));
         let (result, memory) = peak_during(|| {
             std::panic::catch_unwind(|| load(target.loader, &loaded_path))
                 .unwrap_or_else(|_| Err("panicked".into()))
@@ -530,6 +547,9 @@ fn fuzz(name: &str, target: Target) {
             Ok(Outcome::Loaded) => loaded += 1,
             Ok(Outcome::Rejected) => rejected += 1,
             Err(why) => failure = Some(why),
+        }
+        if failure.is_none() && PANICKED.with(Cell::get) {
+            failure = Some("panicked (caught inside the loader)".into());
         }
         if memory > MEMORY_CAP {
             failure = Some(format!("allocated {} MiB at once", memory >> 20));

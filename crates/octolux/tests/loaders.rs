@@ -1224,6 +1224,13 @@ fn gltf_inputs_the_fuzzer_found() {
     write(&path, glb);
     let msg = expect_parse_error(Scene::load(&path), "short.glb");
     assert!(msg.contains("length 4"), "{msg}");
+    // An accessor of no elements (the crate computed count - 1).
+    let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+    json["accessors"][1]["count"] = serde_json::json!(0);
+    let path = dir.join("empty-accessor.gltf");
+    write(&path, json.to_string());
+    let msg = expect_parse_error(Scene::load(&path), "empty-accessor.gltf");
+    assert!(msg.contains("index accessor 1: count 0"), "{msg}");
     // An image with neither a uri nor a buffer view (the crate unwrapped the uri).
     let json = gltf_json(data_uri_buffer(), serde_json::json!({"name": "nothing"}));
     let path = dir.join("no-uri.gltf");

@@ -532,6 +532,9 @@ fn check_accessor(
     if accessor.sparse().is_some() {
         return Err("sparse accessors are not supported".into());
     }
+    if accessor.count() == 0 {
+        return Err("count 0: an accessor holds at least 1 element".into());
+    }
     let Some(view) = accessor.view() else {
         return Ok(());
     };
@@ -552,21 +555,19 @@ fn check_accessor(
             view.length()
         ));
     }
-    if accessor.count() > 0 {
-        let end = (accessor.count() - 1)
-            .checked_mul(stride)
-            .and_then(|v| v.checked_add(accessor.offset()))
-            .and_then(|v| v.checked_add(element));
-        if end.is_none_or(|end| end > view.length()) {
-            return Err(format!(
-                "{} elements of {element} bytes (stride {stride}) from offset {} run past the \
-                 end of buffer view {} ({} bytes)",
-                accessor.count(),
-                accessor.offset(),
-                view.index(),
-                view.length()
-            ));
-        }
+    let end = (accessor.count() - 1)
+        .checked_mul(stride)
+        .and_then(|v| v.checked_add(accessor.offset()))
+        .and_then(|v| v.checked_add(element));
+    if end.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "{} elements of {element} bytes (stride {stride}) from offset {} run past the \
+             end of buffer view {} ({} bytes)",
+            accessor.count(),
+            accessor.offset(),
+            view.index(),
+            view.length()
+        ));
     }
     Ok(())
 }
