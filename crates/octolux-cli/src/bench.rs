@@ -98,15 +98,23 @@ struct SceneInput {
     gi_settings: GiSettings,
 }
 
+/// Most warm-up or measured frames.
+const MAX_FRAMES: u32 = 1_000_000;
+
 /// Checks every argument before any work starts, so a long run fails at once.
 fn validate(args: &BenchArgs) -> Result<()> {
-    check_image_size(args.width, args.height)?;
-    if args.frames == 0 {
-        bail!("--frames must be at least 1 (the measured frames)");
+    check_image_size(args.width, args.height)
+        .with_context(|| format!("--width {} --height {}", args.width, args.height))?;
+    if args.frames == 0 || args.frames > MAX_FRAMES {
+        bail!(
+            "--frames {}: must be at least 1 (the measured frames) and at most {MAX_FRAMES}",
+            args.frames
+        );
     }
-    if !(args.fps.is_finite() && args.fps > 0.0) {
-        bail!("--fps {}: must be a positive number", args.fps);
+    if args.warmup > MAX_FRAMES {
+        bail!("--warmup {}: expected 0..={MAX_FRAMES}", args.warmup);
     }
+    crate::outputs::check_fps(args.fps)?;
     if !args.time.is_finite() {
         bail!("--time {}: must be a finite number of seconds", args.time);
     }
@@ -146,6 +154,32 @@ fn validate(args: &BenchArgs) -> Result<()> {
         }
         if json.is_dir() {
             bail!("--json {}: is a folder (use --json-dir)", json.display());
+        }
+        let mut inputs = args.scenes.clone();
+        for scene in &args.scenes {
+            if scene
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+            {
+                inputs.extend(octolux::scene::file::model_files(scene).unwrap_or_default());
+            }
+        }
+        inputs.extend(args.sky_args.sky.iter().map(PathBuf::from));
+        crate::outputs::check(
+            &[crate::outputs::Planned {
+                flag: "--json",
+                path: json,
+                format: crate::outputs::Format::Json,
+            }],
+            &inputs,
+        )?;
+    }
+    for (flag, dir) in [("--json-dir", &args.json_dir), ("--out-dir", &args.out_dir)] {
+        if let Some(dir) = dir {
+            if dir.is_file() {
+                bail!("{flag} {}: is a file; expected a folder", dir.display());
+            }
+            crate::outputs::check_writable_dir(flag, dir, dir)?;
         }
     }
     if let Some(against) = &args.against {
@@ -192,6 +226,23 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             })
             .collect::<Result<_>>()?
     };
+    // Every technique's settings are checked before the first is measured.
+    use octolux::gi::lpv;
+    for input in &inputs {
+        for name in &args.gi {
+            let s = &input.gi_settings;
+            let checked = match name.as_str() {
+                "vct-svo" | "vct-clipmap" => s.vct.validate(),
+                "vpl" => s.vpl.validate(),
+                "probes-grid" | "probes-octree" => s.probes.validate(),
+                "lpv" => lpv::validate(lpv::Variant::Uniform, s),
+                "clpv" => lpv::validate(lpv::Variant::Cascaded, s),
+                "olpv" => lpv::validate(lpv::Variant::Octree, s),
+                _ => Ok(()),
+            };
+            checked.with_context(|| format!("--gi {name}"))?;
+        }
+    }
     for input in &inputs {
         input.scene.camera_index(&args.camera).with_context(|| {
             format!(
@@ -305,8 +356,11 @@ fn unique_name(scene: &str, used: &mut Vec<String>) -> String {
 }
 
 fn write_json(path: &Path, report: &BenchReport) -> Result<()> {
-    let text = serde_json::to_string_pretty(report)?;
-    std::fs::write(path, text + "\n").with_context(|| format!("writing {}", path.display()))
+    let text = serde_json::to_string_pretty(report)? + "\n";
+    octolux::image_io::write_atomically(path, |file| {
+        std::fs::write(file, &text).map_err(|e| octolux::Error::io(path, e))
+    })
+    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Measures every technique on one scene, then renders the references and measures error.
@@ -419,7 +473,15 @@ fn bench_scene(
             metrics: None,
         });
         if reference_settings.is_some() || out_dir.is_some() {
-            images.push((name.clone(), bounces, renderer.read_hdr()?));
+            let image = renderer.read_hdr()?;
+            if let Some((x, y, v)) = image.first_non_finite() {
+                bail!(
+                    "scene '{}', {name}: the last frame holds {v} at pixel ({x}, {y}): the \
+                     light is beyond what the technique stores",
+                    scene.name
+                );
+            }
+            images.push((name.clone(), bounces, image));
         }
     }
     bar.finish_and_clear();

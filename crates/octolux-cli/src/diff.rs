@@ -27,8 +27,38 @@ pub struct DiffArgs {
 
 /// Runs `octolux diff`.
 pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
+    if !args.exposure.is_finite() || args.exposure.abs() > octolux::scene::MAX_EXPOSURE {
+        anyhow::bail!(
+            "--exposure {}: expected a finite EV within -{1}..={1}",
+            args.exposure,
+            octolux::scene::MAX_EXPOSURE
+        );
+    }
+    if let Some(out) = &args.out {
+        let inputs: Vec<PathBuf> = [&args.a, &args.b]
+            .into_iter()
+            .chain(&args.mask)
+            .cloned()
+            .collect();
+        crate::outputs::check(
+            &[crate::outputs::Planned {
+                flag: "--out",
+                path: out,
+                format: crate::outputs::Format::Png,
+            }],
+            &inputs,
+        )?;
+    }
     let a = metrics::load_image(&args.a)?;
     let b = metrics::load_image(&args.b)?;
+    for (path, image) in [(&args.a, &a), (&args.b, &b)] {
+        if let Some((x, y, v)) = image.first_non_finite() {
+            anyhow::bail!(
+                "{}: pixel ({x}, {y}) is {v}: the metrics need finite values",
+                path.display()
+            );
+        }
+    }
     let mask = match &args.mask {
         Some(path) => Some(metrics::load_mask(path, b.width, b.height)?),
         None => None,

@@ -3,7 +3,7 @@
 
 use crate::gi_args::GiArgs;
 use crate::sky_args::SkyArgs;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
 use octolux::gi::GiSettings;
 use octolux::gpu::{AdapterChoice, GpuOptions, Timestamps};
@@ -62,7 +62,14 @@ pub fn load_scene(
         Some(p) => (Scene::load(p)?, GiSettings::default()),
     };
     flags.apply(&mut settings);
-    sky.apply(&mut scene)?;
+    if sky.sky.is_some() || sky.sky_intensity.is_some() {
+        sky.apply(&mut scene)?;
+        // The sky's radiance is bounded like the scene's own (a map's texels times the
+        // intensity).
+        octolux::scene::validate(&mut scene).context("with --sky")?;
+    } else {
+        sky.apply(&mut scene)?;
+    }
     Ok((scene, settings))
 }
 

@@ -5,6 +5,7 @@ mod bench;
 mod diff;
 mod gi_args;
 mod inputs;
+mod outputs;
 mod render;
 mod sky_args;
 mod stats;
@@ -67,8 +68,35 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line, `: `-separated, leaving out a cause whose text the
+/// message before it already holds (an OS error inside a message that quotes it).
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn causes_are_printed_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let e = anyhow::Error::from(octolux::Error::io("a.obj", io)).context("loading the scene");
+        assert_eq!(super::message(&e), "loading the scene: a.obj: No such file");
     }
 }

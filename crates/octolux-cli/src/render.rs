@@ -2,6 +2,7 @@
 
 use crate::gi_args::GiArgs;
 use crate::inputs::{load_scene, parse_output, GpuArgs};
+use crate::outputs::{check_fps, Format, Planned};
 use crate::sky_args::SkyArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -10,7 +11,7 @@ use octolux::gi::GiSettings;
 use octolux::gpu::GpuContext;
 use octolux::image_io::{check_image_size, write_rgb8_png, HdrImage};
 use octolux::reference::{self, ReferenceImages, ReferenceSettings};
-use octolux::render::{RenderSettings, Renderer};
+use octolux::render::{Output, RenderSettings, Renderer};
 use octolux::scene::Scene;
 use octolux::transport::Bounces;
 use std::path::{Path, PathBuf};
@@ -375,38 +376,116 @@ pub fn write_image(
     Ok(())
 }
 
-fn check_output(path: &Path) -> Result<()> {
-    let ext = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_lowercase())
-        .unwrap_or_default();
-    if ext != "png" && ext != "exr" {
-        bail!("{}: output must end in .png or .exr", path.display());
+/// Most frames one `render` writes.
+const MAX_FRAMES: u32 = 1_000_000;
+
+/// The files `render` reads that it must never overwrite: the scene, the models its scene
+/// file names, and a `--sky` map.
+fn input_files(args: &RenderArgs) -> Vec<PathBuf> {
+    let mut inputs = Vec::new();
+    if let Some(scene) = &args.scene {
+        inputs.push(scene.clone());
+        if scene
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+        {
+            inputs.extend(octolux::scene::file::model_files(scene).unwrap_or_default());
+        }
     }
-    Ok(())
+    if let Some(sky) = &args.sky_args.sky {
+        inputs.push(PathBuf::from(sky));
+    }
+    inputs
+}
+
+/// Checks the flags that need no scene, and every output file, before anything is loaded.
+fn check_args(args: &RenderArgs) -> Result<()> {
+    check_image_size(args.width, args.height)
+        .with_context(|| format!("--width {} --height {}", args.width, args.height))?;
+    if args.frames == 0 || args.frames > MAX_FRAMES {
+        bail!("--frames {}: expected 1..={MAX_FRAMES}", args.frames);
+    }
+    check_fps(args.fps)?;
+    if !args.time.is_finite() {
+        bail!("--time {}: expected a finite number of seconds", args.time);
+    }
+    let output = parse_output(&args.output)?;
+    let gpu = args.gi != "reference";
+    let reference_only = [
+        ("--direct-exr", &args.reference.direct_exr),
+        ("--indirect-exr", &args.reference.indirect_exr),
+        ("--irradiance-exr", &args.reference.irradiance_exr),
+    ];
+    if gpu {
+        if let Some((flag, _)) = reference_only.iter().find(|(_, p)| p.is_some()) {
+            bail!(
+                "{flag} writes a part of the reference's light: use it with --gi reference \
+                 (--output direct or indirect shows that part for a GPU technique)"
+            );
+        }
+        match output {
+            Output::AmbientOcclusion if !args.gi.starts_with("vct-") => bail!(
+                "--output ao: only the cone tracers (--gi vct-svo, vct-clipmap) compute \
+                 ambient occlusion, not --gi {}",
+                args.gi
+            ),
+            Output::Specular if !args.gi.starts_with("vct-") => bail!(
+                "--output specular: only the cone tracers (--gi vct-svo, vct-clipmap, with \
+                 --vct-specular) compute a specular image, not --gi {}",
+                args.gi
+            ),
+            _ => {}
+        }
+    } else if output != Output::Final {
+        bail!(
+            "--output {}: with --gi reference the image is the whole light; --direct-exr, \
+             --indirect-exr and --irradiance-exr write its parts",
+            args.output
+        );
+    }
+    let out_format = if args.view == "shaded" {
+        Format::Image
+    } else {
+        Format::Png
+    };
+    let mut planned = Vec::new();
+    for i in 0..args.frames {
+        let frame = |p: &Path| frame_path(p, i, args.frames);
+        planned.push(("--out", frame(&args.out), out_format));
+        if let Some(p) = &args.exr {
+            planned.push(("--exr", frame(p), Format::Exr));
+        }
+        for (flag, path) in reference_only {
+            if let Some(p) = path {
+                planned.push((flag, frame(p), Format::Exr));
+            }
+        }
+        if i == 0 && args.frames > 16 {
+            // The later frames' names differ in their number alone: check the last one too.
+            let last = args.frames - 1;
+            planned.push((
+                "--out",
+                frame_path(&args.out, last, args.frames),
+                out_format,
+            ));
+            break;
+        }
+    }
+    let planned: Vec<Planned> = planned
+        .iter()
+        .map(|(flag, path, format)| Planned {
+            flag,
+            path,
+            format: *format,
+        })
+        .collect();
+    crate::outputs::check(&planned, &input_files(args))
 }
 
 /// Runs `octolux render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
-    check_image_size(args.width, args.height)?;
-    check_output(&args.out)?;
-    if let Some(exr) = &args.exr {
-        check_output(exr)?;
-    }
-    if args.frames == 0 || !(args.fps > 0.0 && args.fps.is_finite()) || !args.time.is_finite() {
-        bail!("--frames must be at least 1, --fps positive and --time finite");
-    }
+    check_args(args)?;
     let start_time = args.start_time();
-    for path in [
-        &args.reference.direct_exr,
-        &args.reference.indirect_exr,
-        &args.reference.irradiance_exr,
-    ]
-    .into_iter()
-    .flatten()
-    {
-        check_output(path)?;
-    }
     let load_start = std::time::Instant::now();
     let (mut scene, gi_settings) =
         load_scene(args.scene.as_deref(), &args.gi_args, &args.sky_args)?;
@@ -428,6 +507,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         "voxels" => return run_voxel_view(args, &scene),
         "probes" => return run_probe_view(args, &scene, gi_settings),
         other => bail!("--view {other}: expected shaded, voxels or probes"),
+    }
+    if !gi_settings.vct.specular && parse_output(&args.output)? == Output::Specular {
+        bail!(
+            "--output specular: the cone tracers compute a specular image only with \
+             --vct-specular (or `specular = true` in the scene's [settings.vct])"
+        );
     }
     if args.gi == "reference" {
         run_reference(args, &scene)?;
@@ -453,6 +538,14 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         let t = start_time + i as f32 / args.fps;
         all_timings.push(renderer.render(&scene, t)?);
         let hdr = renderer.read_hdr()?;
+        if let Some((x, y, v)) = hdr.first_non_finite() {
+            bail!(
+                "frame {i} at t = {t} s: --gi {} produced {v} at pixel ({x}, {y}): the light is \
+                 beyond what it stores (the cone tracers keep radiance in half floats, at most \
+                 65504); lower the scene's light intensities or emission",
+                args.gi
+            );
+        }
         let display = renderer.read_display()?;
         write_image(
             &frame_path(&args.out, i, args.frames),

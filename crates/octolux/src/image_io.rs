@@ -60,33 +60,60 @@ impl HdrImage {
         self.pixels[(y * self.width + x) as usize] = v;
     }
 
-    /// Writes a linear 32-bit float RGB OpenEXR file.
-    pub fn write_exr(&self, path: &Path) -> Result<()> {
-        create_parent(path)?;
-        let w = self.width as usize;
-        exr::prelude::write_rgb_file(path, w, self.height as usize, |x, y| {
-            let p = self.pixels[y * w + x];
-            (p.x, p.y, p.z)
-        })
-        .map_err(|e| Error::parse(path, format!("cannot write OpenEXR: {e}")))
+    /// The first pixel (x, y, value) that is NaN or infinite, if any.
+    pub fn first_non_finite(&self) -> Option<(u32, u32, Vec3)> {
+        let w = self.width.max(1);
+        self.pixels
+            .iter()
+            .position(|p| !p.is_finite())
+            .map(|i| (i as u32 % w, i as u32 / w, self.pixels[i]))
     }
 
-    /// Reads the RGB channels of an OpenEXR file (alpha ignored).
+    /// Writes a linear 32-bit float RGB OpenEXR file, atomically (see [`write_atomically`]).
+    pub fn write_exr(&self, path: &Path) -> Result<()> {
+        let w = self.width as usize;
+        write_atomically(path, |file| {
+            exr::prelude::write_rgb_file(file, w, self.height as usize, |x, y| {
+                let p = self.pixels[y * w + x];
+                (p.x, p.y, p.z)
+            })
+            .map_err(|e| Error::parse(path, format!("cannot write OpenEXR: {e}")))
+        })
+    }
+
+    /// Reads the RGB channels of an OpenEXR file (alpha ignored). The file is read with the
+    /// size limit of [`crate::limits::read_file`] and every layer's size is checked against
+    /// [`crate::limits::check_image_dimensions`] before pixels are allocated.
     pub fn read_exr(path: &Path) -> Result<HdrImage> {
-        if !path.exists() {
-            return Err(Error::io(
-                path,
-                std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
-            ));
+        use exr::image::read::image::ReadLayers;
+        use exr::image::read::layers::ReadChannels;
+        let bytes = crate::limits::read_file(path)?;
+        let bad = |e: exr::error::Error| Error::parse(path, format!("cannot read OpenEXR: {e}"));
+        let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(&bytes), false)
+            .map_err(bad)?;
+        for header in &meta.headers {
+            let size = header.layer_size;
+            let side = |v: usize| u32::try_from(v).unwrap_or(u32::MAX);
+            let (w, h) = (side(size.width()), side(size.height()));
+            crate::limits::check_image_dimensions(w, h)
+                .and_then(|()| crate::limits::check_image_data(w, h, bytes.len()))
+                .map_err(|e| Error::parse(path, e))?;
         }
-        let image = exr::prelude::read_first_rgba_layer_from_file(
-            path,
-            |resolution, _| HdrImage::new(resolution.width() as u32, resolution.height() as u32),
-            |image: &mut HdrImage, position, (r, g, b, _a): (f32, f32, f32, f32)| {
-                image.set(position.x() as u32, position.y() as u32, Vec3::new(r, g, b));
-            },
-        )
-        .map_err(|e| Error::parse(path, format!("cannot read OpenEXR: {e}")))?;
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .rgba_channels(
+                |resolution: exr::math::Vec2<usize>, _: &exr::image::RgbaChannels| {
+                    HdrImage::new(resolution.width() as u32, resolution.height() as u32)
+                },
+                |image: &mut HdrImage, position, (r, g, b, _a): (f32, f32, f32, f32)| {
+                    image.set(position.x() as u32, position.y() as u32, Vec3::new(r, g, b));
+                },
+            )
+            .first_valid_layer()
+            .all_attributes()
+            .from_buffered(std::io::Cursor::new(&bytes))
+            .map_err(bad)?;
         Ok(image.layer_data.channel_data.pixels)
     }
 
@@ -102,23 +129,37 @@ impl HdrImage {
     }
 }
 
-/// Writes 8-bit RGB data as a PNG file.
+/// Writes 8-bit RGB data as a PNG file, atomically (see [`write_atomically`]).
 pub fn write_rgb8_png(path: &Path, width: u32, height: u32, rgb: Vec<u8>) -> Result<()> {
-    create_parent(path)?;
     let image = image::RgbImage::from_raw(width, height, rgb)
         .ok_or_else(|| Error::InvalidArgument("image buffer size does not match".into()))?;
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| Error::parse(path, format!("cannot write PNG: {e}")))
+    write_atomically(path, |file| {
+        image
+            .save_with_format(file, image::ImageFormat::Png)
+            .map_err(|e| Error::parse(path, format!("cannot write PNG: {e}")))
+    })
 }
 
-fn create_parent(path: &Path) -> Result<()> {
-    match path.parent() {
+/// Writes a file atomically: `write` fills a temporary file in the same folder (created if
+/// missing), which then replaces `path` by a rename. A failure leaves `path` as it was and no
+/// temporary file behind.
+pub fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let dir = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => {
-            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+            dir
         }
-        _ => Ok(()),
-    }
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".octolux-").suffix(".part");
+    // Like a file made by `File::create`: readable by others as the umask allows.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let temp = builder.tempfile_in(dir).map_err(|e| Error::io(dir, e))?;
+    write(temp.path())?;
+    temp.persist(path).map_err(|e| Error::io(path, e.error))?;
+    Ok(())
 }
 
 /// Filmic tone curve (Narkowicz's fit of the ACES reference rendering transform), applied per
@@ -131,7 +172,8 @@ fn create_parent(path: &Path) -> Result<()> {
 /// assert_eq!(filmic(1e6), 1.0);
 /// ```
 pub fn filmic(x: f32) -> f32 {
-    let x = x.max(0.0);
+    // At 8 the curve is above 1 already; the bound keeps x * x finite for any radiance.
+    let x = if x > 0.0 { x.min(8.0) } else { 0.0 };
     ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
 }
 
@@ -162,6 +204,22 @@ mod tests {
         image.set(0, 0, Vec3::new(0.001, 2.0, 3.0));
         image.write_exr(&path).unwrap();
         assert_eq!(HdrImage::read_exr(&path).unwrap(), image);
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn failed_writes_leave_the_file_and_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("octolux-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("keep.png");
+        std::fs::write(&path, b"old").unwrap();
+        let e = write_atomically(&path, |tmp| {
+            std::fs::write(tmp, b"half").unwrap();
+            Err(Error::InvalidArgument("failed".into()))
+        });
+        assert!(e.is_err());
+        assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         std::fs::remove_dir_all(dir).ok();
     }
 

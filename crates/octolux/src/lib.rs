@@ -14,6 +14,7 @@ pub mod frame;
 pub mod gi;
 pub mod gpu;
 pub mod image_io;
+pub mod limits;
 pub mod metrics;
 pub mod reference;
 pub mod render;

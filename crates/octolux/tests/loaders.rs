@@ -320,7 +320,20 @@ fn obj_malformed_is_an_error() {
     let path = dir.join("bad.obj");
     write(&path, "v 1 2\nf 1 2 3\n");
     let msg = expect_parse_error(Scene::load(&path), "bad.obj");
-    assert!(msg.contains("malformed OBJ"), "{msg}");
+    assert!(
+        msg.contains("malformed OBJ") && msg.contains("line 1"),
+        "{msg}"
+    );
+    // Errors carry the line of the element at fault.
+    write(
+        &path,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1 2 3\nf 1 2 x\n",
+    );
+    let msg = expect_parse_error(Scene::load(&path), "bad.obj");
+    assert!(msg.contains("line 6: 'f 1 2 x'"), "{msg}");
+    write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n");
+    let msg = expect_parse_error(Scene::load(&path), "bad.obj");
+    assert!(msg.contains("line 5: 'f 1 2 9'"), "{msg}");
 }
 
 #[test]
@@ -985,4 +998,243 @@ fn obj_tga_texture_is_read_by_its_extension() {
         .unwrap();
     let scene = Scene::load(dir.join("quad.obj")).unwrap();
     assert_eq!(scene.textures[0].rgba, TEX.to_vec());
+}
+
+// ---------------------------------------------------------------- input limits
+
+/// A model that is a link to an endless stream is refused before it is read.
+#[cfg(unix)]
+#[test]
+fn a_link_to_an_endless_stream_fails_at_once() {
+    let dir = temp_dir("endless");
+    for name in [
+        "zero.obj",
+        "zero.ply.gz",
+        "zero.gltf",
+        "zero.toml",
+        "zero.xml",
+    ] {
+        let path = dir.join(name);
+        std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        let start = Instant::now();
+        let msg = Scene::load(&path).unwrap_err().to_string();
+        assert!(start.elapsed().as_secs_f64() < 1.0, "{name}: took too long");
+        assert!(
+            msg.contains(name) && msg.contains("not a regular file"),
+            "{name}: {msg}"
+        );
+    }
+}
+
+/// A Radiance header claiming 100000 x 100000 pixels in a few hundred bytes.
+fn huge_hdr() -> Vec<u8> {
+    let mut bytes = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n".to_vec();
+    bytes.extend_from_slice(&[2, 2, 0x80, 0x00]);
+    bytes.resize(558, 0);
+    bytes
+}
+
+#[test]
+fn image_sizes_are_checked_before_decoding() {
+    let dir = temp_dir("huge-image");
+    let hdr = dir.join("huge.hdr");
+    write(&hdr, huge_hdr());
+    let msg = octolux::scene::EnvironmentMap::load(&hdr)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("huge.hdr") && msg.contains("100000x100000"),
+        "{msg}"
+    );
+    // The same map named by a scene file's [sky].
+    let toml = dir.join("sky.toml");
+    write(
+        &toml,
+        "[[model]]\npath = \"builtin:cornell-box\"\n[sky]\nmap = \"huge.hdr\"\n",
+    );
+    let msg = Scene::load(&toml).unwrap_err().to_string();
+    assert!(msg.contains("100000x100000"), "{msg}");
+    // A PNG texture whose header claims 20000 x 20000 pixels.
+    let mut png = png_bytes(1, 1, vec![255; 4]);
+    png[16..20].copy_from_slice(&20000u32.to_be_bytes());
+    png[20..24].copy_from_slice(&20000u32.to_be_bytes());
+    let mut crc = flate2::Crc::new();
+    crc.update(&png[12..29]);
+    png[29..33].copy_from_slice(&crc.sum().to_be_bytes());
+    let tex = dir.join("huge.png");
+    write(&tex, png);
+    let msg = octolux::scene::Texture::load(&tex).unwrap_err().to_string();
+    assert!(
+        msg.contains("huge.png") && msg.contains("20000x20000"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn gzip_trailing_data_and_bombs() {
+    let dir = temp_dir("gzip-limits");
+    let gz = |tail: usize| {
+        let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
+        enc.write_all(&binary_ply(false)).unwrap();
+        let zeros = vec![0u8; 1 << 20];
+        let mut left = tail;
+        while left > 0 {
+            let n = left.min(zeros.len());
+            enc.write_all(&zeros[..n]).unwrap();
+            left -= n;
+        }
+        enc.finish().unwrap()
+    };
+    // A little trailing data loads (with a warning).
+    let path = dir.join("tail.ply.gz");
+    write(&path, gz(1000));
+    check_ply_quad(&Scene::load(&path).unwrap());
+    // A small file that inflates far beyond its size is refused at the limit.
+    write(&path, gz(80 << 20));
+    let start = Instant::now();
+    let msg = expect_parse_error(Scene::load(&path), "tail.ply.gz");
+    assert!(msg.contains("inflates to more than"), "{msg}");
+    assert!(start.elapsed().as_secs_f64() < 20.0);
+}
+
+#[test]
+fn gltf_malformed_accessors_are_errors_naming_the_accessor() {
+    let dir = temp_dir("gltf-accessors");
+    let path = dir.join("acc.gltf");
+    let load = |json: serde_json::Value| {
+        write(&path, json.to_string());
+        expect_parse_error(Scene::load(&path), "acc.gltf")
+    };
+    let base = || gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+    // Float indices.
+    let mut json = base();
+    json["accessors"][1]["componentType"] = serde_json::json!(5126);
+    json["bufferViews"][1]["byteLength"] = serde_json::json!(6);
+    let msg = load(json);
+    assert!(msg.contains("index accessor 1"), "{msg}");
+    // A stride smaller than the element.
+    let mut json = base();
+    json["bufferViews"][0]["byteStride"] = serde_json::json!(4);
+    let msg = load(json);
+    assert!(
+        msg.contains("accessor 0") && msg.contains("byteStride 4"),
+        "{msg}"
+    );
+    // Positions of the wrong type.
+    let mut json = base();
+    json["accessors"][0]["type"] = serde_json::json!("VEC2");
+    let msg = load(json);
+    assert!(msg.contains("accessor 0"), "{msg}");
+}
+
+#[test]
+fn gltf_cameras_are_validated() {
+    let dir = temp_dir("gltf-cameras");
+    let path = dir.join("cam.gltf");
+    for (field, value, expect) in [
+        ("yfov", 0.0, "field of view"),
+        ("yfov", 4.0, "field of view"),
+        ("znear", 0.0, "near"),
+    ] {
+        let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+        json["cameras"][0]["perspective"][field] = serde_json::json!(value);
+        write(&path, json.to_string());
+        let msg = expect_scene_error(Scene::load(&path));
+        assert!(msg.contains(expect), "{field} = {value}: {msg}");
+    }
+}
+
+/// A scene file: the Cornell box plus `extra`.
+fn box_scene(dir: &Path, extra: &str) -> octolux::Result<Scene> {
+    let path = dir.join("box.toml");
+    write(
+        &path,
+        format!("[[model]]\npath = \"builtin:cornell-box\"\n{extra}"),
+    );
+    Scene::load(&path)
+}
+
+#[test]
+fn values_beyond_the_limits_are_errors() {
+    let dir = temp_dir("value-limits");
+    // A far triangle beside the box (it made every GPU technique black).
+    write(
+        &dir.join("far.obj"),
+        "v 1e30 0 0\nv 1e30 1 0\nv 1e30 0 1\nf 1 2 3\n",
+    );
+    let cases = [
+        ("[[model]]\npath = \"far.obj\"\n", "coordinate limit"),
+        (
+            "[[model]]\npath = \"builtin:cornell-box\"\ntranslate = [0, 2e9, 0]\n",
+            "coordinate limit",
+        ),
+        (
+            "[[light]]\ntype = \"point\"\nposition = [0, 0.5, 0]\nintensity = 3e38\n",
+            "at most",
+        ),
+        (
+            "[[light]]\ntype = \"point\"\nposition = [0, 0.5, 0]\nintensity = 1e308\n",
+            "range of 32-bit floats",
+        ),
+        ("[sky]\ncolor = [1e38, 1e38, 1e38]\n", "sky"),
+        ("exposure = 1e30\n", "exposure"),
+        (
+            "[[camera]]\nposition = [0.3, 0.3, -1]\ntarget = [0.3, 0.3, 0]\nnear = 1e-6\nfar = 1000\n",
+            "far / near",
+        ),
+    ];
+    for (extra, expect) in cases {
+        let msg = box_scene(&dir, extra).unwrap_err().to_string();
+        assert!(msg.contains(expect), "{extra}: {msg}");
+    }
+    // Emission near f32::MAX in a glTF material.
+    let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+    json["materials"][0]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] =
+        serde_json::json!(1e38);
+    let path = dir.join("bright.gltf");
+    write(&path, json.to_string());
+    let msg = expect_scene_error(Scene::load(&path));
+    assert!(msg.contains("emission"), "{msg}");
+    // Values at the limits still load.
+    box_scene(
+        &dir,
+        "[[light]]\ntype = \"point\"\nposition = [0, 0.5, 0]\nintensity = 1e12\n\
+         [[camera]]\nposition = [0.3, 0.3, -1]\ntarget = [0.3, 0.3, 0]\nnear = 1e-3\nfar = 1000\n",
+    )
+    .unwrap();
+}
+
+/// Found by the fuzz test (`fuzz_loaders.rs`): inputs that panicked inside the glTF crate.
+#[test]
+fn gltf_inputs_the_fuzzer_found() {
+    let dir = temp_dir("gltf-fuzz");
+    // A primitive whose POSITION accessor does not exist (the crate's validation indexed it).
+    let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+    json["accessors"] = serde_json::json!([]);
+    let path = dir.join("no-accessor.gltf");
+    write(&path, json.to_string());
+    let msg = expect_parse_error(Scene::load(&path), "no-accessor.gltf");
+    assert!(msg.contains("POSITION accessor 0 does not exist"), "{msg}");
+    // A GLB header whose length is less than the header itself (an overflow in the crate).
+    let mut glb = b"glTF".to_vec();
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&4u32.to_le_bytes());
+    glb.extend_from_slice(&[0; 16]);
+    let path = dir.join("short.glb");
+    write(&path, glb);
+    let msg = expect_parse_error(Scene::load(&path), "short.glb");
+    assert!(msg.contains("length 4"), "{msg}");
+    // An accessor of no elements (the crate computed count - 1).
+    let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
+    json["accessors"][1]["count"] = serde_json::json!(0);
+    let path = dir.join("empty-accessor.gltf");
+    write(&path, json.to_string());
+    let msg = expect_parse_error(Scene::load(&path), "empty-accessor.gltf");
+    assert!(msg.contains("index accessor 1: count 0"), "{msg}");
+    // An image with neither a uri nor a buffer view (the crate unwrapped the uri).
+    let json = gltf_json(data_uri_buffer(), serde_json::json!({"name": "nothing"}));
+    let path = dir.join("no-uri.gltf");
+    write(&path, json.to_string());
+    let msg = expect_parse_error(Scene::load(&path), "no-uri.gltf");
+    assert!(msg.contains("image 0"), "{msg}");
 }

@@ -486,6 +486,22 @@ fn errors_name_the_file_and_position() {
         "missing.xml",
     );
     assert!(msg.contains("line 2") && msg.contains("gone.obj"), "{msg}");
+    // A mesh file of the other format (an OBJ shape naming a PLY loaded as empty).
+    write(
+        &dir.join("tri.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    );
+    let msg = expect_parse_error(
+        load(
+            "mixed.xml",
+            "<scene version=\"3.0.0\">\n<shape type=\"obj\">\n\
+             <string name=\"filename\" value=\"tri.ply\"/>\n</shape>\n</scene>",
+        ),
+        "mixed.xml",
+    );
+    assert!(msg.contains("tri.ply") && msg.contains(".obj"), "{msg}");
     // A bad number.
     let msg = expect_parse_error(
         load(

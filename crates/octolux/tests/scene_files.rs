@@ -400,3 +400,17 @@ fn obj_groups_and_materials_are_selectable_by_name() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The scene-format document's example `[settings]` table is one the technique settings
+/// accept (it once showed a key they reject).
+#[test]
+fn documented_settings_are_accepted() {
+    let doc = include_str!("../../../docs/scene-format.md");
+    let start = doc.find("```toml\n").unwrap() + "```toml\n".len();
+    let end = start + doc[start..].find("```").unwrap();
+    let table: toml::Table = toml::from_str(&doc[start..end]).unwrap();
+    let settings = table["settings"].as_table().unwrap();
+    let parsed = octolux::gi::GiSettings::from_table(settings, std::path::Path::new("doc"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(parsed.lpv.size, 32);
+}

@@ -104,10 +104,12 @@ impl Config {
             check_technique(split, "--split")?;
         }
         let window = parse_size(&args.window, "--window")?;
+        check_image_size(window.0, window.1)
+            .with_context(|| format!("--window {}", args.window))?;
         let size = match &args.size {
             Some(s) => {
                 let size = parse_size(s, "--size")?;
-                check_image_size(size.0, size.1)?;
+                check_image_size(size.0, size.1).with_context(|| format!("--size {s}"))?;
                 Some(size)
             }
             None => None,

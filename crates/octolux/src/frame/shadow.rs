@@ -450,9 +450,12 @@ fn tile_matrix(tile: u32) -> Mat4 {
 }
 
 /// Near and far planes for a perspective shadow frustum at `eye` enclosing the bounding sphere.
+/// The near plane is 1/1000 of the far one, but never beyond 1 cm: depth precision at a
+/// distance d is about d^2 / near, whatever the far plane, so geometry far from the light (one
+/// triangle a kilometre away) must not push the near plane past the surfaces around it.
 fn near_far(eye: Vec3, centre: Vec3, radius: f32) -> (f32, f32) {
     let far = (eye - centre).length() + radius;
-    ((far * 1e-3).max(1e-3), far * 1.01)
+    ((far * 1e-3).clamp(1e-3, 1e-2), far * 1.01)
 }
 
 /// The light's shadow parameters as the lighting shader wants them (see `lights.wgsl`): first

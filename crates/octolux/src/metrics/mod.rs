@@ -377,7 +377,6 @@ pub fn load_mask(path: &Path, width: u32, height: u32) -> Result<Vec<bool>> {
 }
 
 fn decode(path: &Path) -> Result<image::DynamicImage> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    image::load_from_memory(&bytes)
-        .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))
+    let bytes = crate::limits::read_file(path)?;
+    crate::limits::decode_image(path, &bytes, None)
 }

@@ -14,7 +14,8 @@ import octolux::frame::common::{Camera, PI};
 @group(0) @binding(6) var specular_tex: texture_2d<f32>;
 
 fn filmic(x: vec3<f32>) -> vec3<f32> {
-    let v = max(x, vec3<f32>(0.0));
+    // At 8 the curve is above 1 already; the bound keeps v * v finite for any radiance.
+    let v = min(max(x, vec3<f32>(0.0)), vec3<f32>(8.0));
     return clamp((v * (2.51 * v + 0.03)) / (v * (2.43 * v + 0.59) + 0.14), vec3<f32>(0.0), vec3<f32>(1.0));
 }
 

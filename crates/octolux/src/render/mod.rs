@@ -144,6 +144,34 @@ pub struct Renderer {
     output: Output,
 }
 
+/// Checks that the shadow-map array the lights need (6 layers per point light, 1 per spot or
+/// directional light, and the sky's lights packed `SKY_TILES`^2 to a layer) fits the adapter's
+/// `max_texture_array_layers`; the error says how many lights fit.
+fn check_shadow_layers(ctx: &GpuContext, lights: &[Light], sky_lights: usize) -> Result<()> {
+    let limit = ctx.device.limits().max_texture_array_layers;
+    let punctual = shadow_layer_count(lights);
+    let sky = (sky_lights as u32).div_ceil(shadow::SKY_TILES * shadow::SKY_TILES);
+    let need = punctual as u64 + sky as u64;
+    if need > limit as u64 {
+        let points = lights.iter().filter(|l| l.kind == LightKind::Point).count();
+        return Err(Error::InvalidArgument(format!(
+            "the scene's {} lights ({points} point lights at 6 shadow-map layers each, the others \
+             at 1{}) need {need} shadow-map layers; this adapter allows {limit} \
+             (max_texture_array_layers): at most {} point lights, or {} spot and directional \
+             lights",
+            lights.len(),
+            if sky > 0 {
+                format!(", the sky {sky}")
+            } else {
+                String::new()
+            },
+            (limit.saturating_sub(sky)) / 6,
+            limit.saturating_sub(sky),
+        )));
+    }
+    Ok(())
+}
+
 impl Renderer {
     /// Uploads `scene` and builds every stage for images of the configured size.
     pub fn new(ctx: &GpuContext, scene: &Scene, settings: RenderSettings) -> Result<Renderer> {
@@ -165,6 +193,7 @@ impl Renderer {
         let (w, h) = (settings.width, settings.height);
         let (sky_lights, sky_spread): (Vec<Light>, Vec<f32>) =
             sky_regions_of(scene).into_iter().unzip();
+        check_shadow_layers(ctx, &scene.lights, sky_lights.len())?;
         let mut lights = scene.lights.clone();
         lights.extend(sky_lights.iter().cloned());
         let scene_gpu = SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;

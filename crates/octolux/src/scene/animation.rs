@@ -50,7 +50,7 @@ impl Track {
         Mat4::from_rotation_translation(rotation, translation)
     }
 
-    /// Interpolated (translation, rotation) at time `t`.
+    /// Interpolated (translation, rotation) at time `t` (a NaN time holds the first key).
     pub fn sample(&self, t: f32) -> (Vec3, Quat) {
         let first = self.keys[0];
         let last = self.keys[self.keys.len() - 1];
@@ -59,7 +59,8 @@ impl Track {
         if self.looping && duration > 0.0 {
             t = first.time + (t - first.time).rem_euclid(duration);
         }
-        if t <= first.time {
+        // A NaN time (an infinite one on a looping track becomes NaN above) holds the first key.
+        if t.is_nan() || t <= first.time {
             return (first.translation, first.rotation);
         }
         if t >= last.time {
@@ -84,6 +85,21 @@ impl Track {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn non_finite_times_hold_a_key() {
+        let key = |time, x| Keyframe {
+            time,
+            translation: Vec3::new(x, 0.0, 0.0),
+            rotation: Quat::IDENTITY,
+        };
+        for looping in [false, true] {
+            let track = Track::new(vec![key(0.0, 1.0), key(2.0, 3.0)], looping).unwrap();
+            assert_eq!(track.sample(f32::NAN).0.x, 1.0);
+            assert!(track.sample(f32::INFINITY).0.is_finite());
+            assert!(track.sample(f32::NEG_INFINITY).0.is_finite());
+        }
+    }
 
     #[test]
     fn interpolates_and_clamps() {

@@ -96,16 +96,7 @@ impl Camera {
     /// Matrices for an image of `width` x `height` pixels.
     pub fn view(&self, width: u32, height: u32) -> CameraView {
         let aspect = width.max(1) as f32 / height.max(1) as f32;
-        let up = if (self.target - self.position)
-            .normalize_or_zero()
-            .cross(self.up)
-            .length()
-            < 1e-4
-        {
-            Vec3::Z
-        } else {
-            self.up
-        };
+        let up = view_up((self.target - self.position).normalize_or_zero(), self.up);
         let view = Mat4::look_at_rh(self.position, self.target, up);
         let vfov = match self.hfov {
             Some(h) => 2.0 * ((h * 0.5).tan() / aspect).atan(),
@@ -125,16 +116,35 @@ impl Camera {
     }
 }
 
+/// The up vector for a view along unit `forward`: `hint` unless it is (nearly) parallel to
+/// `forward` or zero, otherwise the world axis least aligned with `forward`, which is never
+/// parallel to it.
+pub(crate) fn view_up(forward: Vec3, hint: Vec3) -> Vec3 {
+    let hint = hint.normalize_or_zero();
+    if forward.cross(hint).length() >= 1e-4 {
+        return hint;
+    }
+    let a = forward.abs();
+    if a.y <= a.x && a.y <= a.z {
+        Vec3::Y
+    } else if a.z <= a.x {
+        Vec3::Z
+    } else {
+        Vec3::X
+    }
+}
+
 impl CameraView {
     /// Unit direction of the primary ray through image position (`x`, `y`) in pixels, where
     /// (0, 0) is the top-left corner of the image and (0.5, 0.5) the centre of the first pixel.
     pub fn ray_direction(&self, x: f32, y: f32) -> Vec3 {
         let ndc_x = x / self.width as f32 * 2.0 - 1.0;
         let ndc_y = 1.0 - y / self.height as f32 * 2.0;
-        let far = self
-            .inv_view_proj
-            .project_point3(Vec3::new(ndc_x, ndc_y, 1.0));
-        (far - self.position).normalize()
+        // From the projection's focal lengths and the view's rotation rather than by
+        // unprojecting a point on the far plane, which loses all precision when far / near is
+        // large.
+        let in_view = Vec3::new(ndc_x / self.proj.x_axis.x, ndc_y / self.proj.y_axis.y, -1.0);
+        (glam::Mat3::from_mat4(self.view).transpose() * in_view).normalize()
     }
 
     /// World position seen at image position (`x`, `y`) in pixels (as [`Self::ray_direction`])
@@ -159,5 +169,53 @@ impl CameraView {
                 (d < 1.0).then(|| self.world_point(x, y, d))
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rays_are_exact_whatever_the_depth_range() {
+        let camera = Camera {
+            position: Vec3::new(0.3, 0.2, -1.0),
+            target: Vec3::new(0.1, 0.3, 0.0),
+            ..Camera::default()
+        };
+        let view = camera.view(64, 32);
+        let far_plane = |x: f32, y: f32| {
+            let ndc = Vec3::new(x / 64.0 * 2.0 - 1.0, 1.0 - y / 32.0 * 2.0, 1.0);
+            (view.inv_view_proj.project_point3(ndc) - view.position).normalize()
+        };
+        for (x, y) in [(0.5, 0.5), (32.0, 16.0), (63.5, 2.5)] {
+            assert!((view.ray_direction(x, y) - far_plane(x, y)).length() < 1e-5);
+        }
+        let deep = Camera {
+            near: 1e-4,
+            far: 1e4,
+            ..camera
+        }
+        .view(64, 32);
+        for (x, y) in [(0.5, 0.5), (32.0, 16.0), (63.5, 2.5)] {
+            let d = deep.ray_direction(x, y);
+            assert!((d - view.ray_direction(x, y)).length() < 1e-5, "{d}");
+        }
+    }
+
+    #[test]
+    fn an_up_parallel_to_the_view_gets_a_fallback_that_is_not() {
+        for forward in [Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z, Vec3::X] {
+            let camera = Camera {
+                position: Vec3::ZERO,
+                target: forward,
+                up: forward,
+                ..Camera::default()
+            };
+            let view = camera.view(8, 8);
+            assert!(view.view.is_finite(), "looking along {forward}");
+            let d = view.ray_direction(4.0, 4.0);
+            assert!((d - forward).length() < 1e-3, "{forward}: {d}");
+        }
     }
 }

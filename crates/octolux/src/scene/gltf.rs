@@ -30,11 +30,12 @@ pub const LUMENS_PER_WATT: f32 = 683.0;
 
 /// Loads a `.gltf` or `.glb` file.
 pub fn load(path: &Path) -> Result<Scene> {
-    let gltf =
-        gltf::Gltf::open(path).map_err(|e| Error::parse(path, format!("malformed glTF: {e}")))?;
+    let bytes = crate::limits::read_file(path)?;
+    let gltf = parse_document(&bytes).map_err(|e| Error::parse(path, e))?;
+    drop(bytes);
     let base = path.parent().unwrap_or(Path::new("."));
-    // The glTF crate indexes by validated offsets, but a few of its accessors still assume
-    // well-formed data; a panic there is reported as a parse error.
+    // Accessors are checked before they are read (`check_accessor`); should the glTF crate
+    // still panic on data it assumes well-formed, that is reported as a parse error.
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| convert(path, base, gltf)))
         .unwrap_or_else(|_| {
             Err(Error::parse(
@@ -44,10 +45,58 @@ pub fn load(path: &Path) -> Result<Scene> {
         })
 }
 
+/// Parses and validates a glTF or GLB document, after the checks the glTF crate's own
+/// validation assumes (it indexes without checking in a few places).
+fn parse_document(bytes: &[u8]) -> std::result::Result<gltf::Gltf, String> {
+    if bytes.starts_with(b"glTF") {
+        let length = bytes
+            .get(8..12)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        match length {
+            Some(n) if n >= 12 => {}
+            Some(n) => {
+                return Err(format!(
+                    "GLB header: length {n} is less than the header's 12 bytes"
+                ))
+            }
+            None => return Err("GLB header is truncated".into()),
+        }
+    }
+    let unchecked = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| format!("malformed glTF: {e}"))?;
+    let json = unchecked.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, accessor) in &primitive.attributes {
+                if accessor.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: {} accessor {} does not exist ({} accessors)",
+                        semantic.to_string(),
+                        accessor.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    for (i, image) in json.images.iter().enumerate() {
+        let ok = match &image.buffer_view {
+            Some(_) => image.mime_type.is_some(),
+            None => image.uri.is_some(),
+        };
+        if !ok {
+            return Err(format!(
+                "image {i}: needs a uri, or a bufferView with a mimeType"
+            ));
+        }
+    }
+    drop(unchecked);
+    gltf::Gltf::from_slice(bytes).map_err(|e| format!("malformed glTF: {e}"))
+}
+
 fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
     let gltf::Gltf { document, blob } = gltf;
-    let buffers = gltf::import_buffers(&document, Some(base), blob)
-        .map_err(|e| Error::parse(path, format!("cannot load buffers: {e}")))?;
+    let buffers = load_buffers(path, base, &document, blob)?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -162,6 +211,36 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
                             }),
                         };
                         let set = texture_sets.get(material as usize).copied().unwrap_or(0);
+                        for (semantic, accessor) in primitive.attributes() {
+                            let want = match semantic {
+                                gltf::Semantic::Positions | gltf::Semantic::Normals => {
+                                    Want::Vec3F32
+                                }
+                                gltf::Semantic::TexCoords(s) if s == set => Want::TexCoord,
+                                _ => continue,
+                            };
+                            check_accessor(&accessor, &buffers, want).map_err(|e| {
+                                Error::parse(
+                                    path,
+                                    format!(
+                                        "primitive {mesh_name}: {:?} accessor {}: {e}",
+                                        semantic,
+                                        accessor.index()
+                                    ),
+                                )
+                            })?;
+                        }
+                        if let Some(accessor) = primitive.indices() {
+                            check_accessor(&accessor, &buffers, Want::Index).map_err(|e| {
+                                Error::parse(
+                                    path,
+                                    format!(
+                                        "primitive {mesh_name}: index accessor {}: {e}",
+                                        accessor.index()
+                                    ),
+                                )
+                            })?;
+                        }
                         let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
                         if primitive.get(&gltf::Semantic::Positions).is_none() {
                             log::warn!(
@@ -313,19 +392,12 @@ fn load_image(
             .map(str::to_string)
             .unwrap_or_else(|| format!("image{}", image.index())),
     };
-    if let gltf::image::Source::View { view, .. } = image.source() {
-        let end = view.offset().checked_add(view.length());
-        let len = buffers.get(view.buffer().index()).map(|b| b.0.len());
-        if end.is_none() || len.is_none() || end > len {
-            log::warn!(
-                "{}: image {label}: buffer view out of range; using the material colour",
-                path.display()
-            );
-            return None;
-        }
-    }
-    let data = match gltf::image::Data::from_source(image.source(), Some(base), buffers) {
-        Ok(d) => d,
+    let decoded = image_bytes(base, image, buffers).and_then(|(bytes, mime)| {
+        let format = mime.and_then(image::ImageFormat::from_mime_type);
+        crate::limits::decode_image(Path::new(&label), &bytes, format).map_err(|e| e.to_string())
+    });
+    let rgba = match decoded {
+        Ok(d) => d.into_rgba8(),
         Err(e) => {
             log::warn!(
                 "{}: image {label}: {e}; using the material colour",
@@ -334,66 +406,168 @@ fn load_image(
             return None;
         }
     };
-    if data.width > Texture::MAX_SIZE || data.height > Texture::MAX_SIZE {
-        log::warn!(
-            "{}: image {label} is {}x{}, too large; using the material colour",
-            path.display(),
-            data.width,
-            data.height
-        );
-        return None;
-    }
-    let rgba = to_rgba8(&data)?;
     Some(Texture {
         name: label,
-        width: data.width,
-        height: data.height,
-        rgba,
+        width: rgba.width(),
+        height: rgba.height(),
+        rgba: rgba.into_raw(),
     })
 }
 
-/// Converts any pixel format the glTF crate produces to RGBA8.
-fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<u8>> {
-    use gltf::image::Format;
-    let count = data.width as usize * data.height as usize;
-    let (channels, bytes) = match data.format {
-        Format::R8 => (1, 1),
-        Format::R8G8 => (2, 1),
-        Format::R8G8B8 => (3, 1),
-        Format::R8G8B8A8 => (4, 1),
-        Format::R16 => (1, 2),
-        Format::R16G16 => (2, 2),
-        Format::R16G16B16 => (3, 2),
-        Format::R16G16B16A16 => (4, 2),
-        Format::R32G32B32FLOAT => (3, 4),
-        Format::R32G32B32A32FLOAT => (4, 4),
-    };
-    if data.pixels.len() < count * channels * bytes {
-        return None;
+/// The encoded bytes of a glTF image and its MIME type, from a buffer view, a data URI or a
+/// file beside the glTF file (read with the size limit).
+fn image_bytes<'a>(
+    base: &Path,
+    image: &'a gltf::Image,
+    buffers: &[gltf::buffer::Data],
+) -> std::result::Result<(Vec<u8>, Option<&'a str>), String> {
+    match image.source() {
+        gltf::image::Source::View { view, mime_type } => {
+            let data = buffers
+                .get(view.buffer().index())
+                .ok_or("buffer out of range")?;
+            let end = view.offset().checked_add(view.length());
+            match end.and_then(|end| data.0.get(view.offset()..end)) {
+                Some(bytes) => Ok((bytes.to_vec(), Some(mime_type))),
+                None => Err("buffer view out of range".into()),
+            }
+        }
+        gltf::image::Source::Uri { uri, mime_type } => {
+            let bytes = uri_bytes(base, uri).map_err(|e| e.to_string())?;
+            Ok((bytes, mime_type))
+        }
     }
-    let channel = |p: &[u8], c: usize| -> u8 {
-        let v = &p[c * bytes..(c + 1) * bytes];
-        match bytes {
-            1 => v[0],
-            2 => (u16::from_ne_bytes([v[0], v[1]]) >> 8) as u8,
-            _ => (f32::from_ne_bytes([v[0], v[1], v[2], v[3]]).clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
+}
+
+/// The bytes a glTF URI names: a base64 data URI or a file relative to `base`.
+fn uri_bytes(base: &Path, uri: &str) -> Result<Vec<u8>> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let data = rest.split_once(";base64,").map_or(rest, |(_, d)| d);
+        return base64::decode(data)
+            .map_err(|e| Error::parse(base, format!("data URI: invalid base64: {e}")));
+    }
+    let relative = if let Some(rest) = uri.strip_prefix("file://").or(uri.strip_prefix("file:")) {
+        rest.to_string()
+    } else if uri.contains(':') {
+        return Err(Error::parse(
+            base,
+            format!("URI '{uri}': only relative paths, file: and data: URIs are supported"),
+        ));
+    } else {
+        urlencoding::decode(uri)
+            .map_err(|_| Error::parse(base, format!("URI '{uri}': invalid percent-encoding")))?
+            .into_owned()
+    };
+    crate::limits::read_file(&base.join(relative))
+}
+
+/// Loads every buffer: the GLB binary chunk, data URIs and files (read with the size limit),
+/// each at least as long as the glTF file says.
+fn load_buffers(
+    path: &Path,
+    base: &Path,
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>> {
+    let mut out = Vec::new();
+    for buffer in document.buffers() {
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                Error::parse(path, format!("buffer {}: no binary chunk", buffer.index()))
+            })?,
+            gltf::buffer::Source::Uri(uri) => uri_bytes(base, uri)
+                .map_err(|e| Error::parse(path, format!("buffer {}: {e}", buffer.index())))?,
+        };
+        if data.len() < buffer.length() {
+            return Err(Error::parse(
+                path,
+                format!(
+                    "buffer {} holds {} bytes, fewer than its byteLength {}",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                ),
+            ));
+        }
+        while data.len() % 4 != 0 {
+            data.push(0);
+        }
+        out.push(gltf::buffer::Data(data));
+    }
+    Ok(out)
+}
+
+/// What an accessor must hold to be read as.
+#[derive(Clone, Copy)]
+enum Want {
+    /// Three floats (positions, normals).
+    Vec3F32,
+    /// Two floats or normalized integers.
+    TexCoord,
+    /// Unsigned integer scalars.
+    Index,
+}
+
+/// Checks an accessor's type and that every element lies inside its buffer view and the view
+/// inside its buffer, so that reading it cannot fail; the message says what is wrong.
+fn check_accessor(
+    accessor: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+    want: Want,
+) -> std::result::Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    let (ty, dims) = (accessor.data_type(), accessor.dimensions());
+    let ok = match want {
+        Want::Vec3F32 => ty == DataType::F32 && dims == Dimensions::Vec3,
+        Want::TexCoord => {
+            matches!(ty, DataType::F32 | DataType::U8 | DataType::U16) && dims == Dimensions::Vec2
+        }
+        Want::Index => {
+            matches!(ty, DataType::U8 | DataType::U16 | DataType::U32) && dims == Dimensions::Scalar
         }
     };
-    let mut out = Vec::with_capacity(count * 4);
-    for p in data.pixels.chunks_exact(channels * bytes).take(count) {
-        let texel = match channels {
-            1 => {
-                let l = channel(p, 0);
-                [l, l, l, 255]
-            }
-            2 => {
-                let l = channel(p, 0);
-                [l, l, l, channel(p, 1)]
-            }
-            3 => [channel(p, 0), channel(p, 1), channel(p, 2), 255],
-            _ => [channel(p, 0), channel(p, 1), channel(p, 2), channel(p, 3)],
-        };
-        out.extend_from_slice(&texel);
+    if !ok {
+        return Err(format!("unsupported element type {dims:?} of {ty:?}"));
     }
-    Some(out)
+    if accessor.sparse().is_some() {
+        return Err("sparse accessors are not supported".into());
+    }
+    if accessor.count() == 0 {
+        return Err("count 0: an accessor holds at least 1 element".into());
+    }
+    let Some(view) = accessor.view() else {
+        return Ok(());
+    };
+    let element = accessor.size();
+    let stride = view.stride().unwrap_or(element);
+    if stride < element {
+        return Err(format!(
+            "byteStride {stride} is smaller than its element ({element} bytes)"
+        ));
+    }
+    let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.0.len());
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|end| end > buffer_len) {
+        return Err(format!(
+            "buffer view {} (offset {}, length {}) lies outside its buffer ({buffer_len} bytes)",
+            view.index(),
+            view.offset(),
+            view.length()
+        ));
+    }
+    let end = (accessor.count() - 1)
+        .checked_mul(stride)
+        .and_then(|v| v.checked_add(accessor.offset()))
+        .and_then(|v| v.checked_add(element));
+    if end.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "{} elements of {element} bytes (stride {stride}) from offset {} run past the \
+             end of buffer view {} ({} bytes)",
+            accessor.count(),
+            accessor.offset(),
+            view.index(),
+            view.length()
+        ));
+    }
+    Ok(())
 }

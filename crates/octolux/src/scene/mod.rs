@@ -25,7 +25,7 @@ pub use camera::{Camera, CameraView};
 pub use scenes_dir::scenes_dir;
 pub use sky::{direction_to_uv, uv_to_direction, EnvironmentMap, Sky, SkyRadiance};
 pub use texture::{srgb_to_linear, Texture};
-pub use validate::validate;
+pub use validate::{validate, MAX_DEPTH_RATIO, MAX_EXPOSURE};
 
 use crate::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};

@@ -27,7 +27,7 @@ use std::sync::Mutex;
 
 /// Loads an OBJ file (and the MTL files it references): one object per `o`/`g` name.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = crate::limits::read_file(path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let warnings = Mutex::new(Vec::<String>::new());
     let options = tobj::LoadOptions {
@@ -42,8 +42,12 @@ pub fn load(path: &Path) -> Result<Scene> {
         })
     }))
     .map_err(|_| Error::parse(path, "malformed OBJ (the OBJ parser failed)"))?;
-    let (models, materials) =
-        loaded.map_err(|e| Error::parse(path, format!("malformed OBJ: {e}")))?;
+    let (models, materials) = loaded.map_err(|e| {
+        let place = bad_line(&String::from_utf8_lossy(&bytes), &e)
+            .map(|(line, text)| format!(" at line {line}: '{text}'"))
+            .unwrap_or_default();
+        Error::parse(path, format!("malformed OBJ ({e}){place}"))
+    })?;
     for w in warnings.into_inner().unwrap_or_default() {
         log::warn!("{}: {w}", path.display());
     }
@@ -183,6 +187,63 @@ fn group_objects(meshes: &[Mesh], file_name: &str) -> Vec<Object> {
     objects
 }
 
+/// The first line (1-based, with its text) that explains an error of `tobj`, which reports
+/// none: an element whose numbers do not parse, or a face whose index is zero, unparsable or
+/// beyond the elements defined before it.
+fn bad_line(text: &str, error: &tobj::LoadError) -> Option<(usize, String)> {
+    use tobj::LoadError as E;
+    let mut counts = [0i64; 3]; // v, vt, vn defined so far
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let key = words.next().unwrap_or("");
+        let numbers = || words.clone().take_while(|w| !w.starts_with('#'));
+        let parses =
+            |min: usize| numbers().count() >= min && numbers().all(|w| w.parse::<f32>().is_ok());
+        let bad = match key {
+            "v" => {
+                counts[0] += 1;
+                matches!(error, E::PositionParseError | E::ScalingByZeroError) && !parses(3)
+            }
+            "vt" => {
+                counts[1] += 1;
+                matches!(error, E::TexcoordParseError) && !parses(1)
+            }
+            "vn" => {
+                counts[2] += 1;
+                matches!(error, E::NormalParseError) && !parses(3)
+            }
+            "f" | "l" | "p"
+                if matches!(
+                    error,
+                    E::FaceParseError
+                        | E::InvalidPolygon
+                        | E::FaceVertexOutOfBounds
+                        | E::FaceTexCoordOutOfBounds
+                        | E::FaceNormalOutOfBounds
+                ) =>
+            {
+                numbers().any(|corner| {
+                    corner.split('/').enumerate().any(|(k, index)| {
+                        if index.is_empty() && k > 0 {
+                            return false;
+                        }
+                        match index.parse::<i64>() {
+                            Ok(0) | Err(_) => true,
+                            Ok(n) if n > 0 => k < 3 && n > counts[k],
+                            Ok(n) => k < 3 && -n > counts[k],
+                        }
+                    })
+                })
+            }
+            _ => false,
+        };
+        if bad {
+            return Some((i + 1, line.trim().to_string()));
+        }
+    }
+    None
+}
+
 /// Reads an MTL file, repairing what `tobj` would reject or choke on (colours with fewer than
 /// three components, unparsable numbers) with a warning.
 fn load_mtl(dir: &Path, mtl: &Path, warnings: &Mutex<Vec<String>>) -> tobj::MTLLoadResult {
@@ -194,7 +255,7 @@ fn load_mtl(dir: &Path, mtl: &Path, warnings: &Mutex<Vec<String>>) -> tobj::MTLL
     let path = dir.join(normalize_separators(&mtl.to_string_lossy()));
     let path = find_file(&path).unwrap_or(path);
     let mtl_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let text = match std::fs::read(&path) {
+    let text = match crate::limits::read_file_limited(&path, crate::limits::MAX_TEXT_BYTES) {
         Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
         Err(e) => {
             warn(format!(

@@ -16,29 +16,13 @@ use super::texture::srgb_to_linear;
 use super::{Material, Mesh, Object, Scene};
 use crate::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};
-use std::io::Read;
 use std::path::Path;
-
-/// Largest decompressed size accepted for a `.ply.gz` file (guards against gzip bombs).
-const MAX_DECOMPRESSED: u64 = 8 << 30;
 
 /// Loads a PLY or gzipped PLY file as a one-object scene.
 pub fn load(path: &Path) -> Result<Scene> {
-    let raw = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let gzipped = raw.starts_with(&[0x1f, 0x8b]);
-    let data = if gzipped {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(&raw[..])
-            .take(MAX_DECOMPRESSED + 1)
-            .read_to_end(&mut out)
-            .map_err(|e| Error::parse(path, format!("cannot decompress gzip data: {e}")))?;
-        if out.len() as u64 > MAX_DECOMPRESSED {
-            return Err(Error::parse(
-                path,
-                format!("decompressed data exceeds {MAX_DECOMPRESSED} bytes"),
-            ));
-        }
-        out
+    let raw = crate::limits::read_file(path)?;
+    let data = if raw.starts_with(&[0x1f, 0x8b]) {
+        crate::limits::gunzip(path, &raw)?
     } else {
         raw
     };
@@ -48,6 +32,13 @@ pub fn load(path: &Path) -> Result<Scene> {
             "{}: skipped {} faces with fewer than 3 vertices",
             path.display(),
             mesh.skipped_faces
+        );
+    }
+    if mesh.trailing_bytes > 0 {
+        log::warn!(
+            "{}: {} bytes of data after the last element; ignored",
+            path.display(),
+            mesh.trailing_bytes
         );
     }
     let name = path
@@ -106,6 +97,8 @@ struct PlyMesh {
     color: Option<Vec3>,
     /// Faces with fewer than three vertices, skipped.
     skipped_faces: usize,
+    /// Bytes after the last element (whitespace excluded in ASCII files), ignored.
+    trailing_bytes: usize,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -372,6 +365,7 @@ fn parse(data: &[u8]) -> std::result::Result<PlyMesh, String> {
         indices: Vec::new(),
         color: None,
         skipped_faces: 0,
+        trailing_bytes: 0,
     };
     let mut seen_vertex = false;
     let mut seen_face = false;
@@ -539,5 +533,10 @@ fn parse(data: &[u8]) -> std::result::Result<PlyMesh, String> {
         return Err("no vertex element".into());
     }
     mesh.skipped_faces = bad_faces;
+    let rest = &data[body.pos.min(data.len())..];
+    mesh.trailing_bytes = match format {
+        Format::Ascii => rest.iter().filter(|b| !b.is_ascii_whitespace()).count(),
+        Format::BinaryLe | Format::BinaryBe => rest.len(),
+    };
     Ok(mesh)
 }

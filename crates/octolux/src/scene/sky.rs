@@ -220,12 +220,12 @@ impl EnvironmentMap {
 
 /// Reads a Radiance RGBE (`.hdr`) file.
 fn read_radiance_hdr(path: &Path) -> Result<HdrImage> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let decoder = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
-        .map_err(|e| Error::parse(path, format!("cannot read Radiance HDR: {e}")))?;
-    let image = image::DynamicImage::from_decoder(decoder)
-        .map_err(|e| Error::parse(path, format!("cannot read Radiance HDR: {e}")))?
-        .to_rgb32f();
+    let bytes = crate::limits::read_file(path)?;
+    let image = crate::limits::decode_image(path, &bytes, Some(image::ImageFormat::Hdr))?;
+    if image.color() != image::ColorType::Rgb32F {
+        return Err(Error::parse(path, "not a Radiance HDR file"));
+    }
+    let image = image.into_rgb32f();
     let (width, height) = image.dimensions();
     Ok(HdrImage {
         width,

@@ -36,15 +36,9 @@ impl Texture {
     /// the file extension first (TGA has no signature to recognise it by), then from the
     /// content.
     pub fn load(path: &Path) -> Result<Texture> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        let by_extension = image::ImageFormat::from_path(path)
-            .ok()
-            .and_then(|format| image::load_from_memory_with_format(&bytes, format).ok());
-        let image = match by_extension {
-            Some(image) => image,
-            None => image::load_from_memory(&bytes)
-                .map_err(|e| Error::parse(path, format!("cannot decode image: {e}")))?,
-        };
+        let bytes = crate::limits::read_file(path)?;
+        let image =
+            crate::limits::decode_image(path, &bytes, image::ImageFormat::from_path(path).ok())?;
         if image.width() > Self::MAX_SIZE || image.height() > Self::MAX_SIZE {
             return Err(Error::parse(
                 path,

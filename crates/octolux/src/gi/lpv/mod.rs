@@ -279,76 +279,17 @@ impl LpvGi {
         height: u32,
     ) -> Result<LpvGi> {
         let owner = variant.name();
+        validate(variant, settings)?;
         let s = settings.lpv.clone();
-        check(
-            s.rsm_size >= 4 && s.rsm_size <= 4096,
-            "lpv rsm_size",
-            "4..=4096",
-        )?;
-        check(
-            s.rsm_stride >= 1 && s.rsm_stride <= 16,
-            "lpv rsm_stride",
-            "1..=16",
-        )?;
-        check(
-            s.sky_rsms >= 1 && s.sky_rsms <= crate::scene::Sky::MAX_DIRECTIONS,
-            "lpv sky_rsms",
-            "1..=64",
-        )?;
-        check(
-            s.gain.is_finite() && s.gain >= 0.0,
-            "lpv gain",
-            "finite, >= 0",
-        )?;
-        check(
-            s.damping.is_finite() && s.damping >= 0.0,
-            "lpv damping",
-            "finite, >= 0",
-        )?;
-        check(
-            (0.0..=1.0).contains(&s.directional),
-            "lpv directional",
-            "0..=1",
-        )?;
-        if let Some([lo, hi]) = s.bounds {
-            let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
-            check(
-                lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all(),
-                "lpv bounds",
-                "[[x0, y0, z0], [x1, y1, z1]], finite, with x0 < x1, y0 < y1 and z0 < z1",
-            )?;
-        }
         let occlusion = if s.occlusion { FLAG_OCCLUSION } else { 0 };
         let (sides, iterations, inject_level0_only) = match variant {
-            Variant::Uniform => {
-                check(s.size >= 2 && s.size <= 128, "lpv size", "2..=128")?;
-                check(s.iterations <= 256, "lpv iterations", "0..=256")?;
-                (vec![s.size], s.iterations, false)
-            }
+            Variant::Uniform => (vec![s.size], s.iterations, false),
             Variant::Cascaded => {
                 let c = &settings.clpv;
-                check(
-                    c.cascades >= 1 && c.cascades as usize <= MAX_GRIDS,
-                    "clpv cascades",
-                    "1..=8",
-                )?;
-                check(c.size >= 2 && c.size <= 128, "clpv size", "2..=128")?;
-                check(c.iterations <= 256, "clpv iterations", "0..=256")?;
-                check(
-                    c.extent.is_finite() && c.extent >= 0.0,
-                    "clpv extent",
-                    "finite, >= 0",
-                )?;
                 (vec![c.size; c.cascades as usize], c.iterations, false)
             }
             Variant::Octree => {
                 let o = &settings.olpv;
-                check(
-                    o.size >= 2 && o.size <= 128 && o.size.is_power_of_two(),
-                    "olpv size",
-                    "a power of two in 2..=128",
-                )?;
-                check(o.iterations <= 256, "olpv iterations", "0..=256")?;
                 let l = o.size.trailing_zeros() + 1;
                 ((0..l).map(|i| o.size >> i).collect(), o.iterations, true)
             }
@@ -515,6 +456,80 @@ impl LpvGi {
             propagate: propagate::Propagate::new(ctx, &self.grid_slots, &self.volumes),
             octree,
             lookup: lookup::Lookup::new(ctx, lookup_grids, volume, &self.output, frame),
+        }
+    }
+}
+
+/// Checks the settings of the LPV `variant` (before any GPU work, so that a tool can check
+/// every technique's settings before it runs the first).
+pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
+    let s = &settings.lpv;
+    check(
+        s.rsm_size >= 4 && s.rsm_size <= 4096,
+        "lpv rsm_size",
+        "4..=4096",
+    )?;
+    check(
+        s.rsm_stride >= 1 && s.rsm_stride <= 16,
+        "lpv rsm_stride",
+        "1..=16",
+    )?;
+    check(
+        s.sky_rsms >= 1 && s.sky_rsms <= crate::scene::Sky::MAX_DIRECTIONS,
+        "lpv sky_rsms",
+        "1..=64",
+    )?;
+    check(
+        s.gain.is_finite() && s.gain >= 0.0,
+        "lpv gain",
+        "finite, >= 0",
+    )?;
+    check(
+        s.damping.is_finite() && s.damping >= 0.0,
+        "lpv damping",
+        "finite, >= 0",
+    )?;
+    check(
+        (0.0..=1.0).contains(&s.directional),
+        "lpv directional",
+        "0..=1",
+    )?;
+    if let Some([lo, hi]) = s.bounds {
+        let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
+        check(
+            lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all(),
+            "lpv bounds",
+            "[[x0, y0, z0], [x1, y1, z1]], finite, with x0 < x1, y0 < y1 and z0 < z1",
+        )?;
+    }
+    match variant {
+        Variant::Uniform => {
+            check(s.size >= 2 && s.size <= 128, "lpv size", "2..=128")?;
+            check(s.iterations <= 256, "lpv iterations", "0..=256")
+        }
+        Variant::Cascaded => {
+            let c = &settings.clpv;
+            check(
+                c.cascades >= 1 && c.cascades as usize <= MAX_GRIDS,
+                "clpv cascades",
+                "1..=8",
+            )?;
+            check(c.size >= 2 && c.size <= 128, "clpv size", "2..=128")?;
+            check(c.iterations <= 256, "clpv iterations", "0..=256")?;
+            check(
+                c.extent.is_finite() && c.extent >= 0.0,
+                "clpv extent",
+                "finite, >= 0",
+            )
+        }
+        Variant::Octree => {
+            let o = &settings.olpv;
+            check(
+                o.size >= 2 && o.size <= 128 && o.size.is_power_of_two(),
+                "olpv size",
+                "a power of two in 2..=128",
+            )?;
+            check(o.iterations <= 256, "olpv iterations", "0..=256")
         }
     }
 }

@@ -244,6 +244,23 @@ impl<'a> Loader<'a> {
         let mut meshes = match el.kind() {
             "obj" | "ply" => {
                 let file = self.file(el, "filename")?;
+                let lower = file.to_string_lossy().to_lowercase();
+                let is_ply = lower.ends_with(".ply") || lower.ends_with(".ply.gz");
+                if is_ply != (el.kind() == "ply") || !(is_ply || lower.ends_with(".obj")) {
+                    return Err(doc.error(
+                        el,
+                        format!(
+                            "shape '{name}' of type \"{}\" names {}: expected a {} file",
+                            el.kind(),
+                            file.display(),
+                            if el.kind() == "ply" {
+                                ".ply or .ply.gz"
+                            } else {
+                                ".obj"
+                            }
+                        ),
+                    ));
+                }
                 let part = if el.kind() == "obj" {
                     obj::load(&file)
                 } else {

@@ -130,7 +130,7 @@ impl Document {
         params: &mut Vec<(String, String)>,
         depth: usize,
     ) -> Result<Element> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = crate::limits::read_text(path)?;
         let file = self.files.len();
         self.files.push(path.to_path_buf());
         let xml = roxmltree::Document::parse(&text).map_err(|e| {
