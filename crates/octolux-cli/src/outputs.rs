@@ -98,24 +98,38 @@ pub fn check_writable_folder(flag: &str, path: &Path) -> Result<()> {
     check_writable_dir(flag, path, dir)
 }
 
-/// Checks that `dir` exists (or can be made) and that a file can be created in it; errors name
-/// `flag` and `path`.
+/// Checks that `dir` exists and a file can be created in it, or that it can be made (its
+/// nearest existing ancestor is a writable folder); errors name `flag` and `path`.
 pub fn check_writable_dir(flag: &str, path: &Path, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| {
-        format!(
-            "{flag} {}: cannot create the folder {}",
+    // A folder that does not exist yet is made when the file is written: its nearest
+    // existing ancestor must be a writable folder. Nothing is created here, so a run that
+    // fails later leaves no empty folder behind.
+    let existing = dir
+        .ancestors()
+        .find(|a| a.as_os_str().is_empty() || a.exists())
+        .map(|a| {
+            if a.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                a
+            }
+        })
+        .unwrap_or(Path::new("."));
+    if !existing.is_dir() {
+        bail!(
+            "{flag} {}: {} is not a folder",
             path.display(),
-            dir.display()
-        )
-    })?;
+            existing.display()
+        );
+    }
     tempfile::Builder::new()
         .prefix(".octolux-check-")
-        .tempfile_in(dir)
+        .tempfile_in(existing)
         .with_context(|| {
             format!(
                 "{flag} {}: the folder {} is not writable",
                 path.display(),
-                dir.display()
+                existing.display()
             )
         })?;
     Ok(())

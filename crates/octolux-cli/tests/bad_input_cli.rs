@@ -170,8 +170,23 @@ fn outputs_must_be_named_for_their_format_and_writable() {
     std::fs::write(&file, b"x").unwrap();
     fails_fast(
         &["render", "--out", s(&file.join("render.png"))],
-        &["--out", "cannot create the folder"],
+        &["--out", "is not a folder"],
     );
+    // A missing folder is made when the file is written, not by the check: a run that fails
+    // after the check (an exposure out of range, found once the scene is loaded) leaves no
+    // empty folder behind.
+    let missing = dir.join("not-yet");
+    fails_fast(
+        &[
+            "render",
+            "--out",
+            s(&missing.join("render.png")),
+            "--exposure",
+            "100",
+        ],
+        &["--exposure"],
+    );
+    assert!(!missing.exists(), "the check made {}", missing.display());
     fails_fast(
         &["bench", "--out-dir", s(&file), "--no-reference"],
         &["--out-dir", "is a file"],
