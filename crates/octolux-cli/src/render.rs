@@ -398,8 +398,10 @@ fn input_files(args: &RenderArgs) -> Vec<PathBuf> {
     inputs
 }
 
-/// Checks the flags that need no scene, and every output file, before anything is loaded.
-fn check_args(args: &RenderArgs) -> Result<()> {
+/// Checks the flags that need no scene, and every output file, before anything is loaded;
+/// once the scene is loaded, again with `loaded`, every file its loading read (textures,
+/// materials, sky maps), before anything is rendered.
+fn check_args(args: &RenderArgs, loaded: &[PathBuf]) -> Result<()> {
     check_image_size(args.width, args.height)
         .with_context(|| format!("--width {} --height {}", args.width, args.height))?;
     if args.frames == 0 || args.frames > MAX_FRAMES {
@@ -479,16 +481,21 @@ fn check_args(args: &RenderArgs) -> Result<()> {
             format: *format,
         })
         .collect();
-    crate::outputs::check(&planned, &input_files(args))
+    let mut inputs = input_files(args);
+    inputs.extend(loaded.iter().cloned());
+    crate::outputs::check(&planned, &inputs)
 }
 
 /// Runs `octolux render`.
 pub fn run(args: &RenderArgs) -> Result<()> {
-    check_args(args)?;
+    check_args(args, &[])?;
     let start_time = args.start_time();
     let load_start = std::time::Instant::now();
-    let (mut scene, gi_settings) =
-        load_scene(args.scene.as_deref(), &args.gi_args, &args.sky_args)?;
+    let (loaded, files) = octolux::limits::recording_reads(|| {
+        load_scene(args.scene.as_deref(), &args.gi_args, &args.sky_args)
+    });
+    let (mut scene, gi_settings) = loaded?;
+    check_args(args, &files)?;
     let load_s = load_start.elapsed().as_secs_f64();
     log::info!(
         "loaded '{}' ({} triangles) in {load_s:.2} s",

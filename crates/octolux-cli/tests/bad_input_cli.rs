@@ -390,3 +390,44 @@ fn a_frame_that_overflows_is_an_error() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn an_output_over_a_file_the_scene_reads_is_refused_before_rendering() {
+    // The scene file names its sky map; `--exr` aimed at it is refused once the scene is
+    // loaded, before any frame, and the map is left as it was.
+    let dir = temp_dir("scene-input");
+    let mut sky = HdrImage::new(8, 4);
+    for y in 0..4 {
+        for x in 0..8 {
+            sky.set(x, y, glam::Vec3::splat(0.5));
+        }
+    }
+    let map = dir.join("sky.exr");
+    sky.write_exr(&map).unwrap();
+    let before = std::fs::read(&map).unwrap();
+    let scene = dir.join("scene.toml");
+    std::fs::write(
+        &scene,
+        "[[model]]\npath = \"builtin:cornell-box\"\n\n[sky]\nmap = \"sky.exr\"\n",
+    )
+    .unwrap();
+    fails_fast(
+        &[
+            "render",
+            s(&scene),
+            "--gi",
+            "none",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--out",
+            s(&dir.join("out.png")),
+            "--exr",
+            s(&map),
+        ],
+        &["--exr", "sky.exr"],
+    );
+    assert_eq!(std::fs::read(&map).unwrap(), before, "the sky map changed");
+    assert!(!dir.join("out.png").exists(), "a frame was written");
+}

@@ -76,10 +76,30 @@ fn human(bytes: u64) -> String {
     }
 }
 
+/// The files read through this module while [`recording_reads`] runs.
+static READS: std::sync::Mutex<Option<Vec<std::path::PathBuf>>> = std::sync::Mutex::new(None);
+
+fn reads() -> std::sync::MutexGuard<'static, Option<Vec<std::path::PathBuf>>> {
+    READS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Runs `f` and returns, with its result, every file read through this module meanwhile (by
+/// any thread): a scene's files, models, materials, textures and sky maps, so that a tool can
+/// refuse to write over any of them.
+pub fn recording_reads<T>(f: impl FnOnce() -> T) -> (T, Vec<std::path::PathBuf>) {
+    *reads() = Some(Vec::new());
+    let out = f();
+    let files = reads().take().unwrap_or_default();
+    (out, files)
+}
+
 /// Reads a whole file of at most `limit` bytes (see [`check_file`]); the read stops at the
 /// limit even if the file grows meanwhile.
 pub fn read_file_limited(path: &Path, limit: u64) -> Result<Vec<u8>> {
     let size = check_file(path, limit)?;
+    if let Some(files) = reads().as_mut() {
+        files.push(path.to_path_buf());
+    }
     let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
     let mut out = Vec::with_capacity(size as usize);
     file.take(limit + 1)
