@@ -61,17 +61,6 @@ pub(crate) fn buf(b: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
     b.as_entire_binding()
 }
 
-/// A bind group for group `index` of `pipeline` with `entries` as (binding, resource).
-pub(crate) fn bind_at(
-    ctx: &GpuContext,
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    index: u32,
-    entries: &[(u32, wgpu::BindingResource)],
-) -> wgpu::BindGroup {
-    crate::gpu::pass::bind_group_at(ctx, Some(label), pipeline, index, entries)
-}
-
 /// Records the named pass `name`: `pipeline` with `groups` (group i = `groups[i]`) over
 /// `groups_xy` workgroups.
 pub(crate) fn run_pass(

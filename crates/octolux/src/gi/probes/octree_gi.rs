@@ -10,8 +10,8 @@
 
 use super::encoding::COEFFS;
 use super::engine::{
-    bind_at, buf, facing_weight, module, moved_boxes, run_pass, ProbeEngine, ProbeLayout,
-    ProbeSetModules, PROBE_VEC4,
+    buf, facing_weight, module, moved_boxes, run_pass, ProbeEngine, ProbeLayout, ProbeSetModules,
+    PROBE_VEC4,
 };
 use super::moments::MomentMaps;
 use super::octree::{OctreeProbe, OctreeRule, State};
@@ -284,7 +284,7 @@ impl GpuOctree {
             .filter(|&(i, _)| uses[i])
             .map(|(i, b)| (i as u32, buf(b)))
             .collect();
-        bind_at(ctx, "probes octree set", pipeline, 1, &entries)
+        crate::gpu::pass::bind_group_at(ctx, Some("probes octree set"), pipeline, 1, &entries)
     }
 }
 
