@@ -101,6 +101,58 @@ struct SceneInput {
 /// Most warm-up or measured frames.
 const MAX_FRAMES: u32 = 1_000_000;
 
+/// Loads every scene of `args` (the built-in one when none is named).
+fn load_inputs(args: &BenchArgs) -> Result<Vec<SceneInput>> {
+    if args.scenes.is_empty() {
+        let (scene, gi_settings) = load_scene(None, &args.gi_args, &args.sky_args)?;
+        Ok(vec![SceneInput {
+            file: None,
+            scene,
+            gi_settings,
+        }])
+    } else {
+        args.scenes
+            .iter()
+            .map(|path| {
+                let (scene, gi_settings) = load_scene(Some(path), &args.gi_args, &args.sky_args)
+                    .with_context(|| format!("scene file {}", path.display()))?;
+                Ok(SceneInput {
+                    file: Some(path.clone()),
+                    scene,
+                    gi_settings,
+                })
+            })
+            .collect::<Result<_>>()
+    }
+}
+
+/// Checks `--json` (when it names a file) against the inputs: the scene files, the models they
+/// name and the `--sky` map, and `loaded`, every file the scenes' loading read.
+fn check_json(args: &BenchArgs, loaded: &[PathBuf]) -> Result<()> {
+    let Some(json) = args.json.as_deref().filter(|p| p.as_os_str() != "-") else {
+        return Ok(());
+    };
+    let mut inputs = args.scenes.clone();
+    for scene in &args.scenes {
+        if scene
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+        {
+            inputs.extend(octolux::scene::file::model_files(scene).unwrap_or_default());
+        }
+    }
+    inputs.extend(args.sky_args.sky.iter().map(PathBuf::from));
+    inputs.extend(loaded.iter().cloned());
+    crate::outputs::check(
+        &[crate::outputs::Planned {
+            flag: "--json",
+            path: json,
+            format: crate::outputs::Format::Json,
+        }],
+        &inputs,
+    )
+}
+
 /// Checks every argument before any work starts, so a long run fails at once.
 fn validate(args: &BenchArgs) -> Result<()> {
     check_image_size(args.width, args.height)
@@ -155,24 +207,7 @@ fn validate(args: &BenchArgs) -> Result<()> {
         if json.is_dir() {
             bail!("--json {}: is a folder (use --json-dir)", json.display());
         }
-        let mut inputs = args.scenes.clone();
-        for scene in &args.scenes {
-            if scene
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
-            {
-                inputs.extend(octolux::scene::file::model_files(scene).unwrap_or_default());
-            }
-        }
-        inputs.extend(args.sky_args.sky.iter().map(PathBuf::from));
-        crate::outputs::check(
-            &[crate::outputs::Planned {
-                flag: "--json",
-                path: json,
-                format: crate::outputs::Format::Json,
-            }],
-            &inputs,
-        )?;
+        check_json(args, &[])?;
     }
     for (flag, dir) in [("--json-dir", &args.json_dir), ("--out-dir", &args.out_dir)] {
         if let Some(dir) = dir {
@@ -204,28 +239,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     } else {
         Some(args.sampling.settings(Bounces::Unlimited)?)
     };
-    // Every scene is loaded before any is measured, so a bad file fails the run at once.
-    let inputs: Vec<SceneInput> = if args.scenes.is_empty() {
-        let (scene, gi_settings) = load_scene(None, &args.gi_args, &args.sky_args)?;
-        vec![SceneInput {
-            file: None,
-            scene,
-            gi_settings,
-        }]
-    } else {
-        args.scenes
-            .iter()
-            .map(|path| {
-                let (scene, gi_settings) = load_scene(Some(path), &args.gi_args, &args.sky_args)
-                    .with_context(|| format!("scene file {}", path.display()))?;
-                Ok(SceneInput {
-                    file: Some(path.clone()),
-                    scene,
-                    gi_settings,
-                })
-            })
-            .collect::<Result<_>>()?
-    };
+    // Every scene is loaded before any is measured, so a bad file fails the run at once; the
+    // output is checked again against every file the loads read.
+    let (inputs, loaded) = octolux::limits::recording_reads(|| load_inputs(args));
+    let inputs = inputs?;
+    check_json(args, &loaded)?;
     // Every technique's settings are checked before the first is measured.
     use octolux::gi::lpv;
     for input in &inputs {

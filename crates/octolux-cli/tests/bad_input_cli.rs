@@ -430,4 +430,31 @@ fn an_output_over_a_file_the_scene_reads_is_refused_before_rendering() {
     );
     assert_eq!(std::fs::read(&map).unwrap(), before, "the sky map changed");
     assert!(!dir.join("out.png").exists(), "a frame was written");
+    // `bench --json` aimed at a file the scene reads (an OBJ's material library, named
+    // `.json` here so that only the input check can refuse it) likewise.
+    std::fs::write(
+        dir.join("box.obj"),
+        "mtllib lib.json\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n",
+    )
+    .unwrap();
+    let library = dir.join("lib.json");
+    std::fs::write(&library, "newmtl m\nKd 0.5 0.5 0.5\n").unwrap();
+    let scene = dir.join("obj.toml");
+    std::fs::write(&scene, "[[model]]\npath = \"box.obj\"\n").unwrap();
+    fails_fast(
+        &[
+            "bench",
+            s(&scene),
+            "--gi",
+            "none",
+            "--no-reference",
+            "--json",
+            s(&library),
+        ],
+        &["--json", "lib.json"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(&library).unwrap(),
+        "newmtl m\nKd 0.5 0.5 0.5\n"
+    );
 }
