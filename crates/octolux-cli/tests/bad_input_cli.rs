@@ -1,24 +1,12 @@
 //! Bad command lines and outputs: each is a clear error (exit status 1, no panic) found before
 //! any rendering starts, and no input file is ever overwritten.
 
+mod common;
+
+use common::{octolux, temp_dir};
 use octolux::image_io::HdrImage;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 use std::time::Instant;
-
-fn octolux(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_octolux"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run octolux")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-bad-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
