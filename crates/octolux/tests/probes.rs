@@ -386,8 +386,20 @@ fn scene_files_set_the_probe_settings() {
 
 #[test]
 fn bad_probe_settings_are_clear_errors() {
-    let ctx = GpuContext::shared(&GpuOptions::default())
-        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    // The storage-binding cases need a limit they exceed on every adapter: a device capped at
+    // WebGPU's guaranteed 128 MiB per binding (a data-centre GPU allows 4 GiB, more than the
+    // settings' own caps let a probe set reach).
+    const CAP: u64 = 128 << 20;
+    let ctx = GpuContext::shared(&GpuOptions {
+        max_storage_binding: Some(CAP),
+        ..GpuOptions::default()
+    })
+    .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    assert!(
+        limit <= CAP,
+        "the device's binding limit {limit} is not capped"
+    );
     let scene = octolux::scene::cornell::scene();
     // The grid's settings (the octree checks them as well), then the octree's own.
     type Change = fn(&mut ProbeSettings);
@@ -415,7 +427,7 @@ fn bad_probe_settings_are_clear_errors() {
             },
             "16M surfels",
         ),
-        // 13.8M surfels, 663 MiB: more than one storage binding may hold.
+        // 13.8M surfels, 663 MiB: more than one storage binding holds.
         ("probes-grid", |s| s.grid = [60; 3], "per storage binding"),
         (
             "probes-grid",

@@ -25,6 +25,10 @@ pub struct GpuOptions {
     pub adapter: AdapterChoice,
     /// Whether pass times come from GPU timestamp queries or CPU submit + wait.
     pub timestamps: Timestamps,
+    /// At most this many bytes per storage buffer binding (None: the adapter's limit). A
+    /// device capped below its adapter behaves as a smaller GPU would: its limit errors can be
+    /// checked on any machine, and a setting that fits it fits every adapter that reaches it.
+    pub max_storage_binding: Option<u64>,
 }
 
 /// When to time passes with GPU timestamp queries.
@@ -45,6 +49,7 @@ impl Default for GpuOptions {
         GpuOptions {
             adapter: AdapterChoice::Best,
             timestamps: Timestamps::Auto,
+            max_storage_binding: None,
         }
     }
 }
@@ -249,11 +254,16 @@ impl GpuContext {
         if timestamps {
             required_features |= wgpu::Features::TIMESTAMP_QUERY;
         }
+        let mut required_limits = adapter.limits();
+        if let Some(cap) = options.max_storage_binding {
+            required_limits.max_storage_buffer_binding_size =
+                required_limits.max_storage_buffer_binding_size.min(cap);
+        }
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("octolux"),
                 required_features,
-                required_limits: adapter.limits(),
+                required_limits,
                 experimental_features: wgpu::ExperimentalFeatures::disabled(),
                 memory_hints: wgpu::MemoryHints::Performance,
                 trace: wgpu::Trace::Off,

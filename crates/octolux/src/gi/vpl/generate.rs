@@ -21,6 +21,8 @@ struct GenParams {
     levels: u32,
     count: u32,
     offsets: [u32; 16],
+    inv_twice_count: f32,
+    _pad: [u32; 3],
 }
 
 /// First word of every pyramid level and the total words, for `layers` RSMs of side `size`.
@@ -96,6 +98,8 @@ impl Generate {
             levels,
             count,
             offsets,
+            inv_twice_count: inv_twice(count),
+            _pad: [0; 3],
         };
         let usage = wgpu::BufferUsages::STORAGE;
         let params =
@@ -191,8 +195,9 @@ impl Generate {
     }
 }
 
-fn weight(f: Vec3) -> f32 {
-    (f.x + f.y + f.z) / 3.0
+/// `1 / (2 count)`, rounded once here for the GPU and the twin alike.
+fn inv_twice(count: u32) -> f32 {
+    1.0 / (2.0 * count.max(1) as f32)
 }
 
 /// CPU twin of `generate.wgsl`: `count` VPLs drawn from the RSM images (all of one side, a
@@ -213,14 +218,15 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
         let f = images[l].flux[i];
         Vec3::new(f[0], f[1], f[2]).max(Vec3::ZERO) * p[3].max(0.0)
     };
+    // `texel_weight` of generate.wgsl, operation for operation.
+    let weight = |l: usize, i: usize| {
+        let f = Vec3::from_slice(&images[l].flux[i][..3]).max(Vec3::ZERO);
+        (f.x + f.y + f.z) * images[l].position[i][3].max(0.0)
+    };
     // pyramid[k][layer] = level k of that layer, side size >> k.
     let levels = size.trailing_zeros() as usize;
     let mut pyramid: Vec<Vec<Vec<f32>>> = vec![(0..images.len())
-        .map(|l| {
-            (0..(size * size) as usize)
-                .map(|i| weight(texel(l, i)))
-                .collect()
-        })
+        .map(|l| (0..(size * size) as usize).map(|i| weight(l, i)).collect())
         .collect()];
     for k in 1..=levels {
         let (side, fine) = ((size >> k) as usize, (size >> (k - 1)) as usize);
@@ -253,7 +259,7 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
             if total <= 0.0 {
                 return zero;
             }
-            let mut t = (i as f32 + 0.5) / count as f32 * total;
+            let mut t = ((2 * i + 1) as f32 * total * inv_twice(count)).clamp(0.0, total);
             let mut layer = tops.iter().rposition(|&w| w > 0.0).unwrap_or(0);
             for (l, &w) in tops.iter().enumerate() {
                 if w > 0.0 && t < w {
@@ -293,7 +299,7 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
             let phi = texel(layer, at);
             let p = images[layer].position[at];
             let n = images[layer].normal[at];
-            let scale = total / (count as f32 * weight(phi).max(1e-30));
+            let scale = total / (count as f32 * weight(layer, at).max(1e-30));
             Vpl {
                 position: Vec3::new(p[0], p[1], p[2]),
                 normal: Vec3::new(n[0], n[1], n[2]).normalize_or_zero(),

@@ -1,7 +1,7 @@
 // VPL generation from the reflective shadow maps, importance-sampled by flux on the GPU.
 //
 // 1. `pyramid_base`: per RSM texel its reflected flux (albedo x incident, W: `flux.rgb` x the
-//    texel measure `position.w`, see frame/rsm.wgsl) and its mean over r, g, b, the weight.
+//    texel measure `position.w`, see frame/rsm.wgsl) and its weight, the sum over r, g, b.
 // 2. `pyramid_level` (once per level): every node sums its 2x2 children, up to one node per
 //    layer.
 // 3. `sample_vpls`: VPL i inverts the weight's distribution at u = (i + 0.5) / N: it picks a
@@ -11,6 +11,12 @@
 //      Phi_vpl = Phi_texel x W / (N w_texel)    (W the total weight, w_texel its own),
 //    so every VPL carries W / N of mean flux and the N of them sum to the RSMs' reflected flux
 //    (exactly in the weight, in expectation per channel) whatever N is.
+//
+// The descent decides on floating-point boundaries (a uniformly lit floor puts u exactly between
+// two children at every level), so every value it compares is computed the same way on every
+// adapter and by the CPU twin: weights from additions and one multiplication (nothing a compiler
+// may fuse into a multiply-add), sums in a fixed order, and u x W from two multiplications (no
+// division, whose precision WGSL leaves to the adapter) clamped before the first subtraction.
 
 
 struct GenParams {
@@ -21,6 +27,8 @@ struct GenParams {
     count: u32,
     // First word of every pyramid level in `pyramid` (level 0 = the texels).
     offsets: array<vec4<u32>, 4>,
+    // 1 / (2 count), rounded once on the CPU: VPL i's point is (2i + 1) x this.
+    inv_twice_count: f32,
 };
 
 struct Vpl {
@@ -51,8 +59,12 @@ fn texel_flux(x: u32, y: u32, layer: u32) -> vec3<f32> {
     return max(f.rgb, vec3<f32>(0.0)) * max(p.w, 0.0);
 }
 
-fn weight(f: vec3<f32>) -> f32 {
-    return (f.r + f.g + f.b) / 3.0;
+// The texel's sampling weight, 3x its mean flux: the channels' sum times the texel measure
+// (additions, then one multiplication: the same bits on every adapter).
+fn texel_weight(x: u32, y: u32, layer: u32) -> f32 {
+    let p = textureLoad(rsm_position, vec2<u32>(x, y), layer, 0);
+    let f = max(textureLoad(rsm_flux, vec2<u32>(x, y), layer, 0).rgb, vec3<f32>(0.0));
+    return (f.r + f.g + f.b) * max(p.w, 0.0);
 }
 
 @compute @workgroup_size(8, 8)
@@ -60,7 +72,7 @@ fn pyramid_base(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= gp.size || id.y >= gp.size || id.z >= gp.layers {
         return;
     }
-    pyramid[(id.z * gp.size + id.y) * gp.size + id.x] = weight(texel_flux(id.x, id.y, id.z));
+    pyramid[(id.z * gp.size + id.y) * gp.size + id.x] = texel_weight(id.x, id.y, id.z);
 }
 
 @compute @workgroup_size(8, 8)
@@ -98,7 +110,7 @@ fn sample_vpls(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     // Pick the layer.
-    var t = (f32(i) + 0.5) / f32(gp.count) * total;
+    var t = clamp(f32(2u * i + 1u) * total * gp.inv_twice_count, 0.0, total);
     var layer = 0u;
     var last = 0u;
     for (var l = 0u; l < gp.layers; l++) {
@@ -149,12 +161,12 @@ fn sample_vpls(@builtin(global_invocation_id) id: vec3<u32>) {
         y = 2u * y + (chosen >> 1u);
     }
     let phi = texel_flux(x, y, layer);
-    let w = weight(phi);
+    let w = texel_weight(x, y, layer);
     let p = textureLoad(rsm_position, vec2<u32>(x, y), layer, 0);
     let n = textureLoad(rsm_normal, vec2<u32>(x, y), layer, 0);
     out.position = vec4<f32>(p.xyz, 0.0);
     out.normal = vec4<f32>(normalize(n.xyz), 0.0);
     let scale = total / (f32(gp.count) * max(w, 1e-30));
-    out.flux = vec4<f32>(phi * scale, w * scale);
+    out.flux = vec4<f32>(phi * scale, w * scale / 3.0);
     vpls[i] = out;
 }
