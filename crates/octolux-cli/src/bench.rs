@@ -58,6 +58,10 @@ pub struct BenchArgs {
     /// Frames measured: per pass, GI total and whole frame, their mean, median and worst.
     #[arg(long, default_value_t = 20)]
     pub frames: u32,
+    /// Skip the work counts (per pass, what it did: cone samples, octree nodes, shadow-ray
+    /// steps...), which take warm-up + 1 more frames per technique with a counting renderer.
+    #[arg(long)]
+    pub no_work_counts: bool,
     /// Skip the CPU reference: no error columns (shown as `-`, `null` in JSON).
     #[arg(long, conflicts_with = "against")]
     pub no_reference: bool,
@@ -425,7 +429,7 @@ fn bench_scene(
             gi_settings: input.gi_settings.clone(),
             soft_sky_shadows: args.gpu.soft_sky_shadows,
         };
-        let mut renderer = Renderer::new(&ctx, scene, settings)
+        let mut renderer = Renderer::new(&ctx, scene, settings.clone())
             .with_context(|| format!("scene '{}': setting up '{name}'", scene.name))?;
         let mut frames = Vec::with_capacity(args.frames as usize);
         let mut wall_ms = Vec::with_capacity(args.frames as usize);
@@ -501,6 +505,14 @@ fn bench_scene(
             }
             images.push((name.clone(), bounces, image));
         }
+        if !args.no_work_counts {
+            drop(renderer);
+            let work = work_counts(&ctx, scene, &settings, args.warmup, &frame_time).with_context(
+                || format!("scene '{}': counting the work of '{name}'", scene.name),
+            )?;
+            let report = techniques.last_mut().expect("pushed above");
+            report::attach_work(&mut report.passes, work);
+        }
     }
     bar.finish_and_clear();
 
@@ -564,6 +576,28 @@ fn bench_scene(
                 .collect(),
         },
     ))
+}
+
+/// The work counts of the first measured frame (`warmup`), rendered again from the first
+/// frame by a renderer of its own that counts (counting slows the counted passes, so the timed
+/// frames never count).
+fn work_counts(
+    ctx: &GpuContext,
+    scene: &Scene,
+    settings: &RenderSettings,
+    warmup: u32,
+    frame_time: &dyn Fn(u32) -> f32,
+) -> Result<Vec<octolux::gpu::WorkCount>> {
+    let counting = ctx.with_work_counter();
+    let mut renderer = Renderer::new(&counting, scene, settings.clone())?;
+    let work = counting.work().expect("a counting context");
+    for i in 0..=warmup {
+        if i == warmup {
+            work.take(&counting)?;
+        }
+        renderer.render(scene, frame_time(i))?;
+    }
+    Ok(work.take(&counting)?)
 }
 
 /// The reference of the frame at `t`, with a progress bar over samples per pixel unless quiet.

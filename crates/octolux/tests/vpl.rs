@@ -55,7 +55,9 @@ fn quad(lo: Vec3, hi: Vec3) -> Vec<VoxelTriangle> {
 
 #[test]
 fn octree_walk_equals_the_voxel_reference_and_its_cpu_twin() {
-    let ctx = context();
+    // A counting context: the GPU walks' work counts must equal the twin's, walk by walk
+    // summed (integers, exact on every adapter).
+    let ctx = context().with_work_counter();
     let builder = SvoBuilder::new(&ctx);
     let res = 32;
     let grid = VoxelGrid::new(Vec3::ZERO, 1.0, res).unwrap();
@@ -179,10 +181,14 @@ fn compare_walks(
         segments.push((a, b));
     }
     let gpu = tracer.trace(ctx, svo, &params, &segments).unwrap();
+    let counted = ctx.work().expect("a counting context").take(ctx).unwrap();
+    let mut work = [0u64; 2];
     let mut hits = 0;
     for (i, &(a, b)) in segments.iter().enumerate() {
         // The first blocking voxel (what a bounce ray hits), and so whether it is blocked.
-        let twin = cpu.walk(a, b).0;
+        let (twin, steps) = cpu.walk_counted(a, b);
+        work[0] += steps.cells as u64;
+        work[1] += steps.nodes as u64;
         let reference = first_blocker_brute(&voxels, a, b, params.shift);
         assert_eq!(
             twin, reference,
@@ -195,7 +201,22 @@ fn compare_walks(
         assert_eq!(gpu[i], twin, "{name}: segment {a} -> {b}: GPU differs");
         hits += twin.is_some() as usize;
     }
-    println!("{name}: {hits} of {} segments occluded", segments.len());
+    let gpu_work: Vec<(String, u64)> = counted
+        .into_iter()
+        .filter(|c| c.pass == "walk test")
+        .map(|c| (c.quantity, c.count))
+        .collect();
+    let twin_work = [
+        ("cells".to_string(), work[0]),
+        ("nodes".to_string(), work[1]),
+    ];
+    assert_eq!(gpu_work, twin_work, "{name}: work counts");
+    println!(
+        "{name}: {hits} of {} segments occluded; {} cells, {} nodes",
+        segments.len(),
+        work[0],
+        work[1]
+    );
     hits
 }
 

@@ -62,6 +62,52 @@ pub struct PassStats {
     /// Its times over the measured frames it ran in.
     #[serde(flatten)]
     pub stats: Stats,
+    /// What it did in the first measured frame, counted exactly (the same on every adapter):
+    /// empty for a pass that counts nothing or with `--no-work-counts`.
+    pub work: Vec<PassWork>,
+}
+
+/// One counted quantity of a pass ([`octolux::gpu::work`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct PassWork {
+    /// What is counted (`"cone samples"`).
+    pub quantity: String,
+    /// How many in one frame.
+    pub count: u64,
+}
+
+/// Puts each work count with the pass it belongs to; counts of a pass the frames did not time
+/// are dropped.
+pub fn attach_work(passes: &mut [PassStats], work: Vec<octolux::gpu::WorkCount>) {
+    for w in work {
+        if let Some(p) = passes.iter_mut().find(|p| p.name == w.pass) {
+            p.work.push(PassWork {
+                quantity: w.quantity,
+                count: w.count,
+            });
+        }
+    }
+}
+
+/// `n` in at most 4 significant digits with k, M, G, T (exact below 10000).
+pub fn short_count(n: u64) -> String {
+    if n < 10_000 {
+        return n.to_string();
+    }
+    let mut v = n as f64;
+    let mut unit = 0;
+    while v >= 999.95 && unit < 4 {
+        v /= 1000.0;
+        unit += 1;
+    }
+    let digits = if v >= 100.0 {
+        1
+    } else if v >= 10.0 {
+        2
+    } else {
+        3
+    };
+    format!("{v:.digits$}{}", ["", "k", "M", "G", "T"][unit])
 }
 
 /// GPU memory of one ledger owner.
@@ -276,6 +322,7 @@ pub fn frame_stats(
             name,
             gi,
             stats: Stats::of(&samples),
+            work: Vec::new(),
         })
         .collect();
     (
@@ -364,18 +411,28 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
     )?;
     writeln!(
         out,
-        "  {:<26} {:>9} {:>9} {:>9} {:>9}",
+        "  {:<26} {:>9} {:>9} {:>9} {:>9}  work in the first measured frame",
         "", "mean", "median", "min", "max"
     )?;
     for t in &scene.techniques {
         writeln!(out, "  {}", t.technique)?;
         for p in &t.passes {
             let label = format!("{} {}", if p.gi { "*" } else { " " }, p.name);
-            writeln!(
-                out,
-                "    {:<24} {:>9.3} {:>9.3} {:>9.3} {:>9.3}",
-                label, p.stats.mean_ms, p.stats.median_ms, p.stats.min_ms, p.stats.max_ms
-            )?;
+            let work: Vec<String> = p
+                .work
+                .iter()
+                .map(|w| format!("{} {}", short_count(w.count), w.quantity))
+                .collect();
+            let line = format!(
+                "    {:<24} {:>9.3} {:>9.3} {:>9.3} {:>9.3}  {}",
+                label,
+                p.stats.mean_ms,
+                p.stats.median_ms,
+                p.stats.min_ms,
+                p.stats.max_ms,
+                work.join(", ")
+            );
+            writeln!(out, "{}", line.trim_end())?;
         }
     }
     writeln!(out)
@@ -407,6 +464,24 @@ mod tests {
             (4.0, 3.0, 1.0, 9.0)
         );
         assert_eq!(Stats::of(&[]), Stats::default());
+    }
+
+    #[test]
+    fn short_counts() {
+        let cases = [
+            (0, "0"),
+            (9999, "9999"),
+            (10_000, "10.00k"),
+            (123_456, "123.5k"),
+            (999_949, "999.9k"),
+            (999_950, "1.000M"),
+            (2_073_600, "2.074M"),
+            (530_841_600, "530.8M"),
+            (u64::MAX, "18446744.1T"),
+        ];
+        for (n, text) in cases {
+            assert_eq!(short_count(n), text, "{n}");
+        }
     }
 
     #[test]

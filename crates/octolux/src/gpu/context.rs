@@ -2,6 +2,7 @@
 //! (Mesa's lavapipe in CI), and requests optional features only when the adapter has them.
 
 use super::ledger::{texture_bytes, MemoryLedger};
+use super::work::WorkCounter;
 use crate::{Error, Result};
 use std::sync::{Arc, Mutex};
 
@@ -86,6 +87,9 @@ pub struct GpuContext {
     pub timestamps: bool,
     /// GPU memory by owner.
     pub ledger: MemoryLedger,
+    /// Work counters, in a context made by [`GpuContext::with_work_counter`] (None: techniques
+    /// count nothing).
+    work: Option<WorkCounter>,
     errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -169,8 +173,30 @@ impl GpuContext {
     pub fn with_own_ledger(&self) -> GpuContext {
         GpuContext {
             ledger: MemoryLedger::default(),
+            work: None,
             ..self.clone()
         }
+    }
+
+    /// The same device with work counters and an empty memory ledger of its own: techniques
+    /// created on it count their work ([`crate::gpu::work`]). Counting slows the counted
+    /// passes; time frames on a context without it.
+    pub fn with_work_counter(&self) -> GpuContext {
+        GpuContext {
+            ledger: MemoryLedger::default(),
+            work: Some(WorkCounter::new(self)),
+            ..self.clone()
+        }
+    }
+
+    /// The work counters, where this context counts.
+    pub fn work(&self) -> Option<&WorkCounter> {
+        self.work.as_ref()
+    }
+
+    /// The `count_work` flag for composing a counted pass's shader.
+    pub fn work_feature(&self) -> (&'static str, bool) {
+        ("count_work", self.work.is_some())
     }
 
     /// Live wgpu objects of this context's instance, from wgpu's registry (None when the
@@ -292,6 +318,7 @@ impl GpuContext {
             info,
             timestamps,
             ledger: MemoryLedger::default(),
+            work: None,
             errors,
         })
     }

@@ -2,7 +2,7 @@
 //! ([`GpuContext`]), per-pass timers ([`PassTimer`]), the memory ledger ([`MemoryLedger`])
 //! every GPU resource is counted in, allocation ([`alloc`]), bind-group and dispatch helpers
 //! ([`pass`]), the CPU decoders of packed GPU values ([`pack`]) and the composition of the
-//! library's WGSL modules ([`shader`]).
+//! library's WGSL modules ([`shader`]) and the work counters `bench` reads ([`work`]).
 
 pub mod alloc;
 mod context;
@@ -12,11 +12,13 @@ pub mod pass;
 mod readback;
 pub mod shader;
 mod timer;
+pub mod work;
 
 pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timestamps, ADAPTER_ENV};
 pub use ledger::{LedgerEntry, MemoryLedger};
 pub use readback::{read_buffer, read_texture};
 pub use timer::{slowest_first, PassTimer, PassTiming, TimingSource, PROFILE_STEPS_ENV};
+pub use work::{WorkCount, WorkCounter, WorkRegion};
 
 /// A compute-stage storage-buffer entry of a bind group layout at `binding`.
 pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {

@@ -30,6 +30,7 @@ macro_rules! modules {
 
 /// The modules of the library's shaders.
 pub const MODULES: &[(&str, &str)] = modules![
+    "gpu/work",
     "frame/common",
     "frame/lights",
     "frame/raster",
@@ -181,6 +182,8 @@ fn compose_with(
         .set_mangler(ManglerKind::None)
         .use_stripping(false)
         .set_missing_feature_behavior(Feature::Error);
+    // Work counting is off unless a counting renderer asks for it (`gpu/work.wgsl`).
+    compiler.set_feature("count_work", false);
     for &(name, on) in features {
         compiler.set_feature(name, on);
     }

@@ -207,6 +207,15 @@ struct Passes {
     merge_group: wgpu::BindGroup,
 }
 
+/// What `vpl shade` counts (`WORK_*` in `shade.wgsl`).
+const SHADE_WORK: &[&str] = &[
+    "pixels",
+    "VPL pairs",
+    "shadow rays",
+    "ray cells",
+    "octree nodes",
+];
+
 /// VPLs of a subset per shading dispatch (`CHUNK` in `shade.wgsl`).
 const CHUNK: u32 = 8;
 /// Bytes between the chunk index slots.
@@ -323,8 +332,12 @@ impl VplGi {
         &self.texture
     }
 
-    fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
-        let module = ctx.shader("vpl shade", &library_shader("gi/vpl/shade", &[]));
+    fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Result<Passes> {
+        let module = ctx.shader(
+            "vpl shade",
+            &library_shader("gi/vpl/shade", &[ctx.work_feature()]),
+        );
+        let shade_work = crate::gpu::work::entry(ctx, "vpl shade", SHADE_WORK)?;
         let shade = ctx.compute_pipeline("vpl shade", &module, "shade");
         let merge = ctx.compute_pipeline("vpl merge", &module, "merge");
         let walk = walk::walk_bindings(&self.octree_params, &self.svo, &self.placeholder);
@@ -368,6 +381,7 @@ impl VplGi {
                 (8, self.raw.as_entire_binding()),
             ];
             entries.extend(walk.clone());
+            entries.extend(shade_work.clone());
             crate::gpu::pass::bind(ctx, &shade, &entries)
         };
         let shade_groups = (0..chunk_count(&self.settings)).map(shade_group).collect();
@@ -383,7 +397,7 @@ impl VplGi {
                 (10, tex(&self.view)),
             ],
         );
-        Passes {
+        Ok(Passes {
             rsm: RsmPass::new(ctx, frame.scene_gpu, &self.rsm),
             generate,
             shade,
@@ -392,7 +406,7 @@ impl VplGi {
             bounce,
             bounce_groups,
             merge_group,
-        }
+        })
     }
 }
 
@@ -403,7 +417,7 @@ impl GiTechnique for VplGi {
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
         if self.passes.is_none() {
-            self.passes = Some(self.build(ctx, frame));
+            self.passes = Some(self.build(ctx, frame)?);
         }
         if self.animated {
             let moving = objects_triangles(frame.scene, frame.frame, true);

@@ -18,7 +18,8 @@
 // weights are 0 or 1 and normalised, so a pixel's value stays an average of unbiased
 // estimates of its full VPL sum.
 
-import octolux::voxel::svo::walk::{svo_occluded, vpl_fixed_point};
+import octolux::voxel::svo::walk::{count_walk_work, svo_occluded, vpl_fixed_point};
+import octolux::gpu::work::count_work;
 import octolux::frame::common::{Camera, PI, world_from_depth};
 
 
@@ -45,6 +46,14 @@ struct ShadeParams {
 @group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
 // The chunk of VPLs a `shade` dispatch sums (one slot per dispatch).
 @group(0) @binding(13) var<storage, read> chunk: u32;
+
+// Work counts of `shade` (`SHADE_WORK` in vpl/mod.rs): pixels shaded, VPL pairs evaluated,
+// shadow rays, octree cells the rays visited, octree nodes their descents visited.
+const WORK_PIXELS: u32 = 0u;
+const WORK_PAIRS: u32 = 1u;
+const WORK_RAYS: u32 = 2u;
+const WORK_CELLS: u32 = 3u;
+const WORK_NODES: u32 = 4u;
 
 // VPLs of a subset per `shade` dispatch: lavapipe (llvmpipe) ends an invocation after 65535
 // loop iterations in total, and a shadow ray may take a few hundred steps of up to `depth`
@@ -93,7 +102,10 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     var have_a = false;
     let first = k + chunk * CHUNK * m * m;
     let end = min(sp.count, first + CHUNK * m * m);
+    var pairs = 0u;
+    var rays = 0u;
     for (var j = first; j < end; j += m * m) {
+        pairs += 1u;
         let v = vpls[j];
         let g = vpl_g(p, n, v.position.xyz, v.normal.xyz);
         let c = scale * v.flux.w * g;
@@ -104,11 +116,16 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
             a = vpl_fixed_point(p, n);
             have_a = true;
         }
+        rays += 1u;
         if svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
             continue;
         }
         e += scale * v.flux.rgb * g;
     }
+    count_work(WORK_PIXELS, u32(chunk == 0u));
+    count_work(WORK_PAIRS, pairs);
+    count_work(WORK_RAYS, rays);
+    count_walk_work(WORK_CELLS, WORK_NODES);
     if chunk == 0u {
         raw[at] = vec4<f32>(e, 0.0);
     } else {

@@ -255,11 +255,18 @@ impl SvoWalkCpu {
     /// CPU twin of `svo_first_hit`: the first occupied voxel between the ends' voxels, and
     /// the number of cells the walk visited.
     pub fn walk(&self, a: IVec3, b: IVec3) -> (Option<IVec3>, u32) {
+        let (hit, work) = self.walk_counted(a, b);
+        (hit, work.cells)
+    }
+
+    /// [`SvoWalkCpu::walk`] with its work as the GPU walk counts it (`note_walk`).
+    pub fn walk_counted(&self, a: IVec3, b: IVec3) -> (Option<IVec3>, WalkWork) {
         let p = &self.params;
         let d = b - a;
         let ad = d.abs();
+        let mut work = WalkWork::default();
         if ad == IVec3::ZERO {
-            return (None, 0);
+            return (None, work);
         }
         let first = voxel_at(a, d, 0, 1, p.shift);
         let mut v = first;
@@ -267,7 +274,9 @@ impl SvoWalkCpu {
             let mut node = 0u32;
             let mut k = p.depth;
             let mut occupied = false;
+            work.cells = it + 1;
             loop {
+                work.nodes += 1;
                 if k == 1 {
                     let leaf = node.wrapping_sub(p.first_leaf);
                     let mask = self.leaf_masks.get(leaf as usize).copied().unwrap_or(0)
@@ -302,15 +311,24 @@ impl SvoWalkCpu {
             let (en, ed) = (dist[m], ad[m]);
             let holds_end = en >= ed;
             if occupied && !holds_end && v != first {
-                return (Some(v), it + 1);
+                return (Some(v), work);
             }
             if holds_end {
-                return (None, it + 1);
+                return (None, work);
             }
             v = voxel_at(a, d, en, ed, p.shift);
         }
-        (None, p.cap)
+        (None, work)
     }
+}
+
+/// The work of one walk, as the GPU counts it (`note_walk` in `walk.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WalkWork {
+    /// Cells visited (each a descent from the root and an exit face).
+    pub cells: u32,
+    /// Octree nodes the descents passed through.
+    pub nodes: u32,
 }
 
 /// The voxel holding the point at time `tn / td` (+ an infinitesimal) of `a + t d` (as
@@ -398,6 +416,9 @@ pub fn first_blocker_brute(
         .map(|(_, v)| IVec3::new(v[0] as i32, v[1] as i32, v[2] as i32))
 }
 
+/// What the test tracer counts: the walks' cells and nodes.
+pub const TRACER_WORK: &[&str] = &["cells", "nodes"];
+
 /// Traces segments on the GPU with `trace.wgsl` (for tests).
 pub struct Tracer {
     pipeline: wgpu::ComputePipeline,
@@ -405,10 +426,16 @@ pub struct Tracer {
 
 impl Tracer {
     /// Compiles the test kernel.
+    /// On a counting context ([`GpuContext::with_work_counter`]) it counts the walks' cells
+    /// and nodes as the pass `"walk test"` ([`TRACER_WORK`]).
     pub fn new(ctx: &GpuContext) -> Tracer {
-        let source =
-            crate::gpu::shader::compose_text("walk test", include_str!("walk_test.wgsl"), &[], &[])
-                .unwrap();
+        let source = crate::gpu::shader::compose_text(
+            "walk test",
+            include_str!("walk_test.wgsl"),
+            &[ctx.work_feature()],
+            &[],
+        )
+        .unwrap();
         let module = ctx.shader("walk test", &source);
         Tracer {
             pipeline: ctx.compute_pipeline("vpl trace test", &module, "main"),
@@ -445,6 +472,7 @@ impl Tracer {
             (4, out.as_entire_binding()),
         ];
         entries.extend(walk_bindings(&params_buf, svo, &placeholder));
+        entries.extend(crate::gpu::work::entry(ctx, "walk test", TRACER_WORK)?);
         let group = crate::gpu::pass::bind(ctx, &self.pipeline, &entries);
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {

@@ -18,6 +18,8 @@
 // an occupied one voxel by voxel. The cell is then left through its exit face: the next voxel
 // is the one holding the point just after the exit time, found exactly (no t-epsilon).
 
+import octolux::gpu::work::count_work;
+
 struct SvoWalk {
     // World position of the grid's corner, voxel edge (m).
     origin: vec3<f32>,
@@ -43,6 +45,25 @@ struct SvoWalk {
 @group(0) @binding(46) var<storage, read> svo_leaf: array<u32>;
 @group(0) @binding(47) var<storage, read> svo_state: array<u32>;
 @group(0) @binding(48) var<storage, read> svo_dyn_sums: array<u32>;
+
+// Work of the walks of one invocation (`gpu/work.wgsl`): cells visited and octree nodes
+// descended through, kept only by a counting shader; a pass adds them to its counts with
+// `count_walk_work`.
+@if(count_work) var<private> walk_work: vec2<u32>;
+
+@if(count_work) fn note_walk(cells: u32, nodes: u32) {
+    walk_work += vec2<u32>(cells, nodes);
+}
+
+@if(!count_work) fn note_walk(cells: u32, nodes: u32) {}
+
+// Adds this invocation's walk work to quantities `cells_q` and `nodes_q` of the pass's counts.
+@if(count_work) fn count_walk_work(cells_q: u32, nodes_q: u32) {
+    count_work(cells_q, walk_work.x);
+    count_work(nodes_q, walk_work.y);
+}
+
+@if(!count_work) fn count_walk_work(cells_q: u32, nodes_q: u32) {}
 
 // Occupancy of the 8 voxels of leaf node `node` (bit x + 2y + 4z): static and dynamic
 // fragments.
@@ -105,12 +126,14 @@ fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
     var td = 1;
     var v = vpl_voxel_at(a, d, 0, 1);
     let first = v;
+    var nodes = 0u;
     for (var it = 0u; it < vo.cap; it++) {
         // Descend from the root to the node holding v.
         var node = 0u;
         var k = vo.depth;
         var occupied = false;
         loop {
+            nodes += 1u;
             if k == 1u {
                 let mask = vpl_leaf_mask(node);
                 if mask != 0u {
@@ -142,15 +165,18 @@ fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
         let ed = ad[m];
         let holds_end = en >= ed;
         if occupied && !holds_end && any(v != first) {
+            note_walk(it + 1u, nodes);
             return vec4<i32>(v, 1);
         }
         if holds_end {
+            note_walk(it + 1u, nodes);
             return none;
         }
         tn = en;
         td = ed;
         v = vpl_voxel_at(a, d, tn, td);
     }
+    note_walk(vo.cap, nodes);
     return none;
 }
 
