@@ -511,7 +511,7 @@ fn bench_scene(
                 || format!("scene '{}': counting the work of '{name}'", scene.name),
             )?;
             let report = techniques.last_mut().expect("pushed above");
-            report::attach_work(&mut report.passes, work);
+            report::attach_work(&mut report.passes, name, work);
         }
     }
     bar.finish_and_clear();

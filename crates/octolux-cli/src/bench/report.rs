@@ -76,11 +76,13 @@ pub struct PassWork {
     pub count: u64,
 }
 
-/// Puts each work count with the pass it belongs to; counts of a pass the frames did not time
-/// are dropped.
-pub fn attach_work(passes: &mut [PassStats], work: Vec<octolux::gpu::WorkCount>) {
+/// Puts each work count with the pass it belongs to (counted under the name the technique
+/// gives it, timed under that name scoped by the technique); counts of a pass the frames did
+/// not time are dropped.
+pub fn attach_work(passes: &mut [PassStats], technique: &str, work: Vec<octolux::gpu::WorkCount>) {
     for w in work {
-        if let Some(p) = passes.iter_mut().find(|p| p.name == w.pass) {
+        let name = octolux::gpu::scoped_name(Some(technique), &w.pass);
+        if let Some(p) = passes.iter_mut().find(|p| p.name == name) {
             p.work.push(PassWork {
                 quantity: w.quantity,
                 count: w.count,

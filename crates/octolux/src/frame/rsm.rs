@@ -202,18 +202,21 @@ impl RsmPass {
         }
     }
 
-    /// Rasterises every layer through its shadow view (`layers[i].cone[3]`).
+    /// Rasterises every layer through its shadow view (`layers[i].cone[3]`), as the pass
+    /// `name` (its work counts: [`RSM_WORK`]).
     pub(crate) fn record(
         &self,
+        ctx: &GpuContext,
         timer: &mut PassTimer,
         scene_gpu: &SceneGpu,
         targets: &RsmTargets,
         layers: &[RsmLayer],
         name: &str,
-    ) {
+    ) -> crate::Result<()> {
         if targets.layers == 0 {
-            return;
+            return Ok(());
         }
+        let mut triangles = 0;
         timer.pass(name, |encoder, stamps| {
             let n = targets.layer_views.len();
             for (i, views) in targets.layer_views.iter().enumerate() {
@@ -248,11 +251,21 @@ impl RsmPass {
                 let view_offset = ((view as u64 + 1) * UNIFORM_STRIDE) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
                 pass.set_bind_group(3, &self.group, &[(i as u64 * SLOT) as u32]);
-                scene_gpu.draw(&mut pass, view + 1);
+                triangles += scene_gpu.draw(&mut pass, view + 1);
             }
         });
+        let n = targets.layer_views.len() as u64;
+        let texels = n * targets.size as u64 * targets.size as u64;
+        for (quantity, count) in [n, triangles, texels].into_iter().enumerate() {
+            crate::gpu::work::add(ctx, name, RSM_WORK, quantity, count)?;
+        }
+        Ok(())
     }
 }
+
+/// What an RSM pass counts: layers rendered, triangles drawn into them (those of meshes not
+/// culled whole), texels written.
+pub const RSM_WORK: &[&str] = &["layers", "triangles drawn", "texels"];
 
 /// Cube-face axes in the order of the shadow layers of a point light (+x, -x, +y, -y, +z, -z).
 const FACE_AXES: [Vec3; 6] = [

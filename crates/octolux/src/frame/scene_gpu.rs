@@ -336,8 +336,9 @@ impl SceneGpu {
 
     /// Draws every object with the bound pipeline; view group 0 must already be set to view
     /// uniform `view`. Meshes whose bounds lie wholly outside that view's clip volume are not
-    /// drawn (they would produce no fragment).
-    pub(crate) fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, view: usize) {
+    /// drawn (they would produce no fragment). Returns the triangles drawn.
+    pub(crate) fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, view: usize) -> u64 {
+        let mut triangles = 0;
         let view_proj = self.view_projs.get(view);
         for (o, meshes) in self.object_meshes.iter().enumerate() {
             let model = self.transforms.get(o).copied().unwrap_or(Mat4::IDENTITY);
@@ -357,8 +358,10 @@ impl SceneGpu {
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
                 pass.draw_indexed(0..mesh.index_count, 0, 0..1);
+                triangles += mesh.index_count as u64 / 3;
             }
         }
+        triangles
     }
 }
 

@@ -17,7 +17,9 @@ pub mod work;
 pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timestamps, ADAPTER_ENV};
 pub use ledger::{LedgerEntry, MemoryLedger};
 pub use readback::{read_buffer, read_texture};
-pub use timer::{slowest_first, PassTimer, PassTiming, TimingSource, PROFILE_STEPS_ENV};
+pub use timer::{
+    scoped_name, slowest_first, PassTimer, PassTiming, TimingSource, PROFILE_STEPS_ENV,
+};
 pub use work::{WorkCount, WorkCounter, WorkRegion};
 
 /// A compute-stage storage-buffer entry of a bind group layout at `binding`.

@@ -404,7 +404,7 @@ impl PassTimer {
 
 /// The name a pass called `name` is recorded under inside `scope`: `<scope> <name>`, unless the
 /// name already starts with the scope's word.
-fn scoped_name(scope: Option<&str>, name: &str) -> String {
+pub fn scoped_name(scope: Option<&str>, name: &str) -> String {
     match scope {
         Some(scope)
             if name != scope

@@ -5,6 +5,7 @@ use super::{bind, groups, GiFrame};
 use crate::frame::rsm::{RsmLayer, RsmTargets};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
+use crate::Result;
 
 /// At most this many G-buffer samples per side feed the camera's geometry volume: larger
 /// outputs are sampled in square blocks (see `inject_gv_camera`), so injection costs the same at
@@ -29,25 +30,41 @@ pub struct Inject {
     height: u32,
 }
 
-/// WGSL source of the injection passes.
-pub fn source() -> String {
-    library_shader("gi/lpv/inject", &[])
+/// What the injection counts (`count_inject_work` in `inject.wgsl`).
+const INJECT_WORK: &[&str] = &[
+    "RSM texels",
+    "VPL injections",
+    "surfel injections",
+    "atomic adds",
+];
+
+/// WGSL source of the injection passes (`count_work`: with work counting).
+pub fn source(count_work: bool) -> String {
+    library_shader("gi/lpv/inject", &[("count_work", count_work)])
 }
 
 impl Inject {
-    /// Builds the pipelines; `grids` holds the `Grids` uniform.
+    /// Builds the pipelines of the pass `name`; `grids` holds the `Grids` uniform.
     pub(crate) fn new(
         ctx: &GpuContext,
+        name: &str,
         grids: &wgpu::Buffer,
         rsm: &RsmTargets,
         v: &Volumes,
         frame: &GiFrame,
-    ) -> Inject {
-        let module = ctx.shader("lpv inject", &source());
+    ) -> Result<Inject> {
+        let module = ctx.shader("lpv inject", &source(ctx.work().is_some()));
+        let work = crate::gpu::work::entry(ctx, name, INJECT_WORK)?;
+        // The three injections count their work; the resolves do not.
+        let bind_counted = |pipeline: &wgpu::ComputePipeline,
+                            entries: &[(u32, wgpu::BindingResource)]| {
+            let mut entries = entries.to_vec();
+            entries.extend(work.clone());
+            bind(ctx, pipeline, &entries)
+        };
         let tex = wgpu::BindingResource::TextureView;
         let light = ctx.compute_pipeline("lpv inject light", &module, "inject_light");
-        let light_group = bind(
-            ctx,
+        let light_group = bind_counted(
             &light,
             &[
                 (0, grids.as_entire_binding()),
@@ -59,8 +76,7 @@ impl Inject {
             ],
         );
         let gv_rsm = ctx.compute_pipeline("lpv inject gv rsm", &module, "inject_gv_rsm");
-        let gv_rsm_group = bind(
-            ctx,
+        let gv_rsm_group = bind_counted(
             &gv_rsm,
             &[
                 (0, grids.as_entire_binding()),
@@ -72,8 +88,7 @@ impl Inject {
             ],
         );
         let gv_camera = ctx.compute_pipeline("lpv inject gv camera", &module, "inject_gv_camera");
-        let gv_camera_group = bind(
-            ctx,
+        let gv_camera_group = bind_counted(
             &gv_camera,
             &[
                 (0, grids.as_entire_binding()),
@@ -106,7 +121,7 @@ impl Inject {
                 (10, v.gv.as_entire_binding()),
             ],
         );
-        Inject {
+        Ok(Inject {
             light: (light, light_group),
             gv_rsm: (gv_rsm, gv_rsm_group),
             gv_camera: (gv_camera, gv_camera_group),
@@ -116,7 +131,7 @@ impl Inject {
             rsm_layers: rsm.layers,
             width: frame.gbuffer.albedo.width(),
             height: frame.gbuffer.albedo.height(),
-        }
+        })
     }
 
     /// Records the clears, the three injection dispatches and the two resolves as one named

@@ -12,6 +12,18 @@
 
 import octolux::frame::common::{Camera, PI, world_from_depth};
 import octolux::gi::lpv::sh::{Grid, Grids, sh_lobe};
+import octolux::gpu::work::count_work;
+
+// Work counts (`INJECT_WORK` in inject.rs), per invocation until `count_inject_work`: RSM
+// texels read, VPLs injected into a grid, surfels injected into a grid, atomic additions.
+var<private> inject_work: vec4<u32>;
+
+fn count_inject_work() {
+    count_work(0u, inject_work.x);
+    count_work(1u, inject_work.y);
+    count_work(2u, inject_work.z);
+    count_work(3u, inject_work.w);
+}
 
 // Read from a storage buffer: Mesa's lavapipe recompiles (and keeps) a shader whose branches or
 // loop bounds depend on a small uniform block every time its pipeline is bound.
@@ -73,6 +85,7 @@ fn add_light(i: u32, v: f32) {
     }
     let old = atomicAdd(&light_lo[i], f.x);
     atomicAdd(&light_hi[i], f.y + select(0u, 1u, old + f.x < old));
+    inject_work.w += 2u;
 }
 
 fn add_gv(i: u32, v: f32) {
@@ -82,6 +95,7 @@ fn add_gv(i: u32, v: f32) {
     }
     let old = atomicAdd(&gv_lo[i], f.x);
     atomicAdd(&gv_hi[i], f.y + select(0u, 1u, old + f.x < old));
+    inject_work.w += 2u;
 }
 
 // RSM texel: world position, unit normal facing the light, reflected flux (W) and surfel
@@ -116,6 +130,7 @@ fn inject_blocking(g: Grid, p: vec3<f32>, n: vec3<f32>, area: f32, section: u32)
         return;
     }
     let i = section + g.gv_offset + u32(corner.x + m * (corner.y + m * corner.z));
+    inject_work.z += 1u;
     let b = sh_lobe(n) * min(area / (g.cell * g.cell), 1.0);
     for (var k = 0u; k < 4u; k++) {
         add_gv(i * 4u + k, b[k]);
@@ -136,6 +151,7 @@ fn inject_vpl(pos: vec3<f32>, n: vec3<f32>, flux: vec3<f32>) {
             continue;
         }
         let cell = g.offset + u32(c.x + gn * (c.y + gn * c.z));
+        inject_work.y += 1u;
         for (var ch = 0u; ch < 3u; ch++) {
             for (var k = 0u; k < 4u; k++) {
                 add_light((cell * 3u + ch) * 4u + k, flux[ch] * lobe[k]);
@@ -175,6 +191,7 @@ fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
                 continue;
             }
             let texel = rsm_texel(t, id.z);
+            inject_work.x += 1u;
             let w = texel.flux.r + texel.flux.g + texel.flux.b;
             if !texel.valid || w <= 0.0 {
                 continue;
@@ -193,10 +210,10 @@ fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
             weight += w;
         }
     }
-    if weight <= 0.0 || dot(nrm, nrm) < 1e-12 {
-        return;
+    if weight > 0.0 && dot(nrm, nrm) >= 1e-12 {
+        inject_vpl(pos / weight, normalize(nrm), flux);
     }
-    inject_vpl(pos / weight, normalize(nrm), flux);
+    count_inject_work();
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -206,12 +223,13 @@ fn inject_gv_rsm(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let texel = rsm_texel(id.xy, id.z);
-    if !texel.valid {
-        return;
+    inject_work.x += 1u;
+    if texel.valid {
+        for (var gi = 0u; gi < grids.count; gi++) {
+            inject_blocking(grids.grids[gi], texel.p, texel.n, texel.area, 0u);
+        }
     }
-    for (var gi = 0u; gi < grids.count; gi++) {
-        inject_blocking(grids.grids[gi], texel.p, texel.n, texel.area, 0u);
-    }
+    count_inject_work();
 }
 
 // The G-buffer is sampled on a grid of at most CAMERA_SAMPLES^2 points: one pixel per square
@@ -247,6 +265,7 @@ fn inject_gv_camera(@builtin(global_invocation_id) id: vec3<u32>) {
     for (var gi = 0u; gi < grids.count; gi++) {
         inject_blocking(grids.grids[gi], p, n, area, grids.gv_total);
     }
+    count_inject_work();
 }
 
 // Sum i of the resolve passes' input, as (lo, hi).

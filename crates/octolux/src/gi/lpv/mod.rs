@@ -441,7 +441,7 @@ impl LpvGi {
         &self.layouts
     }
 
-    fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Passes {
+    fn build(&self, ctx: &GpuContext, frame: &GiFrame) -> Result<Passes> {
         let octree = self
             .octree
             .as_ref()
@@ -450,13 +450,21 @@ impl LpvGi {
             Some(o) => (&o.merged, &self.lookup_grids),
             None => (&self.volumes.acc, &self.grids),
         };
-        Passes {
+        let inject_pass = format!("{} inject", self.variant.name());
+        Ok(Passes {
             rsm: rsm::RsmPass::new(ctx, frame.scene_gpu, &self.rsm),
-            inject: inject::Inject::new(ctx, &self.grids, &self.rsm, &self.volumes, frame),
+            inject: inject::Inject::new(
+                ctx,
+                &inject_pass,
+                &self.grids,
+                &self.rsm,
+                &self.volumes,
+                frame,
+            )?,
             propagate: propagate::Propagate::new(ctx, &self.grid_slots, &self.volumes),
             octree,
             lookup: lookup::Lookup::new(ctx, lookup_grids, volume, &self.output, frame),
-        }
+        })
     }
 }
 
@@ -575,19 +583,20 @@ impl GiTechnique for LpvGi {
                 .write_buffer(&self.lookup_grids, 0, bytemuck::bytes_of(&merged));
         }
         if self.passes.is_none() {
-            self.passes = Some(self.build(ctx, frame));
+            self.passes = Some(self.build(ctx, frame)?);
         }
         let Some(p) = &self.passes else {
             return Ok(());
         };
         p.rsm.update(ctx, &self.rsm, &layers);
         p.rsm.record(
+            ctx,
             timer,
             frame.scene_gpu,
             &self.rsm,
             &layers,
             &format!("{name} rsm"),
-        );
+        )?;
         p.inject.record(
             timer,
             &format!("{name} inject"),

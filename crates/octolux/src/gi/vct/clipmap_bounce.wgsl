@@ -12,7 +12,9 @@ import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::trace;
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
 import octolux::gi::vct::cone_set::DIFFUSE_CONES;
-import octolux::gi::vct::structure::vct_surface_voxel;
+import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
+import octolux::gi::vct::cone::count_cone_work;
+import octolux::gpu::work::count_work;
 
 // x: voxel slots (levels * res^3)
 struct BounceParams {
@@ -57,7 +59,11 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
             e += diffuse_cone_weight(k) * march_cone(apex, diffuse_cone_dir(nn, k), cone).rgb;
         }
         e *= 3.14159265;
+        count_work(0u, 1u);
     }
+    // Work counts (`BOUNCE_WORK` in tracer.rs): voxels gathered, cones, samples.
+    count_cone_work(1u, 2u);
+    vct_count_structure_work(3u);
     bounce_irradiance[2u * i] = pack2x16float(e.rg);
     bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
 }

@@ -114,6 +114,7 @@ impl VctClipmap {
                 trace: "gi/vct/clipmap_trace",
                 bounce: "gi/vct/clipmap_bounce",
                 features: Vec::new(),
+                octree: false,
             },
             settings,
             settings.diffuse_cones(VctStructure::Clipmap),
@@ -332,7 +333,7 @@ impl GiTechnique for VctClipmap {
         // 5. Multiple bounces: every voxel gathers indirect irradiance for the next frame.
         if let Some(b) = &self.bounce {
             let [info, voxels] = clip_bindings(&self.info, &clipmap.voxels);
-            let entries = [
+            let mut entries = vec![
                 info,
                 voxels,
                 (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
@@ -342,6 +343,7 @@ impl GiTechnique for VctClipmap {
                 (21, clipmap.normals.as_entire_binding()),
                 (22, b.irradiance.as_entire_binding()),
             ];
+            entries.extend(self.tracer.bounce_work(ctx, "bounce")?);
             let group = b.gather_group.get(ctx, "vct bounce", &b.gather, &entries);
             dispatch_1d(timer, "bounce", &b.gather, &group, b.slots);
         }
@@ -356,8 +358,7 @@ impl GiTechnique for VctClipmap {
                 (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
                 (13, self.tail.buffer.as_entire_binding()),
             ],
-        );
-        Ok(())
+        )
     }
 
     fn indirect_view(&self) -> &wgpu::TextureView {

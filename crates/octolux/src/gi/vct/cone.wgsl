@@ -8,6 +8,7 @@
 // CPU twin: `gi/vct/cone.rs`, `march_cone`; keep the two in step.
 
 import octolux::gi::vct::structure::vct_sample;
+import octolux::gpu::work::count_work;
 
 struct ConeParams {
     // Full aperture (radians), start offset, step (fraction of the diameter), maximum distance
@@ -23,6 +24,24 @@ struct ConeParams {
     max_steps: u32,
     max_footprint: f32,
 }
+
+// Work of the cones of one invocation (`gpu/work.wgsl`): cones marched and samples taken,
+// kept only by a counting shader; a pass adds them to its counts with `count_cone_work`.
+@if(count_work) var<private> cone_work: vec2<u32>;
+
+@if(count_work) fn note_cone(samples: u32) {
+    cone_work += vec2<u32>(1u, samples);
+}
+
+@if(!count_work) fn note_cone(samples: u32) {}
+
+// Adds this invocation's cones and samples to quantities `cones_q` and `samples_q`.
+@if(count_work) fn count_cone_work(cones_q: u32, samples_q: u32) {
+    count_work(cones_q, cone_work.x);
+    count_work(samples_q, cone_work.y);
+}
+
+@if(!count_work) fn count_cone_work(cones_q: u32, samples_q: u32) {}
 
 // What one sample adds to a cone that has accumulated `acc` (rgb premultiplied, a opacity):
 // the sample's opacity, defined over a path as long as its footprint, corrected to the step
@@ -45,10 +64,12 @@ fn march_cone(origin: vec3<f32>, dir: vec3<f32>, c: ConeParams) -> vec4<f32> {
     let spread = 2.0 * tan(0.5 * c.aperture);
     var acc = vec4<f32>(0.0);
     var t = c.start;
+    var samples = 0u;
     for (var i = 0u; i < c.max_steps; i++) {
         if t >= c.max_distance || acc.a >= c.stop_opacity {
             break;
         }
+        samples += 1u;
         // Past the coarsest level's voxel the structure cannot filter more: the cone keeps
         // that footprint and its step, so it cannot step over a wall of coarse voxels.
         let footprint = min(max(spread * t, c.voxel), c.max_footprint);
@@ -56,5 +77,6 @@ fn march_cone(origin: vec3<f32>, dir: vec3<f32>, c: ConeParams) -> vec4<f32> {
         acc = cone_composite(acc, vct_sample(origin + t * dir, footprint, dir), step, footprint);
         t += step;
     }
+    note_cone(samples);
     return acc;
 }

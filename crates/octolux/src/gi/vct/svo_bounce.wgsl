@@ -15,6 +15,9 @@ import octolux::gi::vct::trace::surface_cone;
 import octolux::voxel::svo::sample::svo_info;
 import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
 import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+import octolux::gi::vct::cone::count_cone_work;
+import octolux::gi::vct::structure::vct_count_structure_work;
+import octolux::gpu::work::count_work;
 
 struct BounceParams {
     misc: vec4<u32>,
@@ -42,7 +45,11 @@ fn voxel_bounce(i: u32) -> vec3<f32> {
             e += diffuse_cone_weight(k) * march_cone(s.apex, diffuse_cone_dir(nn, k), s.cone).rgb;
         }
         e *= 3.14159265;
+        count_work(0u, 1u);
     }
+    // Work counts (`BOUNCE_WORK` in tracer.rs): voxels gathered, cones, samples, lookups.
+    count_cone_work(1u, 2u);
+    vct_count_structure_work(3u);
     return e;
 }
 

@@ -139,6 +139,7 @@ impl VctSvo {
                 trace: "gi/vct/svo_trace",
                 bounce: "gi/vct/svo_bounce",
                 features: vec![("anisotropic", settings.anisotropic)],
+                octree: true,
             },
             settings,
             settings.diffuse_cones(VctStructure::Octree),
@@ -274,14 +275,17 @@ impl Bounce {
         timer: &mut PassTimer,
         svo: &Svo,
         structure: &[(u32, wgpu::BindingResource<'_>)],
-        cone_params: &wgpu::Buffer,
-    ) {
+        tracer: &ConeTracer,
+    ) -> Result<()> {
         let group = |kept: &KeptBindGroup,
                      pipeline: &wgpu::ComputePipeline,
-                     extra: &[(u32, &wgpu::Buffer)]| {
+                     extra: &[(u32, &wgpu::Buffer)],
+                     pass: &str|
+         -> Result<wgpu::BindGroup> {
             let mut entries = structure.to_vec();
+            entries.extend(tracer.bounce_work(ctx, pass)?);
             let common = [
-                (5, cone_params),
+                (5, tracer.bounce_params()),
                 (20, &self.params),
                 (21, &self.buffers.geometry),
             ];
@@ -291,20 +295,22 @@ impl Bounce {
                     .chain(extra)
                     .map(|&(binding, buffer)| (binding, buffer.as_entire_binding())),
             );
-            kept.get(ctx, "vct bounce", pipeline, &entries)
+            Ok(kept.get(ctx, "vct bounce", pipeline, &entries))
         };
         let statics = group(
             &self.groups[0],
             &self.pipeline,
             &[(22, &self.buffers.irradiance)],
-        );
+            "bounce",
+        )?;
         dispatch_1d(timer, "bounce", &self.pipeline, &statics, self.slots);
         if let (Some(pipeline), Some(table)) = (&self.dynamic, self.buffers.write_table()) {
             let dynamics = group(
                 &self.groups[1 + (self.buffers.frame & 1) as usize],
                 pipeline,
                 &[(23, svo.control()), (24, &table.keys), (25, &table.values)],
-            );
+                "bounce (dynamic)",
+            )?;
             let (args, offset) = svo.dynamic_leaf_dispatch();
             timer.pass("bounce (dynamic)", |encoder, stamps| {
                 encoder.clear_buffer(&table.keys, 0, None);
@@ -319,6 +325,7 @@ impl Bounce {
             });
         }
         self.buffers.frame = self.buffers.frame.wrapping_add(1);
+        Ok(())
     }
 }
 
@@ -361,12 +368,11 @@ impl GiTechnique for VctSvo {
         // 4. Multiple bounces: every voxel gathers irradiance for the next frame (static
         //    ones by slot, dynamic ones into the bounce table the next injection reads).
         if let Some(bounce) = &mut self.bounce {
-            bounce.record(ctx, timer, svo, &structure, self.tracer.bounce_params());
+            bounce.record(ctx, timer, svo, &structure, &self.tracer)?;
         }
         // 5. The diffuse cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).
-        self.tracer.record(ctx, frame, timer, &structure);
-        Ok(())
+        self.tracer.record(ctx, frame, timer, &structure)
     }
 
     fn indirect_view(&self) -> &wgpu::TextureView {

@@ -5,6 +5,7 @@
 import octolux::voxel::svo::sample::{SvoNodeLod, svo_info, svo_node_lod};
 import octolux::voxel::svo::radiance_sample::svo_radiance_sample;
 import octolux::voxel::svo::radiance_sample_aniso::{svo_radiance_aniso, svo_radiance_aniso_level};
+import octolux::voxel::svo::sample::count_lookup_work;
 
 @if(anisotropic) const SVO_ANISOTROPIC: bool = true;
 @else const SVO_ANISOTROPIC: bool = false;
@@ -30,6 +31,12 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
         return s * k;
     }
     return mix(s * k, svo_radiance_aniso_level(lod.g, lod.fine, dir), lod.below);
+}
+
+// Adds the octree lookups of this invocation's samples (and the nodes their descents
+// passed) to quantities `q` and `q + 1` of the pass's work counts (`gpu/work.wgsl`).
+fn vct_count_structure_work(q: u32) {
+    count_lookup_work(q, q + 1u);
 }
 
 // One grid, but a surface reaches further off itself than in the clipmap: the octree's

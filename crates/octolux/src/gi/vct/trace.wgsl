@@ -15,7 +15,9 @@ import octolux::gi::vct::cone::{ConeParams, march_cone};
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::sparse::block_pixel;
 import octolux::gi::vct::cone_set::DIFFUSE_CONES;
-import octolux::gi::vct::structure::vct_surface_voxel;
+import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
+import octolux::gi::vct::cone::count_cone_work;
+import octolux::gpu::work::count_work;
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var depth_tex: texture_depth_2d;
@@ -73,6 +75,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         occlusion += diffuse_cone_weight(i) * l.a;
     }
     textureStore(out_tex, id.xy, vec4<f32>(3.14159265 * e, 1.0 - occlusion));
+    // Work counts (`TRACE_WORK` in tracer.rs): pixels traced, cones, samples, the structure's.
+    count_work(0u, 1u);
+    count_cone_work(1u, 2u);
+    vct_count_structure_work(3u);
 }
 
 // The optional specular cone (`specular` setting): one cone per pixel along the view

@@ -11,6 +11,7 @@ use crate::gi::GiFrame;
 use crate::gpu::pass::{dispatch_2d, KeptBindGroup};
 use crate::gpu::shader::{library_shader, library_shader_with, module_source};
 use crate::gpu::{GpuContext, PassTimer};
+use crate::Result;
 
 /// The structure a [`ConeTracer`] marches: its trace module (composed in as
 /// `gi/vct/structure` for `trace.wgsl` and the marcher), its bounce gather's module and the `@if`
@@ -22,6 +23,32 @@ pub(crate) struct TraceStructure {
     pub bounce: &'static str,
     /// The modules' `@if` flags.
     pub features: Vec<(&'static str, bool)>,
+    /// Whether its samples are octree lookups (counted as work after the cones' samples).
+    pub octree: bool,
+}
+
+/// What the pixels' gather counts (`trace.wgsl`), and the octree's lookups after them.
+const TRACE_WORK: [&str; 5] = [
+    "pixels",
+    "cones",
+    "cone samples",
+    "octree lookups",
+    "octree nodes",
+];
+/// What the voxels' bounce gather counts (`svo_bounce.wgsl`, `clipmap_bounce.wgsl`).
+const BOUNCE_WORK: [&str; 5] = [
+    "voxels",
+    "cones",
+    "cone samples",
+    "octree lookups",
+    "octree nodes",
+];
+
+impl TraceStructure {
+    /// `work` without the octree's quantities for a structure without an octree.
+    fn work(&self, work: &'static [&'static str; 5]) -> &'static [&'static str] {
+        &work[..if self.octree { 5 } else { 3 }]
+    }
 }
 
 impl TraceStructure {
@@ -101,13 +128,14 @@ impl ConeTracer {
     pub(crate) fn new(
         ctx: &GpuContext,
         owner: &str,
-        structure: TraceStructure,
+        mut structure: TraceStructure,
         settings: &VctSettings,
         diffuse: DiffuseCones,
         bounce: DiffuseCones,
         width: u32,
         height: u32,
     ) -> ConeTracer {
+        structure.features.push(ctx.work_feature());
         let module = ctx.shader(
             "vct trace",
             &structure.compose("gi/vct/trace", diffuse.cones),
@@ -203,9 +231,10 @@ impl ConeTracer {
         frame: &GiFrame,
         timer: &mut PassTimer,
         structure: &[(u32, wgpu::BindingResource)],
-    ) {
+    ) -> Result<()> {
         let tex = wgpu::BindingResource::TextureView;
-        let bind = |kept: &KeptBindGroup, label: &str, pipeline, out: u32, view| {
+        let work = crate::gpu::work::entry(ctx, "trace", self.structure.work(&TRACE_WORK))?;
+        let bind = |kept: &KeptBindGroup, label: &str, pipeline, out: u32, view, counted| {
             let mut entries = vec![
                 (0, frame.camera_uniform.as_entire_binding()),
                 (1, tex(&frame.gbuffer.depth_view)),
@@ -214,12 +243,13 @@ impl ConeTracer {
                 (out, tex(view)),
             ];
             entries.extend(structure.iter().cloned());
+            entries.extend(counted);
             kept.get(ctx, label, pipeline, &entries)
         };
         let (w, h) = (self.texture.width(), self.texture.height());
         // 1. Six cones per traced pixel.
         let traced = self.upsample.as_ref().map_or(&self.view, |s| &s.view);
-        let group = bind(&self.groups[0], "vct trace", &self.trace, 6, traced);
+        let group = bind(&self.groups[0], "vct trace", &self.trace, 6, traced, work);
         let f = self.sparse;
         dispatch_2d(
             timer,
@@ -250,9 +280,21 @@ impl ConeTracer {
                 &spec.pipeline,
                 30,
                 &spec.view,
+                None,
             );
             dispatch_2d(timer, "specular", &spec.pipeline, &group, w, h);
         }
+        Ok(())
+    }
+
+    /// The bind group entry of the bounce gather's work counts (`pass`: its timer name),
+    /// where the context counts work.
+    pub(crate) fn bounce_work<'a>(
+        &self,
+        ctx: &'a GpuContext,
+        pass: &str,
+    ) -> Result<Option<(u32, wgpu::BindingResource<'a>)>> {
+        crate::gpu::work::entry(ctx, pass, self.structure.work(&BOUNCE_WORK))
     }
 
     /// The bounce gather's parameters (`TraceParams`, binding 5 of its passes).

@@ -436,7 +436,7 @@ impl GiTechnique for VplGi {
         );
         p.rsm.update(ctx, &self.rsm, &layers);
         p.rsm
-            .record(timer, frame.scene_gpu, &self.rsm, &layers, "vpl rsm");
+            .record(ctx, timer, frame.scene_gpu, &self.rsm, &layers, "vpl rsm")?;
         p.generate.record(timer, "vpl generate");
         if !p.bounce_groups.is_empty() {
             let n = self.settings.count;

@@ -6,6 +6,8 @@
 // "Parameter blocks" in voxel/mod.rs), the child links, the brick of each node and the
 // brick pool's 4 albedo buffers. The radiance and anisotropic samplers add theirs after them.
 
+import octolux::gpu::work::count_work;
+
 struct SvoInfo {
     // xyz: grid origin, w: voxel size.
     origin: vec4<f32>,
@@ -42,6 +44,24 @@ struct SvoCell {
     f: vec3<f32>,
 }
 
+// Work of the lookups of one invocation (`gpu/work.wgsl`): cells located (each a descent
+// from the root) and the nodes the descents passed, kept only by a counting shader.
+@if(count_work) var<private> svo_lookup_work: vec2<u32>;
+
+@if(count_work) fn note_lookup(nodes: u32) {
+    svo_lookup_work += vec2<u32>(1u, nodes);
+}
+
+@if(!count_work) fn note_lookup(nodes: u32) {}
+
+// Adds this invocation's lookups and nodes to quantities `lookups_q` and `nodes_q`.
+@if(count_work) fn count_lookup_work(lookups_q: u32, nodes_q: u32) {
+    count_work(lookups_q, svo_lookup_work.x);
+    count_work(nodes_q, svo_lookup_work.y);
+}
+
+@if(!count_work) fn count_lookup_work(lookups_q: u32, nodes_q: u32) {}
+
 fn svo_locate(g: vec3<f32>, d: u32) -> SvoCell {
     var cell: SvoCell;
     let depth = svo_info.misc.x;
@@ -55,11 +75,13 @@ fn svo_locate(g: vec3<f32>, d: u32) -> SvoCell {
     for (var l = 0u; l < d; l++) {
         let first = svo_child[node];
         if first == 0u {
+            note_lookup(l + 1u);
             return cell;
         }
         let s = d - 1u - l;
         node = first + ((c.x >> s) & 1u) + (((c.y >> s) & 1u) << 1u) + (((c.z >> s) & 1u) << 2u);
     }
+    note_lookup(d);
     cell.brick = svo_brick_index[node];
     let local = clamp(x - 2.0 * vec3<f32>(c), vec3<f32>(0.0), vec3<f32>(2.0));
     cell.i0 = min(vec3<u32>(local), vec3<u32>(1u));
