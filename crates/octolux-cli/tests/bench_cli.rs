@@ -223,6 +223,84 @@ fn no_reference_on_the_built_in_cornell_box() {
     check_scene(&scenes[0], "cornell-box");
 }
 
+/// The work counts of pass `pass` of technique `t` in a bench report, by quantity.
+fn work_of(report: &Value, t: usize, pass: &str) -> Vec<(String, u64)> {
+    let passes = report["scenes"][0]["techniques"][t]["passes"]
+        .as_array()
+        .unwrap();
+    let p = passes
+        .iter()
+        .find(|p| p["name"] == pass)
+        .unwrap_or_else(|| panic!("no pass '{pass}' in {passes:?}"));
+    p["work"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| {
+            (
+                w["quantity"].as_str().unwrap().to_string(),
+                w["count"].as_u64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn work_counts_per_pass_in_the_table_and_the_json() {
+    // VPL shading with 256 VPLs, 4 x 4 interleaving: each shaded pixel pairs with its
+    // sub-image's 256 / 16 VPLs, whatever the adapter; the LPV's RSM is one 64^2 layer of the
+    // Cornell box's 30 triangles (none culled: the spot sees the whole room).
+    let dir = temp_dir("work");
+    let json = dir.join("work.json");
+    let run = |extra: &[&str]| {
+        // `bench` measures none and lpv; vpl follows them (technique 2).
+        let mut args = vec!["--gi", "vpl", "--vpl-count", "256", "--json"];
+        args.push(json.to_str().unwrap());
+        args.extend(extra);
+        let output = bench(&[], &args);
+        assert_succeeds(&output);
+        let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        (String::from_utf8_lossy(&output.stdout).to_string(), report)
+    };
+    let (stdout, report) = run(&[]);
+    assert!(
+        stdout.contains("work in the first measured frame"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("VPL pairs"), "{stdout}");
+    let rsm = work_of(&report, 1, "lpv rsm");
+    let count = |w: &[(String, u64)], q: &str| {
+        w.iter()
+            .find(|(name, _)| name == q)
+            .unwrap_or_else(|| panic!("no '{q}' in {w:?}"))
+            .1
+    };
+    assert_eq!(count(&rsm, "layers"), 1, "{rsm:?}");
+    assert_eq!(count(&rsm, "texels"), 64 * 64, "{rsm:?}");
+    assert_eq!(count(&rsm, "triangles drawn"), 30, "{rsm:?}");
+    let inject = work_of(&report, 1, "lpv inject");
+    assert_eq!(count(&inject, "RSM texels"), 2 * 64 * 64, "{inject:?}");
+    let shade = work_of(&report, 2, "vpl shade");
+    let pixels = count(&shade, "pixels");
+    assert!(pixels > 0 && pixels <= 24 * 16, "{shade:?}");
+    assert_eq!(count(&shade, "VPL pairs"), pixels * 16, "{shade:?}");
+    let rays = count(&shade, "shadow rays");
+    assert!(0 < rays && rays <= pixels * 16, "{shade:?}");
+    assert!(count(&shade, "ray cells") >= rays, "{shade:?}");
+    assert!(
+        count(&shade, "octree nodes") >= count(&shade, "ray cells"),
+        "{shade:?}"
+    );
+    // A pass that counts nothing has an empty list; the same run again counts the same.
+    assert!(work_of(&report, 1, "lpv propagate").is_empty());
+    let (_, again) = run(&[]);
+    assert_eq!(work_of(&again, 2, "vpl shade"), shade);
+    // Without counting: no work anywhere, nothing in the table.
+    let (stdout, report) = run(&["--no-work-counts"]);
+    assert!(work_of(&report, 2, "vpl shade").is_empty());
+    assert!(!stdout.contains("VPL pairs"), "{stdout}");
+}
+
 #[test]
 fn two_scene_files_in_one_run() {
     let dir = temp_dir("two");

@@ -270,9 +270,16 @@ impl SvoWalkCpu {
         }
         let first = voxel_at(a, d, 0, 1, p.shift);
         let mut v = first;
+        // As `svo_first_hit`: the path of the last descent, valid from `reached` up.
+        let mut path = [0u32; 16];
+        let mut reached = p.depth;
+        let mut prev = v;
         for it in 0..p.cap {
-            let mut node = 0u32;
-            let mut k = p.depth;
+            let mut k = reached;
+            while k < p.depth && (v >> k as i32) != (prev >> k as i32) {
+                k += 1;
+            }
+            let mut node = path[k as usize];
             let mut occupied = false;
             work.cells = it + 1;
             loop {
@@ -295,7 +302,10 @@ impl SvoWalkCpu {
                 k -= 1;
                 let o = (v >> k as i32) & IVec3::ONE;
                 node = c + (o.x | (o.y << 1) | (o.z << 2)) as u32;
+                path[k as usize] = node;
             }
+            reached = k.max(1);
+            prev = v;
             let lo = (v >> k as i32) << k as i32;
             let mut dist = [0i32; 3];
             for i in 0..3 {

@@ -12,8 +12,10 @@
 // tn / td of two integers below 2^15. The CPU twin (`walk.rs`, `SvoWalkCpu`) runs the same
 // integer code, so both visit the same cells on every adapter. Products stay below 2^30 in i32.
 //
-// Each step restarts at the root and descends along the voxel holding the current point
-// (kd-restart), stopping at the first node without children (an empty octant of any level:
+// Each step restarts at the deepest node of the previous step's descent whose cell also holds
+// the current voxel (the walk keeps the path of its last descent; the root when nothing
+// deeper does, as in kd-restart) and descends along that voxel, stopping at the first node
+// without children (an empty octant of any level:
 // occupied nodes are always subdivided) or at a leaf, where an empty leaf is skipped whole and
 // an occupied one voxel by voxel. The cell is then left through its exit face: the next voxel
 // is the one holding the point just after the exit time, found exactly (no t-epsilon).
@@ -127,10 +129,19 @@ fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
     var v = vpl_voxel_at(a, d, 0, 1);
     let first = v;
     var nodes = 0u;
+    // path[k]: the node k levels above the voxels on the last descent, valid for k >= reached
+    // (path[depth] is the root); prev: the voxel of that descent.
+    var path: array<u32, 16>;
+    path[vo.depth] = 0u;
+    var reached = vo.depth;
+    var prev = v;
     for (var it = 0u; it < vo.cap; it++) {
-        // Descend from the root to the node holding v.
-        var node = 0u;
-        var k = vo.depth;
+        // Restart at the deepest node of the last descent whose cell holds v, then descend.
+        var k = reached;
+        while k < vo.depth && any((v >> vec3<u32>(k)) != (prev >> vec3<u32>(k))) {
+            k += 1u;
+        }
+        var node = path[k];
         var occupied = false;
         loop {
             nodes += 1u;
@@ -150,7 +161,10 @@ fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
             k -= 1u;
             let o = (v >> vec3<u32>(k)) & vec3<i32>(1);
             node = c + u32(o.x | (o.y << 1u) | (o.z << 2u));
+            path[k] = node;
         }
+        reached = max(k, 1u);
+        prev = v;
         // Leave the cell (side 2^k voxels) through the face the segment reaches first.
         let lo = (v >> vec3<u32>(k)) << vec3<u32>(k);
         let bound = select(lo, lo + vec3<i32>(1 << k), d > vec3<i32>(0)) << vec3<u32>(vo.shift);
