@@ -142,6 +142,11 @@ pub struct GiArgs {
     /// VPL GI: geometry-aware merge of the sub-images (default true).
     #[arg(long)]
     pub vpl_filter: Option<bool>,
+    /// VPL GI: sparse shading, one shaded pixel per N x N block, the others reconstructed
+    /// (1..=8; 1 shades every pixel; default 0: from the image height, 1 up to 359 rows, 2 up
+    /// to 539, 3 up to 719, 4 from 720).
+    #[arg(long)]
+    pub vpl_sparse: Option<u32>,
     /// Probes: probes per axis of the uniform grid, 2..=128 (default 21: 9261 probes).
     #[arg(long)]
     pub probes_grid: Option<u32>,
@@ -258,6 +263,7 @@ impl GiArgs {
         set(&mut vpl.end_offset, self.vpl_end_offset);
         set(&mut vpl.cull, self.vpl_cull);
         set(&mut vpl.filter, self.vpl_filter);
+        set(&mut vpl.sparse, self.vpl_sparse);
         set(&mut vpl.bounces, self.vpl_bounces);
         let probes = &mut settings.probes;
         set(&mut probes.grid, self.probes_grid.map(|n| [n; 3]));

@@ -386,30 +386,34 @@ fn one_vpl_over_a_plane_gives_the_closed_form_geometry_term() {
         animation: None,
     };
     let scene = scene_of(&[floor(1.0), tile], light, floor_camera());
-    let vpl = VplSettings {
-        count: 1,
-        interleave: 1,
-        filter: false,
-        rsm_size: 64,
-        resolution: 64,
-        ..VplSettings::default()
-    };
-    let (w, h) = (32, 32);
-    let mut r = Renderer::new(&ctx, &scene, settings(w, h, vpl.clone())).unwrap();
-    r.render(&scene, 0.0).unwrap();
-    let t = vpl_of(&r);
-    let v = t.read_vpls(&ctx).unwrap()[0];
-    assert!(v.flux.x > 0.0 && (v.position.y - 1.0).abs() < 1e-3, "{v:?}");
-    let b = vpl.clamp * t.svo().grid().voxel_size;
-    let g = r.read_gbuffer().unwrap();
-    let view = *r.last_view().unwrap();
-    let e = irradiance(&ctx, t.indirect_texture());
-    let mut checked = 0;
-    for y in 0..h {
-        for x in 0..w {
+    // Sparse shading: the shaded pixels (one per f x f block) are the closed form as above;
+    // every pixel is then a convex combination of the 2 x 2 shaded blocks around it, so it
+    // lies between their closed-form values (the same tolerance).
+    for sparse in [1, 2, 4] {
+        let vpl = VplSettings {
+            count: 1,
+            interleave: 1,
+            filter: false,
+            rsm_size: 64,
+            resolution: 64,
+            sparse,
+            ..VplSettings::default()
+        };
+        let (w, h) = (32, 32);
+        let mut r = Renderer::new(&ctx, &scene, settings(w, h, vpl.clone())).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        let t = vpl_of(&r);
+        let v = t.read_vpls(&ctx).unwrap()[0];
+        assert!(v.flux.x > 0.0 && (v.position.y - 1.0).abs() < 1e-3, "{v:?}");
+        let b = vpl.clamp * t.svo().grid().voxel_size;
+        let g = r.read_gbuffer().unwrap();
+        let view = *r.last_view().unwrap();
+        let e = irradiance(&ctx, t.indirect_texture());
+        // The closed form at pixel (x, y) where it sees the floor.
+        let closed = |x: u32, y: u32| {
             let i = (y * w + x) as usize;
             if g.depth[i] >= 1.0 || g.normal[i].y < 0.9 {
-                continue;
+                return None;
             }
             let ndc = Vec3::new(
                 (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
@@ -417,21 +421,59 @@ fn one_vpl_over_a_plane_gives_the_closed_form_geometry_term() {
                 g.depth[i],
             );
             let p = view.inv_view_proj.project_point3(ndc);
-            if p.y.abs() > 1e-2 {
-                continue;
+            (p.y.abs() <= 1e-2).then(|| {
+                v.flux / std::f32::consts::PI
+                    * geometry_term(p, Vec3::Y, v.position, v.normal, b * b)
+            })
+        };
+        // The shaded pixel of block (bx, by), as `block_pixel` in frame/sparse.wgsl.
+        let shaded = |bx: u32, by: u32| {
+            let (bw, bh) = (w.div_ceil(sparse), h.div_ceil(sparse));
+            let (bx, by) = (bx.min(bw - 1), by.min(bh - 1));
+            (
+                (bx * sparse + sparse / 2).min(w - 1),
+                (by * sparse + sparse / 2).min(h - 1),
+            )
+        };
+        let mut checked = 0;
+        let mut error = 0.0;
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y * w + x) as usize;
+                let Some(expected) = closed(x, y) else {
+                    continue;
+                };
+                let g0 = |c: u32| ((c as f32 + 0.5) / sparse as f32 - 0.5).floor().max(0.0) as u32;
+                let around: Vec<Vec3> = (0..4)
+                    .filter_map(|k| {
+                        let (sx, sy) = shaded(g0(x) + (k & 1), g0(y) + (k >> 1));
+                        closed(sx, sy)
+                    })
+                    .collect();
+                if around.len() < 4 {
+                    continue; // near the floor's edge: a neighbour block sees the tile
+                }
+                let lo = around.iter().fold(Vec3::INFINITY, |a, &b| a.min(b));
+                let hi = around.iter().fold(Vec3::NEG_INFINITY, |a, &b| a.max(b));
+                let tol = 2e-3 * hi.max_element() + 1e-6;
+                assert!(
+                    (e[i] - lo).min_element() >= -tol && (hi - e[i]).min_element() >= -tol,
+                    "sparse {sparse}, pixel ({x}, {y}): {} outside the shaded blocks' {lo}..{hi}",
+                    e[i]
+                );
+                error += ((e[i] - expected).abs() / expected.max(Vec3::splat(1e-9))).max_element();
+                checked += 1;
             }
-            let expected = v.flux / std::f32::consts::PI
-                * geometry_term(p, Vec3::Y, v.position, v.normal, b * b);
-            let err = (e[i] - expected).abs().max_element();
-            assert!(
-                err <= 2e-3 * expected.max_element() + 1e-6,
-                "pixel ({x}, {y}) at {p}: {} vs closed form {expected}",
-                e[i]
-            );
-            checked += 1;
         }
+        let mean = error / checked as f32;
+        println!("sparse {sparse}: {checked} floor pixels, mean relative error {mean:.4}");
+        assert!(checked > 150, "sparse {sparse}: {checked} floor pixels");
+        // Every pixel shaded: the closed form. Reconstructed: between shaded blocks 2 and 4
+        // pixels apart on a 32 x 32 image where the field falls by a few percent per pixel
+        // (measured 0.05 and 0.06); a wrong weight or block would be far off.
+        let bound = if sparse == 1 { 2e-3 } else { 0.1 };
+        assert!(mean < bound, "sparse {sparse}: mean relative error {mean}");
     }
-    assert!(checked > 200, "{checked} floor pixels");
 }
 
 fn irradiance(ctx: &GpuContext, texture: &wgpu::Texture) -> Vec<Vec3> {

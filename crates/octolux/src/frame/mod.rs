@@ -12,6 +12,7 @@ pub mod rsm;
 pub(crate) mod scene_gpu;
 pub(crate) mod shadow;
 pub(crate) mod sky;
+pub mod sparse;
 
 pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
 pub(crate) use lights::sky_regions_of;

@@ -13,7 +13,7 @@
 import octolux::frame::common::{Camera, world_from_depth};
 import octolux::gi::vct::cone::{ConeParams, march_cone};
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
-import octolux::gi::vct::sparse::block_pixel;
+import octolux::frame::sparse::block_pixel;
 import octolux::gi::vct::cone_set::DIFFUSE_CONES;
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;

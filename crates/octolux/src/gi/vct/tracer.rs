@@ -1,15 +1,16 @@
 //! The passes both cone-tracing techniques share once their structure holds injected
 //! radiance: the diffuse gather (`trace.wgsl`, every pixel or one per sparse block), the sparse
-//! reconstruction (`upsample.wgsl`) and the optional specular cone. The structure comes in as
+//! reconstruction (`frame::sparse`) and the optional specular cone. The structure comes in as
 //! a WGSL module composed in as `gi/vct/structure` (`vct_sample`, `vct_surface_voxel` and the
 //! bindings they read), its bounce module and as bind-group entries, so the octree and the
 //! clipmap differ only there.
 
 use super::cone::ConeParams;
 use super::{cone_set_wgsl, DiffuseCones, VctSettings};
+use crate::frame::sparse::SparseImage;
 use crate::gi::GiFrame;
 use crate::gpu::pass::{dispatch_2d, KeptBindGroup};
-use crate::gpu::shader::{library_shader, library_shader_with, module_source};
+use crate::gpu::shader::{library_shader_with, module_source};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::Result;
 
@@ -90,15 +91,15 @@ pub(crate) struct ConeTracer {
     sparse: u32,
     trace: wgpu::ComputePipeline,
     /// Sparse tracing: the reduced image and the reconstruction into the full one.
-    upsample: Option<Stage>,
+    upsample: Option<SparseImage>,
     specular: Option<Stage>,
     params: wgpu::Buffer,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     /// The technique's diffuse cones (the settings' or its structure's defaults).
     diffuse: DiffuseCones,
-    /// The trace, upsample and specular passes' bind groups, kept while their resources are.
-    groups: [KeptBindGroup; 3],
+    /// The trace and specular passes' bind groups, kept while their resources are.
+    groups: [KeptBindGroup; 2],
 }
 
 /// A texture of the technique's (`Rgba16Float`, written by compute, read by the next pass).
@@ -150,21 +151,7 @@ impl ConeTracer {
             }
         });
         let f = settings.sparse;
-        let upsample = (f > 1).then(|| {
-            let (texture, view) = image(
-                ctx,
-                owner,
-                "sparse irradiance",
-                width.div_ceil(f),
-                height.div_ceil(f),
-            );
-            let module = ctx.shader("vct upsample", &library_shader("gi/vct/upsample", &[]));
-            Stage {
-                view,
-                texture,
-                pipeline: ctx.compute_pipeline("vct upsample", &module, "main"),
-            }
-        });
+        let upsample = (f > 1).then(|| SparseImage::new(ctx, owner, f, width, height));
         let params_buffer = |label| {
             ctx.create_buffer(
                 owner,
@@ -248,7 +235,7 @@ impl ConeTracer {
         };
         let (w, h) = (self.texture.width(), self.texture.height());
         // 1. Six cones per traced pixel.
-        let traced = self.upsample.as_ref().map_or(&self.view, |s| &s.view);
+        let traced = self.upsample.as_ref().map_or(&self.view, |s| s.view());
         let group = bind(&self.groups[0], "vct trace", &self.trace, 6, traced, work);
         let f = self.sparse;
         dispatch_2d(
@@ -261,21 +248,19 @@ impl ConeTracer {
         );
         // 2. Sparse tracing: the untraced pixels from the traced ones.
         if let Some(up) = &self.upsample {
-            let entries = [
-                (0, frame.camera_uniform.as_entire_binding()),
-                (1, tex(&frame.gbuffer.depth_view)),
-                (2, tex(&frame.gbuffer.normal_view)),
-                (3, tex(&up.view)),
-                (4, self.params.as_entire_binding()),
-                (5, tex(&self.view)),
-            ];
-            let group = self.groups[1].get(ctx, "vct upsample", &up.pipeline, &entries);
-            dispatch_2d(timer, "upsample", &up.pipeline, &group, w, h);
+            up.record(
+                ctx,
+                timer,
+                "upsample",
+                frame.camera_uniform,
+                frame.gbuffer,
+                &self.view,
+            );
         }
         // 3. The optional specular cone, every pixel.
         if let Some(spec) = &self.specular {
             let group = bind(
-                &self.groups[2],
+                &self.groups[1],
                 "vct specular",
                 &spec.pipeline,
                 30,

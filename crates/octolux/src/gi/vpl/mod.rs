@@ -11,12 +11,17 @@
 //!    ([`generate`]); with `bounces` 2 or 3, `vpl bounce` adds the next bounce's VPLs where
 //!    rays from the previous bounce's VPLs hit the octree (`bounce.wgsl`).
 //! 4. `vpl shade`: interleaved shading, each pixel with 1 / I^2 of the VPLs, visibility by a
-//!    stackless walk of the octree ([`trace`], `shade.wgsl`).
-//! 5. `vpl merge`: geometry-aware I x I merge into the indirect irradiance image.
+//!    stackless walk of the octree (`voxel/svo/walk.wgsl`, `shade.wgsl`); with sparse
+//!    shading (default) one pixel per `sparse` x `sparse` block.
+//! 5. `vpl merge`: geometry-aware I x I merge into the indirect irradiance image (the reduced
+//!    image with sparse shading).
+//! 6. `vpl upsample` (sparse shading): every pixel reconstructed from the shaded blocks
+//!    around it on alike surfaces ([`crate::frame::sparse`]).
 
 pub mod generate;
 
 use crate::frame::rsm::{self, RsmLayer, RsmPass, RsmTargets};
+use crate::frame::sparse::SparseImage;
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_groups;
 use crate::gpu::shader::library_shader;
@@ -55,6 +60,12 @@ pub struct VplSettings {
     pub cull: f32,
     /// Geometry-aware merge of the sub-images (default true; false shows the raw interleave).
     pub filter: bool,
+    /// Sparse shading: one shaded pixel per `sparse` x `sparse` block, the others
+    /// reconstructed from the shaded ones around them on alike surfaces (`frame::sparse`);
+    /// 1..=8 (1: every pixel), or 0 (default) for [`VplSettings::sparse_factor`]'s choice from
+    /// the image height. The shadow rays, the pass's cost, fall by sparse^2 (docs/vpl.md
+    /// measures the error).
+    pub sparse: u32,
     /// Merge: least cosine between a neighbour's normal and the pixel's (default 0.9).
     pub normal_min: f32,
     /// Merge: largest distance of a neighbour to the pixel's tangent plane, as a fraction of
@@ -79,6 +90,7 @@ impl Default for VplSettings {
             end_offset: 1.75,
             cull: 0.0,
             filter: true,
+            sparse: 0,
             normal_min: 0.9,
             plane_tol: 0.02,
             bounces: 1,
@@ -102,6 +114,11 @@ impl VplSettings {
     pub fn validate(&self) -> Result<()> {
         check((1..=65536).contains(&self.count), "count", "1..=65536")?;
         check((1..=8).contains(&self.interleave), "interleave", "1..=8")?;
+        check(
+            self.sparse <= 8,
+            "sparse",
+            "0 (chosen from the image height) or 1..=8",
+        )?;
         check(
             self.clamp.is_finite() && self.clamp >= 0.0,
             "clamp",
@@ -146,6 +163,23 @@ impl VplSettings {
     }
 }
 
+/// Rows the reduced image of automatic sparse shading keeps at least.
+const SPARSE_ROWS: u32 = 180;
+
+impl VplSettings {
+    /// The sparse factor for images `height` pixels high: the setting, or where it is 0 the
+    /// largest factor up to 4 that leaves at least 180 shaded rows (1 at 160x90 and 320x180,
+    /// 2 at 640x360, 4 at 1280x720 and 1920x1080). Indirect light varies over a fraction of the
+    /// image, not over pixels: at 640x360 shading one pixel per 2 x 2 block errs no more than
+    /// shading every pixel (docs/vpl.md), and the shadow rays fall 4x.
+    pub fn sparse_factor(&self, height: u32) -> u32 {
+        match self.sparse {
+            0 => (height / SPARSE_ROWS).clamp(1, 4),
+            f => f,
+        }
+    }
+}
+
 /// `ShadeParams` of `shade.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -157,7 +191,7 @@ struct ShadeParams {
     normal_min: f32,
     plane_tol: f32,
     filter: u32,
-    pad: u32,
+    sparse: u32,
 }
 
 /// The geometry term of eq. 2-4 (as `vpl_g` in `shade.wgsl`): receiver at `p` with normal
@@ -185,8 +219,10 @@ pub struct VplGi {
     octree_params: wgpu::Buffer,
     rsm: RsmTargets,
     shade_params: wgpu::Buffer,
-    /// Per pixel, the sum of its VPL subset (`vec4<f32>`).
+    /// Per pixel of the reduced image, the sum of its VPL subset (`vec4<f32>`).
     raw: wgpu::Buffer,
+    /// Sparse shading's reduced image and reconstruction (None: every pixel shaded).
+    sparse: Option<SparseImage>,
     /// One 256-byte slot per shading chunk holding its index.
     chunks: wgpu::Buffer,
     texture: wgpu::Texture,
@@ -254,7 +290,7 @@ impl VplGi {
             normal_min: settings.normal_min,
             plane_tol: settings.plane_tol,
             filter: settings.filter as u32,
-            pad: 0,
+            sparse: settings.sparse_factor(height),
         };
         let shade_params =
             ctx.create_buffer_init(OWNER, "shade params", bytemuck::bytes_of(&shade), usage);
@@ -263,11 +299,14 @@ impl VplGi {
             crate::frame::sky_light_count(scene),
             settings.sky_rsms,
         );
+        let f = settings.sparse_factor(height);
+        let sparse = (f > 1).then(|| SparseImage::new(ctx, OWNER, f, width, height));
+        let (rw, rh) = (width.div_ceil(f), height.div_ceil(f));
         let raw = ctx.create_buffer(
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("interleaved irradiance"),
-                size: width as u64 * height as u64 * 16,
+                size: rw as u64 * rh as u64 * 16,
                 usage: wgpu::BufferUsages::STORAGE,
                 mapped_at_creation: false,
             },
@@ -290,6 +329,7 @@ impl VplGi {
             shade_params,
             raw,
             chunks,
+            sparse,
             texture,
             view,
             passes: None,
@@ -394,7 +434,10 @@ impl VplGi {
                 (5, tex(&frame.gbuffer.normal_view)),
                 (7, self.shade_params.as_entire_binding()),
                 (9, self.raw.as_entire_binding()),
-                (10, tex(&self.view)),
+                (
+                    10,
+                    tex(self.sparse.as_ref().map_or(&self.view, |s| s.view())),
+                ),
             ],
         );
         Ok(Passes {
@@ -452,7 +495,11 @@ impl GiTechnique for VplGi {
                 }
             });
         }
-        let (w, h) = (self.texture.width(), self.texture.height());
+        let f = self.sparse.as_ref().map_or(1, |s| s.factor());
+        let (w, h) = (
+            self.texture.width().div_ceil(f),
+            self.texture.height().div_ceil(f),
+        );
         let m = self.settings.interleave;
         timer.pass("vpl shade", |encoder, stamps| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -476,6 +523,16 @@ impl GiTechnique for VplGi {
             &p.merge_group,
             [w.div_ceil(8), h.div_ceil(8), 1],
         );
+        if let Some(sparse) = &self.sparse {
+            sparse.record(
+                ctx,
+                timer,
+                "vpl upsample",
+                frame.camera_uniform,
+                frame.gbuffer,
+                &self.view,
+            );
+        }
         Ok(())
     }
 

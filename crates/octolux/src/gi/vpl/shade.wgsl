@@ -1,5 +1,10 @@
 // Interleaved VPL shading (002 §3.2, eq. 1-4) and the geometry-aware merge.
 //
+// Sparse shading (`sparse` setting, `frame/sparse.rs`): the pixels below are those of the
+// reduced image, one per f x f block of the G-buffer, each standing at its block's centre
+// pixel; `frame/upsample.wgsl` reconstructs the full image after the merge (f = 1: every
+// pixel, no reconstruction).
+//
 // `shade`: the image is split into I x I sub-images by addressing, not by copying: dispatch z
 // is the sub-image k = (y mod I) I + (x mod I), and its pixels (x, y) sum VPL subset k, the
 // VPLs j = k, k + I^2, k + 2 I^2, ... (the VPLs are stratified over the RSMs in index order, so
@@ -21,6 +26,7 @@
 import octolux::voxel::svo::walk::{count_walk_work, svo_occluded, vpl_fixed_point};
 import octolux::gpu::work::count_work;
 import octolux::frame::common::{Camera, PI, world_from_depth};
+import octolux::frame::sparse::block_pixel;
 
 
 struct ShadeParams {
@@ -31,7 +37,8 @@ struct ShadeParams {
     normal_min: f32,
     plane_tol: f32,
     merge_on: u32,
-    pad: u32,
+    // The sparse factor f.
+    sparse: u32,
 };
 
 @group(0) @binding(0) var<uniform> cam: Camera;
@@ -43,6 +50,7 @@ struct ShadeParams {
 // subset and adds to it, `merge` reads it.
 @group(0) @binding(8) var<storage, read_write> raw: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> raw_in: array<vec4<f32>>;
+// The merged image: the indirect irradiance (f = 1) or the reduced image (f > 1).
 @group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
 // The chunk of VPLs a `shade` dispatch sums (one slot per dispatch).
 @group(0) @binding(13) var<storage, read> chunk: u32;
@@ -79,16 +87,31 @@ fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>) -> f32 {
     return cos_i * cos_o / max(sp.clamp_b, r2);
 }
 
+// The G-buffer's size, and the reduced image's (one pixel per f x f block).
+fn full_size() -> vec2<u32> {
+    return vec2<u32>(cam.size.xy);
+}
+
+fn reduced_size() -> vec2<u32> {
+    return (full_size() + vec2<u32>(sp.sparse - 1u)) / sp.sparse;
+}
+
+// The G-buffer pixel reduced pixel `q` stands for.
+fn gbuffer_pixel(q: vec2<u32>) -> vec2<u32> {
+    return block_pixel(q, sp.sparse, full_size());
+}
+
 @compute @workgroup_size(8, 8)
 fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     let m = sp.interleave;
     let k = id.z;
-    let px = vec2<u32>(id.x * m + k % m, id.y * m + k / m);
-    let size = vec2<u32>(cam.size.xy);
-    if px.x >= size.x || px.y >= size.y {
+    let q = vec2<u32>(id.x * m + k % m, id.y * m + k / m);
+    let size = reduced_size();
+    if q.x >= size.x || q.y >= size.y {
         return;
     }
-    let at = px.y * size.x + px.x;
+    let at = q.y * size.x + q.x;
+    let px = gbuffer_pixel(q);
     let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 {
         raw[at] = vec4<f32>(0.0);
@@ -135,14 +158,14 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
 
 @compute @workgroup_size(8, 8)
 fn merge(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = vec2<u32>(cam.size.xy);
+    let size = reduced_size();
     if id.x >= size.x || id.y >= size.y {
         return;
     }
-    let px = id.xy;
+    let px = gbuffer_pixel(id.xy);
     let depth = textureLoad(depth_tex, px, 0);
     if depth >= 1.0 || sp.merge_on == 0u {
-        textureStore(out_tex, px, vec4<f32>(raw_in[px.y * size.x + px.x].rgb, 1.0));
+        textureStore(out_tex, id.xy, vec4<f32>(raw_in[id.y * size.x + id.x].rgb, 1.0));
         return;
     }
     let p = world_from_depth(cam, px, depth);
@@ -153,16 +176,17 @@ fn merge(@builtin(global_invocation_id) id: vec3<u32>) {
     var weight = 0.0;
     for (var dy = -m / 2; dy < m - m / 2; dy++) {
         for (var dx = -m / 2; dx < m - m / 2; dx++) {
-            let q = vec2<i32>(px) + vec2<i32>(dx, dy);
+            let q = vec2<i32>(id.xy) + vec2<i32>(dx, dy);
             if any(q < vec2<i32>(0)) || any(q >= vec2<i32>(size)) {
                 continue;
             }
-            let dq = textureLoad(depth_tex, q, 0);
+            let gq = gbuffer_pixel(vec2<u32>(q));
+            let dq = textureLoad(depth_tex, gq, 0);
             if dq >= 1.0 {
                 continue;
             }
-            let nq = normalize(textureLoad(normal_tex, q, 0).xyz);
-            let pq = world_from_depth(cam, vec2<u32>(q), dq);
+            let nq = normalize(textureLoad(normal_tex, gq, 0).xyz);
+            let pq = world_from_depth(cam, gq, dq);
             if dot(n, nq) < sp.normal_min || abs(dot(n, pq - p)) > tol {
                 continue;
             }
@@ -170,5 +194,5 @@ fn merge(@builtin(global_invocation_id) id: vec3<u32>) {
             weight += 1.0;
         }
     }
-    textureStore(out_tex, px, vec4<f32>(sum / max(weight, 1.0), 1.0));
+    textureStore(out_tex, id.xy, vec4<f32>(sum / max(weight, 1.0), 1.0));
 }

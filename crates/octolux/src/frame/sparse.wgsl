@@ -1,5 +1,5 @@
-// Sparse tracing's blocks, shared by `trace.wgsl` and `upsample.wgsl`: one traced pixel per
-// f x f block of the image.
+// Sparse shading's blocks (`frame/sparse.rs`): a technique shades one pixel per f x f block of
+// the image and `upsample.wgsl` reconstructs the others.
 
 // The pixel traced for block b: the block's centre, inside the image.
 fn block_pixel(b: vec2<u32>, f: u32, size: vec2<u32>) -> vec2<u32> {

@@ -1,26 +1,20 @@
-// Sparse tracing's reconstruction: every pixel takes the irradiance of the 2 x 2 traced
-// blocks around it (`trace.wgsl`, one traced pixel per f x f block, at the block's centre),
+// Sparse shading's reconstruction (`frame/sparse.rs`): every pixel takes the irradiance of the
+// 2 x 2 shaded blocks around it (one shaded pixel per f x f block, at the block's centre),
 // weighted bilinearly and by how alike the traced pixel's surface is: relative view depth
 // (exp(-|dz| / (0.05 z))) and normal (max(0, n.n')^8). Where no neighbour is alike (a
 // silhouette against unrelated surfaces) it takes the most alike one. Alpha (the ambient
 // occlusion) is reconstructed alike.
 
 import octolux::frame::common::{Camera, world_from_depth};
-import octolux::gi::vct::sparse::block_pixel;
+import octolux::frame::sparse::block_pixel;
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var depth_tex: texture_depth_2d;
 @group(0) @binding(2) var normal_tex: texture_2d<f32>;
 @group(0) @binding(3) var sparse_tex: texture_2d<f32>;
-@group(0) @binding(4) var<storage, read> trace: TraceParams;
+// The sparse factor f (a storage block: "Parameter blocks" in voxel/mod.rs).
+@group(0) @binding(4) var<storage, read> sparse_factor: u32;
 @group(0) @binding(5) var out_tex: texture_storage_2d<rgba16float, write>;
-
-// The trace's parameter block (`TraceParams` in trace.wgsl): the cone parameters (two vec4s),
-// then misc (y: the sparse factor f).
-struct TraceParams {
-    cone: array<vec4<f32>, 2>,
-    misc: vec4<f32>,
-}
 
 fn view_depth(px: vec2<u32>) -> f32 {
     let d = textureLoad(depth_tex, px, 0);
@@ -37,7 +31,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(out_tex, id.xy, vec4<f32>(0.0, 0.0, 0.0, 1.0));
         return;
     }
-    let f = u32(trace.misc.y);
+    let f = sparse_factor;
     let blocks = (size + vec2<u32>(f - 1u)) / f;
     let z = view_depth(id.xy);
     let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
