@@ -302,6 +302,32 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
 }
 
 #[test]
+fn bounce_gathers_launch_a_lane_per_listed_voxel() {
+    // The cone tracers' bounce gathers visit the listed voxels only: the lanes launched are
+    // the voxels that gathered, rounded up to whole workgroups of 64, whatever the structure.
+    let dir = temp_dir("lanes");
+    let json = dir.join("lanes.json");
+    let output = bench(
+        &[],
+        &[
+            "--gi",
+            "vct-clipmap,vct-svo",
+            "--json",
+            json.to_str().unwrap(),
+        ],
+    );
+    assert_succeeds(&output);
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for (t, pass) in [(2, "vct-clipmap bounce"), (3, "vct-svo bounce")] {
+        let work = work_of(&report, t, pass);
+        let count = |q: &str| work.iter().find(|(name, _)| name == q).unwrap().1;
+        let voxels = count("voxels");
+        assert!(voxels > 100, "{pass}: {work:?}");
+        assert_eq!(count("lanes"), voxels.div_ceil(64) * 64, "{pass}: {work:?}");
+    }
+}
+
+#[test]
 fn two_scene_files_in_one_run() {
     let dir = temp_dir("two");
     let json_dir = dir.join("per-scene");

@@ -75,6 +75,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "gi/vct/gather",
     "gi/vct/trace",
     "gi/vct/svo_trace",
+    "gi/vct/bounce_list",
     "gi/vct/svo_bounce",
     "gi/vct/clipmap_trace",
     "gi/vct/clipmap_bounce",

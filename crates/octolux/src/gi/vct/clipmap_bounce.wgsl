@@ -1,8 +1,13 @@
-// Multiple bounces on the clipmap (`multi_bounce`). `bounce`: one invocation per voxel slot
-// of every level gathers the indirect irradiance at the voxel with the diffuse cones of
-// `trace.wgsl` through the radiance injected this frame, from the voxel's centre along its
-// mean normal. The next frame's injection adds it to the voxel's direct irradiance
-// (`Clipmap::set_bounce`), so each frame carries the light one bounce further.
+// Multiple bounces on the clipmap (`multi_bounce`): every occupied voxel with a dominant normal
+// gathers the indirect irradiance at the voxel with the diffuse cones of `trace.wgsl` through
+// the radiance injected this frame, from the voxel's centre along its mean normal. The next
+// frame's injection adds it to the voxel's direct irradiance (`Clipmap::set_bounce`), so each
+// frame carries the light one bounce further.
+//
+// `bounce_list` lists the voxels that gather and zeroes the other slots' bounce,
+// `bounce_args` (`bounce_list.wgsl`) sizes the gather, and `bounce` gathers one listed voxel
+// per invocation.
+//
 // `bounce_clear`: zeroes the slots of one box the clipmap revoxelised this frame (slots that
 // wrapped to new voxels as the clipmap scrolled, regions moving objects left or entered), so
 // no voxel starts with another voxel's bounce.
@@ -15,6 +20,7 @@ import octolux::gi::vct::cone_set::DIFFUSE_CONES;
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
+import octolux::gi::vct::bounce_list::{list_slot, listed_slot};
 
 // x: voxel slots (levels * res^3)
 struct BounceParams {
@@ -33,37 +39,53 @@ struct BounceBox {
 @group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
 @group(0) @binding(23) var<storage, read> bounce_box: BounceBox;
 
+// Whether slot i gathers: occupied, with a dominant normal (opposite faces cancel).
+fn gathers(i: u32) -> bool {
+    let n = unpack4x8snorm(clip_normals[i]).xyz;
+    return unpack4x8unorm(clip_voxels[i]).a > 0.0 && dot(n, n) > 0.01;
+}
+
+// Lists the slots that gather (`bounce_list.wgsl`) and zeroes the others' bounce.
+@compute @workgroup_size(64)
+fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+               @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    let slot = i < bounce_params.misc.x;
+    let listed = slot && gathers(i);
+    if slot && !listed {
+        bounce_irradiance[2u * i] = 0u;
+        bounce_irradiance[2u * i + 1u] = 0u;
+    }
+    list_slot(i, listed, li);
+}
+
 @compute @workgroup_size(64)
 fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
-    let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    if i >= bounce_params.misc.x {
+    // Work counts (`BOUNCE_WORK` in tracer.rs): lanes launched, then what the voxels did.
+    count_work(0u, 1u);
+    let i = listed_slot((wg.y * nwg.x + wg.x) * 64u + li);
+    if i == 0xffffffffu {
         return;
     }
-    let n = unpack4x8snorm(clip_normals[i]).xyz;
+    let nn = normalize(unpack4x8snorm(clip_normals[i]).xyz);
+    let centre = clip_slot_centre(i);
+    let p = centre.xyz;
+    // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to half
+    // its size behind the surface it holds.
+    let voxel = max(vct_surface_voxel(p, trace.cone.voxel), centre.w);
+    var cone = trace.cone;
+    cone.voxel = voxel;
+    cone.start = trace.misc.x * voxel;
+    let apex = p + nn * cone.start;
     var e = vec3<f32>(0.0);
-    // Voxels without a dominant normal (opposite faces cancelled) get no bounce.
-    if unpack4x8unorm(clip_voxels[i]).a > 0.0 && dot(n, n) > 0.01 {
-        let centre = clip_slot_centre(i);
-        let p = centre.xyz;
-        let size = centre.w;
-        let nn = normalize(n);
-        // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to
-        // half its size behind the surface it holds.
-        let voxel = max(vct_surface_voxel(p, trace.cone.voxel), size);
-        var cone = trace.cone;
-        cone.voxel = voxel;
-        cone.start = trace.misc.x * voxel;
-        let apex = p + nn * cone.start;
-        for (var k = 0u; k < DIFFUSE_CONES; k++) {
-            e += diffuse_cone_weight(k) * march_cone(apex, diffuse_cone_dir(nn, k), cone).rgb;
-        }
-        e *= 3.14159265;
-        count_work(0u, 1u);
+    for (var k = 0u; k < DIFFUSE_CONES; k++) {
+        e += diffuse_cone_weight(k) * march_cone(apex, diffuse_cone_dir(nn, k), cone).rgb;
     }
-    // Work counts (`BOUNCE_WORK` in tracer.rs): voxels gathered, cones, samples.
-    count_cone_work(1u, 2u);
-    vct_count_structure_work(3u);
+    e *= 3.14159265;
+    count_work(1u, 1u);
+    count_cone_work(2u, 3u);
+    vct_count_structure_work(4u);
     bounce_irradiance[2u * i] = pack2x16float(e.rg);
     bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
 }

@@ -3,6 +3,7 @@
 //! multiple bounces, the indirect light the voxels gathered last frame) is injected into its
 //! voxels, and every pixel gathers through six cones.
 
+use super::bounce_list::BounceList;
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
@@ -38,14 +39,16 @@ pub struct VctClipmap {
 }
 
 /// Multiple bounces on the clipmap: the indirect irradiance every voxel slot gathered last
-/// frame (RGBA16F per slot, layout of the clipmap's voxels), the gather and the pass that
-/// clears the revoxelised boxes.
+/// frame (RGBA16F per slot, layout of the clipmap's voxels), the gather over the listed
+/// voxels (`clipmap_bounce.wgsl`: the list, its indirect dispatch, the gather) and the pass
+/// that clears the revoxelised boxes.
 struct ClipmapBounce {
     irradiance: wgpu::Buffer,
+    /// The voxels that gather this frame.
+    list: BounceList,
     gather: wgpu::ComputePipeline,
     clear: wgpu::ComputePipeline,
     params: wgpu::Buffer,
-    slots: u32,
     /// The boxes a frame clears, one `BounceBox` per [`BOX_STRIDE`] (grown when a frame has
     /// more than it holds), and the clear's bind group per box and the gather's, kept while
     /// their resources are.
@@ -127,6 +130,7 @@ impl VctClipmap {
             let slots = settings.levels as u64 * res * res * res;
             let module = tracer.bounce_module(ctx);
             ClipmapBounce {
+                list: BounceList::new(ctx, OWNER, &module, slots as u32),
                 irradiance: ctx.create_buffer(
                     OWNER,
                     &wgpu::BufferDescriptor {
@@ -144,7 +148,6 @@ impl VctClipmap {
                     bytemuck::cast_slice(&[slots as u32, 0, 0, 0]),
                     wgpu::BufferUsages::STORAGE,
                 ),
-                slots: slots as u32,
                 boxes: box_buffer(ctx, BOX_ROOM),
                 clear_groups: Vec::new(),
                 gather_group: KeptBindGroup::default(),
@@ -333,19 +336,24 @@ impl GiTechnique for VctClipmap {
         // 5. Multiple bounces: every voxel gathers indirect irradiance for the next frame.
         if let Some(b) = &self.bounce {
             let [info, voxels] = clip_bindings(&self.info, &clipmap.voxels);
-            let mut entries = vec![
-                info,
-                voxels,
-                (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
-                (5, self.tracer.bounce_params().as_entire_binding()),
-                (13, self.tail.buffer.as_entire_binding()),
-                (20, b.params.as_entire_binding()),
+            let shared = [
                 (21, clipmap.normals.as_entire_binding()),
                 (22, b.irradiance.as_entire_binding()),
             ];
+            let mut entries = vec![
+                info,
+                (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
+                (5, self.tracer.bounce_params().as_entire_binding()),
+                (13, self.tail.buffer.as_entire_binding()),
+            ];
+            entries.extend(shared.iter().cloned());
+            entries.extend(b.list.gather_entries());
             entries.extend(self.tracer.bounce_work(ctx, "bounce")?);
-            let group = b.gather_group.get(ctx, "vct bounce", &b.gather, &entries);
-            dispatch_1d(timer, "bounce", &b.gather, &group, b.slots);
+            let gather = b.gather_group.get(ctx, "vct bounce", &b.gather, &entries);
+            let mut list = vec![voxels, (20, b.params.as_entire_binding())];
+            list.extend(shared);
+            b.list
+                .record(ctx, timer, "bounce", &list, &b.gather, &gather);
         }
         // 6. Six cones per pixel through the injected radiance (sparse, then reconstructed;
         //    the specular cone where enabled).

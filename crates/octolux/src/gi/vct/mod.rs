@@ -8,8 +8,10 @@
 //! with the module of the structure it traces: the octree's or the clipmap's radiance sampler
 //! (`svo_trace.wgsl`, `clipmap_trace.wgsl`). [`gather`] holds the diffuse gather's cone set
 //! and weights; `tracer.rs` the passes both techniques share (gather, sparse reconstruction,
-//! specular cone), so the two differ only in the structure they bring up to date and sample.
+//! specular cone) and `bounce_list.rs` the list of voxels their bounce gathers visit, so the
+//! two differ only in the structure they bring up to date and sample.
 
+mod bounce_list;
 mod clipmap_gi;
 pub mod clipmap_tail;
 pub mod cone;

@@ -3,9 +3,12 @@
 // through the radiance injected this frame, from the voxel's centre along its mean normal
 // (the geometry the injection wrote, `SvoBounce`). The next frame's injection adds it to the
 // voxel's direct irradiance, so each frame carries the light one bounce further and the
-// octree converges to multi-bounce radiance. The dynamic part's voxels (`bounce_dynamic`)
-// gather the same way; their leaves are rebuilt every frame in another order, so their
-// irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`) instead of by slot.
+// octree converges to multi-bounce radiance. `bounce_list` lists the static slots whose voxel
+// gathers and zeroes the others' bounce, `bounce_args` (`bounce_list.wgsl`) sizes the gather,
+// and `bounce` gathers one listed voxel per invocation. The dynamic part's voxels
+// (`bounce_dynamic`) gather the same way; their leaves are rebuilt every frame in another
+// order, so their irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`)
+// instead of by slot.
 
 // x: static leaf voxel slots (the dynamic leaves' slots follow), y: capacity of the dynamic
 // voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z])
@@ -18,6 +21,7 @@ import octolux::gi::vct::cone_set::DIFFUSE_CONES;
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gi::vct::structure::vct_count_structure_work;
 import octolux::gpu::work::count_work;
+import octolux::gi::vct::bounce_list::{list_slot, listed_slot};
 
 struct BounceParams {
     misc: vec4<u32>,
@@ -30,13 +34,18 @@ struct BounceParams {
 @group(0) @binding(24) var<storage, read_write> table_keys: array<atomic<u32>>;
 @group(0) @binding(25) var<storage, read_write> table_values: array<u32>;
 
-// Indirect irradiance at the voxel of geometry slot `i` (zero for an empty one or one without
-// a dominant normal).
+// Whether the voxel of geometry slot `i` gathers: occupied, with a dominant normal.
+fn voxel_gathers(i: u32) -> bool {
+    let n = unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz;
+    return (bounce_geometry[2u * i] & (1u << 30u)) != 0u && dot(n, n) > 0.25;
+}
+
+// Indirect irradiance at the voxel of geometry slot `i` (zero where it does not gather).
 fn voxel_bounce(i: u32) -> vec3<f32> {
     let g = bounce_geometry[2u * i];
     let n = unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz;
     var e = vec3<f32>(0.0);
-    if (g & (1u << 30u)) != 0u && dot(n, n) > 0.25 {
+    if voxel_gathers(i) {
         let v = vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u);
         let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
         let nn = normalize(n);
@@ -45,19 +54,35 @@ fn voxel_bounce(i: u32) -> vec3<f32> {
             e += diffuse_cone_weight(k) * march_cone(s.apex, diffuse_cone_dir(nn, k), s.cone).rgb;
         }
         e *= 3.14159265;
-        count_work(0u, 1u);
+        count_work(1u, 1u);
     }
-    // Work counts (`BOUNCE_WORK` in tracer.rs): voxels gathered, cones, samples, lookups.
-    count_cone_work(1u, 2u);
-    vct_count_structure_work(3u);
+    // Work counts (`BOUNCE_WORK` in tracer.rs): voxels gathered, cones, samples, lookups (the
+    // lanes launched are counted by the entry points).
+    count_cone_work(2u, 3u);
+    vct_count_structure_work(4u);
     return e;
+}
+
+// Lists the static slots whose voxel gathers (`bounce_list.wgsl`) and zeroes the others'.
+@compute @workgroup_size(64)
+fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+               @builtin(local_invocation_index) li: u32) {
+    let i = (wg.y * nwg.x + wg.x) * 64u + li;
+    let slot = i < bounce_params.misc.x;
+    let listed = slot && voxel_gathers(i);
+    if slot && !listed {
+        bounce_irradiance[2u * i] = 0u;
+        bounce_irradiance[2u * i + 1u] = 0u;
+    }
+    list_slot(i, listed, li);
 }
 
 @compute @workgroup_size(64)
 fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
-    let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    if i >= bounce_params.misc.x {
+    count_work(0u, 1u);
+    let i = listed_slot((wg.y * nwg.x + wg.x) * 64u + li);
+    if i == 0xffffffffu {
         return;
     }
     let e = voxel_bounce(i);
@@ -72,6 +97,7 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
 @compute @workgroup_size(8)
 fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) o: u32) {
+    count_work(0u, 1u);
     let l = wg.y * nwg.x + wg.x;
     let leaf = bounce_params.misc.z;
     if l >= svo_control[65u + 2u * leaf] - svo_control[64u + 2u * leaf] {

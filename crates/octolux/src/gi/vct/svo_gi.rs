@@ -5,11 +5,12 @@
 //! filtered up the levels (and, with `anisotropic`, composited per direction), the voxels
 //! gather the next bounce, and every traced pixel gathers through the diffuse cones.
 
+use super::bounce_list::BounceList;
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
 use super::{VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
-use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
+use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::voxel::svo::aniso_radiance::SvoAnisoRadiance;
@@ -49,13 +50,13 @@ enum AnisoBinding {
 /// their parameters.
 struct Bounce {
     buffers: SvoBounce,
-    /// The static leaf voxels' gather (one invocation per slot).
+    /// The static leaf voxels' gather (one invocation per listed voxel).
     pipeline: wgpu::ComputePipeline,
+    /// The static slots whose voxel gathers this frame.
+    list: BounceList,
     /// With animated objects: the dynamic leaf voxels' gather into the bounce table.
     dynamic: Option<wgpu::ComputePipeline>,
     params: wgpu::Buffer,
-    /// Static leaf voxel slots.
-    slots: u32,
     /// The static gather's bind group and the dynamic one's per table written (the tables
     /// alternate), kept while their resources are.
     groups: [KeptBindGroup; 3],
@@ -259,10 +260,10 @@ impl Bounce {
                 frame: 0,
             },
             pipeline: ctx.compute_pipeline("bounce", &module, "bounce"),
+            list: BounceList::new(ctx, OWNER, &module, slots),
             dynamic: dynamic_reserve
                 .map(|_| ctx.compute_pipeline("bounce_dynamic", &module, "bounce_dynamic")),
             params,
-            slots,
             groups: Default::default(),
         })
     }
@@ -279,36 +280,43 @@ impl Bounce {
     ) -> Result<()> {
         let group = |kept: &KeptBindGroup,
                      pipeline: &wgpu::ComputePipeline,
-                     extra: &[(u32, &wgpu::Buffer)],
+                     extra: &[(u32, wgpu::BindingResource)],
                      pass: &str|
          -> Result<wgpu::BindGroup> {
             let mut entries = structure.to_vec();
             entries.extend(tracer.bounce_work(ctx, pass)?);
-            let common = [
-                (5, tracer.bounce_params()),
-                (20, &self.params),
-                (21, &self.buffers.geometry),
-            ];
-            entries.extend(
-                common
-                    .iter()
-                    .chain(extra)
-                    .map(|&(binding, buffer)| (binding, buffer.as_entire_binding())),
-            );
+            entries.push((5, tracer.bounce_params().as_entire_binding()));
+            entries.push((21, self.buffers.geometry.as_entire_binding()));
+            entries.extend(extra.iter().cloned());
             Ok(kept.get(ctx, "vct bounce", pipeline, &entries))
         };
-        let statics = group(
-            &self.groups[0],
-            &self.pipeline,
-            &[(22, &self.buffers.irradiance)],
+        let irradiance = (22, self.buffers.irradiance.as_entire_binding());
+        let mut extra = vec![irradiance.clone()];
+        extra.extend(self.list.gather_entries());
+        let statics = group(&self.groups[0], &self.pipeline, &extra, "bounce")?;
+        let list_entries = [
+            (20, self.params.as_entire_binding()),
+            (21, self.buffers.geometry.as_entire_binding()),
+            irradiance,
+        ];
+        self.list.record(
+            ctx,
+            timer,
             "bounce",
-        )?;
-        dispatch_1d(timer, "bounce", &self.pipeline, &statics, self.slots);
+            &list_entries,
+            &self.pipeline,
+            &statics,
+        );
         if let (Some(pipeline), Some(table)) = (&self.dynamic, self.buffers.write_table()) {
             let dynamics = group(
                 &self.groups[1 + (self.buffers.frame & 1) as usize],
                 pipeline,
-                &[(23, svo.control()), (24, &table.keys), (25, &table.values)],
+                &[
+                    (20, self.params.as_entire_binding()),
+                    (23, svo.control().as_entire_binding()),
+                    (24, table.keys.as_entire_binding()),
+                    (25, table.values.as_entire_binding()),
+                ],
                 "bounce (dynamic)",
             )?;
             let (args, offset) = svo.dynamic_leaf_dispatch();

@@ -36,8 +36,11 @@ const TRACE_WORK: [&str; 5] = [
     "octree lookups",
     "octree nodes",
 ];
-/// What the voxels' bounce gather counts (`svo_bounce.wgsl`, `clipmap_bounce.wgsl`).
-const BOUNCE_WORK: [&str; 5] = [
+/// What the voxels' bounce gather counts (`svo_bounce.wgsl`, `clipmap_bounce.wgsl`): the
+/// lanes launched (a GPU runs a SIMD group of lanes as long as its slowest lane), then the
+/// voxels that gathered and their cones' work.
+const BOUNCE_WORK: [&str; 6] = [
+    "lanes",
     "voxels",
     "cones",
     "cone samples",
@@ -46,9 +49,9 @@ const BOUNCE_WORK: [&str; 5] = [
 ];
 
 impl TraceStructure {
-    /// `work` without the octree's quantities for a structure without an octree.
-    fn work(&self, work: &'static [&'static str; 5]) -> &'static [&'static str] {
-        &work[..if self.octree { 5 } else { 3 }]
+    /// `work` without the octree's two quantities (last) for a structure without an octree.
+    fn work<const N: usize>(&self, work: &'static [&'static str; N]) -> &'static [&'static str] {
+        &work[..if self.octree { N } else { N - 2 }]
     }
 }
 

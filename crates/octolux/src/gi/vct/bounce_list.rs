@@ -1,0 +1,110 @@
+//! The voxels a bounce gather visits this frame, listed on the GPU (`bounce_list.wgsl`), for
+//! the octree's and the clipmap's bounce: one invocation per slot lists the slots whose voxel
+//! gathers, one invocation turns their count into an indirect dispatch, and the gather runs
+//! one invocation per listed voxel, so a GPU's SIMD groups are full instead of mostly idle
+//! (work counts: the gather's `lanes` against its `voxels`).
+
+use crate::gpu::pass::{dispatch_size, KeptBindGroup};
+use crate::gpu::{GpuContext, PassTimer};
+
+/// Bindings of the list, its count and the indirect dispatch (`bounce_list.wgsl`).
+const LIST: u32 = 27;
+const COUNT: u32 = 28;
+const ARGS: u32 = 29;
+
+/// The list of one bounce gather over `slots` slots and its indirect dispatch.
+pub(crate) struct BounceList {
+    slots: u32,
+    list: wgpu::Buffer,
+    count: wgpu::Buffer,
+    args: wgpu::Buffer,
+    list_pipeline: wgpu::ComputePipeline,
+    args_pipeline: wgpu::ComputePipeline,
+    groups: [KeptBindGroup; 2],
+}
+
+impl BounceList {
+    /// The buffers for `slots` slots, recorded under `owner`, and the list's pipelines from the
+    /// bounce's `module` (its `bounce_list` entry point and `bounce_args`).
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        owner: &str,
+        module: &wgpu::ShaderModule,
+        slots: u32,
+    ) -> BounceList {
+        let buffer = |label, size, usage| {
+            ctx.create_buffer(
+                owner,
+                &wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage: wgpu::BufferUsages::STORAGE | usage,
+                    mapped_at_creation: false,
+                },
+            )
+        };
+        BounceList {
+            slots,
+            list: buffer(
+                "bounce list",
+                slots.max(1) as u64 * 4,
+                wgpu::BufferUsages::empty(),
+            ),
+            count: buffer("bounce count", 4, wgpu::BufferUsages::COPY_DST),
+            args: buffer("bounce dispatch", 12, wgpu::BufferUsages::INDIRECT),
+            list_pipeline: ctx.compute_pipeline("bounce list", module, "bounce_list"),
+            args_pipeline: ctx.compute_pipeline("bounce args", module, "bounce_args"),
+            groups: Default::default(),
+        }
+    }
+
+    /// The list's entries of the gather's bind group (the list and its count).
+    pub(crate) fn gather_entries(&self) -> [(u32, wgpu::BindingResource<'_>); 2] {
+        [
+            (LIST, self.list.as_entire_binding()),
+            (COUNT, self.count.as_entire_binding()),
+        ]
+    }
+
+    /// Records, as the pass `name`, the list (its entry point bound with `list_entries` and
+    /// the list's own), the indirect dispatch and the gather (`gather` with `gather_group`).
+    pub(crate) fn record(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        name: &str,
+        list_entries: &[(u32, wgpu::BindingResource)],
+        gather: &wgpu::ComputePipeline,
+        gather_group: &wgpu::BindGroup,
+    ) {
+        let mut entries = list_entries.to_vec();
+        entries.extend(self.gather_entries());
+        let list = self.groups[0].get(ctx, "bounce list", &self.list_pipeline, &entries);
+        let args = self.groups[1].get(
+            ctx,
+            "bounce args",
+            &self.args_pipeline,
+            &[
+                (COUNT, self.count.as_entire_binding()),
+                (ARGS, self.args.as_entire_binding()),
+            ],
+        );
+        let (x, y) = dispatch_size(self.slots);
+        timer.pass(name, |encoder, stamps| {
+            encoder.clear_buffer(&self.count, 0, None);
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some(name),
+                timestamp_writes: stamps.compute(),
+            });
+            pass.set_pipeline(&self.list_pipeline);
+            pass.set_bind_group(0, &list, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+            pass.set_pipeline(&self.args_pipeline);
+            pass.set_bind_group(0, &args, &[]);
+            pass.dispatch_workgroups(1, 1, 1);
+            pass.set_pipeline(gather);
+            pass.set_bind_group(0, gather_group, &[]);
+            pass.dispatch_workgroups_indirect(&self.args, 0);
+        });
+    }
+}

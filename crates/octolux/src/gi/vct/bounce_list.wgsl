@@ -1,0 +1,50 @@
+// The voxels a bounce gather visits this frame, listed (`bounce_list.rs`), for the octree's
+// and the clipmap's bounce. Most slots of a structure hold no voxel that gathers (a tenth of a
+// clipmap's in Crytek Sponza, a seventh of the octree's leaf voxel slots), so a gather with
+// one invocation per slot leaves most lanes of a GPU's SIMD group idle while one marches its
+// cones. A bounce's `bounce_list` entry point calls `list_slot` for every slot (compacted per
+// workgroup: one global atomic per workgroup, not per voxel), `bounce_args` turns the count
+// into an indirect dispatch, and the gather takes one listed slot per invocation. The list's
+// order varies between runs; no voxel's gather depends on it.
+
+@group(0) @binding(27) var<storage, read_write> listed_slots: array<u32>;
+// Cleared before the list is made.
+@group(0) @binding(28) var<storage, read_write> listed_count: atomic<u32>;
+// The gather's indirect dispatch: x, y, z workgroups of 64.
+@group(0) @binding(29) var<storage, read_write> gather_args: array<u32, 3>;
+
+var<workgroup> listed_here: atomic<u32>;
+var<workgroup> list_base: u32;
+
+// Appends slot `i` to the list where `listed`. Every invocation of the workgroup calls it, in
+// uniform control flow (it holds barriers).
+fn list_slot(i: u32, listed: bool, li: u32) {
+    var at = 0u;
+    if listed {
+        at = atomicAdd(&listed_here, 1u);
+    }
+    workgroupBarrier();
+    if li == 0u {
+        list_base = atomicAdd(&listed_count, atomicLoad(&listed_here));
+    }
+    workgroupBarrier();
+    if listed {
+        listed_slots[list_base + at] = i;
+    }
+}
+
+// The slot gather invocation `k` takes, or 0xffffffff past the end of the list.
+fn listed_slot(k: u32) -> u32 {
+    if k >= atomicLoad(&listed_count) {
+        return 0xffffffffu;
+    }
+    return listed_slots[k];
+}
+
+@compute @workgroup_size(1)
+fn bounce_args() {
+    let groups = (atomicLoad(&listed_count) + 63u) / 64u;
+    gather_args[0] = min(groups, 65535u);
+    gather_args[1] = (groups + 65534u) / 65535u;
+    gather_args[2] = 1u;
+}
