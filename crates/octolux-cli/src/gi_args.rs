@@ -88,8 +88,8 @@ pub struct GiArgs {
     /// Cone tracing: samples per shadow ray of the voxel-ray injection (default 256).
     #[arg(long)]
     pub vct_inject_steps: Option<u32>,
-    /// Cone tracing: trace one pixel per N x N block and reconstruct the others (default 4;
-    /// 1 traces every pixel).
+    /// Cone tracing: trace one pixel per N x N block and reconstruct the others (1..=8; 1
+    /// traces every pixel; default 0: from the image height, 4 below 225 rows, 8 from 360).
     #[arg(long)]
     pub vct_sparse: Option<u32>,
     /// Cone tracing (vct-svo): voxels per side of the octree's grid, a power of two from 16

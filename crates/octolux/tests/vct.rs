@@ -489,7 +489,7 @@ fn bad_vct_settings_are_clear_errors() {
         ),
         (
             octolux::gi::vct::VctSettings {
-                sparse: 0,
+                sparse: 9,
                 ..Default::default()
             },
             "vct sparse",

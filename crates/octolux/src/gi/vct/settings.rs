@@ -8,8 +8,11 @@
 
 use crate::{Error, Result};
 
-/// Default sparse factor (see [`VctSettings::sparse`] and docs/vct.md for the measurements).
-const SPARSE_DEFAULT: u32 = 4;
+/// Default sparse factor: chosen from the image height ([`VctSettings::sparse_factor`]; see
+/// docs/vct.md for the measurements).
+const SPARSE_DEFAULT: u32 = 0;
+/// Rows the traced image of automatic sparse tracing keeps at least.
+const SPARSE_ROWS: u32 = 45;
 
 /// How `vct-clipmap` finds the visibility of the lights when it injects direct light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
@@ -138,7 +141,8 @@ pub struct VctSettings {
     /// Samples per shadow ray of the `voxel-rays` injection (default 256).
     pub inject_steps: u32,
     /// Sparse tracing: one traced pixel per `sparse` x `sparse` block, the others
-    /// reconstructed from the traced ones by depth and normal (1 = every pixel; 1..=8).
+    /// reconstructed from the traced ones by depth and normal (1 = every pixel; 1..=8), or 0
+    /// (default) for [`VctSettings::sparse_factor`]'s choice from the image height.
     pub sparse: u32,
     /// `vct-svo`: voxels per side of the octree's grid, a power of two from 16 to 512
     /// (default 128), fitted around everything the scene's geometry covers over its animation.
@@ -204,6 +208,18 @@ fn check(ok: bool, what: &str, range: &str) -> Result<()> {
 }
 
 impl VctSettings {
+    /// The sparse factor for images `height` pixels high: the setting, or where it is 0 the
+    /// factor from 4 to 8 that keeps at least 45 traced rows (4 below 225 rows, 8 from 360).
+    /// Cone-traced irradiance is smooth: on the Cornell box at 640x360 tracing one pixel per
+    /// 8 x 8 block errs no more than per 4 x 4 for a quarter of the trace; at 160x90 it errs
+    /// 14 % more, so small images keep 4 (docs/vct.md).
+    pub fn sparse_factor(&self, height: u32) -> u32 {
+        match self.sparse {
+            0 => (height / SPARSE_ROWS).clamp(4, 8),
+            f => f,
+        }
+    }
+
     /// Checks every value's range.
     pub fn validate(&self) -> Result<()> {
         check(
@@ -244,7 +260,11 @@ impl VctSettings {
             "vct inject_steps",
             "1..=4096",
         )?;
-        check((1..=8).contains(&self.sparse), "vct sparse", "1..=8")?;
+        check(
+            self.sparse <= 8,
+            "vct sparse",
+            "0 (chosen from the image height) or 1..=8",
+        )?;
         check(
             self.octree_resolution.is_power_of_two()
                 && (16..=512).contains(&self.octree_resolution),

@@ -153,7 +153,7 @@ impl ConeTracer {
                 pipeline: ctx.compute_pipeline("vct specular", &module, "specular"),
             }
         });
-        let f = settings.sparse;
+        let f = settings.sparse_factor(height);
         let upsample = (f > 1).then(|| SparseImage::new(ctx, owner, f, width, height));
         let params_buffer = |label| {
             ctx.create_buffer(
@@ -187,7 +187,7 @@ impl ConeTracer {
 
     /// Sets how cones are marched: `cone(cones)` for the pixels' and the bounce's cones (its
     /// `voxel` the finest voxel, its `start` unused: the trace derives both from the voxel
-    /// where each surface is), their start offsets, the settings' sparse factor, specular
+    /// where each surface is), their start offsets, the sparse factor in use, specular
     /// aperture and the specular cone's fixed sample count.
     pub(crate) fn set_cone(
         &self,
@@ -203,7 +203,7 @@ impl ConeTracer {
                 cone: cone(cones),
                 misc: [
                     cones.start,
-                    settings.sparse as f32,
+                    self.sparse as f32,
                     settings.specular_aperture(),
                     settings.specular_steps as f32,
                 ],
