@@ -1,7 +1,11 @@
 // Injection: RSM texels become VPLs (one per stride x stride block, carrying the block's flux)
 // injected as Lambertian SH lobes half a cell along their normal; RSM texels and G-buffer
 // samples become surfels whose blocking potential A cos / s^2 goes into the geometry volumes
-// (cells at LPV cell corners).
+// (cells at LPV cell corners). A grid whose cells are k times the finest grid's (the octree's
+// coarser levels, the outer cascades) takes one surfel per k x k block of texels or camera
+// samples, standing for the block (k^2 times the area): each of its cells still gathers as
+// many surfels as a finest cell, and the surfels a frame injects no longer grow with the
+// number of levels.
 //
 // Sums are 64-bit fixed point, two u32 words per value added with integer atomics and a carry:
 // a float sum by compare-exchange loops serialises when thousands of threads hit the same few
@@ -123,6 +127,24 @@ fn rsm_texel(t: vec2<u32>, layer: u32) -> Texel {
     return out;
 }
 
+// Grid `g` takes one surfel per `surfel_stride` x `surfel_stride` block of sources: its cell
+// over the finest grid's, rounded on the CPU (`GpuGrid::surfel_stride`), flags bits 8..16.
+fn surfel_stride(g: Grid) -> u32 {
+    return max((g.flags >> 8u) & 0xffu, 1u);
+}
+
+// Injects the surfel of source (x, y) (an RSM texel, a camera sample) of area `area` into
+// every grid whose surfel block it heads, with the block's area.
+fn inject_surfel(x: u32, y: u32, p: vec3<f32>, n: vec3<f32>, area: f32, section: u32) {
+    for (var gi = 0u; gi < grids.count; gi++) {
+        let g = grids.grids[gi];
+        let s = surfel_stride(g);
+        if x % s == 0u && y % s == 0u {
+            inject_blocking(g, p, n, area * f32(s * s), section);
+        }
+    }
+}
+
 fn inject_blocking(g: Grid, p: vec3<f32>, n: vec3<f32>, area: f32, section: u32) {
     let corner = vec3<i32>(round((p - g.origin) / g.cell));
     let m = i32(g.n) + 1;
@@ -225,9 +247,7 @@ fn inject_gv_rsm(@builtin(global_invocation_id) id: vec3<u32>) {
     let texel = rsm_texel(id.xy, id.z);
     inject_work.x += 1u;
     if texel.valid {
-        for (var gi = 0u; gi < grids.count; gi++) {
-            inject_blocking(grids.grids[gi], texel.p, texel.n, texel.area, 0u);
-        }
+        inject_surfel(id.x, id.y, texel.p, texel.n, texel.area, 0u);
     }
     count_inject_work();
 }
@@ -262,9 +282,7 @@ fn inject_gv_camera(@builtin(global_invocation_id) id: vec3<u32>) {
     let axis = across / max(plane_area, 1e-20);
     let pixel_area = plane_area * abs(dot(axis, ray)) / max(abs(dot(n, ray)), 0.1);
     let area = pixel_area * f32(block.x * block.y);
-    for (var gi = 0u; gi < grids.count; gi++) {
-        inject_blocking(grids.grids[gi], p, n, area, grids.gv_total);
-    }
+    inject_surfel(id.x, id.y, p, n, area, grids.gv_total);
     count_inject_work();
 }
 

@@ -183,8 +183,15 @@ pub fn inject(
         }
     };
 
-    let blocking = |acc: &mut Accumulator<4>, p: Vec3, n: Vec3, area: f32| {
+    // As `inject_surfel`: a grid of surfel stride k takes source (x, y) where it heads a k x k
+    // block, with the block's area.
+    let blocking = |acc: &mut Accumulator<4>, (sx, sy): (u32, u32), p: Vec3, n: Vec3, area: f32| {
         for g in grids_in_use {
+            let s = g.surfel_stride();
+            if sx % s != 0 || sy % s != 0 {
+                continue;
+            }
+            let area = area * (s * s) as f32;
             let origin = Vec3::from(g.origin);
             let x = (p - origin) / g.cell;
             let corner = x.round().as_ivec3();
@@ -259,7 +266,7 @@ pub fn inject(
             for x in 0..size {
                 let (valid, p, n, _, area) = texel(x, y);
                 if valid {
-                    blocking(&mut gv_rsm, p, n, area);
+                    blocking(&mut gv_rsm, (x, y), p, n, area);
                 }
             }
         }
@@ -289,6 +296,7 @@ pub fn inject(
             let pixel_area = plane_area * axis.dot(ray).abs() / n.dot(ray).abs().max(0.1);
             blocking(
                 &mut gv_camera,
+                (bx, by),
                 p,
                 n,
                 pixel_area * (block.x * block.y) as f32,

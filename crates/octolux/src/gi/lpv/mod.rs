@@ -171,7 +171,8 @@ pub struct GpuGrid {
     pub offset: u32,
     /// First cell of the geometry volume.
     pub gv_offset: u32,
-    /// Bit 0: occlusion, bit 1: receives injected light.
+    /// Bit 0: occlusion, bit 1: receives injected light; bits 8..16: the surfel stride
+    /// ([`GpuGrid::surfel_stride`]).
     pub flags: u32,
 }
 
@@ -179,6 +180,24 @@ pub struct GpuGrid {
 pub const FLAG_OCCLUSION: u32 = 1;
 /// Flag: the grid receives injected VPLs.
 pub const FLAG_INJECT: u32 = 2;
+/// First bit of the surfel stride in [`GpuGrid::flags`].
+const SURFEL_STRIDE_SHIFT: u32 = 8;
+
+impl GpuGrid {
+    /// The grid takes one geometry surfel per `stride` x `stride` block of RSM texels or camera
+    /// samples, with the block's area (`inject_surfel` in `inject.wgsl`): its cell over the
+    /// finest grid's, rounded once here so the GPU and the CPU twin use the same (0 reads as
+    /// 1).
+    pub fn surfel_stride(&self) -> u32 {
+        ((self.flags >> SURFEL_STRIDE_SHIFT) & 0xff).max(1)
+    }
+
+    /// Sets the surfel stride for a finest cell of `finest` metres.
+    fn set_surfel_stride(&mut self, finest: f32) {
+        let stride = (self.cell / finest).round().clamp(1.0, 255.0) as u32;
+        self.flags = (self.flags & 0xff) | stride << SURFEL_STRIDE_SHIFT;
+    }
+}
 
 /// `Grids` of `sh.wgsl`: every grid of a technique and the settings of injection and lookup.
 #[repr(C)]
@@ -393,8 +412,10 @@ impl LpvGi {
             light_scale,
             grids: [GpuGrid::default(); MAX_GRIDS],
         };
+        let finest = grids.iter().map(|g| g.cell).fold(f32::INFINITY, f32::min);
         for (dst, src) in g.grids.iter_mut().zip(grids) {
             *dst = *src;
+            dst.set_surfel_stride(finest);
         }
         g
     }

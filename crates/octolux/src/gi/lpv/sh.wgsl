@@ -21,7 +21,8 @@ struct Grid {
     offset: u32,
     // first cell of this grid's geometry volume ((n+1)^3 cells at LPV cell corners)
     gv_offset: u32,
-    // bit 0: occlusion by the geometry volume, bit 1: receives injected light
+    // bit 0: occlusion by the geometry volume, bit 1: receives injected light, bits 8..16:
+    // the surfel stride (`inject.wgsl`)
     flags: u32,
 };
 
