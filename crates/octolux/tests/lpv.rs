@@ -1433,3 +1433,39 @@ fn leak_into_a_closed_room_beside_a_sunlit_exterior() {
         );
     }
 }
+
+#[test]
+fn rsms_are_drawn_again_only_when_something_they_see_moves() {
+    // A static scene keeps its RSMs after the first frame (no `rsm` pass), with the same image
+    // as drawing them again; a light that moves or an object that moves draws them again.
+    let ctx = context();
+    let mut scene = octolux::scene::cornell::scene();
+    let has_rsm = |timings: &[PassTiming]| timings.iter().any(|t| t.name == "lpv rsm");
+    let mut r = Renderer::new(&ctx, &scene, lpv_settings("lpv", 32, 32)).unwrap();
+    assert!(has_rsm(&r.render(&scene, 0.0).unwrap()), "first frame");
+    let drawn = r.read_hdr().unwrap();
+    assert!(!has_rsm(&r.render(&scene, 0.0).unwrap()), "static frame");
+    let kept = r.read_hdr().unwrap();
+    assert_eq!(drawn.pixels, kept.pixels, "kept RSMs give another image");
+    // A fresh renderer at the same frame draws them and gets the same image.
+    let mut fresh = Renderer::new(&ctx, &scene, lpv_settings("lpv", 32, 32)).unwrap();
+    fresh.render(&scene, 0.0).unwrap();
+    assert_eq!(fresh.read_hdr().unwrap().pixels, kept.pixels);
+    // Something the RSMs see moves: the light, then (the light still) an object.
+    let key = |time: f32, x: f32| Keyframe {
+        time,
+        translation: Vec3::new(x, 0.0, 0.0),
+        rotation: Quat::IDENTITY,
+    };
+    scene.lights[0].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.2)], false);
+    assert!(has_rsm(&r.render(&scene, 0.5).unwrap()), "moved light");
+    assert!(
+        !has_rsm(&r.render(&scene, 0.5).unwrap()),
+        "light at rest again"
+    );
+    scene.lights[0].animation = None;
+    scene.objects[1].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.1)], false);
+    let mut r = Renderer::new(&ctx, &scene, lpv_settings("lpv", 32, 32)).unwrap();
+    assert!(has_rsm(&r.render(&scene, 0.0).unwrap()));
+    assert!(has_rsm(&r.render(&scene, 0.5).unwrap()), "moved object");
+}

@@ -302,6 +302,16 @@ impl SceneGpu {
         })
     }
 
+    /// This frame's object transforms, as uploaded.
+    pub(crate) fn transforms(&self) -> &[Mat4] {
+        &self.transforms
+    }
+
+    /// The view-projection of view uniform `view` this frame (0 = the camera).
+    pub(crate) fn view_proj(&self, view: usize) -> Option<Mat4> {
+        self.view_projs.get(view).copied()
+    }
+
     /// Uploads this frame's object transforms.
     pub(crate) fn update_objects(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
         self.transforms = transforms.to_vec();
