@@ -182,11 +182,18 @@ fn check_scene(scene: &Value, name: &str) {
             .collect();
         assert!(owners.contains(&technique), "{owners:?}");
         if technique == "lpv" {
-            assert_eq!(
-                pass_names.iter().filter(|n| n.starts_with("lpv ")).count(),
-                4,
-                "{pass_names:?}"
-            );
+            // A static scene keeps the RSM its warm-up frame drew (nothing it sees moves); the
+            // animated box's spot light moves, so its RSM is drawn every frame.
+            let mut expected = vec!["lpv rsm", "lpv inject", "lpv propagate", "lpv lookup"];
+            if scene["animated"] == false {
+                expected.remove(0);
+            }
+            let lpv: Vec<&str> = pass_names
+                .iter()
+                .copied()
+                .filter(|n| n.starts_with("lpv "))
+                .collect();
+            assert_eq!(lpv, expected, "{pass_names:?}");
             assert!(f(&t["gi_total"], "min_ms") > 0.0);
         } else {
             assert_eq!(f(&t["gi_total"], "max_ms"), 0.0);
