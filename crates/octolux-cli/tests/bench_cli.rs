@@ -33,6 +33,11 @@ fn scene(name: &str) -> String {
 /// `octolux bench --no-reference` at 24 x 16 with 1 warm-up + 2 measured frames and a small
 /// LPV, on `scenes` (none: the built-in Cornell box), with extra arguments.
 fn bench(scenes: &[&str], extra: &[&str]) -> Output {
+    bench_with_warmup(scenes, "1", extra)
+}
+
+/// [`bench`] with `warmup` warm-up frames.
+fn bench_with_warmup(scenes: &[&str], warmup: &str, extra: &[&str]) -> Output {
     let mut args = vec!["bench"];
     args.extend(scenes);
     args.extend([
@@ -46,7 +51,7 @@ fn bench(scenes: &[&str], extra: &[&str]) -> Output {
         "--shadow-map-size",
         "64",
         "--warmup",
-        "1",
+        warmup,
         "--frames",
         "2",
         "--lpv-size",
@@ -261,35 +266,12 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
     let json = dir.join("work.json");
     let run = |extra: &[&str]| {
         // The first measured frame is the first frame (no warm-up), so it draws the RSMs
-        // (a static scene keeps them after that).
-        let mut args = vec![
-            "bench",
-            "--no-reference",
-            "--gi",
-            "lpv,vpl",
-            "--width",
-            "24",
-            "--height",
-            "16",
-            "--shadow-map-size",
-            "64",
-            "--warmup",
-            "0",
-            "--frames",
-            "2",
-            "--lpv-size",
-            "8",
-            "--lpv-iterations",
-            "2",
-            "--rsm-size",
-            "64",
-            "--vpl-count",
-            "256",
-            "--json",
-        ];
+        // (a static scene keeps them after that). `bench` measures none and lpv; vpl
+        // follows them (technique 2).
+        let mut args = vec!["--gi", "vpl", "--vpl-count", "256", "--json"];
         args.push(json.to_str().unwrap());
         args.extend(extra);
-        let output = octolux(&args);
+        let output = bench_with_warmup(&[], "0", &args);
         assert_succeeds(&output);
         let report: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         (String::from_utf8_lossy(&output.stdout).to_string(), report)
@@ -300,7 +282,7 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
         "{stdout}"
     );
     assert!(stdout.contains("VPL pairs"), "{stdout}");
-    let rsm = work_of(&report, 0, "lpv rsm");
+    let rsm = work_of(&report, 1, "lpv rsm");
     let count = |w: &[(String, u64)], q: &str| {
         w.iter()
             .find(|(name, _)| name == q)
@@ -310,9 +292,9 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
     assert_eq!(count(&rsm, "layers"), 1, "{rsm:?}");
     assert_eq!(count(&rsm, "texels"), 64 * 64, "{rsm:?}");
     assert_eq!(count(&rsm, "triangles drawn"), 30, "{rsm:?}");
-    let inject = work_of(&report, 0, "lpv inject");
+    let inject = work_of(&report, 1, "lpv inject");
     assert_eq!(count(&inject, "RSM texels"), 2 * 64 * 64, "{inject:?}");
-    let shade = work_of(&report, 1, "vpl shade");
+    let shade = work_of(&report, 2, "vpl shade");
     let pixels = count(&shade, "pixels");
     assert!(pixels > 0 && pixels <= 24 * 16, "{shade:?}");
     assert_eq!(count(&shade, "VPL pairs"), pixels * 16, "{shade:?}");
@@ -324,12 +306,12 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
         "{shade:?}"
     );
     // A pass that counts nothing has an empty list; the same run again counts the same.
-    assert!(work_of(&report, 0, "lpv propagate").is_empty());
+    assert!(work_of(&report, 1, "lpv propagate").is_empty());
     let (_, again) = run(&[]);
-    assert_eq!(work_of(&again, 1, "vpl shade"), shade);
+    assert_eq!(work_of(&again, 2, "vpl shade"), shade);
     // Without counting: no work anywhere, nothing in the table.
     let (stdout, report) = run(&["--no-work-counts"]);
-    assert!(work_of(&report, 1, "vpl shade").is_empty());
+    assert!(work_of(&report, 2, "vpl shade").is_empty());
     assert!(!stdout.contains("VPL pairs"), "{stdout}");
 }
 

@@ -7,6 +7,8 @@
 // into an indirect dispatch, and the gather takes one listed slot per invocation. The list's
 // order varies between runs; no voxel's gather depends on it.
 
+// Every slot's bounce irradiance (RGB as half floats in two words), written by the gathers.
+@group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
 @group(0) @binding(27) var<storage, read_write> listed_slots: array<u32>;
 // Cleared before the list is made.
 @group(0) @binding(28) var<storage, read_write> listed_count: atomic<u32>;
@@ -15,6 +17,22 @@
 
 var<workgroup> listed_here: atomic<u32>;
 var<workgroup> list_base: u32;
+
+// Stores irradiance `e` as slot `i`'s bounce.
+fn store_bounce(i: u32, e: vec3<f32>) {
+    bounce_irradiance[2u * i] = pack2x16float(e.rg);
+    bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+}
+
+// A bounce's `bounce_list` step for invocation `li` and slot `i` (`slot`: i is a slot of the
+// structure): lists it where its voxel `gathers`, else zeroes its bounce, as a gather
+// without light would. Every invocation of the workgroup calls it, in uniform control flow.
+fn list_or_clear(i: u32, slot: bool, gathers: bool, li: u32) {
+    if slot && !gathers {
+        store_bounce(i, vec3<f32>(0.0));
+    }
+    list_slot(i, slot && gathers, li);
+}
 
 // Appends slot `i` to the list where `listed`. Every invocation of the workgroup calls it, in
 // uniform control flow (it holds barriers).

@@ -20,7 +20,7 @@ import octolux::gi::vct::cone_set::DIFFUSE_CONES;
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
-import octolux::gi::vct::bounce_list::{list_slot, listed_slot};
+import octolux::gi::vct::bounce_list::{list_or_clear, listed_slot, store_bounce};
 
 // x: voxel slots (levels * res^3)
 struct BounceParams {
@@ -36,7 +36,6 @@ struct BounceBox {
 
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
 @group(0) @binding(21) var<storage, read> clip_normals: array<u32>;
-@group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
 @group(0) @binding(23) var<storage, read> bounce_box: BounceBox;
 
 // Whether slot i gathers: occupied, with a dominant normal (opposite faces cancel).
@@ -51,12 +50,7 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
     let slot = i < bounce_params.misc.x;
-    let listed = slot && gathers(i);
-    if slot && !listed {
-        bounce_irradiance[2u * i] = 0u;
-        bounce_irradiance[2u * i + 1u] = 0u;
-    }
-    list_slot(i, listed, li);
+    list_or_clear(i, slot, slot && gathers(i), li);
 }
 
 @compute @workgroup_size(64)
@@ -86,8 +80,7 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     count_work(1u, 1u);
     count_cone_work(2u, 3u);
     vct_count_structure_work(4u);
-    bounce_irradiance[2u * i] = pack2x16float(e.rg);
-    bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+    store_bounce(i, e);
 }
 
 @compute @workgroup_size(64)
@@ -104,6 +97,5 @@ fn bounce_clear(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
     let ri = i32(r);
     let m = vec3<u32>((c % ri + ri) % ri);
     let slot = bounce_box.size.w + m.x + r * (m.y + r * m.z);
-    bounce_irradiance[2u * slot] = 0u;
-    bounce_irradiance[2u * slot + 1u] = 0u;
+    store_bounce(slot, vec3<f32>(0.0));
 }

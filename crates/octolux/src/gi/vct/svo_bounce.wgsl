@@ -21,7 +21,7 @@ import octolux::gi::vct::cone_set::DIFFUSE_CONES;
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gi::vct::structure::vct_count_structure_work;
 import octolux::gpu::work::count_work;
-import octolux::gi::vct::bounce_list::{list_slot, listed_slot};
+import octolux::gi::vct::bounce_list::{list_or_clear, listed_slot, store_bounce};
 
 struct BounceParams {
     misc: vec4<u32>,
@@ -29,7 +29,6 @@ struct BounceParams {
 
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
 @group(0) @binding(21) var<storage, read> bounce_geometry: array<u32>;
-@group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
 @group(0) @binding(23) var<storage, read> svo_control: array<u32>;
 @group(0) @binding(24) var<storage, read_write> table_keys: array<atomic<u32>>;
 @group(0) @binding(25) var<storage, read_write> table_values: array<u32>;
@@ -69,12 +68,7 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
     let slot = i < bounce_params.misc.x;
-    let listed = slot && voxel_gathers(i);
-    if slot && !listed {
-        bounce_irradiance[2u * i] = 0u;
-        bounce_irradiance[2u * i + 1u] = 0u;
-    }
-    list_slot(i, listed, li);
+    list_or_clear(i, slot, slot && voxel_gathers(i), li);
 }
 
 @compute @workgroup_size(64)
@@ -86,8 +80,7 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         return;
     }
     let e = voxel_bounce(i);
-    bounce_irradiance[2u * i] = pack2x16float(e.rg);
-    bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
+    store_bounce(i, e);
 }
 
 // One workgroup per dynamic leaf node (the range the octree's last dynamic update left on
