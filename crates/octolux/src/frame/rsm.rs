@@ -247,7 +247,8 @@ impl RsmPass {
         if drawn.as_ref() == Some(&inputs) {
             return Ok(());
         }
-        *drawn = Some(inputs);
+        // Forgotten until this frame's drawing is recorded whole.
+        *drawn = None;
         let mut triangles = 0;
         timer.pass(name, |encoder, stamps| {
             let n = targets.layer_views.len();
@@ -291,6 +292,7 @@ impl RsmPass {
         for (quantity, count) in [n, triangles, texels].into_iter().enumerate() {
             crate::gpu::work::add(ctx, name, RSM_WORK, quantity, count)?;
         }
+        *drawn = Some(inputs);
         Ok(())
     }
 }
