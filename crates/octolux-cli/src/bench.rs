@@ -19,7 +19,7 @@ use octolux::metrics;
 use octolux::reference::{self, ReferenceImages, ReferenceSettings};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::Scene;
-use octolux::transport::Bounces;
+use octolux::transport::{Bounces, Transport};
 use report::{
     frame_stats, AdapterReport, BenchReport, MemoryEntry, OwnerMemory, ReferenceReport,
     SceneReport, TechniqueReport,
@@ -237,7 +237,8 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .against
         .as_deref()
         .map(str::parse::<Bounces>)
-        .transpose()?;
+        .transpose()?
+        .map(Transport::uniform);
     let reference_settings = if args.no_reference {
         None
     } else {
@@ -389,7 +390,7 @@ fn write_json(path: &Path, report: &BenchReport) -> Result<()> {
 fn bench_scene(
     args: &BenchArgs,
     input: &SceneInput,
-    against: Option<Bounces>,
+    against: Option<Transport>,
     reference_settings: Option<&ReferenceSettings>,
     quiet: bool,
     out_dir: Option<&Path>,
@@ -415,7 +416,7 @@ fn bench_scene(
     };
     let mut adapter = None;
     let mut techniques = Vec::new();
-    let mut images: Vec<(String, Bounces, HdrImage)> = Vec::new();
+    let mut images: Vec<(String, Transport, HdrImage)> = Vec::new();
     for name in &args.gi {
         // A fresh device per technique keeps its memory ledger to itself.
         let ctx = GpuContext::new(&args.gpu.options())?;
@@ -456,7 +457,9 @@ fn bench_scene(
                 scene.name
             );
         }
-        let bounces = against.unwrap_or_else(|| renderer.technique().reference_bounces());
+        let bounces = against
+            .unwrap_or_else(|| renderer.technique().reference_transport())
+            .for_scene(scene.has_emissive_surfaces());
         let (passes, gi_total, frame_total, frame_wall) = frame_stats(&frames, &wall_ms);
         let by_owner = ctx.ledger.by_owner();
         let technique_bytes: u64 = by_owner
@@ -517,16 +520,19 @@ fn bench_scene(
     }
     bar.finish_and_clear();
 
-    let mut references: Vec<(Bounces, ReferenceImages, f64)> = Vec::new();
+    let mut references: Vec<(Transport, ReferenceImages, f64)> = Vec::new();
     if let Some(settings) = reference_settings {
         for (_, bounces, _) in &images {
             if references.iter().any(|(b, _, _)| b == bounces) {
                 continue;
             }
-            let settings = ReferenceSettings {
-                bounces: *bounces,
-                ..settings.clone()
-            };
+            let settings = settings.clone().with_transport(*bounces);
+            crate::inputs::warn_unfollowed_requests(
+                scene,
+                "a technique here is judged against",
+                *bounces,
+                references.is_empty().then_some(settings.spp),
+            );
             let start = Instant::now();
             let images = reference_frame(scene, last_time, args, &settings, quiet)?;
             references.push((*bounces, images, start.elapsed().as_secs_f64()));
@@ -545,7 +551,10 @@ fn bench_scene(
             image.write_png(&dir.join(format!("{name}.png")), scene.exposure)?;
         }
         for (bounces, reference, _) in &references {
-            let stem = format!("reference-{}", bounces.to_string().replace(' ', "-"));
+            let stem = format!(
+                "reference-{}",
+                bounces.to_string().replace("; ", "-").replace(' ', "-")
+            );
             reference
                 .total
                 .write_exr(&dir.join(format!("{stem}.exr")))?;

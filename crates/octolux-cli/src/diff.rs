@@ -4,7 +4,8 @@ use anyhow::Context;
 use octolux::metrics::{self, MetricOptions};
 use std::path::PathBuf;
 
-/// Compare an image with a reference: MSE, relMSE, PSNR, SSIM and FLIP.
+/// Compare an image with a reference: MSE, relMSE, PSNR, SSIM, FLIP and the ratio of their
+/// means.
 #[derive(clap::Args, Debug, Clone)]
 pub struct DiffArgs {
     /// Image to judge (.exr linear HDR; .png is decoded from sRGB to linear).
@@ -72,8 +73,31 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
     if let Some(out) = &args.out {
         metrics::flip_map(&a, &b, &options)?.write_png(out, mask.as_deref())?;
     }
+    // The ratio of the mean linear values (channels averaged, over the compared pixels): how
+    // much light one renderer finds more than the other, which noise does not bias.
+    let mean = |image: &octolux::image_io::HdrImage| {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for (i, p) in image.pixels.iter().enumerate() {
+            if mask.as_ref().is_none_or(|m| m[i]) {
+                sum += p.element_sum() as f64 / 3.0;
+                n += 1;
+            }
+        }
+        sum / n.max(1) as f64
+    };
+    let mean_ratio = mean(&a) / mean(&b);
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&m)?);
+        #[derive(serde::Serialize)]
+        struct Report<'a> {
+            #[serde(flatten)]
+            metrics: &'a metrics::Metrics,
+            mean_ratio: f64,
+        }
+        let report = Report {
+            metrics: &m,
+            mean_ratio,
+        };
+        println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!("{} vs {} (reference)", args.a.display(), args.b.display());
         println!("{:<8} {:>14}", "metric", "value");
@@ -82,6 +106,7 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
         println!("{:<8} {:>11.3} dB", "PSNR", m.psnr);
         println!("{:<8} {:>14.5}", "SSIM", m.ssim);
         println!("{:<8} {:>14.5}", "FLIP", m.flip);
+        println!("{:<8} {:>14.5}", "mean A/B", mean_ratio);
         if let Some(out) = &args.out {
             println!("error map: {}", out.display());
         }

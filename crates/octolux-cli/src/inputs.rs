@@ -85,6 +85,63 @@ pub fn parse_output(text: &str) -> Result<Output> {
     }
 }
 
+/// Warns about what the scene file asks that this render does not follow (a Mitsuba
+/// integrator's depth or sampler's sample count), naming what it does instead: `follows` says
+/// who follows `transport` ("the reference follows"), `spp` is the render's sample count where
+/// it has one.
+pub fn warn_unfollowed_requests(
+    scene: &Scene,
+    follows: &str,
+    transport: octolux::transport::Transport,
+    spp: Option<u32>,
+) {
+    use octolux::scene::Asked;
+    use octolux::transport::Bounces;
+    for request in &scene.requests {
+        let at = &request.at;
+        match &request.asked {
+            Asked::Bounces(asked, words) => {
+                let same = *asked == Some(transport.bounces)
+                    && transport.max_emissive_reflections() == transport.max_light_reflections();
+                if same {
+                    continue;
+                }
+                let asked = match asked {
+                    Some(b) => b.to_string(),
+                    None => "emitters seen only, which octolux does not render".into(),
+                };
+                let hint = match request.asked {
+                    Asked::Bounces(Some(b), _) if follows.starts_with("the reference") => {
+                        format!(" (--bounces {})", bounces_flag(b))
+                    }
+                    _ => String::new(),
+                };
+                eprintln!("warning: {at}: {words} asks for {asked}{hint}; {follows} {transport}");
+            }
+            Asked::Spp(n) => {
+                if let Some(spp) = spp.filter(|spp| spp != n) {
+                    eprintln!(
+                        "warning: {at}: asks for {n} samples per pixel (--spp {n}); this \
+                         render takes {spp}"
+                    );
+                }
+            }
+            Asked::Integrator(kind) => eprintln!(
+                "warning: {at}: the '{kind}' integrator is not one octolux has; {follows} \
+                 {transport}"
+            ),
+        }
+    }
+
+    fn bounces_flag(b: Bounces) -> String {
+        match b {
+            Bounces::DirectOnly => "direct".into(),
+            Bounces::Indirect(n) => n.to_string(),
+            Bounces::Unlimited => "unlimited".into(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

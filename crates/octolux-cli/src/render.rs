@@ -13,7 +13,7 @@ use octolux::image_io::{check_image_size, write_rgb8_png, HdrImage};
 use octolux::reference::{self, ReferenceImages, ReferenceSettings};
 use octolux::render::{Output, RenderSettings, Renderer};
 use octolux::scene::Scene;
-use octolux::transport::Bounces;
+use octolux::transport::{Bounces, EmissiveSurfaces, Transport};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -122,10 +122,17 @@ pub struct ReferenceArgs {
     /// Samples, time budget and seed.
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// Light transport of the reference: `direct`, a number of indirect bounces (`1` = one
-    /// bounce, what LPV and VPL methods compute), or `unlimited`.
+    /// Light transport of the reference, counted by reflections as Mitsuba counts them:
+    /// `direct` (light straight from any emitter reflected once: lights, sky and emissive
+    /// surfaces), a number of indirect bounces (`1` = one bounce, what LPV and VPL methods
+    /// compute), or `unlimited`.
     #[arg(long, default_value = "unlimited")]
     pub bounces: String,
+    /// How emissive surfaces light the scene: `lights` (like any emitter), `one-fewer` (one
+    /// bounce fewer than the lights, as the cone tracers and probes compute them) or `unlit`
+    /// (seen only, as the LPV family, VPLs and GI off compute them).
+    #[arg(long, default_value = "lights")]
+    pub emissive: String,
     /// Also write the direct-light part as linear OpenEXR.
     #[arg(long)]
     pub direct_exr: Option<PathBuf>,
@@ -135,6 +142,11 @@ pub struct ReferenceArgs {
     /// Also write the indirect irradiance at the first hit (what GI techniques output).
     #[arg(long)]
     pub irradiance_exr: Option<PathBuf>,
+    /// Also write the irradiance at the first hit arriving straight from emissive surfaces
+    /// (part of the direct light; the cone tracers and probes output it with their indirect
+    /// irradiance).
+    #[arg(long)]
+    pub emitter_irradiance_exr: Option<PathBuf>,
 }
 
 /// Sampling options of the reference path tracer (shared by `render` and `bench`).
@@ -154,7 +166,13 @@ pub struct SamplingArgs {
 impl ReferenceArgs {
     /// Library settings from the flags.
     pub fn settings(&self) -> Result<ReferenceSettings> {
-        self.sampling.settings(self.bounces.parse::<Bounces>()?)
+        Ok(self
+            .sampling
+            .settings(self.bounces.parse::<Bounces>()?)?
+            .with_transport(Transport {
+                bounces: self.bounces.parse::<Bounces>()?,
+                emissive: self.emissive.parse::<EmissiveSurfaces>()?,
+            }))
     }
 }
 
@@ -199,7 +217,10 @@ pub fn reference_frame(
     settings: &ReferenceSettings,
 ) -> Result<ReferenceImages> {
     let frame = scene.frame(t, camera);
-    let bar = progress_bar(settings.spp as u64, &format!("spp ({})", settings.bounces));
+    let bar = progress_bar(
+        settings.spp as u64,
+        &format!("spp ({})", settings.transport()),
+    );
     let images = reference::render(scene, &frame, width, height, settings, &|done, _| {
         bar.set_position(done as u64)
     })?;
@@ -209,6 +230,12 @@ pub fn reference_frame(
 
 fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
     let settings = args.reference.settings()?;
+    crate::inputs::warn_unfollowed_requests(
+        scene,
+        "the reference follows",
+        settings.transport(),
+        Some(settings.spp),
+    );
     let start = std::time::Instant::now();
     let mut spp_done = 0;
     for i in 0..args.frames {
@@ -227,6 +254,10 @@ fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
             (&args.reference.direct_exr, &images.direct),
             (&args.reference.indirect_exr, &images.indirect),
             (&args.reference.irradiance_exr, &images.indirect_irradiance),
+            (
+                &args.reference.emitter_irradiance_exr,
+                &images.emitter_irradiance,
+            ),
         ];
         for (path, image) in extra {
             if let Some(path) = path {
@@ -241,7 +272,7 @@ fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
         args.width,
         args.height,
         spp_done,
-        settings.bounces,
+        settings.transport(),
         start.elapsed().as_secs_f64(),
         args.out.display()
     );
@@ -417,6 +448,10 @@ fn check_args(args: &RenderArgs, loaded: &[PathBuf]) -> Result<()> {
         ("--direct-exr", &args.reference.direct_exr),
         ("--indirect-exr", &args.reference.indirect_exr),
         ("--irradiance-exr", &args.reference.irradiance_exr),
+        (
+            "--emitter-irradiance-exr",
+            &args.reference.emitter_irradiance_exr,
+        ),
     ];
     if gpu {
         if let Some((flag, _)) = reference_only.iter().find(|(_, p)| p.is_some()) {
@@ -534,6 +569,15 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let output = parse_output(&args.output)?;
     let mut renderer = Renderer::new(&ctx, &scene, settings).context("setting up the renderer")?;
+    crate::inputs::warn_unfollowed_requests(
+        &scene,
+        &format!("--gi {} computes", args.gi),
+        renderer
+            .technique()
+            .reference_transport()
+            .for_scene(scene.has_emissive_surfaces()),
+        None,
+    );
     renderer.set_output(output);
     let progress = if args.frames > 1 {
         progress_bar(args.frames as u64, "frames")

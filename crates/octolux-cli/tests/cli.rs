@@ -686,3 +686,57 @@ fn sky_flags_light_a_scene_and_bad_ones_are_errors() {
     let output = octolux(&["render", "--sky-intensity", "2"]);
     assert_fails_with(&output, &["--sky-intensity", "need a sky"]);
 }
+
+/// A Mitsuba scene whose integrator and sampler ask for settings: the reference warns where
+/// it does otherwise, naming what it uses and the flag that matches the file.
+#[test]
+fn mitsuba_depth_and_sample_count_are_warned_about_when_not_followed() {
+    let dir = temp_dir("mitsuba-requests");
+    let scene = dir.join("lamp.xml");
+    std::fs::write(
+        &scene,
+        r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="60"/>
+        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="32"/></sampler>
+    </sensor>
+    <shape type="rectangle">
+        <emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
+    </shape>
+</scene>"#,
+    )
+    .unwrap();
+    let render = |extra: &[&str]| {
+        let out = dir.join("out.exr");
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--gi",
+            "reference",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let output = octolux(&args);
+        assert!(output.status.success(), "{output:?}");
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let stderr = render(&["--spp", "4"]);
+    for needle in [
+        "lamp.xml:2",
+        "max_depth 4 asks for 2 bounces (--bounces 2); the reference follows unlimited",
+        "lamp.xml:6",
+        "asks for 32 samples per pixel (--spp 32); this render takes 4",
+    ] {
+        assert!(stderr.contains(needle), "'{needle}' not in: {stderr}");
+    }
+    // Following the file: no warning.
+    let stderr = render(&["--spp", "32", "--bounces", "2"]);
+    assert!(!stderr.contains("warning"), "{stderr}");
+}

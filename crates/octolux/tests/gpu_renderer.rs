@@ -83,6 +83,7 @@ fn scene_of(meshes: Vec<Mesh>, albedo: Vec3, lights: Vec<Light>, camera: Camera)
         cameras: vec![camera],
         exposure: 0.0,
         sky: None,
+        requests: vec![],
     }
 }
 

@@ -570,6 +570,7 @@ fn floor_scene(a: f32, light: octolux::scene::Light) -> octolux::scene::Scene {
         }],
         exposure: 0.0,
         sky: None,
+        requests: vec![],
     }
 }
 

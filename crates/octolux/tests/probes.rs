@@ -151,7 +151,7 @@ fn multiple_bounces_converge_towards_the_full_reference() {
         };
         let mut r = Renderer::new(&ctx, &scene, settings("probes-grid", probes)).unwrap();
         assert_eq!(
-            r.technique().reference_bounces(),
+            r.technique().reference_transport().bounces,
             if multi_bounce {
                 Bounces::Unlimited
             } else {

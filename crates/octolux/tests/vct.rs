@@ -271,7 +271,7 @@ fn multiple_bounces_converge_to_the_unlimited_reference() {
             } else {
                 Bounces::Indirect(1)
             };
-            assert_eq!(r.technique().reference_bounces(), expected);
+            assert_eq!(r.technique().reference_transport().bounces, expected);
             for _ in 0..10 {
                 r.render(&scene, 0.0).unwrap();
             }

@@ -150,6 +150,7 @@ fn shadow_scene() -> Scene {
         }],
         exposure: 0.0,
         sky: None,
+        requests: vec![],
     }
 }
 

@@ -276,6 +276,7 @@ fn scene_of(
         cameras: vec![camera],
         exposure: 0.0,
         sky: None,
+        requests: vec![],
     }
 }
 
@@ -598,7 +599,10 @@ fn cornell_box_against_the_one_bounce_reference() {
         let mut r = Renderer::new(&ctx, &scene, s).unwrap();
         r.render(&scene, 0.0).unwrap();
         if technique == "vpl" {
-            assert_eq!(r.technique().reference_bounces(), Bounces::Indirect(1));
+            assert_eq!(
+                r.technique().reference_transport().bounces,
+                Bounces::Indirect(1)
+            );
         }
         let g = r.read_gbuffer().unwrap();
         mask = g
@@ -810,7 +814,7 @@ fn second_bounce_vpls_bring_the_image_closer_to_the_two_bounce_reference() {
         let mut r = Renderer::new(&ctx, &scene, settings(size, size, vpl)).unwrap();
         r.render(&scene, 0.0).unwrap();
         assert_eq!(
-            r.technique().reference_bounces(),
+            r.technique().reference_transport().bounces,
             Bounces::Indirect(bounces)
         );
         let image = r.read_hdr().unwrap();

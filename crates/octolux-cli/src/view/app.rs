@@ -16,7 +16,7 @@ use octolux::gpu::{GpuContext, GpuOptions, ResourceCounts};
 use octolux::image_io::check_image_size;
 use octolux::render::{Output, RenderSettings, Renderer};
 use octolux::scene::{Camera, Scene};
-use octolux::transport::Bounces;
+use octolux::transport::{Bounces, Transport};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -777,17 +777,20 @@ impl App {
                 split.renderer.set_output(self.controls.output);
                 split.renderer.render_pipelined(&self.scene, t)?;
             }
-            let bounces = if self.compare.unlimited {
-                Bounces::Unlimited
+            let transport = if self.compare.unlimited {
+                Transport::uniform(Bounces::Unlimited)
             } else {
-                renderer.technique().reference_bounces()
+                renderer
+                    .technique()
+                    .reference_transport()
+                    .for_scene(self.scene.has_emissive_surfaces())
             };
             let camera = &self.scene.cameras[self.camera_index];
             let key = Key {
                 camera: [camera.position, camera.target],
                 time: t,
                 size: (renderer.settings().width, renderer.settings().height),
-                bounces,
+                transport,
             };
             let scene = &self.scene;
             let index = self.camera_index;

@@ -9,7 +9,7 @@ use octolux::metrics::{self, MetricOptions};
 use octolux::reference::{self, ReferenceSettings};
 use octolux::render::Output;
 use octolux::scene::{Scene, SceneFrame};
-use octolux::transport::Bounces;
+use octolux::transport::Transport;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
@@ -92,7 +92,7 @@ pub struct Key {
     /// Image size.
     pub size: (u32, u32),
     /// Light transport.
-    pub bounces: Bounces,
+    pub transport: Transport,
 }
 
 struct Shared {
@@ -261,13 +261,26 @@ struct Accumulated {
 }
 
 impl Accumulated {
-    fn add(&mut self, images: &reference::ReferenceImages) {
+    /// Adds a batch; `transport` says which irradiance the technique shows (and the GPU's
+    /// direct pass lights with the lights and the sky only, so the emissive surfaces' direct
+    /// light, albedo/pi x their irradiance with the pixel's mean albedo, moves out of `direct`).
+    fn add(&mut self, images: &reference::ReferenceImages, transport: Transport) {
+        let irradiance = images.gi_irradiance(transport.emissive);
+        let mut direct = images.direct.clone();
+        for ((d, e), a) in direct
+            .pixels
+            .iter_mut()
+            .zip(&images.emitter_irradiance.pixels)
+            .zip(&images.albedo.pixels)
+        {
+            *d -= *a * *e * std::f32::consts::FRAC_1_PI;
+        }
         let n = images.spp_done as f32;
         let w = n / (self.spp as f32 + n);
         for (acc, new) in [
             (&mut self.total, &images.total),
-            (&mut self.direct, &images.direct),
-            (&mut self.irradiance, &images.indirect_irradiance),
+            (&mut self.direct, &direct),
+            (&mut self.irradiance, &irradiance),
         ] {
             for (a, b) in acc.pixels.iter_mut().zip(&new.pixels) {
                 *a += (*b - *a) * w;
@@ -326,14 +339,14 @@ impl Worker {
             if refining {
                 let settings = ReferenceSettings {
                     spp: batch.min(self.target - acc.spp),
-                    bounces: self.key.bounces,
                     time_budget: Some(BATCH_BUDGET),
                     seed,
                     ..ReferenceSettings::default()
-                };
+                }
+                .with_transport(self.key.transport);
                 let images =
                     reference::render(&self.scene, &self.frame, w, h, &settings, &|_, _| {})?;
-                acc.add(&images);
+                acc.add(&images, self.key.transport);
                 seed += 1;
                 batch = (batch * 2).min(MAX_BATCH);
             }
@@ -399,7 +412,7 @@ mod tests {
             camera: [Vec3::ZERO, Vec3::Z],
             time: 0.0,
             size,
-            bounces: Bounces::Indirect(1),
+            transport: Transport::uniform(octolux::transport::Bounces::Indirect(1)),
         }
     }
 

@@ -66,8 +66,9 @@ pub trait GiTechnique {
         &[]
     }
     /// The light transport this technique claims to compute, so that it is judged against the
-    /// matching reference (LPV and VPL methods compute one indirect bounce).
-    fn reference_bounces(&self) -> crate::transport::Bounces;
+    /// matching reference: its bounces (LPV and VPL methods compute one), and how its light
+    /// from emissive surfaces is counted.
+    fn reference_transport(&self) -> crate::transport::Transport;
     /// The concrete technique, for tests and tools that inspect its state (None by default).
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         None

@@ -40,7 +40,11 @@ impl GiTechnique for NoGi {
         &self.view
     }
 
-    fn reference_bounces(&self) -> crate::transport::Bounces {
-        crate::transport::Bounces::DirectOnly
+    fn reference_transport(&self) -> crate::transport::Transport {
+        // The direct pass lights with the lights and the sky; emissive surfaces are only seen.
+        crate::transport::Transport {
+            bounces: crate::transport::Bounces::DirectOnly,
+            emissive: crate::transport::EmissiveSurfaces::Unlit,
+        }
     }
 }

@@ -56,6 +56,18 @@ impl Tri {
         (t > 0.0 && t < t_max).then_some((t, u, v))
     }
 
+    /// Unit normal of the winding order (e1 x e2).
+    pub fn winding_normal(&self) -> Vec3 {
+        self.e1.cross(self.e2).normalize_or(Vec3::Y)
+    }
+
+    /// Interpolated vertex normal at barycentrics (u, v) (the winding normal where the vertex
+    /// normals cancel out). The front face is the side it points to.
+    pub fn interpolated_normal(&self, u: f32, v: f32) -> Vec3 {
+        (self.normals[0] * (1.0 - u - v) + self.normals[1] * u + self.normals[2] * v)
+            .normalize_or(self.winding_normal())
+    }
+
     /// Interpolated texture coordinates at barycentrics (u, v).
     pub fn uv(&self, u: f32, v: f32) -> Vec2 {
         self.uvs[0] * (1.0 - u - v) + self.uvs[1] * u + self.uvs[2] * v
@@ -170,7 +182,7 @@ impl<'a> Accel<'a> {
 
     /// Whether the surface of `tri` at barycentrics (u, v) is a hole (masked-out texel).
     #[inline]
-    fn is_hole(&self, tri: &Tri, u: f32, v: f32) -> bool {
+    pub fn is_hole(&self, tri: &Tri, u: f32, v: f32) -> bool {
         let m = &self.materials[tri.material as usize];
         match m.cutoff {
             Some(cutoff) => {
@@ -178,6 +190,21 @@ impl<'a> Accel<'a> {
                 alpha * m.opacity < cutoff
             }
             None => false,
+        }
+    }
+
+    /// Radiance that `tri` emits at barycentrics (u, v) towards a ray travelling along unit
+    /// `dir`: from the front face (the side the vertex normals point to, as glTF and Mitsuba
+    /// have it) or from both with `emission_two_sided`; nothing from a masked-out texel.
+    pub fn emitted(&self, tri: &Tri, u: f32, v: f32, dir: Vec3) -> Vec3 {
+        let m = &self.materials[tri.material as usize];
+        if m.emission == Vec3::ZERO || self.is_hole(tri, u, v) {
+            return Vec3::ZERO;
+        }
+        if m.emission_two_sided || tri.interpolated_normal(u, v).dot(dir) < 0.0 {
+            m.emission
+        } else {
+            Vec3::ZERO
         }
     }
 

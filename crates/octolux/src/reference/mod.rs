@@ -14,12 +14,13 @@
 //! - surfaces are two-sided for reflection: the geometric and shading normals are turned
 //!   towards the arriving ray; the shading normal is used for cosines, the geometric one for
 //!   ray offsets and to reject light from below the true surface;
-//! - punctual lights are sampled by next-event estimation with any-hit shadow rays; emissive
-//!   surfaces are reached by BSDF (cosine-weighted) sampling only, so there is no double
-//!   counting and no need for multiple importance sampling;
-//! - the sky is sampled both ways: next-event estimation with importance sampling of the map
-//!   (`sky.rs`) and the escape of the cosine-sampled continuation ray, combined with the power
-//!   heuristic; the last vertex of a bounce-limited path takes its next-event sample in full;
+//! - punctual lights are sampled by next-event estimation with any-hit shadow rays;
+//! - emissive triangles and the sky are sampled both ways: next-event estimation (triangles
+//!   picked by power and a point uniformly on them, `emitters.rs`; the sky by importance
+//!   sampling of its map, `sky.rs`) and the cosine-sampled continuation ray that hits the
+//!   emitter or escapes, combined with the power heuristic; at the last vertex of a
+//!   bounce-limited path that ray only looks for emitters (as Mitsuba's path integrator does:
+//!   light sampling alone leaves shadowed points noisy where a sun draws its samples);
 //! - alpha-masked materials are holes (for every ray) where texture alpha x opacity < cutoff,
 //!   so a clear (transmissive) material lets every ray through;
 //! - Russian roulette from [`ReferenceSettings::roulette_start`] on, with survival probability
@@ -27,28 +28,38 @@
 //!   the path weight constant in a grey furnace; unlimited paths are cut at
 //!   [`crate::transport::MAX_PATH_VERTICES`] vertices, where the remaining energy is below 0.95^256.
 //!
+//! Light is counted by its reflections between emitter and eye ([`crate::transport`]): light
+//! from lights and the sky is followed for [`Transport::max_light_reflections`] reflections,
+//! light from emissive surfaces for [`Transport::max_emissive_reflections`] (the same by
+//! default; fewer when judging a technique that treats them otherwise).
+//!
 //! Output split ([`ReferenceImages`]), with path vertices x1 (primary hit), x2, ...:
-//! - `direct` = emission of x1 + punctual and sky light reflected at x1 (or the sky itself
-//!   where the primary ray escapes);
-//! - `indirect` = for each bounce k = 1..=n: emission of x(k+1) + punctual and sky light
-//!   reflected at x(k+1), carried back to the eye;
+//! - `direct` = emission of x1 + light arriving at x1 straight from any emitter (lights, sky,
+//!   emissive surfaces) reflected there (or the sky itself where the primary ray escapes);
+//! - `indirect` = for each bounce k = 1..=n: light arriving at x(k+1) straight from an emitter,
+//!   reflected there and carried back to the eye;
 //! - `total` = `direct` + `indirect`;
 //! - `indirect_irradiance` E = irradiance (W/m^2) arriving at x1 over the shading-normal
 //!   hemisphere from the indirect paths, so that `indirect` = albedo/pi x E at every primary
 //!   hit of uniform albedo. This is what GI techniques output and compose multiplies by
 //!   albedo/pi; compare techniques on E to exclude texture and direct-light differences;
+//! - `emitter_irradiance` = irradiance arriving at x1 straight from emissive surfaces (part of
+//!   `direct`): a technique whose indirect light carries the emissive surfaces' light
+//!   ([`EmissiveSurfaces::OneBounceFewer`]) outputs E + this ([`ReferenceImages::gi_irradiance`]);
 //! - `albedo` = the primary hit's albedo (black where the ray misses), averaged over the
 //!   pixel's samples, to recompose `direct + albedo/pi x E` like the GPU does.
 
 mod accel;
+mod emitters;
 mod sampling;
 mod sky;
 
 use crate::image_io::HdrImage;
 use crate::scene::{LightKind, Scene, SceneFrame};
-use crate::transport::Bounces;
+use crate::transport::{Bounces, EmissiveSurfaces, Transport};
 use crate::{Error, Result};
 use accel::{Accel, Hit};
+use emitters::EmitterSampler;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use sampling::{cosine_hemisphere, r2, Rng};
@@ -61,8 +72,10 @@ use std::time::{Duration, Instant};
 pub struct ReferenceSettings {
     /// Samples per pixel to reach.
     pub spp: u32,
-    /// Which paths to follow.
+    /// Which paths to follow: bounces of every emitter's light.
     pub bounces: Bounces,
+    /// How light from emissive surfaces is counted (like any emitter's by default).
+    pub emissive: EmissiveSurfaces,
     /// Stop after the pass during which this much time has passed (at least one pass runs).
     pub time_budget: Option<Duration>,
     /// Seed of all random numbers; same seed and settings give the same image whatever the
@@ -75,11 +88,31 @@ pub struct ReferenceSettings {
     pub max_pass_spp: u32,
 }
 
+impl ReferenceSettings {
+    /// The transport these settings follow.
+    pub fn transport(&self) -> Transport {
+        Transport {
+            bounces: self.bounces,
+            emissive: self.emissive,
+        }
+    }
+
+    /// Follows `transport`.
+    pub fn with_transport(self, transport: Transport) -> ReferenceSettings {
+        ReferenceSettings {
+            bounces: transport.bounces,
+            emissive: transport.emissive,
+            ..self
+        }
+    }
+}
+
 impl Default for ReferenceSettings {
     fn default() -> Self {
         ReferenceSettings {
             spp: 64,
             bounces: Bounces::Unlimited,
+            emissive: EmissiveSurfaces::LikeLights,
             time_budget: None,
             seed: 0,
             roulette_start: 3,
@@ -91,7 +124,8 @@ impl Default for ReferenceSettings {
 /// The images of a reference render (all linear HDR, same size).
 #[derive(Clone, Debug)]
 pub struct ReferenceImages {
-    /// Emission seen directly plus punctual light reflected at the primary hit.
+    /// Emission seen directly plus light arriving straight from any emitter reflected at the
+    /// primary hit.
     pub direct: HdrImage,
     /// Light that bounced at least once more, up to the bounce limit.
     pub indirect: HdrImage,
@@ -99,10 +133,28 @@ pub struct ReferenceImages {
     pub total: HdrImage,
     /// Indirect irradiance at the primary hit, W/m^2 (see the module docs).
     pub indirect_irradiance: HdrImage,
+    /// Irradiance at the primary hit arriving straight from emissive surfaces, W/m^2 (part of
+    /// the direct light).
+    pub emitter_irradiance: HdrImage,
     /// Albedo at the primary hit.
     pub albedo: HdrImage,
     /// Samples per pixel actually taken (less than asked for when the time budget ran out).
     pub spp_done: u32,
+}
+
+impl ReferenceImages {
+    /// The irradiance a GI technique outputs under `emissive`: the indirect irradiance, plus
+    /// the emissive surfaces' direct irradiance where the technique carries it in its indirect
+    /// light ([`EmissiveSurfaces::OneBounceFewer`]).
+    pub fn gi_irradiance(&self, emissive: EmissiveSurfaces) -> HdrImage {
+        let mut e = self.indirect_irradiance.clone();
+        if emissive == EmissiveSurfaces::OneBounceFewer {
+            for (p, q) in e.pixels.iter_mut().zip(&self.emitter_irradiance.pixels) {
+                *p += *q;
+            }
+        }
+        e
+    }
 }
 
 /// Renders `frame` of `scene` at `width` x `height`. `progress(done, total)` is called after
@@ -121,7 +173,9 @@ pub fn render(
     }
     let start = Instant::now();
     let accel = Accel::build(scene, frame)?;
+    let transport = settings.transport();
     let tracer = Tracer {
+        emitters: EmitterSampler::new(&accel),
         accel,
         sky: scene
             .sky
@@ -129,7 +183,8 @@ pub fn render(
             .filter(|s| !s.is_black())
             .map(SkySampler::new),
         frame,
-        max_indirect: settings.bounces.max_indirect(),
+        max_light_reflections: transport.max_light_reflections(),
+        max_emissive_reflections: transport.max_emissive_reflections(),
         roulette_start: settings.roulette_start,
     };
     let view = frame.camera.view(width, height);
@@ -181,6 +236,7 @@ pub fn render(
     };
     Ok(ReferenceImages {
         indirect_irradiance: image(&|a| a.irradiance),
+        emitter_irradiance: image(&|a| a.emitter_irradiance),
         albedo: image(&|a| a.albedo),
         direct,
         indirect,
@@ -195,6 +251,7 @@ struct Accum {
     direct: DVec3,
     indirect: DVec3,
     irradiance: DVec3,
+    emitter_irradiance: DVec3,
     albedo: DVec3,
 }
 
@@ -203,6 +260,7 @@ impl Accum {
         self.direct += s.direct.as_dvec3();
         self.indirect += s.indirect.as_dvec3();
         self.irradiance += s.irradiance.as_dvec3();
+        self.emitter_irradiance += s.emitter_irradiance.as_dvec3();
         self.albedo += s.albedo.as_dvec3();
     }
 }
@@ -213,6 +271,7 @@ struct PathSample {
     direct: Vec3,
     indirect: Vec3,
     irradiance: Vec3,
+    emitter_irradiance: Vec3,
     albedo: Vec3,
 }
 
@@ -230,9 +289,22 @@ struct Surface {
 struct Tracer<'a> {
     accel: Accel<'a>,
     sky: Option<SkySampler<'a>>,
+    emitters: Option<EmitterSampler>,
     frame: &'a SceneFrame,
-    max_indirect: u32,
+    /// Reflections followed of the lights' and the sky's light (1 = direct).
+    max_light_reflections: u32,
+    /// Reflections followed of emissive surfaces' light (0 = seen only).
+    max_emissive_reflections: u32,
     roulette_start: u32,
+}
+
+/// Irradiance arriving at a shading point straight from the emitters, by kind.
+#[derive(Default)]
+struct Arriving {
+    /// From punctual lights and the sky.
+    lights: Vec3,
+    /// From emissive surfaces.
+    emissive: Vec3,
 }
 
 /// Ray origin offset: relative to the coordinates' magnitude so it works at any scene scale.
@@ -245,12 +317,8 @@ impl Tracer<'_> {
         let tri = &self.accel.tris[hit.tri as usize];
         let material = &self.accel.materials[tri.material as usize];
         let (u, v) = (hit.u, hit.v);
-        let winding = tri.e1.cross(tri.e2).normalize_or(Vec3::Y);
-        let interpolated =
-            (tri.normals[0] * (1.0 - u - v) + tri.normals[1] * u + tri.normals[2] * v)
-                .normalize_or(winding);
-        // The front face is the side the vertex normals point to (as glTF and Mitsuba have it).
-        let front = interpolated.dot(dir) < 0.0;
+        let winding = tri.winding_normal();
+        let interpolated = tri.interpolated_normal(u, v);
         let geometric = if winding.dot(dir) > 0.0 {
             -winding
         } else {
@@ -270,24 +338,25 @@ impl Tracer<'_> {
             geometric,
             shading,
             albedo,
-            emission: if front || material.emission_two_sided {
-                material.emission
-            } else {
-                Vec3::ZERO
-            },
+            emission: self.accel.emitted(tri, u, v, dir),
         }
     }
 
-    /// Reflected radiance from all punctual lights and the sky at `s` (towards any viewer:
-    /// Lambertian). The sky is sampled by next-event estimation; with `mis` its sample carries
-    /// the power-heuristic weight against cosine sampling, and the caller adds the other half
-    /// when the continuing path escapes ([`Tracer::escaped`]); without, it counts in full.
-    fn direct_light(&self, s: &Surface, rng: &mut Rng, mis: bool) -> Vec3 {
-        if s.albedo == Vec3::ZERO {
-            return Vec3::ZERO;
-        }
+    /// Irradiance at `s` arriving straight from the lights and the sky (with `lights`) and
+    /// from emissive surfaces (with `emissive`). The sky and the emissive surfaces are sampled
+    /// by next-event estimation, their samples weighted by the power heuristic against cosine
+    /// sampling; the caller adds the other half when its cosine-sampled ray escapes or hits an
+    /// emitter.
+    fn arriving(&self, s: &Surface, rng: &mut Rng, lights: bool, emissive: bool) -> Arriving {
+        let mut out = Arriving::default();
         let origin = offset(s.position, s.geometric);
-        let mut irradiance = self.sky_irradiance_sample(s, origin, rng, mis);
+        if emissive {
+            out.emissive = self.emitter_irradiance_sample(s, origin, rng);
+        }
+        if !lights {
+            return out;
+        }
+        out.lights = self.sky_irradiance_sample(s, origin, rng);
         for light in &self.frame.lights {
             let (wi, distance, arriving) = match light.kind {
                 LightKind::Directional => {
@@ -317,14 +386,14 @@ impl Tracer<'_> {
                 f32::INFINITY
             };
             if self.accel.unoccluded(origin, wi, t_max) {
-                irradiance += arriving * cos;
+                out.lights += arriving * cos;
             }
         }
-        s.albedo * FRAC_1_PI * irradiance
+        out
     }
 
     /// One next-event sample of the sky's irradiance at `s` (W/m^2, shadowed).
-    fn sky_irradiance_sample(&self, s: &Surface, origin: Vec3, rng: &mut Rng, mis: bool) -> Vec3 {
+    fn sky_irradiance_sample(&self, s: &Surface, origin: Vec3, rng: &mut Rng) -> Vec3 {
         let Some(sky) = &self.sky else {
             return Vec3::ZERO;
         };
@@ -336,12 +405,26 @@ impl Tracer<'_> {
         if !self.accel.unoccluded(origin, wi, f32::INFINITY) {
             return Vec3::ZERO;
         }
-        let weight = if mis {
-            power_heuristic(pdf, cos * FRAC_1_PI)
-        } else {
-            1.0
+        radiance * (cos * power_heuristic(pdf, cos * FRAC_1_PI) / pdf)
+    }
+
+    /// One next-event sample of the emissive triangles' irradiance at `s` (W/m^2, shadowed).
+    fn emitter_irradiance_sample(&self, s: &Surface, origin: Vec3, rng: &mut Rng) -> Vec3 {
+        let Some(emitters) = &self.emitters else {
+            return Vec3::ZERO;
         };
-        radiance * (cos * weight / pdf)
+        let pick = rng.next_f32();
+        let e = emitters.sample(&self.accel, s.position, pick, rng.next_vec2());
+        let cos = s.shading.dot(e.wi);
+        if e.pdf <= 0.0 || cos <= 0.0 || s.geometric.dot(e.wi) <= 0.0 || e.radiance == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        // Stop short of the emitter, so that neither it nor a coplanar neighbour shadows it.
+        let t_max = (s.position + e.wi * e.distance - origin).length() * (1.0 - 1e-4);
+        if !self.accel.unoccluded(origin, e.wi, t_max) {
+            return Vec3::ZERO;
+        }
+        e.radiance * (cos * power_heuristic(e.pdf, cos * FRAC_1_PI) / e.pdf)
     }
 
     /// Sky radiance along a cosine-sampled direction `dir` from `s` that left the scene,
@@ -354,6 +437,20 @@ impl Tracer<'_> {
         sky.sky.radiance(dir) * power_heuristic(pdf_cos, sky.pdf(dir))
     }
 
+    /// Emission of `next`, hit by a cosine-sampled ray along `dir` from `s`, weighted against
+    /// the emitters' next-event sample taken at `s`.
+    fn emission_hit(&self, s: &Surface, dir: Vec3, hit: &Hit, next: &Surface) -> Vec3 {
+        let Some(emitters) = &self.emitters else {
+            return Vec3::ZERO;
+        };
+        if next.emission == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let pdf_cos = s.shading.dot(dir).max(0.0) * FRAC_1_PI;
+        let pdf_light = emitters.solid_angle_pdf(&self.accel, hit.tri, dir, hit.t);
+        next.emission * power_heuristic(pdf_cos, pdf_light)
+    }
+
     fn trace(&self, origin: Vec3, dir: Vec3, rng: &mut Rng) -> PathSample {
         let mut out = PathSample::default();
         let Some(hit) = self.accel.closest(origin, dir, f32::INFINITY) else {
@@ -363,61 +460,87 @@ impl Tracer<'_> {
             }
             return out;
         };
-        let first = self.surface(&hit, origin, dir);
-        out.albedo = first.albedo;
-        // Light reflected at x1 is direct; the sky's share of it is sampled both ways (next
-        // event here, and the escape of the first indirect ray below) unless no ray follows.
-        let follow = self.max_indirect > 0;
-        out.direct = first.emission + self.direct_light(&first, rng, follow);
-        if !follow {
-            return out;
-        }
-        // Radiance arriving at the primary hit along the sampled direction, from >= 1 bounce.
+        let mut s = self.surface(&hit, origin, dir);
+        out.albedo = s.albedo;
+        out.direct = s.emission;
+        // Light reflected at x_j has been reflected j times on its way to the eye: at x1 it is
+        // direct light, further on indirect. Every vertex shares its emitters between
+        // next-event estimation and a cosine-sampled ray (MIS); at the deepest vertex that ray
+        // only looks for emitters, and the path ends there.
+        let deepest = self
+            .max_light_reflections
+            .max(self.max_emissive_reflections);
+        // Radiance arriving at x1 from the vertices beyond it.
         let mut incoming = Vec3::ZERO;
+        // Radiance leaving x_j -> radiance arriving at x1 (j >= 2).
         let mut weight = Vec3::ONE;
-        let mut s = first;
-        let mut bounce = 1u32;
-        loop {
-            let dir = cosine_hemisphere(s.shading, rng.next_vec2());
-            if dir.dot(s.geometric) <= 0.0 {
-                // Below the true surface: the shading normal leans away; such light is lost.
-                break;
+        for j in 1..=deepest {
+            let lights = j <= self.max_light_reflections;
+            let emissive = j <= self.max_emissive_reflections;
+            let last = j == deepest;
+            // Russian roulette ends paths at random, which 1 / survival pays.
+            let mut survival = 1.0;
+            // At the last vertex the ray only looks for emitters: none to find, no ray.
+            let mut follow =
+                !last || (lights && self.sky.is_some()) || (emissive && self.emitters.is_some());
+            if !last && j > self.roulette_start {
+                survival = s.albedo.max_element().min(0.95);
+                follow = survival > 0.0 && rng.next_f32() < survival;
             }
-            let origin = offset(s.position, s.geometric);
-            let Some(hit) = self.accel.closest(origin, dir, f32::INFINITY) else {
-                // Sky light reflected at s: direct light at the primary hit, else part of the
-                // bounce that s's own light belongs to.
-                let sky = self.escaped(&s, dir);
-                if bounce == 1 {
-                    out.direct += s.albedo * sky;
-                } else {
-                    incoming += weight * sky;
+            // Beyond x1 light arriving at a black surface goes nowhere (at x1 it is still part
+            // of the irradiance images).
+            let arriving = if j == 1 || s.albedo != Vec3::ZERO {
+                self.arriving(&s, rng, lights, emissive)
+            } else {
+                Arriving::default()
+            };
+            // Radiance arriving at s along the continuation ray straight from an emitter.
+            let mut emitted = Vec3::ZERO;
+            let mut emitted_by_surfaces = Vec3::ZERO;
+            let mut next = None;
+            if follow {
+                let dir = cosine_hemisphere(s.shading, rng.next_vec2());
+                // Below the true surface the shading normal leans away; such light is lost.
+                if dir.dot(s.geometric) > 0.0 {
+                    let origin = offset(s.position, s.geometric);
+                    match self.accel.closest(origin, dir, f32::INFINITY) {
+                        None if lights => emitted = self.escaped(&s, dir) / survival,
+                        None => {}
+                        Some(hit) => {
+                            let n = self.surface(&hit, origin, dir);
+                            if emissive {
+                                emitted_by_surfaces =
+                                    self.emission_hit(&s, dir, &hit, &n) / survival;
+                                emitted += emitted_by_surfaces;
+                            }
+                            if !last {
+                                next = Some(n);
+                            }
+                        }
+                    }
                 }
+            }
+            // Lambertian: albedo/pi x irradiance, and albedo x radiance along a cosine-sampled
+            // ray (BRDF x cos / pdf = albedo).
+            let reflected =
+                s.albedo * (FRAC_1_PI * (arriving.lights + arriving.emissive) + emitted);
+            if j == 1 {
+                out.direct += reflected;
+                out.emitter_irradiance = arriving.emissive + PI * emitted_by_surfaces;
+            } else {
+                incoming += weight * reflected;
+            }
+            let Some(n) = next else {
                 break;
             };
-            let next = self.surface(&hit, origin, dir);
-            // No ray leaves the last vertex of a bounce-limited path: its sky sample counts in
-            // full. (Russian roulette ends paths at random, which the 1/survival weight pays.)
-            let last = bounce >= self.max_indirect;
-            incoming += weight * (next.emission + self.direct_light(&next, rng, !last));
-            if last {
-                break;
+            if j > 1 {
+                weight *= s.albedo;
             }
-            // Lambertian with cosine sampling: BRDF x cos / pdf = albedo.
-            let mut factor = next.albedo;
-            if bounce >= self.roulette_start {
-                let survive = next.albedo.max_element().min(0.95);
-                if survive <= 0.0 || rng.next_f32() >= survive {
-                    break;
-                }
-                factor /= survive;
-            }
-            weight *= factor;
+            weight /= survival;
             if weight.max_element() <= 0.0 {
                 break;
             }
-            s = next;
-            bounce += 1;
+            s = n;
         }
         out.indirect = out.albedo * incoming;
         out.irradiance = PI * incoming;

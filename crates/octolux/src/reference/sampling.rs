@@ -90,6 +90,32 @@ pub(crate) fn cosine_hemisphere(n: Vec3, u: Vec2) -> Vec3 {
     (t * (r * phi.cos()) + b * (r * phi.sin()) + n * z).normalize_or(n)
 }
 
+/// Index `i` with `cdf[i] <= u < cdf[i + 1]` (cdf increasing from 0 to 1), skipping empty bins.
+pub(crate) fn search(cdf: &[f32], u: f32) -> usize {
+    let i = cdf.partition_point(|&c| c <= u);
+    i.saturating_sub(1).min(cdf.len() - 2)
+}
+
+/// Turns weights into a cumulative distribution; None when they sum to zero.
+pub(crate) fn cumulative(weights: impl Iterator<Item = f64>, n: usize) -> Option<Vec<f32>> {
+    let mut cdf = Vec::with_capacity(n + 1);
+    let mut sum = 0.0f64;
+    cdf.push(0.0);
+    let mut partial = Vec::with_capacity(n);
+    for w in weights {
+        sum += w;
+        partial.push(sum);
+    }
+    if sum <= 0.0 {
+        return None;
+    }
+    cdf.extend(partial.iter().map(|&s| (s / sum) as f32));
+    if let Some(last) = cdf.last_mut() {
+        *last = 1.0;
+    }
+    Some(cdf)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

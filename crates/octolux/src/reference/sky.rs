@@ -1,13 +1,17 @@
 //! Importance sampling of the sky for next-event estimation.
 //!
 //! A constant sky is sampled uniformly over the sphere. A map is sampled texel by texel in
-//! proportion to luminance x texel solid angle (a marginal distribution over rows, a
+//! proportion to a weight x texel solid angle (a marginal distribution over rows, a
 //! conditional one over the texels of each row), uniformly in (u, v) inside the texel; the
 //! density per solid angle is then P(texel) W H / (2 pi^2 sin theta). Radiance is looked up
-//! bilinearly ([`Sky::radiance`]) while the density is piecewise constant: where bilinear
-//! filtering spreads light into a texel of zero weight, only BSDF sampling finds it, and
-//! multiple importance sampling keeps the estimate unbiased.
+//! bilinearly ([`Sky::radiance`]), so inside a texel it comes from its 3 x 3 neighbourhood: a
+//! texel's weight is the brightest luminance there, so that no part of the map is much
+//! brighter than its density says. Weighting by the texel alone leaves the half-texel rims
+//! around a small sun with the density of the dark sky beside it, and every sample landing
+//! there a firefly (seed-to-seed relMSE 1.1e-2 against 1.6e-3, measured on Mitsuba's Cornell
+//! box under `afternoon.hdr`, docs/reference.md).
 
+use super::sampling::{cumulative, search};
 use crate::scene::{uv_to_direction, Sky, SkyRadiance};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -30,41 +34,33 @@ struct MapDistribution {
     texel_probability: Vec<f32>,
 }
 
-/// Index `i` with `cdf[i] <= u < cdf[i + 1]` (cdf increasing from 0 to 1), skipping empty bins.
-fn search(cdf: &[f32], u: f32) -> usize {
-    let i = cdf.partition_point(|&c| c <= u);
-    i.saturating_sub(1).min(cdf.len() - 2)
-}
-
-/// Turns weights into a cumulative distribution; None when they sum to zero.
-fn cumulative(weights: impl Iterator<Item = f64>, n: usize) -> Option<Vec<f32>> {
-    let mut cdf = Vec::with_capacity(n + 1);
-    let mut sum = 0.0f64;
-    cdf.push(0.0);
-    let mut partial = Vec::with_capacity(n);
-    for w in weights {
-        sum += w;
-        partial.push(sum);
-    }
-    if sum <= 0.0 {
-        return None;
-    }
-    cdf.extend(partial.iter().map(|&s| (s / sum) as f32));
-    if let Some(last) = cdf.last_mut() {
-        *last = 1.0;
-    }
-    Some(cdf)
-}
-
 impl<'a> SkySampler<'a> {
     pub fn new(sky: &'a Sky) -> SkySampler<'a> {
         let map = match &sky.radiance {
             SkyRadiance::Constant(_) => None,
             SkyRadiance::Map(map) => {
                 let (w, h) = (map.image.width as usize, map.image.height as usize);
+                let luminance: Vec<f32> = map
+                    .image
+                    .pixels
+                    .iter()
+                    .map(|p| p.element_sum() / 3.0)
+                    .collect();
+                // The brightest texel of the 3 x 3 neighbourhood (columns wrap, rows clamp).
+                let brightest: Vec<f32> = (0..w * h)
+                    .map(|i| {
+                        let (x, y) = (i % w, i / w);
+                        let mut m = 0.0f32;
+                        for ny in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                            for nx in [(x + w - 1) % w, x, (x + 1) % w] {
+                                m = m.max(luminance[ny * w + nx]);
+                            }
+                        }
+                        m
+                    })
+                    .collect();
                 let weight = |x: usize, y: usize| {
-                    let p = map.image.pixels[y * w + x];
-                    ((p.x + p.y + p.z) as f64 / 3.0) * map.texel_solid_angle(y as u32) as f64
+                    brightest[y * w + x] as f64 * map.texel_solid_angle(y as u32) as f64
                 };
                 let row_sums: Vec<f64> =
                     (0..h).map(|y| (0..w).map(|x| weight(x, y)).sum()).collect();
@@ -209,7 +205,22 @@ mod tests {
             let (dir, radiance, pdf) = sampler.sample(rng.next_vec2());
             assert!(pdf > 0.0);
             assert!((sampler.pdf(dir) - pdf).abs() <= 1e-3 * pdf, "{dir}");
-            assert!(radiance.max_element() > 0.0, "never samples black texels");
+            // Only texels with a lit neighbour are sampled (their weight is the brightest of
+            // their 3 x 3 neighbourhood); where bilinear lookup finds nothing, so be it.
+            if radiance.max_element() <= 0.0 {
+                let uv = crate::scene::direction_to_uv(sky.to_world.transpose() * dir);
+                let (x, y) = ((uv.x * 32.0) as i32, (uv.y * 16.0) as i32);
+                let SkyRadiance::Map(map) = &sky.radiance else {
+                    unreachable!()
+                };
+                let lit = (-1..=1).any(|dy| {
+                    (-1..=1).any(|dx| {
+                        let (nx, ny) = ((x + dx).rem_euclid(32), (y + dy).clamp(0, 15));
+                        map.image.pixels[(ny * 32 + nx) as usize].max_element() > 0.0
+                    })
+                });
+                assert!(lit, "sampled a texel in the dark at {uv}");
+            }
         }
     }
 

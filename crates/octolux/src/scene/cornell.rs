@@ -243,6 +243,7 @@ pub fn geometry() -> Scene {
         cameras: vec![],
         exposure: 0.0,
         sky: None,
+        requests: vec![],
     }
 }
 

@@ -253,6 +253,31 @@ pub struct Scene {
     pub exposure: f32,
     /// Environment light arriving from infinitely far away (none: the background is black).
     pub sky: Option<Sky>,
+    /// What the scene file asks of the renderer beyond the scene itself (a Mitsuba
+    /// integrator's depth, a sampler's sample count), so that a render that does otherwise
+    /// can say what it uses instead.
+    pub requests: Vec<FileRequest>,
+}
+
+/// A render setting a scene file asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FileRequest {
+    /// Where it is asked: `file:line:column: <element>`.
+    pub at: String,
+    /// What is asked.
+    pub asked: Asked,
+}
+
+/// What a [`FileRequest`] asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Asked {
+    /// A light transport, with the file's own words for it (`max_depth 6`). `None`: emitters
+    /// seen only (Mitsuba's `max_depth` 1), which no octolux setting renders.
+    Bounces(Option<crate::transport::Bounces>, String),
+    /// Samples per pixel.
+    Spp(u32),
+    /// An integrator octolux does not have (it path-traces, or runs a GI technique).
+    Integrator(String),
 }
 
 /// One world-space triangle of a [`SceneFrame`], with everything shading needs.
@@ -282,6 +307,13 @@ pub struct SceneFrame {
 }
 
 impl Scene {
+    /// Whether any material emits light (an emissive surface).
+    pub fn has_emissive_surfaces(&self) -> bool {
+        self.materials
+            .iter()
+            .any(|m| m.emission.max_element() > 0.0)
+    }
+
     /// Loads a scene or model file, choosing the loader by extension: `.toml` (scene file),
     /// `.xml` (Mitsuba 3 scene), `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is
     /// validated, and a scene that nothing lights gets a warning (it renders black).

@@ -647,9 +647,13 @@ impl GiTechnique for LpvGi {
         &self.output.view
     }
 
-    fn reference_bounces(&self) -> crate::transport::Bounces {
-        // RSM VPLs propagated once: exactly one indirect bounce.
-        crate::transport::Bounces::Indirect(1)
+    fn reference_transport(&self) -> crate::transport::Transport {
+        // RSM VPLs propagated once: exactly one indirect bounce of the lights' light. The
+        // RSMs see the lights only, so emissive surfaces light nothing.
+        crate::transport::Transport {
+            bounces: crate::transport::Bounces::Indirect(1),
+            emissive: crate::transport::EmissiveSurfaces::Unlit,
+        }
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

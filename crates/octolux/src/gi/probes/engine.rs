@@ -440,11 +440,16 @@ impl ProbeEngine {
     }
 
     /// The light transport the passes compute.
-    pub fn reference_bounces(&self) -> crate::transport::Bounces {
-        if self.settings.multi_bounce {
-            crate::transport::Bounces::Unlimited
-        } else {
-            crate::transport::Bounces::Indirect(1)
+    pub fn reference_transport(&self) -> crate::transport::Transport {
+        // Surfels store emission with the reflected direct light, so emissive surfaces light
+        // the scene through the probes, one bounce behind the lights.
+        crate::transport::Transport {
+            bounces: if self.settings.multi_bounce {
+                crate::transport::Bounces::Unlimited
+            } else {
+                crate::transport::Bounces::Indirect(1)
+            },
+            emissive: crate::transport::EmissiveSurfaces::OneBounceFewer,
         }
     }
 }

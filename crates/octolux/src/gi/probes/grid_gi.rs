@@ -250,8 +250,8 @@ impl GiTechnique for ProbesGrid {
         self.passes.view()
     }
 
-    fn reference_bounces(&self) -> crate::transport::Bounces {
-        self.passes.reference_bounces()
+    fn reference_transport(&self) -> crate::transport::Transport {
+        self.passes.reference_transport()
     }
 
     fn other_ledger_owners(&self) -> &[&'static str] {

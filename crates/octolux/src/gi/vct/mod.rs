@@ -26,3 +26,17 @@ pub use svo_gi::VctSvo;
 
 pub use cone::{march_cone, ConeMarch, ConeParams};
 pub use gather::{cone_set_wgsl, diffuse_cone_dir, gather_irradiance};
+
+/// The transport a cone tracer computes: every bounce with `multi_bounce`, else one. Voxels
+/// store emission with the reflected direct light, so emissive surfaces light the scene through
+/// the cones, one bounce behind the lights.
+fn cone_transport(multi_bounce: bool) -> crate::transport::Transport {
+    crate::transport::Transport {
+        bounces: if multi_bounce {
+            crate::transport::Bounces::Unlimited
+        } else {
+            crate::transport::Bounces::Indirect(1)
+        },
+        emissive: crate::transport::EmissiveSurfaces::OneBounceFewer,
+    }
+}

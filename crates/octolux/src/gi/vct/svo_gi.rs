@@ -391,12 +391,8 @@ impl GiTechnique for VctSvo {
         self.tracer.specular().map(|(_, view)| view)
     }
 
-    fn reference_bounces(&self) -> crate::transport::Bounces {
-        if self.bounce.is_some() {
-            crate::transport::Bounces::Unlimited
-        } else {
-            crate::transport::Bounces::Indirect(1)
-        }
+    fn reference_transport(&self) -> crate::transport::Transport {
+        super::cone_transport(self.bounce.is_some())
     }
 
     fn other_ledger_owners(&self) -> &[&'static str] {

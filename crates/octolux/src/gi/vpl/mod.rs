@@ -540,8 +540,12 @@ impl GiTechnique for VplGi {
         &self.view
     }
 
-    fn reference_bounces(&self) -> crate::transport::Bounces {
-        crate::transport::Bounces::Indirect(self.settings.bounces)
+    fn reference_transport(&self) -> crate::transport::Transport {
+        // VPLs come from the lights' RSMs only, so emissive surfaces light nothing.
+        crate::transport::Transport {
+            bounces: crate::transport::Bounces::Indirect(self.settings.bounces),
+            emissive: crate::transport::EmissiveSurfaces::Unlit,
+        }
     }
 
     fn other_ledger_owners(&self) -> &[&'static str] {

@@ -127,7 +127,10 @@ impl<'a> Loader<'a> {
             Sky::constant(self.emitted(el, "radiance", 1.0)?)
         } else {
             let file = self.file(el, "filename")?;
-            let map = EnvironmentMap::load(&file).map_err(|e| self.doc.error(el, e))?;
+            // Mitsuba places the map's rows differently (`EnvironmentMap::with_mitsuba_rows`).
+            let map = EnvironmentMap::load(&file)
+                .map_err(|e| self.doc.error(el, e))?
+                .with_mitsuba_rows();
             let scale = self.doc.float(el, "scale", 1.0)?;
             if scale < 0.0 {
                 return Err(self.doc.error(el, "envmap: scale must not be negative"));

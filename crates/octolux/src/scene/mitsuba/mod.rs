@@ -34,7 +34,7 @@ mod shapes;
 mod spectrum;
 mod xml;
 
-use super::{obj, ply, AlphaMode, Material, Object, Scene};
+use super::{obj, ply, AlphaMode, Asked, FileRequest, Material, Object, Scene};
 use crate::Result;
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
@@ -173,7 +173,8 @@ impl<'a> Loader<'a> {
                 self.skip(el, "has no id, so nothing can refer to it");
                 Ok(())
             }
-            "integrator" | "sampler" | "film" | "rfilter" => {
+            "integrator" => self.integrator(el),
+            "sampler" | "film" | "rfilter" => {
                 log::info!(
                     "{}: {} not used (octolux renders with its own settings)",
                     self.doc.at(el),
@@ -186,6 +187,43 @@ impl<'a> Loader<'a> {
                 Ok(())
             }
         }
+    }
+
+    /// Records what an integrator asks for: octolux renders with its own settings, and the
+    /// command line warns where they differ.
+    fn integrator(&mut self, el: &Element) -> Result<()> {
+        let asked = match el.kind() {
+            "path" | "volpath" | "volpathmis" | "prb" | "prbvolpath" | "direct_projective"
+            | "prb_projective" => {
+                // Mitsuba counts path vertices: 1 = emitters seen, 2 = direct light.
+                let depth = self.doc.integer(el, "max_depth", -1)?;
+                let bounces = match depth {
+                    -1 => Some(crate::transport::Bounces::Unlimited),
+                    d if d < -1 => {
+                        return Err(self.doc.error(el, "max_depth must be -1 or at least 0"))
+                    }
+                    d => crate::transport::Bounces::from_reflections(
+                        (d as u64).saturating_sub(1).min(u32::MAX as u64) as u32,
+                    ),
+                };
+                Asked::Bounces(bounces, format!("max_depth {depth}"))
+            }
+            "direct" => Asked::Bounces(
+                Some(crate::transport::Bounces::DirectOnly),
+                "the direct integrator".into(),
+            ),
+            kind => Asked::Integrator(kind.to_string()),
+        };
+        log::info!(
+            "{}: {} asks for {asked:?} (octolux renders with its own settings)",
+            self.doc.at(el),
+            el.describe()
+        );
+        self.scene.requests.push(FileRequest {
+            at: format!("{}: {}", self.doc.at(el), el.describe()),
+            asked,
+        });
+        Ok(())
     }
 
     /// The element a `<ref id>` points to.

@@ -2,7 +2,7 @@
 
 use super::xml::Element;
 use super::{Loader, FILM};
-use crate::scene::Camera;
+use crate::scene::{Asked, Camera, FileRequest};
 use crate::Result;
 use glam::{Mat3, Vec3};
 
@@ -20,6 +20,18 @@ impl<'a> Loader<'a> {
                 self.skip(el, "is not a supported sensor type");
                 return Ok(());
             }
+        }
+        if let Some(sampler) = el.children_tagged("sampler").next() {
+            // Mitsuba's default sample count is 4.
+            let spp = doc.integer(sampler, "sample_count", 4)?;
+            let spp = u32::try_from(spp)
+                .ok()
+                .filter(|&n| n > 0)
+                .ok_or_else(|| doc.error(sampler, "sample_count must be a positive integer"))?;
+            self.scene.requests.push(FileRequest {
+                at: format!("{}: {}", doc.at(sampler), sampler.describe()),
+                asked: Asked::Spp(spp),
+            });
         }
         let film = el.children_tagged("film").next();
         let (width, height) = match film {
