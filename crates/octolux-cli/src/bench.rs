@@ -136,6 +136,19 @@ fn check_json(args: &BenchArgs, loaded: &[PathBuf]) -> Result<()> {
     let Some(json) = args.json.as_deref().filter(|p| p.as_os_str() != "-") else {
         return Ok(());
     };
+    crate::outputs::check(
+        &[crate::outputs::Planned {
+            flag: "--json",
+            path: json,
+            format: crate::outputs::Format::Json,
+        }],
+        &bench_inputs(args, loaded),
+    )
+}
+
+/// The files a bench run reads: the scene files, the models they name, the `--sky` map and
+/// `loaded`, every file the scenes' loading read.
+fn bench_inputs(args: &BenchArgs, loaded: &[PathBuf]) -> Vec<PathBuf> {
     let mut inputs = args.scenes.clone();
     for scene in &args.scenes {
         if scene
@@ -147,14 +160,82 @@ fn check_json(args: &BenchArgs, loaded: &[PathBuf]) -> Result<()> {
     }
     inputs.extend(args.sky_args.sky.iter().map(PathBuf::from));
     inputs.extend(loaded.iter().cloned());
+    inputs
+}
+
+/// Where `--out-dir` puts the images of the scenes measured in this order (one subfolder per
+/// scene with several), named as the run names them.
+fn out_dirs(dir: &Path, scenes: &[&str]) -> Vec<PathBuf> {
+    let mut names = Vec::new();
+    scenes
+        .iter()
+        .map(|scene| {
+            if scenes.len() > 1 {
+                dir.join(unique_name(scene, &mut names))
+            } else {
+                dir.to_path_buf()
+            }
+        })
+        .collect()
+}
+
+/// Checks the files `--json-dir` and `--out-dir` will write (each scene's JSON, each
+/// technique's EXR and PNG) against the inputs before any work. The references' images are
+/// named after the transport each technique claims, known once it is made: they are checked
+/// when written ([`write_out_image`]).
+fn check_dir_outputs(args: &BenchArgs, scenes: &[&str], loaded: &[PathBuf]) -> Result<()> {
+    use crate::outputs::{Format, Planned};
+    let mut files: Vec<(&str, PathBuf, Format)> = Vec::new();
+    if let Some(dir) = &args.json_dir {
+        let mut names = Vec::new();
+        for scene in scenes {
+            let name = unique_name(scene, &mut names);
+            files.push(("--json-dir", dir.join(format!("{name}.json")), Format::Json));
+        }
+    }
+    if let Some(dir) = &args.out_dir {
+        for sub in out_dirs(dir, scenes) {
+            for gi in &args.gi {
+                files.push(("--out-dir", sub.join(format!("{gi}.exr")), Format::Exr));
+                files.push(("--out-dir", sub.join(format!("{gi}.png")), Format::Png));
+            }
+        }
+    }
+    let planned: Vec<Planned> = files
+        .iter()
+        .map(|(flag, path, format)| Planned {
+            flag,
+            path,
+            format: *format,
+        })
+        .collect();
+    crate::outputs::check(&planned, &bench_inputs(args, loaded))
+}
+
+/// Writes one image of `--out-dir` after checking it is not one of the inputs.
+fn write_out_image(
+    path: &Path,
+    image: &HdrImage,
+    exposure: Option<f32>,
+    inputs: &[PathBuf],
+) -> Result<()> {
+    let format = match exposure {
+        Some(_) => crate::outputs::Format::Png,
+        None => crate::outputs::Format::Exr,
+    };
     crate::outputs::check(
         &[crate::outputs::Planned {
-            flag: "--json",
-            path: json,
-            format: crate::outputs::Format::Json,
+            flag: "--out-dir",
+            path,
+            format,
         }],
-        &inputs,
-    )
+        inputs,
+    )?;
+    match exposure {
+        Some(ev) => image.write_png(path, ev)?,
+        None => image.write_exr(path)?,
+    }
+    Ok(())
 }
 
 /// Checks every argument before any work starts, so a long run fails at once.
@@ -249,6 +330,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let (inputs, loaded) = octolux::limits::recording_reads(|| load_inputs(args));
     let inputs = inputs?;
     check_json(args, &loaded)?;
+    let names: Vec<&str> = inputs.iter().map(|i| i.scene.name.as_str()).collect();
+    check_dir_outputs(args, &names, &loaded)?;
+    let read = bench_inputs(args, &loaded);
     // Every technique's settings are checked before the first is measured.
     use octolux::gi::lpv;
     for input in &inputs {
@@ -284,26 +368,24 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     let json_stdout = args.json.as_deref().is_some_and(|p| p.as_os_str() == "-");
     let quiet = json_stdout || !std::io::stdout().is_terminal();
-    let mut out_names: Vec<String> = Vec::new();
+    let out_dirs = args
+        .out_dir
+        .as_deref()
+        .map(|dir| out_dirs(dir, &names))
+        .unwrap_or_default();
 
     let mut run: Option<BenchReport> = None;
     let mut json_names: Vec<String> = Vec::new();
-    for input in &inputs {
+    for (i, input) in inputs.iter().enumerate() {
         // With several scenes, images go to one subfolder per scene.
-        let out_dir = args.out_dir.as_ref().map(|dir| {
-            if inputs.len() > 1 {
-                dir.join(unique_name(&input.scene.name, &mut out_names))
-            } else {
-                dir.clone()
-            }
-        });
+        let out = out_dirs.get(i).map(|dir| (dir.as_path(), read.as_slice()));
         let (adapter, scene_report) = bench_scene(
             args,
             input,
             against,
             reference_settings.as_ref(),
             quiet,
-            out_dir.as_deref(),
+            out,
         )?;
         let run = run.get_or_insert_with(|| BenchReport {
             version: report::JSON_VERSION,
@@ -393,8 +475,9 @@ fn bench_scene(
     against: Option<Transport>,
     reference_settings: Option<&ReferenceSettings>,
     quiet: bool,
-    out_dir: Option<&Path>,
+    out: Option<(&Path, &[PathBuf])>,
 ) -> Result<(AdapterReport, SceneReport)> {
+    let out_dir = out.map(|(dir, _)| dir);
     let scene = &input.scene;
     let animated = scene.is_animated();
     let total_frames = args.warmup + args.frames;
@@ -544,23 +627,21 @@ fn bench_scene(
             result.metrics = Some(metrics::compare(image, &reference.total, None)?);
         }
     }
-    if let Some(dir) = out_dir {
+    if let Some((dir, read)) = out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        for (name, _, image) in &images {
-            image.write_exr(&dir.join(format!("{name}.exr")))?;
-            image.write_png(&dir.join(format!("{name}.png")), scene.exposure)?;
-        }
-        for (bounces, reference, _) in &references {
-            let stem = format!(
-                "reference-{}",
-                bounces.to_string().replace("; ", "-").replace(' ', "-")
-            );
-            reference
-                .total
-                .write_exr(&dir.join(format!("{stem}.exr")))?;
-            reference
-                .total
-                .write_png(&dir.join(format!("{stem}.png")), scene.exposure)?;
+        let technique_images = images.iter().map(|(name, _, image)| (name.clone(), image));
+        let reference_images = references.iter().map(|(bounces, reference, _)| {
+            let stem = bounces.to_string().replace("; ", "-").replace(' ', "-");
+            (format!("reference-{stem}"), &reference.total)
+        });
+        for (stem, image) in technique_images.chain(reference_images) {
+            write_out_image(&dir.join(format!("{stem}.exr")), image, None, read)?;
+            write_out_image(
+                &dir.join(format!("{stem}.png")),
+                image,
+                Some(scene.exposure),
+                read,
+            )?;
         }
     }
     let Some(adapter) = adapter else {

@@ -126,6 +126,25 @@ fn outputs_that_would_overwrite_an_input_are_refused() {
         &["--json", ".json"],
     );
     assert_eq!(std::fs::read(&scene).unwrap(), text);
+    // `bench --out-dir` writes `<technique>.exr`: a sky map of that name in that folder is
+    // refused before anything is measured.
+    let none = dir.join("none.exr");
+    write_exr(&none, 1.0);
+    let sky_before = std::fs::read(&none).unwrap();
+    fails_fast(
+        &[
+            "bench",
+            "--gi",
+            "none",
+            "--sky",
+            s(&none),
+            "--out-dir",
+            s(&dir),
+            "--no-reference",
+        ],
+        &["--out-dir", "none.exr", "is the input"],
+    );
+    assert_eq!(std::fs::read(&none).unwrap(), sky_before);
 }
 
 #[test]

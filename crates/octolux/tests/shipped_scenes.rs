@@ -34,6 +34,13 @@ fn every_shipped_scene_renders_lit() {
             continue;
         }
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        // No shipped scene has far outliers: GI structures fit the whole scene, as before.
+        assert_eq!(
+            scene.gi_bounds_at(0.0),
+            scene.bounds_at(0.0),
+            "{}",
+            path.display()
+        );
         let mut renderer = Renderer::new(
             &ctx,
             &scene,

@@ -469,9 +469,14 @@ impl Scene {
 
     /// World-space axis-aligned bounds (min, max) of all geometry at time `t`.
     pub fn bounds_at(&self, t: f32) -> (Vec3, Vec3) {
+        self.bounds_where(t, |_| true)
+    }
+
+    /// [`Scene::bounds_at`] of the objects `keep` accepts.
+    pub fn bounds_where(&self, t: f32, keep: impl Fn(&Object) -> bool) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for object in &self.objects {
+        for object in self.objects.iter().filter(|o| keep(o)) {
             let m = object.transform_at(t);
             for &mesh in &object.meshes {
                 for &p in &self.meshes[mesh as usize].positions {
@@ -486,6 +491,134 @@ impl Scene {
         } else {
             (lo, hi)
         }
+    }
+
+    /// Bounds for GI structures at time `t`: [`Scene::bounds_at`] without far outliers.
+    ///
+    /// Volumes, octrees, probe grids and clipmap extents are fitted to the scene; one triangle
+    /// a kilometre beside a room would spread them over the whole extent and leave the room a
+    /// few cells. Along each axis the triangles' extents are marked in 64 bins over the current
+    /// bounds; where empty bins split them into clusters and the cluster holding the most
+    /// triangle area is less than 1/8 of the extent, the bounds shrink to the triangles touching
+    /// that cluster, and the axes are looked at again (up to 8 times). Geometry without such a
+    /// gap (every shipped scene) keeps exactly [`Scene::bounds_at`].
+    pub fn gi_bounds_at(&self, t: f32) -> (Vec3, Vec3) {
+        const BINS: usize = 64;
+        let full = self.bounds_at(t);
+        let mut tris: Vec<(Vec3, Vec3, f32)> = Vec::new();
+        for object in &self.objects {
+            let m = object.transform_at(t);
+            for &mesh in &object.meshes {
+                let Some(mesh) = self.meshes.get(mesh as usize) else {
+                    continue;
+                };
+                for tri in mesh.indices.chunks_exact(3) {
+                    let p: [Vec3; 3] = std::array::from_fn(|k| {
+                        let i = tri[k] as usize;
+                        m.transform_point3(mesh.positions.get(i).copied().unwrap_or_default())
+                    });
+                    let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+                    tris.push((p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]), area));
+                }
+            }
+        }
+        let (mut lo, mut hi) = full;
+        let mut keep: Vec<bool> = vec![true; tris.len()];
+        for _ in 0..8 {
+            let mut shrunk = false;
+            for axis in 0..3 {
+                let (a, b) = (lo[axis], hi[axis]);
+                let extent = b - a;
+                if extent.is_nan() || extent <= 0.0 {
+                    continue;
+                }
+                let bin = |x: f32| (((x - a) / extent * BINS as f32) as usize).min(BINS - 1);
+                let mut area = [0.0f64; BINS];
+                let mut covered = [false; BINS];
+                for (k, (tlo, thi, ta)) in tris.iter().enumerate() {
+                    if !keep[k] {
+                        continue;
+                    }
+                    let (i0, i1) = (bin(tlo[axis]), bin(thi[axis]));
+                    covered[i0..=i1].iter_mut().for_each(|c| *c = true);
+                    area[i0] += *ta as f64;
+                }
+                // Clusters: runs of covered bins; the one with the most area.
+                let mut best = (0usize, 0usize, -1.0f64);
+                let mut i = 0;
+                while i < BINS {
+                    if !covered[i] {
+                        i += 1;
+                        continue;
+                    }
+                    let start = i;
+                    let mut sum = 0.0;
+                    while i < BINS && covered[i] {
+                        sum += area[i];
+                        i += 1;
+                    }
+                    if sum > best.2 {
+                        best = (start, i - 1, sum);
+                    }
+                }
+                if (best.1 - best.0 + 1) * 8 > BINS {
+                    continue;
+                }
+                let (c0, c1) = (best.0, best.1);
+                let (mut nlo, mut nhi) =
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+                for (k, (tlo, thi, _)) in tris.iter().enumerate() {
+                    if keep[k] {
+                        keep[k] = bin(tlo[axis]) <= c1 && bin(thi[axis]) >= c0;
+                        if keep[k] {
+                            nlo = nlo.min(*tlo);
+                            nhi = nhi.max(*thi);
+                        }
+                    }
+                }
+                if nlo.x <= nhi.x {
+                    (lo, hi) = (nlo, nhi);
+                    shrunk = true;
+                }
+            }
+            if !shrunk {
+                break;
+            }
+        }
+        (lo, hi)
+    }
+
+    /// [`Scene::gi_bounds_at`] over the animation: at rest and, for animated objects, at 256
+    /// instants over their tracks' key range (a moving object outside a structure fitted to
+    /// the scene would not be in it). Without far outliers, the bounds of all geometry at those
+    /// instants; with them, the trimmed bounds at rest grown by the animated objects only.
+    pub fn gi_bounds_over_animation(&self) -> (Vec3, Vec3) {
+        let trimmed = self.gi_bounds_at(0.0);
+        let outliers = trimmed != self.bounds_at(0.0);
+        let (mut lo, mut hi) = trimmed;
+        let keys = self
+            .objects
+            .iter()
+            .filter_map(|o| o.animation.as_ref())
+            .flat_map(|track| track.keys.iter().map(|k| k.time));
+        let (t0, t1) = keys.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), t| {
+            (a.min(t), b.max(t))
+        });
+        if t0 < t1 {
+            for i in 0..=256 {
+                let t = t0 + (t1 - t0) * i as f32 / 256.0;
+                let (l, h) = if outliers {
+                    self.bounds_where(t, |o| o.animation.is_some())
+                } else {
+                    self.bounds_at(t)
+                };
+                if (l, h) != (Vec3::ZERO, Vec3::ZERO) {
+                    lo = lo.min(l);
+                    hi = hi.max(h);
+                }
+            }
+        }
+        (lo, hi)
     }
 
     /// All triangles in world space for a frame (for the path tracer and voxelizers).

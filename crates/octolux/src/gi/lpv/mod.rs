@@ -276,6 +276,9 @@ pub struct LpvGi {
     passes: Option<Passes>,
     /// The grids of the last frame.
     last_grids: Option<GpuGrids>,
+    /// Bounds to fit the volumes to where far outliers make the scene's own bounds useless
+    /// (`Scene::gi_bounds_over_animation`); None: the scene's bounds of the frame.
+    trimmed_bounds: Option<(Vec3, Vec3)>,
 }
 
 struct Passes {
@@ -357,6 +360,8 @@ impl LpvGi {
             output: lookup::Output::new(ctx, owner, width, height),
             passes: None,
             last_grids: None,
+            trimmed_bounds: (scene.gi_bounds_at(0.0) != scene.bounds_at(0.0))
+                .then(|| scene.gi_bounds_over_animation()),
             layouts,
             settings: s,
         })
@@ -366,7 +371,9 @@ impl LpvGi {
     fn place(&self, frame: &GiFrame) -> Vec<GpuGrid> {
         let bounds = match self.settings.bounds {
             Some([lo, hi]) => (Vec3::from(lo), Vec3::from(hi)),
-            None => frame.scene.bounds_at(frame.frame.time),
+            None => self
+                .trimmed_bounds
+                .unwrap_or_else(|| frame.scene.bounds_at(frame.frame.time)),
         };
         let placements: Vec<(Vec3, f32)> = match self.variant {
             Variant::Uniform | Variant::Octree => {

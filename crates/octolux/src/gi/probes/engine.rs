@@ -127,7 +127,7 @@ impl ProbeEngine {
         layout: &ProbeLayout,
         set: &ProbeSetModules,
     ) -> Result<ProbeEngine> {
-        let bounds = scene.bounds_at(0.0);
+        let bounds = scene.gi_bounds_at(0.0);
         let animated_objects = scene
             .objects
             .iter()

@@ -150,7 +150,7 @@ impl ProbesGrid {
     ) -> Result<ProbesGrid> {
         let settings = &settings.resolved(false);
         settings.validate()?;
-        let grid = ProbeGrid::over(scene.bounds_at(0.0), settings.grid)?;
+        let grid = ProbeGrid::over(scene.gi_bounds_at(0.0), settings.grid)?;
         let layout = ProbeLayout {
             lo: grid.lo,
             spacing: grid.spacing,

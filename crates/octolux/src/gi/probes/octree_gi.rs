@@ -452,7 +452,7 @@ impl ProbesOctree {
     ) -> Result<ProbesOctree> {
         let settings = &settings.resolved(true);
         settings.validate()?;
-        let (lo, size) = root_cube(scene.bounds_at(0.0))?;
+        let (lo, size) = root_cube(scene.gi_bounds_at(0.0))?;
         let rule = settings.octree_rule();
         let octree = GpuOctree::new(ctx, rule, lo, size)?;
         let bias = settings.normal_bias * size * 2f32.powi(-(rule.max_depth as i32));

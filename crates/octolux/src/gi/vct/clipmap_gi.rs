@@ -103,7 +103,7 @@ impl VctClipmap {
         height: u32,
     ) -> Result<VctClipmap> {
         settings.validate()?;
-        let (lo, hi) = scene.bounds_at(0.0);
+        let (lo, hi) = scene.gi_bounds_at(0.0);
         let extent = (hi - lo).max_element();
         if !extent.is_finite() || extent <= 0.0 {
             return Err(Error::InvalidArgument(format!(

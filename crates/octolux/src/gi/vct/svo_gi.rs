@@ -78,29 +78,6 @@ fn check_binding(ctx: &GpuContext, what: &str, bytes: u64) -> Result<()> {
     )
 }
 
-/// Bounds of everything the scene's geometry covers: at rest and, for animated objects, at
-/// 256 instants over their tracks' key range (a moving object outside the octree's grid would
-/// not be voxelised).
-fn bounds_over_animation(scene: &Scene) -> (glam::Vec3, glam::Vec3) {
-    let (mut lo, mut hi) = scene.bounds_at(0.0);
-    let keys = scene
-        .objects
-        .iter()
-        .filter_map(|o| o.animation.as_ref())
-        .flat_map(|track| track.keys.iter().map(|k| k.time));
-    let (t0, t1) = keys.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), t| {
-        (a.min(t), b.max(t))
-    });
-    if t0 < t1 {
-        for i in 0..=256 {
-            let (l, h) = scene.bounds_at(t0 + (t1 - t0) * i as f32 / 256.0);
-            lo = lo.min(l);
-            hi = hi.max(h);
-        }
-    }
-    (lo, hi)
-}
-
 impl VctSvo {
     /// The technique for `scene` at `width` x `height`: builds the octree of the static
     /// geometry (once, here; it waits for the GPU to size its buffers).
@@ -112,7 +89,7 @@ impl VctSvo {
         height: u32,
     ) -> Result<VctSvo> {
         settings.validate()?;
-        let (lo, hi) = bounds_over_animation(scene);
+        let (lo, hi) = scene.gi_bounds_over_animation();
         let extent = (hi - lo).max_element();
         if !extent.is_finite() || extent <= 0.0 {
             return Err(Error::InvalidArgument(format!(

@@ -385,7 +385,7 @@ impl SvoBuilder {
         resolution: u32,
         owner: &str,
     ) -> Result<Svo> {
-        let bounds = scene.bounds_at(0.0);
+        let bounds = scene.gi_bounds_at(0.0);
         if !(bounds.0.is_finite() && bounds.1.is_finite() && bounds.0.cmple(bounds.1).all()) {
             return Err(Error::InvalidArgument(format!(
                 "{owner} needs a scene with geometry; its bounds are {} to {}",
