@@ -184,7 +184,7 @@ fn out_dirs(dir: &Path, scenes: &[&str]) -> Vec<PathBuf> {
 /// named after the transport each technique claims, known once it is made: they are checked
 /// when written ([`write_out_image`]).
 fn check_dir_outputs(args: &BenchArgs, scenes: &[&str], loaded: &[PathBuf]) -> Result<()> {
-    use crate::outputs::{Format, Planned};
+    use crate::outputs::Format;
     let mut files: Vec<(&str, PathBuf, Format)> = Vec::new();
     if let Some(dir) = &args.json_dir {
         let mut names = Vec::new();
@@ -201,15 +201,7 @@ fn check_dir_outputs(args: &BenchArgs, scenes: &[&str], loaded: &[PathBuf]) -> R
             }
         }
     }
-    let planned: Vec<Planned> = files
-        .iter()
-        .map(|(flag, path, format)| Planned {
-            flag,
-            path,
-            format: *format,
-        })
-        .collect();
-    crate::outputs::check(&planned, &bench_inputs(args, loaded))
+    crate::outputs::check_paths(&files, &bench_inputs(args, loaded))
 }
 
 /// Writes one image of `--out-dir` after checking it is not one of the inputs.

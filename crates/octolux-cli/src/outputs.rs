@@ -39,6 +39,19 @@ pub struct Planned<'a> {
     pub format: Format,
 }
 
+/// [`check`] of outputs given as (flag, path, format).
+pub fn check_paths(planned: &[(&str, PathBuf, Format)], inputs: &[PathBuf]) -> Result<()> {
+    let planned: Vec<Planned> = planned
+        .iter()
+        .map(|(flag, path, format)| Planned {
+            flag,
+            path,
+            format: *format,
+        })
+        .collect();
+    check(&planned, inputs)
+}
+
 /// Checks every planned output against the others and against `inputs` (files the command
 /// reads): its extension matches its format, it is not a folder, its folder exists or can be
 /// made and is writable, it is not an input (the same file, whatever the path's spelling or

@@ -2,7 +2,7 @@
 
 use crate::gi_args::GiArgs;
 use crate::inputs::{load_scene, parse_output, GpuArgs};
-use crate::outputs::{check_fps, Format, Planned};
+use crate::outputs::{check_fps, Format};
 use crate::sky_args::SkyArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -508,17 +508,10 @@ fn check_args(args: &RenderArgs, loaded: &[PathBuf]) -> Result<()> {
             break;
         }
     }
-    let planned: Vec<Planned> = planned
-        .iter()
-        .map(|(flag, path, format)| Planned {
-            flag,
-            path,
-            format: *format,
-        })
-        .collect();
+
     let mut inputs = input_files(args);
     inputs.extend(loaded.iter().cloned());
-    crate::outputs::check(&planned, &inputs)
+    crate::outputs::check_paths(&planned, &inputs)
 }
 
 /// Runs `octolux render`.
