@@ -623,6 +623,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
         crate::stats::print_memory(&ctx.ledger);
         crate::stats::print_objects(&ctx);
+        crate::stats::print_technique_state(&ctx, renderer.technique())?;
     }
     Ok(())
 }

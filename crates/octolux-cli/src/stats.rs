@@ -47,6 +47,19 @@ pub fn print_memory(ledger: &MemoryLedger) {
     println!("  {:<24} {:>10.3}", "total", mib(ledger.total()));
 }
 
+/// Prints what a technique keeps that its passes' times do not show: the probes of
+/// `probes-octree` (a tree that kept none would silently turn GI off).
+pub fn print_technique_state(
+    ctx: &octolux::gpu::GpuContext,
+    technique: &dyn octolux::gi::GiTechnique,
+) -> anyhow::Result<()> {
+    let any = technique.as_any();
+    if let Some(octree) = any.and_then(|a| a.downcast_ref::<octolux::gi::probes::ProbesOctree>()) {
+        println!("probes kept: {}", octree.probe_count(ctx)?);
+    }
+    Ok(())
+}
+
 /// Prints wgpu's own count of live objects (what the ledger cannot see: bind groups, views,
 /// pipelines, command buffers), so a count that grows with `--frames` shows a leak.
 pub fn print_objects(ctx: &octolux::gpu::GpuContext) {

@@ -740,3 +740,35 @@ fn mitsuba_depth_and_sample_count_are_warned_about_when_not_followed() {
     let stderr = render(&["--spp", "32", "--bounces", "2"]);
     assert!(!stderr.contains("warning"), "{stderr}");
 }
+
+/// `--stats` says how many probes `probes-octree` keeps: a tree that kept none would turn GI
+/// off without a word.
+#[test]
+fn stats_report_the_probes_the_octree_keeps() {
+    let dir = temp_dir("probe-stats");
+    let out = dir.join("probes.png");
+    let output = octolux(&[
+        "render",
+        "--gi",
+        "probes-octree",
+        "--width",
+        "32",
+        "--height",
+        "18",
+        "--frames",
+        "4",
+        "--stats",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{output:?}");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let kept: u32 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("probes kept: "))
+        .unwrap_or_else(|| panic!("no probe count in:\n{stdout}"))
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(kept > 1, "{kept} probes kept on the Cornell box");
+}

@@ -442,6 +442,12 @@ pub struct ProbesOctree {
 }
 
 impl ProbesOctree {
+    /// Probes the octree keeps now, read back from the GPU (for stats and tests; waits for the
+    /// GPU, so never inside a frame).
+    pub fn probe_count(&self, ctx: &GpuContext) -> Result<u32> {
+        self.octree.probe_count(ctx)
+    }
+
     /// The technique for `scene` at `width` x `height`.
     pub fn new(
         ctx: &GpuContext,
