@@ -9,6 +9,7 @@
 //! [`render::Renderer`] for the GPU side, [`reference`](mod@reference) for the path tracer and [`metrics`] for
 //! image comparisons.
 
+pub mod embed;
 pub mod error;
 pub mod frame;
 pub mod gi;

@@ -390,12 +390,13 @@ impl App {
                 .create_window(attributes)
                 .map_err(|e| anyhow!("cannot open a window ({e}). {NO_DISPLAY_HINT}"))?,
         );
-        let surface = self
-            .ctx
-            .instance
+        let (Some(instance), Some(adapter)) = (&self.ctx.instance, &self.ctx.adapter) else {
+            bail!("the viewer needs a device it created itself (it has no instance to draw with)");
+        };
+        let surface = instance
             .create_surface(window.clone())
             .map_err(|e| anyhow!("cannot draw into the window: {e}. {NO_DISPLAY_HINT}"))?;
-        if !self.ctx.adapter.is_surface_supported(&surface) {
+        if !adapter.is_surface_supported(&surface) {
             bail!(
                 "the adapter '{}' cannot present to this window; choose another with --adapter",
                 self.ctx.info.name
@@ -995,9 +996,10 @@ fn surface_config(
     width: u32,
     height: u32,
 ) -> Result<wgpu::SurfaceConfiguration> {
-    let caps = surface.get_capabilities(&ctx.adapter);
+    let adapter = ctx.adapter.as_ref().context("no adapter to present with")?;
+    let caps = surface.get_capabilities(adapter);
     let mut config = surface
-        .get_default_config(&ctx.adapter, width.max(1), height.max(1))
+        .get_default_config(adapter, width.max(1), height.max(1))
         .context("the adapter cannot present to this window")?;
     if let Some(f) = caps.formats.iter().find(|f| !f.is_srgb()) {
         config.format = *f;
@@ -1031,6 +1033,8 @@ fn acquire(ctx: &GpuContext, gfx: &mut Gfx) -> Result<Option<wgpu::SurfaceTextur
         C::Lost => {
             gfx.surface = ctx
                 .instance
+                .as_ref()
+                .context("no instance to draw with")?
                 .create_surface(gfx.window.clone())
                 .map_err(|e| {
                     anyhow!("the window's surface was lost and cannot be made again: {e}")

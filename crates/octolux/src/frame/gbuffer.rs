@@ -11,6 +11,23 @@ const OWNER: &str = "gbuffer";
 /// Format of the albedo, normal and emission targets.
 pub const GBUFFER_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
+/// The part of a G-buffer the GI techniques read, at the resolution of their output: depth
+/// (`Depth32Float`, wgpu's 0 at the near plane to 1 at the far plane, 1 where nothing was
+/// drawn) under the camera uniform's `view_proj`, and the world-space unit normal facing the
+/// viewer (`Rgba16Float`, xyz). Octolux's own [`GBuffer`] holds them in this form; a caller's
+/// G-buffer is brought into it by [`crate::embed`]'s input pass.
+#[derive(Clone, Copy, Debug)]
+pub struct GiSurfaces<'a> {
+    /// Depth in octolux's convention (above).
+    pub depth_view: &'a wgpu::TextureView,
+    /// World normal facing the viewer.
+    pub normal_view: &'a wgpu::TextureView,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
 /// G-buffer targets. GI techniques read these (the boundary of docs/architecture.md, "The GI boundary").
 pub struct GBuffer {
     /// Linear albedo (rgb), a = 1 where there is geometry.
@@ -76,6 +93,16 @@ impl GBuffer {
             emission_view,
             depth_view,
             pipeline,
+        }
+    }
+
+    /// What the GI techniques read of it.
+    pub fn surfaces(&self) -> GiSurfaces<'_> {
+        GiSurfaces {
+            depth_view: &self.depth_view,
+            normal_view: &self.normal_view,
+            width: self.depth.width(),
+            height: self.depth.height(),
         }
     }
 

@@ -14,7 +14,7 @@ pub(crate) mod shadow;
 pub(crate) mod sky;
 pub mod sparse;
 
-pub use gbuffer::{GBuffer, GBUFFER_FORMAT};
+pub use gbuffer::{GBuffer, GiSurfaces, GBUFFER_FORMAT};
 pub(crate) use lights::sky_regions_of;
 pub use lights::{
     light_bindings, render_lights, shadow_layer_count, sky_light_count, GpuLight, LIGHT_BINDINGS,

@@ -5,7 +5,7 @@
 //! how alike their surfaces are (`upsample.wgsl`). Indirect irradiance varies slowly over a
 //! surface, so the gather's cost falls by f^2 for little error (docs/vct.md, docs/vpl.md).
 
-use super::GBuffer;
+use super::GiSurfaces;
 use crate::gpu::pass::{dispatch_2d, KeptBindGroup};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
@@ -77,20 +77,20 @@ impl SparseImage {
         timer: &mut PassTimer,
         name: &str,
         camera: &wgpu::Buffer,
-        gbuffer: &GBuffer,
+        gbuffer: GiSurfaces<'_>,
         out: &wgpu::TextureView,
     ) {
         let tex = wgpu::BindingResource::TextureView;
         let entries = [
             (0, camera.as_entire_binding()),
-            (1, tex(&gbuffer.depth_view)),
-            (2, tex(&gbuffer.normal_view)),
+            (1, tex(gbuffer.depth_view)),
+            (2, tex(gbuffer.normal_view)),
             (3, tex(&self.view)),
             (4, self.params.as_entire_binding()),
             (5, tex(out)),
         ];
         let group = self.group.get(ctx, name, &self.pipeline, &entries);
-        let (w, h) = (gbuffer.depth.width(), gbuffer.depth.height());
+        let (w, h) = (gbuffer.width, gbuffer.height);
         dispatch_2d(timer, name, &self.pipeline, &group, w, h);
     }
 }

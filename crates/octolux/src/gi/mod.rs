@@ -13,7 +13,7 @@ pub mod vpl;
 pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;
 
-use crate::frame::{GBuffer, LayerView, SceneGpu, ShadowMaps};
+use crate::frame::{GiSurfaces, LayerView, SceneGpu, ShadowMaps};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::{CameraView, Scene, SceneFrame};
 use crate::{Error, Result};
@@ -26,8 +26,8 @@ pub struct GiFrame<'a> {
     pub frame: &'a SceneFrame,
     /// The camera matrices for the output size.
     pub view: &'a CameraView,
-    /// G-buffer of this frame.
-    pub gbuffer: &'a GBuffer,
+    /// What the techniques read of this frame's G-buffer: depth and world normal.
+    pub gbuffer: GiSurfaces<'a>,
     /// The camera uniform (`Camera` in `frame/common.wgsl`).
     pub camera_uniform: &'a wgpu::Buffer,
     /// The scene on the GPU: techniques rasterise it with their own pipelines (RSMs,

@@ -73,10 +73,11 @@ impl GpuOptions {
 /// cheap and shares everything.
 #[derive(Clone, Debug)]
 pub struct GpuContext {
-    /// The instance the adapter came from (for wgpu's own resource report).
-    pub instance: wgpu::Instance,
-    /// The adapter in use.
-    pub adapter: wgpu::Adapter,
+    /// The instance the adapter came from (for wgpu's own resource report and window
+    /// surfaces); None on a caller's device ([`GpuContext::from_device`]).
+    pub instance: Option<wgpu::Instance>,
+    /// The adapter in use; None on a caller's device.
+    pub adapter: Option<wgpu::Adapter>,
     /// The logical device.
     pub device: wgpu::Device,
     /// Its queue.
@@ -91,6 +92,10 @@ pub struct GpuContext {
     /// count nothing).
     work: Option<WorkCounter>,
     errors: Arc<Mutex<Vec<String>>>,
+    /// Whether GPU errors reach `errors` through this context's own handler; on a caller's
+    /// device they are caught by error scopes around octolux's work instead
+    /// ([`GpuContext::capture_errors`]), and the caller's handler stays its own.
+    own_handler: bool,
 }
 
 /// Live wgpu objects of one instance, from wgpu's own registry (not from the ledger): a count that
@@ -202,7 +207,7 @@ impl GpuContext {
     /// Live wgpu objects of this context's instance, from wgpu's registry (None when the
     /// backend keeps none).
     pub fn resource_counts(&self) -> Option<ResourceCounts> {
-        let report = self.instance.generate_report()?;
+        let report = self.instance.as_ref()?.generate_report()?;
         let hub = &report.hub;
         Some(ResourceCounts {
             buffers: hub.buffers.num_allocated,
@@ -311,8 +316,8 @@ impl GpuContext {
             info.device_type
         );
         Ok(GpuContext {
-            instance,
-            adapter,
+            instance: Some(instance),
+            adapter: Some(adapter),
             device,
             queue,
             info,
@@ -320,7 +325,51 @@ impl GpuContext {
             ledger: MemoryLedger::default(),
             work: None,
             errors,
+            own_handler: true,
         })
+    }
+
+    /// A context on a device the caller created (an engine's own `wgpu::Device` and `Queue`),
+    /// after checking that it has what octolux needs ([`crate::embed::check_device`]: the
+    /// error names every missing limit). GPU timestamps are used when the device was created
+    /// with `TIMESTAMP_QUERY` and is not a CPU adapter. The caller's uncaptured-error handler is
+    /// left alone: octolux's work runs inside error scopes ([`GpuContext::capture_errors`]).
+    pub fn from_device(device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuContext> {
+        crate::embed::check_device(device)?;
+        let info = device.adapter_info();
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
+            && info.device_type != wgpu::DeviceType::Cpu;
+        Ok(GpuContext {
+            instance: None,
+            adapter: None,
+            device: device.clone(),
+            queue: queue.clone(),
+            info,
+            timestamps,
+            ledger: MemoryLedger::default(),
+            work: None,
+            errors: Arc::default(),
+            own_handler: false,
+        })
+    }
+
+    /// Runs `work` inside a validation and out-of-memory error scope on this context's device
+    /// and returns the first error it raised. On a context with its own error handler the
+    /// errors reported meanwhile are returned as well ([`GpuContext::check_errors`]).
+    pub fn capture_errors<R>(&self, work: impl FnOnce() -> Result<R>) -> Result<R> {
+        let memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let result = work();
+        let validation = pollster::block_on(validation.pop());
+        let memory = pollster::block_on(memory.pop());
+        let result = result?;
+        if let Some(e) = validation.or(memory) {
+            return Err(Error::Gpu(e.to_string()));
+        }
+        if self.own_handler {
+            self.check_errors()?;
+        }
+        Ok(result)
     }
 
     /// Returns the first GPU error reported since the last call, if any.

@@ -40,6 +40,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "frame/upsample",
     "render/compose",
     "render/direct",
+    "embed/input",
     "gi/lpv/sh",
     "gi/lpv/inject",
     "gi/lpv/lookup",

@@ -128,6 +128,9 @@ pub struct PassTimer {
     submissions: u64,
     /// Inside [`PassTimer::scoped`]: the technique whose passes are being recorded.
     scope: Option<String>,
+    /// Inside [`PassTimer::record_into`]: `encoder` is the caller's, which only the caller
+    /// submits.
+    external: bool,
 }
 
 impl PassTimer {
@@ -166,7 +169,81 @@ impl PassTimer {
             spare: Vec::new(),
             submissions: next_submission(),
             scope: None,
+            external: false,
         }
+    }
+
+    /// Records the passes of `record` into the caller's `encoder` instead of the timer's own:
+    /// nothing is submitted, the caller does that. With GPU timestamps the frame's queries are
+    /// resolved into the same encoder and read back once the caller has submitted it (their
+    /// times come from [`PassTimer::take_timings`], a frame or two later); without them the
+    /// passes are recorded untimed. Work the timer recorded earlier is submitted first.
+    pub fn record_into<R>(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        record: impl FnOnce(&mut PassTimer) -> R,
+    ) -> R {
+        self.begin_external(encoder);
+        let result = record(self);
+        self.end_external(encoder);
+        result
+    }
+
+    /// Starts recording into the caller's `encoder` (it is swapped for an empty placeholder
+    /// until [`PassTimer::end_external`], which must follow with the same encoder).
+    pub fn begin_external(&mut self, encoder: &mut wgpu::CommandEncoder) {
+        self.flush();
+        let placeholder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("octolux placeholder"),
+            });
+        self.encoder = Some(std::mem::replace(encoder, placeholder));
+        self.external = true;
+        // The caller's submission is the next one: writes queued now land with it.
+        self.submissions = next_submission();
+    }
+
+    /// Ends [`PassTimer::begin_external`]: resolves this frame's timestamps into the caller's
+    /// encoder and gives it back.
+    pub fn end_external(&mut self, encoder: &mut wgpu::CommandEncoder) {
+        if !self.external {
+            return;
+        }
+        let names = std::mem::take(&mut self.names);
+        if let (Some(q), Some(own), false) = (&self.queries, &mut self.encoder, names.is_empty()) {
+            let bytes = names.len() as u64 * 16;
+            let staging = self
+                .spare
+                .pop()
+                .unwrap_or_else(|| staging_buffer(&self.ctx, q));
+            own.resolve_query_set(&q.set, 0..names.len() as u32 * 2, &q.resolve, 0);
+            own.copy_buffer_to_buffer(&q.resolve, 0, &staging, 0, bytes);
+            let mapped: Arc<Mutex<_>> = Arc::default();
+            let sink = mapped.clone();
+            own.map_buffer_on_submit(&staging, wgpu::MapMode::Read, ..bytes, move |r| {
+                *sink.lock().unwrap_or_else(|p| p.into_inner()) = Some(r);
+            });
+            self.in_flight.push_back(InFlight {
+                staging,
+                names,
+                mapped,
+            });
+        }
+        self.external = false;
+        if let Some(caller) = self.encoder.take() {
+            // The placeholder goes back unused.
+            drop(std::mem::replace(encoder, caller));
+        }
+    }
+
+    /// The pass times of the most recent frame recorded by [`PassTimer::record_into`] whose
+    /// timestamps have come back since the last call (None while none has, and always without
+    /// GPU timestamps). Does not block.
+    pub fn take_timings(&mut self) -> Result<Option<Vec<PassTiming>>> {
+        let _ = self.ctx.device.poll(wgpu::PollType::Poll);
+        self.collect_mapped()
     }
 
     /// The submission the commands recorded now go in: a number no other submission of any
@@ -214,8 +291,10 @@ impl PassTimer {
         record: impl FnOnce(&mut wgpu::CommandEncoder, PassStamps<'_>) -> R,
     ) -> R {
         let name = &scoped_name(self.scope.as_deref(), name);
-        match &self.queries {
-            Some(q) => {
+        // A caller's frame whose earlier timestamps never came back (not submitted) goes untimed.
+        let stamped = !self.external || self.in_flight.len() < FRAMES_IN_FLIGHT;
+        match (&self.queries, self.external) {
+            (Some(q), _) if stamped => {
                 let index = self.names.len() as u32;
                 let encoder = self.encoder.get_or_insert_with(|| {
                     self.ctx
@@ -238,7 +317,23 @@ impl PassTimer {
                 };
                 record(encoder, stamps)
             }
-            None => {
+            (_, true) => {
+                let encoder = self.encoder.get_or_insert_with(|| {
+                    self.ctx
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                            label: Some("frame"),
+                        })
+                });
+                record(
+                    encoder,
+                    PassStamps {
+                        set: None,
+                        begin: 0,
+                    },
+                )
+            }
+            _ => {
                 // Anything recorded earlier goes first so this pass is timed on its own.
                 self.flush();
                 let start = Instant::now();
@@ -347,14 +442,10 @@ impl PassTimer {
                 return Ok(None);
             };
             let bytes = names.len() as u64 * 16;
-            let staging = self.spare.pop().unwrap_or_else(|| {
-                self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("timestamp readback"),
-                    size: q.capacity as u64 * 8,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                })
-            });
+            let staging = self
+                .spare
+                .pop()
+                .unwrap_or_else(|| staging_buffer(&self.ctx, q));
             if let Some(mut encoder) = self.encoder.take() {
                 encoder.resolve_query_set(&q.set, 0..names.len() as u32 * 2, &q.resolve, 0);
                 encoder.copy_buffer_to_buffer(&q.resolve, 0, &staging, 0, bytes);
@@ -374,6 +465,12 @@ impl PassTimer {
         }
         let _ = self.ctx.device.poll(wgpu::PollType::Poll);
         self.ctx.check_errors()?;
+        self.collect_mapped()
+    }
+
+    /// Takes every in-flight frame whose timestamps are mapped, oldest first, and returns the
+    /// times of the newest of them.
+    fn collect_mapped(&mut self) -> Result<Option<Vec<PassTiming>>> {
         let mut latest = None;
         while let Some(front) = self.in_flight.front() {
             let state = front
@@ -400,6 +497,16 @@ impl PassTimer {
         }
         Ok(latest)
     }
+}
+
+/// A buffer the timestamps of one frame are copied to and mapped from.
+fn staging_buffer(ctx: &GpuContext, q: &Queries) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("timestamp readback"),
+        size: q.capacity as u64 * 8,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
 }
 
 /// The name a pass called `name` is recorded under inside `scope`: `<scope> <name>`, unless the

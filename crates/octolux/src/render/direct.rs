@@ -1,11 +1,9 @@
 //! Deferred direct lighting (`direct.wgsl`): emission plus the Lambertian response to every
 //! light and the sky, shadowed through the shadow-map array; the sky where nothing was drawn.
 
+use crate::embed::LitScene;
 use crate::frame::light_bindings;
-use crate::frame::sky::SkyGpu;
 use crate::frame::GBuffer;
-use crate::frame::GpuLight;
-use crate::frame::ShadowMaps;
 use crate::gpu::alloc::image_target;
 use crate::gpu::pass::{bind, dispatch_2d};
 use crate::gpu::shader::library_shader;
@@ -19,7 +17,6 @@ pub(crate) struct DirectLight {
     bind_group: wgpu::BindGroup,
     pub output: wgpu::Texture,
     pub output_view: wgpu::TextureView,
-    pub lights: wgpu::Buffer,
 }
 
 impl DirectLight {
@@ -27,18 +24,11 @@ impl DirectLight {
         ctx: &GpuContext,
         camera: &wgpu::Buffer,
         gbuffer: &GBuffer,
-        shadows: &ShadowMaps,
-        sky: &SkyGpu,
+        lit: &LitScene,
         width: u32,
         height: u32,
     ) -> DirectLight {
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let lights = ctx.create_buffer_init(
-            OWNER,
-            "lights",
-            &vec![0u8; shadows.slots.len().max(1) * std::mem::size_of::<GpuLight>()],
-            storage,
-        );
+        let (shadows, sky, lights) = (&lit.shadows, &lit.sky, &lit.lights);
         let module = ctx.shader("direct", &library_shader("render/direct", &[]));
         let pipeline = ctx.compute_pipeline("direct", &module, "main");
         let (output, output_view) = image_target(
@@ -60,21 +50,13 @@ impl DirectLight {
             (10, sky.params.as_entire_binding()),
             (11, sky.map.as_entire_binding()),
         ];
-        entries.extend(light_bindings(&lights, shadows.lookup()));
+        entries.extend(light_bindings(lights, shadows.lookup()));
         let bind_group = bind(ctx, &pipeline, &entries);
         DirectLight {
             pipeline,
             bind_group,
             output,
             output_view,
-            lights,
-        }
-    }
-
-    /// Uploads this frame's lights and shadow-layer matrices (column-major 4x4).
-    pub fn upload(&self, queue: &wgpu::Queue, lights: &[GpuLight]) {
-        if !lights.is_empty() {
-            queue.write_buffer(&self.lights, 0, bytemuck::cast_slice(lights));
         }
     }
 

@@ -7,21 +7,15 @@
 mod compose;
 mod direct;
 
-use crate::frame::sky::SkyGpu;
-use crate::frame::{
-    shadow, shadow_layer_count, sky_regions_of, CameraUniform, GBuffer, GpuLight, SceneGpu,
-    ShadowMaps,
-};
+use crate::embed::{GiConfig, GiEngine};
+use crate::frame::{GBuffer, ShadowMaps};
+use crate::gi::{self, GiTechnique};
 use crate::gpu::pack::f16_to_f32;
-use crate::image_io::check_image_size;
-
-use crate::gi::{self, GiFrame, GiTechnique};
-use crate::gpu::{read_texture, GpuContext, PassTimer, PassTiming};
-use crate::image_io::HdrImage;
-use crate::scene::{CameraView, Light, LightKind, Scene};
+use crate::gpu::{read_texture, GpuContext, PassTiming};
+use crate::image_io::{check_image_size, HdrImage};
+use crate::scene::{CameraView, Scene};
 use crate::{Error, Result};
-use bytemuck::Zeroable;
-use glam::{Vec3, Vec4};
+use glam::Vec3;
 
 /// Frame settings.
 #[derive(Clone, Debug)]
@@ -122,54 +116,16 @@ pub struct GBufferImages {
     pub depth: Vec<f32>,
 }
 
-/// The GPU renderer for one scene and output size.
+/// The GPU renderer for one scene and output size: octolux's own G-buffer, direct light and
+/// compose around a [`GiEngine`], the same GI an embedding renderer uses.
 pub struct Renderer {
     ctx: GpuContext,
     settings: RenderSettings,
-    scene_gpu: SceneGpu,
-    shadows: ShadowMaps,
+    engine: GiEngine,
     gbuffer: GBuffer,
     direct: direct::DirectLight,
     compose: compose::Compose,
-    gi: Box<dyn GiTechnique>,
-    /// Directional lights standing in for the sky, appended to each frame's lights.
-    sky_lights: Vec<Light>,
-    /// Per sky light, the tangent of its angular radius (how soft its shadows are).
-    sky_spread: Vec<f32>,
-    /// Whether the sky lights' shadow maps are drawn and still valid (no object moves).
-    sky_shadows_valid: bool,
-    camera_uniform: wgpu::Buffer,
-    timer: PassTimer,
-    last_view: Option<CameraView>,
     output: Output,
-}
-
-/// Checks that the shadow-map array the lights need (6 layers per point light, 1 per spot or
-/// directional light, and the sky's lights packed `SKY_TILES`^2 to a layer) fits the adapter's
-/// `max_texture_array_layers`; the error says how many lights fit.
-fn check_shadow_layers(ctx: &GpuContext, lights: &[Light], sky_lights: usize) -> Result<()> {
-    let limit = ctx.device.limits().max_texture_array_layers;
-    let punctual = shadow_layer_count(lights);
-    let sky = (sky_lights as u32).div_ceil(shadow::SKY_TILES * shadow::SKY_TILES);
-    let need = punctual as u64 + sky as u64;
-    if need > limit as u64 {
-        let points = lights.iter().filter(|l| l.kind == LightKind::Point).count();
-        return Err(Error::InvalidArgument(format!(
-            "the scene's {} lights ({points} point lights at 6 shadow-map layers each, the others \
-             at 1{}) need {need} shadow-map layers; this adapter allows {limit} \
-             (max_texture_array_layers): at most {} point lights, or {} spot and directional \
-             lights",
-            lights.len(),
-            if sky > 0 {
-                format!(", the sky {sky}")
-            } else {
-                String::new()
-            },
-            (limit.saturating_sub(sky)) / 6,
-            limit.saturating_sub(sky),
-        )));
-    }
-    Ok(())
 }
 
 impl Renderer {
@@ -177,68 +133,39 @@ impl Renderer {
     pub fn new(ctx: &GpuContext, scene: &Scene, settings: RenderSettings) -> Result<Renderer> {
         check_image_size(settings.width, settings.height)?;
         scene.check_camera(settings.camera)?;
-        let max_dim = ctx.device.limits().max_texture_dimension_2d;
-        if settings.width > max_dim || settings.height > max_dim {
-            return Err(Error::InvalidArgument(format!(
-                "image size {}x{} exceeds the adapter's limit of {max_dim} per side",
-                settings.width, settings.height
-            )));
-        }
-        if settings.shadow_map_size < 16 || settings.shadow_map_size > max_dim {
-            return Err(Error::InvalidArgument(format!(
-                "shadow map size {} must be within 16..={max_dim}",
-                settings.shadow_map_size
-            )));
-        }
         let (w, h) = (settings.width, settings.height);
-        let (sky_lights, sky_spread): (Vec<Light>, Vec<f32>) =
-            sky_regions_of(scene).into_iter().unzip();
-        check_shadow_layers(ctx, &scene.lights, sky_lights.len())?;
-        let mut lights = scene.lights.clone();
-        lights.extend(sky_lights.iter().cloned());
-        let scene_gpu = SceneGpu::new(ctx, scene, 1 + shadow_layer_count(&lights))?;
-        let shadows = ShadowMaps::new(
-            ctx,
-            &scene_gpu,
-            &lights,
-            sky_lights.len(),
-            settings.shadow_map_size,
-        );
-        let sky = SkyGpu::new(ctx, scene.sky.as_ref());
-        let gbuffer = GBuffer::new(ctx, &scene_gpu, w, h);
-        let camera_uniform = ctx.create_buffer_init(
-            "frame",
-            "camera",
-            bytemuck::bytes_of(&CameraUniform::zeroed()),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let direct = direct::DirectLight::new(ctx, &camera_uniform, &gbuffer, &shadows, &sky, w, h);
-        let gi = gi::create(&settings.gi, ctx, scene, &settings.gi_settings, w, h)?;
+        let config = GiConfig {
+            width: w,
+            height: h,
+            technique: settings.gi.clone(),
+            settings: settings.gi_settings.clone(),
+            shadow_map_size: settings.shadow_map_size,
+        };
+        let mut engine = GiEngine::with_context(ctx, scene.clone(), config)?;
+        engine.build_now()?;
+        let lit = engine.lit_mut().ok_or_else(not_built)?;
+        lit.soft_sky_shadows = settings.soft_sky_shadows;
+        let lit = engine.lit().ok_or_else(not_built)?;
+        let gbuffer = GBuffer::new(ctx, &lit.scene_gpu, w, h);
+        let direct = direct::DirectLight::new(ctx, engine.camera_uniform(), &gbuffer, lit, w, h);
+        let technique = engine.technique().ok_or_else(not_built)?;
         let mut compose = compose::Compose::new(ctx, w, h);
         compose.bind(
             ctx,
-            &camera_uniform,
+            engine.camera_uniform(),
             &direct.output_view,
             &gbuffer,
-            gi.indirect_view(),
-            gi.specular_view(),
+            technique.indirect_view(),
+            technique.specular_view(),
         );
         ctx.check_errors()?;
         Ok(Renderer {
             ctx: ctx.clone(),
             settings,
-            scene_gpu,
-            shadows,
+            engine,
             gbuffer,
             direct,
             compose,
-            gi,
-            sky_lights,
-            sky_spread,
-            sky_shadows_valid: false,
-            camera_uniform,
-            timer: PassTimer::new(ctx),
-            last_view: None,
             output: Output::Final,
         })
     }
@@ -249,36 +176,36 @@ impl Renderer {
     /// entries leave the memory ledger.
     pub fn set_technique(
         &mut self,
-        scene: &Scene,
+        _scene: &Scene,
         name: &str,
         gi_settings: &gi::GiSettings,
     ) -> Result<()> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        // Let the GPU finish with the old technique's resources before they are replaced.
-        self.ctx.wait_idle()?;
-        let technique = gi::create(name, &self.ctx, scene, gi_settings, w, h)?;
-        let old = std::mem::replace(&mut self.gi, technique);
-        if old.name() != self.gi.name() {
-            // Same owner name: the new technique's entries have already replaced the old ones.
-            self.ctx.ledger.release_owner(old.name());
+        let old = (self.settings.gi.clone(), self.settings.gi_settings.clone());
+        self.engine.set_technique(name, gi_settings)?;
+        if let Err(e) = self.engine.build_now() {
+            // Back to the technique that worked.
+            self.engine.set_technique(&old.0, &old.1)?;
+            self.engine.build_now()?;
+            self.bind_compose()?;
+            return Err(e);
         }
-        for owner in old.other_ledger_owners() {
-            if !self.gi.other_ledger_owners().contains(owner) {
-                self.ctx.ledger.release_owner(owner);
-            }
-        }
-        drop(old);
-        self.compose.bind(
-            &self.ctx,
-            &self.camera_uniform,
-            &self.direct.output_view,
-            &self.gbuffer,
-            self.gi.indirect_view(),
-            self.gi.specular_view(),
-        );
         self.settings.gi = name.to_string();
         self.settings.gi_settings = gi_settings.clone();
+        self.bind_compose()?;
         self.ctx.check_errors()
+    }
+
+    fn bind_compose(&mut self) -> Result<()> {
+        let technique = self.engine.technique().ok_or_else(not_built)?;
+        self.compose.bind(
+            &self.ctx,
+            self.engine.camera_uniform(),
+            &self.direct.output_view,
+            &self.gbuffer,
+            technique.indirect_view(),
+            technique.specular_view(),
+        );
+        Ok(())
     }
 
     /// Chooses what the next frames' images hold (default [`Output::Final`]).
@@ -305,7 +232,16 @@ impl Renderer {
 
     /// The active GI technique.
     pub fn technique(&self) -> &dyn GiTechnique {
-        self.gi.as_ref()
+        match self.engine.technique() {
+            Some(t) => t,
+            // Built in `new` and after every switch; only a failed rebuild leaves none.
+            None => unreachable_technique(),
+        }
+    }
+
+    /// The GI engine the renderer drives (scene, lights, shadow maps, technique).
+    pub fn engine(&self) -> &GiEngine {
+        &self.engine
     }
 
     /// The G-buffer (for GI techniques and debugging).
@@ -315,14 +251,17 @@ impl Renderer {
 
     /// The shadow maps.
     pub fn shadow_maps(&self) -> &ShadowMaps {
-        &self.shadows
+        match self.engine.lit() {
+            Some(lit) => &lit.shadows,
+            None => unreachable_technique(),
+        }
     }
 
     /// Renders `scene` (the one given to [`Renderer::new`]) at time `t` seconds, waits for the
     /// GPU, and returns the per-pass times of this frame.
     pub fn render(&mut self, scene: &Scene, t: f32) -> Result<Vec<PassTiming>> {
         self.record(scene, t)?;
-        self.timer.finish_frame()
+        self.engine.timer().finish_frame()
     }
 
     /// Like [`Renderer::render`] but without waiting for the GPU (for real-time loops): returns
@@ -330,113 +269,30 @@ impl Renderer {
     /// None while none has. Reading an image back still waits for its frame.
     pub fn render_pipelined(&mut self, scene: &Scene, t: f32) -> Result<Option<Vec<PassTiming>>> {
         self.record(scene, t)?;
-        self.timer.finish_frame_pipelined()
+        self.engine.timer().finish_frame_pipelined()
     }
 
-    /// Records every pass of one frame into the timer.
+    /// Records every pass of one frame into the engine's timer: shadow maps, G-buffer, direct
+    /// light, the technique, compose.
     fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
-        let mut frame = scene.frame(t, self.settings.camera);
-        let first_sky = frame.lights.len();
-        frame.lights.extend(self.sky_lights.iter().cloned());
-        let view = frame.camera.view(w, h);
-        let layers = self.shadows.layer_views(&frame.lights, scene.bounds_at(t));
-
-        let queue = &self.ctx.queue;
-        self.scene_gpu
-            .update_objects(queue, &frame.object_transforms);
-        let mut views = vec![(view.view_proj, view.position.extend(1.0))];
-        views.extend(layers.iter().map(|l| (l.raster_view_proj, Vec4::ZERO)));
-        self.scene_gpu.update_views(queue, &views);
-        let gpu_lights: Vec<GpuLight> = frame
-            .lights
-            .iter()
-            .enumerate()
-            .map(|(i, light)| {
-                let slot = self.shadows.slots.get(i);
-                let first = slot.and_then(|s| layers.get(s.first_layer as usize));
-                let (kind, cos_inner, cos_outer) = match light.kind {
-                    LightKind::Point => (0.0, 1.0, -1.0),
-                    LightKind::Spot {
-                        inner_angle,
-                        outer_angle,
-                    } => (1.0, inner_angle.cos(), outer_angle.cos()),
-                    LightKind::Directional => (2.0, 1.0, -1.0),
-                };
-                // Sky lights: x the tangent of the angular radius, y the shadow view's depth
-                // range, z the largest soft-shadow filter radius in texels (lights.wgsl).
-                let position = match i.checked_sub(first_sky) {
-                    Some(k) => Vec3::new(
-                        match self.settings.soft_sky_shadows {
-                            true => self.sky_spread.get(k).copied().unwrap_or(0.0),
-                            false => 0.0,
-                        },
-                        first.map_or(0.0, |v| v.depth_range),
-                        shadow::sky_tile_margin(self.shadows.size / shadow::SKY_TILES)
-                            .saturating_sub(2) as f32,
-                    ),
-                    None => light.position,
-                };
-                GpuLight {
-                    position_kind: position.extend(kind).to_array(),
-                    direction_cos_inner: light
-                        .direction
-                        .normalize_or(Vec3::NEG_Y)
-                        .extend(cos_inner)
-                        .to_array(),
-                    radiant_cos_outer: light.radiant().extend(cos_outer).to_array(),
-                    shadow: shadow::shadow_params(slot, first).to_array(),
-                }
-            })
-            .collect();
-        self.direct.upload(queue, &gpu_lights);
-        self.shadows.upload_matrices(queue, &layers);
-        let camera = CameraUniform {
-            view_proj: view.view_proj.to_cols_array_2d(),
-            inv_view_proj: view.inv_view_proj.to_cols_array_2d(),
-            position: view.position.extend(1.0).to_array(),
-            size: [w as f32, h as f32, 1.0 / w as f32, 1.0 / h as f32],
-            params: [
-                scene.exposure.exp2(),
-                frame.lights.len() as f32,
-                t,
-                self.output as u32 as f32,
-            ],
-        };
-        queue.write_buffer(&self.camera_uniform, 0, bytemuck::bytes_of(&camera));
-
-        // The sky's maps depend on the geometry only: drawn once for a scene whose objects
-        // stand still, every frame otherwise.
-        let with_sky = !self.sky_shadows_valid;
-        self.shadows
-            .render(&mut self.timer, &self.scene_gpu, with_sky);
-        self.sky_shadows_valid = !scene.objects.iter().any(|o| o.animation.is_some());
-        self.gbuffer.render(&mut self.timer, &self.scene_gpu);
-        self.direct.render(&mut self.timer, w, h);
-        let gi_frame = GiFrame {
-            scene,
-            frame: &frame,
-            view: &view,
-            gbuffer: &self.gbuffer,
-            camera_uniform: &self.camera_uniform,
-            scene_gpu: &self.scene_gpu,
-            shadows: &self.shadows,
-            shadow_layers: &layers,
-            lights: &self.direct.lights,
-            sky_lights: self.sky_lights.len(),
-        };
-        let (gi, ctx) = (&mut self.gi, &self.ctx);
-        let name = gi.name().to_string();
-        self.timer
-            .scoped(&name, |timer| gi.update(ctx, &gi_frame, timer))?;
-        self.compose.render(&mut self.timer, w, h);
-        self.last_view = Some(view);
+        let view = scene.frame(t, self.settings.camera).camera.view(w, h);
+        self.engine.display = [scene.exposure.exp2(), self.output as u32 as f32];
+        self.engine.prepare(t, view)?;
+        let (gbuffer, direct) = (&self.gbuffer, &self.direct);
+        self.engine.with_lit(|timer, lit| {
+            lit.render_shadows(timer);
+            gbuffer.render(timer, &lit.scene_gpu);
+            direct.render(timer, w, h);
+        })?;
+        self.engine.update_gi(self.gbuffer.surfaces())?;
+        self.compose.render(self.engine.timer(), w, h);
         Ok(())
     }
 
     /// The camera matrices of the last frame rendered.
     pub fn last_view(&self) -> Option<&CameraView> {
-        self.last_view.as_ref()
+        self.engine.last_view()
     }
 
     /// Reads the linear HDR output of the last frame.
@@ -504,4 +360,12 @@ impl Renderer {
             alpha,
         ))
     }
+}
+
+fn not_built() -> Error {
+    Error::Gpu("internal: the GI engine has no technique or GPU scene".into())
+}
+
+fn unreachable_technique() -> ! {
+    unreachable!("the renderer builds its technique and GPU scene in new and on every switch")
 }

@@ -189,6 +189,58 @@ pub struct Light {
 }
 
 impl Light {
+    /// A point light at `position` of `color` x `intensity` W/sr.
+    pub fn point(position: Vec3, color: Vec3, intensity: f32) -> Light {
+        Light {
+            name: "point".into(),
+            kind: LightKind::Point,
+            color,
+            intensity,
+            position,
+            direction: Vec3::NEG_Y,
+            animation: None,
+        }
+    }
+
+    /// A spot light at `position` pointing along `direction`, `color` x `intensity` W/sr on
+    /// its axis, full inside the half-angle `inner_angle` and dark outside `outer_angle`
+    /// (radians).
+    pub fn spot(
+        position: Vec3,
+        direction: Vec3,
+        color: Vec3,
+        intensity: f32,
+        inner_angle: f32,
+        outer_angle: f32,
+    ) -> Light {
+        Light {
+            name: "spot".into(),
+            kind: LightKind::Spot {
+                inner_angle,
+                outer_angle,
+            },
+            color,
+            intensity,
+            position,
+            direction: direction.normalize_or(Vec3::NEG_Y),
+            animation: None,
+        }
+    }
+
+    /// A directional light travelling along `direction`, `color` x `irradiance` W/m^2 on a
+    /// surface facing it.
+    pub fn directional(direction: Vec3, color: Vec3, irradiance: f32) -> Light {
+        Light {
+            name: "sun".into(),
+            kind: LightKind::Directional,
+            color,
+            intensity: irradiance,
+            position: Vec3::ZERO,
+            direction: direction.normalize_or(Vec3::NEG_Y),
+            animation: None,
+        }
+    }
+
     /// Radiant intensity (W/sr) or irradiance (W/m^2) per colour channel.
     pub fn radiant(&self) -> Vec3 {
         self.color * self.intensity

@@ -95,8 +95,8 @@ impl Inject {
                 (5, v.gv_lo.as_entire_binding()),
                 (13, v.gv_hi.as_entire_binding()),
                 (6, frame.camera_uniform.as_entire_binding()),
-                (7, tex(&frame.gbuffer.depth_view)),
-                (8, tex(&frame.gbuffer.normal_view)),
+                (7, tex(frame.gbuffer.depth_view)),
+                (8, tex(frame.gbuffer.normal_view)),
             ],
         );
         let resolve = ctx.compute_pipeline("lpv resolve light", &module, "resolve_light");
@@ -129,8 +129,8 @@ impl Inject {
             combine: (combine, combine_group),
             rsm_size: rsm.size,
             rsm_layers: rsm.layers,
-            width: frame.gbuffer.albedo.width(),
-            height: frame.gbuffer.albedo.height(),
+            width: frame.gbuffer.width,
+            height: frame.gbuffer.height,
         })
     }
 

@@ -49,8 +49,8 @@ impl Lookup {
             &[
                 (0, frame.camera_uniform.as_entire_binding()),
                 (1, grids.as_entire_binding()),
-                (2, tex(&frame.gbuffer.depth_view)),
-                (3, tex(&frame.gbuffer.normal_view)),
+                (2, tex(frame.gbuffer.depth_view)),
+                (3, tex(frame.gbuffer.normal_view)),
                 (4, volume.as_entire_binding()),
                 (5, tex(&output.view)),
             ],

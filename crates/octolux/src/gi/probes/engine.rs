@@ -409,12 +409,12 @@ impl ProbeEngine {
                 (1, buf(frame.camera_uniform)),
                 (
                     2,
-                    wgpu::BindingResource::TextureView(&frame.gbuffer.depth_view),
+                    wgpu::BindingResource::TextureView(frame.gbuffer.depth_view),
                 ),
                 (3, buf(&self.probes)),
                 (
                     4,
-                    wgpu::BindingResource::TextureView(&frame.gbuffer.normal_view),
+                    wgpu::BindingResource::TextureView(frame.gbuffer.normal_view),
                 ),
                 (5, wgpu::BindingResource::TextureView(&self.view)),
                 (8, buf(&self.moments)),

@@ -227,8 +227,8 @@ impl ConeTracer {
         let bind = |kept: &KeptBindGroup, label: &str, pipeline, out: u32, view, counted| {
             let mut entries = vec![
                 (0, frame.camera_uniform.as_entire_binding()),
-                (1, tex(&frame.gbuffer.depth_view)),
-                (2, tex(&frame.gbuffer.normal_view)),
+                (1, tex(frame.gbuffer.depth_view)),
+                (2, tex(frame.gbuffer.normal_view)),
                 (5, self.params.as_entire_binding()),
                 (out, tex(view)),
             ];

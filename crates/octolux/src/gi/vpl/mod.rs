@@ -414,8 +414,8 @@ impl VplGi {
                     }),
                 ),
                 (0, frame.camera_uniform.as_entire_binding()),
-                (4, tex(&frame.gbuffer.depth_view)),
-                (5, tex(&frame.gbuffer.normal_view)),
+                (4, tex(frame.gbuffer.depth_view)),
+                (5, tex(frame.gbuffer.normal_view)),
                 (6, generate.vpls.as_entire_binding()),
                 (7, self.shade_params.as_entire_binding()),
                 (8, self.raw.as_entire_binding()),
@@ -430,8 +430,8 @@ impl VplGi {
             &merge,
             &[
                 (0, frame.camera_uniform.as_entire_binding()),
-                (4, tex(&frame.gbuffer.depth_view)),
-                (5, tex(&frame.gbuffer.normal_view)),
+                (4, tex(frame.gbuffer.depth_view)),
+                (5, tex(frame.gbuffer.normal_view)),
                 (7, self.shade_params.as_entire_binding()),
                 (9, self.raw.as_entire_binding()),
                 (
