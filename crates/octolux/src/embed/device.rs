@@ -16,9 +16,7 @@ pub fn required_features() -> wgpu::Features {
 /// which setting to lower.
 pub fn required_limits() -> wgpu::Limits {
     wgpu::Limits {
-        max_storage_buffers_per_shader_stage: 16,
-        max_storage_textures_per_shader_stage: 8,
-        max_sampled_textures_per_shader_stage: 16,
+        max_storage_buffers_per_shader_stage: 20,
         ..wgpu::Limits::default()
     }
 }

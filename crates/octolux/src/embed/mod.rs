@@ -44,6 +44,7 @@ pub(crate) use lit::LitScene;
 use crate::frame::{CameraUniform, GiSurfaces};
 use crate::gi::{self, GiFrame, GiSettings, GiTechnique};
 use crate::gpu::{GpuContext, MemoryLedger, PassTimer, PassTiming};
+use crate::image_io::HdrImage;
 use crate::scene::{Camera, CameraView, Scene};
 use crate::{Error, Result};
 use bytemuck::Zeroable;
@@ -225,6 +226,26 @@ impl GiEngine {
     /// `specular` setting).
     pub fn specular_view(&self) -> Option<&wgpu::TextureView> {
         self.technique.as_ref().and_then(|t| t.specular_view())
+    }
+
+    /// Reads the indirect irradiance of the last frame back to the CPU (rgb, W/m^2; waits for
+    /// the GPU): for tests and tools, not for a frame loop.
+    pub fn read_indirect(&self) -> Result<HdrImage> {
+        let view = self.indirect_view().ok_or_else(not_prepared)?;
+        let texture = view.texture();
+        let bytes = crate::gpu::read_texture(&self.ctx, texture, 0)?;
+        let values: Vec<f32> = bytes
+            .chunks_exact(2)
+            .map(|c| crate::gpu::pack::f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
+            .collect();
+        Ok(HdrImage {
+            width: texture.width(),
+            height: texture.height(),
+            pixels: values
+                .chunks_exact(4)
+                .map(|p| Vec3::new(p[0], p[1], p[2]))
+                .collect(),
+        })
     }
 
     /// The camera matrices octolux used for the last frame (its own standard-depth projection

@@ -1,0 +1,221 @@
+//! The embedding API's checks and errors: a device short of octolux's limits is refused with
+//! the limits named; a caller's G-buffer of the wrong size or format, a bad camera, and edits
+//! with stale ids or bad data are clear errors; the input pass converts every documented depth
+//! and normal convention to the same surfaces. (The example renderer's tests compare whole
+//! images against octolux's own renderer.)
+
+mod common;
+
+use glam::{Mat4, Vec3};
+use octolux::embed::*;
+use octolux::scene::{Light, Material, Mesh};
+
+/// A device on the default adapter with exactly `limits`.
+fn device_with(limits: wgpu::Limits) -> (wgpu::Device, wgpu::Queue) {
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter =
+        pollster::block_on(instance.request_adapter(&Default::default())).expect("adapter");
+    pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_limits: limits,
+        ..Default::default()
+    }))
+    .expect("device")
+}
+
+#[test]
+fn a_device_short_of_octoluxs_limits_is_refused_naming_them() {
+    let needed = required_limits();
+    // WebGPU's defaults: below what octolux's passes bind.
+    let mut short = wgpu::Limits::default();
+    assert!(
+        short.max_storage_buffers_per_shader_stage < needed.max_storage_buffers_per_shader_stage
+    );
+    short.max_storage_buffers_per_shader_stage = needed.max_storage_buffers_per_shader_stage - 1;
+    let (device, queue) = device_with(short);
+    let error = match GiEngine::new(&device, &queue, GiConfig::new(64, 64, "lpv")) {
+        Ok(_) => panic!("a device below the required limits was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        error.contains(&format!(
+            "max_storage_buffers_per_shader_stage is {}, octolux needs {}",
+            needed.max_storage_buffers_per_shader_stage - 1,
+            needed.max_storage_buffers_per_shader_stage
+        )),
+        "{error}"
+    );
+    let (device, queue) = device_with(needed);
+    GiEngine::new(&device, &queue, GiConfig::new(64, 64, "lpv"))
+        .expect("the required limits suffice");
+}
+
+fn quad_mesh() -> Mesh {
+    Mesh {
+        name: "floor".into(),
+        positions: vec![
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+        ],
+        normals: Vec::new(),
+        uvs: Vec::new(),
+        indices: vec![0, 2, 1, 0, 3, 2],
+        material: 0,
+    }
+}
+
+fn target(
+    device: &wgpu::Device,
+    format: wgpu::TextureFormat,
+    w: u32,
+    h: u32,
+    usage: wgpu::TextureUsages,
+) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: None,
+            size: wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
+#[test]
+fn bad_gbuffers_cameras_and_edits_are_clear_errors() {
+    let (device, queue) = device_with(required_limits());
+    let mut gi = GiEngine::new(&device, &queue, GiConfig::new(32, 32, "lpv")).expect("engine");
+    let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT;
+    let depth = target(&device, wgpu::TextureFormat::Depth32Float, 32, 32, usage);
+    let normal = target(&device, wgpu::TextureFormat::Rgba16Float, 32, 32, usage);
+    let camera = CameraInput::new(
+        Mat4::look_at_rh(Vec3::new(0.0, 2.0, 3.0), Vec3::ZERO, Vec3::Y),
+        Mat4::perspective_rh(0.8, 1.0, 0.1, 20.0),
+    );
+    let record = |gi: &mut GiEngine, input: FrameInput| {
+        let mut encoder = device.create_command_encoder(&Default::default());
+        let result = gi.record(&mut encoder, &input);
+        queue.submit([encoder.finish()]);
+        result.err().map(|e| e.to_string())
+    };
+    let input = |depth, normal| FrameInput {
+        camera,
+        gbuffer: GBufferInput::new(
+            depth,
+            DepthConvention::Standard,
+            normal,
+            NormalEncoding::WORLD,
+        ),
+        time: 0.0,
+    };
+    // Nothing to light yet.
+    let e = record(&mut gi, input(&depth, &normal)).expect("an empty scene must fail");
+    assert!(e.contains("no triangles"), "{e}");
+
+    let material = gi.add_material(Material::default());
+    let mut bad = quad_mesh();
+    bad.positions[1].x = f32::NAN;
+    let e = gi
+        .add_mesh(bad, material)
+        .expect_err("NaN position")
+        .to_string();
+    assert!(e.contains("floor") && e.contains("non-finite"), "{e}");
+    let mesh = gi.add_mesh(quad_mesh(), material).expect("mesh");
+    let e = gi
+        .add_instance(mesh, Mat4::ZERO, Motion::Static)
+        .expect_err("singular")
+        .to_string();
+    assert!(e.contains("invertible"), "{e}");
+    let instance = gi
+        .add_instance(mesh, Mat4::IDENTITY, Motion::Movable)
+        .expect("instance");
+    gi.remove_instance(instance).expect("remove");
+    let e = gi
+        .set_transform(instance, Mat4::IDENTITY)
+        .expect_err("stale id")
+        .to_string();
+    assert!(e.contains("removed"), "{e}");
+    gi.add_instance(mesh, Mat4::IDENTITY, Motion::Static)
+        .expect("instance");
+    let e = gi
+        .add_light(Light::point(
+            Vec3::new(0.0, f32::INFINITY, 0.0),
+            Vec3::ONE,
+            1.0,
+        ))
+        .expect_err("infinite light")
+        .to_string();
+    assert!(e.contains("finite"), "{e}");
+    gi.add_light(Light::point(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 1.0))
+        .expect("light");
+    assert!(gi.set_technique("lpv-typo", &Default::default()).is_err());
+
+    // The G-buffer: size, format, usage.
+    let small = target(&device, wgpu::TextureFormat::Depth32Float, 16, 32, usage);
+    let e = record(&mut gi, input(&small, &normal)).expect("wrong size");
+    assert!(e.contains("16x32") && e.contains("32x32"), "{e}");
+    let uint = target(&device, wgpu::TextureFormat::Rgba8Uint, 32, 32, usage);
+    let e = record(&mut gi, input(&depth, &uint)).expect("integer normals");
+    assert!(e.contains("Rgba8Uint"), "{e}");
+    let unbound = target(
+        &device,
+        wgpu::TextureFormat::Rgba16Float,
+        32,
+        32,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
+    let e = record(&mut gi, input(&depth, &unbound)).expect("no binding usage");
+    assert!(e.contains("TEXTURE_BINDING"), "{e}");
+    // The camera.
+    let mut bad_camera = input(&depth, &normal);
+    bad_camera.camera.proj = Mat4::ZERO;
+    let e = record(&mut gi, bad_camera).expect("singular projection");
+    assert!(e.contains("camera"), "{e}");
+    // And a good frame after all that.
+    assert_eq!(record(&mut gi, input(&depth, &normal)), None);
+    assert!(gi.indirect_view().is_some());
+}
+
+/// Octolux's view of a caller's camera keeps the view and the x/y projection and maps the
+/// caller's near and far planes (or near and MAX_DEPTH_RATIO x near for an infinite one) to 0
+/// and 1, for standard, reversed and infinite reversed projections alike.
+#[test]
+fn cameras_of_every_depth_convention_map_to_octoluxs_standard_depth() {
+    let view = Mat4::look_at_rh(Vec3::new(1.0, 2.0, 3.0), Vec3::ZERO, Vec3::Y);
+    let (near, far) = (0.1, 40.0);
+    let standard = Mat4::perspective_rh(0.9, 1.5, near, far);
+    let reversed = Mat4::perspective_rh(0.9, 1.5, far, near);
+    let infinite = Mat4::perspective_infinite_reverse_rh(0.9, 1.5, near);
+    let reference = CameraInput::new(view, standard)
+        .octolux_view(30, 20)
+        .expect("standard");
+    assert!((reference.proj - standard).abs_diff_eq(Mat4::ZERO, 1e-5));
+    let from_reversed = CameraInput::new(view, reversed)
+        .octolux_view(30, 20)
+        .expect("reversed");
+    assert!(
+        from_reversed.proj.abs_diff_eq(standard, 1e-4),
+        "{:?}",
+        from_reversed.proj
+    );
+    let from_infinite = CameraInput::new(view, infinite)
+        .octolux_view(30, 20)
+        .expect("infinite");
+    let p = from_infinite.proj * glam::Vec4::new(0.0, 0.0, -near, 1.0);
+    assert!((p.z / p.w).abs() < 1e-6, "near maps to {}", p.z / p.w);
+    let far_point = from_infinite.proj
+        * glam::Vec4::new(0.0, 0.0, -near * octolux::scene::MAX_DEPTH_RATIO, 1.0);
+    assert!((far_point.z / far_point.w - 1.0).abs() < 1e-4);
+    assert_eq!(from_infinite.view, view);
+    assert!((from_infinite.position - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-5);
+}
