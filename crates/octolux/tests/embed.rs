@@ -73,22 +73,30 @@ fn target(
     h: u32,
     usage: wgpu::TextureUsages,
 ) -> wgpu::TextureView {
-    device
-        .create_texture(&wgpu::TextureDescriptor {
-            label: None,
-            size: wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        })
-        .create_view(&Default::default())
+    texture(device, format, w, h, usage).create_view(&Default::default())
+}
+
+fn texture(
+    device: &wgpu::Device,
+    format: wgpu::TextureFormat,
+    w: u32,
+    h: u32,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: None,
+        size: wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
 }
 
 #[test]
@@ -218,4 +226,249 @@ fn cameras_of_every_depth_convention_map_to_octoluxs_standard_depth() {
     assert!((far_point.z / far_point.w - 1.0).abs() < 1e-4);
     assert_eq!(from_infinite.view, view);
     assert!((from_infinite.position - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-5);
+}
+
+/// `bytes` (rows of texels of `format`) in a texture the input pass can read.
+fn upload(
+    ctx: &octolux::gpu::GpuContext,
+    format: wgpu::TextureFormat,
+    (w, h): (u32, u32),
+    bytes: &[u8],
+) -> wgpu::TextureView {
+    let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
+    let texture = texture(&ctx.device, format, w, h, usage);
+    let texel = format.block_copy_size(None).expect("colour format");
+    ctx.queue.write_texture(
+        texture.as_image_copy(),
+        bytes,
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(w * texel),
+            rows_per_image: Some(h),
+        },
+        texture.size(),
+    );
+    texture.create_view(&Default::default())
+}
+
+fn octahedral(n: Vec3) -> [f32; 2] {
+    let p = glam::Vec2::new(n.x, n.y) / (n.x.abs() + n.y.abs() + n.z.abs());
+    if n.z >= 0.0 {
+        return p.to_array();
+    }
+    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+    [(1.0 - p.y.abs()) * sign(p.x), (1.0 - p.x.abs()) * sign(p.y)]
+}
+
+/// One way a caller may store its G-buffer, with the error bound of its encoding.
+struct Case {
+    what: &'static str,
+    convention: DepthConvention,
+    proj: Mat4,
+    encoding: NormalEncoding,
+    format: wgpu::TextureFormat,
+    normals: Vec<u8>,
+    bound: f64,
+}
+
+/// Octolux's own G-buffer of the Cornell box, re-encoded on the CPU in every depth and normal
+/// convention the input pass accepts (`R32Float` depth standard and reversed, normals in world
+/// and view space, plain, unorm and octahedral), gives the same indirect irradiance as
+/// octolux's renderer reading its own G-buffer. `lpv` recomputes everything every frame, so the
+/// images differ only by the conversion: 32-bit floats differ by rounding (relMSE < 1e-5), 8-bit
+/// unorm normals by their quantisation (1/255: relMSE < 1e-3).
+#[test]
+fn every_depth_and_normal_convention_reads_as_octoluxs_own_gbuffer() {
+    use octolux::render::{RenderSettings, Renderer};
+    let ctx = common::context();
+    let scene = octolux::scene::cornell::scene();
+    let size = (48, 40);
+    let settings = RenderSettings {
+        width: size.0,
+        height: size.1,
+        gi: "lpv".into(),
+        ..RenderSettings::default()
+    };
+    let mut renderer = Renderer::new(&ctx, &scene, settings).expect("renderer");
+    renderer.render(&scene, 0.0).expect("frame");
+    let expected = renderer.engine().read_indirect().expect("indirect");
+    let gbuffer = renderer.read_gbuffer().expect("gbuffer");
+    let view = *renderer.last_view().expect("view");
+    // Octolux's x/y projection with depth reversed over the camera's near and far planes.
+    let (near, far) = (scene.cameras[0].near, scene.cameras[0].far);
+    let mut reversed_proj = view.proj;
+    reversed_proj.z_axis.z = near / (far - near);
+    reversed_proj.w_axis.z = near * far / (far - near);
+    let inv_proj = view.proj.inverse();
+    let ndc = |i: usize, d: f32| {
+        let (x, y) = (
+            (i as u32 % size.0) as f32 + 0.5,
+            (i as u32 / size.0) as f32 + 0.5,
+        );
+        glam::Vec4::new(
+            x / size.0 as f32 * 2.0 - 1.0,
+            1.0 - y / size.1 as f32 * 2.0,
+            d,
+            1.0,
+        )
+    };
+    let standard: Vec<f32> = gbuffer.depth.clone();
+    let reversed: Vec<f32> = gbuffer
+        .depth
+        .iter()
+        .enumerate()
+        .map(|(i, &d)| {
+            if d >= 1.0 {
+                return 0.0;
+            }
+            let v = inv_proj * ndc(i, d);
+            let c = reversed_proj * (v / v.w);
+            c.z / c.w
+        })
+        .collect();
+    let f32_bytes = |v: &[f32]| bytemuck::cast_slice::<f32, u8>(v).to_vec();
+    let world = &gbuffer.normal;
+    let in_view: Vec<Vec3> = world
+        .iter()
+        .map(|&n| view.view.transform_vector3(n))
+        .collect();
+    let xyz = |normals: &[Vec3]| -> Vec<u8> {
+        f32_bytes(
+            &normals
+                .iter()
+                .flat_map(|n| [n.x, n.y, n.z, 0.0])
+                .collect::<Vec<_>>(),
+        )
+    };
+    let xyz_unorm = |normals: &[Vec3]| -> Vec<u8> {
+        normals
+            .iter()
+            .flat_map(|n| {
+                let q = |c: f32| ((c * 0.5 + 0.5) * 255.0).round() as u8;
+                [q(n.x), q(n.y), q(n.z), 255]
+            })
+            .collect()
+    };
+    let oct = |normals: &[Vec3]| -> Vec<u8> {
+        f32_bytes(
+            &normals
+                .iter()
+                .flat_map(|&n| {
+                    let e = octahedral(n.normalize_or(Vec3::Z));
+                    [e[0], e[1], 0.0, 0.0]
+                })
+                .collect::<Vec<_>>(),
+        )
+    };
+    let oct_unorm = |normals: &[Vec3]| -> Vec<u8> {
+        normals
+            .iter()
+            .flat_map(|&n| {
+                let e = octahedral(n.normalize_or(Vec3::Z));
+                let q = |c: f32| ((c * 0.5 + 0.5) * 255.0).round() as u8;
+                [q(e[0]), q(e[1]), 0, 255]
+            })
+            .collect()
+    };
+    use wgpu::TextureFormat::{R32Float, Rgba32Float, Rgba8Unorm};
+    let cases = [
+        Case {
+            what: "standard, world xyz",
+            convention: DepthConvention::Standard,
+            proj: view.proj,
+            encoding: NormalEncoding {
+                space: NormalSpace::World,
+                packing: NormalPacking::Xyz,
+            },
+            format: Rgba32Float,
+            normals: xyz(world),
+            bound: 1e-5,
+        },
+        Case {
+            what: "reversed, view xyz",
+            convention: DepthConvention::Reversed,
+            proj: reversed_proj,
+            encoding: NormalEncoding {
+                space: NormalSpace::View,
+                packing: NormalPacking::Xyz,
+            },
+            format: Rgba32Float,
+            normals: xyz(&in_view),
+            bound: 1e-5,
+        },
+        Case {
+            what: "reversed, world octahedral",
+            convention: DepthConvention::Reversed,
+            proj: reversed_proj,
+            encoding: NormalEncoding {
+                space: NormalSpace::World,
+                packing: NormalPacking::Octahedral,
+            },
+            format: Rgba32Float,
+            normals: oct(world),
+            bound: 1e-5,
+        },
+        Case {
+            what: "standard, view unorm",
+            convention: DepthConvention::Standard,
+            proj: view.proj,
+            encoding: NormalEncoding {
+                space: NormalSpace::View,
+                packing: NormalPacking::XyzUnorm,
+            },
+            format: Rgba8Unorm,
+            normals: xyz_unorm(&in_view),
+            bound: 1e-3,
+        },
+        Case {
+            what: "standard, world octahedral unorm",
+            convention: DepthConvention::Standard,
+            proj: view.proj,
+            encoding: NormalEncoding {
+                space: NormalSpace::World,
+                packing: NormalPacking::OctahedralUnorm,
+            },
+            format: Rgba8Unorm,
+            normals: oct_unorm(world),
+            bound: 1e-3,
+        },
+    ];
+    let config = GiConfig::new(size.0, size.1, "lpv");
+    let mut gi =
+        GiEngine::with_context(&ctx.with_own_ledger(), scene.clone(), config).expect("engine");
+    for Case {
+        what,
+        convention,
+        proj,
+        encoding,
+        format,
+        normals,
+        bound,
+    } in cases
+    {
+        let depth = match convention {
+            DepthConvention::Standard => f32_bytes(&standard),
+            DepthConvention::Reversed => f32_bytes(&reversed),
+        };
+        let depth = upload(&ctx, R32Float, size, &depth);
+        let normal = upload(&ctx, format, size, &normals);
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        gi.record(
+            &mut encoder,
+            &FrameInput {
+                camera: CameraInput::new(view.view, proj),
+                gbuffer: GBufferInput::new(&depth, convention, &normal, encoding),
+                time: 0.0,
+            },
+        )
+        .expect(what);
+        ctx.queue.submit([encoder.finish()]);
+        let got = gi.read_indirect().expect("indirect");
+        let error = octolux::metrics::rel_mse(&got, &expected, None).expect("sizes");
+        println!("{what}: relMSE {error:.2e}");
+        assert!(
+            error < bound,
+            "{what}: relMSE {error:.3e} against octolux's own G-buffer"
+        );
+    }
 }

@@ -29,12 +29,11 @@
 //! # Ok(()) }
 //! ```
 
-mod device;
 mod edit;
 mod input;
 mod lit;
 
-pub use device::{check_device, required_features, required_limits};
+pub use crate::gpu::requirements::{check_device, required_features, required_limits};
 pub use edit::{InstanceId, LightId, MaterialId, MeshId, Motion, TextureId};
 pub use input::{
     CameraInput, DepthConvention, GBufferInput, NormalEncoding, NormalPacking, NormalSpace,
@@ -428,6 +427,30 @@ impl GiEngine {
     /// The timer every pass of octolux's own renderer goes through.
     pub(crate) fn timer(&mut self) -> &mut PassTimer {
         &mut self.timer
+    }
+
+    /// Takes from `scene` (a copy of the engine's scene with the same lights and objects) what
+    /// may change between frames without a rebuild: its lights and the placement and
+    /// animation of its moving objects. Octolux's renderer is handed its scene every frame.
+    pub(crate) fn follow(&mut self, scene: &Scene) {
+        let kind = |l: &crate::scene::Light| std::mem::discriminant(&l.kind);
+        if scene.lights.len() == self.scene.lights.len()
+            && scene
+                .lights
+                .iter()
+                .zip(&self.scene.lights)
+                .all(|(a, b)| kind(a) == kind(b))
+        {
+            self.scene.lights.clone_from(&scene.lights);
+        }
+        if scene.objects.len() == self.scene.objects.len() {
+            for (mine, theirs) in self.scene.objects.iter_mut().zip(&scene.objects) {
+                if mine.animation.is_some() && theirs.animation.is_some() {
+                    mine.transform = theirs.transform;
+                    mine.animation.clone_from(&theirs.animation);
+                }
+            }
+        }
     }
 
     /// Builds the GPU scene and the technique now instead of at the first frame (octolux's

@@ -330,12 +330,12 @@ impl GpuContext {
     }
 
     /// A context on a device the caller created (an engine's own `wgpu::Device` and `Queue`),
-    /// after checking that it has what octolux needs ([`crate::embed::check_device`]: the
+    /// after checking that it has what octolux needs ([`crate::gpu::requirements::check_device`]: the
     /// error names every missing limit). GPU timestamps are used when the device was created
     /// with `TIMESTAMP_QUERY` and is not a CPU adapter. The caller's uncaptured-error handler is
     /// left alone: octolux's work runs inside error scopes ([`GpuContext::capture_errors`]).
     pub fn from_device(device: &wgpu::Device, queue: &wgpu::Queue) -> Result<GpuContext> {
-        crate::embed::check_device(device)?;
+        super::requirements::check_device(device)?;
         let info = device.adapter_info();
         let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY)
             && info.device_type != wgpu::DeviceType::Cpu;

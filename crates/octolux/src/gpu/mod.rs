@@ -10,6 +10,7 @@ mod ledger;
 pub mod pack;
 pub mod pass;
 mod readback;
+pub mod requirements;
 pub mod shader;
 mod timer;
 pub mod work;

@@ -257,8 +257,9 @@ impl Renderer {
         }
     }
 
-    /// Renders `scene` (the one given to [`Renderer::new`]) at time `t` seconds, waits for the
-    /// GPU, and returns the per-pass times of this frame.
+    /// Renders `scene` (the one given to [`Renderer::new`], whose lights and moving objects may
+    /// have changed since) at time `t` seconds, waits for the GPU, and returns the per-pass
+    /// times of this frame.
     pub fn render(&mut self, scene: &Scene, t: f32) -> Result<Vec<PassTiming>> {
         self.record(scene, t)?;
         self.engine.timer().finish_frame()
@@ -278,6 +279,7 @@ impl Renderer {
         let (w, h) = (self.settings.width, self.settings.height);
         let view = scene.frame(t, self.settings.camera).camera.view(w, h);
         self.engine.display = [scene.exposure.exp2(), self.output as u32 as f32];
+        self.engine.follow(scene);
         self.engine.prepare(t, view)?;
         let (gbuffer, direct) = (&self.gbuffer, &self.direct);
         self.engine.with_lit(|timer, lit| {
