@@ -328,6 +328,23 @@ fn octree_probes_light_an_open_scene() {
         for _ in 0..10 {
             r.render(&scene, 0.0).unwrap();
         }
+        if let Some(octree) = r
+            .technique()
+            .as_any()
+            .and_then(|a| a.downcast_ref::<octolux::gi::probes::ProbesOctree>())
+        {
+            // `004`'s rule keeps the root's probe alone; the default the complete depth-2 level.
+            let kept = octree.probe_count(&ctx).unwrap();
+            println!("probes-octree min_depth {min_depth}: {kept} probes");
+            assert!(
+                if min_depth == 0 {
+                    kept <= 8
+                } else {
+                    kept >= 64
+                },
+                "min_depth {min_depth}: {kept} probes kept"
+            );
+        }
         let image = r.read_hdr().unwrap();
         errors.push((
             rel_mse(&image, &one, None).unwrap(),
