@@ -62,6 +62,10 @@ pub struct BenchArgs {
     /// steps...), which take warm-up + 1 more frames per technique with a counting renderer.
     #[arg(long)]
     pub no_work_counts: bool,
+    /// Skip the flicker column (the image's change from frame to frame with the scene held
+    /// still: 4 frames to settle and 4 measured, after the timed ones, per technique).
+    #[arg(long)]
+    pub no_flicker: bool,
     /// Skip the CPU reference: no error columns (shown as `-`, `null` in JSON).
     #[arg(long, conflicts_with = "against")]
     pub no_reference: bool,
@@ -571,9 +575,20 @@ fn bench_scene(
                 .collect(),
             objects,
             metrics: None,
+            flicker: None,
         });
-        if reference_settings.is_some() || out_dir.is_some() {
-            let image = renderer.read_hdr()?;
+        let image = match reference_settings.is_some() || out_dir.is_some() {
+            true => Some(renderer.read_hdr()?),
+            false => None,
+        };
+        if !args.no_flicker {
+            let flicker = still_flicker(&mut renderer, scene, last_time)
+                .with_context(|| format!("scene '{}': flicker of '{name}'", scene.name))?;
+            if let Some(report) = techniques.last_mut() {
+                report.flicker = Some(flicker);
+            }
+        }
+        if let Some(image) = image {
             if let Some((x, y, v)) = image.first_non_finite() {
                 bail!(
                     "scene '{}', {name}: the last frame holds {v} at pixel ({x}, {y}): the \
@@ -659,6 +674,39 @@ fn bench_scene(
                 .collect(),
         },
     ))
+}
+
+/// Frames the scene is held still before its flicker is measured (techniques that converge
+/// over frames settle first), and frames it is measured over.
+const FLICKER_SETTLE: u32 = 4;
+const FLICKER_FRAMES: u32 = 4;
+
+/// Flicker with nothing moving: the scene held at time `t` (camera, lights and objects still,
+/// so the reference does not change), the mean over [`FLICKER_FRAMES`] frames of the image's
+/// change from the frame before, sum |I_t - I_(t-1)| / sum I_t over pixels and channels. Zero
+/// for a technique whose image is a function of the scene alone; noise a technique resamples
+/// every frame, or accumulation that has not settled, shows here. (Lag after a light moves and
+/// flicker with the camera or a light moving are not measured yet.)
+fn still_flicker(renderer: &mut Renderer, scene: &Scene, t: f32) -> Result<f64> {
+    for _ in 0..FLICKER_SETTLE {
+        renderer.render(scene, t)?;
+    }
+    let mut previous = renderer.read_hdr()?;
+    let mut sum = 0.0;
+    for _ in 0..FLICKER_FRAMES {
+        renderer.render(scene, t)?;
+        let image = renderer.read_hdr()?;
+        let change: f64 = image
+            .pixels
+            .iter()
+            .zip(&previous.pixels)
+            .map(|(a, b)| (*a - *b).abs().element_sum() as f64)
+            .sum();
+        let total: f64 = image.pixels.iter().map(|p| p.element_sum() as f64).sum();
+        sum += change / total.max(1e-12);
+        previous = image;
+    }
+    Ok(sum / FLICKER_FRAMES as f64)
 }
 
 /// The work counts of the first measured frame (`warmup`), rendered again from the first

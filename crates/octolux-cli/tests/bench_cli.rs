@@ -172,6 +172,14 @@ fn check_scene(scene: &Value, name: &str) {
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * b.max(1.0);
         assert!(close(gi_sum, f(&t["gi_total"], "mean_ms")), "{t}");
         assert!(close(frame_sum, f(&t["frame_total"], "mean_ms")), "{t}");
+        // Held still, GI off is the same image every frame on every adapter; `lpv` recomputes
+        // everything from the unchanged scene (a GPU's order of atomic sums may differ in the
+        // last bits, far below 1e-3).
+        let flicker = f(t, "flicker");
+        match technique {
+            "none" => assert_eq!(flicker, 0.0, "{t}"),
+            _ => assert!((0.0..1e-3).contains(&flicker), "{t}"),
+        }
         let total_mib = f(t, "total_mib");
         let technique_mib = f(t, "technique_mib");
         assert!(total_mib > 0.0 && technique_mib > 0.0 && technique_mib < total_mib);
@@ -268,7 +276,14 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
         // The first measured frame is the first frame (no warm-up), so it draws the RSMs
         // (a static scene keeps them after that). `bench` measures none and lpv; vpl
         // follows them (technique 2).
-        let mut args = vec!["--gi", "vpl", "--vpl-count", "256", "--json"];
+        let mut args = vec![
+            "--gi",
+            "vpl",
+            "--vpl-count",
+            "256",
+            "--no-flicker",
+            "--json",
+        ];
         args.push(json.to_str().unwrap());
         args.extend(extra);
         let output = bench_with_warmup(&[], "0", &args);
@@ -312,6 +327,7 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
     // Without counting: no work anywhere, nothing in the table.
     let (stdout, report) = run(&["--no-work-counts"]);
     assert!(work_of(&report, 2, "vpl shade").is_empty());
+    assert!(report["scenes"][0]["techniques"][2]["flicker"].is_null());
     assert!(!stdout.contains("VPL pairs"), "{stdout}");
 }
 
@@ -326,6 +342,7 @@ fn bounce_gathers_launch_a_lane_per_listed_voxel() {
         &[
             "--gi",
             "vct-clipmap,vct-svo",
+            "--no-flicker",
             "--json",
             json.to_str().unwrap(),
         ],

@@ -162,6 +162,9 @@ pub struct TechniqueReport {
     pub objects: Option<[octolux::gpu::ResourceCounts; 2]>,
     /// Error of the last measured frame against the reference; `null` with `--no-reference`.
     pub metrics: Option<Metrics>,
+    /// Flicker with nothing moving: the mean relative change of the image from one frame to
+    /// the next with the scene held at the last measured time (`bench.rs`, `still_flicker`).
+    pub flicker: Option<f64>,
 }
 
 /// One reference render.
@@ -358,13 +361,13 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
     )?;
     writeln!(out, "adapter: {}", run.adapter.line())?;
     let groups = format!(
-        "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}",
-        "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference"
+        "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}  {:^9}",
+        "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference", "still"
     );
     writeln!(out, "{}", groups.trim_end())?;
     writeln!(
         out,
-        "  {:<12} {:>8} {:>8} {:>8}  {:>8} {:>8} {:>8}  {:>9} {:>9}  {:>9} {:>11}  reference",
+        "  {:<12} {:>8} {:>8} {:>8}  {:>8} {:>8} {:>8}  {:>9} {:>9}  {:>9} {:>11}  {:>9}  reference",
         "technique",
         "mean",
         "median",
@@ -375,7 +378,8 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         "technique",
         "frame",
         "FLIP",
-        "relMSE"
+        "relMSE",
+        "flicker"
     )?;
     for t in &scene.techniques {
         let (flip, rel_mse) = match &t.metrics {
@@ -384,7 +388,7 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         };
         writeln!(
             out,
-            "  {:<12} {:>8.3} {:>8.3} {:>8.3}  {:>8.3} {:>8.3} {:>8.3}  {:>9.3} {:>9.3}  {:>9} {:>11}  {}",
+            "  {:<12} {:>8.3} {:>8.3} {:>8.3}  {:>8.3} {:>8.3} {:>8.3}  {:>9.3} {:>9.3}  {:>9} {:>11}  {:>9}  {}",
             t.technique,
             t.gi_total.mean_ms,
             t.gi_total.median_ms,
@@ -396,6 +400,7 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
             t.total_mib,
             flip,
             rel_mse,
+            t.flicker.map_or("-".to_string(), |f| format!("{f:.2e}")),
             t.reference.as_deref().unwrap_or("-")
         )?;
     }
