@@ -6,8 +6,9 @@
 //!
 //! The frame flows one way: scene update -> shadow maps -> G-buffer -> GI technique (indirect
 //! irradiance per pixel) -> compose (direct + albedo x indirect) -> tone map. See
-//! [`render::Renderer`] for the GPU side, [`reference`](mod@reference) for the path tracer and [`metrics`] for
-//! image comparisons.
+//! [`render::Renderer`] for the GPU side, [`embed::GiEngine`] for the GI inside another wgpu
+//! renderer (its device, G-buffer and command encoder; the `Renderer` runs on it too),
+//! [`reference`](mod@reference) for the path tracer and [`metrics`] for image comparisons.
 
 pub mod embed;
 pub mod error;
