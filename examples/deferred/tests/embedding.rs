@@ -76,6 +76,24 @@ fn octolux_indirect(
     renderer.engine().read_indirect().expect("indirect")
 }
 
+/// The example renderer on the room with `technique` and `settings`, `SIZE` pixels.
+fn example(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    technique: &str,
+    settings: &GiSettings,
+) -> Example {
+    let model = Model::load(&room()).expect("room.gltf");
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+    let mut example =
+        Example::new(device, queue, model, SIZE.0, SIZE.1, format, technique).expect("example");
+    example
+        .gi
+        .set_technique(technique, settings)
+        .expect("settings");
+    example
+}
+
 fn example_indirect(gi: &GiEngine) -> HdrImage {
     gi.read_indirect().expect("indirect")
 }
@@ -114,30 +132,10 @@ fn every_technique_reads_the_example_gbuffer_as_octolux_reads_its_own() {
     settings.vct.octree_resolution = 64;
     settings.clpv.cascades = 2;
     for &technique in octolux::gi::TECHNIQUES {
-        let started = std::time::Instant::now();
-        let model = Model::load(&room()).expect("room.gltf");
-        let mut example = Example::new(
-            &device,
-            &queue,
-            model,
-            SIZE.0,
-            SIZE.1,
-            wgpu::TextureFormat::Rgba8UnormSrgb,
-            technique,
-        )
-        .expect("example");
-        example
-            .gi
-            .set_technique(technique, &settings)
-            .expect("settings");
+        let mut example = example(&device, &queue, technique, &settings);
         example.render_at(0.0, FRAMES).expect("frames");
         let ours = example_indirect(&example.gi);
-        let example_s = started.elapsed().as_secs_f32();
         let theirs = octolux_indirect(&scene, technique, &settings, 0.0, FRAMES);
-        println!(
-            "{technique}: example {example_s:.1} s, octolux {:.1} s",
-            started.elapsed().as_secs_f32() - example_s
-        );
         check_close(technique, &ours, &theirs);
     }
 }
@@ -158,21 +156,7 @@ fn edits_between_frames_end_where_a_scene_file_of_that_state_does_with_a_flat_le
     let (device, queue) = device();
     let settings = drift_settings();
     for technique in ["lpv", "vct-svo", "vpl", "probes-grid"] {
-        let model = Model::load(&room()).expect("room.gltf");
-        let mut example = Example::new(
-            &device,
-            &queue,
-            model,
-            SIZE.0,
-            SIZE.1,
-            wgpu::TextureFormat::Rgba8UnormSrgb,
-            technique,
-        )
-        .expect("example");
-        example
-            .gi
-            .set_technique(technique, &settings)
-            .expect("settings");
+        let mut example = example(&device, &queue, technique, &settings);
         example.render_at(0.0, 1).expect("frame");
         let start = example_indirect(&example.gi);
 
