@@ -28,8 +28,10 @@ for t in "${tests[@]}"; do
   strip -o "$kit/stage/tests/$(basename "$t")" "$t"
 done
 strip -o "$kit/stage/bin/octolux" target/release/octolux
-# The CLI tests run the debug binary cargo built for them, by its build-time path.
+# The CLI tests and the example's run the debug binaries cargo built for them, by their
+# build-time paths.
 strip -o "$kit/stage/bin/octolux-test" target/debug/octolux
+strip -o "$kit/stage/bin/deferred-test" target/debug/deferred
 if [ -d "$scenes" ]; then
   mkdir -p "$kit/stage/shared-scenes"
   cp -r "$scenes"/. "$kit/stage/shared-scenes/"
@@ -61,6 +63,7 @@ root="$(cat /tmp/octolux-kit/repo-root)"
 if [ ! -e "$root" ]; then mkdir -p "$(dirname "$root")" && ln -s "$repo" "$root"; fi
 mkdir -p "$root/target/debug"
 [ -e "$root/target/debug/octolux" ] || cp /tmp/octolux-kit/bin/octolux-test "$root/target/debug/octolux"
+[ -e "$root/target/debug/deferred" ] || cp /tmp/octolux-kit/bin/deferred-test "$root/target/debug/deferred"
 export OCTOLUX_SCENES=/tmp/octolux-kit/shared-scenes XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
 bin=/tmp/octolux-kit/bin/octolux
 "$bin" render --gi none --width 64 --height 64 --out /tmp/octolux-kit/probe.png -v 2>&1 |
