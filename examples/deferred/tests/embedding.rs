@@ -103,7 +103,7 @@ fn rel_mse(a: &HdrImage, b: &HdrImage) -> f64 {
 }
 
 /// A bound on relMSE between two images of one technique that differ only by the G-buffer's
-/// encoding: the example stores normals octahedrally in 16-bit floats (about 1e-3 of angle) and
+/// encoding: the example stores normals octahedrally in 16-bit floats (11 significant bits: at most about 1e-3 rad) and
 /// depth reversed (another projection's rounding), which moves sample positions and directions
 /// by that much; 1e-3 relMSE is far below what any technique change shows (0.01-0.3).
 const SAME_IMAGE: f64 = 1e-3;

@@ -134,13 +134,7 @@ impl GiEngine {
                 config.shadow_map_size
             )));
         }
-        if config.technique != "none" && !gi::TECHNIQUES.contains(&config.technique.as_str()) {
-            return Err(Error::InvalidArgument(format!(
-                "unknown GI technique '{}' (available: {})",
-                config.technique,
-                gi::TECHNIQUES.join(", ")
-            )));
-        }
+        check_technique(&config.technique)?;
         let camera_uniform = ctx.create_buffer_init(
             "frame",
             "camera",
@@ -186,12 +180,7 @@ impl GiEngine {
     /// Replaces the technique and its settings; the next frame builds it. Fails on an unknown
     /// name (the current technique stays).
     pub fn set_technique(&mut self, name: &str, settings: &GiSettings) -> Result<()> {
-        if name != "none" && !gi::TECHNIQUES.contains(&name) {
-            return Err(Error::InvalidArgument(format!(
-                "unknown GI technique '{name}' (available: {})",
-                gi::TECHNIQUES.join(", ")
-            )));
-        }
+        check_technique(name)?;
         self.config.technique = name.to_string();
         self.config.settings = settings.clone();
         self.drop_technique()?;
@@ -231,20 +220,7 @@ impl GiEngine {
     /// the GPU): for tests and tools, not for a frame loop.
     pub fn read_indirect(&self) -> Result<HdrImage> {
         let view = self.indirect_view().ok_or_else(not_prepared)?;
-        let texture = view.texture();
-        let bytes = crate::gpu::read_texture(&self.ctx, texture, 0)?;
-        let values: Vec<f32> = bytes
-            .chunks_exact(2)
-            .map(|c| crate::gpu::pack::f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
-            .collect();
-        Ok(HdrImage {
-            width: texture.width(),
-            height: texture.height(),
-            pixels: values
-                .chunks_exact(4)
-                .map(|p| Vec3::new(p[0], p[1], p[2]))
-                .collect(),
-        })
+        crate::gpu::read_half_image(&self.ctx, view.texture())
     }
 
     /// The camera matrices octolux used for the last frame (its own standard-depth projection
@@ -470,6 +446,17 @@ fn camera_of(view: &CameraView) -> Camera {
     camera.position = view.position;
     camera.target = view.position + forward;
     camera
+}
+
+/// A clear error for a name that is not one of [`gi::TECHNIQUES`], before anything is built.
+fn check_technique(name: &str) -> Result<()> {
+    if gi::TECHNIQUES.contains(&name) {
+        return Ok(());
+    }
+    Err(Error::InvalidArgument(format!(
+        "unknown GI technique '{name}' (available: {})",
+        gi::TECHNIQUES.join(", ")
+    )))
 }
 
 fn not_prepared() -> Error {

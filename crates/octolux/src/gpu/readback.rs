@@ -103,3 +103,23 @@ fn map_read(ctx: &GpuContext, staging: &wgpu::Buffer) -> Result<Vec<u8>> {
     ctx.check_errors()?;
     Ok(bytes)
 }
+
+/// Reads an `Rgba16Float` texture back as an image of its rgb (waits for the GPU).
+pub fn read_half_image(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+) -> Result<crate::image_io::HdrImage> {
+    let bytes = read_texture(ctx, texture, 0)?;
+    let values: Vec<f32> = bytes
+        .chunks_exact(2)
+        .map(|c| super::pack::f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
+        .collect();
+    Ok(crate::image_io::HdrImage {
+        width: texture.width(),
+        height: texture.height(),
+        pixels: values
+            .chunks_exact(4)
+            .map(|p| glam::Vec3::new(p[0], p[1], p[2]))
+            .collect(),
+    })
+}

@@ -10,8 +10,7 @@ mod direct;
 use crate::embed::{GiConfig, GiEngine};
 use crate::frame::{GBuffer, ShadowMaps};
 use crate::gi::{self, GiTechnique};
-use crate::gpu::pack::f16_to_f32;
-use crate::gpu::{read_texture, GpuContext, PassTiming};
+use crate::gpu::{read_half_image, read_texture, GpuContext, PassTiming};
 use crate::image_io::{check_image_size, HdrImage};
 use crate::scene::{CameraView, Scene};
 use crate::{Error, Result};
@@ -277,7 +276,7 @@ impl Renderer {
     /// light, the technique, compose.
     fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
-        let view = scene.frame(t, self.settings.camera).camera.view(w, h);
+        let view = scene.camera_at(t, self.settings.camera).view(w, h);
         self.engine.display = [scene.exposure.exp2(), self.output as u32 as f32];
         self.engine.follow(scene);
         self.engine.prepare(t, view)?;
@@ -325,42 +324,21 @@ impl Renderer {
 
     /// Reads the direct-light radiance of the last frame.
     pub fn read_direct(&self) -> Result<HdrImage> {
-        Ok(self.half_image(&self.direct.output)?.0)
+        read_half_image(&self.ctx, &self.direct.output)
     }
 
     /// Reads the G-buffer of the last frame.
     pub fn read_gbuffer(&self) -> Result<GBufferImages> {
         let depth_bytes = read_texture(&self.ctx, &self.gbuffer.depth, 0)?;
         Ok(GBufferImages {
-            albedo: self.half_image(&self.gbuffer.albedo)?.0.pixels,
-            normal: self.half_image(&self.gbuffer.normal)?.0.pixels,
-            emission: self.half_image(&self.gbuffer.emission)?.0.pixels,
+            albedo: read_half_image(&self.ctx, &self.gbuffer.albedo)?.pixels,
+            normal: read_half_image(&self.ctx, &self.gbuffer.normal)?.pixels,
+            emission: read_half_image(&self.ctx, &self.gbuffer.emission)?.pixels,
             depth: depth_bytes
                 .chunks_exact(4)
                 .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect(),
         })
-    }
-
-    fn half_image(&self, texture: &wgpu::Texture) -> Result<(HdrImage, Vec<f32>)> {
-        let bytes = read_texture(&self.ctx, texture, 0)?;
-        let values: Vec<f32> = bytes
-            .chunks_exact(2)
-            .map(|c| f16_to_f32(u16::from_le_bytes([c[0], c[1]])))
-            .collect();
-        let pixels = values
-            .chunks_exact(4)
-            .map(|p| Vec3::new(p[0], p[1], p[2]))
-            .collect();
-        let alpha = values.chunks_exact(4).map(|p| p[3]).collect();
-        Ok((
-            HdrImage {
-                width: texture.width(),
-                height: texture.height(),
-                pixels,
-            },
-            alpha,
-        ))
     }
 }
 

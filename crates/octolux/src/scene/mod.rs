@@ -504,18 +504,23 @@ impl Scene {
     /// The scene at time `t` seen from camera `camera` (the last camera when `camera` is out
     /// of range; [`Scene::camera_index`] checks a user's choice first).
     pub fn frame(&self, t: f32, camera: usize) -> SceneFrame {
-        let camera = match self
+        SceneFrame {
+            time: t,
+            object_transforms: self.objects.iter().map(|o| o.transform_at(t)).collect(),
+            lights: self.lights.iter().map(|l| l.at_time(t)).collect(),
+            camera: self.camera_at(t, camera),
+        }
+    }
+
+    /// Camera `camera` at time `t` (the last camera when out of range, a camera framing the
+    /// scene when it has none), as [`Scene::frame`] holds it.
+    pub fn camera_at(&self, t: f32, camera: usize) -> Camera {
+        match self
             .cameras
             .get(camera.min(self.cameras.len().saturating_sub(1)))
         {
             Some(c) => c.at_time(t),
             None => Camera::framing(self.bounds_at(t)),
-        };
-        SceneFrame {
-            time: t,
-            object_transforms: self.objects.iter().map(|o| o.transform_at(t)).collect(),
-            lights: self.lights.iter().map(|l| l.at_time(t)).collect(),
-            camera,
         }
     }
 
