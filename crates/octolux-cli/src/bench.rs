@@ -3,6 +3,7 @@
 //! memory and, unless `--no-reference`, error against the matching CPU reference.
 
 mod report;
+mod temporal;
 
 use crate::gi_args::GiArgs;
 use crate::inputs::{load_scene, GpuArgs};
@@ -62,10 +63,17 @@ pub struct BenchArgs {
     /// steps...), which take warm-up + 1 more frames per technique with a counting renderer.
     #[arg(long)]
     pub no_work_counts: bool,
-    /// Skip the flicker column (the image's change from frame to frame with the scene held
-    /// still: 4 frames to settle and 4 measured, after the timed ones, per technique).
+    /// Skip flicker (the indirect irradiance's change from frame to frame at the same surface
+    /// points): held still, 4 frames to settle and 4 measured, after the timed ones, per
+    /// technique; on an animated scene also 4 frames more of its motion.
     #[arg(long)]
     pub no_flicker: bool,
+    /// Measure lag after EVENT (repeatable, needs the reference): `jump:A..B` holds the scene
+    /// at time A, then at B (whatever animates jumps); `on:LIGHT` / `off:LIGHT` switches a
+    /// light (name or index) on / off at `--time`. Per technique and event: 24 frames before,
+    /// 24 after, each judged against the reference of the state after.
+    #[arg(long = "lag", value_name = "EVENT", conflicts_with = "no_reference")]
+    pub lag: Vec<temporal::LagEvent>,
     /// Skip the CPU reference: no error columns (shown as `-`, `null` in JSON).
     #[arg(long, conflicts_with = "against")]
     pub no_reference: bool,
@@ -347,6 +355,11 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         }
     }
     for input in &inputs {
+        for event in &args.lag {
+            event
+                .states(&input.scene, args.time)
+                .with_context(|| format!("--lag {event}"))?;
+        }
         input.scene.camera_index(&args.camera).with_context(|| {
             format!(
                 "--camera {}: {}",
@@ -496,6 +509,13 @@ fn bench_scene(
     let mut adapter = None;
     let mut techniques = Vec::new();
     let mut images: Vec<(String, Transport, HdrImage)> = Vec::new();
+    let mut lag_references = LagReferences {
+        settings: reference_settings,
+        quiet,
+        camera: scene.camera_index(&args.camera)?,
+        size: (args.width, args.height),
+        images: Vec::new(),
+    };
     for name in &args.gi {
         // A fresh device per technique keeps its memory ledger to itself.
         let ctx = GpuContext::new(&args.gpu.options())?;
@@ -576,18 +596,19 @@ fn bench_scene(
             objects,
             metrics: None,
             flicker: None,
+            motion_flicker: None,
+            lag: Vec::new(),
         });
         let image = match reference_settings.is_some() || out_dir.is_some() {
             true => Some(renderer.read_hdr()?),
             false => None,
         };
-        if !args.no_flicker {
-            let flicker = still_flicker(&mut renderer, scene, last_time)
-                .with_context(|| format!("scene '{}': flicker of '{name}'", scene.name))?;
-            if let Some(report) = techniques.last_mut() {
-                report.flicker = Some(flicker);
-            }
-        }
+        let Some(report) = techniques.last_mut() else {
+            bail!("internal error: no report for '{name}'");
+        };
+        let references = (bounces, &mut lag_references);
+        measure_temporal(args, scene, last_time, &mut renderer, references, report)
+            .with_context(|| format!("scene '{}': temporal behaviour of '{name}'", scene.name))?;
         if let Some(image) = image {
             if let Some((x, y, v)) = image.first_non_finite() {
                 bail!(
@@ -676,37 +697,92 @@ fn bench_scene(
     ))
 }
 
-/// Frames the scene is held still before its flicker is measured (techniques that converge
-/// over frames settle first), and frames it is measured over.
-const FLICKER_SETTLE: u32 = 4;
-const FLICKER_FRAMES: u32 = 4;
+/// After the measured frames: flicker with the scene's own motion (animated scenes: 4 more
+/// frames of it), flicker held still at the time reached, and lag after every `--lag` event.
+fn measure_temporal(
+    args: &BenchArgs,
+    scene: &Scene,
+    last_time: f32,
+    renderer: &mut Renderer,
+    (bounces, references): (Transport, &mut LagReferences),
+    report: &mut TechniqueReport,
+) -> Result<()> {
+    let mut t = last_time;
+    if !args.no_flicker {
+        if scene.is_animated() {
+            let start = temporal::Snapshot::of(renderer)?;
+            let times: Vec<f32> = (1..=temporal::FLICKER_FRAMES)
+                .map(|k| last_time + k as f32 / args.fps)
+                .collect();
+            report.motion_flicker = Some(temporal::flicker(renderer, scene, start, &times)?);
+            t = times.last().copied().unwrap_or(t);
+        }
+        report.flicker = Some(temporal::still_flicker(renderer, scene, t)?);
+    }
+    for event in &args.lag {
+        let (before, after) = event.states(scene, args.time)?;
+        let reference = references.get(event, &after, bounces)?;
+        let lag = temporal::lag(renderer, &before, &after, reference)?;
+        report.lag.push(report::LagReport {
+            event: event.to_string(),
+            frames: lag.frames,
+            settled_rel_mse: lag.rel_mse.last().copied().unwrap_or(0.0),
+            rel_mse: lag.rel_mse,
+        });
+    }
+    Ok(())
+}
 
-/// Flicker with nothing moving: the scene held at time `t` (camera, lights and objects still,
-/// so the reference does not change), the mean over [`FLICKER_FRAMES`] frames of the image's
-/// change from the frame before, sum |I_t - I_(t-1)| / sum I_t over pixels and channels. Zero
-/// for a technique whose image is a function of the scene alone; noise a technique resamples
-/// every frame, or accumulation that has not settled, shows here. (Lag after a light moves and
-/// flicker with the camera or a light moving are not measured yet.)
-fn still_flicker(renderer: &mut Renderer, scene: &Scene, t: f32) -> Result<f64> {
-    for _ in 0..FLICKER_SETTLE {
-        renderer.render(scene, t)?;
-    }
-    let mut previous = renderer.read_hdr()?;
-    let mut sum = 0.0;
-    for _ in 0..FLICKER_FRAMES {
-        renderer.render(scene, t)?;
-        let image = renderer.read_hdr()?;
-        let change: f64 = image
-            .pixels
+/// The references of the states after the lag events, rendered once per event and transport.
+struct LagReferences<'a> {
+    settings: Option<&'a ReferenceSettings>,
+    quiet: bool,
+    camera: usize,
+    size: (u32, u32),
+    images: Vec<(String, Transport, HdrImage)>,
+}
+
+impl LagReferences<'_> {
+    fn get(
+        &mut self,
+        event: &temporal::LagEvent,
+        after: &temporal::SceneState,
+        bounces: Transport,
+    ) -> Result<&HdrImage> {
+        let key = event.to_string();
+        let found = self
+            .images
             .iter()
-            .zip(&previous.pixels)
-            .map(|(a, b)| (*a - *b).abs().element_sum() as f64)
-            .sum();
-        let total: f64 = image.pixels.iter().map(|p| p.element_sum() as f64).sum();
-        sum += change / total.max(1e-12);
-        previous = image;
+            .position(|(e, b, _)| *e == key && *b == bounces);
+        let index = match found {
+            Some(i) => i,
+            None => {
+                let Some(settings) = self.settings else {
+                    bail!("--lag needs the reference (it conflicts with --no-reference)");
+                };
+                let settings = settings.clone().with_transport(bounces);
+                let scene: &Scene = &after.scene;
+                let bar = if self.quiet {
+                    ProgressBar::hidden()
+                } else {
+                    progress_bar(
+                        settings.spp as u64,
+                        &format!("spp of the reference after '{key}' ({bounces})"),
+                    )
+                };
+                let frame = scene.frame(after.time, self.camera);
+                let (w, h) = self.size;
+                let images = reference::render(scene, &frame, w, h, &settings, &|done, _| {
+                    bar.set_position(done as u64)
+                })
+                .with_context(|| format!("reference after '{key}'"))?;
+                bar.finish_and_clear();
+                self.images.push((key, bounces, images.total));
+                self.images.len() - 1
+            }
+        };
+        Ok(&self.images[index].2)
     }
-    Ok(sum / FLICKER_FRAMES as f64)
 }
 
 /// The work counts of the first measured frame (`warmup`), rendered again from the first

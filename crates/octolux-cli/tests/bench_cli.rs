@@ -131,6 +131,11 @@ fn check_run(report: &Value) {
     );
 }
 
+/// Whether the scene's report says it moves.
+fn animated(scene: &Value) -> bool {
+    scene["animated"].as_bool().unwrap()
+}
+
 /// One scene's results for `--gi none,lpv` without a reference.
 fn check_scene(scene: &Value, name: &str) {
     assert_eq!(scene["scene"], name);
@@ -176,6 +181,7 @@ fn check_scene(scene: &Value, name: &str) {
         // everything from the unchanged scene (exactly 0 on lavapipe; the bound leaves room
         // for a GPU that sums its injection in another order from frame to frame).
         let flicker = f(t, "flicker");
+        assert_eq!(t["motion_flicker"].is_null(), !animated(scene), "{t}");
         match technique {
             "none" => assert_eq!(flicker, 0.0, "{t}"),
             _ => assert!((0.0..1e-3).contains(&flicker), "{t}"),
@@ -431,5 +437,101 @@ fn bad_fps_and_json_folder_are_errors() {
     assert_fails_with(
         &bench(&[], &["--json", missing.to_str().unwrap()]),
         &["no-such-folder", "does not exist"],
+    );
+}
+
+/// `--lag` and motion flicker on `cornell-crossing` (a sphere flies through the spot's beam):
+/// GI off follows every change at once and has no indirect light to flicker; `lpv` recomputes
+/// everything from the scene each frame, so it has no lag either; `vct-svo`'s voxels keep the
+/// bounce light of the frames before, so after the light switches off its image takes frames
+/// to go dark, which the lag must show.
+#[test]
+fn lag_after_a_light_switches_or_an_object_jumps_and_flicker_while_the_scene_moves() {
+    let crossing = scene("cornell-crossing.toml");
+    let output = octolux(&[
+        "bench",
+        &crossing,
+        "--gi",
+        "none,lpv,vct-svo",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--shadow-map-size",
+        "64",
+        "--warmup",
+        "1",
+        "--frames",
+        "1",
+        "--spp",
+        "4",
+        "--lpv-size",
+        "8",
+        "--lpv-iterations",
+        "2",
+        "--rsm-size",
+        "64",
+        "--vct-octree-resolution",
+        "32",
+        "--no-work-counts",
+        "--lag",
+        "off:ceiling-spot",
+        "--lag",
+        "jump:0..1",
+        "--json",
+        "-",
+    ]);
+    assert_succeeds(&output);
+    let report: Value = serde_json::from_slice(&output.stdout).expect("JSON on stdout");
+    for t in report["scenes"][0]["techniques"].as_array().unwrap() {
+        let technique = t["technique"].as_str().unwrap();
+        let lag = t["lag"].as_array().unwrap();
+        assert_eq!(lag.len(), 2, "{t}");
+        assert_eq!(lag[0]["event"], "off:ceiling-spot");
+        assert_eq!(lag[1]["event"], "jump:0..1");
+        for event in lag {
+            let curve: Vec<f64> = event["rel_mse"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            assert_eq!(curve.len(), 24, "{event}");
+            assert_eq!(f(event, "settled_rel_mse"), *curve.last().unwrap());
+            assert!(curve.iter().all(|e| e.is_finite() && *e >= 0.0), "{event}");
+        }
+        let frames = |i: usize| lag[i]["frames"].as_u64().unwrap();
+        match technique {
+            "none" | "lpv" => assert_eq!((frames(0), frames(1)), (0, 0), "{technique}: {t}"),
+            _ => {
+                // Dark after the switch: the first frame still holds the voxels' bounce light.
+                let first = lag[0]["rel_mse"][0].as_f64().unwrap();
+                assert!(frames(0) >= 2 && first > 1e-2, "{technique}: {}", lag[0]);
+            }
+        }
+        // The sphere moves: flicker while it does is measured (and is the light it moves).
+        let motion = f(t, "motion_flicker");
+        match technique {
+            "none" => assert_eq!((motion, f(t, "flicker")), (0.0, 0.0)),
+            _ => assert!(motion > 0.0 && motion.is_finite(), "{technique}: {t}"),
+        }
+    }
+}
+
+#[test]
+fn bad_lag_events_are_errors() {
+    assert_fails_with(
+        &octolux(&["bench", "--gi", "none", "--lag", "on:lamp"]),
+        &["--lag on:lamp", "no light 'lamp'", "0 'ceiling-spot'"],
+    );
+    let output = octolux(&["bench", "--gi", "none", "--lag", "flash:1"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success() && !stderr.contains("panicked"));
+    assert!(stderr.contains("expected `jump:A..B`"), "{stderr}");
+    let output = octolux(&["bench", "--gi", "none", "--lag", "on:0", "--no-reference"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success() && stderr.contains("--no-reference"),
+        "{stderr}"
     );
 }

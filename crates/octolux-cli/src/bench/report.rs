@@ -6,7 +6,7 @@ use serde::Serialize;
 use std::io::{self, Write};
 
 /// Version of the JSON layout; raised when a field changes meaning or disappears.
-pub const JSON_VERSION: u32 = 2;
+pub const JSON_VERSION: u32 = 3;
 
 /// Passes the renderer records around every technique (`Renderer::render`): shadow maps,
 /// G-buffer and direct light before the GI update, compose after it.
@@ -162,9 +162,31 @@ pub struct TechniqueReport {
     pub objects: Option<[octolux::gpu::ResourceCounts; 2]>,
     /// Error of the last measured frame against the reference; `null` with `--no-reference`.
     pub metrics: Option<Metrics>,
-    /// Flicker with nothing moving: the mean relative change of the image from one frame to
-    /// the next with the scene held at the last measured time (`bench.rs`, `still_flicker`).
+    /// Flicker with nothing moving: the mean relative change of the indirect irradiance from
+    /// one frame to the next with the scene held still after the measured frames
+    /// (`bench/temporal.rs`); `null` with `--no-flicker`.
     pub flicker: Option<f64>,
+    /// Flicker while the scene's own animation goes on (4 frames after the measured ones), at
+    /// the same surface points (reprojected when the camera moves); `null` for a still scene
+    /// or with `--no-flicker`. Meaningful where what moves does not light what is seen (a
+    /// camera flying through a still scene, a light in another room).
+    pub motion_flicker: Option<f64>,
+    /// Lag after each `--lag` event, in their order.
+    pub lag: Vec<LagReport>,
+}
+
+/// A technique's response to one `--lag` event.
+#[derive(Clone, Debug, Serialize)]
+pub struct LagReport {
+    /// The event as given (`jump:A..B`, `on:LIGHT`, `off:LIGHT`).
+    pub event: String,
+    /// Frames after the event until relMSE stays within 10 % of the settled one (0: the first
+    /// frame after the event already is).
+    pub frames: u32,
+    /// relMSE of the last frame rendered after the event (the settled error).
+    pub settled_rel_mse: f64,
+    /// relMSE against the after-state's reference, one per frame after the event.
+    pub rel_mse: Vec<f64>,
 }
 
 /// One reference render.
