@@ -49,7 +49,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub exr: Option<PathBuf>,
     /// GI technique: `none` (direct light only), `lpv`, `clpv`, `olpv`, `vct-svo`,
-    /// `vct-clipmap`, or `reference` (the CPU path tracer).
+    /// `vct-clipmap`, `vpl`, `probes-grid`, `probes-octree`, or `reference` (the CPU path
+    /// tracer).
     #[arg(long, default_value = crate::gi_args::DEFAULT_GI)]
     pub gi: String,
     /// What the image holds (GPU techniques): `final` (the frame), `direct`, `indirect` (the

@@ -414,3 +414,36 @@ fn documented_settings_are_accepted() {
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(parsed.lpv.size, 32);
 }
+
+/// `two-rooms-far-light` measures flicker on the premise that its circling light reaches
+/// nothing the camera sees: the reference (same seed, so the same paths) is the same image,
+/// bit for bit, wherever that light is, and the light itself moves.
+#[test]
+fn the_far_light_changes_nothing_the_camera_sees() {
+    use octolux::reference::{self, ReferenceSettings};
+    let scene = Scene::load(scenes_folder().join("two-rooms-far-light.toml")).unwrap();
+    let far = scene
+        .lights
+        .iter()
+        .position(|l| l.name == "far-light")
+        .unwrap();
+    let settings = ReferenceSettings {
+        spp: 8,
+        ..ReferenceSettings::default()
+    };
+    let render = |t: f32| {
+        let frame = scene.frame(t, 0);
+        let image = reference::render(&scene, &frame, 32, 24, &settings, &|_, _| {}).unwrap();
+        (frame.lights[far].position, image.total.pixels)
+    };
+    let (p0, a) = render(0.0);
+    assert!(
+        a.iter().map(|p| p.element_sum()).sum::<f32>() > 0.0,
+        "the left room is lit"
+    );
+    for t in [0.3, 0.77, 1.5] {
+        let (p, b) = render(t);
+        assert!(p.distance(p0) > 0.1, "the far light moves: {p} at {t} s");
+        assert!(a == b, "the image changed with the far light at {t} s");
+    }
+}

@@ -383,13 +383,13 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
     )?;
     writeln!(out, "adapter: {}", run.adapter.line())?;
     let groups = format!(
-        "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}  {:^9}",
-        "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference", "still"
+        "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}  {:^19}",
+        "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference", "flicker"
     );
     writeln!(out, "{}", groups.trim_end())?;
     writeln!(
         out,
-        "  {:<12} {:>8} {:>8} {:>8}  {:>8} {:>8} {:>8}  {:>9} {:>9}  {:>9} {:>11}  {:>9}  reference",
+        "  {:<12} {:>8} {:>8} {:>8}  {:>8} {:>8} {:>8}  {:>9} {:>9}  {:>9} {:>11}  {:>9} {:>9}  reference",
         "technique",
         "mean",
         "median",
@@ -401,7 +401,8 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         "frame",
         "FLIP",
         "relMSE",
-        "flicker"
+        "still",
+        "motion"
     )?;
     for t in &scene.techniques {
         let (flip, rel_mse) = match &t.metrics {
@@ -410,7 +411,7 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         };
         writeln!(
             out,
-            "  {:<12} {:>8.3} {:>8.3} {:>8.3}  {:>8.3} {:>8.3} {:>8.3}  {:>9.3} {:>9.3}  {:>9} {:>11}  {:>9}  {}",
+            "  {:<12} {:>8.3} {:>8.3} {:>8.3}  {:>8.3} {:>8.3} {:>8.3}  {:>9.3} {:>9.3}  {:>9} {:>11}  {:>9} {:>9}  {}",
             t.technique,
             t.gi_total.mean_ms,
             t.gi_total.median_ms,
@@ -423,8 +424,29 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
             flip,
             rel_mse,
             t.flicker.map_or("-".to_string(), |f| format!("{f:.2e}")),
+            t.motion_flicker.map_or("-".to_string(), |f| format!("{f:.2e}")),
             t.reference.as_deref().unwrap_or("-")
         )?;
+    }
+    let events = scene.techniques.first().map_or(0, |t| t.lag.len());
+    for i in 0..events {
+        let event = &scene.techniques[0].lag[i].event;
+        writeln!(
+            out,
+            "  lag after {event} (frames until relMSE stays within 10% of its settled value):"
+        )?;
+        for t in &scene.techniques {
+            if let Some(lag) = t.lag.get(i) {
+                writeln!(
+                    out,
+                    "    {:<12} {:>3} frames  (relMSE {:.3e} on the first frame, {:.3e} settled)",
+                    t.technique,
+                    lag.frames,
+                    lag.rel_mse.first().copied().unwrap_or(0.0),
+                    lag.settled_rel_mse
+                )?;
+            }
+        }
     }
     for r in &scene.references {
         writeln!(

@@ -28,7 +28,7 @@ pub struct ViewArgs {
     /// Scene file (.toml), or a model (.gltf, .glb, .obj, .ply, .ply.gz). Default: the
     /// built-in Cornell box.
     pub scene: Option<PathBuf>,
-    /// GI technique at start: `none`, `lpv`, `clpv` or `olpv` (switch in the window).
+    /// GI technique at start: any GPU technique of `render --gi` (switch in the window).
     #[arg(long, default_value = DEFAULT_GI)]
     pub gi: String,
     /// Which of the scene's cameras to start at: its index or its name (R returns to it).
