@@ -105,7 +105,8 @@ pub fn change(before: &Snapshot, after: &Snapshot) -> (f64, f64) {
 
 /// E of `frame` at world point `x` on a surface of normal `n`: bilinear between the four pixel
 /// centres around x's projection, provided each of them sees the same surface (its point within
-/// 1 % of the viewing distance of x's plane, its normal within about 25 degrees); None
+/// 1 % of the viewing distance of x's plane, its normal within about 8 degrees of x's, so that
+/// E is not read across a crease or a normal map's bumps); None
 /// otherwise.
 fn reproject(frame: &Snapshot, x: Vec3, n: Vec3) -> Option<Vec3> {
     let clip = frame.view.view_proj * x.extend(1.0);
@@ -130,7 +131,7 @@ fn reproject(frame: &Snapshot, x: Vec3, n: Vec3) -> Option<Vec3> {
     ] {
         let q = (y0 as usize + dy) * w + x0 as usize + dx;
         let y = frame.positions[q]?;
-        if (y - x).dot(n).abs() > tolerance || frame.normals[q].dot(n) < 0.9 {
+        if (y - x).dot(n).abs() > tolerance || frame.normals[q].dot(n) < 0.99 {
             return None;
         }
         sum += weight * frame.irradiance[q];
