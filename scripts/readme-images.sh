@@ -10,7 +10,8 @@ out=docs/images
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-# Default render and the one-bounce reference (what the LPV family computes) of the same view.
+# Default render and the one-bounce reference (what the default technique computes) of the
+# same view.
 $bin render --width 320 --height 320 --out "$tmp/default.png"
 $bin render --gi reference --bounces 1 --spp 4096 --width 320 --height 320 --out "$tmp/reference.png"
 target/release/examples/side_by_side "$tmp/default.png" "$tmp/reference.png" "$out/default-vs-reference.png"
@@ -23,6 +24,6 @@ view() {
     xvfb-run -a -s "-screen 0 1400x900x24" "$bin" view "$@"
   fi
 }
-view --window 1100x620 --split none --frames 8 --screenshot-window "$out/viewer.png"
+view --window 1100x620 --gi lpv --split none --frames 8 --screenshot-window "$out/viewer.png"
 view --window 780x570 --gi lpv --scale 0.5 --compare --compare-view error --spp 256 --frames 60 \
   --screenshot-window "$out/viewer-compare.png"
