@@ -40,30 +40,28 @@ fn bench(scenes: &[&str], extra: &[&str]) -> Output {
 fn bench_with_warmup(scenes: &[&str], warmup: &str, extra: &[&str]) -> Output {
     let mut args = vec!["bench"];
     args.extend(scenes);
-    args.extend([
-        "--no-reference",
-        "--gi",
-        "none,lpv",
-        "--width",
-        "24",
-        "--height",
-        "16",
-        "--shadow-map-size",
-        "64",
-        "--warmup",
-        warmup,
-        "--frames",
-        "2",
-        "--lpv-size",
-        "8",
-        "--lpv-iterations",
-        "2",
-        "--rsm-size",
-        "64",
-    ]);
+    args.extend(["--no-reference", "--gi", "none,lpv", "--warmup", warmup]);
+    args.extend(["--frames", "2"]);
+    args.extend(SMALL);
     args.extend(extra);
     octolux(&args)
 }
+
+/// A 24 x 16 image, small shadow maps, a small LPV and RSM.
+const SMALL: [&str; 12] = [
+    "--width",
+    "24",
+    "--height",
+    "16",
+    "--shadow-map-size",
+    "64",
+    "--lpv-size",
+    "8",
+    "--lpv-iterations",
+    "2",
+    "--rsm-size",
+    "64",
+];
 
 fn assert_succeeds(output: &Output) {
     assert!(
@@ -448,29 +446,10 @@ fn bad_fps_and_json_folder_are_errors() {
 #[test]
 fn lag_after_a_light_switches_or_an_object_jumps_and_flicker_while_the_scene_moves() {
     let crossing = scene("cornell-crossing.toml");
-    let output = octolux(&[
-        "bench",
-        &crossing,
-        "--gi",
-        "none,lpv,vct-svo",
-        "--width",
-        "24",
-        "--height",
-        "16",
-        "--shadow-map-size",
-        "64",
-        "--warmup",
-        "1",
-        "--frames",
-        "1",
-        "--spp",
-        "4",
-        "--lpv-size",
-        "8",
-        "--lpv-iterations",
-        "2",
-        "--rsm-size",
-        "64",
+    let mut args = vec!["bench", &crossing, "--gi", "none,lpv,vct-svo", "--spp", "4"];
+    args.extend(["--warmup", "1", "--frames", "1"]);
+    args.extend(SMALL);
+    args.extend([
         "--vct-octree-resolution",
         "32",
         "--no-work-counts",
@@ -481,6 +460,7 @@ fn lag_after_a_light_switches_or_an_object_jumps_and_flicker_while_the_scene_mov
         "--json",
         "-",
     ]);
+    let output = octolux(&args);
     assert_succeeds(&output);
     let report: Value = serde_json::from_slice(&output.stdout).expect("JSON on stdout");
     for t in report["scenes"][0]["techniques"].as_array().unwrap() {
