@@ -512,8 +512,6 @@ fn bench_scene(
     let mut lag_references = LagReferences {
         settings: reference_settings,
         quiet,
-        camera: scene.camera_index(&args.camera)?,
-        size: (args.width, args.height),
         images: Vec::new(),
     };
     for name in &args.gi {
@@ -721,7 +719,7 @@ fn measure_temporal(
     }
     for event in &args.lag {
         let (before, after) = event.states(scene, args.time)?;
-        let reference = references.get(event, &after, bounces)?;
+        let reference = references.get(args, event, &after, bounces)?;
         let lag = temporal::lag(renderer, &before, &after, reference)?;
         report.lag.push(report::LagReport {
             event: event.to_string(),
@@ -737,14 +735,13 @@ fn measure_temporal(
 struct LagReferences<'a> {
     settings: Option<&'a ReferenceSettings>,
     quiet: bool,
-    camera: usize,
-    size: (u32, u32),
     images: Vec<(String, Transport, HdrImage)>,
 }
 
 impl LagReferences<'_> {
     fn get(
         &mut self,
+        args: &BenchArgs,
         event: &temporal::LagEvent,
         after: &temporal::SceneState,
         bounces: Transport,
@@ -761,22 +758,8 @@ impl LagReferences<'_> {
                     bail!("--lag needs the reference (it conflicts with --no-reference)");
                 };
                 let settings = settings.clone().with_transport(bounces);
-                let scene: &Scene = &after.scene;
-                let bar = if self.quiet {
-                    ProgressBar::hidden()
-                } else {
-                    progress_bar(
-                        settings.spp as u64,
-                        &format!("spp of the reference after '{key}' ({bounces})"),
-                    )
-                };
-                let frame = scene.frame(after.time, self.camera);
-                let (w, h) = self.size;
-                let images = reference::render(scene, &frame, w, h, &settings, &|done, _| {
-                    bar.set_position(done as u64)
-                })
-                .with_context(|| format!("reference after '{key}'"))?;
-                bar.finish_and_clear();
+                let images = reference_frame(&after.scene, after.time, args, &settings, self.quiet)
+                    .with_context(|| format!("reference after '{key}'"))?;
                 self.images.push((key, bounces, images.total));
                 self.images.len() - 1
             }
