@@ -1470,3 +1470,78 @@ fn rsms_are_drawn_again_only_when_something_they_see_moves() {
     assert!(has_rsm(&r.render(&scene, 0.0).unwrap()));
     assert!(has_rsm(&r.render(&scene, 0.5).unwrap()), "moved object");
 }
+
+#[test]
+fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
+    // Two spots: the box's own, which sees everything, and a narrow one aimed at the floor's
+    // corner farthest from the short block. Moving the narrow spot draws its layer alone;
+    // moving the short block draws the big spot's layer alone (the block is outside the narrow
+    // spot's view); the kept layers give the image a fresh renderer draws.
+    let ctx = context().with_work_counter();
+    let mut scene = octolux::scene::cornell::scene();
+    let short = scene
+        .objects
+        .iter()
+        .position(|o| o.name == "short-block")
+        .unwrap();
+    let block = scene.meshes[scene.objects[short].meshes[0] as usize]
+        .positions
+        .iter()
+        .fold(Vec3::ZERO, |s, &p| s + p)
+        / 24.0;
+    let (lo, hi) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.556, 0.0, 0.56));
+    let corner = Vec3::new(
+        if block.x > 0.278 { lo.x } else { hi.x },
+        0.0,
+        if block.z > 0.28 { lo.z } else { hi.z },
+    );
+    let target = corner * 0.8 + Vec3::new(0.278, 0.0, 0.28) * 0.2;
+    let mut narrow = octolux::scene::Light::spot(
+        Vec3::new(target.x, 0.5, target.z),
+        Vec3::NEG_Y,
+        Vec3::ONE,
+        0.5,
+        4f32.to_radians(),
+        6f32.to_radians(),
+    );
+    narrow.name = "narrow".into();
+    scene.lights.push(narrow);
+    let key = |time: f32, x: f32| Keyframe {
+        time,
+        translation: Vec3::new(x, 0.0, 0.0),
+        rotation: Quat::IDENTITY,
+    };
+    let layers_drawn = |r: &mut Renderer, scene: &octolux::scene::Scene, t: f32| {
+        // Counts of other renderers on this context are dropped first.
+        ctx.work().unwrap().take(&ctx).unwrap();
+        r.render(scene, t).unwrap();
+        let counts = ctx.work().unwrap().take(&ctx).unwrap();
+        counts
+            .iter()
+            .find(|c| c.pass == "lpv rsm" && c.quantity == "layers")
+            .map_or(0, |c| c.count)
+    };
+    let fresh_image = |scene: &octolux::scene::Scene, t: f32| {
+        let mut fresh = Renderer::new(&ctx, scene, lpv_settings("lpv", 32, 32)).unwrap();
+        fresh.render(scene, t).unwrap();
+        fresh.read_hdr().unwrap().pixels
+    };
+
+    scene.lights[1].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.02)], false);
+    let mut r = Renderer::new(&ctx, &scene, lpv_settings("lpv", 32, 32)).unwrap();
+    assert_eq!(layers_drawn(&mut r, &scene, 0.0), 2, "first frame");
+    assert_eq!(layers_drawn(&mut r, &scene, 0.0), 0, "static frame");
+    assert_eq!(
+        layers_drawn(&mut r, &scene, 0.5),
+        1,
+        "the narrow spot moved"
+    );
+    assert_eq!(r.read_hdr().unwrap().pixels, fresh_image(&scene, 0.5));
+
+    scene.lights[1].animation = None;
+    scene.objects[short].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.01)], false);
+    let mut r = Renderer::new(&ctx, &scene, lpv_settings("lpv", 32, 32)).unwrap();
+    assert_eq!(layers_drawn(&mut r, &scene, 0.0), 2, "first frame");
+    assert_eq!(layers_drawn(&mut r, &scene, 0.5), 1, "the block moved");
+    assert_eq!(r.read_hdr().unwrap().pixels, fresh_image(&scene, 0.5));
+}

@@ -77,12 +77,17 @@ pub struct PassWork {
 }
 
 /// Puts each work count with the pass it belongs to (counted under the name the technique
-/// gives it, timed under that name scoped by the technique); counts of a pass the frames did
-/// not time are dropped.
+/// gives it, timed under that name scoped by the technique, or under its plain name for the
+/// frame's own passes); counts of a pass the frames did not time are dropped.
 pub fn attach_work(passes: &mut [PassStats], technique: &str, work: Vec<octolux::gpu::WorkCount>) {
     for w in work {
         let name = octolux::gpu::scoped_name(Some(technique), &w.pass);
-        if let Some(p) = passes.iter_mut().find(|p| p.name == name) {
+        // The frame's own passes (shadow maps, G-buffer) are timed under their plain names.
+        let found = match passes.iter().position(|p| p.name == name) {
+            Some(i) => Some(i),
+            None => passes.iter().position(|p| p.name == w.pass),
+        };
+        if let Some(p) = found.map(|i| &mut passes[i]) {
             p.work.push(PassWork {
                 quantity: w.quantity,
                 count: w.count,

@@ -14,9 +14,11 @@ pub fn octolux(args: &[&str]) -> Output {
         .expect("run octolux")
 }
 
-/// A scratch folder for this test process, named after `name`.
+/// A scratch folder for this test process, named after `name`, empty: a folder left by an
+/// earlier process with the same id is removed first.
 pub fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("octolux-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }

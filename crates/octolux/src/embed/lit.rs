@@ -187,9 +187,10 @@ impl LitScene {
 
     /// Draws the shadow maps of the prepared frame; the sky's maps depend on the geometry only
     /// and are drawn once while no object moves.
-    pub fn render_shadows(&mut self, timer: &mut PassTimer) {
+    pub fn render_shadows(&mut self, timer: &mut PassTimer) -> Result<()> {
         let with_sky = !self.sky_shadows_valid;
-        self.shadows.render(timer, &self.scene_gpu, with_sky);
+        self.shadows.render(timer, &self.scene_gpu, with_sky)?;
         self.sky_shadows_valid = self.all_static;
+        Ok(())
     }
 }

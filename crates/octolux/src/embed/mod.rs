@@ -269,7 +269,10 @@ impl GiEngine {
             return Err(not_prepared());
         };
         let view = self.last_view.as_ref().ok_or_else(not_prepared)?;
-        lit.render_shadows(&mut self.timer);
+        if let Err(e) = lit.render_shadows(&mut self.timer) {
+            self.input = Some(input_pass);
+            return Err(e);
+        }
         input_pass.record(&self.ctx, &mut self.timer, gbuffer, camera, view);
         let result = self.update_gi(input_pass.surfaces());
         self.input = Some(input_pass);

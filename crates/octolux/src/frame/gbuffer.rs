@@ -106,8 +106,10 @@ impl GBuffer {
         }
     }
 
-    /// Rasterises the scene; view uniform 0 must hold the camera.
-    pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu) {
+    /// Rasterises the scene; view uniform 0 must hold the camera. Counts the triangles drawn
+    /// ([`GBUFFER_WORK`]).
+    pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu) -> crate::Result<()> {
+        let mut triangles = 0;
         timer.pass("gbuffer", |encoder, stamps| {
             let clear = |view| {
                 Some(wgpu::RenderPassColorAttachment {
@@ -141,7 +143,12 @@ impl GBuffer {
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &scene_gpu.view_group, &[0]);
-            scene_gpu.draw(&mut pass, 0);
+            triangles = scene_gpu.draw(&mut pass, 0);
         });
+        crate::gpu::work::add(timer.context(), "gbuffer", GBUFFER_WORK, 0, triangles)
     }
 }
+
+/// What the G-buffer pass counts: the triangles drawn (those of clusters in the camera's view,
+/// `frame/culling.rs`).
+pub const GBUFFER_WORK: &[&str] = &["triangles drawn"];

@@ -6,6 +6,7 @@
 //! This layer sits below the techniques (`gi`) and the voxel structures, and above the GPU
 //! plumbing (`gpu`) and the scene model: it imports neither a technique nor the renderer.
 
+mod culling;
 mod gbuffer;
 mod lights;
 pub mod rsm;

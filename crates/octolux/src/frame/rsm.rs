@@ -124,10 +124,10 @@ impl RsmTargets {
 pub struct RsmPass {
     pipeline: wgpu::RenderPipeline,
     group: wgpu::BindGroup,
-    /// Everything the last rendering depended on (layer parameters, the layers' view
-    /// matrices, object transforms), byte for byte: a frame with the same is not rendered
-    /// again (static lights and geometry keep their RSMs).
-    drawn: std::sync::Mutex<Option<Vec<u8>>>,
+    /// Per layer, everything its last rendering depended on (its parameters, its view
+    /// matrix, the transforms of the objects in its view), byte for byte: a layer with the
+    /// same is not rendered again (a still light keeps its RSM while nothing it sees moves).
+    drawn: std::sync::Mutex<Vec<Option<Vec<u8>>>>,
 }
 
 impl RsmPass {
@@ -194,25 +194,32 @@ impl RsmPass {
         RsmPass {
             pipeline,
             group,
-            drawn: std::sync::Mutex::new(None),
+            drawn: std::sync::Mutex::new(Vec::new()),
         }
     }
 
-    /// What this frame's RSMs depend on, byte for byte: the layers' parameters, the view
-    /// matrix each is drawn through and every object's transform (meshes, materials and
-    /// textures do not change).
-    fn inputs(scene_gpu: &SceneGpu, layers: &[RsmLayer]) -> Vec<u8> {
-        let mut key: Vec<u8> = bytemuck::cast_slice(layers).to_vec();
-        for (i, l) in layers.iter().enumerate() {
-            let view = l.cone[3] as usize;
-            let m = scene_gpu.view_proj(view + 1).unwrap_or_default();
-            key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
-            key.extend_from_slice(&(i as u32).to_le_bytes());
-        }
-        for m in scene_gpu.transforms() {
+    /// What a layer's RSM depends on this frame, byte for byte: the layer's parameters, the
+    /// view matrix it is drawn through and the transforms of the objects in that view (meshes,
+    /// materials and textures do not change). An object that enters or leaves the view changes
+    /// the list; one that moves outside it changes nothing.
+    fn layer_inputs(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8> {
+        let view = Self::view_of(layers, i) + 1;
+        let layer = layers.get(i).copied().unwrap_or_default();
+        let mut key: Vec<u8> = bytemuck::bytes_of(&layer).to_vec();
+        let m = scene_gpu.view_proj(view).unwrap_or_default();
+        key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
+        let transforms = scene_gpu.transforms();
+        for o in scene_gpu.objects_in_view(view) {
+            key.extend_from_slice(&(o as u32).to_le_bytes());
+            let m = transforms.get(o).copied().unwrap_or_default();
             key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
         }
         key
+    }
+
+    /// The shadow view layer `i` is drawn through.
+    fn view_of(layers: &[RsmLayer], i: usize) -> usize {
+        layers.get(i).map_or(i, |l| l.cone[3] as usize)
     }
 
     /// Uploads the per-layer light parameters of this frame.
@@ -227,8 +234,9 @@ impl RsmPass {
         }
     }
 
-    /// Rasterises every layer through its shadow view (`layers[i].cone[3]`), as the pass
-    /// `name` (its work counts: [`RSM_WORK`]).
+    /// Rasterises every layer whose inputs changed since it was last drawn through its shadow
+    /// view (`layers[i].cone[3]`), as the pass `name` (its work counts: [`RSM_WORK`]); no
+    /// pass when none did.
     pub(crate) fn record(
         &self,
         ctx: &GpuContext,
@@ -241,18 +249,27 @@ impl RsmPass {
         if targets.layers == 0 {
             return Ok(());
         }
-        // The targets already hold this frame's RSMs: nothing moved since they were drawn.
-        let inputs = Self::inputs(scene_gpu, layers);
+        // Layers whose inputs are those they were drawn with already hold this frame's RSM.
+        let n = targets.layer_views.len();
+        let mut inputs: Vec<Vec<u8>> = (0..n)
+            .map(|i| Self::layer_inputs(scene_gpu, layers, i))
+            .collect();
         let mut drawn = self.drawn.lock().unwrap_or_else(|p| p.into_inner());
-        if drawn.as_ref() == Some(&inputs) {
+        drawn.resize(n, None);
+        let stale: Vec<usize> = (0..n)
+            .filter(|&i| drawn[i].as_ref() != Some(&inputs[i]))
+            .collect();
+        if stale.is_empty() {
             return Ok(());
         }
         // Forgotten until this frame's drawing is recorded whole.
-        *drawn = None;
+        for &i in &stale {
+            drawn[i] = None;
+        }
         let mut triangles = 0;
         timer.pass(name, |encoder, stamps| {
-            let n = targets.layer_views.len();
-            for (i, views) in targets.layer_views.iter().enumerate() {
+            for (k, &i) in stale.iter().enumerate() {
+                let views = &targets.layer_views[i];
                 let clear = |view| {
                     Some(wgpu::RenderPassColorAttachment {
                         view,
@@ -275,30 +292,32 @@ impl RsmPass {
                         }),
                         stencil_ops: None,
                     }),
-                    timestamp_writes: stamps.render_part(i == 0, i + 1 == n),
+                    timestamp_writes: stamps.render_part(k == 0, k + 1 == stale.len()),
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
                 pass.set_pipeline(&self.pipeline);
-                let view = layers.get(i).map_or(i, |l| l.cone[3] as usize);
+                let view = Self::view_of(layers, i);
                 let view_offset = ((view as u64 + 1) * UNIFORM_STRIDE) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
                 pass.set_bind_group(3, &self.group, &[(i as u64 * SLOT) as u32]);
                 triangles += scene_gpu.draw(&mut pass, view + 1);
             }
         });
-        let n = targets.layer_views.len() as u64;
-        let texels = n * targets.size as u64 * targets.size as u64;
-        for (quantity, count) in [n, triangles, texels].into_iter().enumerate() {
+        let drawn_layers = stale.len() as u64;
+        let texels = drawn_layers * targets.size as u64 * targets.size as u64;
+        for (quantity, count) in [drawn_layers, triangles, texels].into_iter().enumerate() {
             crate::gpu::work::add(ctx, name, RSM_WORK, quantity, count)?;
         }
-        *drawn = Some(inputs);
+        for i in stale {
+            drawn[i] = Some(std::mem::take(&mut inputs[i]));
+        }
         Ok(())
     }
 }
 
-/// What an RSM pass counts: layers rendered, triangles drawn into them (those of meshes not
-/// culled whole), texels written.
+/// What an RSM pass counts: layers rendered (those whose inputs changed), triangles drawn into
+/// them (those of clusters in each layer's view, `frame/culling.rs`), texels written.
 pub const RSM_WORK: &[&str] = &["layers", "triangles drawn", "texels"];
 
 /// Cube-face axes in the order of the shadow layers of a point light (+x, -x, +y, -y, +z, -z).

@@ -2,6 +2,7 @@
 //! transforms (one uniform buffer, dynamic offsets) and the view uniforms used by the camera and
 //! every shadow-map layer.
 
+use super::culling::{bounds_of, clusters, outside, visible_ranges, Cluster};
 use crate::gpu::GpuContext;
 use crate::scene::{AlphaMode, Scene};
 use crate::{Error, Result};
@@ -57,6 +58,8 @@ pub(crate) struct GpuMesh {
     pub material: usize,
     /// Bounding box of the positions in model space (for culling).
     pub bounds: (Vec3, Vec3),
+    /// Runs of consecutive triangles with their boxes (for culling).
+    pub clusters: Vec<Cluster>,
 }
 
 /// Bind group layouts shared by every rasterisation pass.
@@ -178,10 +181,8 @@ impl SceneGpu {
                 ),
                 index_count: mesh.indices.len() as u32,
                 material: mesh.material as usize,
-                bounds: mesh.positions.iter().fold(
-                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                    |(lo, hi), &p| (lo.min(p), hi.max(p)),
-                ),
+                bounds: bounds_of(mesh.positions.iter().copied()),
+                clusters: clusters(&mesh.positions, &mesh.indices),
             });
         }
 
@@ -307,6 +308,23 @@ impl SceneGpu {
         &self.transforms
     }
 
+    /// The objects [`SceneGpu::draw`] would draw any triangle of through view uniform `view`
+    /// this frame (every object where the view has no matrix).
+    pub(crate) fn objects_in_view(&self, view: usize) -> Vec<usize> {
+        let view_proj = self.view_projs.get(view);
+        (0..self.object_meshes.len())
+            .filter(|&o| {
+                let model = self.transforms.get(o).copied().unwrap_or(Mat4::IDENTITY);
+                let Some(clip) = view_proj.map(|vp| *vp * model) else {
+                    return true;
+                };
+                self.object_meshes[o]
+                    .iter()
+                    .any(|&m| !outside(clip, self.meshes[m].bounds))
+            })
+            .collect()
+    }
+
     /// The view-projection of view uniform `view` this frame (0 = the camera).
     pub(crate) fn view_proj(&self, view: usize) -> Option<Mat4> {
         self.view_projs.get(view).copied()
@@ -345,8 +363,9 @@ impl SceneGpu {
     }
 
     /// Draws every object with the bound pipeline; view group 0 must already be set to view
-    /// uniform `view`. Meshes whose bounds lie wholly outside that view's clip volume are not
-    /// drawn (they would produce no fragment). Returns the triangles drawn.
+    /// uniform `view`. Meshes and clusters of triangles whose bounds lie wholly outside that view's
+    /// clip volume are not drawn (they would produce no fragment; `frame/culling.rs`). Returns
+    /// the triangles drawn.
     pub(crate) fn draw<'a>(&'a self, pass: &mut wgpu::RenderPass<'a>, view: usize) -> u64 {
         let mut triangles = 0;
         let view_proj = self.view_projs.get(view);
@@ -356,7 +375,13 @@ impl SceneGpu {
             let mut object_bound = false;
             for &m in meshes {
                 let mesh = &self.meshes[m];
-                if clip_from_model.is_some_and(|c| outside(c, mesh.bounds)) {
+                let ranges = visible_ranges(
+                    clip_from_model,
+                    mesh.bounds,
+                    &mesh.clusters,
+                    mesh.index_count,
+                );
+                if ranges.is_empty() {
                     continue;
                 }
                 if !object_bound {
@@ -367,8 +392,10 @@ impl SceneGpu {
                 pass.set_bind_group(1, &self.materials[mesh.material], &[]);
                 pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                 pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..mesh.index_count, 0, 0..1);
-                triangles += mesh.index_count as u64 / 3;
+                for range in ranges {
+                    triangles += (range.end - range.start) as u64 / 3;
+                    pass.draw_indexed(range, 0, 0..1);
+                }
             }
         }
         triangles
@@ -545,67 +572,5 @@ mod tests {
             &[10, 10, 10, 255, 10, 10, 10, 255, 200, 200, 200, 255],
         );
         assert_eq!((w, h, out), (1, 1, vec![10, 10, 10, 255]));
-    }
-}
-
-/// Whether the box `(lo, hi)` transformed by `clip_from_model` lies wholly outside the clip
-/// volume (-w <= x, y <= w, 0 <= z <= w): all eight corners beyond one of its planes. Each plane
-/// is linear in homogeneous coordinates, so this holds for corners behind the eye too.
-fn outside(clip_from_model: Mat4, (lo, hi): (Vec3, Vec3)) -> bool {
-    if !(lo.is_finite() && hi.is_finite()) {
-        return false;
-    }
-    let corners: [Vec4; 8] = std::array::from_fn(|i| {
-        let p = Vec3::new(
-            if i & 1 == 0 { lo.x } else { hi.x },
-            if i & 2 == 0 { lo.y } else { hi.y },
-            if i & 4 == 0 { lo.z } else { hi.z },
-        );
-        clip_from_model * p.extend(1.0)
-    });
-    let planes: [fn(Vec4) -> f32; 6] = [
-        |c| c.x + c.w,
-        |c| c.w - c.x,
-        |c| c.y + c.w,
-        |c| c.w - c.y,
-        |c| c.z,
-        |c| c.w - c.z,
-    ];
-    planes
-        .iter()
-        .any(|plane| corners.iter().all(|&c| plane(c) < 0.0))
-}
-
-#[cfg(test)]
-mod culling_tests {
-    use super::*;
-
-    #[test]
-    fn culling_keeps_what_touches_the_view_and_drops_what_cannot() {
-        let proj = Mat4::perspective_rh(1.0, 1.0, 0.1, 10.0);
-        let view = Mat4::look_at_rh(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y);
-        let vp = proj * view;
-        let unit = (Vec3::splat(-0.5), Vec3::splat(0.5));
-        let at = |p: Vec3| vp * Mat4::from_translation(p);
-        assert!(!outside(at(Vec3::new(0.0, 0.0, -5.0)), unit), "in front");
-        assert!(
-            outside(at(Vec3::new(0.0, 0.0, 5.0)), unit),
-            "behind the eye"
-        );
-        assert!(outside(at(Vec3::new(0.0, 0.0, -20.0)), unit), "beyond far");
-        assert!(
-            outside(at(Vec3::new(30.0, 0.0, -5.0)), unit),
-            "far to the side"
-        );
-        // Straddling the eye (corners in front and behind) is kept.
-        assert!(!outside(
-            at(Vec3::ZERO),
-            (Vec3::splat(-2.0), Vec3::splat(2.0))
-        ));
-        // Just touching the side plane from outside is kept (the test is strict).
-        let edge = (1.0f32 * 0.5).tan() * 5.0;
-        assert!(!outside(at(Vec3::new(edge + 0.5, 0.0, -5.0)), unit));
-        // Degenerate bounds (empty mesh) are never culled.
-        assert!(!outside(vp, (Vec3::INFINITY, Vec3::NEG_INFINITY)));
     }
 }

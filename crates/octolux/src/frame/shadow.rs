@@ -382,16 +382,23 @@ impl ShadowMaps {
 
     /// Renders every view, or with `with_sky = false` only the punctual lights' (the sky
     /// lights never move, so their maps stay valid while no object moves). View uniforms 1..
-    /// must hold the views' raster matrices.
-    pub(crate) fn render(&self, timer: &mut PassTimer, scene_gpu: &SceneGpu, with_sky: bool) {
+    /// must hold the views' raster matrices. Counts layers and triangles drawn
+    /// ([`SHADOW_WORK`]).
+    pub(crate) fn render(
+        &self,
+        timer: &mut PassTimer,
+        scene_gpu: &SceneGpu,
+        with_sky: bool,
+    ) -> crate::Result<()> {
         let layers = if with_sky {
             self.layer_count
         } else {
             self.punctual_views
         };
         if layers == 0 {
-            return;
+            return Ok(());
         }
+        let mut triangles = 0;
         timer.pass("shadow maps", |encoder, stamps| {
             let n = layers as usize;
             for (layer, target) in self.layer_views.iter().take(n).enumerate() {
@@ -413,7 +420,7 @@ impl ShadowMaps {
                 pass.set_pipeline(&self.pipeline);
                 let layer = layer as u32;
                 if layer < self.punctual_views {
-                    draw_view(&mut pass, scene_gpu, layer);
+                    triangles += draw_view(&mut pass, scene_gpu, layer);
                     continue;
                 }
                 for slot in &self.slots {
@@ -421,20 +428,27 @@ impl ShadowMaps {
                         if tile_layer == layer {
                             let (x, y, side) = self.tile_rect(tile);
                             pass.set_viewport(x, y, side, side, 0.0, 1.0);
-                            draw_view(&mut pass, scene_gpu, slot.first_layer);
+                            triangles += draw_view(&mut pass, scene_gpu, slot.first_layer);
                         }
                     }
                 }
             }
         });
+        let ctx = timer.context();
+        crate::gpu::work::add(ctx, "shadow maps", SHADOW_WORK, 0, layers as u64)?;
+        crate::gpu::work::add(ctx, "shadow maps", SHADOW_WORK, 1, triangles)
     }
 }
 
-/// Draws the scene through view `view` (uniform slot `view + 1`).
-fn draw_view<'a>(pass: &mut wgpu::RenderPass<'a>, scene_gpu: &'a SceneGpu, view: u32) {
+/// What the shadow-map pass counts: texture layers drawn, triangles drawn into them (those of
+/// clusters in each view, `frame/culling.rs`).
+pub const SHADOW_WORK: &[&str] = &["layers", "triangles drawn"];
+
+/// Draws the scene through view `view` (uniform slot `view + 1`); returns the triangles drawn.
+fn draw_view<'a>(pass: &mut wgpu::RenderPass<'a>, scene_gpu: &'a SceneGpu, view: u32) -> u64 {
     let offset = ((view as u64 + 1) * super::scene_gpu::UNIFORM_STRIDE) as u32;
     pass.set_bind_group(0, &scene_gpu.view_group, &[offset]);
-    scene_gpu.draw(pass, view as usize + 1);
+    scene_gpu.draw(pass, view as usize + 1)
 }
 
 /// Clip-space map from the whole [-1, 1]^2 square into sky tile `tile` (column-major tiles of

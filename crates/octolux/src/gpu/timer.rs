@@ -137,6 +137,11 @@ impl PassTimer {
     /// Most passes per frame that get GPU timestamps; later ones are timed as part of nothing.
     pub const MAX_PASSES: u32 = 128;
 
+    /// The context the passes are recorded on (its work counters, where it has them).
+    pub(crate) fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
     /// A timer using GPU timestamps when the context has them.
     pub fn new(ctx: &GpuContext) -> PassTimer {
         let queries = ctx.timestamps.then(|| {

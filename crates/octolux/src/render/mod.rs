@@ -281,11 +281,12 @@ impl Renderer {
         self.engine.follow(scene);
         self.engine.prepare(t, view)?;
         let (gbuffer, direct) = (&self.gbuffer, &self.direct);
-        self.engine.with_lit(|timer, lit| {
-            lit.render_shadows(timer);
-            gbuffer.render(timer, &lit.scene_gpu);
+        self.engine.with_lit(|timer, lit| -> Result<()> {
+            lit.render_shadows(timer)?;
+            gbuffer.render(timer, &lit.scene_gpu)?;
             direct.render(timer, w, h);
-        })?;
+            Ok(())
+        })??;
         self.engine.update_gi(self.gbuffer.surfaces())?;
         self.compose.render(self.engine.timer(), w, h);
         Ok(())
