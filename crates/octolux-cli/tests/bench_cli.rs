@@ -16,6 +16,8 @@ fn octolux(args: &[&str]) -> Output {
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("octolux-bench-cli-{name}-{}", std::process::id()));
+    // A folder of an earlier process with the same id is not this run's.
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }

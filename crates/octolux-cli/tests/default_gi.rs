@@ -70,6 +70,8 @@ fn mean_over(image: &HdrImage, mask: &[bool]) -> f32 {
 #[test]
 fn default_render_lights_the_ceiling_indirectly() {
     let dir = std::env::temp_dir().join(format!("octolux-default-gi-{}", std::process::id()));
+    // A folder of an earlier process with the same id is not this run's.
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let (default, stdout) = render(&dir, "default", &[]);
     let technique = stdout

@@ -23,6 +23,8 @@ fn repo() -> PathBuf {
 fn temp_dir(name: &str) -> PathBuf {
     let dir =
         std::env::temp_dir().join(format!("octolux-vct-compare-{name}-{}", std::process::id()));
+    // A folder of an earlier process with the same id is not this run's.
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }

@@ -205,6 +205,8 @@ fn animated_cornell_box_moves_as_keyed() {
 #[test]
 fn scene_file_errors_name_the_file() {
     let dir = std::env::temp_dir().join(format!("octolux-scene-files-{}", std::process::id()));
+    // A folder of an earlier process with the same id is not this run's.
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("broken.toml");
     std::fs::write(&path, "[[model]]\npath = \"meshes/missing.obj\"\n").unwrap();
@@ -264,6 +266,8 @@ fn camera_index_takes_an_index_or_a_name_and_rejects_others() {
 #[test]
 fn a_material_override_can_take_a_texture() {
     let dir = std::env::temp_dir().join(format!("octolux-override-{}", std::process::id()));
+    // A folder of an earlier process with the same id is not this run's.
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let rgba = vec![
         255u8, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255,
@@ -309,6 +313,8 @@ fn a_material_override_can_take_a_texture() {
 #[test]
 fn obj_groups_and_materials_are_selectable_by_name() {
     let dir = std::env::temp_dir().join(format!("octolux-obj-select-{}", std::process::id()));
+    // A folder of an earlier process with the same id is not this run's.
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     // A floor and a vase (glass body, clay foot) as OBJ groups, plus 25 small groups to show
     // that long name lists are cut short in errors.
