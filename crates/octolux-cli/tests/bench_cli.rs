@@ -313,6 +313,12 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
     assert_eq!(count(&rsm, "layers"), 1, "{rsm:?}");
     assert_eq!(count(&rsm, "texels"), 64 * 64, "{rsm:?}");
     assert_eq!(count(&rsm, "triangles drawn"), 30, "{rsm:?}");
+    // The frame's own passes count what they draw too: the box's 30 triangles, all in view.
+    let shadow = work_of(&report, 1, "shadow maps");
+    assert_eq!(count(&shadow, "layers"), 1, "{shadow:?}");
+    assert_eq!(count(&shadow, "triangles drawn"), 30, "{shadow:?}");
+    let gbuffer = work_of(&report, 0, "gbuffer");
+    assert_eq!(count(&gbuffer, "triangles drawn"), 30, "{gbuffer:?}");
     let inject = work_of(&report, 1, "lpv inject");
     assert_eq!(count(&inject, "RSM texels"), 2 * 64 * 64, "{inject:?}");
     let shade = work_of(&report, 2, "vpl shade");

@@ -139,7 +139,8 @@ fn svo_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
 // The octree's per-node values (anisotropic albedo and radiance) sit at node centres: level d
 // has nodes of voxel * 2^(depth - d) metres.
 
-// Brick index + 1 of the node of level d at node coordinates c (0 where no node, or no brick).
+// Brick index + 1 of the node of level d at node coordinates c (0 where no node, or no brick);
+// a lookup in the work counts, with the nodes its descent read.
 fn svo_node_brick(c: vec3<i32>, d: u32) -> u32 {
     let size = i32(1u << d);
     if any(c < vec3<i32>(0)) || any(c >= vec3<i32>(size)) {
@@ -150,11 +151,13 @@ fn svo_node_brick(c: vec3<i32>, d: u32) -> u32 {
     for (var l = 0u; l < d; l++) {
         let first = svo_child[node];
         if first == 0u {
+            note_lookup(l + 1u);
             return 0u;
         }
         let s = d - 1u - l;
         node = first + ((u.x >> s) & 1u) + (((u.y >> s) & 1u) << 1u) + (((u.z >> s) & 1u) << 2u);
     }
+    note_lookup(d);
     return svo_brick_index[node];
 }
 
