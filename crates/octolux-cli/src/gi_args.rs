@@ -164,7 +164,8 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
-    /// Probe octree: deepest level, 2..=5 (default 3).
+    /// Probe octree: deepest level, 2..=5 (default 3); each level halves the probe spacing (4 on
+    /// large interiors such as Sponza: docs/probes.md, "Probe spacing on large scenes").
     #[arg(long)]
     pub probes_max_depth: Option<u32>,
     /// Probe octree: levels complete down to this depth (always split above it, keep the
