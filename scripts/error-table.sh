@@ -8,8 +8,10 @@
 #   scripts/error-table.sh [BINARY] [OUT_DIR]
 #
 # Environment: GI (technique list, default: all), SIZE (default 160x90), SPP (reference
-# samples, default 128), SCENES (default: every scene file in scenes/), OCTOLUX_SCENES (where
-# the external models lie, default ../shared/scenes).
+# samples, default 128), SCENES (default: every scene file in scenes/), WARMUP (frames before
+# the measured one, default 3; techniques that converge over frames, such as probes-octree at
+# max_depth 4, need more), OCTOLUX_SCENES (where the external models lie, default
+# ../shared/scenes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,6 +21,7 @@ out=${2:-error-table}
 gi=${GI:-none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree}
 size=${SIZE:-160x90}
 spp=${SPP:-128}
+warmup=${WARMUP:-3}
 scenes=${SCENES:-$(ls scenes/*.toml scenes/*.xml)}
 export OCTOLUX_SCENES=${OCTOLUX_SCENES:-../shared/scenes}
 mkdir -p "$out"
@@ -26,7 +29,7 @@ mkdir -p "$out"
 for scene in $scenes; do
   name=$(basename "${scene%.*}")
   echo "error-table: $name" >&2
-  "$bin" bench "$scene" --gi "$gi" --width "${size%x*}" --height "${size#*x}" --warmup 3 \
+  "$bin" bench "$scene" --gi "$gi" --width "${size%x*}" --height "${size#*x}" --warmup "$warmup" \
     --frames 1 --spp "$spp" --seed 7 --against unlimited --no-work-counts --no-flicker \
     --json "$out/$name.json" --out-dir "$out/$name" > "$out/$name.txt"
 done
