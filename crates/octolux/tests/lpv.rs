@@ -1484,11 +1484,8 @@ fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
         .iter()
         .position(|o| o.name == "short-block")
         .unwrap();
-    let block = scene.meshes[scene.objects[short].meshes[0] as usize]
-        .positions
-        .iter()
-        .fold(Vec3::ZERO, |s, &p| s + p)
-        / 24.0;
+    let corners = &scene.meshes[scene.objects[short].meshes[0] as usize].positions;
+    let block = corners.iter().fold(Vec3::ZERO, |s, &p| s + p) / corners.len() as f32;
     let (lo, hi) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.556, 0.0, 0.56));
     let corner = Vec3::new(
         if block.x > 0.278 { lo.x } else { hi.x },

@@ -107,15 +107,15 @@ pub(crate) fn visible_ranges(
     clusters: &[Cluster],
     index_count: u32,
 ) -> Vec<Range<u32>> {
-    let whole = std::iter::once(0..index_count).collect();
+    let whole = || std::iter::once(0..index_count).collect();
     let Some(clip) = clip_from_model else {
-        return whole;
+        return whole();
     };
     if outside(clip, bounds) {
         return Vec::new();
     }
     if clusters.len() <= 1 || !bounds.0.is_finite() || inside(clip, bounds) {
-        return whole;
+        return whole();
     }
     let mut ranges: Vec<Range<u32>> = Vec::new();
     for c in clusters.iter().filter(|c| !outside(clip, c.bounds)) {

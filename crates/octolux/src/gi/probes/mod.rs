@@ -134,7 +134,7 @@ pub struct ProbeSettings {
     pub backface_limit: f32,
     /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 3: at most 512
     /// leaves, 8 x 8 x 8 at the finest; docs/probes.md). 4 halves the finest spacing: on
-    /// Crytek Sponza it turns a loss against GI off into a win, at 8x the buffers
+    /// Crytek Sponza it turns a loss against GI off into a win, at twice the memory
     /// (docs/probes.md, "Probe spacing on large scenes").
     pub max_depth: u32,
     /// `probes-octree`: the tree is complete down to this level whatever the hit fractions:
