@@ -164,8 +164,9 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
-    /// Probe octree: deepest level, 2..=5 (default 3); each level halves the probe spacing (4 on
-    /// large interiors such as Sponza: docs/probes.md, "Probe spacing on large scenes").
+    /// Probe octree: deepest level, 2..=5 (default 4); each level halves the probe spacing and
+    /// costs 8x the probe slots (3 is too coarse for large interiors such as Sponza:
+    /// docs/probes.md, "Probe spacing and freeing on large scenes").
     #[arg(long)]
     pub probes_max_depth: Option<u32>,
     /// Probe octree: levels complete down to this depth (always split above it, keep the
@@ -177,7 +178,7 @@ pub struct GiArgs {
     #[arg(long)]
     pub probes_split_fraction: Option<f32>,
     /// Probe octree: share of a probe's surfels inside its cube below which it is freed
-    /// (default 0.25).
+    /// (default 0: none is freed; 004's rule is 0.25).
     #[arg(long)]
     pub probes_free_fraction: Option<f32>,
     /// Probe octree: how pixels read the probes, `octree` (the leaves around the pixel) or

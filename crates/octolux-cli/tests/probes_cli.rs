@@ -32,7 +32,7 @@ fn octree_flags_render_and_bad_values_are_clear_errors() {
         String::from_utf8_lossy(&ok.stderr)
     );
     for (flags, needle, code) in [
-        (&["--probes-min-depth", "4"][..], "probes min_depth", 1),
+        (&["--probes-min-depth", "5"][..], "probes min_depth", 1),
         (
             &["--probes-max-depth", "2", "--probes-min-depth", "3"][..],
             "probes min_depth",

@@ -52,6 +52,29 @@ fn assert_same(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: &str)
     cpu.probe_count()
 }
 
+/// The live probes the memory update listed for the shared passes: the CPU tree's allocated
+/// slots in increasing order, and dispatches that cover them.
+fn assert_live_list(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: &str) {
+    let live: Vec<u32> = read(ctx, gpu.live_buffer());
+    let want: Vec<u32> = (0..gpu.capacity())
+        .filter(|&p| cpu.probe(p).is_some())
+        .collect();
+    assert_eq!(live[0] as usize, want.len(), "{what}: live count");
+    assert_eq!(live[1..1 + want.len()], want[..], "{what}: live slots");
+    let args: Vec<u32> = read(ctx, gpu.live_args());
+    let surfels = gpu.rule().surfels;
+    let moment_texels = octolux::gi::probes::moments::MOMENT_TEXELS;
+    for (k, per_probe) in [surfels, moment_texels, 1].into_iter().enumerate() {
+        let [x, y, z] = [args[3 * k], args[3 * k + 1], args[3 * k + 2]];
+        let launched = 64 * x as u64 * y as u64 * z as u64;
+        let needed = want.len() as u64 * per_probe as u64;
+        assert!(
+            launched >= needed && launched < needed + 64 * x as u64 + 64 && x <= 65535,
+            "{what}: dispatch {k}: {x} x {y} x {z} groups for {needed} invocations"
+        );
+    }
+}
+
 /// One frame on both: the GPU's memory update and light selection, then its hit counts are
 /// set from `hits` for its live probes, then the decision.
 fn frame(
@@ -147,12 +170,9 @@ fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
             frame(&ctx, &mut gpu, &mut cpu, &moved, &|p| {
                 scripted(p, f / 4, rule.surfels)
             });
-            counts.push(assert_same(
-                &ctx,
-                &gpu,
-                &cpu,
-                &format!("depth {depth}, min {min_depth}, room {room:?}, frame {f}"),
-            ));
+            let what = format!("depth {depth}, min {min_depth}, room {room:?}, frame {f}");
+            counts.push(assert_same(&ctx, &gpu, &cpu, &what));
+            assert_live_list(&ctx, &gpu, &cpu, &what);
         }
         println!("depth {depth}, min {min_depth}, room {room:?}: probes per frame {counts:?}");
         let distinct: std::collections::BTreeSet<_> = counts.iter().collect();
@@ -199,8 +219,10 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
         "/../../scenes/cornell-animated.toml"
     );
     let scene = octolux::scene::Scene::load(path).unwrap();
+    // Depth 3 and `004`'s free rule, so that probes are freed as well as allocated.
     let probes = octolux::gi::probes::ProbeSettings {
         max_depth: 3,
+        free_fraction: 0.25,
         ..Default::default()
     };
     let mut r = octree_renderer(&ctx, &scene, &probes, 24);
@@ -215,12 +237,9 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
         let hits: Vec<u32> = read(&ctx, technique.octree().hits_buffer());
         cpu.frame(technique.moved(), |slot, _| hits[slot as usize]);
         moving += !technique.moved().is_empty() as u32;
-        counts.push(assert_same(
-            &ctx,
-            technique.octree(),
-            &cpu,
-            &format!("frame {f}"),
-        ));
+        let what = format!("frame {f}");
+        counts.push(assert_same(&ctx, technique.octree(), &cpu, &what));
+        assert_live_list(&ctx, technique.octree(), &cpu, &what);
     }
     println!("probes per frame {counts:?}, {moving} frames with moving objects");
     assert!(moving > 10, "the block moves");

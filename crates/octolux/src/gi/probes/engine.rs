@@ -70,6 +70,26 @@ pub(crate) fn run_pass(
     groups: &[&wgpu::BindGroup],
     groups_xy: (u32, u32),
 ) {
+    run_dispatch(timer, name, pipeline, groups, Dispatch::Groups(groups_xy));
+}
+
+/// How many workgroups a pass over the probe set launches.
+#[derive(Clone, Copy)]
+pub(crate) enum Dispatch<'a> {
+    /// This many (x, y), known on the CPU.
+    Groups((u32, u32)),
+    /// Read from an indirect-dispatch buffer at this byte offset, written on the GPU (the
+    /// octree's live probes, `GpuOctree::live_args`).
+    Indirect(&'a wgpu::Buffer, u64),
+}
+
+fn run_dispatch(
+    timer: &mut PassTimer,
+    name: &str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    dispatch: Dispatch,
+) {
     timer.pass(name, |encoder, stamps| {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(name),
@@ -79,8 +99,29 @@ pub(crate) fn run_pass(
         for (i, g) in groups.iter().enumerate() {
             pass.set_bind_group(i as u32, *g, &[]);
         }
-        pass.dispatch_workgroups(groups_xy.0, groups_xy.1, 1);
+        match dispatch {
+            Dispatch::Groups((x, y)) => pass.dispatch_workgroups(x, y, 1),
+            Dispatch::Indirect(args, offset) => pass.dispatch_workgroups_indirect(args, offset),
+        }
     });
+}
+
+/// A probe set's bind group 1 for a shared pass and, where the set lists its probes on the
+/// GPU, the indirect-dispatch buffer (`GpuOctree::live_args`: place and light at byte 0,
+/// the moments at 12, the integration at 24). `None`: the pass runs over every probe slot.
+#[derive(Clone, Copy)]
+pub(crate) struct SetPass<'a> {
+    pub group: &'a wgpu::BindGroup,
+    pub listed: Option<&'a wgpu::Buffer>,
+}
+
+/// The dispatch of a pass over the set: listed (byte `offset` of the set's arguments) or
+/// `all` workgroups.
+fn set_dispatch<'a>(set: Option<SetPass<'a>>, offset: u64, all: (u32, u32)) -> Dispatch<'a> {
+    match set.and_then(|s| s.listed) {
+        Some(args) => Dispatch::Indirect(args, offset),
+        None => Dispatch::Groups(all),
+    }
 }
 
 /// The shared state and pipelines of a probe technique.
@@ -308,7 +349,7 @@ impl ProbeEngine {
     }
 
     /// Surfels: rays from the probes the set asks for along their lattices.
-    pub fn place(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<&wgpu::BindGroup>) {
+    pub fn place(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<SetPass>) {
         let mut entries = vec![
             (0, buf(&self.params_buffer)),
             (1, buf(&self.surfels)),
@@ -317,17 +358,15 @@ impl ProbeEngine {
         ];
         entries.extend(self.rays.place_bindings());
         let group = self.groups[0].get(ctx, "place", &self.place, &entries);
-        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
-        run_pass(timer, "place", &self.place, &groups, self.surfel_groups());
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
+            .chain(set.map(|s| s.group))
+            .collect();
+        let dispatch = set_dispatch(set, 0, self.surfel_groups());
+        run_dispatch(timer, "place", &self.place, &groups, dispatch);
     }
 
     /// Depth moments of the probes just placed (nothing without visibility).
-    pub fn build_moments(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut PassTimer,
-        set: Option<&wgpu::BindGroup>,
-    ) {
+    pub fn build_moments(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<SetPass>) {
         if self.settings.visibility == Visibility::None {
             return;
         }
@@ -342,9 +381,12 @@ impl ProbeEngine {
                 (3, buf(&self.stamps)),
             ],
         );
-        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
+            .chain(set.map(|s| s.group))
+            .collect();
         let size = dispatch_size(self.params.roots[2] * super::moments::MOMENT_TEXELS);
-        run_pass(timer, "moments", &self.moments_build, &groups, size);
+        let dispatch = set_dispatch(set, 12, size);
+        run_dispatch(timer, "moments", &self.moments_build, &groups, dispatch);
     }
 
     /// Surfel light: direct light with shadow-map visibility (+ last frame's probes).
@@ -353,7 +395,7 @@ impl ProbeEngine {
         ctx: &GpuContext,
         frame: &GiFrame,
         timer: &mut PassTimer,
-        set: Option<&wgpu::BindGroup>,
+        set: Option<SetPass>,
     ) -> Result<()> {
         let mut entries = vec![
             (0, buf(&self.params_buffer)),
@@ -364,18 +406,16 @@ impl ProbeEngine {
         ];
         entries.extend(light_bindings(frame.lights, frame.shadows.lookup()));
         let group = self.groups[2].get(ctx, "light", &self.light, &entries);
-        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
-        run_pass(timer, "light", &self.light, &groups, self.surfel_groups());
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
+            .chain(set.map(|s| s.group))
+            .collect();
+        let dispatch = set_dispatch(set, 0, self.surfel_groups());
+        run_dispatch(timer, "light", &self.light, &groups, dispatch);
         Ok(())
     }
 
     /// Probes: each integrates its surfels into its encoding.
-    pub fn integrate(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut PassTimer,
-        set: Option<&wgpu::BindGroup>,
-    ) {
+    pub fn integrate(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<SetPass>) {
         let group = self.groups[3].get(
             ctx,
             "integrate",
@@ -387,9 +427,11 @@ impl ProbeEngine {
                 (3, buf(&self.probes)),
             ],
         );
-        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
-        let size = dispatch_size(self.params.roots[2]);
-        run_pass(timer, "integrate", &self.integrate, &groups, size);
+        let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
+            .chain(set.map(|s| s.group))
+            .collect();
+        let dispatch = set_dispatch(set, 24, dispatch_size(self.params.roots[2]));
+        run_dispatch(timer, "integrate", &self.integrate, &groups, dispatch);
     }
 
     /// Pixels: the probe set's irradiance at each.

@@ -3,7 +3,7 @@
 // inside its region (the octree's hit count).
 
 import octolux::gi::probes::probes::{linear_index, P, PROBE_VEC4, SURFEL_VEC4};
-import octolux::gi::probes::set::{probe_live, probe_store_hits};
+import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots, probe_store_hits};
 import octolux::gi::probes::encoding::probe_encode;
 import octolux::gi::probes::lattice::lattice_dir;
 
@@ -14,8 +14,12 @@ import octolux::gi::probes::lattice::lattice_dir;
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    let probe = linear_index(wg, nwg, li);
-    if probe >= P.roots.z || !probe_live(probe) {
+    let k = linear_index(wg, nwg, li);
+    if k >= probe_slots() {
+        return;
+    }
+    let probe = probe_slot(k);
+    if !probe_live(probe) {
         return;
     }
     let n = P.dims.w;

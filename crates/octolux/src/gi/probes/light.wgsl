@@ -7,7 +7,7 @@
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 import octolux::frame::common::PI;
 import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
-import octolux::gi::probes::set::probe_live;
+import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots};
 import octolux::gi::probes::set_sample::probes_irradiance;
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
@@ -16,8 +16,15 @@ import octolux::gi::probes::set_sample::probes_irradiance;
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    let s = linear_index(wg, nwg, li);
-    if s >= P.roots.w || !probe_live(s / P.dims.w) {
+    // Invocation k: surfel k % n of the set's (k / n)-th probe.
+    let k = linear_index(wg, nwg, li);
+    let per_probe = P.dims.w;
+    if k >= probe_slots() * per_probe {
+        return;
+    }
+    let probe = probe_slot(k / per_probe);
+    let s = probe * per_probe + k % per_probe;
+    if !probe_live(probe) {
         return;
     }
     let b = s * SURFEL_VEC4;

@@ -132,10 +132,10 @@ pub struct ProbeSettings {
     /// Share of a probe's rays that may hit back faces before it counts as inside geometry
     /// and is left out of the gather (default 0.25).
     pub backface_limit: f32,
-    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 3: at most 512
-    /// leaves, 8 x 8 x 8 at the finest; docs/probes.md). 4 halves the finest spacing: on
-    /// Crytek Sponza it turns a loss against GI off into a win, at twice the memory
-    /// (docs/probes.md, "Probe spacing on large scenes").
+    /// `probes-octree`: deepest level of the octree, 2..=5 (root 0; default 4: at most 4096
+    /// leaves, 16 x 16 x 16 at the finest, 2.4 m on Crytek Sponza; docs/probes.md, "Probe
+    /// spacing on large scenes": at 3 the Sponzas' probes are too far apart to beat GI off).
+    /// Each level costs 8x the probe slots (the buffers hold the full tree).
     pub max_depth: u32,
     /// `probes-octree`: the tree is complete down to this level whatever the hit fractions:
     /// leaves above it always split, leaves at it or above keep their probes; only the levels
@@ -147,7 +147,9 @@ pub struct ProbeSettings {
     /// inside its cube (`004`: 1/2; default 0.5).
     pub split_fraction: f32,
     /// `probes-octree`: a probe is freed when less than this share of its surfels land inside
-    /// its cube (`004`: 1/4; default 0.25); below `split_fraction`.
+    /// its cube (`004`: 1/4; default 0: no probe is freed, since the buffers hold the full
+    /// tree anyway and a freed leaf's pixels fall back on probes near geometry: on the
+    /// Sponzas freeing doubles relMSE, docs/probes.md); below `split_fraction`.
     pub free_fraction: f32,
     /// `probes-octree`: how pixels read the probes, `"octree"` (default) or `"all"`.
     pub gather: OctreeGather,
@@ -176,10 +178,10 @@ impl Default for ProbeSettings {
             multi_bounce: false,
             normal_bias: 0.2,
             backface_limit: 0.25,
-            max_depth: 3,
+            max_depth: 4,
             min_depth: 2,
             split_fraction: 0.5,
-            free_fraction: 0.25,
+            free_fraction: 0.0,
             gather: OctreeGather::Octree,
             surfel_range: SurfelRange::Scene,
             visibility: Visibility::Moments,

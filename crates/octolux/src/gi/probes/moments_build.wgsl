@@ -9,7 +9,7 @@
 import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
 import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
 import octolux::gi::probes::lattice::lattice_dir;
-import octolux::gi::probes::set::probe_wants_place;
+import octolux::gi::probes::set::{probe_slot, probe_slots, probe_wants_place};
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> moments_out: array<vec2<f32>>;
@@ -18,9 +18,14 @@ import octolux::gi::probes::set::probe_wants_place;
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    let id = linear_index(wg, nwg, li);
-    let probe = id / MOMENT_TEXELS;
-    if probe >= P.roots.z || !probe_wants_place(probe) {
+    // Invocation k: texel k % MOMENT_TEXELS of the set's (k / MOMENT_TEXELS)-th probe.
+    let k = linear_index(wg, nwg, li);
+    if k >= probe_slots() * MOMENT_TEXELS {
+        return;
+    }
+    let probe = probe_slot(k / MOMENT_TEXELS);
+    let id = probe * MOMENT_TEXELS + k % MOMENT_TEXELS;
+    if !probe_wants_place(probe) {
         return;
     }
     if P.limits.w != 0u && probe_stamps[probe] != P.frame.x {

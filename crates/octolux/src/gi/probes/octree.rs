@@ -225,9 +225,23 @@ fn overlaps(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
 
 impl ProbeOctree {
     /// An octree over the cube at `lo` of edge `size`, in a buffer of `len` words (clusters:
-    /// the whole 9-word groups after the root) with room for `probe_capacity` probes. The root
-    /// asks for a probe at the first frame (M1).
+    /// the whole 9-word groups after the root) with room for `probe_capacity` probes.
+    ///
+    /// The levels above `rule.min_depth` split whatever their probes see, so they are built
+    /// here, by the frames that would build them (hit counts do not enter them): the first
+    /// frame allocates the probes of depth `min_depth` and the tree reaches `max_depth`
+    /// `max_depth - min_depth` frames later. With `min_depth` 0 (`004`) the root asks for a
+    /// probe at the first frame (M1).
     pub fn new(len: usize, probe_capacity: u32, lo: Vec3, size: f32, rule: OctreeRule) -> Self {
+        let mut tree = Self::seed(len, probe_capacity, lo, size, rule);
+        for _ in 0..rule.min_depth.min(rule.max_depth) {
+            tree.frame(&[], |_, _| 0);
+        }
+        tree
+    }
+
+    /// The tree before any frame: the root asking for a probe.
+    fn seed(len: usize, probe_capacity: u32, lo: Vec3, size: f32, rule: OctreeRule) -> Self {
         let len = len.max(1);
         let clusters = (len - 1) / 9;
         let mut tree = ProbeOctree {
@@ -734,8 +748,9 @@ mod tests {
     #[test]
     fn min_depth_completes_the_coarse_levels_whatever_the_hit_fractions() {
         // No hits at all (an open scene's coarse cubes): with 004's rule everything is freed
-        // (the test below); with min_depth 2 the tree grows to the 64 depth-2 leaves, one
-        // level per frame, and keeps their probes, in a buffer of the full tree's size.
+        // (the test below); with min_depth 2 the tree is built down to depth 1 before the
+        // first frame, which allocates the 64 depth-2 leaves, and keeps their probes, in a
+        // buffer of the full tree's size.
         let rule = OctreeRule {
             max_depth: 3,
             min_depth: 2,
@@ -749,16 +764,19 @@ mod tests {
             check(&t);
             counts.push(t.probe_count());
         }
-        assert_eq!(counts, [1, 8, 64, 64, 64, 64, 64, 64]);
+        assert_eq!(counts, [64, 64, 64, 64, 64, 64, 64, 64]);
         assert!(t.probes().all(|p| p.depth == 2));
-        // Full hit fractions: the whole level 2 splits in one update; the full capacity
-        // holds the 512 new probes and the 64 the splitting leaves hold until its end.
+        // Full hit fractions: the whole level 2 splits in one update (the second frame); the
+        // full capacity holds the 512 new probes and the 64 the splitting leaves hold until
+        // its end.
         let mut t = ProbeOctree::new(len, capacity, Vec3::ZERO, 8.0, rule);
-        for _ in 0..6 {
+        let mut counts = Vec::new();
+        for _ in 0..4 {
             t.frame(&[], |_, _| 64);
             check(&t);
+            counts.push(t.probe_count());
         }
-        assert_eq!(t.probe_count(), 512);
+        assert_eq!(counts, [64, 512, 512, 512]);
     }
 
     #[test]

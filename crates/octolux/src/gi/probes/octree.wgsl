@@ -21,6 +21,12 @@ import octolux::gi::probes::tree_bindings::{O, tree};
 @group(0) @binding(6) var<storage, read_write> ring: array<atomic<u32>>;
 // Moved boxes: (lo, 0), (hi, 0) each.
 @group(0) @binding(7) var<storage, read> boxes: array<vec4<f32>>;
+// The live probes, listed by the memory update: word 0 their count, then their slots in
+// increasing order. The shared probe passes run over this list, not over every slot.
+@group(0) @binding(8) var<storage, read_write> live: array<u32>;
+// Their indirect dispatches, workgroups of 64 (x, y, z each): one invocation per surfel
+// (place, light), per moment texel, per probe (integrate). `GpuOctree::live_args`.
+@group(0) @binding(9) var<storage, read_write> live_args: array<u32, 9>;
 
 // State codes (`State::code`); a push keeps the higher code.
 const L3: u32 = 1u;
@@ -250,6 +256,46 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
         state[0] = probes_left + scanned.w;
         state[1] = clusters_left + scanned.z;
     }
+    storageBarrier();
+    workgroupBarrier();
+    list_live_probes(t);
+}
+
+// Lists the live probe slots in increasing order (each thread a run of consecutive slots)
+// and sets the shared passes' dispatches from their count.
+fn list_live_probes(t: u32) {
+    let capacity = O.sizes.y;
+    let per = (capacity + THREADS - 1u) / THREADS;
+    let start = min(t * per, capacity);
+    let end = min(start + per, capacity);
+    var mine = 0u;
+    for (var p = start; p < end; p++) {
+        mine += u32(probe_info[p].w >= 0.0);
+    }
+    let scanned = exclusive_scan(t, vec2<u32>(mine, 0u));
+    var at = scanned.x;
+    for (var p = start; p < end; p++) {
+        if probe_info[p].w >= 0.0 {
+            live[1u + at] = p;
+            at += 1u;
+        }
+    }
+    if t == 0u {
+        let count = scanned.z;
+        live[0] = count;
+        set_args(0u, count * O.shape.x);
+        set_args(3u, count * O.shape.y);
+        set_args(6u, count);
+    }
+}
+
+// Workgroups of 64 for n invocations at `live_args[at..at + 3]`, in rows of at most 65535
+// (`gpu::pass::dispatch_size`).
+fn set_args(at: u32, n: u32) {
+    let groups = max((n + 63u) / 64u, 1u);
+    live_args[at] = min(groups, 65535u);
+    live_args[at + 1u] = (groups + 65534u) / 65535u;
+    live_args[at + 2u] = 1u;
 }
 
 // The moved-geometry test and the L states that need no hit count; L1 leaves with a probe

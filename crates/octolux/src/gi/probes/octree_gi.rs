@@ -11,10 +11,10 @@
 use super::encoding::COEFFS;
 use super::engine::{
     buf, facing_weight, module, moved_boxes, run_pass, ProbeEngine, ProbeLayout, ProbeSetModules,
-    PROBE_VEC4,
+    SetPass, PROBE_VEC4,
 };
 use super::moments::MomentMaps;
-use super::octree::{OctreeProbe, OctreeRule, State};
+use super::octree::{OctreeRule, ProbeOctree};
 use super::params::storage;
 use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
@@ -37,6 +37,7 @@ struct OctreeParams {
     sizes: [u32; 4],
     frame: [u32; 4],
     modes: [u32; 4],
+    shape: [u32; 4],
 }
 
 /// The probe octree in GPU buffers and the passes of its state machine.
@@ -52,6 +53,10 @@ pub struct GpuOctree {
     ring: wgpu::Buffer,
     boxes: wgpu::Buffer,
     box_room: usize,
+    /// The live probes' count and slots, listed by the memory update.
+    live: wgpu::Buffer,
+    /// The shared passes' indirect dispatches over them.
+    live_args: wgpu::Buffer,
     memory_update: wgpu::ComputePipeline,
     light_select: wgpu::ComputePipeline,
     light_decide: wgpu::ComputePipeline,
@@ -70,10 +75,8 @@ fn init(ctx: &GpuContext, label: &str, data: &[u8]) -> Result<wgpu::Buffer> {
 
 impl GpuOctree {
     /// An octree over the cube at `lo` of edge `size` with room for the full tree of
-    /// `rule.max_depth` levels, its root asking for a probe (as [`ProbeOctree::new`] with
-    /// [`OctreeRule::full_capacity`]).
-    ///
-    /// [`ProbeOctree::new`]: super::octree::ProbeOctree::new
+    /// `rule.max_depth` levels, its levels above `rule.min_depth` built (as
+    /// [`ProbeOctree::new`] with [`OctreeRule::full_capacity`]).
     pub fn new(ctx: &GpuContext, rule: OctreeRule, lo: Vec3, size: f32) -> Result<GpuOctree> {
         let (len, capacity) = rule.full_capacity();
         Self::with_room(ctx, rule, lo, size, len, capacity)
@@ -89,24 +92,29 @@ impl GpuOctree {
         len: usize,
         capacity: u32,
     ) -> Result<GpuOctree> {
+        // The CPU specification builds the levels above `min_depth`; the GPU starts from its
+        // state, word for word.
+        let cpu = ProbeOctree::new(len, capacity, lo, size, rule);
         let clusters = (len - 1) / 9;
+        let (free_probes, free_clusters) = cpu.free_lists();
         let mut state = vec![0u32; STATE_HEAD + capacity as usize + clusters + 3 * len];
-        state[0] = capacity;
-        state[1] = clusters as u32;
-        for (k, p) in (0..capacity).rev().enumerate() {
-            state[STATE_HEAD + k] = p;
+        state[0] = free_probes.len() as u32;
+        state[1] = free_clusters.len() as u32;
+        state[STATE_HEAD..STATE_HEAD + free_probes.len()].copy_from_slice(free_probes);
+        let c0 = STATE_HEAD + capacity as usize;
+        state[c0..c0 + free_clusters.len()].copy_from_slice(free_clusters);
+        let marks = c0 + clusters;
+        for (word, &no_split) in state[marks..marks + len].iter_mut().zip(cpu.no_split()) {
+            *word = no_split as u32;
         }
-        for (k, c) in (0..clusters as u32).rev().enumerate() {
-            state[STATE_HEAD + capacity as usize + k] = 1 + 9 * c;
-        }
-        let mut ring = vec![0u32; 3 * len];
-        ring[0] = State::M1.code();
-        let info = vec![OctreeProbe::gpu_info(None); capacity as usize];
+        let (ring, origin) = cpu.ring_codes();
+        let info = cpu.probe_info();
         let params = OctreeParams {
             root: lo.extend(size).to_array(),
             sizes: [len as u32, capacity, clusters as u32, rule.max_depth],
             frame: [0, 0, rule.free_below(), rule.split_from()],
             modes: [0, 0, 0, rule.min_depth],
+            shape: [rule.surfels, super::moments::MOMENT_TEXELS, 0, 0],
         };
         let source = library_shader_with(
             "gi/probes/octree",
@@ -122,7 +130,7 @@ impl GpuOctree {
             rule,
             params,
             params_buffer: init(ctx, "octree params", bytemuck::bytes_of(&params))?,
-            tree: init(ctx, "octree", &zeros(len))?,
+            tree: init(ctx, "octree", bytemuck::cast_slice(&cpu.nodes))?,
             probe_info: init(ctx, "octree probe info", bytemuck::cast_slice(&info))?,
             place_flags: init(ctx, "octree place flags", &zeros(capacity as usize))?,
             hits: init(ctx, "octree hits", &zeros(capacity as usize))?,
@@ -130,10 +138,22 @@ impl GpuOctree {
             ring: init(ctx, "octree leaf ring", bytemuck::cast_slice(&ring))?,
             boxes: init(ctx, "octree moved boxes", &zeros(8))?,
             box_room: 1,
+            live: init(ctx, "octree live probes", &zeros(1 + capacity as usize))?,
+            live_args: ctx.create_buffer(
+                OWNER,
+                &wgpu::BufferDescriptor {
+                    label: Some("octree live dispatch"),
+                    size: 36,
+                    usage: wgpu::BufferUsages::STORAGE
+                        | wgpu::BufferUsages::INDIRECT
+                        | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                },
+            ),
             memory_update: ctx.compute_pipeline("memory update", &module, "memory_update"),
             light_select: ctx.compute_pipeline("light select", &module, "light_select"),
             light_decide: ctx.compute_pipeline("light decide", &module, "light_decide"),
-            origin: 0,
+            origin: origin as u32,
             groups: Default::default(),
         })
     }
@@ -204,6 +224,8 @@ impl GpuOctree {
                 (2, buf(&self.probe_info)),
                 (5, buf(&self.state)),
                 (6, buf(&self.ring)),
+                (8, buf(&self.live)),
+                (9, buf(&self.live_args)),
             ],
         );
         run_pass(
@@ -263,13 +285,26 @@ impl GpuOctree {
         self.origin = (self.origin + 2) % 3;
     }
 
+    /// The live probes the memory update listed: word 0 their count, then their slots in
+    /// increasing order (for tests; the shared passes read it on the GPU).
+    pub fn live_buffer(&self) -> &wgpu::Buffer {
+        &self.live
+    }
+
+    /// The shared passes' indirect dispatches over the live probes (workgroups of 64): place
+    /// and light (one invocation per surfel) at byte 0, the moments at 12, the integration at
+    /// 24.
+    pub fn live_args(&self) -> &wgpu::Buffer {
+        &self.live_args
+    }
+
     /// Bind group 1 (octree_set.wgsl) of a shared probe pass, with the bindings it uses:
-    /// `uses` holds params, tree, probe info, place flags, hits.
+    /// `uses` holds params, tree, probe info, place flags, hits, live probes.
     fn set_group(
         &self,
         ctx: &GpuContext,
         pipeline: &wgpu::ComputePipeline,
-        uses: [bool; 5],
+        uses: [bool; 6],
     ) -> wgpu::BindGroup {
         let all = [
             &self.params_buffer,
@@ -277,6 +312,7 @@ impl GpuOctree {
             &self.probe_info,
             &self.place_flags,
             &self.hits,
+            &self.live,
         ];
         let entries: Vec<(u32, wgpu::BindingResource)> = all
             .iter()
@@ -476,13 +512,22 @@ impl ProbesOctree {
             tree: Some("gi/probes/octree_tree_read"),
         };
         let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
-        // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits.
+        // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits, live
+        // probes.
         let groups = [
-            octree.set_group(ctx, &passes.place, [true, false, true, true, false]),
-            octree.set_group(ctx, &passes.light, [true, true, true, false, false]),
-            octree.set_group(ctx, &passes.integrate, [false, false, true, false, true]),
-            octree.set_group(ctx, &passes.gather, [true, true, true, false, false]),
-            octree.set_group(ctx, &passes.moments_build, [true, false, true, true, false]),
+            octree.set_group(ctx, &passes.place, [true, false, true, true, false, true]),
+            octree.set_group(ctx, &passes.light, [true, true, true, false, false, true]),
+            octree.set_group(
+                ctx,
+                &passes.integrate,
+                [false, false, true, false, true, true],
+            ),
+            octree.set_group(ctx, &passes.gather, [true, true, true, false, false, false]),
+            octree.set_group(
+                ctx,
+                &passes.moments_build,
+                [true, false, true, true, false, true],
+            ),
         ];
         Ok(ProbesOctree {
             passes,
@@ -592,12 +637,18 @@ impl GiTechnique for ProbesOctree {
         self.octree.light_select(ctx, timer);
         // 3. Surfels of those probes: rays along their lattices, hits inside the cube count;
         //    their depth moments.
-        self.passes.place(ctx, timer, Some(place));
-        self.passes.build_moments(ctx, timer, Some(moments));
+        let set = |group| {
+            Some(SetPass {
+                group,
+                listed: Some(self.octree.live_args()),
+            })
+        };
+        self.passes.place(ctx, timer, set(place));
+        self.passes.build_moments(ctx, timer, set(moments));
         // 4. Surfel light (+ last frame's probes).
-        self.passes.light(ctx, frame, timer, Some(light))?;
+        self.passes.light(ctx, frame, timer, set(light))?;
         // 5. Probes: each integrates its surfels and counts its hits inside its cube.
-        self.passes.integrate(ctx, timer, Some(integrate));
+        self.passes.integrate(ctx, timer, set(integrate));
         // 6. Light update, second half: split, free or keep by the hit counts.
         self.octree.light_decide(ctx, timer);
         // 7. Pixels: the probes of the leaves around each (or all probes).

@@ -13,4 +13,7 @@ struct OctreeParams {
     // the octree, 1 over all probes, z: 1 = place every live probe this frame, w: levels
     // complete down to this depth (`OctreeRule::min_depth`)
     modes: vec4<u32>,
+    // x: surfels per probe, y: moment-map texels per probe (the shared passes' invocations
+    // per listed probe)
+    shape: vec4<u32>,
 };

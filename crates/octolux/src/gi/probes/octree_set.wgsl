@@ -8,6 +8,18 @@ import octolux::gi::probes::tree_bindings::O;
 @group(1) @binding(2) var<storage, read> probe_info: array<vec4<f32>>;
 @group(1) @binding(3) var<storage, read> place_flags: array<u32>;
 @group(1) @binding(4) var<storage, read_write> hits: array<u32>;
+// The live probes (octree.wgsl's `live`): count, then slots.
+@group(1) @binding(5) var<storage, read> live: array<u32>;
+
+// The shared passes run over the live probes: `probe_slots()` of them, the k-th in slot
+// `probe_slot(k)`.
+fn probe_slots() -> u32 {
+    return live[0];
+}
+
+fn probe_slot(k: u32) -> u32 {
+    return live[1u + k];
+}
 
 fn probe_origin(probe: u32) -> vec3<f32> {
     return probe_info[probe].xyz;

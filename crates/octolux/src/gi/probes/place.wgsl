@@ -12,7 +12,7 @@
 
 import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
 import octolux::gi::probes::lattice::lattice_dir;
-import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_wants_place};
+import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_slot, probe_slots, probe_wants_place};
 import octolux::gi::probes::rays::surfel_hit;
 
 @group(0) @binding(1) var<storage, read_write> surfels: array<vec4<f32>>;
@@ -41,12 +41,14 @@ fn segment_meets_moved(a: vec3<f32>, b: vec3<f32>) -> bool {
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    let s = linear_index(wg, nwg, li);
-    if s >= P.roots.w {
+    // Invocation k: surfel k % n of the set's (k / n)-th probe.
+    let k = linear_index(wg, nwg, li);
+    let n = P.dims.w;
+    if k >= probe_slots() * n {
         return;
     }
-    let n = P.dims.w;
-    let probe = s / n;
+    let probe = probe_slot(k / n);
+    let s = probe * n + k % n;
     if !probe_wants_place(probe) {
         return;
     }
