@@ -173,6 +173,10 @@ pub struct GiArgs {
     /// probes down to it), 0..=max depth; 0 is 004's rule (default 2).
     #[arg(long)]
     pub probes_min_depth: Option<u32>,
+    /// Probe octree: probe slots, the budget of its buffers; 0 = the full tree of the max depth
+    /// (default 2048; a split that finds no free slot waits, the leaf keeps its probe).
+    #[arg(long)]
+    pub probes_max_probes: Option<u32>,
     /// Probe octree: share of a probe's surfels inside its cube from which its leaf splits
     /// (default 0.5).
     #[arg(long)]
@@ -275,6 +279,7 @@ impl GiArgs {
         set(&mut probes.multi_bounce, self.probes_multi_bounce);
         set(&mut probes.max_depth, self.probes_max_depth);
         set(&mut probes.min_depth, self.probes_min_depth);
+        set(&mut probes.max_probes, self.probes_max_probes);
         set(&mut probes.split_fraction, self.probes_split_fraction);
         set(&mut probes.free_fraction, self.probes_free_fraction);
         set(&mut probes.gather, self.probes_gather);

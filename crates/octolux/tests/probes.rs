@@ -371,7 +371,7 @@ fn scene_files_set_the_probe_settings() {
     let origin = std::path::Path::new("scene.toml");
     let table: toml::Table = toml::from_str(
         "[probes]\ngrid = [8, 9, 10]\nsurfels = 128\nlattice = \"lat-long\"\nencoding = \"octahedron\"\nmulti_bounce = true\n\
-         max_depth = 4\nmin_depth = 1\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"\n\
+         max_depth = 4\nmin_depth = 1\nmax_probes = 300\nsplit_fraction = 0.6\nfree_fraction = 0.2\ngather = \"all\"\nsurfel_range = \"cube\"\n\
          visibility = \"none\"\nrays = \"voxels\"\nvoxel_resolution = 64",
     )
     .unwrap();
@@ -382,7 +382,7 @@ fn scene_files_set_the_probe_settings() {
     assert_eq!(s.encoding, Encoding::Octahedron);
     assert!(s.multi_bounce);
     assert_eq!(s.probe_count(), 720);
-    assert_eq!((s.max_depth, s.min_depth), (4, 1));
+    assert_eq!((s.max_depth, s.min_depth, s.max_probes), (4, 1, 300));
     assert_eq!((s.split_fraction, s.free_fraction), (0.6, 0.2));
     assert_eq!(s.gather, OctreeGather::All);
     assert_eq!(s.surfel_range, SurfelRange::Cube);
@@ -424,7 +424,7 @@ fn bad_probe_settings_are_clear_errors() {
     let scene = octolux::scene::cornell::scene();
     // The grid's settings (the octree checks them as well), then the octree's own.
     type Change = fn(&mut ProbeSettings);
-    let cases: [(&str, Change, &str); 15] = [
+    let cases: [(&str, Change, &str); 16] = [
         ("probes-grid", |s| s.grid = [21, 1, 21], "probes grid"),
         ("probes-grid", |s| s.surfels = Some(4), "probes surfels"),
         (
@@ -490,15 +490,19 @@ fn bad_probe_settings_are_clear_errors() {
             |s| s.split_fraction = f32::NAN,
             "split_fraction",
         ),
-        // 32769 probes x 1024 surfels x 48 bytes: more than one storage binding holds.
+        // The full tree of depth 5, 36864 probes x 1024 surfels x 48 bytes: more than one
+        // storage binding holds.
         (
             "probes-octree",
             |s| {
                 s.max_depth = 5;
+                s.max_probes = 0;
                 s.surfels = Some(1024);
             },
             "per storage binding",
         ),
+        // Fewer slots than the complete levels down to min_depth 2 need (72).
+        ("probes-octree", |s| s.max_probes = 71, "probes max_probes"),
     ];
     for (technique, change, what) in cases {
         let mut probes = ProbeSettings::default();
@@ -507,5 +511,58 @@ fn bad_probe_settings_are_clear_errors() {
             .err()
             .expect("must fail");
         assert!(err.to_string().contains(what), "{err}");
+    }
+}
+
+#[test]
+fn a_probe_budget_bounds_the_octree() {
+    // The budget sizes the buffers: a tree that would grow past it stops refining (a split
+    // that finds no free slot waits, the leaf keeps its probe) and keeps lighting the scene;
+    // depth 5, whose full tree of 36864 slots x 128 surfels needs more than the 128 MiB of one
+    // storage binding, runs within the default budget.
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = octolux::scene::cornell::scene();
+    let mean = |r: &Renderer| {
+        let image = r.read_hdr().unwrap();
+        image.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / image.pixels.len() as f32
+    };
+    let mut off = Renderer::new(&ctx, &scene, settings("none", ProbeSettings::default())).unwrap();
+    off.render(&scene, 0.0).unwrap();
+    let direct = mean(&off);
+    for (max_depth, max_probes, most) in [(4, 100, 100), (5, 0, 0), (5, 2048, 2048)] {
+        let probes = ProbeSettings {
+            max_depth,
+            max_probes,
+            ..Default::default()
+        };
+        let r = Renderer::new(&ctx, &scene, settings("probes-octree", probes));
+        if most == 0 {
+            let err = r
+                .err()
+                .expect("the full depth-5 tree must not fit")
+                .to_string();
+            assert!(err.contains("per storage binding"), "{err}");
+            continue;
+        }
+        let mut r = r.unwrap();
+        for _ in 0..6 {
+            r.render(&scene, 0.0).unwrap();
+        }
+        let t = r
+            .technique()
+            .as_any()
+            .and_then(|a| a.downcast_ref::<octolux::gi::probes::ProbesOctree>())
+            .unwrap();
+        let kept = t.probe_count(&ctx).unwrap();
+        println!("depth {max_depth}, budget {max_probes}: {kept} probes");
+        assert!(kept > 64 && kept <= most, "{kept} probes, budget {most}");
+        // The bounce adds half again to the box's direct light (measured: 1.57x and 1.55x).
+        let with_gi = mean(&r);
+        println!("mean {with_gi}, without GI {direct}");
+        assert!(
+            with_gi > 1.3 * direct,
+            "mean {with_gi} against {direct} without GI"
+        );
     }
 }

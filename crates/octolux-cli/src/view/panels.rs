@@ -283,6 +283,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 changed |= drag(ui, "min depth (complete down to)", &mut p.min_depth, 0, 5);
                 // Keep it within the depth, as the settings require.
                 p.min_depth = p.min_depth.min(p.max_depth);
+                changed |= drag(ui, "max probes (0: full tree)", &mut p.max_probes, 0, 36864);
                 changed |= ui
                     .add(Slider::new(&mut p.split_fraction, 0.05..=1.0).text("split fraction"))
                     .changed();

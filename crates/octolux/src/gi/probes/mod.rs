@@ -143,6 +143,13 @@ pub struct ProbeSettings {
     /// 64 probes at least; with `004`'s rule open scenes collapse to one probe and a wall's
     /// middle loses its probes, docs/probes.md).
     pub min_depth: u32,
+    /// `probes-octree`: probe slots, the budget of the buffers (default 2048: 16 MiB of
+    /// surfels with 128 each; the shipped scenes keep at most 890). 0: the full tree of
+    /// `max_depth` (4608 slots at depth 4, 36864 at depth 5). A split that finds no free slot
+    /// waits and the leaf keeps its probe; the tree stops refining, the image stays lit. At
+    /// least the complete levels down to `min_depth` plus the probes their parents hold while
+    /// they split (72 at `min_depth` 2).
+    pub max_probes: u32,
     /// `probes-octree`: a leaf splits when at least this share of its probe's surfels land
     /// inside its cube (`004`: 1/2; default 0.5).
     pub split_fraction: f32,
@@ -180,6 +187,7 @@ impl Default for ProbeSettings {
             backface_limit: 0.25,
             max_depth: 4,
             min_depth: 2,
+            max_probes: 2048,
             split_fraction: 0.5,
             free_fraction: 0.0,
             gather: OctreeGather::Octree,
@@ -258,6 +266,16 @@ impl ProbeSettings {
             "probes min_depth",
             "0..=max_depth",
         )?;
+        let least = self.least_probes();
+        check(
+            self.max_probes == 0 || self.max_probes >= least,
+            "probes max_probes",
+            &format!(
+                "0 (the full tree) or at least {least}: the complete levels down to min_depth {} \
+                 and the probes their parents hold while they split",
+                self.min_depth
+            ),
+        )?;
         check(
             self.free_fraction.is_finite()
                 && self.split_fraction.is_finite()
@@ -286,6 +304,24 @@ impl ProbeSettings {
     /// once, so that the GPU and its CPU twin agree on every adapter.
     pub fn max_back_faces(&self) -> u32 {
         (self.backface_limit as f64 * self.surfel_count() as f64).floor() as u32
+    }
+
+    /// Probe slots the complete levels down to `min_depth` need: `8^min_depth` and, while the
+    /// level above splits into them, its `8^(min_depth - 1)`.
+    pub fn least_probes(&self) -> u32 {
+        let leaves = 8u32.pow(self.min_depth.min(5));
+        leaves + leaves / 8
+    }
+
+    /// Probe slots of `probes-octree`: `max_probes`, or the full tree's where that is 0 or
+    /// more.
+    pub fn octree_probe_slots(&self) -> u32 {
+        let full = self.octree_rule().full_capacity().1;
+        if self.max_probes == 0 {
+            full
+        } else {
+            self.max_probes.min(full)
+        }
     }
 
     /// The octree's split/free rule. Its surfel count is the octree's (unset: 128), since

@@ -496,7 +496,8 @@ impl ProbesOctree {
         settings.validate()?;
         let (lo, size) = root_cube(scene.gi_bounds_at(0.0))?;
         let rule = settings.octree_rule();
-        let octree = GpuOctree::new(ctx, rule, lo, size)?;
+        let (len, _) = rule.full_capacity();
+        let octree = GpuOctree::with_room(ctx, rule, lo, size, len, settings.octree_probe_slots())?;
         let bias = settings.normal_bias * size * 2f32.powi(-(rule.max_depth as i32));
         let layout = ProbeLayout {
             lo,
