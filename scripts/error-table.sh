@@ -10,8 +10,8 @@
 # Environment: GI (technique list, default: all), SIZE (default 160x90), SPP (reference
 # samples, default 128), SCENES (default: every scene file in scenes/), WARMUP (frames before
 # the measured one, default 3; techniques that converge over frames, such as probes-octree at
-# max_depth 4, need more), OCTOLUX_SCENES (where the external models lie, default
-# ../shared/scenes).
+# max_depth 4, need more), ARGS (more `bench` arguments, such as a technique's settings),
+# OCTOLUX_SCENES (where the external models lie, default ../shared/scenes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -30,7 +30,7 @@ for scene in $scenes; do
   name=$(basename "${scene%.*}")
   echo "error-table: $name" >&2
   "$bin" bench "$scene" --gi "$gi" --width "${size%x*}" --height "${size#*x}" --warmup "$warmup" \
-    --frames 1 --spp "$spp" --seed 7 --against unlimited --no-work-counts --no-flicker \
+    --frames 1 --spp "$spp" --seed 7 --against unlimited --no-work-counts --no-flicker ${ARGS:-} \
     --json "$out/$name.json" --out-dir "$out/$name" > "$out/$name.txt"
 done
 

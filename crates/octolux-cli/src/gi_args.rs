@@ -103,6 +103,10 @@ pub struct GiArgs {
     /// node), `true` or `false` (default: isotropic, scaled by the footprint).
     #[arg(long)]
     pub vct_anisotropic: Option<bool>,
+    /// vct-svo: only the voxels' bounce gather reads the anisotropic radiance (default false;
+    /// docs/vct.md, "Anisotropic radiance in the bounce only").
+    #[arg(long)]
+    pub vct_anisotropic_bounce: Option<bool>,
     /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over
     /// frames, `true` (default) or `false` (one bounce).
     #[arg(long)]
@@ -254,6 +258,7 @@ impl GiArgs {
         set(&mut vct.octree_resolution, self.vct_octree_resolution);
         set(&mut vct.dynamic_reserve, self.vct_dynamic_reserve);
         set(&mut vct.anisotropic, self.vct_anisotropic);
+        set(&mut vct.anisotropic_bounce, self.vct_anisotropic_bounce);
         set(&mut vct.roughness, self.vct_roughness);
         set(&mut vct.specular_steps, self.vct_specular_steps);
         set(&mut vct.multi_bounce, self.vct_multi_bounce);

@@ -629,3 +629,41 @@ fn a_fixed_work_specular_cone_takes_its_steps_and_no_more() {
         );
     }
 }
+
+#[test]
+fn anisotropic_bounce_changes_only_the_voxels_bounce() {
+    // `anisotropic_bounce` routes the anisotropic radiance to the voxels' bounce gather alone:
+    // with one bounce (no voxel gathers) the image is the isotropic one bit for bit; with
+    // multiple bounces it differs from the isotropic image (the voxels' bounce reads the
+    // directional values) and from the fully anisotropic one (the pixels' cones do not).
+    let ctx = GpuContext::shared(&GpuOptions::default())
+        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let scene = octolux::scene::cornell::scene();
+    let image = |multi_bounce: bool, anisotropic: bool, anisotropic_bounce: bool| {
+        let vct = octolux::gi::vct::VctSettings {
+            multi_bounce,
+            anisotropic,
+            anisotropic_bounce,
+            ..small()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings("vct-svo", vct)).unwrap();
+        for _ in 0..3 {
+            r.render(&scene, 0.0).unwrap();
+        }
+        r.read_hdr().unwrap().pixels
+    };
+    let table: toml::Table = toml::from_str("[vct]\nanisotropic_bounce = true\n").unwrap();
+    let parsed = GiSettings::from_table(&table, std::path::Path::new("scene.toml")).unwrap();
+    assert!(parsed.vct.anisotropic_bounce && !parsed.vct.anisotropic);
+    assert_eq!(image(false, false, true), image(false, false, false));
+    let iso = image(true, false, false);
+    let bounce = image(true, false, true);
+    let all = image(true, true, false);
+    let differing = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).filter(|(x, y)| x != y).count();
+    let (from_iso, from_all) = (differing(&bounce, &iso), differing(&bounce, &all));
+    println!(
+        "anisotropic bounce: {from_iso} pixels differ from isotropic, {from_all} from anisotropic"
+    );
+    assert!(bounce.iter().all(|p| p.is_finite()));
+    assert!(from_iso * 4 > bounce.len() && from_all * 4 > bounce.len());
+}

@@ -232,6 +232,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 changed |= ui
                     .checkbox(&mut v.anisotropic, "anisotropic radiance")
                     .changed();
+                changed |= ui
+                    .checkbox(&mut v.anisotropic_bounce, "anisotropic in the bounce only")
+                    .changed();
                 VctStructure::Octree
             } else {
                 changed |= combo(

@@ -117,6 +117,7 @@ impl VctClipmap {
                 trace: "gi/vct/clipmap_trace",
                 bounce: "gi/vct/clipmap_bounce",
                 features: Vec::new(),
+                bounce_features: Vec::new(),
                 octree: false,
             },
             settings,

@@ -117,6 +117,7 @@ impl VctSvo {
                 trace: "gi/vct/svo_trace",
                 bounce: "gi/vct/svo_bounce",
                 features: vec![("anisotropic", settings.anisotropic)],
+                bounce_features: vec![("anisotropic", settings.anisotropic_radiance_in_bounce())],
                 octree: true,
             },
             settings,
@@ -146,7 +147,7 @@ impl VctSvo {
             bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks())),
             wgpu::BufferUsages::STORAGE,
         );
-        let aniso = if settings.anisotropic {
+        let aniso = if settings.anisotropic || settings.anisotropic_bounce {
             AnisoBinding::Values(SvoAnisoRadiance::new(ctx, &svo)?)
         } else {
             AnisoBinding::Placeholder(ctx.create_buffer(

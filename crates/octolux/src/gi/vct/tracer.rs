@@ -16,14 +16,16 @@ use crate::Result;
 
 /// The structure a [`ConeTracer`] marches: its trace module (composed in as
 /// `gi/vct/structure` for `trace.wgsl` and the marcher), its bounce gather's module and the `@if`
-/// flags both are composed with.
+/// flags each is composed with.
 pub(crate) struct TraceStructure {
     /// Module path of the structure's `vct_sample` and `vct_surface_voxel`.
     pub trace: &'static str,
     /// Module path of the voxels' bounce gather (its entry points).
     pub bounce: &'static str,
-    /// The modules' `@if` flags.
+    /// The pixels' gather's `@if` flags.
     pub features: Vec<(&'static str, bool)>,
+    /// The voxels' bounce gather's `@if` flags.
+    pub bounce_features: Vec<(&'static str, bool)>,
     /// Whether its samples are octree lookups (counted as work after the cones' samples).
     pub octree: bool,
 }
@@ -56,14 +58,15 @@ impl TraceStructure {
 }
 
 impl TraceStructure {
-    /// The WGSL of `main` over this structure with the cone set of `cones` cones.
-    fn compose(&self, main: &str, cones: u32) -> String {
+    /// The WGSL of `main` over this structure with the cone set of `cones` cones and the
+    /// `@if` flags `features`.
+    fn compose(&self, main: &str, cones: u32, features: &[(&str, bool)]) -> String {
         let set = cone_set_wgsl(cones);
         let structure = module_source(self.trace)
             .unwrap_or_else(|| panic!("internal shader error: no module {}", self.trace));
         library_shader_with(
             main,
-            &self.features,
+            features,
             &[("gi/vct/cone_set", &set), ("gi/vct/structure", structure)],
         )
     }
@@ -140,9 +143,10 @@ impl ConeTracer {
         height: u32,
     ) -> ConeTracer {
         structure.features.push(ctx.work_feature());
+        structure.bounce_features.push(ctx.work_feature());
         let module = ctx.shader(
             "vct trace",
-            &structure.compose("gi/vct/trace", diffuse.cones),
+            &structure.compose("gi/vct/trace", diffuse.cones, &structure.features),
         );
         let trace = ctx.compute_pipeline("vct trace", &module, "main");
         let specular = settings.specular.then(|| {
@@ -293,9 +297,11 @@ impl ConeTracer {
     /// The bounce gather's module (the structure's bounce module with the bounce's cone set),
     /// whose entry points the structure makes pipelines of.
     pub(crate) fn bounce_module(&self, ctx: &GpuContext) -> wgpu::ShaderModule {
-        let source = self
-            .structure
-            .compose(self.structure.bounce, self.bounce.cones);
+        let source = self.structure.compose(
+            self.structure.bounce,
+            self.bounce.cones,
+            &self.structure.bounce_features,
+        );
         ctx.shader("vct bounce", &source)
     }
 
