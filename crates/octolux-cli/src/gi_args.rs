@@ -209,6 +209,14 @@ pub struct GiArgs {
     /// 16..=1024 (default 128).
     #[arg(long)]
     pub probes_voxel_resolution: Option<u32>,
+    /// Probes: offset of the gather point along the surface normal, in probe spacings (the
+    /// octree's: its finest cell), 0..=1 (default 0.2).
+    #[arg(long)]
+    pub probes_normal_bias: Option<f32>,
+    /// Probes: share of a probe's rays that may hit back faces before it counts as inside
+    /// geometry and is left out of the gather, 0..=1 (default 0.25).
+    #[arg(long)]
+    pub probes_backface_limit: Option<f32>,
     /// VPL GI: light bounces, 1..=3; later bounces are spawned through the octree (default 1).
     #[arg(long)]
     pub vpl_bounces: Option<u32>,
@@ -292,6 +300,8 @@ impl GiArgs {
         set(&mut probes.visibility, self.probes_visibility);
         set(&mut probes.rays, self.probes_rays);
         set(&mut probes.voxel_resolution, self.probes_voxel_resolution);
+        set(&mut probes.normal_bias, self.probes_normal_bias);
+        set(&mut probes.backface_limit, self.probes_backface_limit);
     }
 }
 

@@ -39,6 +39,13 @@ fn octree_flags_render_and_bad_values_are_clear_errors() {
             1,
         ),
         (&["--probes-max-depth", "9"][..], "probes max_depth", 1),
+        (&["--probes-normal-bias", "2"][..], "probes normal_bias", 1),
+        (
+            &["--probes-backface-limit", "NaN"][..],
+            "probes backface_limit",
+            1,
+        ),
+        (&["--probes-max-probes", "8"][..], "probes max_probes", 1),
         (&["--probes-min-depth=-1"][..], "--probes-min-depth", 2),
         (&["--probes-min-depth", "two"][..], "--probes-min-depth", 2),
         (&["--probes-rays", "cones"][..], "--probes-rays", 2),
