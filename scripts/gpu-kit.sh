@@ -1,20 +1,29 @@
 #!/usr/bin/env bash
 # Packs what a check on another machine with a GPU needs, so that machine needs no toolchain:
 # the release `octolux` binary, every test binary (stripped), the shared scenes, and `run.sh`,
-# which runs the whole test suite (default thread count) and the performance bench there.
+# which runs the performance bench and the whole test suite there.
 #
 #   scripts/gpu-kit.sh [KIT_DIR]          # default: gpu-kit/ (ignored by git)
 #   # copy the repository checkout with KIT_DIR inside to the GPU machine, then there:
 #   KIT_DIR/run.sh [RESULTS_DIR]          # default: KIT_DIR/results/
-#   (tests, then the bench, then the voxel structures' measuring tests with VOXEL_TABLE=full)
-#   (BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3" for a quick try;
-#    LOADER_DEBS=DIR: .deb packages of the Vulkan loader to unpack first on a machine without one)
+#
+# The kit is split so that no transfer has to carry all of it: `base.tar.xz` (the release
+# binary and the scenes), `cli.tar.xz` (the debug binaries the CLI and example tests run) and
+# `tests-N.tar.xz` (the test binaries in KIT_PARTS groups, default 2). `run.sh`
+# runs whatever parts are present (a part already unpacked by an earlier run is kept), steps
+# chosen by STEPS (default "bench tests"; add "voxel" for the voxel structures' tables):
+#   BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3"   a quick try
+#   BENCH_SCENES="scenes/cornell-box.toml ..."                     other scenes
+#   TEST_JOBS=4       test binaries run at once (each with the default thread count)
+#   TEST_TIMEOUT=180  seconds per test binary
+#   LOADER_DEBS=DIR   .deb packages of the Vulkan loader to unpack first on a machine without one
 #
 # The test binaries find the repository's `scenes/` through the path the repository had when
 # they were built; `run.sh` links that path to the checkout it runs in when it is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kit="${1:-gpu-kit}"
+parts="${KIT_PARTS:-2}"
 scenes="${OCTOLUX_SCENES:-../shared/scenes}"
 
 cargo build --release -p octolux-cli
@@ -23,32 +32,40 @@ mapfile -t tests < <(cargo test --workspace --no-run --message-format=json 2>/de
 [ "${#tests[@]}" -gt 0 ] || { echo "gpu-kit: no test binaries were built" >&2; exit 1; }
 
 rm -rf "$kit"
-mkdir -p "$kit/stage/tests" "$kit/stage/bin"
+mkdir -p "$kit/stage/base/bin" "$kit/stage/cli/bin"
+for ((p = 1; p <= parts; p++)); do mkdir -p "$kit/stage/tests-$p"; done
+i=0
 for t in "${tests[@]}"; do
-  strip -o "$kit/stage/tests/$(basename "$t")" "$t"
+  strip -o "$kit/stage/tests-$((i % parts + 1))/$(basename "$t")" "$t"
+  i=$((i + 1))
 done
-strip -o "$kit/stage/bin/octolux" target/release/octolux
+strip -o "$kit/stage/base/bin/octolux" target/release/octolux
 # The CLI tests and the example's run the debug binaries cargo built for them, by their
 # build-time paths.
-strip -o "$kit/stage/bin/octolux-test" target/debug/octolux
-strip -o "$kit/stage/bin/deferred-test" target/debug/deferred
+strip -o "$kit/stage/cli/bin/octolux-test" target/debug/octolux
+strip -o "$kit/stage/cli/bin/deferred-test" target/debug/deferred
 if [ -d "$scenes" ]; then
-  mkdir -p "$kit/stage/shared-scenes"
-  cp -r "$scenes"/. "$kit/stage/shared-scenes/"
+  mkdir -p "$kit/stage/base/shared-scenes"
+  cp -r "$scenes"/. "$kit/stage/base/shared-scenes/"
 else
   echo "gpu-kit: no shared scenes at $scenes (set OCTOLUX_SCENES); tests that need them will say so" >&2
 fi
-pwd >"$kit/stage/repo-root"
-tar -C "$kit/stage" -cf - . | xz -9e -T0 >"$kit/kit.tar.xz"
+pwd >"$kit/stage/base/repo-root"
+for d in "$kit"/stage/*/; do
+  name="$(basename "$d")"
+  tar -C "$d" -cf - . | xz -9e -T0 >"$kit/$name.tar.xz"
+done
 rm -rf "$kit/stage"
 
 cat >"$kit/run.sh" <<'EOF'
 #!/usr/bin/env bash
-# Runs the packed test binaries and the bench on this machine's GPU; results in RESULTS_DIR.
+# Runs the packed bench and test binaries on this machine's GPU; results in RESULTS_DIR.
 set -uo pipefail
 kit="$(cd "$(dirname "$0")" && pwd)"
 repo="$(cd "$kit/.." && pwd)"
 results="${1:-$kit/results}"
+steps=" ${STEPS:-bench tests} "
+unpacked=/tmp/octolux-kit
 if ! ldconfig -p | grep -q 'libvulkan\.so\.1' && [ -n "${LOADER_DEBS:-}" ]; then
   for f in "$LOADER_DEBS"/*.deb; do dpkg -x "$f" /; done
   ldconfig
@@ -56,52 +73,75 @@ fi
 # Driver manifests outside the loader's search path (some container layouts).
 nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 if [ -z "${VK_DRIVER_FILES:-}" ] && [ -f "$nvidia_icd" ]; then export VK_DRIVER_FILES="$nvidia_icd"; fi
-rm -rf /tmp/octolux-kit
-mkdir -p "$results" /tmp/octolux-kit
-xz -dc "$kit/kit.tar.xz" | tar -C /tmp/octolux-kit -xf -
-root="$(cat /tmp/octolux-kit/repo-root)"
+mkdir -p "$results" "$unpacked"
+# Each part unpacks into its own folder; parts unpacked by an earlier run stay.
+for part in "$kit"/*.tar.xz; do
+  name="$(basename "$part" .tar.xz)"
+  rm -rf "${unpacked:?}/$name" && mkdir -p "$unpacked/$name"
+  xz -dc "$part" | tar -C "$unpacked/$name" -xf - || { echo "run.sh: cannot unpack $part"; exit 1; }
+done
+[ -f "$unpacked/base/repo-root" ] || { echo "run.sh: base.tar.xz was never unpacked here"; exit 1; }
+root="$(cat "$unpacked/base/repo-root")"
 if [ ! -e "$root" ]; then mkdir -p "$(dirname "$root")" && ln -s "$repo" "$root"; fi
 mkdir -p "$root/target/debug"
-[ -e "$root/target/debug/octolux" ] || cp /tmp/octolux-kit/bin/octolux-test "$root/target/debug/octolux"
-[ -e "$root/target/debug/deferred" ] || cp /tmp/octolux-kit/bin/deferred-test "$root/target/debug/deferred"
-export OCTOLUX_SCENES=/tmp/octolux-kit/shared-scenes XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
-bin=/tmp/octolux-kit/bin/octolux
-"$bin" render --gi none --width 64 --height 64 --out /tmp/octolux-kit/probe.png -v 2>&1 |
-  tee "$results/adapter.txt"
-if [ -z "${DISPLAY:-}" ] && ! command -v Xvfb >/dev/null; then
-  echo "note: no DISPLAY and no Xvfb here: view_cli (the viewer's window tests) fails saying so"
+# The CLI tests run target/debug/octolux: the debug build when cli.tar.xz came along, else
+# the release binary (same behaviour, without debug assertions).
+if [ -f "$unpacked/cli/bin/octolux-test" ]; then
+  cp "$unpacked/cli/bin/octolux-test" "$root/target/debug/octolux"
+  cp "$unpacked/cli/bin/deferred-test" "$root/target/debug/deferred"
+elif [ ! -e "$root/target/debug/octolux" ]; then
+  cp "$unpacked/base/bin/octolux" "$root/target/debug/octolux"
 fi
+export OCTOLUX_SCENES="$unpacked/base/shared-scenes" XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+bin="$unpacked/base/bin/octolux"
+"$bin" render --gi none --width 64 --height 64 --out "$unpacked/probe.png" -v 2>&1 |
+  tee "$results/adapter.txt"
 failed=0
-for t in /tmp/octolux-kit/tests/*; do
-  log="$results/test-$(basename "$t").log"
-  # A hung binary must not take the bench's time: TEST_TIMEOUT seconds each (default 180).
-  (cd "$root/crates/octolux" && timeout "${TEST_TIMEOUT:-180}" "$t") >"$log" 2>&1
-  rc=$?
-  echo "== $(basename "$t"): exit $rc; $(grep -E "^test result" "$log" | tail -1)"
-  grep -E "panicked|FAILED" "$log" | head -5
-  [ "$rc" -eq 0 ] || failed=$((failed + 1))
-done
-# BENCH_ARGS replaces the size and frame counts (e.g. for a quick try on a CPU adapter).
-read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 5 --frames 20}"
-(cd "$root" && "$bin" bench scenes/cornell-box.toml scenes/cornell-afternoon.toml scenes/crytek-sponza.toml \
-  --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree --no-reference "${args[@]}" --json "$results/bench.json") 2>&1 |
-  tee "$results/bench.txt"
-# The probes' two ray structures while the bunny turns (docs/probes.md, "Rays").
-for rays in bvh voxels; do
-  (cd "$root" && "$bin" bench scenes/cornell-bunny-turn.toml --gi probes-grid,probes-octree \
-    --probes-rays "$rays" --time 4.0 --fps 60 --no-reference "${args[@]}" \
-    --json "$results/bench-probe-rays-$rays.json") 2>&1 | tee "$results/bench-probe-rays-$rays.txt"
-done
-# The voxel structures' measuring tests, with their tables (docs/voxels.md, docs/performance.md).
-for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
-  set -- $spec
-  b="$(ls /tmp/octolux-kit/tests/"$1"-* | head -1)"
-  echo "== $1 $2" | tee -a "$results/voxel-perf.txt"
-  (cd "$root/crates/octolux" && VOXEL_TABLE=full timeout 300 "$b" "$2" --nocapture) 2>&1 |
-    grep -v '^\[' | tee -a "$results/voxel-perf.txt"
-done
-echo "test binaries failed: $failed"
+if [[ "$steps" == *" bench "* ]]; then
+  # BENCH_ARGS replaces the size and frame counts (e.g. for a quick try on a CPU adapter).
+  read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 3 --frames 10}"
+  read -r -a scenes <<<"${BENCH_SCENES:-scenes/cornell-box.toml scenes/crytek-sponza.toml scenes/sponza-flythrough.toml}"
+  (cd "$root" && "$bin" bench "${scenes[@]}" \
+    --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree --no-reference \
+    "${args[@]}" --json "$results/bench.json") >"$results/bench.txt" 2>&1
+  echo "== bench: exit $?"
+  grep -v '^\[' "$results/bench.txt"
+fi
+if [[ "$steps" == *" tests "* ]]; then
+  if [ -z "${DISPLAY:-}" ] && ! command -v Xvfb >/dev/null; then
+    echo "note: no DISPLAY and no Xvfb here: view_cli (the viewer's window tests) fails saying so"
+  fi
+  run_test() {
+    t="$1"
+    log="$results/test-$(basename "$t").log"
+    # A hung binary must not take the others' time: TEST_TIMEOUT seconds each.
+    (cd "$root/crates/octolux" && timeout "${TEST_TIMEOUT:-180}" "$t") >"$log" 2>&1
+    rc=$?
+    echo "== $(basename "$t"): exit $rc; $(grep -E "^test result" "$log" | tail -1)"
+    grep -E "panicked|FAILED" "$log" | head -5
+    [ "$rc" -eq 0 ]
+  }
+  export -f run_test
+  export results root
+  ls "$kit"/tests-*.tar.xz >/dev/null 2>&1 || echo "run.sh: no tests-N.tar.xz in $kit"
+  for part in "$kit"/tests-*.tar.xz; do
+    [ -e "$part" ] || continue
+    ls "$unpacked/$(basename "$part" .tar.xz)"/*
+  done | xargs -P "${TEST_JOBS:-4}" -I{} bash -c 'run_test {}'
+  failed=$?
+fi
+if [[ "$steps" == *" voxel "* ]]; then
+  # The voxel structures' measuring tests, with their tables (docs/voxels.md).
+  for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
+    set -- $spec
+    b="$(ls "$unpacked"/tests-*/"$1"-* | head -1)"
+    echo "== $1 $2" | tee -a "$results/voxel-perf.txt"
+    (cd "$root/crates/octolux" && VOXEL_TABLE=full timeout 300 "$b" "$2" --nocapture) 2>&1 |
+      grep -v '^\[' | tee -a "$results/voxel-perf.txt"
+  done
+fi
+echo "test binaries failed: $([ "$failed" -eq 0 ] && echo none || echo "some (xargs $failed)")"
 exit "$failed"
 EOF
 chmod +x "$kit/run.sh"
-du -sh "$kit"
+du -sh "$kit"/*

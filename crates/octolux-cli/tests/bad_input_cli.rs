@@ -391,10 +391,13 @@ fn a_frame_that_overflows_is_an_error() {
     )
     .unwrap();
     let out = dir.join("bright.exr");
-    fails_fast(
+    let stderr = fails_fast(
         &small_render(s(&scene), "vct-clipmap", s(&out)),
-        &["--gi vct-clipmap", "inf", "half floats"],
+        &["--gi vct-clipmap", "produced [", "half floats"],
     );
+    // The overflowed value is inf or NaN (inf - inf, inf x 0) depending on the adapter's
+    // arithmetic; the message names it either way.
+    assert!(stderr.contains("inf") || stderr.contains("NaN"), "{stderr}");
     assert!(!out.exists());
 }
 

@@ -519,9 +519,19 @@ fn a_probe_budget_bounds_the_octree() {
     // The budget sizes the buffers: a tree that would grow past it stops refining (a split
     // that finds no free slot waits, the leaf keeps its probe) and keeps lighting the scene;
     // depth 5, whose full tree of 36864 slots x 128 surfels needs more than the 128 MiB of one
-    // storage binding, runs within the default budget.
-    let ctx = GpuContext::shared(&GpuOptions::default())
-        .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    // storage binding, runs within the default budget. The device is capped at WebGPU's
+    // guaranteed 128 MiB per binding: a data-centre GPU's limit holds the full tree.
+    const CAP: u64 = 128 << 20;
+    let ctx = GpuContext::shared(&GpuOptions {
+        max_storage_binding: Some(CAP),
+        ..GpuOptions::default()
+    })
+    .expect("a GPU adapter (install mesa-vulkan-drivers)");
+    let limit = ctx.device.limits().max_storage_buffer_binding_size;
+    assert!(
+        limit <= CAP,
+        "the device's binding limit {limit} is not capped"
+    );
     let scene = octolux::scene::cornell::scene();
     let mean = |r: &Renderer| {
         let image = r.read_hdr().unwrap();
