@@ -14,6 +14,7 @@
 # chosen by STEPS (default "bench tests"; add "voxel" for the voxel structures' tables):
 #   BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3"   a quick try
 #   BENCH_SCENES="scenes/cornell-box.toml ..."                     other scenes
+#   BENCH_GI=vpl,vct-svo                                             other techniques
 #   TEST_JOBS=4       test binaries run at once (each with the default thread count)
 #   TEST_TIMEOUT=180  seconds per test binary
 #   LOADER_DEBS=DIR   .deb packages of the Vulkan loader to unpack first on a machine without one
@@ -102,7 +103,7 @@ if [[ "$steps" == *" bench "* ]]; then
   read -r -a args <<<"${BENCH_ARGS:---width 1920 --height 1080 --warmup 3 --frames 10}"
   read -r -a scenes <<<"${BENCH_SCENES:-scenes/cornell-box.toml scenes/crytek-sponza.toml scenes/sponza-flythrough.toml}"
   (cd "$root" && "$bin" bench "${scenes[@]}" \
-    --gi none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree --no-reference \
+    --gi "${BENCH_GI:-none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree}" --no-reference \
     "${args[@]}" --json "$results/bench.json") >"$results/bench.txt" 2>&1
   echo "== bench: exit $?"
   grep -v '^\[' "$results/bench.txt"

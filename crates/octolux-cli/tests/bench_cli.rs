@@ -344,9 +344,11 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
 }
 
 #[test]
-fn bounce_gathers_launch_a_lane_per_listed_voxel() {
-    // The cone tracers' bounce gathers visit the listed voxels only: the lanes launched are
-    // the voxels that gathered, rounded up to whole workgroups of 64, whatever the structure.
+fn bounce_gathers_launch_lanes_for_the_cones_of_each_listed_voxel() {
+    // The cone tracers' bounce gathers visit the listed voxels only, their cones spread over
+    // lanes: the lanes launched are the voxels that gathered times their cones rounded up to
+    // a power of two (at most 16), rounded up to whole workgroups of 64, whatever the
+    // structure.
     let dir = temp_dir("lanes");
     let json = dir.join("lanes.json");
     let output = bench(
@@ -366,7 +368,10 @@ fn bounce_gathers_launch_a_lane_per_listed_voxel() {
         let count = |q: &str| work.iter().find(|(name, _)| name == q).unwrap().1;
         let voxels = count("voxels");
         assert!(voxels > 100, "{pass}: {work:?}");
-        assert_eq!(count("lanes"), voxels.div_ceil(64) * 64, "{pass}: {work:?}");
+        let cones = count("cones") / voxels;
+        assert_eq!(cones * voxels, count("cones"), "{pass}: {work:?}");
+        let lanes = voxels * cones.next_power_of_two().min(16);
+        assert_eq!(count("lanes"), lanes.div_ceil(64) * 64, "{pass}: {work:?}");
     }
 }
 

@@ -4,15 +4,17 @@
 // one invocation per slot leaves most lanes of a GPU's SIMD group idle while one marches its
 // cones. A bounce's `bounce_list` entry point calls `list_slot` for every slot (compacted per
 // workgroup: one global atomic per workgroup, not per voxel), `bounce_args` turns the count
-// into an indirect dispatch, and the gather takes one listed slot per invocation. The list's
-// order varies between runs; no voxel's gather depends on it.
+// into an indirect dispatch, and the gather takes one listed slot per item, its cones spread
+// over the item's lanes (`cone_lanes.wgsl`). The list's order varies between runs; no voxel's gather depends on it.
 
 // Every slot's bounce irradiance (RGB as half floats in two words), written by the gathers.
+
+import octolux::gi::vct::cone_set::CONE_LANES;
 @group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
 @group(0) @binding(27) var<storage, read_write> listed_slots: array<u32>;
 // Cleared before the list is made.
 @group(0) @binding(28) var<storage, read_write> listed_count: atomic<u32>;
-// The gather's indirect dispatch: x, y, z workgroups of 64.
+// The gather's indirect dispatch: x, y, z workgroups of 64 lanes.
 @group(0) @binding(29) var<storage, read_write> gather_args: array<u32, 3>;
 
 var<workgroup> listed_here: atomic<u32>;
@@ -59,9 +61,10 @@ fn listed_slot(k: u32) -> u32 {
     return listed_slots[k];
 }
 
+// The gather's workgroups: CONE_LANES lanes per listed slot (`cone_lanes.wgsl`).
 @compute @workgroup_size(1)
 fn bounce_args() {
-    let groups = (atomicLoad(&listed_count) + 63u) / 64u;
+    let groups = (atomicLoad(&listed_count) * CONE_LANES + 63u) / 64u;
     gather_args[0] = min(groups, 65535u);
     gather_args[1] = (groups + 65534u) / 65535u;
     gather_args[2] = 1u;

@@ -5,8 +5,8 @@
 // frame carries the light one bounce further.
 //
 // `bounce_list` lists the voxels that gather and zeroes the other slots' bounce,
-// `bounce_args` (`bounce_list.wgsl`) sizes the gather, and `bounce` gathers one listed voxel
-// per invocation.
+// `bounce_args` (`bounce_list.wgsl`) sizes the gather, and `bounce` gathers the listed voxels,
+// their cones spread over lanes (`cone_lanes.wgsl`).
 //
 // `bounce_clear`: zeroes the slots of one box the clipmap revoxelised this frame (slots that
 // wrapped to new voxels as the clipmap scrolled, regions moving objects left or entered), so
@@ -16,7 +16,8 @@ import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::trace;
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
-import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
+import octolux::gi::vct::cone_lanes::{first_lane, gather_item, keep_cone, lane_cone, sum_item_cones};
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
@@ -58,29 +59,34 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
           @builtin(local_invocation_index) li: u32) {
     // Work counts (`BOUNCE_WORK` in tracer.rs): lanes launched, then what the voxels did.
     count_work(0u, 1u);
-    let i = listed_slot((wg.y * nwg.x + wg.x) * 64u + li);
-    if i == 0xffffffffu {
-        return;
+    // One listed voxel per item, its cones spread over the item's lanes (`cone_lanes.wgsl`).
+    let i = listed_slot(gather_item(wg.y * nwg.x + wg.x, li));
+    if i != 0xffffffffu {
+        let nn = normalize(unpack4x8snorm(clip_normals[i]).xyz);
+        let centre = clip_slot_centre(i);
+        let p = centre.xyz;
+        // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to
+        // half its size behind the surface it holds.
+        let voxel = max(vct_surface_voxel(p, trace.cone.voxel), centre.w);
+        var cone = trace.cone;
+        cone.voxel = voxel;
+        cone.start = trace.misc.x * voxel;
+        let apex = p + nn * cone.start;
+        for (var j = 0u; j < CONES_PER_LANE; j++) {
+            let k = lane_cone(li, j);
+            if k < DIFFUSE_CONES {
+                let l = march_cone(apex, diffuse_cone_dir(nn, k), cone).rgb;
+                keep_cone(li, k, vec4<f32>(diffuse_cone_weight(k) * l, 0.0));
+            }
+        }
     }
-    let nn = normalize(unpack4x8snorm(clip_normals[i]).xyz);
-    let centre = clip_slot_centre(i);
-    let p = centre.xyz;
-    // The apex leaves the voxel's own level too: a coarse voxel's centre may lie up to half
-    // its size behind the surface it holds.
-    let voxel = max(vct_surface_voxel(p, trace.cone.voxel), centre.w);
-    var cone = trace.cone;
-    cone.voxel = voxel;
-    cone.start = trace.misc.x * voxel;
-    let apex = p + nn * cone.start;
-    var e = vec3<f32>(0.0);
-    for (var k = 0u; k < DIFFUSE_CONES; k++) {
-        e += diffuse_cone_weight(k) * march_cone(apex, diffuse_cone_dir(nn, k), cone).rgb;
+    let e = sum_item_cones(li);
+    if i != 0xffffffffu && first_lane(li) {
+        count_work(1u, 1u);
+        store_bounce(i, 3.14159265 * e.rgb);
     }
-    e *= 3.14159265;
-    count_work(1u, 1u);
     count_cone_work(2u, 3u);
     vct_count_structure_work(4u);
-    store_bounce(i, e);
 }
 
 @compute @workgroup_size(64)

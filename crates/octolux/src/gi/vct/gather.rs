@@ -44,8 +44,9 @@ pub fn cone_set(cones: u32) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// WGSL declaring the cone set of `cones` cones (`DIFFUSE_CONES`, `DIFFUSE_SET`), mounted as
-/// the module `gi/vct/cone_set` that `gi/vct/gather` and its importers import.
+/// WGSL declaring the cone set of `cones` cones (`DIFFUSE_CONES`, `DIFFUSE_SET`) and the lanes
+/// a gather gives each item (`CONE_LANES`, [`cone_lanes`]), mounted as the module
+/// `gi/vct/cone_set` that `gi/vct/gather` and its importers import.
 pub fn cone_set_wgsl(cones: u32) -> String {
     let set = cone_set(cones);
     let items: Vec<String> = set
@@ -53,11 +54,27 @@ pub fn cone_set_wgsl(cones: u32) -> String {
         .map(|[x, y, z, w]| format!("vec4<f32>({x:?}, {y:?}, {z:?}, {w:?})"))
         .collect();
     format!(
-        "const DIFFUSE_CONES: u32 = {n}u;\nvar<private> DIFFUSE_SET: array<vec4<f32>, {n}> = \
-         array<vec4<f32>, {n}>({});\n",
+        "const DIFFUSE_CONES: u32 = {n}u;\nconst CONE_LANES: u32 = {lanes}u;\n\
+         const CONES_PER_LANE: u32 = {per_lane}u;\nconst CONE_RESULTS: u32 = {results}u;\n\
+         var<private> DIFFUSE_SET: array<vec4<f32>, {n}> = array<vec4<f32>, {n}>({});\n",
         items.join(", "),
-        n = set.len()
+        n = set.len(),
+        lanes = cone_lanes(set.len() as u32),
+        per_lane = cones_per_lane(set.len() as u32),
+        results = 64 * cones_per_lane(set.len() as u32),
     )
+}
+
+/// Lanes per item of a gather of `cones` cones (`gi/vct/cone_lanes.wgsl`): one per cone,
+/// rounded up to a power of two so that a 64-lane workgroup holds whole items, at most 16 (a
+/// lane per cone of 64 repeats the item's setup more than the cones' work repays).
+pub fn cone_lanes(cones: u32) -> u32 {
+    cones.next_power_of_two().min(16)
+}
+
+/// Cones each lane of a gather of `cones` cones marches ([`cone_lanes`]).
+pub fn cones_per_lane(cones: u32) -> u32 {
+    cones.div_ceil(cone_lanes(cones))
 }
 
 /// Irradiance from the cones' radiance for the cone set `set` ([`cone_set`]): `pi x` their
@@ -194,6 +211,23 @@ mod tests {
         let six = cone_set(6);
         assert_eq!(six[0], [0.0, 1.0, 0.0, 1.0 / 3.5]);
         assert!(cone_set_wgsl(16).contains("array<vec4<f32>, 16>"));
+        // Whole items per 64-lane workgroup: 6 cones take 8 lanes, 16 take 16, 64 one group.
+        assert!(cone_set_wgsl(6).contains("CONE_LANES: u32 = 8u"));
+        for (cones, lanes, per_lane) in [
+            (6, 8, 1),
+            (8, 8, 1),
+            (9, 16, 1),
+            (16, 16, 1),
+            (33, 16, 3),
+            (64, 16, 4),
+        ] {
+            assert_eq!(
+                (cone_lanes(cones), cones_per_lane(cones)),
+                (lanes, per_lane)
+            );
+            assert_eq!(64 % lanes, 0);
+            assert!(lanes * per_lane >= cones);
+        }
     }
 
     #[test]

@@ -1,12 +1,12 @@
-// Multiple bounces on the octree (`multi_bounce`): one invocation per static leaf voxel slot
+// Multiple bounces on the octree (`multi_bounce`): every static leaf voxel that gathers
 // gathers the indirect irradiance at the voxel with the diffuse cones of `trace.wgsl`
 // through the radiance injected this frame, from the voxel's centre along its mean normal
 // (the geometry the injection wrote, `SvoBounce`). The next frame's injection adds it to the
 // voxel's direct irradiance, so each frame carries the light one bounce further and the
 // octree converges to multi-bounce radiance. `bounce_list` lists the static slots whose voxel
 // gathers and zeroes the others' bounce, `bounce_args` (`bounce_list.wgsl`) sizes the gather,
-// and `bounce` gathers one listed voxel per invocation. The dynamic part's voxels
-// (`bounce_dynamic`) gather the same way; their leaves are rebuilt every frame in another
+// and `bounce` gathers the listed voxels, their cones spread over lanes (`cone_lanes.wgsl`). The dynamic
+// part's voxels (`bounce_dynamic`, one lane per voxel, its cones in turn) gather the same way; their leaves are rebuilt every frame in another
 // order, so their irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`)
 // instead of by slot.
 
@@ -17,7 +17,8 @@ import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::surface_cone;
 import octolux::voxel::svo::sample::svo_info;
 import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
-import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
+import octolux::gi::vct::cone_lanes::{first_lane, gather_item, keep_cone, lane_cone, sum_item_cones};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gi::vct::structure::vct_count_structure_work;
 import octolux::gpu::work::count_work;
@@ -40,29 +41,41 @@ fn voxel_gathers(i: u32) -> bool {
 }
 
 // Indirect irradiance at the voxel of geometry slot `i` (zero where it does not gather).
-fn voxel_bounce(i: u32) -> vec3<f32> {
+// The weighted radiance of cone k of voxel i (zero where the voxel does not gather).
+fn voxel_cone(i: u32, k: u32) -> vec3<f32> {
+    if !voxel_gathers(i) || k >= DIFFUSE_CONES {
+        return vec3<f32>(0.0);
+    }
     let g = bounce_geometry[2u * i];
     let n = unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz;
-    var e = vec3<f32>(0.0);
-    if voxel_gathers(i) {
-        let v = vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u);
-        let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
-        let nn = normalize(n);
-        let s = surface_cone(p, nn);
-        for (var k = 0u; k < DIFFUSE_CONES; k++) {
-            e += diffuse_cone_weight(k) * march_cone(s.apex, diffuse_cone_dir(nn, k), s.cone).rgb;
-        }
-        e *= 3.14159265;
-        count_work(1u, 1u);
-    }
-    // Work counts (`BOUNCE_WORK` in tracer.rs): voxels gathered, cones, samples, lookups (the
-    // lanes launched are counted by the entry points).
-    count_cone_work(2u, 3u);
-    vct_count_structure_work(4u);
-    return e;
+    let v = vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u);
+    let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
+    let nn = normalize(n);
+    let s = surface_cone(p, nn);
+    return diffuse_cone_weight(k) * march_cone(s.apex, diffuse_cone_dir(nn, k), s.cone).rgb;
 }
 
-// Lists the static slots whose voxel gathers (`bounce_list.wgsl`) and zeroes the others'.
+// Work counts (`BOUNCE_WORK` in tracer.rs) of a lane: the voxel it gathered (`first`: the
+// item's first lane, where voxel i gathers), its cones, samples and lookups (the lanes
+// launched are counted by the entry points).
+fn count_bounce_work(i: u32, first: bool) {
+    if first && voxel_gathers(i) {
+        count_work(1u, 1u);
+    }
+    count_cone_work(2u, 3u);
+    vct_count_structure_work(4u);
+}
+
+// Voxel i's bounce irradiance, its cones one after another (the dynamic part's gather).
+fn voxel_bounce(i: u32) -> vec3<f32> {
+    var e = vec3<f32>(0.0);
+    for (var k = 0u; k < DIFFUSE_CONES; k++) {
+        e += voxel_cone(i, k);
+    }
+    count_bounce_work(i, true);
+    return 3.14159265 * e;
+}
+
 @compute @workgroup_size(64)
 fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                @builtin(local_invocation_index) li: u32) {
@@ -75,18 +88,25 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
 fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
     count_work(0u, 1u);
-    let i = listed_slot((wg.y * nwg.x + wg.x) * 64u + li);
-    if i == 0xffffffffu {
-        return;
+    // One listed voxel per item, its cones spread over the item's lanes (`cone_lanes.wgsl`).
+    let i = listed_slot(gather_item(wg.y * nwg.x + wg.x, li));
+    if i != 0xffffffffu {
+        for (var j = 0u; j < CONES_PER_LANE; j++) {
+            let k = lane_cone(li, j);
+            if k < DIFFUSE_CONES {
+                keep_cone(li, k, vec4<f32>(voxel_cone(i, k), 0.0));
+            }
+        }
     }
-    let e = voxel_bounce(i);
-    store_bounce(i, e);
+    let e = sum_item_cones(li);
+    if i != 0xffffffffu {
+        count_bounce_work(i, first_lane(li));
+        if first_lane(li) {
+            store_bounce(i, 3.14159265 * e.rgb);
+        }
+    }
 }
 
-// One workgroup per dynamic leaf node (the range the octree's last dynamic update left on
-// the GPU), one invocation per voxel: each occupied voxel gathers and enters the table
-// (cleared before). Keys are distinct (one slot per voxel), so an insert competes only with
-// the few keys that hash near it.
 @compute @workgroup_size(8)
 fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) o: u32) {

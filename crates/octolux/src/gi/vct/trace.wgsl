@@ -2,8 +2,9 @@
 // surface's own voxels along the normal), marched through the structure's injected radiance
 // by `march_cone`; irradiance E = pi x the weighted mean of the cones' radiance, in W/m^2, and
 // in alpha the ambient occlusion of the same cones (1 - their weighted mean opacity). With
-// sparse tracing (misc.y = f > 1) one invocation traces the centre pixel of each f x f block
-// and writes the block's texel of a reduced image; `upsample.wgsl` fills the full image.
+// sparse tracing (misc.y = f > 1) the centre pixel of each f x f block is traced, into the
+// block's texel of a reduced image; `upsample.wgsl` fills the full image. A pixel's cones run
+// on several lanes (`cone_lanes.wgsl`).
 // The structure is the module `gi/vct/structure` (`clipmap_trace.wgsl`, `svo_trace.wgsl`), which
 // the marcher samples (`vct_sample`) and which gives
 //   fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32
@@ -14,7 +15,8 @@ import octolux::frame::common::{Camera, world_from_depth};
 import octolux::gi::vct::cone::{ConeParams, march_cone};
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::frame::sparse::block_pixel;
-import octolux::gi::vct::cone_set::DIFFUSE_CONES;
+import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
+import octolux::gi::vct::cone_lanes::{first_lane, gather_item, keep_cone, lane_cone, sum_item_cones};
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
@@ -51,32 +53,46 @@ fn surface_cone(p: vec3<f32>, n: vec3<f32>) -> SurfaceCone {
     return s;
 }
 
-@compute @workgroup_size(8, 8)
-fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+@compute @workgroup_size(64)
+fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+        @builtin(local_invocation_index) li: u32) {
+    // One traced pixel per item, its cones spread over the item's lanes (`cone_lanes.wgsl`);
+    // items run along the rows of the traced (reduced) image.
     let size = vec2<u32>(cam.size.xy);
     let f = u32(trace.misc.y);
-    if id.x * f >= size.x || id.y * f >= size.y {
-        return;
+    let traced = (size + vec2<u32>(f - 1u)) / f;
+    let q = gather_item(wg.y * nwg.x + wg.x, li);
+    let id = vec2<u32>(q % traced.x, q / traced.x);
+    let inside = q < traced.x * traced.y;
+    var sky = true;
+    if inside {
+        let px = block_pixel(id, f, size);
+        let depth = textureLoad(depth_tex, px, 0);
+        sky = depth >= 1.0;
+        if !sky {
+            let p = world_from_depth(cam, px, depth);
+            let n = normalize(textureLoad(normal_tex, px, 0).xyz);
+            let s = surface_cone(p, n);
+            for (var j = 0u; j < CONES_PER_LANE; j++) {
+                let cone = lane_cone(li, j);
+                if cone < DIFFUSE_CONES {
+                    let l = march_cone(s.apex, diffuse_cone_dir(n, cone), s.cone);
+                    keep_cone(li, cone, diffuse_cone_weight(cone) * l);
+                }
+            }
+        }
     }
-    let px = block_pixel(id.xy, f, size);
-    let depth = textureLoad(depth_tex, px, 0);
-    if depth >= 1.0 {
-        textureStore(out_tex, id.xy, vec4<f32>(0.0, 0.0, 0.0, 1.0));
-        return;
+    let sum = sum_item_cones(li);
+    if inside && first_lane(li) {
+        if sky {
+            textureStore(out_tex, id, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        } else {
+            textureStore(out_tex, id, vec4<f32>(3.14159265 * sum.rgb, 1.0 - sum.a));
+            // Work counts (`TRACE_WORK` in tracer.rs): pixels traced, then every lane's cones,
+            // samples and the structure's lookups.
+            count_work(0u, 1u);
+        }
     }
-    let p = world_from_depth(cam, px, depth);
-    let n = normalize(textureLoad(normal_tex, px, 0).xyz);
-    let s = surface_cone(p, n);
-    var e = vec3<f32>(0.0);
-    var occlusion = 0.0;
-    for (var i = 0u; i < DIFFUSE_CONES; i++) {
-        let l = march_cone(s.apex, diffuse_cone_dir(n, i), s.cone);
-        e += diffuse_cone_weight(i) * l.rgb;
-        occlusion += diffuse_cone_weight(i) * l.a;
-    }
-    textureStore(out_tex, id.xy, vec4<f32>(3.14159265 * e, 1.0 - occlusion));
-    // Work counts (`TRACE_WORK` in tracer.rs): pixels traced, cones, samples, the structure's.
-    count_work(0u, 1u);
     count_cone_work(1u, 2u);
     vct_count_structure_work(3u);
 }

@@ -6,10 +6,10 @@
 //! clipmap differ only there.
 
 use super::cone::ConeParams;
-use super::{cone_set_wgsl, DiffuseCones, VctSettings};
+use super::{cone_set_wgsl, gather::cone_lanes, DiffuseCones, VctSettings};
 use crate::frame::sparse::SparseImage;
 use crate::gi::GiFrame;
-use crate::gpu::pass::{dispatch_2d, KeptBindGroup};
+use crate::gpu::pass::{dispatch_1d, dispatch_2d, KeptBindGroup};
 use crate::gpu::shader::{library_shader_with, module_source};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::Result;
@@ -241,18 +241,12 @@ impl ConeTracer {
             kept.get(ctx, label, pipeline, &entries)
         };
         let (w, h) = (self.texture.width(), self.texture.height());
-        // 1. Six cones per traced pixel.
+        // 1. The diffuse cones of each traced pixel, spread over its lanes.
         let traced = self.upsample.as_ref().map_or(&self.view, |s| s.view());
         let group = bind(&self.groups[0], "vct trace", &self.trace, 6, traced, work);
         let f = self.sparse;
-        dispatch_2d(
-            timer,
-            "trace",
-            &self.trace,
-            &group,
-            w.div_ceil(f),
-            h.div_ceil(f),
-        );
+        let lanes = w.div_ceil(f) * h.div_ceil(f) * cone_lanes(self.diffuse.cones);
+        dispatch_1d(timer, "trace", &self.trace, &group, lanes);
         // 2. Sparse tracing: the untraced pixels from the traced ones.
         if let Some(up) = &self.upsample {
             up.record(

@@ -509,11 +509,8 @@ impl GiTechnique for VplGi {
             pass.set_pipeline(&p.shade);
             for group in &p.shade_groups {
                 pass.set_bind_group(0, group, &[]);
-                pass.dispatch_workgroups(
-                    w.div_ceil(m).div_ceil(8),
-                    h.div_ceil(m).div_ceil(8),
-                    m * m,
-                );
+                // Workgroups of 8 pixels of a sub-image's row x a lane per VPL of the chunk.
+                pass.dispatch_workgroups(w.div_ceil(m).div_ceil(8), h.div_ceil(m), m * m);
             }
         });
         dispatch_groups(

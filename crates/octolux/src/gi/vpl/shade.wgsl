@@ -63,9 +63,9 @@ const WORK_RAYS: u32 = 2u;
 const WORK_CELLS: u32 = 3u;
 const WORK_NODES: u32 = 4u;
 
-// VPLs of a subset per `shade` dispatch: lavapipe (llvmpipe) ends an invocation after 65535
-// loop iterations in total, and a shadow ray may take a few hundred steps of up to `depth`
-// descents each, so the subset is summed in chunks of this many VPLs, one dispatch each.
+// VPLs of a subset per `shade` dispatch (a lane each): the subset is summed in chunks of this
+// many VPLs, one dispatch each. (When a lane walked every ray of its pixel, lavapipe's end of an
+// invocation after 65535 loop iterations set it: a shadow ray may take a few hundred steps.)
 const CHUNK: u32 = 8u;
 
 struct Vpl {
@@ -101,59 +101,72 @@ fn gbuffer_pixel(q: vec2<u32>) -> vec2<u32> {
     return block_pixel(q, sp.sparse, full_size());
 }
 
-@compute @workgroup_size(8, 8)
-fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
+// One VPL's shaded irradiance per lane: a workgroup holds 8 pixels of one sub-image's row
+// (SHADE_PIXELS) and CHUNK lanes per pixel, one per VPL of the chunk, each tracing at most
+// one shadow ray. (One lane per pixel walking the chunk's rays one after another left a large
+// GPU mostly idle and waiting: a reduced image holds too few pixels to fill it.)
+const SHADE_PIXELS: u32 = 8u;
+
+var<workgroup> vpl_irradiance: array<vec4<f32>, 64>;
+
+@compute @workgroup_size(64)
+fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let m = sp.interleave;
-    let k = id.z;
-    let q = vec2<u32>(id.x * m + k % m, id.y * m + k / m);
+    let k = wg.z;
+    let l = li % CHUNK;
+    let q = vec2<u32>((wg.x * SHADE_PIXELS + li / CHUNK) * m + k % m, wg.y * m + k / m);
     let size = reduced_size();
-    if q.x >= size.x || q.y >= size.y {
-        return;
-    }
+    let inside = q.x < size.x && q.y < size.y;
     let at = q.y * size.x + q.x;
-    let px = gbuffer_pixel(q);
-    let depth = textureLoad(depth_tex, px, 0);
-    if depth >= 1.0 {
-        raw[at] = vec4<f32>(0.0);
-        return;
-    }
-    let p = world_from_depth(cam, px, depth);
-    let n = normalize(textureLoad(normal_tex, px, 0).xyz);
-    let scale = f32(m * m) / PI;
+    var sky = true;
     var e = vec3<f32>(0.0);
-    var a = vec3<i32>(0);
-    var have_a = false;
-    let first = k + chunk * CHUNK * m * m;
-    let end = min(sp.count, first + CHUNK * m * m);
     var pairs = 0u;
     var rays = 0u;
-    for (var j = first; j < end; j += m * m) {
-        pairs += 1u;
-        let v = vpls[j];
-        let g = vpl_g(p, n, v.position.xyz, v.normal.xyz);
-        let c = scale * v.flux.w * g;
-        if g <= 0.0 || c <= sp.cull {
-            continue;
+    if inside {
+        let px = gbuffer_pixel(q);
+        let depth = textureLoad(depth_tex, px, 0);
+        sky = depth >= 1.0;
+        // VPL l of this dispatch's chunk of subset k.
+        let j = k + (chunk * CHUNK + l) * m * m;
+        if !sky && j < sp.count {
+            let p = world_from_depth(cam, px, depth);
+            let n = normalize(textureLoad(normal_tex, px, 0).xyz);
+            let scale = f32(m * m) / PI;
+            pairs = 1u;
+            let v = vpls[j];
+            let g = vpl_g(p, n, v.position.xyz, v.normal.xyz);
+            let c = scale * v.flux.w * g;
+            if g > 0.0 && c > sp.cull {
+                rays = 1u;
+                let a = vpl_fixed_point(p, n);
+                if !svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
+                    e = scale * v.flux.rgb * g;
+                }
+            }
         }
-        if !have_a {
-            a = vpl_fixed_point(p, n);
-            have_a = true;
-        }
-        rays += 1u;
-        if svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
-            continue;
-        }
-        e += scale * v.flux.rgb * g;
     }
-    count_work(WORK_PIXELS, u32(chunk == 0u));
+    vpl_irradiance[li] = vec4<f32>(e, 0.0);
+    workgroupBarrier();
+    // The pixel's first lane adds the chunk's VPLs in index order.
+    if inside && l == 0u {
+        if sky {
+            raw[at] = vec4<f32>(0.0);
+        } else {
+            var sum = vec3<f32>(0.0);
+            for (var i = 0u; i < CHUNK; i++) {
+                sum += vpl_irradiance[li + i].rgb;
+            }
+            count_work(WORK_PIXELS, u32(chunk == 0u));
+            if chunk == 0u {
+                raw[at] = vec4<f32>(sum, 0.0);
+            } else {
+                raw[at] += vec4<f32>(sum, 0.0);
+            }
+        }
+    }
     count_work(WORK_PAIRS, pairs);
     count_work(WORK_RAYS, rays);
     count_walk_work(WORK_CELLS, WORK_NODES);
-    if chunk == 0u {
-        raw[at] = vec4<f32>(e, 0.0);
-    } else {
-        raw[at] += vec4<f32>(e, 0.0);
-    }
 }
 
 @compute @workgroup_size(8, 8)
