@@ -5,7 +5,8 @@
 // cones. A bounce's `bounce_list` entry point calls `list_slot` for every slot (compacted per
 // workgroup: one global atomic per workgroup, not per voxel), `bounce_args` turns the count
 // into an indirect dispatch, and the gather takes one listed slot per item, its cones spread
-// over the item's lanes (`cone_lanes.wgsl`). The list's order varies between runs; no voxel's gather depends on it.
+// over the item's lanes (`cone_lanes.wgsl`). The list's order varies between runs; no voxel's
+// gather depends on it.
 
 // Every slot's bounce irradiance (RGB as half floats in two words), written by the gathers.
 

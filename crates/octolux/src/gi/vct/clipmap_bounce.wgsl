@@ -17,7 +17,9 @@ import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::trace;
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
 import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
-import octolux::gi::vct::cone_lanes::{first_lane, gather_item, keep_cone, lane_cone, sum_item_cones};
+import octolux::gi::vct::cone_lanes::{
+    first_lane, gather_item, keep_cone, lane_cone, sum_item_cones,
+};
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;

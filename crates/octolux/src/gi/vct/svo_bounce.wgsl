@@ -5,8 +5,9 @@
 // voxel's direct irradiance, so each frame carries the light one bounce further and the
 // octree converges to multi-bounce radiance. `bounce_list` lists the static slots whose voxel
 // gathers and zeroes the others' bounce, `bounce_args` (`bounce_list.wgsl`) sizes the gather,
-// and `bounce` gathers the listed voxels, their cones spread over lanes (`cone_lanes.wgsl`). The dynamic
-// part's voxels (`bounce_dynamic`, one lane per voxel, its cones in turn) gather the same way; their leaves are rebuilt every frame in another
+// and `bounce` gathers the listed voxels, their cones spread over lanes
+// (`cone_lanes.wgsl`). The dynamic part's voxels (`bounce_dynamic`, one lane per voxel, its
+// cones in turn) gather the same way; their leaves are rebuilt every frame in another
 // order, so their irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`)
 // instead of by slot.
 
@@ -18,7 +19,9 @@ import octolux::gi::vct::trace::surface_cone;
 import octolux::voxel::svo::sample::svo_info;
 import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
 import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
-import octolux::gi::vct::cone_lanes::{first_lane, gather_item, keep_cone, lane_cone, sum_item_cones};
+import octolux::gi::vct::cone_lanes::{
+    first_lane, gather_item, keep_cone, lane_cone, sum_item_cones,
+};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gi::vct::structure::vct_count_structure_work;
 import octolux::gpu::work::count_work;
