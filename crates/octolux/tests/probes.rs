@@ -405,11 +405,9 @@ fn scene_files_set_the_probe_settings() {
     }
 }
 
-#[test]
-fn bad_probe_settings_are_clear_errors() {
-    // The storage-binding cases need a limit they exceed on every adapter: a device capped at
-    // WebGPU's guaranteed 128 MiB per binding (a data-centre GPU allows 4 GiB, more than the
-    // settings' own caps let a probe set reach).
+/// A device capped at WebGPU's guaranteed 128 MiB per storage binding, so that the binding-limit
+/// cases exceed it on every adapter (a data-centre GPU allows 4 GiB).
+fn capped_context() -> GpuContext {
     const CAP: u64 = 128 << 20;
     let ctx = GpuContext::shared(&GpuOptions {
         max_storage_binding: Some(CAP),
@@ -421,6 +419,14 @@ fn bad_probe_settings_are_clear_errors() {
         limit <= CAP,
         "the device's binding limit {limit} is not capped"
     );
+    ctx
+}
+
+#[test]
+fn bad_probe_settings_are_clear_errors() {
+    // The storage-binding cases need a limit they exceed on every adapter (a data-centre GPU's
+    // is more than the settings' own caps let a probe set reach).
+    let ctx = capped_context();
     let scene = octolux::scene::cornell::scene();
     // The grid's settings (the octree checks them as well), then the octree's own.
     type Change = fn(&mut ProbeSettings);
@@ -521,17 +527,7 @@ fn a_probe_budget_bounds_the_octree() {
     // depth 5, whose full tree of 36864 slots x 128 surfels needs more than the 128 MiB of one
     // storage binding, runs within the default budget. The device is capped at WebGPU's
     // guaranteed 128 MiB per binding: a data-centre GPU's limit holds the full tree.
-    const CAP: u64 = 128 << 20;
-    let ctx = GpuContext::shared(&GpuOptions {
-        max_storage_binding: Some(CAP),
-        ..GpuOptions::default()
-    })
-    .expect("a GPU adapter (install mesa-vulkan-drivers)");
-    let limit = ctx.device.limits().max_storage_buffer_binding_size;
-    assert!(
-        limit <= CAP,
-        "the device's binding limit {limit} is not capped"
-    );
+    let ctx = capped_context();
     let scene = octolux::scene::cornell::scene();
     let mean = |r: &Renderer| {
         let image = r.read_hdr().unwrap();
