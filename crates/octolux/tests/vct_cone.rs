@@ -769,7 +769,11 @@ fn cone_lanes_sum_every_cone_of_an_item_in_cone_order() {
         let sums: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
         let value = |item: u32, k: u32| {
             let x = ((item * 7919 + k * 104729) % 1000 + 1) as f32;
-            let e = if k.is_multiple_of(3) { 26 } else { (k * 5 + item) % 8 };
+            let e = if k.is_multiple_of(3) {
+                26
+            } else {
+                (k * 5 + item) % 8
+            };
             [x * 2f32.powi(e as i32), x, k as f32, 1.0]
         };
         let mut reordered = 0;
@@ -794,8 +798,7 @@ fn cone_lanes_sum_every_cone_of_an_item_in_cone_order() {
             );
             reordered += (smallest_first != serial[0]) as u32;
         }
-        // The case can fail: for some items another order gives another sum (measured: a
-        // quarter of them).
+        // The case can fail: for some items another order (smallest first) gives another sum.
         assert!(
             reordered > 0,
             "{cones} cones: no item's sum depends on the order"
