@@ -15,7 +15,7 @@
 // voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z])
 import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
-import octolux::gi::vct::trace::surface_cone;
+import octolux::gi::vct::trace::{SurfaceCone, surface_cone};
 import octolux::voxel::svo::sample::svo_info;
 import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
 import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
@@ -43,19 +43,26 @@ fn voxel_gathers(i: u32) -> bool {
     return (bounce_geometry[2u * i] & (1u << 30u)) != 0u && dot(n, n) > 0.25;
 }
 
-// Indirect irradiance at the voxel of geometry slot `i` (zero where it does not gather).
-// The weighted radiance of cone k of voxel i (zero where the voxel does not gather).
-fn voxel_cone(i: u32, k: u32) -> vec3<f32> {
-    if !voxel_gathers(i) || k >= DIFFUSE_CONES {
-        return vec3<f32>(0.0);
-    }
+// Where the cones of the voxel of geometry slot `i` start and which way it faces.
+struct BounceVoxel {
+    normal: vec3<f32>,
+    start: SurfaceCone,
+}
+
+fn bounce_voxel(i: u32) -> BounceVoxel {
     let g = bounce_geometry[2u * i];
-    let n = unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz;
     let v = vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u);
     let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
-    let nn = normalize(n);
-    let s = surface_cone(p, nn);
-    return diffuse_cone_weight(k) * march_cone(s.apex, diffuse_cone_dir(nn, k), s.cone).rgb;
+    var b: BounceVoxel;
+    b.normal = normalize(unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz);
+    b.start = surface_cone(p, b.normal);
+    return b;
+}
+
+// The weighted radiance cone k of voxel `b` gathers.
+fn bounce_cone(b: BounceVoxel, k: u32) -> vec3<f32> {
+    let dir = diffuse_cone_dir(b.normal, k);
+    return diffuse_cone_weight(k) * march_cone(b.start.apex, dir, b.start.cone).rgb;
 }
 
 // Work counts (`BOUNCE_WORK` in tracer.rs) of a lane: the voxel it gathered (`first`: the
@@ -69,16 +76,21 @@ fn count_bounce_work(i: u32, first: bool) {
     vct_count_structure_work(4u);
 }
 
-// Voxel i's bounce irradiance, its cones one after another (the dynamic part's gather).
+// Indirect irradiance at the voxel of geometry slot `i` (zero where it does not gather), its
+// cones one after another (the dynamic part's gather).
 fn voxel_bounce(i: u32) -> vec3<f32> {
     var e = vec3<f32>(0.0);
-    for (var k = 0u; k < DIFFUSE_CONES; k++) {
-        e += voxel_cone(i, k);
+    if voxel_gathers(i) {
+        let b = bounce_voxel(i);
+        for (var k = 0u; k < DIFFUSE_CONES; k++) {
+            e += bounce_cone(b, k);
+        }
     }
     count_bounce_work(i, true);
     return 3.14159265 * e;
 }
 
+// Lists the static slots whose voxel gathers (`bounce_list.wgsl`) and zeroes the others'.
 @compute @workgroup_size(64)
 fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                @builtin(local_invocation_index) li: u32) {
@@ -93,11 +105,13 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     count_work(0u, 1u);
     // One listed voxel per item, its cones spread over the item's lanes (`cone_lanes.wgsl`).
     let i = listed_slot(gather_item(wg.y * nwg.x + wg.x, li));
+    // Listed voxels gather (`bounce_list`).
     if i != 0xffffffffu {
+        let b = bounce_voxel(i);
         for (var j = 0u; j < CONES_PER_LANE; j++) {
             let k = lane_cone(li, j);
             if k < DIFFUSE_CONES {
-                keep_cone(li, k, vec4<f32>(voxel_cone(i, k), 0.0));
+                keep_cone(li, k, vec4<f32>(bounce_cone(b, k), 0.0));
             }
         }
     }
@@ -110,6 +124,10 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     }
 }
 
+// One workgroup per dynamic leaf node (the range the octree's last dynamic update left on
+// the GPU), one invocation per voxel: each occupied voxel gathers and enters the table
+// (cleared before). Keys are distinct (one slot per voxel), so an insert competes only with
+// the few keys that hash near it.
 @compute @workgroup_size(8)
 fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) o: u32) {
