@@ -88,8 +88,9 @@ pub struct GiArgs {
     /// Cone tracing: samples per shadow ray of the voxel-ray injection (default 256).
     #[arg(long)]
     pub vct_inject_steps: Option<u32>,
-    /// Cone tracing: trace one pixel per N x N block and reconstruct the others (1..=8; 1
-    /// traces every pixel; default 0: from the image height, 4 below 225 rows, 8 from 360).
+    /// Cone tracing: trace one pixel per N x N block and reconstruct the others (1..=16; 1
+    /// traces every pixel; default 0: from the image height, 4 below 225 rows, 8 at 360, 16 from
+    /// 720).
     #[arg(long)]
     pub vct_sparse: Option<u32>,
     /// Cone tracing (vct-svo): voxels per side of the octree's grid, a power of two from 16
@@ -111,6 +112,10 @@ pub struct GiArgs {
     /// frames, `true` (default) or `false` (one bounce).
     #[arg(long)]
     pub vct_multi_bounce: Option<bool>,
+    /// Cone tracing, multiple bounces: spread one round of the voxels' bounce gather over N
+    /// frames, 1..=8 (default 2; 1: every voxel gathers every frame).
+    #[arg(long)]
+    pub vct_bounce_frames: Option<u32>,
     /// Cone tracing: also trace one specular cone per pixel (`--output specular` shows it).
     #[arg(long)]
     pub vct_specular: bool,
@@ -147,8 +152,8 @@ pub struct GiArgs {
     #[arg(long)]
     pub vpl_filter: Option<bool>,
     /// VPL GI: sparse shading, one shaded pixel per N x N block, the others reconstructed
-    /// (1..=8; 1 shades every pixel; default 0: from the image height, 1 up to 359 rows, 2 up
-    /// to 539, 3 up to 719, 4 from 720).
+    /// (1..=16; 1 shades every pixel; default 0: from the image height, at least 135 shaded
+    /// rows and at most 8: 1 below 270 rows, 2 at 360, 5 at 720, 8 from 1080).
     #[arg(long)]
     pub vpl_sparse: Option<u32>,
     /// Probes: probes per axis of the uniform grid, 2..=128 (default 21: 9261 probes).
@@ -270,6 +275,7 @@ impl GiArgs {
         set(&mut vct.roughness, self.vct_roughness);
         set(&mut vct.specular_steps, self.vct_specular_steps);
         set(&mut vct.multi_bounce, self.vct_multi_bounce);
+        set(&mut vct.bounce_frames, self.vct_bounce_frames);
         if self.vct_specular {
             vct.specular = true;
         }

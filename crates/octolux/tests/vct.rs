@@ -307,6 +307,69 @@ fn multiple_bounces_converge_to_the_unlimited_reference() {
     }
 }
 
+/// `bounce_frames`: the voxels' bounce gather spread over frames. After the first 8 frames
+/// (every voxel gathers while the light starts from nothing), with N sets every N
+/// consecutive frames gather exactly the voxels one frame gathers with N = 1 (each voxel
+/// once: the counts sum to it, every frame a share near 1 / N, the same share again N frames
+/// later), and the light converges to the same image.
+#[test]
+fn the_bounce_gather_spread_over_frames_visits_every_voxel_once_a_round_and_converges_alike() {
+    let scene = octolux::scene::cornell::scene();
+    const FRAMES: usize = 26;
+    for technique in ["vct-svo", "vct-clipmap"] {
+        // A counter per technique: both name their gather's counts `bounce`.
+        let ctx = GpuContext::shared(&GpuOptions::default())
+            .expect("a GPU adapter (install mesa-vulkan-drivers)")
+            .with_work_counter();
+        let mut gathered = Vec::new();
+        let mut images = Vec::new();
+        for sets in [1, 3] {
+            let vct = octolux::gi::vct::VctSettings {
+                bounce_frames: sets,
+                ..small()
+            };
+            let mut r = Renderer::new(&ctx, &scene, settings(technique, vct)).unwrap();
+            ctx.work().unwrap().take(&ctx).unwrap();
+            let mut voxels = Vec::new();
+            for _ in 0..FRAMES {
+                r.render(&scene, 0.0).unwrap();
+                let counts = ctx.work().unwrap().take(&ctx).unwrap();
+                let c = counts
+                    .iter()
+                    .find(|c| c.pass == "bounce" && c.quantity == "voxels")
+                    .map_or(0, |c| c.count);
+                voxels.push(c);
+            }
+            gathered.push(voxels);
+            images.push(r.read_hdr().unwrap());
+        }
+        let all = gathered[0][0];
+        assert!(all > 100, "{technique}: {all} voxels gather");
+        assert!(gathered[0].iter().all(|&c| c == all), "{gathered:?}");
+        let (start, spread) = gathered[1].split_at(8);
+        assert!(start.iter().all(|&c| c == all), "{technique}: {start:?}");
+        for (f, &c) in spread.iter().enumerate() {
+            let share = c as f64 / all as f64;
+            assert!(
+                (0.25..0.42).contains(&share),
+                "{technique} frame {f}: {spread:?}"
+            );
+            if f >= 3 {
+                assert_eq!(c, spread[f - 3], "{technique} frame {f}: {spread:?}");
+            }
+        }
+        for round in spread.chunks(3) {
+            assert_eq!(round.iter().sum::<u64>(), all, "{technique}: {spread:?}");
+        }
+        let apart = rel_mse(&images[1], &images[0], None).unwrap();
+        println!("{technique}: {all} voxels, per frame with 3 sets {spread:?}, relMSE {apart:.2e}");
+        assert!(
+            apart < 1e-3,
+            "{technique}: relMSE {apart} between the converged images"
+        );
+    }
+}
+
 /// What multiple bounces must reach on the Cornell box (`multiple_bounces_converge_...`):
 /// the ceiling's radiance over the unlimited reference's, the most one bounce may light it
 /// relative to multiple bounces, and the most FLIP may be relative to one bounce.
@@ -489,7 +552,7 @@ fn bad_vct_settings_are_clear_errors() {
         ),
         (
             octolux::gi::vct::VctSettings {
-                sparse: 9,
+                sparse: 17,
                 ..Default::default()
             },
             "vct sparse",

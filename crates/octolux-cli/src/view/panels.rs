@@ -249,6 +249,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
             changed |= ui
                 .checkbox(&mut v.multi_bounce, "multiple bounces")
                 .changed();
+            if v.multi_bounce {
+                changed |= drag(ui, "bounce gather frames", &mut v.bounce_frames, 1, 8);
+            }
             let slider = |ui: &mut Ui, label: &str, x: &mut f32, lo: f32, hi: f32| {
                 ui.add(Slider::new(x, lo..=hi).text(label)).changed()
             };

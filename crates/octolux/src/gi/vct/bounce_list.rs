@@ -12,6 +12,30 @@ const LIST: u32 = 27;
 const COUNT: u32 = 28;
 const ARGS: u32 = 29;
 
+/// Frames from a technique's start in which every voxel gathers whatever `bounce_frames`
+/// says: the bounce light starts from nothing and converges at the full rate (a loop gain of
+/// 0.8 leaves 17 % after 8 frames); after them one round of the gather is spread.
+pub(crate) const FULL_RATE_FRAMES: u32 = 8;
+
+/// The `spread` word of `bounce_list.wgsl`'s `bounce_due` for frame `frame` (counted from the
+/// technique's start) of a gather spread over `sets` frames (`bounce_frames`): the set count
+/// and this frame's set; a single set in the first [`FULL_RATE_FRAMES`].
+pub(crate) fn bounce_spread(sets: u32, frame: u32) -> u32 {
+    let sets = if frame < FULL_RATE_FRAMES {
+        1
+    } else {
+        sets.clamp(1, 255)
+    };
+    sets | (frame % sets) << 8
+}
+
+/// Whether the voxel at `cell` gathers on the frame of `spread` (`bounce_due`, the CPU twin).
+#[cfg(test)]
+fn bounce_due(cell: [u32; 3], spread: u32) -> bool {
+    let sets = (spread & 255).max(1);
+    (cell[0] + cell[1] + cell[2]) % sets == (spread >> 8) & 255
+}
+
 /// The list of one bounce gather over `slots` slots and its indirect dispatch.
 pub(crate) struct BounceList {
     slots: u32,
@@ -106,5 +130,37 @@ impl BounceList {
             pass.set_bind_group(0, gather_group, &[]);
             pass.dispatch_workgroups_indirect(&self.args, 0);
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_voxel_is_due_once_in_its_sets_frames_and_neighbours_alternate() {
+        for sets in 1..=8 {
+            for x in 0..6 {
+                for y in 0..6 {
+                    for z in 0..6 {
+                        // Every frame at the start.
+                        assert!((0..FULL_RATE_FRAMES)
+                            .all(|f| bounce_due([x, y, z], bounce_spread(sets, f))));
+                        let rounds = FULL_RATE_FRAMES..FULL_RATE_FRAMES + 2 * sets;
+                        let due: Vec<u32> = rounds
+                            .filter(|&f| bounce_due([x, y, z], bounce_spread(sets, f)))
+                            .collect();
+                        // Once per round of `sets` frames, on the same frame of each round.
+                        assert_eq!(due.len(), 2, "{sets} sets, voxel {x} {y} {z}: {due:?}");
+                        assert_eq!(due[1], due[0] + sets);
+                        if sets == 2 {
+                            // A checkerboard: the neighbour along x gathers on the other frame.
+                            let f = due[0];
+                            assert!(!bounce_due([x + 1, y, z], bounce_spread(2, f)));
+                        }
+                    }
+                }
+            }
+        }
     }
 }

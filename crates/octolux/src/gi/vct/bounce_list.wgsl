@@ -27,14 +27,25 @@ fn store_bounce(i: u32, e: vec3<f32>) {
     bounce_irradiance[2u * i + 1u] = pack2x16float(vec2<f32>(e.b, 0.0));
 }
 
+// Whether the voxel at grid coordinates `cell` gathers this frame (`bounce_frames`): `spread`
+// holds the number of interleaved sets N (bits 0..7) and this frame's set (bits 8..15); the
+// voxel's set is (x + y + z) mod N, a checkerboard for N = 2, so neighbours gather on
+// different frames and every voxel once in N frames.
+fn bounce_due(cell: vec3<u32>, spread: u32) -> bool {
+    let sets = max(spread & 255u, 1u);
+    return (cell.x + cell.y + cell.z) % sets == ((spread >> 8u) & 255u);
+}
+
 // A bounce's `bounce_list` step for invocation `li` and slot `i` (`slot`: i is a slot of the
-// structure): lists it where its voxel `gathers`, else zeroes its bounce, as a gather
-// without light would. Every invocation of the workgroup calls it, in uniform control flow.
-fn list_or_clear(i: u32, slot: bool, gathers: bool, li: u32) {
+// structure): lists it where its voxel `gathers` and is `due` this frame (`bounce_due`),
+// zeroes its bounce where it does not gather, as a gather without light would, and leaves a
+// voxel that gathers on another frame as it is. Every invocation of the workgroup calls it,
+// in uniform control flow.
+fn list_or_clear(i: u32, slot: bool, gathers: bool, due: bool, li: u32) {
     if slot && !gathers {
         store_bounce(i, vec3<f32>(0.0));
     }
-    list_slot(i, slot && gathers, li);
+    list_slot(i, slot && gathers && due, li);
 }
 
 // Appends slot `i` to the list where `listed`. Every invocation of the workgroup calls it, in

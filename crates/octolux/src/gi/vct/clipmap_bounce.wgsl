@@ -23,9 +23,9 @@ import octolux::gi::vct::cone_lanes::{
 import octolux::gi::vct::structure::{vct_count_structure_work, vct_surface_voxel};
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
-import octolux::gi::vct::bounce_list::{list_or_clear, listed_slot, store_bounce};
+import octolux::gi::vct::bounce_list::{bounce_due, list_or_clear, listed_slot, store_bounce};
 
-// x: voxel slots (levels * res^3)
+// x: voxel slots (levels * res^3), w: the sets of `bounce_due` (`bounce_list.wgsl`)
 struct BounceParams {
     misc: vec4<u32>,
 }
@@ -53,7 +53,11 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
     let slot = i < bounce_params.misc.x;
-    list_or_clear(i, slot, slot && gathers(i), li);
+    // The slot's voxel in the level's (wrapped) grid, and its level.
+    let r = clip_info.misc.x;
+    let m = vec3<u32>(i % r, (i / r) % r, (i / (r * r)) % r);
+    let due = bounce_due(m + vec3<u32>(i / (r * r * r), 0u, 0u), bounce_params.misc.w);
+    list_or_clear(i, slot, slot && gathers(i), due, li);
 }
 
 @compute @workgroup_size(64)

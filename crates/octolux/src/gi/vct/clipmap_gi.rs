@@ -3,7 +3,7 @@
 //! multiple bounces, the indirect light the voxels gathered last frame) is injected into its
 //! voxels, and every pixel gathers through six cones.
 
-use super::bounce_list::BounceList;
+use super::bounce_list::{bounce_spread, BounceList};
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
@@ -55,6 +55,8 @@ struct ClipmapBounce {
     boxes: wgpu::Buffer,
     clear_groups: Vec<KeptBindGroup>,
     gather_group: KeptBindGroup,
+    /// Frames gathered so far: picks this frame's set of voxels (`bounce_frames`).
+    frame: u32,
 }
 
 /// Boxes the clear's box buffer holds at first.
@@ -147,11 +149,12 @@ impl VctClipmap {
                     OWNER,
                     "bounce params",
                     bytemuck::cast_slice(&[slots as u32, 0, 0, 0]),
-                    wgpu::BufferUsages::STORAGE,
+                    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
                 ),
                 boxes: box_buffer(ctx, BOX_ROOM),
                 clear_groups: Vec::new(),
                 gather_group: KeptBindGroup::default(),
+                frame: 0,
             }
         });
         let info = ctx.create_buffer(
@@ -334,15 +337,20 @@ impl GiTechnique for VctClipmap {
         };
         // 4. The tail: coarser copies of the coarsest level, for wide cones.
         self.tail.record(ctx, timer, &self.info, radiance);
-        // 5. Multiple bounces: every voxel gathers indirect irradiance for the next frame.
-        if let Some(b) = &self.bounce {
+        // 5. Multiple bounces: this frame's set of voxels gathers indirect irradiance for the
+        //    next frame (every voxel once in `bounce_frames` frames).
+        if let Some(b) = &mut self.bounce {
+            let spread = bounce_spread(self.settings.bounce_frames, b.frame);
+            ctx.queue
+                .write_buffer(&b.params, 12, bytemuck::bytes_of(&spread));
+            b.frame = b.frame.wrapping_add(1);
             let [info, voxels] = clip_bindings(&self.info, &clipmap.voxels);
             let shared = [
                 (21, clipmap.normals.as_entire_binding()),
                 (22, b.irradiance.as_entire_binding()),
             ];
             let mut entries = vec![
-                info,
+                info.clone(),
                 (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
                 (5, self.tracer.bounce_params().as_entire_binding()),
                 (13, self.tail.buffer.as_entire_binding()),
@@ -351,7 +359,7 @@ impl GiTechnique for VctClipmap {
             entries.extend(b.list.gather_entries());
             entries.extend(self.tracer.bounce_work(ctx, "bounce")?);
             let gather = b.gather_group.get(ctx, "vct bounce", &b.gather, &entries);
-            let mut list = vec![voxels, (20, b.params.as_entire_binding())];
+            let mut list = vec![info, voxels, (20, b.params.as_entire_binding())];
             list.extend(shared);
             b.list
                 .record(ctx, timer, "bounce", &list, &b.gather, &gather);

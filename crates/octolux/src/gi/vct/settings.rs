@@ -141,7 +141,7 @@ pub struct VctSettings {
     /// Samples per shadow ray of the `voxel-rays` injection (default 256).
     pub inject_steps: u32,
     /// Sparse tracing: one traced pixel per `sparse` x `sparse` block, the others
-    /// reconstructed from the traced ones by depth and normal (1 = every pixel; 1..=8), or 0
+    /// reconstructed from the traced ones by depth and normal (1 = every pixel; 1..=16), or 0
     /// (default) for [`VctSettings::sparse_factor`]'s choice from the image height.
     pub sparse: u32,
     /// `vct-svo`: voxels per side of the octree's grid, a power of two from 16 to 512
@@ -168,6 +168,13 @@ pub struct VctSettings {
     /// irradiance at the next injection, so the light converges to all bounces over frames
     /// (default true; false computes one bounce).
     pub multi_bounce: bool,
+    /// Multiple bounces: the frames one round of the voxels' bounce gather is spread over,
+    /// 1..=8 (default 2). Each frame the voxels of one of `bounce_frames` interleaved sets
+    /// (by voxel coordinates, a checkerboard for 2) gather, the others keep what they gathered
+    /// last; the converged light is the same, the gather's cost falls by this factor and the
+    /// light takes up to this many frames per bounce to follow a change (docs/vct.md, "The
+    /// bounce gather over frames"). The octree's dynamic voxels gather every frame.
+    pub bounce_frames: u32,
     /// Trace one specular cone per pixel along the mirror direction into an extra image
     /// (default false; the diffuse irradiance stays the technique's output).
     pub specular: bool,
@@ -199,6 +206,7 @@ impl Default for VctSettings {
             anisotropic: false,
             anisotropic_bounce: false,
             multi_bounce: true,
+            bounce_frames: 2,
             specular: false,
             roughness: 0.3,
             specular_steps: 0,
@@ -216,13 +224,14 @@ fn check(ok: bool, what: &str, range: &str) -> Result<()> {
 
 impl VctSettings {
     /// The sparse factor for images `height` pixels high: the setting, or where it is 0 the
-    /// factor from 4 to 8 that keeps at least 45 traced rows (4 below 225 rows, 8 from 360).
-    /// Cone-traced irradiance is smooth: on the Cornell box at 640x360 tracing one pixel per
-    /// 8 x 8 block errs no more than per 4 x 4 for a quarter of the trace; at 160x90 it errs
-    /// 14 % more, so small images keep 4 (docs/vct.md).
+    /// factor from 4 to 16 that keeps at least 45 traced rows (4 below 225 rows, 8 at 360, 16
+    /// from 720). Cone-traced irradiance is smooth: on the Cornell box at 640x360 tracing one
+    /// pixel per 8 x 8 block errs no more than per 4 x 4 for a quarter of the trace, and at
+    /// 1920x1080 per 16 x 16 no more than per 8 x 8 (Cornell box, Crytek Sponza); at 160x90
+    /// it errs 14 % more, so small images keep 4 (docs/vct.md).
     pub fn sparse_factor(&self, height: u32) -> u32 {
         match self.sparse {
-            0 => (height / SPARSE_ROWS).clamp(4, 8),
+            0 => (height / SPARSE_ROWS).clamp(4, 16),
             f => f,
         }
     }
@@ -235,6 +244,11 @@ impl VctSettings {
             "a power of two from 8 to 256",
         )?;
         check((1..=8).contains(&self.levels), "vct levels", "1..=8")?;
+        check(
+            (1..=8).contains(&self.bounce_frames),
+            "vct bounce_frames",
+            "1..=8",
+        )?;
         check(
             self.cones.is_none_or(super::gather::check_cone_count),
             "vct cones",
@@ -268,9 +282,9 @@ impl VctSettings {
             "1..=4096",
         )?;
         check(
-            self.sparse <= 8,
+            self.sparse <= 16,
             "vct sparse",
-            "0 (chosen from the image height) or 1..=8",
+            "0 (chosen from the image height) or 1..=16",
         )?;
         check(
             self.octree_resolution.is_power_of_two()

@@ -12,7 +12,8 @@
 // instead of by slot.
 
 // x: static leaf voxel slots (the dynamic leaves' slots follow), y: capacity of the dynamic
-// voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z])
+// voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z]),
+// w: the sets of `bounce_due` (`bounce_list.wgsl`; the static voxels only)
 import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::{SurfaceCone, surface_cone};
@@ -25,7 +26,7 @@ import octolux::gi::vct::cone_lanes::{
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gi::vct::structure::vct_count_structure_work;
 import octolux::gpu::work::count_work;
-import octolux::gi::vct::bounce_list::{list_or_clear, listed_slot, store_bounce};
+import octolux::gi::vct::bounce_list::{bounce_due, list_or_clear, listed_slot, store_bounce};
 
 struct BounceParams {
     misc: vec4<u32>,
@@ -96,7 +97,13 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
     let slot = i < bounce_params.misc.x;
-    list_or_clear(i, slot, slot && voxel_gathers(i), li);
+    var due = false;
+    if slot {
+        let g = bounce_geometry[2u * i];
+        due = bounce_due(vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u),
+                         bounce_params.misc.w);
+    }
+    list_or_clear(i, slot, slot && voxel_gathers(i), due, li);
 }
 
 @compute @workgroup_size(64)

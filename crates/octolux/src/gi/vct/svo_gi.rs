@@ -5,7 +5,7 @@
 //! filtered up the levels (and, with `anisotropic`, composited per direction), the voxels
 //! gather the next bounce, and every traced pixel gathers through the diffuse cones.
 
-use super::bounce_list::BounceList;
+use super::bounce_list::{bounce_spread, BounceList};
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
 use super::{VctSettings, VctStructure};
@@ -57,6 +57,8 @@ struct Bounce {
     /// With animated objects: the dynamic leaf voxels' gather into the bounce table.
     dynamic: Option<wgpu::ComputePipeline>,
     params: wgpu::Buffer,
+    /// The frames one round of the static voxels' gather is spread over (`bounce_frames`).
+    bounce_frames: u32,
     /// The static gather's bind group and the dynamic one's per table written (the tables
     /// alternate), kept while their resources are.
     groups: [KeptBindGroup; 3],
@@ -166,6 +168,7 @@ impl VctSvo {
                 &tracer,
                 &svo,
                 animated.then_some(reserve.nodes),
+                settings.bounce_frames,
             )?)
         } else {
             None
@@ -195,6 +198,7 @@ impl Bounce {
         tracer: &ConeTracer,
         svo: &Svo,
         dynamic_reserve: Option<u32>,
+        bounce_frames: u32,
     ) -> Result<Bounce> {
         let (first, end) = svo.levels().last().copied().unwrap_or((0, 0));
         let slots = (end - first) * 8;
@@ -228,7 +232,7 @@ impl Bounce {
             OWNER,
             "bounce params",
             bytemuck::cast_slice(&[slots, capacity as u32, leaf, 0]),
-            wgpu::BufferUsages::STORAGE,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
         Ok(Bounce {
             buffers: SvoBounce {
@@ -242,12 +246,14 @@ impl Bounce {
             dynamic: dynamic_reserve
                 .map(|_| ctx.compute_pipeline("bounce_dynamic", &module, "bounce_dynamic")),
             params,
+            bounce_frames,
             groups: Default::default(),
         })
     }
 
-    /// Records the static voxels' gather and, with a dynamic part, the dynamic voxels'
-    /// gather into this frame's table; then flips the tables for the next frame.
+    /// Records the gather of this frame's set of static voxels (every one once in
+    /// `bounce_frames` frames) and, with a dynamic part, every dynamic voxel's gather into this
+    /// frame's table; then flips the tables for the next frame.
     fn record(
         &mut self,
         ctx: &GpuContext,
@@ -272,6 +278,9 @@ impl Bounce {
         let mut extra = vec![irradiance.clone()];
         extra.extend(self.list.gather_entries());
         let statics = group(&self.groups[0], &self.pipeline, &extra, "bounce")?;
+        let spread = bounce_spread(self.bounce_frames, self.buffers.frame);
+        ctx.queue
+            .write_buffer(&self.params, 12, bytemuck::bytes_of(&spread));
         let list_entries = [
             (20, self.params.as_entire_binding()),
             (21, self.buffers.geometry.as_entire_binding()),

@@ -62,7 +62,7 @@ pub struct VplSettings {
     pub filter: bool,
     /// Sparse shading: one shaded pixel per `sparse` x `sparse` block, the others
     /// reconstructed from the shaded ones around them on alike surfaces (`frame::sparse`);
-    /// 1..=8 (1: every pixel), or 0 (default) for [`VplSettings::sparse_factor`]'s choice from
+    /// 1..=16 (1: every pixel), or 0 (default) for [`VplSettings::sparse_factor`]'s choice from
     /// the image height. The shadow rays, the pass's cost, fall by sparse^2 (docs/vpl.md
     /// measures the error).
     pub sparse: u32,
@@ -115,9 +115,9 @@ impl VplSettings {
         check((1..=65536).contains(&self.count), "count", "1..=65536")?;
         check((1..=8).contains(&self.interleave), "interleave", "1..=8")?;
         check(
-            self.sparse <= 8,
+            self.sparse <= 16,
             "sparse",
-            "0 (chosen from the image height) or 1..=8",
+            "0 (chosen from the image height) or 1..=16",
         )?;
         check(
             self.clamp.is_finite() && self.clamp >= 0.0,
@@ -164,17 +164,18 @@ impl VplSettings {
 }
 
 /// Rows the reduced image of automatic sparse shading keeps at least.
-const SPARSE_ROWS: u32 = 180;
+const SPARSE_ROWS: u32 = 135;
 
 impl VplSettings {
     /// The sparse factor for images `height` pixels high: the setting, or where it is 0 the
-    /// largest factor up to 4 that leaves at least 180 shaded rows (1 at 160x90 and 320x180,
-    /// 2 at 640x360, 4 at 1280x720 and 1920x1080). Indirect light varies over a fraction of the
-    /// image, not over pixels: at 640x360 shading one pixel per 2 x 2 block errs no more than
-    /// shading every pixel (docs/vpl.md), and the shadow rays fall 4x.
+    /// largest factor up to 8 that leaves at least 135 shaded rows (1 at 160x90 and 320x180,
+    /// 2 at 640x360, 5 at 1280x720, 8 at 1920x1080). Indirect light varies over a fraction of
+    /// the image, not over pixels: at 640x360 shading one pixel per 2 x 2 block errs no more
+    /// than shading every pixel, at 1920x1080 one per 8 x 8 no more than per 4 x 4
+    /// (docs/vpl.md), and the shadow rays fall with the square of the factor.
     pub fn sparse_factor(&self, height: u32) -> u32 {
         match self.sparse {
-            0 => (height / SPARSE_ROWS).clamp(1, 4),
+            0 => (height / SPARSE_ROWS).clamp(1, 8),
             f => f,
         }
     }
@@ -192,6 +193,7 @@ struct ShadeParams {
     plane_tol: f32,
     filter: u32,
     sparse: u32,
+    lanes: u32,
 }
 
 /// The geometry term of eq. 2-4 (as `vpl_g` in `shade.wgsl`): receiver at `p` with normal
@@ -223,7 +225,7 @@ pub struct VplGi {
     raw: wgpu::Buffer,
     /// Sparse shading's reduced image and reconstruction (None: every pixel shaded).
     sparse: Option<SparseImage>,
-    /// One 256-byte slot per shading chunk holding its index.
+    /// One 256-byte slot per shading dispatch holding its first chunk.
     chunks: wgpu::Buffer,
     texture: wgpu::Texture,
     view: wgpu::TextureView,
@@ -235,7 +237,7 @@ struct Passes {
     generate: generate::Generate,
     shade: wgpu::ComputePipeline,
     merge: wgpu::ComputePipeline,
-    /// One per shading chunk.
+    /// One per shading dispatch.
     shade_groups: Vec<wgpu::BindGroup>,
     bounce: wgpu::ComputePipeline,
     /// One per bounce after the first.
@@ -252,16 +254,27 @@ const SHADE_WORK: &[&str] = &[
     "octree nodes",
 ];
 
-/// VPLs of a subset per shading dispatch (`CHUNK` in `shade.wgsl`).
+/// VPLs of a subset summed together before their sum is added to the pixel's (`CHUNK` in
+/// `shade.wgsl`).
 const CHUNK: u32 = 8;
-/// Bytes between the chunk index slots.
+/// Bytes between the dispatches' chunk index slots.
 const SLOT: u64 = 256;
 
-/// Shading dispatches per frame: chunks of [`CHUNK`] VPLs of every subset.
-fn chunk_count(settings: &VplSettings) -> u32 {
-    (settings.count * settings.bounces)
-        .div_ceil(settings.interleave * settings.interleave)
-        .div_ceil(CHUNK)
+/// VPLs in each pixel's subset (the last subsets may hold one fewer).
+fn subset_size(settings: &VplSettings) -> u32 {
+    (settings.count * settings.bounces).div_ceil(settings.interleave * settings.interleave)
+}
+
+/// Lanes per pixel of a `shade` dispatch, one per VPL: the subset rounded up to a power of two,
+/// 8 to 64 (a workgroup's 64 lanes hold 64 / lanes pixels).
+fn shade_lanes(settings: &VplSettings) -> u32 {
+    subset_size(settings).next_power_of_two().clamp(CHUNK, 64)
+}
+
+/// Shading dispatches per frame: [`shade_lanes`] VPLs of every subset each (one at the
+/// defaults, 64 VPLs per subset).
+fn shade_dispatches(settings: &VplSettings) -> u32 {
+    subset_size(settings).div_ceil(shade_lanes(settings))
 }
 
 impl VplGi {
@@ -291,6 +304,7 @@ impl VplGi {
             plane_tol: settings.plane_tol,
             filter: settings.filter as u32,
             sparse: settings.sparse_factor(height),
+            lanes: shade_lanes(settings),
         };
         let shade_params =
             ctx.create_buffer_init(OWNER, "shade params", bytemuck::bytes_of(&shade), usage);
@@ -311,9 +325,11 @@ impl VplGi {
                 mapped_at_creation: false,
             },
         );
-        let mut slots = vec![0u8; chunk_count(settings) as usize * SLOT as usize];
-        for c in 0..chunk_count(settings) {
-            slots[c as usize * SLOT as usize..][..4].copy_from_slice(&c.to_le_bytes());
+        // Each dispatch's first chunk.
+        let mut slots = vec![0u8; shade_dispatches(settings) as usize * SLOT as usize];
+        for d in 0..shade_dispatches(settings) {
+            let first = d * shade_lanes(settings) / CHUNK;
+            slots[d as usize * SLOT as usize..][..4].copy_from_slice(&first.to_le_bytes());
         }
         let chunks = ctx.create_buffer_init(OWNER, "shading chunks", &slots, usage);
         let (texture, view) = crate::gi::indirect_target(ctx, OWNER, width, height);
@@ -424,7 +440,9 @@ impl VplGi {
             entries.extend(shade_work.clone());
             crate::gpu::pass::bind(ctx, &shade, &entries)
         };
-        let shade_groups = (0..chunk_count(&self.settings)).map(shade_group).collect();
+        let shade_groups = (0..shade_dispatches(&self.settings))
+            .map(shade_group)
+            .collect();
         let merge_group = crate::gpu::pass::bind(
             ctx,
             &merge,
@@ -507,10 +525,11 @@ impl GiTechnique for VplGi {
                 timestamp_writes: stamps.compute(),
             });
             pass.set_pipeline(&p.shade);
+            // Workgroups of 64 / lanes pixels of a sub-image's row x a lane per VPL.
+            let pixels = 64 / shade_lanes(&self.settings);
             for group in &p.shade_groups {
                 pass.set_bind_group(0, group, &[]);
-                // Workgroups of 8 pixels of a sub-image's row x a lane per VPL of the chunk.
-                pass.dispatch_workgroups(w.div_ceil(m).div_ceil(8), h.div_ceil(m), m * m);
+                pass.dispatch_workgroups(w.div_ceil(m).div_ceil(pixels), h.div_ceil(m), m * m);
             }
         });
         dispatch_groups(
@@ -551,5 +570,37 @@ impl GiTechnique for VplGi {
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shade_dispatches_cover_every_vpl_of_a_subset_once_in_whole_chunks() {
+        for count in [1, 7, 8, 100, 300, 1024, 4096, 65536] {
+            for interleave in 1..=8 {
+                let settings = VplSettings {
+                    count,
+                    interleave,
+                    ..VplSettings::default()
+                };
+                let (subset, lanes) = (subset_size(&settings), shade_lanes(&settings));
+                let dispatches = shade_dispatches(&settings);
+                assert!(
+                    [8, 16, 32, 64].contains(&lanes),
+                    "{count} / {interleave}: {lanes}"
+                );
+                assert_eq!(lanes % CHUNK, 0);
+                // Every VPL of the largest subset in a dispatch, no dispatch without one.
+                assert!(dispatches * lanes >= subset && (dispatches - 1) * lanes < subset);
+                // A subset that fits one workgroup's lanes is one dispatch with few idle lanes.
+                if subset <= 64 {
+                    assert_eq!(dispatches, 1);
+                    assert!(lanes == CHUNK || lanes < 2 * subset, "{subset}: {lanes}");
+                }
+            }
+        }
     }
 }

@@ -39,6 +39,9 @@ struct ShadeParams {
     merge_on: u32,
     // The sparse factor f.
     sparse: u32,
+    // VPLs of a subset one `shade` dispatch sums per pixel, a lane each: 8, 16, 32 or 64
+    // (whole chunks of CHUNK).
+    lanes: u32,
 };
 
 @group(0) @binding(0) var<uniform> cam: Camera;
@@ -46,13 +49,13 @@ struct ShadeParams {
 @group(0) @binding(5) var normal_tex: texture_2d<f32>;
 @group(0) @binding(6) var<storage, read> vpls: array<Vpl>;
 @group(0) @binding(7) var<storage, read> sp: ShadeParams;
-// Per pixel (row-major) the sum of its subset so far; `shade` runs once per chunk of the
-// subset and adds to it, `merge` reads it.
+// Per pixel (row-major) the sum of its subset so far; `shade` runs once per `lanes` VPLs of
+// the subset (one dispatch where the subset holds at most 64) and adds to it, `merge` reads it.
 @group(0) @binding(8) var<storage, read_write> raw: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> raw_in: array<vec4<f32>>;
 // The merged image: the indirect irradiance (f = 1) or the reduced image (f > 1).
 @group(0) @binding(10) var out_tex: texture_storage_2d<rgba16float, write>;
-// The chunk of VPLs a `shade` dispatch sums (one slot per dispatch).
+// The first chunk of VPLs a `shade` dispatch sums (one slot per dispatch).
 @group(0) @binding(13) var<storage, read> chunk: u32;
 
 // Work counts of `shade` (`SHADE_WORK` in vpl/mod.rs): pixels shaded, VPL pairs evaluated,
@@ -63,9 +66,12 @@ const WORK_RAYS: u32 = 2u;
 const WORK_CELLS: u32 = 3u;
 const WORK_NODES: u32 = 4u;
 
-// VPLs of a subset per `shade` dispatch (a lane each): the subset is summed in chunks of this
-// many VPLs, one dispatch each. (When a lane walked every ray of its pixel, lavapipe's end of an
-// invocation after 65535 loop iterations set it: a shadow ray may take a few hundred steps.)
+// The subset is summed in chunks of this many VPLs: each chunk's sum in VPL order, then the
+// chunks' sums in order. The order is that of one dispatch per chunk, which `shade` once was
+// (a lane per VPL of the chunk, the chunk's sum added to `raw`); a dispatch now takes
+// `lanes / CHUNK` chunks at once, so that a pixel's shadow rays are all in flight together
+// instead of one chunk's after another's, and sums them in the same order: the same image to
+// the bit.
 const CHUNK: u32 = 8u;
 
 struct Vpl {
@@ -101,20 +107,19 @@ fn gbuffer_pixel(q: vec2<u32>) -> vec2<u32> {
     return block_pixel(q, sp.sparse, full_size());
 }
 
-// One VPL's shaded irradiance per lane: a workgroup holds 8 pixels of one sub-image's row
-// (SHADE_PIXELS) and CHUNK lanes per pixel, one per VPL of the chunk, each tracing at most
-// one shadow ray. (One lane per pixel walking the chunk's rays one after another left a large
-// GPU mostly idle and waiting: a reduced image holds too few pixels to fill it.)
-const SHADE_PIXELS: u32 = 8u;
-
+// One VPL's shaded irradiance per lane: a workgroup holds 64 / `lanes` pixels of one
+// sub-image's row and `lanes` lanes per pixel, one per VPL, each tracing at most one shadow
+// ray. (One lane per pixel walking its rays one after another left a large GPU mostly idle
+// and waiting: a reduced image holds too few pixels to fill it.)
 var<workgroup> vpl_irradiance: array<vec4<f32>, 64>;
 
 @compute @workgroup_size(64)
 fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
     let m = sp.interleave;
     let k = wg.z;
-    let l = li % CHUNK;
-    let q = vec2<u32>((wg.x * SHADE_PIXELS + li / CHUNK) * m + k % m, wg.y * m + k / m);
+    let lanes = sp.lanes;
+    let l = li % lanes;
+    let q = vec2<u32>((wg.x * (64u / lanes) + li / lanes) * m + k % m, wg.y * m + k / m);
     let size = reduced_size();
     let inside = q.x < size.x && q.y < size.y;
     let at = q.y * size.x + q.x;
@@ -126,7 +131,7 @@ fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         let px = gbuffer_pixel(q);
         let depth = textureLoad(depth_tex, px, 0);
         sky = depth >= 1.0;
-        // VPL l of this dispatch's chunk of subset k.
+        // VPL l of this dispatch's VPLs of subset k.
         let j = k + (chunk * CHUNK + l) * m * m;
         if !sky && j < sp.count {
             let p = world_from_depth(cam, px, depth);
@@ -147,21 +152,29 @@ fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
     }
     vpl_irradiance[li] = vec4<f32>(e, 0.0);
     workgroupBarrier();
-    // The pixel's first lane adds the chunk's VPLs in index order.
+    // The pixel's first lane adds each chunk's VPLs in index order, then the chunks in order.
     if inside && l == 0u {
         if sky {
             raw[at] = vec4<f32>(0.0);
         } else {
-            var sum = vec3<f32>(0.0);
-            for (var i = 0u; i < CHUNK; i++) {
-                sum += vpl_irradiance[li + i].rgb;
+            // (A chunk past the subset's last VPL adds +0: exact.)
+            var total = vec3<f32>(0.0);
+            if chunk != 0u {
+                total = raw[at].rgb;
+            }
+            for (var c = 0u; c < lanes / CHUNK; c++) {
+                var sum = vec3<f32>(0.0);
+                for (var i = 0u; i < CHUNK; i++) {
+                    sum += vpl_irradiance[li + c * CHUNK + i].rgb;
+                }
+                if chunk + c == 0u {
+                    total = sum;
+                } else {
+                    total += sum;
+                }
             }
             count_work(WORK_PIXELS, u32(chunk == 0u));
-            if chunk == 0u {
-                raw[at] = vec4<f32>(sum, 0.0);
-            } else {
-                raw[at] += vec4<f32>(sum, 0.0);
-            }
+            raw[at] = vec4<f32>(total, 0.0);
         }
     }
     count_work(WORK_PAIRS, pairs);

@@ -251,56 +251,64 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
 
 // Neighbour transfer along one axis: the face shared by a node and its + neighbour gets the
 // sum of both partial values, written to both bricks.
-// One workgroup per node, lane k < 9 adds face texel k. Lane 0 looks up the node, its
-// neighbour and their bricks once for the workgroup.
-var<workgroup> group_pair: vec2<u32>;
-
-fn transfer(wg: vec3<u32>, nwg: vec3<u32>, k: u32, axis: u32) {
-    if k == 0u {
-        var pair = vec2<u32>(INVALID);
-        let n = level_entry(group_index(wg, nwg));
-        if n != INVALID {
-            let m = nbr[3u * n + axis];
-            // A node without a brick has an all-zero lattice: nothing to add or to receive.
-            if m != 0u {
-                pair = vec2<u32>(brick_of(n), brick_of(m));
-            }
-        }
-        group_pair = pair;
-    }
-    let pair = workgroupUniformLoad(&group_pair);
-    let bn = pair.x;
-    let bm = pair.y;
-    if bn == INVALID || bm == INVALID || k >= 9u {
+// One node per invocation (dispatched in groups of 64 per level entry, `Dispatch::Indirect`):
+// its 18 face texels are all read before any is written, so the loads are in flight together
+// rather than a chain. (One 16-lane workgroup per node, a lane per texel, left most of a
+// GPU's lanes idle: the leaf level's three transfers took a third of the radiance mip.) Each
+// pair's texels are its own within one axis: n's + face and m's - face.
+fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
+    let n = level_node(wg, nwg, li);
+    if n == INVALID {
         return;
     }
-    var hi = vec3<u32>(0u);
-    var lo = vec3<u32>(0u);
-    let u = (axis + 1u) % 3u;
-    let v = (axis + 2u) % 3u;
-    hi[axis] = 2u;
-    hi[u] = k % 3u;
-    hi[v] = k / 3u;
-    lo[u] = k % 3u;
-    lo[v] = k / 3u;
-    let s = read_texel(bn, texel_index(hi)) + read_texel(bm, texel_index(lo));
-    write_texel(bn, texel_index(hi), s);
-    write_texel(bm, texel_index(lo), s);
+    let m = nbr[3u * n + axis];
+    // A node without a brick has an all-zero lattice: nothing to add or to receive.
+    if m == 0u {
+        return;
+    }
+    let bn = brick_of(n);
+    let bm = brick_of(m);
+    if bn == INVALID || bm == INVALID {
+        return;
+    }
+    var sums: array<vec4<f32>, 9>;
+    for (var k = 0u; k < 9u; k++) {
+        let t = face_texels(axis, k);
+        sums[k] = read_texel(bn, t.x) + read_texel(bm, t.y);
+    }
+    for (var k = 0u; k < 9u; k++) {
+        let t = face_texels(axis, k);
+        write_texel(bn, t.x, sums[k]);
+        write_texel(bm, t.y, sums[k]);
+    }
 }
 
-@compute @workgroup_size(16)
+// Texel k of the face a node shares with its + neighbour along `axis`: its index in the
+// node's brick (x, on the + face) and in the neighbour's (y, on the - face).
+fn face_texels(axis: u32, k: u32) -> vec2<u32> {
+    var hi = vec3<u32>(0u);
+    var lo = vec3<u32>(0u);
+    hi[axis] = 2u;
+    hi[(axis + 1u) % 3u] = k % 3u;
+    hi[(axis + 2u) % 3u] = k / 3u;
+    lo[(axis + 1u) % 3u] = k % 3u;
+    lo[(axis + 2u) % 3u] = k / 3u;
+    return vec2<u32>(texel_index(hi), texel_index(lo));
+}
+
+@compute @workgroup_size(64)
 fn transfer_x(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     transfer(wg, nwg, li, 0u);
 }
 
-@compute @workgroup_size(16)
+@compute @workgroup_size(64)
 fn transfer_y(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     transfer(wg, nwg, li, 1u);
 }
 
-@compute @workgroup_size(16)
+@compute @workgroup_size(64)
 fn transfer_z(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     transfer(wg, nwg, li, 2u);

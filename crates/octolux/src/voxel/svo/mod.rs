@@ -676,7 +676,7 @@ impl SvoBuilder {
                 steps.push(("mip", d, Dispatch::PerNode(d)));
             }
             for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.push((t, d, Dispatch::PerNode(d)));
+                steps.push((t, d, Dispatch::Indirect(d)));
             }
         }
         self.record(
@@ -883,7 +883,7 @@ impl SvoBuilder {
                 steps.extend(ranges(d).map(|(slot, args)| ("mip", slot, Dispatch::PerNode(args))));
             }
             for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::PerNode(args))));
+                steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::Indirect(args))));
             }
         }
         self.record(
