@@ -13,9 +13,10 @@ const COUNT: u32 = 28;
 const ARGS: u32 = 29;
 
 /// Frames from a technique's start in which every voxel gathers whatever `bounce_frames`
-/// says: the bounce light starts from nothing and converges at the full rate (a loop gain of
-/// 0.8 leaves 17 % after 8 frames); after them one round of the gather is spread.
-pub(crate) const FULL_RATE_FRAMES: u32 = 8;
+/// says: the bounce light starts from nothing, and its first bounces build up at the full
+/// rate; after them one round of the gather is spread. (A frame's image reads the bounces
+/// gathered in the frames before it, so the 4th frame is the same as gathering every frame.)
+pub(crate) const FULL_RATE_FRAMES: u32 = 3;
 
 /// The `spread` word of `bounce_list.wgsl`'s `bounce_due` for frame `frame` (counted from the
 /// technique's start) of a gather spread over `sets` frames (`bounce_frames`): the set count

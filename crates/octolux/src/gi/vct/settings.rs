@@ -169,11 +169,12 @@ pub struct VctSettings {
     /// (default true; false computes one bounce).
     pub multi_bounce: bool,
     /// Multiple bounces: the frames one round of the voxels' bounce gather is spread over,
-    /// 1..=8 (default 2). Each frame the voxels of one of `bounce_frames` interleaved sets
-    /// (by voxel coordinates, a checkerboard for 2) gather, the others keep what they gathered
-    /// last; the converged light is the same, the gather's cost falls by this factor and the
-    /// light takes up to this many frames per bounce to follow a change (docs/vct.md, "The
-    /// bounce gather over frames"). The octree's dynamic voxels gather every frame.
+    /// 1..=8 (default 2). After the technique's first 3 frames (every voxel gathers while the
+    /// light starts from nothing), each frame the voxels of one of `bounce_frames` interleaved
+    /// sets (by voxel coordinates, a checkerboard for 2) gather, the others keep what they
+    /// gathered last; the converged light is the same, the gather's cost falls by this factor
+    /// and the light takes up to this many frames per bounce to follow a change (docs/vct.md,
+    /// "The bounce gather over frames"). The octree's dynamic voxels gather every frame.
     pub bounce_frames: u32,
     /// Trace one specular cone per pixel along the mirror direction into an extra image
     /// (default false; the diffuse irradiance stays the technique's output).
