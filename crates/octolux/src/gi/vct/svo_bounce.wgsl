@@ -50,9 +50,14 @@ struct BounceVoxel {
     start: SurfaceCone,
 }
 
-fn bounce_voxel(i: u32) -> BounceVoxel {
+// The grid coordinates of the voxel of geometry slot `i`.
+fn geometry_voxel(i: u32) -> vec3<u32> {
     let g = bounce_geometry[2u * i];
-    let v = vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u);
+    return vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u);
+}
+
+fn bounce_voxel(i: u32) -> BounceVoxel {
+    let v = geometry_voxel(i);
     let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
     var b: BounceVoxel;
     b.normal = normalize(unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz);
@@ -99,9 +104,7 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     let slot = i < bounce_params.misc.x;
     var due = false;
     if slot {
-        let g = bounce_geometry[2u * i];
-        due = bounce_due(vec3<u32>(g & 1023u, (g >> 10u) & 1023u, (g >> 20u) & 1023u),
-                         bounce_params.misc.w);
+        due = bounce_due(geometry_voxel(i), bounce_params.misc.w);
     }
     list_or_clear(i, slot, slot && voxel_gathers(i), due, li);
 }
