@@ -105,6 +105,71 @@ fn octree_walk_equals_the_voxel_reference_and_its_cpu_twin() {
     all.extend(wall(21.5));
     let hits = compare_walks(&ctx, &tracer, &svo, &grid, &all, &mut rng, "moved wall");
     assert!(hits > 100 && hits < 900, "moved wall: {hits}");
+    // Beside the speck the dynamic wall lies in static nodes that hold no static voxel but are
+    // subdivided for the speck's bricks: the walk must descend into them by their dynamic
+    // occupancy.
+    builder.update_dynamic(&ctx, &mut svo, &wall(5.5)).unwrap();
+    svo.sync_dynamic(&ctx).unwrap();
+    let mut all = cases_speck();
+    all.extend(wall(5.5));
+    let hits = compare_walks(
+        &ctx,
+        &tracer,
+        &svo,
+        &grid,
+        &all,
+        &mut rng,
+        "wall by the speck",
+    );
+    assert!(hits > 100 && hits < 900, "wall by the speck: {hits}");
+}
+
+#[test]
+fn the_walk_skips_nodes_subdivided_only_for_their_neighbours_bricks() {
+    // The octree subdivides the empty neighbours of occupied nodes (their bricks' lattice
+    // needs them); the walk skips such a node's cell whole. Against a twin that descends into
+    // every node with children (the walk before), every segment finds the same first voxel,
+    // in fewer cells and nodes.
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let grid = VoxelGrid::new(Vec3::ZERO, 1.0, 32).unwrap();
+    let mut tris = quad(Vec3::new(15.5, 2.0, 2.0), Vec3::new(15.5, 30.0, 30.0));
+    tris.extend(quad(Vec3::new(2.0, 4.5, 2.0), Vec3::new(30.0, 4.5, 30.0)));
+    let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
+    let params = SvoWalk::new(&svo, 1.75).unwrap();
+    let walk = SvoWalkCpu::read(&ctx, &svo, params).unwrap();
+    let subdivided_empty = (0..walk.child.len())
+        .filter(|&n| walk.child[n] != 0 && !walk.occupied[n])
+        .count();
+    assert!(subdivided_empty > 0, "no empty node is subdivided");
+    let mut every_node = walk.clone();
+    every_node.occupied.iter_mut().for_each(|o| *o = true);
+    let mut rng = Rng(11);
+    let top = (1u32 << 14) - 1;
+    let (mut before, mut after) = ([0u64; 2], [0u64; 2]);
+    for _ in 0..2000 {
+        let mut p = || {
+            IVec3::new(
+                (rng.next() % top) as i32 + 1,
+                (rng.next() % top) as i32 + 1,
+                (rng.next() % top) as i32 + 1,
+            )
+        };
+        let (a, b) = (p(), p());
+        let (hit, work) = walk.walk_counted(a, b);
+        let (hit_before, work_before) = every_node.walk_counted(a, b);
+        assert_eq!(hit, hit_before, "segment {a} -> {b}");
+        assert!(work.cells <= work_before.cells, "segment {a} -> {b}");
+        after[0] += work.cells as u64;
+        after[1] += work.nodes as u64;
+        before[0] += work_before.cells as u64;
+        before[1] += work_before.nodes as u64;
+    }
+    println!("{subdivided_empty} empty nodes subdivided; cells {before:?} -> {after:?}");
+    assert!(
+        after[0] < before[0] && after[1] < before[1],
+        "{before:?} -> {after:?}"
+    );
 }
 
 fn cases_speck() -> Vec<VoxelTriangle> {

@@ -19,6 +19,11 @@ import octolux::voxel::svo::common::{BRICK_COUNTER, brick_of, bw_index, child, f
 @group(0) @binding(11) var<storage, read_write> bricks3: array<u32>;
 // Indirect dispatch arguments, 3 words per level (bound only by finish_level).
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
+// Bit n % 32 of word n / 32: node n's cell holds a voxel of the static geometry (written by
+// `mark_occupied`; a placeholder for every other kernel). The visibility walk
+// (`svo/walk.wgsl`) skips the other nodes' cells whole, although those next to an occupied
+// node are subdivided (for the bricks' lattice, `flag_needed`).
+@group(0) @binding(12) var<storage, read_write> occupied_bits: array<u32>;
 
 // Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
 // ones), INVALID past the range's end.
@@ -185,6 +190,26 @@ fn finish_level() {
     atomicStore(&control[2u + 2u * (L.d + 1u)], start);
     atomicStore(&control[3u + 2u * (L.d + 1u)], end);
     write_args(L.d + 1u, end - start);
+}
+
+// One invocation per word of 32 nodes (each word has one writer: no atomics); runs before
+// `assign_bricks` turns the flags into brick indices.
+@compute @workgroup_size(64)
+fn mark_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) li: u32) {
+    let w = linear_index(wg, nwg, li);
+    let nodes = min(atomicLoad(&control[0]), L.capacity);
+    if w * 32u >= nodes {
+        return;
+    }
+    var bits = 0u;
+    for (var i = 0u; i < 32u; i++) {
+        let n = w * 32u + i;
+        if n < nodes && (atomicLoad(&flags[n]) & OCCUPIED) != 0u {
+            bits |= 1u << i;
+        }
+    }
+    occupied_bits[w] = bits;
 }
 
 // Gives every needed node a brick (the others have an all-zero lattice and need none); the

@@ -165,6 +165,10 @@ pub struct Svo {
     node_count: u32,
     /// `array<u32>`: first child index, 0 = none.
     child: wgpu::Buffer,
+    /// `array<u32>`, a bit per static node (bit n % 32 of word n / 32): its cell holds a voxel
+    /// of the static geometry. Nodes without one are subdivided where they border one (for
+    /// the bricks' lattice); the visibility walk skips them whole.
+    static_occupied: wgpu::Buffer,
     /// `array<u32>`, 3 per node: +x, +y, +z neighbour, 0 = none.
     neighbours: wgpu::Buffer,
     /// The brick pool, split over [`POOLS`] buffers (unused ones are 16-byte placeholders):
@@ -323,7 +327,7 @@ impl SvoBuilder {
         }];
         entries.push(storage(1, true));
         entries.push(storage(2, true));
-        entries.extend((3..=11).map(|b| storage(b, false)));
+        entries.extend((3..=12).map(|b| storage(b, false)));
         let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("svo"),
             entries: &entries,
@@ -367,6 +371,7 @@ impl SvoBuilder {
                 "flag_occupied",
                 "flag_needed",
                 "subdivide",
+                "mark_occupied",
                 "assign_bricks",
                 "finish_level",
                 "leaf_fill",
@@ -539,6 +544,7 @@ impl SvoBuilder {
         let nbr = scratch("neighbours (build)", cap * 3, usage);
         let coord = scratch("coordinates (build)", cap, usage);
         let flags = scratch("flags (build)", cap, usage);
+        let occupied = scratch("occupied nodes (build)", cap.div_ceil(32), usage);
         let control = scratch("control", CONTROL_WORDS, usage);
         let args = scratch(
             "dispatch args",
@@ -583,6 +589,7 @@ impl SvoBuilder {
                     pools[1],
                     pools[2],
                     pools[3],
+                    &occupied,
                 ],
             )
         };
@@ -598,6 +605,11 @@ impl SvoBuilder {
                 steps.push(("finish_level", d, Dispatch::One));
             }
         }
+        steps.push((
+            "mark_occupied",
+            0,
+            Dispatch::Capacity(capacity.div_ceil(32)),
+        ));
         steps.push(("assign_bricks", 0, Dispatch::Capacity(capacity)));
         self.record(
             &mut timer,
@@ -751,12 +763,33 @@ impl SvoBuilder {
         let nbr_exact = exact("neighbours", 3, &nbr);
         let brick_index = exact("brick index", 1, &flags);
         let coord_exact = exact("coordinates", 1, &coord);
+        // Static nodes only: the walk reads the dynamic ones' state instead.
+        let occupied_words = (node_count as u64).div_ceil(32);
+        let static_occupied = ctx.create_buffer(
+            OWNER,
+            &wgpu::BufferDescriptor {
+                label: Some("occupied nodes"),
+                size: (occupied_words * 4).max(16),
+                usage,
+                mapped_at_creation: false,
+            },
+        );
+        timer.untimed(|encoder| {
+            encoder.copy_buffer_to_buffer(
+                &occupied,
+                0,
+                &static_occupied,
+                0,
+                Some(occupied_words * 4),
+            )
+        });
         timings.extend(timer.finish_frame()?);
         for label in [
             "child (build)",
             "neighbours (build)",
             "coordinates (build)",
             "flags (build)",
+            "occupied nodes (build)",
             "placeholder",
             "pack params",
         ] {
@@ -770,6 +803,7 @@ impl SvoBuilder {
             grid: *grid,
             node_count,
             child: child_exact,
+            static_occupied,
             neighbours: nbr_exact,
             bricks: packed,
             pool_bricks,
@@ -865,6 +899,7 @@ impl SvoBuilder {
                 &svo.radiance[1],
                 &svo.radiance[2],
                 &svo.radiance[3],
+                placeholder,
             ],
         );
         let args_group = self.args_group(ctx, &svo.args);
@@ -917,7 +952,7 @@ impl SvoBuilder {
         &self,
         ctx: &GpuContext,
         params: &wgpu::Buffer,
-        buffers: [&wgpu::Buffer; 11],
+        buffers: [&wgpu::Buffer; 12],
     ) -> wgpu::BindGroup {
         let mut entries = vec![wgpu::BindGroupEntry {
             binding: 0,

@@ -18,9 +18,9 @@ use bytemuck::{Pod, Zeroable};
 use glam::{IVec3, Vec3};
 use std::collections::BTreeSet;
 
-/// The first of the walk's five bindings in group 0 of every shader that imports
-/// `voxel/svo/walk.wgsl` (parameters, child links, leaf sums, dynamic state, dynamic sums),
-/// above every pass's own.
+/// The first of the walk's six bindings in group 0 of every shader that imports
+/// `voxel/svo/walk.wgsl` (parameters, child links, leaf sums, dynamic state, dynamic sums,
+/// occupied static nodes), above every pass's own.
 pub const WALK_BINDINGS: u32 = 44;
 
 /// Bits of the fixed-point lattice per grid side: segment ends are points of a lattice of
@@ -49,20 +49,27 @@ pub struct SvoWalk {
     pub end_offset: f32,
     /// 1 when the octree has a dynamic part.
     pub dynamic: u32,
-    /// Padding.
-    pub pad: u32,
+    /// Nodes of the static part: those the occupied-node bits cover.
+    pub static_nodes: u32,
 }
 
 // `vpl_leaf_mask` reads a voxel's fragment count as word 3 of its dynamic sums.
 const _: () = assert!(crate::voxel::svo::inject::LEAF_SUM_WORDS == 10);
 
-/// The buffers the walk binds after its parameters: child links, leaf sums, and the dynamic
-/// part's node state and sums (16-byte placeholders without one).
-pub fn walk_buffers<'a>(svo: &'a Svo, placeholder: &'a wgpu::Buffer) -> [&'a wgpu::Buffer; 4] {
-    match svo.dynamic.as_ref() {
-        Some(d) => [&svo.child, &svo.leaf_sums, d.state(), &d.sums],
-        None => [&svo.child, &svo.leaf_sums, placeholder, placeholder],
-    }
+/// The buffers the walk binds after its parameters: child links, leaf sums, the dynamic
+/// part's node state and sums (16-byte placeholders without one), the occupied static nodes.
+pub fn walk_buffers<'a>(svo: &'a Svo, placeholder: &'a wgpu::Buffer) -> [&'a wgpu::Buffer; 5] {
+    let (state, sums) = match svo.dynamic.as_ref() {
+        Some(d) => (d.state(), &d.sums),
+        None => (placeholder, placeholder),
+    };
+    [
+        &svo.child,
+        &svo.leaf_sums,
+        state,
+        sums,
+        &svo.static_occupied,
+    ]
 }
 
 /// The bind-group entries of `walk.wgsl`'s bindings ([`WALK_BINDINGS`] on): `params` holds
@@ -71,9 +78,9 @@ pub fn walk_bindings<'a>(
     params: &'a wgpu::Buffer,
     svo: &'a Svo,
     placeholder: &'a wgpu::Buffer,
-) -> [(u32, wgpu::BindingResource<'a>); 5] {
-    let [child, leaf, state, sums] = walk_buffers(svo, placeholder);
-    let buffers = [params, child, leaf, state, sums];
+) -> [(u32, wgpu::BindingResource<'a>); 6] {
+    let [child, leaf, state, sums, occupied] = walk_buffers(svo, placeholder);
+    let buffers = [params, child, leaf, state, sums, occupied];
     std::array::from_fn(|i| (WALK_BINDINGS + i as u32, buffers[i].as_entire_binding()))
 }
 
@@ -82,6 +89,7 @@ impl SvoWalk {
     pub fn new(svo: &Svo, end_offset: f32) -> Result<SvoWalk> {
         let mut p = Self::from_parts(&svo.grid, svo.levels.last().copied(), end_offset)?;
         p.dynamic = svo.dynamic.is_some() as u32;
+        p.static_nodes = svo.static_nodes;
         Ok(p)
     }
 
@@ -108,7 +116,7 @@ impl SvoWalk {
             cap: 3 * grid.resolution + depth + 2,
             end_offset,
             dynamic: 0,
-            pad: 0,
+            static_nodes: 0,
         })
     }
 
@@ -131,6 +139,9 @@ pub struct SvoWalkCpu {
     pub params: SvoWalk,
     /// First child per node (0 = none).
     pub child: Vec<u32>,
+    /// Per node, whether its cell holds a voxel (static or dynamic): the walk descends only
+    /// into those.
+    pub occupied: Vec<bool>,
     /// Per static leaf, the occupancy of its 2x2x2 voxels (bit x + 2y + 4z).
     pub leaf_masks: Vec<u32>,
     /// Per node, the occupancy its dynamic fragments add (empty without a dynamic part).
@@ -164,7 +175,7 @@ impl SvoWalkCpu {
             .take(params.leaf_count as usize)
             .map(|w| w & 255)
             .collect();
-        let (dynamic_slots, dynamic_sums) = match svo.dynamic.as_ref() {
+        let (state, dynamic_sums) = match svo.dynamic.as_ref() {
             None => (Vec::new(), Vec::new()),
             Some(d) => (
                 words(crate::gpu::read_buffer(
@@ -172,13 +183,29 @@ impl SvoWalkCpu {
                     d.state(),
                     0,
                     d.state().size(),
-                )?)
-                .iter()
-                .map(|s| s >> 2)
-                .collect(),
+                )?),
                 words(crate::gpu::read_buffer(ctx, &d.sums, 0, d.sums.size())?),
             ),
         };
+        let static_bits = words(crate::gpu::read_buffer(
+            ctx,
+            &svo.static_occupied,
+            0,
+            svo.static_occupied.size(),
+        )?);
+        // As `svo_node_occupied` in `walk.wgsl`.
+        let occupied = (0..child.len() as u32)
+            .map(|n| {
+                let static_bit = n < params.static_nodes
+                    && static_bits
+                        .get(n as usize / 32)
+                        .is_some_and(|w| w & (1 << (n % 32)) != 0);
+                let dynamic_bit =
+                    params.dynamic != 0 && state.get(n as usize).is_some_and(|s| s & 1 != 0);
+                static_bit || dynamic_bit
+            })
+            .collect();
+        let dynamic_slots: Vec<u32> = state.iter().map(|s| s >> 2).collect();
         let words_per_voxel = LEAF_SUM_WORDS as usize;
         let dynamic_masks = dynamic_slots
             .iter()
@@ -195,6 +222,7 @@ impl SvoWalkCpu {
         Ok(SvoWalkCpu {
             params,
             child,
+            occupied,
             leaf_masks,
             dynamic_masks,
             leaf_sums,
@@ -296,7 +324,7 @@ impl SvoWalkCpu {
                     break;
                 }
                 let c = self.child.get(node as usize).copied().unwrap_or(0);
-                if c == 0 {
+                if c == 0 || !self.occupied.get(node as usize).copied().unwrap_or(false) {
                     break;
                 }
                 k -= 1;
@@ -525,6 +553,7 @@ mod tests {
         let tree = SvoWalkCpu {
             params: params(64),
             child: vec![0],
+            occupied: vec![false],
             leaf_masks: vec![],
             dynamic_masks: vec![],
             leaf_sums: vec![],
