@@ -899,7 +899,8 @@ impl SvoBuilder {
                 &svo.radiance[1],
                 &svo.radiance[2],
                 &svo.radiance[3],
-                placeholder,
+                // Not read here; not the placeholder, which the read-only bindings hold.
+                &svo.static_occupied,
             ],
         );
         let args_group = self.args_group(ctx, &svo.args);
