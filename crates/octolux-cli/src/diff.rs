@@ -4,8 +4,8 @@ use anyhow::Context;
 use octolux::metrics::{self, MetricOptions};
 use std::path::PathBuf;
 
-/// Compare an image with a reference: MSE, relMSE, PSNR, SSIM, FLIP and the ratio of their
-/// means.
+/// Compare an image with a reference: MSE, relMSE, PSNR, SSIM, FLIP, the ratio of their
+/// means and how relMSE spreads over the pixels.
 #[derive(clap::Args, Debug, Clone)]
 pub struct DiffArgs {
     /// Image to judge (.exr linear HDR; .png is decoded from sRGB to linear).
@@ -86,16 +86,19 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
         sum / n.max(1) as f64
     };
     let mean_ratio = mean(&a) / mean(&b);
+    let spread = metrics::rel_mse_distribution(&a, &b, mask.as_deref())?;
     if args.json {
         #[derive(serde::Serialize)]
         struct Report<'a> {
             #[serde(flatten)]
             metrics: &'a metrics::Metrics,
             mean_ratio: f64,
+            rel_mse_distribution: metrics::ErrorDistribution,
         }
         let report = Report {
             metrics: &m,
             mean_ratio,
+            rel_mse_distribution: spread,
         };
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -107,6 +110,15 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<()> {
         println!("{:<8} {:>14.5}", "SSIM", m.ssim);
         println!("{:<8} {:>14.5}", "FLIP", m.flip);
         println!("{:<8} {:>14.5}", "mean A/B", mean_ratio);
+        println!(
+            "relMSE per pixel: median {:.3e}, 90 % {:.3e}, 99 % {:.3e}; worst 1 % of pixels \
+             {:.1} % of it, worst 0.1 % {:.1} %",
+            spread.p50,
+            spread.p90,
+            spread.p99,
+            100.0 * spread.worst_1_percent,
+            100.0 * spread.worst_0_1_percent
+        );
         if let Some(out) = &args.out {
             println!("error map: {}", out.display());
         }

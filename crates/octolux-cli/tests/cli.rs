@@ -361,6 +361,18 @@ fn diff_prints_metrics_as_a_table_and_json() {
     let output = octolux(&["diff", a.to_str().unwrap(), a.to_str().unwrap(), "--json"]);
     let value: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(value["flip"].as_f64(), Some(0.0));
+    // One pixel of 64 off: it holds all of relMSE, the median pixel none.
+    let b = dir.join("b.exr");
+    image.set(5, 1, glam::Vec3::splat(3.0));
+    image.write_exr(&b).unwrap();
+    let output = octolux(&["diff", b.to_str().unwrap(), a.to_str().unwrap(), "--json"]);
+    let value: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let spread = &value["rel_mse_distribution"];
+    assert_eq!(spread["p50"].as_f64(), Some(0.0), "{value}");
+    assert_eq!(spread["worst_1_percent"].as_f64(), Some(1.0), "{value}");
+    let output = octolux(&["diff", b.to_str().unwrap(), a.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("worst 1 % of pixels 100.0 %"), "{stdout}");
 }
 
 /// Writes `files` into a fresh folder and renders the first one at a tiny size.

@@ -143,6 +143,66 @@ pub fn rel_mse(test: &HdrImage, reference: &HdrImage, mask: Option<&[bool]>) -> 
     }))
 }
 
+/// How relMSE is spread over the pixels: whether an image's error is a little everywhere or
+/// a few pixels far off (noise, fireflies, singular light), which the mean alone cannot tell.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ErrorDistribution {
+    /// Per-pixel relMSE (mean over the channels) at the median, 90th and 99th percentile
+    /// (nearest rank).
+    pub p50: f64,
+    /// 90th percentile.
+    pub p90: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Share of the relMSE sum from the worst 1 % of the pixels (at least one pixel): 0.01
+    /// for an error spread evenly, near 1 for a few outliers.
+    pub worst_1_percent: f64,
+    /// Share from the worst 0.1 % (at least one pixel).
+    pub worst_0_1_percent: f64,
+}
+
+/// The spread of relMSE over the selected pixels ([`ErrorDistribution`]).
+pub fn rel_mse_distribution(
+    test: &HdrImage,
+    reference: &HdrImage,
+    mask: Option<&[bool]>,
+) -> Result<ErrorDistribution> {
+    let idx = selected(test, reference, mask)?;
+    let mut errors: Vec<f64> = idx
+        .iter()
+        .map(|&i| {
+            let (a, b) = (test.pixels[i], reference.pixels[i]);
+            (0..3)
+                .map(|c| {
+                    let (a, b) = (a[c] as f64, b[c] as f64);
+                    (a - b) * (a - b) / (b * b + REL_MSE_EPSILON)
+                })
+                .sum::<f64>()
+                / 3.0
+        })
+        .collect();
+    errors.sort_by(|a, b| b.total_cmp(a));
+    let n = errors.len();
+    let total: f64 = errors.iter().sum();
+    // Nearest rank, counted from the worst pixel.
+    let percentile = |q: f64| errors[((1.0 - q) * n as f64).floor().min((n - 1) as f64) as usize];
+    let share = |fraction: f64| {
+        let k = ((n as f64 * fraction).ceil() as usize).clamp(1, n);
+        if total > 0.0 {
+            errors[..k].iter().sum::<f64>() / total
+        } else {
+            0.0
+        }
+    };
+    Ok(ErrorDistribution {
+        p50: percentile(0.5),
+        p90: percentile(0.9),
+        p99: percentile(0.99),
+        worst_1_percent: share(0.01),
+        worst_0_1_percent: share(0.001),
+    })
+}
+
 /// PSNR (dB) of the display images with peak 1, capped at [`PSNR_CAP_DB`].
 pub fn psnr(
     test: &HdrImage,
@@ -379,4 +439,49 @@ pub fn load_mask(path: &Path, width: u32, height: u32) -> Result<Vec<bool>> {
 fn decode(path: &Path) -> Result<image::DynamicImage> {
     let bytes = crate::limits::read_file(path)?;
     crate::limits::decode_image(path, &bytes, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grey(width: u32, height: u32, v: f32) -> HdrImage {
+        let mut image = HdrImage::new(width, height);
+        image.pixels.fill(Vec3::splat(v));
+        image
+    }
+
+    #[test]
+    fn the_error_distribution_tells_outliers_from_an_even_error() {
+        let reference = grey(100, 10, 1.0);
+        // Every pixel 10 % off: each pixel's relMSE is the mean, the worst 1 % hold 1 %.
+        let even = grey(100, 10, 1.1);
+        let d = rel_mse_distribution(&even, &reference, None).unwrap();
+        let off = 1.1f32 as f64 - 1.0;
+        let each = off * off / (1.0 + REL_MSE_EPSILON);
+        for v in [d.p50, d.p90, d.p99] {
+            assert!((v - each).abs() < 1e-9, "{d:?}");
+        }
+        assert!((d.worst_1_percent - 0.01).abs() < 1e-9, "{d:?}");
+        assert!((d.worst_0_1_percent - 0.001).abs() < 1e-9, "{d:?}");
+        // One firefly in 1000 pixels: all the error, the median none.
+        let mut firefly = grey(100, 10, 1.0);
+        firefly.pixels[517] = Vec3::splat(50.0);
+        let d = rel_mse_distribution(&firefly, &reference, None).unwrap();
+        assert_eq!((d.p50, d.p90, d.p99), (0.0, 0.0, 0.0), "{d:?}");
+        assert_eq!(d.worst_0_1_percent, 1.0);
+        assert_eq!(d.worst_1_percent, 1.0);
+        // Eleven equal fireflies: the worst 1 % (10 pixels) hold 10 of them, the 99th
+        // percentile (the 11th worst pixel) is one.
+        for i in 0..10 {
+            firefly.pixels[i * 97] = Vec3::splat(50.0);
+        }
+        let d = rel_mse_distribution(&firefly, &reference, None).unwrap();
+        assert!(d.p99 > 0.0 && d.p90 == 0.0, "{d:?}");
+        assert!((d.worst_1_percent - 10.0 / 11.0).abs() < 1e-9, "{d:?}");
+        assert!((d.worst_0_1_percent - 1.0 / 11.0).abs() < 1e-9, "{d:?}");
+        // Identical images: no error anywhere, no share.
+        let same = rel_mse_distribution(&reference, &reference, None).unwrap();
+        assert_eq!(same, ErrorDistribution::default());
+    }
 }
