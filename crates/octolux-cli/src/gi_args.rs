@@ -132,7 +132,7 @@ pub struct GiArgs {
     /// VPL GI: interleave factor, I x I sub-images with 1/I^2 of the VPLs each (default 4).
     #[arg(long)]
     pub vpl_interleave: Option<u32>,
-    /// VPL GI: distance clamp of the geometry term in octree voxels (default 2).
+    /// VPL GI: distance clamp of the geometry term in octree voxels (default 2); each VPL is also bounded as a disk of the area it stands for.
     #[arg(long)]
     pub vpl_clamp: Option<f32>,
     /// VPL GI: voxels per side of the visibility octree, a power of two (default 128).

@@ -82,6 +82,8 @@ fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
         nv = -dir;
     }
     let flux = src.flux.rgb * albedo;
+    // Area 0: the shading bounds a bounce VPL by the clamp alone (what patch of surface a
+    // hit stands for is not known).
     out.position = vec4<f32>(vo.origin + (vec3<f32>(hit.xyz) + 0.5) * vo.voxel, 0.0);
     out.normal = vec4<f32>(nv, 0.0);
     out.flux = vec4<f32>(flux, (flux.r + flux.g + flux.b) / 3.0);

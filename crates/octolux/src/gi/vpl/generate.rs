@@ -47,6 +47,11 @@ pub struct Vpl {
     pub normal: Vec3,
     /// Flux (W) per channel.
     pub flux: Vec3,
+    /// The surface area it stands for (m^2): its RSM texel's over the probability of drawing
+    /// it times the VPL count, so the VPLs' areas sum to the area the RSMs see (in
+    /// expectation) as their fluxes to its reflected flux. Its geometry term is bounded as a
+    /// disk of that area's ([`crate::gi::vpl::vpl_clamp`]).
+    pub area: f32,
 }
 
 /// Decodes the VPL buffer's bytes.
@@ -57,6 +62,7 @@ pub fn decode(bytes: &[u8]) -> Vec<Vpl> {
             position: Vec3::new(w[0], w[1], w[2]),
             normal: Vec3::new(w[4], w[5], w[6]),
             flux: Vec3::new(w[8], w[9], w[10]),
+            area: w[3],
         })
         .collect()
 }
@@ -209,6 +215,7 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
                 position: Vec3::ZERO,
                 normal: Vec3::ZERO,
                 flux: Vec3::ZERO,
+                area: 0.0,
             };
             count as usize
         ];
@@ -255,6 +262,7 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
                 position: Vec3::ZERO,
                 normal: Vec3::ZERO,
                 flux: Vec3::ZERO,
+                area: 0.0,
             };
             if total <= 0.0 {
                 return zero;
@@ -304,6 +312,7 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
                 position: Vec3::new(p[0], p[1], p[2]),
                 normal: Vec3::new(n[0], n[1], n[2]).normalize_or_zero(),
                 flux: phi * scale,
+                area: p[3].max(0.0) * n[3].max(0.0) * scale,
             }
         })
         .collect()

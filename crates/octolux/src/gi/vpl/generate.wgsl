@@ -32,7 +32,7 @@ struct GenParams {
 };
 
 struct Vpl {
-    // xyz position, w unused
+    // xyz position, w the surface area it stands for (m^2)
     position: vec4<f32>,
     // xyz unit normal (facing the light), w unused
     normal: vec4<f32>,
@@ -164,9 +164,13 @@ fn sample_vpls(@builtin(global_invocation_id) id: vec3<u32>) {
     let w = texel_weight(x, y, layer);
     let p = textureLoad(rsm_position, vec2<u32>(x, y), layer, 0);
     let n = textureLoad(rsm_normal, vec2<u32>(x, y), layer, 0);
-    out.position = vec4<f32>(p.xyz, 0.0);
-    out.normal = vec4<f32>(normalize(n.xyz), 0.0);
     let scale = total / (f32(gp.count) * max(w, 1e-30));
+    // The area the VPL stands for: its texel's surface area (measure x area / measure, see
+    // frame/rsm.wgsl) over the probability of drawing it times N, as its flux; the VPLs' areas
+    // sum to the area the RSMs see, as their fluxes to its flux. `shade.wgsl` bounds the
+    // VPL's geometry term by it (a disk of that area, not a point).
+    out.position = vec4<f32>(p.xyz, max(p.w, 0.0) * max(n.w, 0.0) * scale);
+    out.normal = vec4<f32>(normalize(n.xyz), 0.0);
     out.flux = vec4<f32>(phi * scale, w * scale / 3.0);
     vpls[i] = out;
 }

@@ -45,7 +45,8 @@ pub struct VplSettings {
     pub interleave: u32,
     /// Distance clamp of eq. 2 in voxels of the octree: B = (clamp x voxel edge)^2 (default 2:
     /// closer than two voxels the octree cannot tell the VPL's surface from the receiver's,
-    /// so the 1/r^2 singularity is cut there; docs/vpl.md measures the bias).
+    /// so the 1/r^2 singularity is cut there; docs/vpl.md measures the bias). Each VPL's own
+    /// disk ([`vpl_clamp`]) bounds it too, whichever is larger.
     pub clamp: f32,
     /// Voxels per side of the octree, a power of two in 4..=1024 (default 128, as 002's
     /// Cornell box).
@@ -197,7 +198,7 @@ struct ShadeParams {
 }
 
 /// The geometry term of eq. 2-4 (as `vpl_g` in `shade.wgsl`): receiver at `p` with normal
-/// `n`, VPL at `pv` with normal `nv`, squared distance clamped at `b`.
+/// `n`, VPL at `pv` with normal `nv`, squared distance clamped at `b` ([`vpl_clamp`]).
 pub fn geometry_term(p: glam::Vec3, n: glam::Vec3, pv: glam::Vec3, nv: glam::Vec3, b: f32) -> f32 {
     let d = p - pv;
     let r2 = d.length_squared();
@@ -206,6 +207,16 @@ pub fn geometry_term(p: glam::Vec3, n: glam::Vec3, pv: glam::Vec3, nv: glam::Vec
     }
     let w = d / r2.sqrt();
     n.dot(-w).max(0.0) * nv.dot(w).max(0.0) / b.max(r2)
+}
+
+/// The bound `b` of a VPL's squared distance in [`geometry_term`] (as in `vpl_g`): the clamp
+/// `clamp_b` = (`clamp` x voxel edge)^2, where the octree cannot tell the VPL's surface from the
+/// receiver's, or the squared radius of a disk of the VPL's `area`, whichever is larger. A
+/// VPL stands for a patch of surface, not a point: closer than its radius the patch's
+/// irradiance stays finite (a disk's on its axis is M r^2 / (r^2 + d^2), no more than its
+/// radiosity M), where a point's 1 / d^2 spikes.
+pub fn vpl_clamp(clamp_b: f32, area: f32) -> f32 {
+    clamp_b.max(area * std::f32::consts::FRAC_1_PI)
 }
 
 /// VPL global illumination.

@@ -9,8 +9,8 @@
 // is the sub-image k = (y mod I) I + (x mod I), and its pixels (x, y) sum VPL subset k, the
 // VPLs j = k, k + I^2, k + 2 I^2, ... (the VPLs are stratified over the RSMs in index order, so
 // every subset is spread over all of them). Workgroups never straddle sub-images, so a
-// workgroup reads one subset. Per pixel p (normal n) and VPL (p_v, n_v, Phi):
-//   G = max(0, cos_i) max(0, cos_o) / max(B, |p - p_v|^2)               (eq. 2-4)
+// workgroup reads one subset. Per pixel p (normal n) and VPL (p_v, n_v, Phi, area A):
+//   G = max(0, cos_i) max(0, cos_o) / max(B, A / pi, |p - p_v|^2)       (eq. 2-4)
 //   E += I^2 / pi x Phi G (1 - V)                                          (eq. 1)
 // 1/pi turns the VPL's flux into the radiant intensity of a Lambertian emitter (Phi/pi cos_o),
 // I^2 scales the subset up to all N VPLs (each subset holds 1/I^2 of them), so the expected
@@ -73,6 +73,8 @@ const WORK_NODES: u32 = 4u;
 // instead of one chunk's after another's, and sums them in the same order: the same image to
 // the bit.
 const CHUNK: u32 = 8u;
+// 1 / pi: a disk of area A has radius^2 A / pi.
+const DISK_SCALE: f32 = 0.31830988;
 
 struct Vpl {
     position: vec4<f32>,
@@ -81,7 +83,7 @@ struct Vpl {
 };
 
 // Eq. 2-4: the geometry term of a VPL at `pv` (normal `nv`) for a receiver at `p` (normal `n`).
-fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>) -> f32 {
+fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>, area: f32) -> f32 {
     let d = p - pv;
     let r2 = dot(d, d);
     if r2 <= 0.0 {
@@ -90,7 +92,9 @@ fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>) -> f32 {
     let w = d * inverseSqrt(r2);
     let cos_i = max(0.0, dot(n, -w));
     let cos_o = max(0.0, dot(nv, w));
-    return cos_i * cos_o / max(sp.clamp_b, r2);
+    // The bound of r^2: the clamp, or the squared radius of a disk of the VPL's area
+    // (`vpl_clamp` in vpl/mod.rs).
+    return cos_i * cos_o / max(max(sp.clamp_b, area * DISK_SCALE), r2);
 }
 
 // The G-buffer's size, and the reduced image's (one pixel per f x f block).
@@ -139,7 +143,7 @@ fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
             let scale = f32(m * m) / PI;
             pairs = 1u;
             let v = vpls[j];
-            let g = vpl_g(p, n, v.position.xyz, v.normal.xyz);
+            let g = vpl_g(p, n, v.position.xyz, v.normal.xyz, v.position.w);
             let c = scale * v.flux.w * g;
             if g > 0.0 && c > sp.cull {
                 rays = 1u;
