@@ -19,11 +19,6 @@ import octolux::voxel::svo::common::{BRICK_COUNTER, brick_of, bw_index, child, f
 @group(0) @binding(11) var<storage, read_write> bricks3: array<u32>;
 // Indirect dispatch arguments, 3 words per level (bound only by finish_level).
 @group(1) @binding(0) var<storage, read_write> args: array<u32>;
-// Bit n % 32 of word n / 32: node n's cell holds a voxel of the static geometry (written by
-// `mark_occupied`; a placeholder for every other kernel). The visibility walk
-// (`svo/walk.wgsl`) skips the other nodes' cells whole, although those next to an occupied
-// node are subdivided (for the bricks' lattice, `flag_needed`).
-@group(0) @binding(12) var<storage, read_write> occupied_bits: array<u32>;
 
 // Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
 // ones), INVALID past the range's end.
@@ -192,6 +187,10 @@ fn finish_level() {
     write_args(L.d + 1u, end - start);
 }
 
+// Bit n % 32 of word n / 32 of the occupied-node bits: node n's cell holds a voxel of the
+// static geometry. The visibility walk (`svo/walk.wgsl`) skips the other nodes' cells whole,
+// although those next to an occupied node are subdivided (for the bricks' lattice,
+// `flag_needed`). The structure phase has no bricks yet and binds the bits as pool 0.
 // One invocation per word of 32 nodes (each word has one writer: no atomics); runs before
 // `assign_bricks` turns the flags into brick indices.
 @compute @workgroup_size(64)
@@ -209,7 +208,7 @@ fn mark_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
             bits |= 1u << i;
         }
     }
-    occupied_bits[w] = bits;
+    bricks0[w] = bits;
 }
 
 // Gives every needed node a brick (the others have an all-zero lattice and need none); the

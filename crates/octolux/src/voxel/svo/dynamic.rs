@@ -529,7 +529,6 @@ impl SvoBuilder {
                 &svo.bricks[1],
                 &svo.bricks[2],
                 &svo.bricks[3],
-                &svo.static_occupied,
             ],
         );
         let group1 = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
