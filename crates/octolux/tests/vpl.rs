@@ -500,16 +500,7 @@ fn one_vpl_over_a_plane_gives_the_closed_form_geometry_term() {
         let e = irradiance(&ctx, t.indirect_texture());
         // The closed form at pixel (x, y) where it sees the floor.
         let closed = |x: u32, y: u32| {
-            let i = (y * w + x) as usize;
-            if g.depth[i] >= 1.0 || g.normal[i].y < 0.9 {
-                return None;
-            }
-            let ndc = Vec3::new(
-                (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-                1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-                g.depth[i],
-            );
-            let p = view.inv_view_proj.project_point3(ndc);
+            let p = up_facing_point(&g, &view, (w, h), (x, y))?;
             (p.y.abs() <= 1e-2).then(|| {
                 v.flux / std::f32::consts::PI
                     * geometry_term(p, Vec3::Y, v.position, v.normal, vpl_clamp(b * b, v.area))
@@ -631,15 +622,9 @@ fn a_vpl_next_to_a_receiver_lights_it_as_a_disk_of_its_area() {
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
-            if g.depth[i] >= 1.0 || g.normal[i].y < 0.9 {
+            let Some(p) = up_facing_point(&g, &view, (w, h), (x, y)) else {
                 continue;
-            }
-            let ndc = Vec3::new(
-                (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-                1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-                g.depth[i],
-            );
-            let p = view.inv_view_proj.project_point3(ndc);
+            };
             if p.y.abs() > 1e-2 {
                 continue;
             }
@@ -663,6 +648,26 @@ fn a_vpl_next_to_a_receiver_lights_it_as_a_disk_of_its_area() {
         bounded >= 20 && checked > bounded,
         "{checked} pixels, {bounded} bounded"
     );
+}
+
+/// The world point pixel (x, y) of a w x h G-buffer sees where it sees a surface facing up
+/// (the floors these tests shade), `None` elsewhere.
+fn up_facing_point(
+    g: &octolux::render::GBufferImages,
+    view: &octolux::scene::CameraView,
+    (w, h): (u32, u32),
+    (x, y): (u32, u32),
+) -> Option<Vec3> {
+    let i = (y * w + x) as usize;
+    if g.depth[i] >= 1.0 || g.normal[i].y < 0.9 {
+        return None;
+    }
+    let ndc = Vec3::new(
+        (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
+        1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
+        g.depth[i],
+    );
+    Some(view.inv_view_proj.project_point3(ndc))
 }
 
 fn irradiance(ctx: &GpuContext, texture: &wgpu::Texture) -> Vec<Vec3> {
@@ -952,15 +957,9 @@ fn thin_wall_between_a_lit_and_a_dark_room_leaks_no_light() {
         for y in 0..h {
             for x in 0..w {
                 let i = (y * w + x) as usize;
-                if g.depth[i] >= 1.0 || g.normal[i].y < 0.9 {
+                let Some(p) = up_facing_point(&g, &view, (w, h), (x, y)) else {
                     continue;
-                }
-                let ndc = Vec3::new(
-                    (x as f32 + 0.5) / w as f32 * 2.0 - 1.0,
-                    1.0 - (y as f32 + 0.5) / h as f32 * 2.0,
-                    g.depth[i],
-                );
-                let p = view.inv_view_proj.project_point3(ndc);
+                };
                 let side = if p.x < -0.05 {
                     &mut lit
                 } else if p.x > 0.05 {
