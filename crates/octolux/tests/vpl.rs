@@ -479,25 +479,9 @@ fn one_vpl_over_a_plane_gives_the_closed_form_geometry_term() {
     // every pixel is then a convex combination of the 2 x 2 shaded blocks around it, so it
     // lies between their closed-form values (the same tolerance).
     for sparse in [1, 2, 4] {
-        let vpl = VplSettings {
-            count: 1,
-            interleave: 1,
-            filter: false,
-            rsm_size: 64,
-            resolution: 64,
-            sparse,
-            ..VplSettings::default()
-        };
         let (w, h) = (32, 32);
-        let mut r = Renderer::new(&ctx, &scene, settings(w, h, vpl.clone())).unwrap();
-        r.render(&scene, 0.0).unwrap();
-        let t = vpl_of(&r);
-        let v = t.read_vpls(&ctx).unwrap()[0];
+        let OneVplFrame { v, b, g, view, e } = one_vpl_frame(&ctx, &scene, (w, h), sparse);
         assert!(v.flux.x > 0.0 && (v.position.y - 1.0).abs() < 1e-3, "{v:?}");
-        let b = vpl.clamp * t.svo().grid().voxel_size;
-        let g = r.read_gbuffer().unwrap();
-        let view = *r.last_view().unwrap();
-        let e = irradiance(&ctx, t.indirect_texture());
         // The closed form at pixel (x, y) where it sees the floor.
         let closed = |x: u32, y: u32| {
             let p = up_facing_point(&g, &view, (w, h), (x, y))?;
@@ -597,27 +581,11 @@ fn a_vpl_next_to_a_receiver_lights_it_as_a_disk_of_its_area() {
         ..octolux::scene::Camera::default()
     };
     let scene = scene_of(&[floor(1.0), tile], light, camera);
-    let vpl = VplSettings {
-        count: 1,
-        interleave: 1,
-        filter: false,
-        rsm_size: 64,
-        resolution: 64,
-        sparse: 1,
-        ..VplSettings::default()
-    };
     let (w, h) = (48, 32);
-    let mut r = Renderer::new(&ctx, &scene, settings(w, h, vpl.clone())).unwrap();
-    r.render(&scene, 0.0).unwrap();
-    let t = vpl_of(&r);
-    let v = t.read_vpls(&ctx).unwrap()[0];
+    let OneVplFrame { v, b, g, view, e } = one_vpl_frame(&ctx, &scene, (w, h), 1);
     assert!((v.position.y - height).abs() < 1e-3, "{v:?}");
-    let b = vpl.clamp * t.svo().grid().voxel_size;
     let disk = v.area / std::f32::consts::PI;
     assert!(disk > 4.0 * b * b, "area {} m^2, clamp {b} m", v.area);
-    let g = r.read_gbuffer().unwrap();
-    let view = *r.last_view().unwrap();
-    let e = irradiance(&ctx, t.indirect_texture());
     let (mut checked, mut bounded) = (0, 0);
     for y in 0..h {
         for x in 0..w {
@@ -648,6 +616,45 @@ fn a_vpl_next_to_a_receiver_lights_it_as_a_disk_of_its_area() {
         bounded >= 20 && checked > bounded,
         "{checked} pixels, {bounded} bounded"
     );
+}
+
+/// A frame shaded by one VPL alone (every pixel with it, no merge), for the closed-form tests.
+struct OneVplFrame {
+    /// The VPL.
+    v: Vpl,
+    /// The voxel clamp's distance (m).
+    b: f32,
+    g: octolux::render::GBufferImages,
+    view: octolux::scene::CameraView,
+    /// The indirect irradiance per pixel.
+    e: Vec<Vec3>,
+}
+
+fn one_vpl_frame(
+    ctx: &GpuContext,
+    scene: &octolux::scene::Scene,
+    (w, h): (u32, u32),
+    sparse: u32,
+) -> OneVplFrame {
+    let vpl = VplSettings {
+        count: 1,
+        interleave: 1,
+        filter: false,
+        rsm_size: 64,
+        resolution: 64,
+        sparse,
+        ..VplSettings::default()
+    };
+    let mut r = Renderer::new(ctx, scene, settings(w, h, vpl.clone())).unwrap();
+    r.render(scene, 0.0).unwrap();
+    let t = vpl_of(&r);
+    OneVplFrame {
+        v: t.read_vpls(ctx).unwrap()[0],
+        b: vpl.clamp * t.svo().grid().voxel_size,
+        g: r.read_gbuffer().unwrap(),
+        view: *r.last_view().unwrap(),
+        e: irradiance(ctx, t.indirect_texture()),
+    }
 }
 
 /// The world point pixel (x, y) of a w x h G-buffer sees where it sees a surface facing up
