@@ -148,6 +148,11 @@ pub struct GiArgs {
     /// (default 0).
     #[arg(long)]
     pub vpl_cull: Option<f32>,
+    /// VPL GI: Russian roulette on shadow rays, 0..=16 (0: off): a VPL below this many times
+    /// the mean contribution of the pixel's VPLs traces its ray with probability contribution
+    /// / threshold, weighted by the inverse (unbiased; default 2).
+    #[arg(long)]
+    pub vpl_roulette: Option<f32>,
     /// VPL GI: geometry-aware merge of the sub-images (default true).
     #[arg(long)]
     pub vpl_filter: Option<bool>,
@@ -287,6 +292,7 @@ impl GiArgs {
         set(&mut vpl.rsm_size, self.vpl_rsm_size);
         set(&mut vpl.end_offset, self.vpl_end_offset);
         set(&mut vpl.cull, self.vpl_cull);
+        set(&mut vpl.roulette, self.vpl_roulette);
         set(&mut vpl.filter, self.vpl_filter);
         set(&mut vpl.sparse, self.vpl_sparse);
         set(&mut vpl.bounces, self.vpl_bounces);

@@ -26,6 +26,8 @@ fn vpl_flags_render_and_bad_values_are_clear_errors() {
         "2",
         "--vpl-filter",
         "false",
+        "--vpl-roulette",
+        "0.5",
     ]);
     assert!(
         ok.status.success(),
@@ -37,6 +39,7 @@ fn vpl_flags_render_and_bad_values_are_clear_errors() {
         ("--vpl-resolution", "48", "vpl resolution"),
         ("--vpl-interleave", "9", "vpl interleave"),
         ("--vpl-end-offset", "9", "vpl end_offset"),
+        ("--vpl-roulette", "17", "vpl roulette"),
     ] {
         let out = render(&[flag, value]);
         let stderr = String::from_utf8_lossy(&out.stderr);

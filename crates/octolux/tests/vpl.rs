@@ -636,9 +636,11 @@ fn one_vpl_frame(
     (w, h): (u32, u32),
     sparse: u32,
 ) -> OneVplFrame {
+    // Every ray traced: these frames check the geometry term, not the roulette.
     let vpl = VplSettings {
         count: 1,
         interleave: 1,
+        roulette: 0.0,
         filter: false,
         rsm_size: 64,
         resolution: 64,
@@ -727,6 +729,13 @@ fn bad_settings_are_clear_errors() {
                 ..VplSettings::default()
             },
             "bounces",
+        ),
+        (
+            VplSettings {
+                roulette: f32::NAN,
+                ..VplSettings::default()
+            },
+            "roulette",
         ),
     ] {
         let err = Renderer::new(&ctx, &scene, settings(8, 8, vpl))
@@ -1033,4 +1042,70 @@ fn second_bounce_vpls_bring_the_image_closer_to_the_two_bounce_reference() {
     }
     assert!(errors[1].0 < errors[0].0, "relMSE {errors:?}");
     assert!(errors[1].1 < errors[0].1, "FLIP {errors:?}");
+}
+
+#[test]
+fn russian_roulette_traces_fewer_rays_and_keeps_the_expected_irradiance() {
+    // The Cornell box, every pixel shaded, no merge (each pixel its own estimate): with the
+    // default roulette the pass traces fewer shadow rays, pixels change, and the mean difference
+    // to the image without it is zero within 4 standard errors of the per-pixel differences
+    // (the hash draws an independent number per pixel and VPL). Without the 1 / p weight of
+    // the survivors the mean would fall by the share of the rouletted contributions, many
+    // standard errors.
+    let ctx = context().with_work_counter();
+    let scene = octolux::scene::cornell::scene();
+    let (w, h) = (64, 48);
+    let frame = |roulette: f32| {
+        let vpl = VplSettings {
+            filter: false,
+            sparse: 1,
+            roulette,
+            ..VplSettings::default()
+        };
+        let mut r = Renderer::new(&ctx, &scene, settings(w, h, vpl)).unwrap();
+        ctx.work().unwrap().take(&ctx).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        let rays = ctx
+            .work()
+            .unwrap()
+            .take(&ctx)
+            .unwrap()
+            .iter()
+            .find(|c| c.pass == "vpl shade" && c.quantity == "shadow rays")
+            .map(|c| c.count)
+            .expect("shadow rays counted");
+        (rays, irradiance(&ctx, vpl_of(&r).indirect_texture()))
+    };
+    let (rays_all, all) = frame(0.0);
+    let (rays, rouletted) = frame(VplSettings::default().roulette);
+    println!("shadow rays {rays_all} -> {rays}");
+    assert!(rays * 3 < rays_all * 2, "shadow rays {rays_all} -> {rays}");
+    let d: Vec<f64> = all
+        .iter()
+        .zip(&rouletted)
+        .map(|(a, b)| ((b.x + b.y + b.z) - (a.x + a.y + a.z)) as f64 / 3.0)
+        .collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let level = all
+        .iter()
+        .map(|a| (a.x + a.y + a.z) as f64 / 3.0)
+        .sum::<f64>()
+        / n;
+    let changed = d.iter().filter(|x| x.abs() > 1e-3 * level).count();
+    println!(
+        "mean irradiance {level:.5}, difference {mean:.3e} (standard error {:.3e}), {changed} pixels changed",
+        sd / n.sqrt()
+    );
+    assert!(
+        changed * 4 > d.len(),
+        "{changed} of {} pixels changed",
+        d.len()
+    );
+    assert!(
+        mean.abs() < 4.0 * sd / n.sqrt(),
+        "mean difference {mean:.3e} against a standard error of {:.3e}",
+        sd / n.sqrt()
+    );
 }

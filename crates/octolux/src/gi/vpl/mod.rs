@@ -11,7 +11,8 @@
 //!    ([`generate`]); with `bounces` 2 or 3, `vpl bounce` adds the next bounce's VPLs where
 //!    rays from the previous bounce's VPLs hit the octree (`bounce.wgsl`).
 //! 4. `vpl shade`: interleaved shading, each pixel with 1 / I^2 of the VPLs, visibility by a
-//!    stackless walk of the octree (`voxel/svo/walk.wgsl`, `shade.wgsl`); with sparse
+//!    stackless walk of the octree (`voxel/svo/walk.wgsl`, `shade.wgsl`), VPLs that add
+//!    little to a pixel tracing their ray only by Russian roulette (`roulette`); with sparse
 //!    shading (default) one pixel per `sparse` x `sparse` block.
 //! 5. `vpl merge`: geometry-aware I x I merge into the indirect irradiance image (the reduced
 //!    image with sparse shading).
@@ -59,6 +60,13 @@ pub struct VplSettings {
     /// A VPL whose mean contribution to a pixel is at most this (W/m^2) is skipped before
     /// its shadow ray (default 0: only VPLs with G = 0 or no flux).
     pub cull: f32,
+    /// Russian roulette on shadow rays, 0..=16 (default 2; 0: off): a VPL whose unoccluded
+    /// contribution to a pixel is below `roulette` x the mean contribution of the pixel's
+    /// VPLs in its shading dispatch (its subset, at most 64 VPLs) traces its ray with
+    /// probability contribution / threshold and is weighted by its inverse: the expected
+    /// image is unchanged, and rays that could only add little are mostly not traced
+    /// (docs/vpl.md measures rays and error).
+    pub roulette: f32,
     /// Geometry-aware merge of the sub-images (default true; false shows the raw interleave).
     pub filter: bool,
     /// Sparse shading: one shaded pixel per `sparse` x `sparse` block, the others
@@ -90,6 +98,7 @@ impl Default for VplSettings {
             rsm_size: 256,
             end_offset: 1.75,
             cull: 0.0,
+            roulette: 2.0,
             filter: true,
             sparse: 0,
             normal_min: 0.9,
@@ -145,6 +154,7 @@ impl VplSettings {
             "cull",
             "finite, >= 0",
         )?;
+        check((0.0..=16.0).contains(&self.roulette), "roulette", "0..=16")?;
         check(
             (-1.0..=1.0).contains(&self.normal_min),
             "normal_min",
@@ -195,6 +205,7 @@ struct ShadeParams {
     filter: u32,
     sparse: u32,
     lanes: u32,
+    roulette: f32,
 }
 
 /// The geometry term of eq. 2-4 (as `vpl_g` in `shade.wgsl`): receiver at `p` with normal
@@ -316,6 +327,7 @@ impl VplGi {
             filter: settings.filter as u32,
             sparse: settings.sparse_factor(height),
             lanes: shade_lanes(settings),
+            roulette: settings.roulette,
         };
         let shade_params =
             ctx.create_buffer_init(OWNER, "shade params", bytemuck::bytes_of(&shade), usage);

@@ -17,6 +17,13 @@
 // value over subsets is the full VPL sum. VPLs with G = 0 (behind either surface), no flux,
 // or a mean contribution below `cull` (W/m^2) are skipped before the shadow ray.
 //
+// Russian roulette (`roulette` r > 0): a VPL whose mean unoccluded contribution c is below
+// r x the mean of c over the pixel's VPLs in this dispatch that pass the test above traces its
+// ray with probability p = c / threshold and, if visible, adds its contribution / p: the
+// expected value is unchanged, and each rouletted VPL adds at most threshold^2 / 4 of
+// variance. The random number hashes the pixel and the VPL index, so a still frame is the
+// same frame after frame.
+
 // `merge`: every pixel averages the I x I window around it (which holds every sub-image once)
 // over the pixels on its own surface: normal within `normal_min` (cosine) and the neighbour's
 // distance to the pixel's tangent plane within `plane_tol` x its distance to the camera. The
@@ -42,6 +49,8 @@ struct ShadeParams {
     // VPLs of a subset one `shade` dispatch sums per pixel, a lane each: 8, 16, 32 or 64
     // (whole chunks of CHUNK).
     lanes: u32,
+    // Russian roulette's threshold r, in means of the pixel's contributions (0: off).
+    roulette: f32,
 };
 
 @group(0) @binding(0) var<uniform> cam: Camera;
@@ -116,6 +125,30 @@ fn gbuffer_pixel(q: vec2<u32>) -> vec2<u32> {
 // ray. (One lane per pixel walking its rays one after another left a large GPU mostly idle
 // and waiting: a reduced image holds too few pixels to fill it.)
 var<workgroup> vpl_irradiance: array<vec4<f32>, 64>;
+// Each lane's unoccluded mean contribution and whether it has one, summed per pixel for the
+// roulette.
+var<workgroup> vpl_share: array<vec2<f32>, 64>;
+
+// A uniform number in [0, 1) from the pixel and the VPL index (a PCG-style integer hash).
+fn roulette_number(pixel: u32, vpl: u32) -> f32 {
+    var h = pixel * 747796405u + 2891336453u;
+    h = (h ^ (vpl * 277803737u + 1013904223u)) * 747796405u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    h = (h >> 22u) ^ h;
+    return f32(h >> 8u) * (1.0 / 16777216.0);
+}
+
+// The sum of `vpl_share` over each pixel's `lanes` lanes, in the pixel's first lane (a tree
+// over halving strides; every lane passes every barrier).
+fn sum_shares(li: u32, l: u32, lanes: u32) {
+    for (var i = 0u; i < 6u; i++) {
+        let stride = 32u >> i;
+        if stride < lanes && l < stride {
+            vpl_share[li] += vpl_share[li + stride];
+        }
+        workgroupBarrier();
+    }
+}
 
 @compute @workgroup_size(64)
 fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) li: u32) {
@@ -131,26 +164,47 @@ fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
     var e = vec3<f32>(0.0);
     var pairs = 0u;
     var rays = 0u;
+    // The candidate's position, normal, VPL and contribution, for the ray after the sum.
+    var c = 0.0;
+    var p = vec3<f32>(0.0);
+    var n = vec3<f32>(0.0);
+    var v: Vpl;
+    var g = 0.0;
+    let scale = f32(m * m) / PI;
+    // VPL l of this dispatch's VPLs of subset k.
+    let j = k + (chunk * CHUNK + l) * m * m;
     if inside {
         let px = gbuffer_pixel(q);
         let depth = textureLoad(depth_tex, px, 0);
         sky = depth >= 1.0;
-        // VPL l of this dispatch's VPLs of subset k.
-        let j = k + (chunk * CHUNK + l) * m * m;
         if !sky && j < sp.count {
-            let p = world_from_depth(cam, px, depth);
-            let n = normalize(textureLoad(normal_tex, px, 0).xyz);
-            let scale = f32(m * m) / PI;
+            p = world_from_depth(cam, px, depth);
+            n = normalize(textureLoad(normal_tex, px, 0).xyz);
             pairs = 1u;
-            let v = vpls[j];
-            let g = vpl_g(p, n, v.position.xyz, v.normal.xyz, v.position.w);
-            let c = scale * v.flux.w * g;
-            if g > 0.0 && c > sp.cull {
-                rays = 1u;
-                let a = vpl_fixed_point(p, n);
-                if !svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
-                    e = scale * v.flux.rgb * g;
-                }
+            v = vpls[j];
+            g = vpl_g(p, n, v.position.xyz, v.normal.xyz, v.position.w);
+            let mean = scale * v.flux.w * g;
+            if g > 0.0 && mean > sp.cull {
+                c = mean;
+            }
+        }
+    }
+    vpl_share[li] = vec2<f32>(c, f32(c > 0.0));
+    workgroupBarrier();
+    sum_shares(li, l, lanes);
+    let pixel = vpl_share[li - l];
+    let threshold = sp.roulette * pixel.x / max(pixel.y, 1.0);
+    if c > 0.0 {
+        // The weight 1 / p of a ray that survives the roulette (1 above the threshold).
+        var weight = 1.0;
+        if c < threshold {
+            weight = threshold / c;
+        }
+        if weight == 1.0 || roulette_number(at, j) * weight < 1.0 {
+            rays = 1u;
+            let a = vpl_fixed_point(p, n);
+            if !svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
+                e = scale * v.flux.rgb * g * weight;
             }
         }
     }
