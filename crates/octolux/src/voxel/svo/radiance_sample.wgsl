@@ -3,7 +3,7 @@
 // interpolation of `svo_sample`, from the octree's 4 radiance buffers (`Svo::radiance`,
 // bound by `voxel::svo::sample::svo_radiance_bindings`).
 
-import octolux::voxel::svo::sample::{SvoLod, svo_corner, svo_info, svo_locate, svo_lod, svo_weight};
+import octolux::voxel::svo::sample::{SvoCell, svo_corner, svo_info, svo_locate_levels, svo_lod, svo_weight};
 
 @group(0) @binding(57) var<storage, read> svo_radiance0: array<u32>;
 @group(0) @binding(58) var<storage, read> svo_radiance1: array<u32>;
@@ -23,8 +23,7 @@ fn svo_radiance_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
     return vec4<f32>(unpack2x16float(lo), unpack2x16float(hi));
 }
 
-fn svo_radiance_level(g: vec3<f32>, d: u32) -> vec4<f32> {
-    let cell = svo_locate(g, d);
+fn svo_radiance_cell(cell: SvoCell) -> vec4<f32> {
     var sum = vec4<f32>(0.0);
     if cell.brick == 0u {
         return sum;
@@ -38,9 +37,11 @@ fn svo_radiance_level(g: vec3<f32>, d: u32) -> vec4<f32> {
 
 fn svo_radiance_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     let lod = svo_lod(p, footprint);
-    let a = svo_radiance_level(lod.g, lod.fine);
-    if lod.t <= 0.0 || lod.fine == 0u {
+    let blend = lod.t > 0.0 && lod.fine > 0u;
+    let cells = svo_locate_levels(lod.g, lod.fine, blend);
+    let a = svo_radiance_cell(cells.fine);
+    if !blend {
         return a;
     }
-    return mix(a, svo_radiance_level(lod.g, lod.fine - 1u), lod.t);
+    return mix(a, svo_radiance_cell(cells.coarse), lod.t);
 }

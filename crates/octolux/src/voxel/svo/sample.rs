@@ -75,7 +75,8 @@ impl SvoInfo {
     }
 }
 
-/// CPU twin of `svo_sample_level`: level `d` at grid position `g` (voxel units).
+/// CPU twin of one level of `svo_sample` (`svo_locate_levels`, `svo_sample_cell`): level `d`
+/// at grid position `g` (voxel units).
 pub fn svo_sample_level(svo: &SvoCpu, depth: u32, g: Vec3, d: u32) -> Vec4 {
     let x = g / (1u32 << (depth - 1 - d)) as f32;
     let size = 1u32 << d;

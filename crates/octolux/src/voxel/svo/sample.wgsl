@@ -62,31 +62,51 @@ struct SvoCell {
 
 @if(!count_work) fn count_lookup_work(lookups_q: u32, nodes_q: u32) {}
 
-fn svo_locate(g: vec3<f32>, d: u32) -> SvoCell {
+// The cell of the node `node` (of the level whose lattice position is `x`, node coordinates
+// `c`) holding x.
+fn svo_cell(node: u32, x: vec3<f32>, c: vec3<u32>) -> SvoCell {
     var cell: SvoCell;
-    let depth = svo_info.misc.x;
-    let x = g / f32(1u << (depth - 1u - d));
-    let size = 1u << d;
-    if any(x < vec3<f32>(0.0)) || any(x > vec3<f32>(2.0 * f32(size))) {
-        return cell;
-    }
-    let c = min(vec3<u32>(x * 0.5), vec3<u32>(size - 1u));
-    var node = 0u;
-    for (var l = 0u; l < d; l++) {
-        let first = svo_child[node];
-        if first == 0u {
-            note_lookup(l + 1u);
-            return cell;
-        }
-        let s = d - 1u - l;
-        node = first + ((c.x >> s) & 1u) + (((c.y >> s) & 1u) << 1u) + (((c.z >> s) & 1u) << 2u);
-    }
-    note_lookup(d);
     cell.brick = svo_brick_index[node];
     let local = clamp(x - 2.0 * vec3<f32>(c), vec3<f32>(0.0), vec3<f32>(2.0));
     cell.i0 = min(vec3<u32>(local), vec3<u32>(1u));
     cell.f = local - vec3<f32>(cell.i0);
     return cell;
+}
+
+// The cells of level d (`fine`) and, with `coarse` and d > 0, of level d - 1 holding grid
+// position g, from one descent: the node of level d - 1 is the one the descent to level d
+// passes (level d - 1's lattice position is half level d's, its node coordinates half too),
+// so a sample between two levels reads the nodes of one descent, not two.
+struct SvoCells {
+    fine: SvoCell,
+    coarse: SvoCell,
+}
+
+fn svo_locate_levels(g: vec3<f32>, d: u32, coarse: bool) -> SvoCells {
+    var cells: SvoCells;
+    let depth = svo_info.misc.x;
+    let x = g / f32(1u << (depth - 1u - d));
+    let size = 1u << d;
+    if any(x < vec3<f32>(0.0)) || any(x > vec3<f32>(2.0 * f32(size))) {
+        return cells;
+    }
+    let c = min(vec3<u32>(x * 0.5), vec3<u32>(size - 1u));
+    var node = 0u;
+    for (var l = 0u; l < d; l++) {
+        if coarse && l + 1u == d {
+            cells.coarse = svo_cell(node, x * 0.5, c >> vec3<u32>(1u));
+        }
+        let first = svo_child[node];
+        if first == 0u {
+            note_lookup(l + 1u);
+            return cells;
+        }
+        let s = d - 1u - l;
+        node = first + ((c.x >> s) & 1u) + (((c.y >> s) & 1u) << 1u) + (((c.z >> s) & 1u) << 2u);
+    }
+    note_lookup(d);
+    cells.fine = svo_cell(node, x, c);
+    return cells;
 }
 
 // Trilinear weight of corner `k` (bit 0: x, 1: y, 2: z) of a cell, and its lattice offset.
@@ -113,9 +133,8 @@ fn svo_lod(p: vec3<f32>, footprint: f32) -> SvoLod {
     return SvoLod(depth - 1u - u32(floor(lod)), lod - floor(lod), (p - svo_info.origin.xyz) / svo_info.origin.w);
 }
 
-// Trilinear albedo/opacity sample of level d at grid position g; zero where no node exists.
-fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
-    let cell = svo_locate(g, d);
+// Trilinear albedo/opacity sample of a cell; zero where no node exists.
+fn svo_sample_cell(cell: SvoCell) -> vec4<f32> {
     var sum = vec4<f32>(0.0);
     if cell.brick == 0u {
         return sum;
@@ -129,11 +148,13 @@ fn svo_sample_level(g: vec3<f32>, d: u32) -> vec4<f32> {
 
 fn svo_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     let lod = svo_lod(p, footprint);
-    let a = svo_sample_level(lod.g, lod.fine);
-    if lod.t <= 0.0 || lod.fine == 0u {
+    let blend = lod.t > 0.0 && lod.fine > 0u;
+    let cells = svo_locate_levels(lod.g, lod.fine, blend);
+    let a = svo_sample_cell(cells.fine);
+    if !blend {
         return a;
     }
-    return mix(a, svo_sample_level(lod.g, lod.fine - 1u), lod.t);
+    return mix(a, svo_sample_cell(cells.coarse), lod.t);
 }
 
 // The octree's per-node values (anisotropic albedo and radiance) sit at node centres: level d
