@@ -301,11 +301,8 @@ fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow
     assert!(mip < 4e-3, "radiance mip error {mip}");
 }
 
-/// A 16^3 octree of an emissive triangle and a thin non-emissive one, injected without lights.
-fn emissive_octree(ctx: &GpuContext) -> (VoxelGrid, Vec<VoxelTriangle>, Svo) {
-    let ctx = ctx.clone();
-    let res = 16;
-    let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / res as f32, res).unwrap();
+/// An emissive triangle and a thin non-emissive one, in the unit cube.
+fn emissive_triangles() -> Vec<VoxelTriangle> {
     let emission = Vec3::new(3.0, 0.5, 0.25);
     let make = |a: Vec3, b: Vec3, c: Vec3, e: Vec3| VoxelTriangle {
         positions: [a, b, c],
@@ -313,7 +310,7 @@ fn emissive_octree(ctx: &GpuContext) -> (VoxelGrid, Vec<VoxelTriangle>, Svo) {
         normal: (b - a).cross(c - a).normalize_or(Vec3::Y),
         emission: e,
     };
-    let tris = vec![
+    vec![
         make(
             Vec3::new(0.2, 0.53, 0.2),
             Vec3::new(0.8, 0.53, 0.2),
@@ -326,7 +323,15 @@ fn emissive_octree(ctx: &GpuContext) -> (VoxelGrid, Vec<VoxelTriangle>, Svo) {
             Vec3::new(0.31, 0.1, 0.7),
             Vec3::ZERO,
         ),
-    ];
+    ]
+}
+
+/// A 16^3 octree of [`emissive_triangles`], injected without lights.
+fn emissive_octree(ctx: &GpuContext) -> (VoxelGrid, Vec<VoxelTriangle>, Svo) {
+    let ctx = ctx.clone();
+    let res = 16;
+    let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / res as f32, res).unwrap();
+    let tris = emissive_triangles();
     let builder = SvoBuilder::new(&ctx);
     let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
     inject_nothing(&ctx, &builder, &svo);
@@ -603,5 +608,91 @@ fn anisotropic_radiance_equals_the_cpu_twin_with_and_without_a_dynamic_part() {
         inject_nothing(&ctx, &builder, &svo);
         assert!(svo.dynamic_levels().iter().any(|&(a, b)| b > a));
         check_aniso_radiance(&ctx, &svo, largest);
+    }
+}
+
+/// Per node with a brick, keyed by level and coordinates: the bits of its albedo and its
+/// radiance texels.
+type NodeBits = BTreeMap<(usize, [u32; 3]), Vec<u32>>;
+
+fn bricks_by_node(svo: &Svo, cpu_svo: &SvoCpu, radiance: &[[Vec4; 27]]) -> (NodeBits, NodeBits) {
+    let coords = cpu_svo.coordinates();
+    let bits = |b: &[Vec4; 27]| -> Vec<u32> {
+        b.iter()
+            .flat_map(|t| t.to_array().map(f32::to_bits))
+            .collect()
+    };
+    let (mut albedo, mut light) = (NodeBits::new(), NodeBits::new());
+    for d in 0..svo.levels().len() {
+        for n in level_nodes(svo, d) {
+            let b = cpu_svo.brick_of[n as usize];
+            if b != 0 {
+                let key = (d, coords[n as usize]);
+                albedo.insert(key, bits(&cpu_svo.bricks[b as usize - 1]));
+                light.insert(key, bits(&radiance[b as usize - 1]));
+            }
+        }
+    }
+    (albedo, light)
+}
+
+/// The coarsest levels filtered in one dispatch (`mip_coarse`, the default) give the bricks
+/// and the radiance of four dispatches per level, bit for bit, static and dynamic nodes: the
+/// same taps summed in the same order, and every tap weight is a power of two, so the products
+/// are exact and a fused multiply-add rounds as a multiply and an add do, on every adapter.
+#[test]
+fn fused_coarse_levels_equal_the_per_level_dispatches_bit_for_bit() {
+    use octolux::voxel::svo::dynamic::DynamicReserve;
+    let ctx = context();
+    // 64^3: levels 0-2 are fused, 3 and 4 filtered one by one, 5 holds the leaves.
+    let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / 64.0, 64).unwrap();
+    let tris = emissive_triangles();
+    // Static slanted triangle and a dynamic emitter (dynamic nodes from level 3 on, below the
+    // static nodes of the fused levels), then both dynamic (dynamic nodes from level 1 on).
+    for split in [1, 2] {
+        let (dynamic, statics) = tris.split_at(split);
+        let run = |fused: bool| {
+            let builder = SvoBuilder::new(&ctx).with_fused_coarse_levels(fused);
+            let (mut svo, _) = builder
+                .build_with_reserve(&ctx, &grid, statics, DynamicReserve::new(1 << 14))
+                .unwrap();
+            builder.update_dynamic(&ctx, &mut svo, dynamic).unwrap();
+            inject_nothing(&ctx, &builder, &svo);
+            let albedo = svo.read_back(&ctx).unwrap();
+            let radiance = svo.read_radiance(&ctx).unwrap();
+            (svo, albedo, radiance)
+        };
+        let (svo, albedo, radiance) = run(true);
+        let (svo_per_level, albedo_per_level, radiance_per_level) = run(false);
+        assert_eq!(svo.levels().len(), 6);
+        let first_dynamic = if statics.is_empty() { 1 } else { 3 };
+        assert!(
+            svo.dynamic_levels()[first_dynamic..]
+                .iter()
+                .all(|&(a, b)| b > a),
+            "dynamic nodes from level {first_dynamic} on: {:?}",
+            svo.dynamic_levels()
+        );
+        // Node and brick indices are handed out by atomics in whatever order the invocations
+        // run: compare the bricks by node level and coordinates.
+        let (albedo_a, radiance_a) = bricks_by_node(&svo, &albedo, &radiance);
+        let (albedo_b, radiance_b) =
+            bricks_by_node(&svo_per_level, &albedo_per_level, &radiance_per_level);
+        for (what, a, b) in [
+            ("albedo", albedo_a, albedo_b),
+            ("radiance", radiance_a, radiance_b),
+        ] {
+            assert_eq!(a.len(), b.len(), "{what}: node counts");
+            let differ = a.iter().filter(|(k, v)| b.get(*k) != Some(*v)).count();
+            assert_eq!(differ, 0, "{what}: {differ} of {} nodes differ", a.len());
+        }
+        // Not an all-zero comparison: the fused levels hold light.
+        for d in 0..=2 {
+            let lit = level_nodes(&svo, d)
+                .map(|n| albedo.brick_of[n as usize])
+                .filter(|&b| b != 0 && radiance[b as usize - 1].iter().any(|t| t.x > 0.0))
+                .count();
+            assert!(lit > 0, "level {d} holds no radiance");
+        }
     }
 }

@@ -23,12 +23,19 @@ import octolux::voxel::svo::common::{BRICK_COUNTER, brick_of, bw_index, child, f
 // Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
 // ones), INVALID past the range's end.
 fn level_entry(i: u32) -> u32 {
-    let base = select(2u, 64u, L.range == 1u) + 2u * L.d;
-    let n = atomicLoad(&control[base]) + i;
-    if n >= atomicLoad(&control[base + 1u]) {
+    let r = level_range(L.d, L.range);
+    let n = r.x + i;
+    if n >= r.y {
         return INVALID;
     }
     return n;
+}
+
+// Node range [x, y) of level d: its static nodes (range 0) or its dynamic ones (range 1, empty
+// without a dynamic part).
+fn level_range(d: u32, range: u32) -> vec2<u32> {
+    let base = select(2u, 64u, range == 1u) + 2u * d;
+    return vec2<u32>(atomicLoad(&control[base]), atomicLoad(&control[base + 1u]));
 }
 
 // Node of this invocation on level L.d (one node per invocation).
@@ -282,9 +289,13 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
 // pair's texels are its own within one axis: n's + face and m's - face.
 fn transfer(wg: vec3<u32>, nwg: vec3<u32>, li: u32, axis: u32) {
     let n = level_node(wg, nwg, li);
-    if n == INVALID {
-        return;
+    if n != INVALID {
+        transfer_pair(n, axis);
     }
+}
+
+// Node n and its + neighbour along `axis`.
+fn transfer_pair(n: u32, axis: u32) {
     let m = nbr[3u * n + axis];
     // A node without a brick has an all-zero lattice: nothing to add or to receive.
     if m == 0u {
@@ -347,8 +358,41 @@ fn tap_weight(o: u32) -> f32 {
 // with the neighbour node, which adds the same texel when the coarse texel is shared too: its
 // weight is divided by the number of nodes sharing it (inside the grid), and the neighbour transfer that follows
 // sums the shares.
+struct MipTap {
+    // Index of the finer texel among the 8 children's 216 (child octant * 27 + texel).
+    texel: u32,
+    // 0: the tap lies outside the node.
+    weight: f32,
+}
+
+// Tap k (0..26) of coarse texel c of the node at coordinates nc on a level of `size` nodes
+// per axis. `mip` and `mip_coarse` both sum the taps through this, in the same order.
+fn mip_tap(c: vec3<u32>, k: u32, nc: vec3<u32>, size: u32) -> MipTap {
+    let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+    let f = vec3<i32>(2u * c + o) - vec3<i32>(1);
+    if any(f < vec3<i32>(0)) || any(f > vec3<i32>(4)) {
+        return MipTap(0u, 0.0);
+    }
+    let a = min(vec3<u32>(f) / 2u, vec3<u32>(1u));
+    let local = vec3<u32>(f) - 2u * a;
+    var w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
+    for (var ax = 0u; ax < 3u; ax++) {
+        // Shared only where a neighbour node exists inside the grid.
+        let inner = (c[ax] == 0u && nc[ax] > 0u) || (c[ax] == 2u && nc[ax] + 1u < size);
+        if inner && o[ax] == 1u {
+            w *= 0.5;
+        }
+    }
+    let ch = a.x + 2u * a.y + 4u * a.z;
+    return MipTap(ch * 27u + texel_index(local), w);
+}
+
+fn texel_coords(t: u32) -> vec3<u32> {
+    return vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
+}
+
 // One workgroup per node: the 8 children's bricks are staged in workgroup memory, then lane
-// t < 27 filters texel t (the same taps in the same order as one invocation would).
+// t < 27 filters texel t.
 @compute @workgroup_size(64)
 fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
        @builtin(local_invocation_index) li: u32) {
@@ -381,27 +425,63 @@ fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<
     }
     let n = level_entry(group_index(wg, nwg));
     let nc = unpack3(coord[n]);
-    let size = 1u << L.d;
-    let c = vec3<u32>(li % 3u, (li / 3u) % 3u, li / 9u);
+    let c = texel_coords(li);
     var sum = vec4<f32>(0.0);
     for (var k = 0u; k < 27u; k++) {
-        let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
-        let f = vec3<i32>(2u * c + o) - vec3<i32>(1);
-        if any(f < vec3<i32>(0)) || any(f > vec3<i32>(4)) {
-            continue;
+        let tap = mip_tap(c, k, nc, 1u << L.d);
+        if tap.weight != 0.0 {
+            sum += tap.weight * group_texels[tap.texel];
         }
-        let a = min(vec3<u32>(f) / 2u, vec3<u32>(1u));
-        let local = vec3<u32>(f) - 2u * a;
-        var w = tap_weight(o.x) * tap_weight(o.y) * tap_weight(o.z);
-        for (var ax = 0u; ax < 3u; ax++) {
-            // Shared only where a neighbour node exists inside the grid.
-            let inner = (c[ax] == 0u && nc[ax] > 0u) || (c[ax] == 2u && nc[ax] + 1u < size);
-            if inner && o[ax] == 1u {
-                w *= 0.5;
-            }
-        }
-        let ch = a.x + 2u * a.y + 4u * a.z;
-        sum += w * group_texels[ch * 27u + texel_index(local)];
     }
     write_texel(bn, li, sum);
+}
+
+// The coarsest levels' mip and neighbour transfers in one dispatch of one workgroup: levels
+// L.d down to 0 (level d has at most 8^d nodes), each one's static and dynamic nodes. As
+// separate dispatches, four per level, each waited on a chain of dependent loads for a few
+// dozen nodes. The workgroup's lanes take the items of a step (a texel of a node for the mip,
+// a node for a transfer) in turn; a storage barrier separates the steps. Each texel sums the
+// same taps in the same order as `mip`: the bricks are the same.
+const COARSE_LANES: u32 = 256u;
+
+@compute @workgroup_size(256)
+fn mip_coarse(@builtin(local_invocation_index) li: u32) {
+    for (var step = 0u; step <= L.d; step++) {
+        let d = L.d - step;
+        for (var range = 0u; range < 2u; range++) {
+            let r = level_range(d, range);
+            for (var i = li; i < 27u * (r.y - r.x); i += COARSE_LANES) {
+                mip_texel(r.x + i / 27u, i % 27u, d);
+            }
+        }
+        storageBarrier();
+        for (var axis = 0u; axis < 3u; axis++) {
+            for (var range = 0u; range < 2u; range++) {
+                let r = level_range(d, range);
+                for (var n = r.x + li; n < r.y; n += COARSE_LANES) {
+                    transfer_pair(n, axis);
+                }
+            }
+            storageBarrier();
+        }
+    }
+}
+
+// Texel t of node n of level d, filtered from its children (as `mip`, without the staging).
+fn mip_texel(n: u32, t: u32, d: u32) {
+    let first = child[n];
+    let bn = brick_of(n);
+    if first == 0u || bn == INVALID {
+        return;
+    }
+    let nc = unpack3(coord[n]);
+    let c = texel_coords(t);
+    var sum = vec4<f32>(0.0);
+    for (var k = 0u; k < 27u; k++) {
+        let tap = mip_tap(c, k, nc, 1u << d);
+        if tap.weight != 0.0 {
+            sum += tap.weight * read_texel(brick_of(first + tap.texel / 27u), tap.texel % 27u);
+        }
+    }
+    write_texel(bn, t, sum);
 }

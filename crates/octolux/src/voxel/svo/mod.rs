@@ -279,6 +279,8 @@ pub struct SvoBuilder {
     pipelines: std::collections::HashMap<&'static str, (wgpu::ComputePipeline, Groups)>,
     pack: wgpu::ComputePipeline,
     pool_limit: Option<u32>,
+    /// Filter the coarsest levels in one dispatch (`mip_coarse`).
+    fuse_coarse: bool,
     pub(super) light: crate::voxel::svo::inject::SvoLight,
     /// Stands in for the fragments and triangles the transfer and mip kernels do not read.
     mip_placeholder: wgpu::Buffer,
@@ -308,6 +310,39 @@ pub(super) enum Dispatch {
     PerNode(u32),
     /// One workgroup.
     One,
+}
+
+/// Levels `0..=COARSE_LEVEL` (at most 8^3 nodes on the last) are filtered by one dispatch of
+/// one workgroup, `mip_coarse` in `svo/build.wgsl`, instead of four dispatches each.
+const COARSE_LEVEL: u32 = 2;
+
+/// The neighbour transfers and mips after the leaves are filled, from the leaf level up: each
+/// level's static nodes, then (with `dynamic`) its dynamic ones (parameter slot depth + d;
+/// their ranges are read on the GPU, empty before the first update). The coarsest levels in
+/// one step unless `fuse` is false.
+fn filter_steps(depth: u32, dynamic: bool, fuse: bool) -> Vec<(&'static str, u32, Dispatch)> {
+    let ranges = |d: u32| {
+        [(d, d)]
+            .into_iter()
+            .chain(dynamic.then_some((depth + d, ARGS_DYN_NODES + d)))
+    };
+    let leaf = depth.saturating_sub(1);
+    // The leaf level has no mip, so it is never fused.
+    let coarse = (fuse && depth >= 2).then(|| COARSE_LEVEL.min(depth - 2));
+    let mut steps = Vec::new();
+    for d in (0..depth).rev() {
+        if Some(d) == coarse {
+            steps.push(("mip_coarse", d, Dispatch::One));
+            break;
+        }
+        if d != leaf {
+            steps.extend(ranges(d).map(|(slot, args)| ("mip", slot, Dispatch::PerNode(args))));
+        }
+        for t in ["transfer_x", "transfer_y", "transfer_z"] {
+            steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::Indirect(args))));
+        }
+    }
+    steps
 }
 
 impl SvoBuilder {
@@ -379,6 +414,7 @@ impl SvoBuilder {
                 "transfer_y",
                 "transfer_z",
                 "mip",
+                "mip_coarse",
             ])
         {
             let groups = Groups {
@@ -418,6 +454,7 @@ impl SvoBuilder {
         SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
             pool_limit: None,
+            fuse_coarse: true,
             light: crate::voxel::svo::inject::SvoLight::new(ctx),
             mip_placeholder: ctx.create_buffer(
                 OWNER,
@@ -440,6 +477,14 @@ impl SvoBuilder {
     /// exercise pools split over several buffers).
     pub fn with_pool_limit(mut self, bricks: u32) -> SvoBuilder {
         self.pool_limit = Some(bricks.max(1));
+        self
+    }
+
+    /// Filters levels `0..=2` of the bricks and the radiance in one dispatch (`fused`, the
+    /// default) or each level in its own four dispatches, as the finer levels are: the bricks
+    /// are the same either way (tests compare the two).
+    pub fn with_fused_coarse_levels(mut self, fused: bool) -> SvoBuilder {
+        self.fuse_coarse = fused;
         self
     }
 
@@ -685,14 +730,7 @@ impl SvoBuilder {
             ("leaf_accumulate", leaf, Dispatch::Fragments),
             ("leaf_fill", leaf, Dispatch::PerNode(leaf)),
         ];
-        for d in (0..depth).rev() {
-            if d != leaf {
-                steps.push(("mip", d, Dispatch::PerNode(d)));
-            }
-            for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.push((t, d, Dispatch::Indirect(d)));
-            }
-        }
+        steps.extend(filter_steps(depth, false, self.fuse_coarse));
         self.record(
             &mut timer,
             "svo bricks",
@@ -905,23 +943,7 @@ impl SvoBuilder {
         );
         let args_group = self.args_group(ctx, &svo.args);
         let depth = svo.levels.len() as u32;
-        // Every level's static nodes, then its dynamic ones (parameter slot depth + d).
-        // Dynamic ranges are read on the GPU (empty before the first update).
-        let ranges = |d: u32| {
-            let dynamic = svo.dynamic.is_some();
-            [(d, d)]
-                .into_iter()
-                .chain(dynamic.then_some((depth + d, ARGS_DYN_NODES + d)))
-        };
-        let mut steps = Vec::new();
-        for d in (0..depth).rev() {
-            if d + 1 != depth {
-                steps.extend(ranges(d).map(|(slot, args)| ("mip", slot, Dispatch::PerNode(args))));
-            }
-            for t in ["transfer_x", "transfer_y", "transfer_z"] {
-                steps.extend(ranges(d).map(|(slot, args)| (t, slot, Dispatch::Indirect(args))));
-            }
-        }
+        let steps = filter_steps(depth, svo.dynamic.is_some(), self.fuse_coarse);
         self.record(
             timer,
             "svo radiance mip",
