@@ -8,10 +8,16 @@
 #   KIT_DIR/run.sh [RESULTS_DIR]          # default: KIT_DIR/results/
 #
 # The kit is split so that no transfer has to carry all of it: `base.tar.xz` (the release
-# binary and the scenes), `cli.tar.xz` (the debug binaries the CLI and example tests run) and
-# `tests-N.tar.xz` (the test binaries in KIT_PARTS groups, default 2). `run.sh`
-# runs whatever parts are present (a part already unpacked by an earlier run is kept), steps
-# chosen by STEPS (default "bench tests"; add "voxel" for the voxel structures' tables):
+# binary and the scenes, about 33 MB), `cli.tar.xz` (the debug binaries the CLI and example
+# tests run, about 8 MB) and `tests.tar.xz` (every test binary, about 43 MB for 49). The test
+# binaries link the same library code, so they go into one xz stream with a dictionary that
+# spans all of them (KIT_DICT, default 768MiB) and the x86 branch filter, which makes the
+# calls of identical code identical bytes: 501 MB of stripped binaries pack into 43 MB, where
+# compressed one by one they took 129 MB. That takes a few minutes and about 8 GB of memory
+# here (one thread: threads would split the stream into blocks that do not share a
+# dictionary). `run.sh` runs whatever parts are present (a part already unpacked by an
+# earlier run on the same machine is kept), steps chosen by STEPS (default "bench tests";
+# add "voxel" for the voxel structures' tables):
 #   BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3"   a quick try
 #   BENCH_SCENES="scenes/cornell-box.toml ..."                     other scenes
 #   BENCH_GI=vpl,vct-svo                                             other techniques
@@ -24,7 +30,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 kit="${1:-gpu-kit}"
-parts="${KIT_PARTS:-2}"
+dict="${KIT_DICT:-768MiB}"
 scenes="${OCTOLUX_SCENES:-../shared/scenes}"
 
 cargo build --release -p octolux-cli
@@ -33,12 +39,9 @@ mapfile -t tests < <(cargo test --workspace --no-run --message-format=json 2>/de
 [ "${#tests[@]}" -gt 0 ] || { echo "gpu-kit: no test binaries were built" >&2; exit 1; }
 
 rm -rf "$kit"
-mkdir -p "$kit/stage/base/bin" "$kit/stage/cli/bin"
-for ((p = 1; p <= parts; p++)); do mkdir -p "$kit/stage/tests-$p"; done
-i=0
+mkdir -p "$kit/stage/base/bin" "$kit/stage/cli/bin" "$kit/stage/tests"
 for t in "${tests[@]}"; do
-  strip -o "$kit/stage/tests-$((i % parts + 1))/$(basename "$t")" "$t"
-  i=$((i + 1))
+  strip -o "$kit/stage/tests/$(basename "$t")" "$t"
 done
 strip -o "$kit/stage/base/bin/octolux" target/release/octolux
 # The CLI tests and the example's run the debug binaries cargo built for them, by their
@@ -52,12 +55,6 @@ else
   echo "gpu-kit: no shared scenes at $scenes (set OCTOLUX_SCENES); tests that need them will say so" >&2
 fi
 pwd >"$kit/stage/base/repo-root"
-for d in "$kit"/stage/*/; do
-  name="$(basename "$d")"
-  tar -C "$d" -cf - . | xz -9e -T0 >"$kit/$name.tar.xz"
-done
-rm -rf "$kit/stage"
-
 cat >"$kit/run.sh" <<'EOF'
 #!/usr/bin/env bash
 # Runs the packed bench and test binaries on this machine's GPU; results in RESULTS_DIR.
@@ -123,8 +120,8 @@ if [[ "$steps" == *" tests "* ]]; then
   }
   export -f run_test
   export results root
-  ls "$kit"/tests-*.tar.xz >/dev/null 2>&1 || echo "run.sh: no tests-N.tar.xz in $kit"
-  for part in "$kit"/tests-*.tar.xz; do
+  ls "$kit"/tests*.tar.xz >/dev/null 2>&1 || echo "run.sh: no tests.tar.xz in $kit"
+  for part in "$kit"/tests*.tar.xz; do
     [ -e "$part" ] || continue
     ls "$unpacked/$(basename "$part" .tar.xz)"/*
   done | xargs -P "${TEST_JOBS:-4}" -I{} bash -c 'run_test {}' | tee "$results/tests.txt"
@@ -134,7 +131,7 @@ if [[ "$steps" == *" voxel "* ]]; then
   # The voxel structures' measuring tests, with their tables (docs/voxels.md).
   for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
     set -- $spec
-    b="$(ls "$unpacked"/tests-*/"$1"-* | head -1)"
+    b="$(ls "$unpacked"/tests*/"$1"-* | head -1)"
     echo "== $1 $2" | tee -a "$results/voxel-perf.txt"
     (cd "$root/crates/octolux" && VOXEL_TABLE=full timeout 300 "$b" "$2" --nocapture) 2>&1 |
       grep -v '^\[' | tee -a "$results/voxel-perf.txt"
@@ -144,4 +141,18 @@ echo "test binaries failed: $failed"
 exit "$failed"
 EOF
 chmod +x "$kit/run.sh"
+
+# run.sh first, so that an interrupted packing leaves it; then the parts, each written under
+# a temporary name and renamed when complete.
+pack() {
+  local name="$1"
+  shift
+  tar -C "$kit/stage/$name" -cf - . | xz "$@" >"$kit/$name.tar.xz.part"
+  mv "$kit/$name.tar.xz.part" "$kit/$name.tar.xz"
+}
+pack base -9e -T0
+pack cli -9e -T0
+echo "gpu-kit: packing the test binaries into one stream (a few minutes)" >&2
+pack tests -T1 --x86 --lzma2=preset=9,dict="$dict"
+rm -rf "$kit/stage"
 du -sh "$kit"/*
