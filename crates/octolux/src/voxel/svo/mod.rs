@@ -312,8 +312,9 @@ pub(super) enum Dispatch {
     One,
 }
 
-/// Levels `0..=COARSE_LEVEL` (at most 8^2 = 64 nodes on the last) are filtered by one dispatch of
-/// one workgroup, `mip_coarse` in `svo/build.wgsl`, instead of four dispatches each.
+/// Levels `0..=COARSE_LEVEL` (at most 8^2 = 64 nodes on the last) are filtered by one
+/// dispatch of one workgroup, `mip_coarse` in `svo/build.wgsl`, instead of four dispatches
+/// each.
 const COARSE_LEVEL: u32 = 2;
 
 /// The neighbour transfers and mips after the leaves are filled, from the leaf level up: each
