@@ -643,7 +643,8 @@ fn bricks_by_node(svo: &Svo, cpu_svo: &SvoCpu, radiance: &[[Vec4; 27]]) -> (Node
 #[test]
 fn fused_coarse_levels_equal_the_per_level_dispatches_bit_for_bit() {
     use octolux::voxel::svo::dynamic::DynamicReserve;
-    let ctx = context();
+    // Counting work: the radiance mip reports its dispatches.
+    let ctx = context().with_work_counter();
     // 64^3: levels 0-2 are fused, 3 and 4 filtered one by one, 5 holds the leaves.
     let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / 64.0, 64).unwrap();
     let tris = emissive_triangles();
@@ -657,13 +658,25 @@ fn fused_coarse_levels_equal_the_per_level_dispatches_bit_for_bit() {
                 .build_with_reserve(&ctx, &grid, statics, DynamicReserve::new(1 << 14))
                 .unwrap();
             builder.update_dynamic(&ctx, &mut svo, dynamic).unwrap();
+            ctx.work().unwrap().take(&ctx).unwrap();
             inject_nothing(&ctx, &builder, &svo);
+            let dispatches = ctx
+                .work()
+                .unwrap()
+                .take(&ctx)
+                .unwrap()
+                .into_iter()
+                .find(|c| c.pass == "svo radiance mip" && c.quantity == "dispatches")
+                .map(|c| c.count);
             let albedo = svo.read_back(&ctx).unwrap();
             let radiance = svo.read_radiance(&ctx).unwrap();
-            (svo, albedo, radiance)
+            (svo, albedo, radiance, dispatches)
         };
-        let (svo, albedo, radiance) = run(true);
-        let (svo_per_level, albedo_per_level, radiance_per_level) = run(false);
+        let (svo, albedo, radiance, dispatches) = run(true);
+        let (svo_per_level, albedo_per_level, radiance_per_level, per_level) = run(false);
+        // Static and dynamic ranges, 4 dispatches each per level (3 on the leaf level):
+        // 2 x (3 + 5 x 4) = 46 level by level, 2 x (3 + 2 x 4) + 1 = 23 with levels 0-2 in one.
+        assert_eq!((dispatches, per_level), (Some(23), Some(46)));
         assert_eq!(svo.levels().len(), 6);
         let first_dynamic = if statics.is_empty() { 1 } else { 3 };
         assert!(

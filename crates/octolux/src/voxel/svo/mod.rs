@@ -312,6 +312,9 @@ pub(super) enum Dispatch {
     One,
 }
 
+/// Work counts of the radiance mip (`gpu/work.rs`): its dispatches, one after another.
+const RADIANCE_MIP_WORK: &[&str] = &["dispatches"];
+
 /// Levels `0..=COARSE_LEVEL` (at most 8^2 = 64 nodes on the last) are filtered by one
 /// dispatch of one workgroup, `mip_coarse` in `svo/build.wgsl`, instead of four dispatches
 /// each.
@@ -945,6 +948,15 @@ impl SvoBuilder {
         let args_group = self.args_group(ctx, &svo.args);
         let depth = svo.levels.len() as u32;
         let steps = filter_steps(depth, svo.dynamic.is_some(), self.fuse_coarse);
+        // Each dispatch waits for the one before: on a GPU the coarse levels' cost is their
+        // number more than their few nodes.
+        crate::gpu::work::add(
+            ctx,
+            "svo radiance mip",
+            RADIANCE_MIP_WORK,
+            0,
+            steps.len() as u64,
+        )?;
         self.record(
             timer,
             "svo radiance mip",
