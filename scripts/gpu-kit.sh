@@ -13,9 +13,9 @@
 # binaries link the same library code, so they go into one xz stream with a dictionary that
 # spans all of them (KIT_DICT, default 768MiB) and the x86 branch filter, which makes the
 # calls of identical code identical bytes: 501 MB of stripped binaries pack into 43 MB, where
-# compressed one by one they took 129 MB. That takes a few minutes and about 8 GB of memory
-# here (one thread: threads would split the stream into blocks that do not share a
-# dictionary). `run.sh` runs whatever parts are present (a part already unpacked by an
+# compressed one by one they took 129 MB. That takes a few minutes on one thread (threads
+# would split the stream into blocks that do not share a dictionary) and 8.3 GiB of memory
+# (xz's figure for these settings; 769 MiB to unpack). `run.sh` runs whatever parts are present (a part already unpacked by an
 # earlier run on the same machine is kept), steps chosen by STEPS (default "bench tests";
 # add "voxel" for the voxel structures' tables):
 #   BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3"   a quick try

@@ -110,6 +110,12 @@ fn texel_index(i: vec3<u32>) -> u32 {
     return i.x + 3u * i.y + 9u * i.z;
 }
 
+// Texel t's coordinates in its brick (the inverse of `texel_index`); also the offset k of a
+// 3x3x3 stencil.
+fn texel_coords(t: u32) -> vec3<u32> {
+    return vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
+}
+
 @compute @workgroup_size(64)
 fn flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                  @builtin(local_invocation_index) li: u32) {
@@ -269,7 +275,7 @@ fn leaf_fill(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     if li >= 27u {
         return;
     }
-    let i = vec3<u32>(li % 3u, (li / 3u) % 3u, li / 9u);
+    let i = texel_coords(li);
     var sum = vec4<f32>(0.0);
     for (var o = 0u; o < 8u; o++) {
         let a = octant_offset(o);
@@ -368,7 +374,7 @@ struct MipTap {
 // Tap k (0..26) of coarse texel c of the node at coordinates nc on a level of `size` nodes
 // per axis. `mip` and `mip_coarse` both sum the taps through this, in the same order.
 fn mip_tap(c: vec3<u32>, k: u32, nc: vec3<u32>, size: u32) -> MipTap {
-    let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+    let o = texel_coords(k);
     let f = vec3<i32>(2u * c + o) - vec3<i32>(1);
     if any(f < vec3<i32>(0)) || any(f > vec3<i32>(4)) {
         return MipTap(0u, 0.0);
@@ -385,10 +391,6 @@ fn mip_tap(c: vec3<u32>, k: u32, nc: vec3<u32>, size: u32) -> MipTap {
     }
     let ch = a.x + 2u * a.y + 4u * a.z;
     return MipTap(ch * 27u + texel_index(local), w);
-}
-
-fn texel_coords(t: u32) -> vec3<u32> {
-    return vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
 }
 
 // One workgroup per node: the 8 children's bricks are staged in workgroup memory, then lane

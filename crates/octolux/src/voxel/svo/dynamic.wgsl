@@ -15,7 +15,7 @@
 import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index};
 import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
 import octolux::voxel::svo::common::{BRICK_COUNTER, child, find, flags, fragments, INVALID, L, leaf_of_voxel, octant_offset, pack3, tris, unpack3};
-import octolux::voxel::svo::build::{bricks0, bricks1, bricks2, bricks3, control, coord, group_index, group_texels, group_word, nbr, tap_weight, texel_index, write_args};
+import octolux::voxel::svo::build::{bricks0, bricks1, bricks2, bricks3, control, coord, group_index, group_texels, group_word, nbr, tap_weight, texel_coords, texel_index, write_args};
 
 struct DynParams {
     // x: static nodes S, y: static bricks B, z: node capacity, w: brick capacity
@@ -522,7 +522,7 @@ fn dyn_leaf_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
     if li >= 27u {
         return;
     }
-    let i = vec3<u32>(li % 3u, (li / 3u) % 3u, li / 9u);
+    let i = texel_coords(li);
     var sum = vec4<f32>(0.0);
     for (var o = 0u; o < 8u; o++) {
         // Voxel 2c + i - 1 + octant, at block index i + octant.
@@ -564,10 +564,10 @@ fn dyn_mip_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
     if li >= 27u {
         return;
     }
-    let ti = vec3<i32>(i32(li % 3u), i32((li / 3u) % 3u), i32(li / 9u));
+    let ti = vec3<i32>(texel_coords(li));
     var sum = vec4<f32>(0.0);
     for (var k = 0u; k < 27u; k++) {
-        let o = vec3<u32>(k % 3u, (k / 3u) % 3u, k / 9u);
+        let o = texel_coords(k);
         // Finer lattice point (global, in finer half-node units).
         let g = 4 * vec3<i32>(c) + 2 * ti + vec3<i32>(o) - vec3<i32>(1);
         if any(g < vec3<i32>(0)) || any(g > vec3<i32>(2 * fine_size)) {
