@@ -108,6 +108,10 @@ pub struct GiArgs {
     /// docs/vct.md, "Anisotropic radiance in the bounce only").
     #[arg(long)]
     pub vct_anisotropic_bounce: Option<bool>,
+    /// vct-svo: keep the direction the octree's radiance leaves in, so a cone does not see the
+    /// light on the far face of a voxel-thin wall (docs/vct.md, "The radiance's facing").
+    #[arg(long)]
+    pub vct_facing: Option<bool>,
     /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over
     /// frames, `true` (default) or `false` (one bounce).
     #[arg(long)]
@@ -277,6 +281,7 @@ impl GiArgs {
         set(&mut vct.dynamic_reserve, self.vct_dynamic_reserve);
         set(&mut vct.anisotropic, self.vct_anisotropic);
         set(&mut vct.anisotropic_bounce, self.vct_anisotropic_bounce);
+        set(&mut vct.facing, self.vct_facing);
         set(&mut vct.roughness, self.vct_roughness);
         set(&mut vct.specular_steps, self.vct_specular_steps);
         set(&mut vct.multi_bounce, self.vct_multi_bounce);

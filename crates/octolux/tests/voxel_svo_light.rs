@@ -52,14 +52,25 @@ fn voxel_map(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> BTreeMap<[u32; 3]
 /// leaf voxels' radiance, relative to the largest lattice value.
 fn mip_error(svo: &Svo, cpu_svo: &SvoCpu, ctx: &GpuContext) -> f32 {
     let voxels = voxel_map(svo, cpu_svo, ctx);
-    let depth = svo.grid().depth();
-    let lattices = cpu::lattices(depth, &voxels);
     let bricks = svo.read_radiance(ctx).unwrap();
+    lattice_error(svo, cpu_svo, &voxels, &bricks)
+}
+
+/// Largest difference between `bricks` (every level's) and the CPU lattices of the leaf
+/// values `voxels`, relative to the largest lattice component.
+fn lattice_error(
+    svo: &Svo,
+    cpu_svo: &SvoCpu,
+    voxels: &BTreeMap<[u32; 3], Vec4>,
+    bricks: &[[Vec4; 27]],
+) -> f32 {
+    let depth = svo.grid().depth();
+    let lattices = cpu::lattices(depth, voxels);
     let coords = cpu_svo.coordinates();
     let scale = lattices
         .iter()
         .flat_map(|l| l.values.iter())
-        .map(|v| v.max_element())
+        .map(|v| v.abs().max_element())
         .fold(0.0f32, f32::max)
         .max(1e-6);
     let mut worst = 0.0f32;
@@ -197,14 +208,16 @@ fn storage_init(ctx: &GpuContext, label: &str, words: &[f32]) -> wgpu::Buffer {
     )
 }
 
-#[test]
-fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow() {
-    let ctx = context();
-    let scene = shadow_scene();
-    let size = 512;
+/// The renderer's shadow maps of `scene`'s first light (a point light) and a one-light buffer
+/// for the injection (`frame/lights.wgsl`'s `Light`), with the texel of its layers.
+fn point_light_shadows(
+    ctx: &GpuContext,
+    scene: &Scene,
+    size: u32,
+) -> (Renderer, Vec<LayerView>, wgpu::Buffer) {
     let mut renderer = Renderer::new(
-        &ctx,
-        &scene,
+        ctx,
+        scene,
         RenderSettings {
             width: 16,
             height: 16,
@@ -214,13 +227,13 @@ fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow
         },
     )
     .unwrap();
-    renderer.render(&scene, 0.0).unwrap();
+    renderer.render(scene, 0.0).unwrap();
     let light = &scene.lights[0];
     let layers = point_layers(light.position, scene.bounds_at(0.0), size);
     let texel = layers[0].texel;
     let radiant = light.radiant();
     let lights = storage_init(
-        &ctx,
+        ctx,
         "lights",
         &[
             light.position.x,
@@ -241,6 +254,17 @@ fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow
             0.0,
         ],
     );
+    (renderer, layers, lights)
+}
+
+#[test]
+fn lit_floor_matches_the_point_light_closed_form_and_the_occluder_casts_a_shadow() {
+    let ctx = context();
+    let scene = shadow_scene();
+    let size = 512;
+    let (renderer, layers, lights) = point_light_shadows(&ctx, &scene, size);
+    let light = &scene.lights[0];
+    let radiant = light.radiant();
     // 32^3 voxels of 2.5/32 m; the floor plane y = 0 passes through the centres of voxel
     // layer 8, so the floor is one voxel thick and its voxel centres lie on the surface.
     let res = 32;
@@ -429,9 +453,73 @@ fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
     }
 }
 
+/// Runs `kernel` (a WGSL module with an entry point `probe` reading `points` at binding 0 and
+/// writing `outputs` vec4 per point at binding 1) over `points` with `bindings` (the
+/// library's sampler entries) and returns its output.
+fn run_probe(
+    ctx: &GpuContext,
+    kernel: &str,
+    bindings: Vec<(u32, wgpu::BindingResource<'_>)>,
+    points: &[Vec4],
+    outputs: usize,
+) -> Vec<Vec4> {
+    let source = octolux::gpu::shader::compose_text("probe", kernel, &[], &[]).unwrap();
+    let module = ctx.shader("probe", &source);
+    let pipeline = ctx.compute_pipeline("probe", &module, "probe");
+    let input = ctx.create_buffer_init(
+        "test",
+        "points",
+        bytemuck::cast_slice(points),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let size = (points.len() * outputs) as u64 * 16;
+    let out = ctx.create_buffer(
+        "test",
+        &wgpu::BufferDescriptor {
+            label: Some("samples"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        },
+    );
+    let entries: Vec<wgpu::BindGroupEntry> = bindings
+        .into_iter()
+        .chain([(0, input.as_entire_binding()), (1, out.as_entire_binding())])
+        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
+        .collect();
+    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    let mut timer = PassTimer::new(ctx);
+    timer.pass("probe", |encoder, stamps| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("probe"),
+            timestamp_writes: stamps.compute(),
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
+    });
+    timer.finish_frame().unwrap();
+    let bytes = octolux::gpu::read_buffer(ctx, &out, 0, size).unwrap();
+    bytemuck::cast_slice(&bytes).to_vec()
+}
+
+fn svo_info_buffer(ctx: &GpuContext, grid: &VoxelGrid, svo: &Svo) -> wgpu::Buffer {
+    use octolux::voxel::svo::sample::SvoInfo;
+    ctx.create_buffer_init(
+        "test",
+        "svo info",
+        bytemuck::bytes_of(&SvoInfo::new(grid, svo.pool_bricks())),
+        wgpu::BufferUsages::STORAGE,
+    )
+}
+
 #[test]
 fn gpu_radiance_samples_equal_the_cpu_twin() {
-    use octolux::voxel::svo::sample::{svo_bindings, svo_radiance_bindings, svo_sample, SvoInfo};
+    use octolux::voxel::svo::sample::{svo_bindings, svo_radiance_bindings, svo_sample};
     let ctx = context();
     let (grid, _, svo) = emissive_octree(&ctx);
     let mut cpu_svo = svo.read_back(&ctx).unwrap();
@@ -450,9 +538,6 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
     out[id.x] = svo_radiance_sample(q.xyz, q.w);
 }
 ";
-    let source = octolux::gpu::shader::compose_text("radiance probe", kernel, &[], &[]).unwrap();
-    let module = ctx.shader("radiance probe", &source);
-    let pipeline = ctx.compute_pipeline("radiance probe", &module, "probe");
     // Points spread over the emitter's neighbourhood, footprints from a voxel to 8 voxels.
     let mut points = Vec::new();
     for i in 0..400u32 {
@@ -461,56 +546,13 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
         let footprint = grid.voxel_size * (1.0 + 7.0 * f(13));
         points.push(p.extend(footprint));
     }
-    let info = ctx.create_buffer_init(
-        "test",
-        "svo info",
-        bytemuck::bytes_of(&SvoInfo::new(&grid, svo.pool_bricks())),
-        wgpu::BufferUsages::STORAGE,
-    );
-    let input = ctx.create_buffer_init(
-        "test",
-        "points",
-        bytemuck::cast_slice(&points),
-        wgpu::BufferUsages::STORAGE,
-    );
-    let out = ctx.create_buffer(
-        "test",
-        &wgpu::BufferDescriptor {
-            label: Some("samples"),
-            size: points.len() as u64 * 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        },
-    );
+    let info = svo_info_buffer(&ctx, &grid, &svo);
     let mut bindings = svo_bindings(&info, &svo).to_vec();
     bindings.extend(svo_radiance_bindings(&svo));
-    bindings.push((0, input.as_entire_binding()));
-    bindings.push((1, out.as_entire_binding()));
-    let entries: Vec<wgpu::BindGroupEntry> = bindings
-        .into_iter()
-        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
-        .collect();
-    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    });
-    let mut timer = PassTimer::new(&ctx);
-    timer.pass("radiance probe", |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("radiance probe"),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
-    });
-    timer.finish_frame().unwrap();
-    let bytes = octolux::gpu::read_buffer(&ctx, &out, 0, points.len() as u64 * 16).unwrap();
-    let gpu: &[Vec4] = bytemuck::cast_slice(&bytes);
+    let gpu = run_probe(&ctx, kernel, bindings, &points, 1);
     let mut worst = 0.0f32;
     let mut nonzero = 0;
-    for (q, g) in points.iter().zip(gpu) {
+    for (q, g) in points.iter().zip(&gpu) {
         let c = svo_sample(&cpu_svo, &grid, q.truncate(), q.w);
         worst = worst.max((c - *g).abs().max_element());
         if c.x > 0.0 {
@@ -523,6 +565,103 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
     assert!(
         worst < 3e-4,
         "GPU and CPU radiance samples differ by {worst}"
+    );
+}
+
+#[test]
+fn gpu_facing_samples_equal_the_cpu_twin() {
+    use octolux::voxel::svo::sample::{
+        facing_toward, svo_bindings, svo_facing_bindings, svo_radiance_bindings, svo_sample,
+    };
+    let ctx = context();
+    let res = 32;
+    let vs = 2.5 / res as f32;
+    let scene = thin_wall_scene(vs);
+    let (renderer, layers, lights) = point_light_shadows(&ctx, &scene, 512);
+    let grid = VoxelGrid::new(Vec3::new(-1.25, -8.5 * vs, -1.25), vs, res).unwrap();
+    let tris = scene_triangles(&scene, &scene.frame(0.0, 0));
+    let builder = SvoBuilder::new(&ctx).with_facing(true);
+    let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    let shadows = ShadowLookupBuffers::new(&ctx, "test", renderer.shadow_maps().texture(), &layers);
+    builder
+        .inject(&ctx, &mut timer, &svo, shadows.lookup(), &lights, 1)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    let mut radiance = svo.read_back(&ctx).unwrap();
+    radiance.bricks = svo.read_radiance(&ctx).unwrap();
+    let mut facing = svo.read_back(&ctx).unwrap();
+    facing.bricks = svo.read_facing(&ctx).unwrap().unwrap();
+    let kernel = "import octolux::voxel::svo::radiance_sample::{svo_facing_toward, svo_radiance_facing_sample};
+@group(0) @binding(0) var<storage, read> points: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x / 2u;
+    if i >= arrayLength(&points) / 2u || id.x % 2u != 0u {
+        return;
+    }
+    let q = points[2u * i];
+    let s = svo_radiance_facing_sample(q.xyz, q.w);
+    out[3u * i] = s.radiance;
+    out[3u * i + 1u] = vec4<f32>(s.facing, 0.0);
+    out[3u * i + 2u] = vec4<f32>(svo_facing_toward(s, points[2u * i + 1u].xyz));
+}
+";
+    // Points around the wall and over the floor, footprints of 1 to 8 voxels, and the
+    // directions of cones looking at the wall from either side, along it and at the floor.
+    let dirs = [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::new(1.0, -1.0, 0.5).normalize(),
+        Vec3::NEG_Y,
+        Vec3::Z,
+    ];
+    let mut points = Vec::new();
+    for i in 0..400u32 {
+        let f = |k: u32| ((i * k) % 97) as f32 / 97.0;
+        let p = Vec3::new(-0.8 + 0.8 * f(31), -0.1 + 0.9 * f(57), -0.5 + f(71));
+        points.push(p.extend(vs * (1.0 + 7.0 * f(13))));
+        points.push(dirs[i as usize % dirs.len()].extend(0.0));
+    }
+    let info = svo_info_buffer(&ctx, &grid, &svo);
+    let mut bindings = svo_bindings(&info, &svo).to_vec();
+    bindings.extend(svo_radiance_bindings(&svo));
+    bindings.extend(svo_facing_bindings(&svo).unwrap());
+    let gpu = run_probe(&ctx, kernel, bindings, &points, 2);
+    let (mut worst, mut worst_toward) = (0.0f32, 0.0f32);
+    let (mut lit, mut partial) = (0, 0);
+    for (q, g) in points.chunks_exact(2).zip(gpu.chunks_exact(3)) {
+        let (p, dir) = (q[0].truncate(), q[1].truncate());
+        let r = svo_sample(&radiance, &grid, p, q[0].w);
+        let f = svo_sample(&facing, &grid, p, q[0].w);
+        worst = worst.max(
+            (r - g[0])
+                .abs()
+                .max_element()
+                .max((f - g[1]).abs().max_element()),
+        );
+        let toward = facing_toward(r, f.truncate(), dir);
+        if r.x > 1e-3 {
+            lit += 1;
+            worst_toward = worst_toward.max((toward - g[2].x).abs());
+            partial += (toward < 0.9) as u32;
+        }
+    }
+    println!(
+        "facing samples: {lit} of 400 lit, {partial} of them partly facing away; worst GPU-CPU \
+         difference {worst:.2e}, of the share towards the apex {worst_toward:.2e}"
+    );
+    assert!(
+        lit > 100 && partial > 20,
+        "lit {lit}, partly facing away {partial}"
+    );
+    // Radiance and facing sums below 1: f32 sums of the same f16 texels, 1e-4 as above. The
+    // share divides two such sums of at least 1e-3: 1e-3 bounds its error.
+    assert!(worst < 1e-4, "GPU and CPU samples differ by {worst}");
+    assert!(
+        worst_toward < 1e-3,
+        "GPU and CPU shares differ by {worst_toward}"
     );
 }
 
@@ -708,4 +847,119 @@ fn fused_coarse_levels_equal_the_per_level_dispatches_bit_for_bit() {
             assert!(lit > 0, "level {d} holds no radiance");
         }
     }
+}
+
+/// The floor of [`shadow_scene`] without its occluder, a wall thinner than a voxel (two quads
+/// facing away from each other a quarter voxel apart in voxel column 10 of the 32^3 grid of
+/// `lit_floor_...`, split along the same diagonal: their fragments' normals cancel in every
+/// voxel) and the point light on the wall's +x side, at the height of its middle. The lit
+/// face lies just in front of the voxels' centres, where the injection looks up its shadow.
+fn thin_wall_scene(vs: f32) -> Scene {
+    let mut scene = shadow_scene();
+    let x = -1.25 + 10.5 * vs;
+    let face = |x: f32, corners: [(f32, f32); 4]| {
+        quad("wall", corners.map(|(y, z)| Vec3::new(x, y, z)), 0)
+    };
+    // Normals +x and -x ((c1 - c0) x (c2 - c0)); both split along (0.2, -0.3)-(0.8, 0.3).
+    scene.meshes[1] = face(
+        x + 0.01 * vs,
+        [(0.2, -0.3), (0.8, -0.3), (0.8, 0.3), (0.2, 0.3)],
+    );
+    scene.meshes.push(face(
+        x - 0.25 * vs,
+        [(0.2, -0.3), (0.2, 0.3), (0.8, 0.3), (0.8, -0.3)],
+    ));
+    scene.objects[0].meshes = vec![0, 1, 2];
+    scene.lights[0].position = Vec3::new(0.3, 0.5, 0.0);
+    scene
+}
+
+#[test]
+fn facing_points_where_the_radiance_leaves_and_is_filtered_as_the_radiance() {
+    use octolux::voxel::svo::sample::facing_toward;
+    let ctx = context();
+    let res = 32;
+    let vs = 2.5 / res as f32;
+    let scene = thin_wall_scene(vs);
+    let (renderer, layers, lights) = point_light_shadows(&ctx, &scene, 512);
+    let light = scene.lights[0].position;
+    let grid = VoxelGrid::new(Vec3::new(-1.25, -8.5 * vs, -1.25), vs, res).unwrap();
+    let tris = scene_triangles(&scene, &scene.frame(0.0, 0));
+    let builder = SvoBuilder::new(&ctx).with_facing(true);
+    let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
+    let mut timer = PassTimer::new(&ctx);
+    let shadows = ShadowLookupBuffers::new(&ctx, "test", renderer.shadow_maps().texture(), &layers);
+    builder
+        .inject(&ctx, &mut timer, &svo, shadows.lookup(), &lights, 1)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    let cpu_svo = svo.read_back(&ctx).unwrap();
+    let voxels = voxel_map(&svo, &cpu_svo, &ctx);
+    // The CPU facing of every voxel: its radiance's weight r + g + b times the floor's normal,
+    // or, for the wall's voxels (no dominant normal: lit as facing the light), the direction
+    // to the light from the voxel's centre.
+    let wall_column = 10;
+    let mut facing = BTreeMap::new();
+    let (mut floor_lit, mut wall_lit) = (0, 0);
+    for (v, value) in &voxels {
+        let weight = value.x + value.y + value.z;
+        let p = grid.origin + (Vec3::from_array(v.map(|c| c as f32)) + 0.5) * vs;
+        let dir = if v[0] == wall_column && v[1] > 8 {
+            wall_lit += (weight > 0.0) as u32;
+            (light - p).normalize()
+        } else {
+            assert_eq!(v[1], 8, "only the floor and the wall are occupied");
+            floor_lit += (weight > 0.0) as u32;
+            Vec3::Y
+        };
+        facing.insert(*v, (dir * weight).extend(0.0));
+    }
+    let bricks = svo.read_facing(&ctx).unwrap().expect("built with facing");
+    let error = lattice_error(&svo, &cpu_svo, &facing, &bricks);
+    // From the wall's far side (a cone travelling +x towards it) its light is not seen; from
+    // the lit side (travelling -x) all of it. Leaf texels on the wall's column of the lattice.
+    let radiance = svo.read_radiance(&ctx).unwrap();
+    let coords = cpu_svo.coordinates();
+    let leaf = svo.levels().len() - 1;
+    let (mut far_side, mut near_side, mut texels) = (0.0f32, 1.0f32, 0);
+    for n in level_nodes(&svo, leaf) {
+        let b = cpu_svo.brick_of[n as usize];
+        let c = coords[n as usize];
+        // The wall's column's centres lie on the texels of x = 1 of nodes with 2c = 10.
+        if b == 0 || 2 * c[0] != wall_column {
+            continue;
+        }
+        for t in 0..27usize {
+            let (r, f) = (radiance[b as usize - 1][t], bricks[b as usize - 1][t]);
+            let y = 2 * c[1] + (t as u32 / 3) % 3;
+            let z = 2 * c[2] + t as u32 / 9;
+            // Texels of the wall's middle rows, where the light meets it head on.
+            if t % 3 != 1 || r.x <= 0.0 || !(14..=16).contains(&y) || !(15..=17).contains(&z) {
+                continue;
+            }
+            texels += 1;
+            far_side = far_side.max(facing_toward(r, f.truncate(), Vec3::X));
+            near_side = near_side.min(facing_toward(r, f.truncate(), Vec3::NEG_X));
+        }
+    }
+    println!(
+        "lit voxels: floor {floor_lit}, wall {wall_lit}; facing lattice error {error:.2e}; \
+         wall texels {texels}: seen from the far side at most {far_side:.3}, from the lit side \
+         at least {near_side:.3}"
+    );
+    assert!(
+        floor_lit > 100 && wall_lit > 20,
+        "lit voxels: floor {floor_lit}, wall {wall_lit}"
+    );
+    // f16 storage of the facing sums, as the radiance mip's bound.
+    assert!(error < 4e-3, "facing lattice error {error}");
+    assert!(texels >= 6);
+    assert!(
+        far_side < 0.1,
+        "the far side sees {far_side} of the wall's light"
+    );
+    assert!(
+        near_side > 0.999,
+        "the lit side sees {near_side} of the wall's light"
+    );
 }

@@ -235,6 +235,9 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 changed |= ui
                     .checkbox(&mut v.anisotropic_bounce, "anisotropic in the bounce only")
                     .changed();
+                changed |= ui
+                    .checkbox(&mut v.facing, "radiance facing (thin walls)")
+                    .changed();
                 VctStructure::Octree
             } else {
                 changed |= combo(

@@ -163,6 +163,13 @@ pub struct VctSettings {
     /// without the error `anisotropic` adds in rooms lit by their bounce light, at the cost
     /// of a slower bounce gather (docs/vct.md, "Anisotropic radiance in the bounce only").
     pub anisotropic_bounce: bool,
+    /// `vct-svo`: every radiance texel also keeps the direction its radiance leaves in (the
+    /// radiance-weighted mean facing of its surfaces; a wall thinner than a voxel faces the
+    /// light that lights it), and a cone sample keeps of the radiance only the share that
+    /// leaves towards the cone's apex, so light on one face of a voxel-thin wall is not seen
+    /// from the other face. Costs 216 bytes per brick and a second radiance mip per frame
+    /// (docs/vct.md, "The radiance's facing").
+    pub facing: bool,
     /// Multiple bounces: every frame the voxels (the octree's static voxels, every clipmap
     /// voxel) gather indirect irradiance with the diffuse cones and add it to their direct
     /// irradiance at the next injection, so the light converges to all bounces over frames
@@ -206,6 +213,7 @@ impl Default for VctSettings {
             dynamic_reserve: 1 << 16,
             anisotropic: false,
             anisotropic_bounce: false,
+            facing: false,
             multi_bounce: true,
             bounce_frames: 2,
             specular: false,

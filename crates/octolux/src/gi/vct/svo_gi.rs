@@ -17,7 +17,7 @@ use crate::voxel::svo::aniso_radiance::SvoAnisoRadiance;
 use crate::voxel::svo::dynamic::DynamicReserve;
 use crate::voxel::svo::inject::{SvoBounce, SvoBounceTable};
 use crate::voxel::svo::sample::{
-    svo_bindings, svo_radiance_bindings, SvoInfo, SVO_ANISO_RADIANCE_BINDING,
+    svo_bindings, svo_facing_bindings, svo_radiance_bindings, SvoInfo, SVO_ANISO_RADIANCE_BINDING,
 };
 use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::{objects_triangles, VoxelGrid};
@@ -109,7 +109,7 @@ impl VctSvo {
             // Checked before the octree is built: the bounce table follows from the reserve.
             check_binding(ctx, "bounce table", bounce_table_entries(reserve.nodes) * 8)?;
         }
-        let builder = SvoBuilder::new(ctx);
+        let builder = SvoBuilder::new(ctx).with_facing(settings.facing);
         let still = objects_triangles(scene, &scene.frame(0.0, 0), false);
         let (svo, _) = builder.build_with_reserve(ctx, &grid, &still, reserve)?;
         let tracer = ConeTracer::new(
@@ -118,8 +118,14 @@ impl VctSvo {
             TraceStructure {
                 trace: "gi/vct/svo_trace",
                 bounce: "gi/vct/svo_bounce",
-                features: vec![("anisotropic", settings.anisotropic)],
-                bounce_features: vec![("anisotropic", settings.anisotropic_radiance_in_bounce())],
+                features: vec![
+                    ("anisotropic", settings.anisotropic),
+                    ("facing", settings.facing),
+                ],
+                bounce_features: vec![
+                    ("anisotropic", settings.anisotropic_radiance_in_bounce()),
+                    ("facing", settings.facing),
+                ],
                 octree: true,
             },
             settings,
@@ -359,6 +365,7 @@ impl GiTechnique for VctSvo {
         };
         let mut structure = svo_bindings(&self.info, svo).to_vec();
         structure.extend(svo_radiance_bindings(svo));
+        structure.extend(svo_facing_bindings(svo).into_iter().flatten());
         structure.push((SVO_ANISO_RADIANCE_BINDING, aniso.as_entire_binding()));
         // 4. Multiple bounces: every voxel gathers irradiance for the next frame (static
         //    ones by slot, dynamic ones into the bounce table the next injection reads).

@@ -3,7 +3,7 @@
 // radiance is bound either way (a placeholder word without it).
 
 import octolux::voxel::svo::sample::{SvoNodeLod, svo_info, svo_node_lod};
-import octolux::voxel::svo::radiance_sample::svo_radiance_sample;
+import octolux::voxel::svo::radiance_sample::{svo_facing_toward, svo_radiance_facing_sample, svo_radiance_sample};
 import octolux::voxel::svo::radiance_sample_aniso::{svo_radiance_aniso, svo_radiance_aniso_level};
 import octolux::voxel::svo::sample::count_lookup_work;
 
@@ -25,12 +25,24 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
             return svo_radiance_aniso(p, footprint, dir);
         }
     }
-    let s = svo_radiance_sample(p, footprint);
+    let s = svo_radiance_toward(p, footprint, dir);
     let k = min(max(footprint / svo_info.origin.w, 1.0), 1.0 / max(s.a, 1e-6));
     if !SVO_ANISOTROPIC || lod.below <= 0.0 {
         return s * k;
     }
     return mix(s * k, svo_radiance_aniso_level(lod.g, lod.fine, dir), lod.below);
+}
+
+// The radiance sample, with the feature `facing` only the share that leaves towards the
+// cone's apex (`svo_facing_toward`: light on a wall's far face, or on a surface seen from
+// behind, is not seen).
+@if(facing) fn svo_radiance_toward(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
+    let s = svo_radiance_facing_sample(p, footprint);
+    return vec4<f32>(s.radiance.rgb * svo_facing_toward(s, dir), s.radiance.a);
+}
+
+@if(!facing) fn svo_radiance_toward(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
+    return svo_radiance_sample(p, footprint);
 }
 
 // Adds the octree lookups of this invocation's samples (and the nodes their descents

@@ -83,12 +83,21 @@ impl SvoBounce {
     }
 }
 
+/// The injection kernel, with or without the facing pool's bindings and stores.
+fn inject_pipeline(ctx: &GpuContext, facing: bool) -> wgpu::ComputePipeline {
+    let source = library_shader("voxel/svo/inject", &[("facing", facing)]);
+    let module = ctx.shader("svo inject (facing)", &source);
+    ctx.compute_pipeline("svo inject (facing)", &module, "inject")
+}
+
 /// The accumulation and injection kernels.
 pub(crate) struct SvoLight {
     leaf_mask: wgpu::ComputePipeline,
     leaf_slots: wgpu::ComputePipeline,
     accumulate: wgpu::ComputePipeline,
     inject: wgpu::ComputePipeline,
+    /// The injection that also writes the facing pool, compiled when first needed.
+    inject_facing: std::cell::OnceCell<wgpu::ComputePipeline>,
     /// The injection's parameters, one [`SLOT`] per part (static leaves, dynamic leaves) and
     /// injection recorded before one submission (writes land at the submission), up to
     /// [`INJECT_SLOTS`] of them.
@@ -105,7 +114,7 @@ pub(crate) struct SvoLight {
 
 impl SvoLight {
     pub(crate) fn new(ctx: &GpuContext) -> SvoLight {
-        let source = library_shader("voxel/svo/inject", &[]);
+        let source = library_shader("voxel/svo/inject", &[("facing", false)]);
         let module = ctx.shader("svo inject", &source);
         let owner = crate::voxel::svo::OWNER;
         let small = |label: &str| {
@@ -124,6 +133,7 @@ impl SvoLight {
             leaf_slots: ctx.compute_pipeline("svo leaf slots", &module, "leaf_slots"),
             accumulate: ctx.compute_pipeline("svo leaf sums", &module, "accumulate"),
             inject: ctx.compute_pipeline("svo inject", &module, "inject"),
+            inject_facing: std::cell::OnceCell::new(),
             params: crate::gpu::alloc::param_slots(ctx, owner, "inject params", 2 * INJECT_SLOTS),
             params_used: std::cell::Cell::new((u64::MAX, 0)),
             groups: (0..2 * INJECT_SLOTS).map(|_| Default::default()).collect(),
@@ -343,9 +353,17 @@ impl SvoLight {
             .collect();
         entries.push((10, params));
         entries.extend(lights);
-        let group = kept.get(ctx, name, &self.inject, &entries);
+        let pipeline = match &svo.facing {
+            Some(facing) => {
+                entries.extend((0..4).map(|k| (30 + k as u32, facing[k].as_entire_binding())));
+                self.inject_facing
+                    .get_or_init(|| inject_pipeline(ctx, true))
+            }
+            None => &self.inject,
+        };
+        let group = kept.get(ctx, name, pipeline, &entries);
         let Some(slot) = indirect else {
-            dispatch_1d(timer, name, &self.inject, &group, count);
+            dispatch_1d(timer, name, pipeline, &group, count);
             return;
         };
         timer.pass(name, |encoder, stamps| {
@@ -353,7 +371,7 @@ impl SvoLight {
                 label: Some(name),
                 timestamp_writes: stamps.compute(),
             });
-            pass.set_pipeline(&self.inject);
+            pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
         });

@@ -145,7 +145,43 @@ struct InjectParams {
 @group(0) @binding(28) var<storage, read> dyn_bounce_keys: array<u32>;
 @group(0) @binding(29) var<storage, read> dyn_bounce_values: array<u32>;
 
+// The facing pool (`Svo::facing`, with the feature `facing`), laid out as the radiance pool:
+// per texel the sum of the radiance's weight (r + g + b) times the direction its surface
+// faces (`VoxelLight::facing`).
+@if(facing) @group(0) @binding(30) var<storage, read_write> facing0: array<u32>;
+@if(facing) @group(0) @binding(31) var<storage, read_write> facing1: array<u32>;
+@if(facing) @group(0) @binding(32) var<storage, read_write> facing2: array<u32>;
+@if(facing) @group(0) @binding(33) var<storage, read_write> facing3: array<u32>;
+
 const PI: f32 = 3.14159265358979;
+
+@if(facing) fn facing_store(b: u32, t: u32, v: vec3<f32>) {
+    let w = (b % P.misc.w) * 54u + 2u * t;
+    let lo = pack2x16float(v.xy);
+    let hi = pack2x16float(vec2<f32>(v.z, 0.0));
+    switch b / P.misc.w {
+        case 0u: { facing0[w] = lo; facing0[w + 1u] = hi; }
+        case 1u: { facing1[w] = lo; facing1[w + 1u] = hi; }
+        case 2u: { facing2[w] = lo; facing2[w + 1u] = hi; }
+        default: { facing3[w] = lo; facing3[w + 1u] = hi; }
+    }
+}
+
+@if(!facing) fn facing_store(b: u32, t: u32, v: vec3<f32>) {}
+
+// A voxel's outgoing radiance and opacity, and the direction its radiance leaves in: the sum
+// over its parts (emission, each light's direct light, the gathered bounce) of the part's
+// weight r + g + b times the way the surface it lights faces. A voxel without a dominant
+// normal (a wall thinner than the voxel: its two faces' normals cancel) is lit as facing each
+// light, so its direct light faces that light: seen from the wall's other side it is not there.
+struct VoxelLight {
+    value: vec4<f32>,
+    facing: vec3<f32>,
+}
+
+fn weight(c: vec3<f32>) -> f32 {
+    return c.x + c.y + c.z;
+}
 
 fn pool_store(b: u32, i: u32, v: u32) {
     let w = (b % P.misc.w) * 54u + i;
@@ -194,11 +230,11 @@ fn voxel_normal(s: array<u32, 10>) -> vec3<f32> {
 }
 
 // Outgoing radiance and opacity at `p` of the leaf voxel with fragment sums `s`, which also
-// receives the irradiance `e0` (multiple bounces).
-fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> vec4<f32> {
+// receives the irradiance `e0` (multiple bounces), and the direction it leaves in.
+fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> VoxelLight {
     let count = s[3];
     if count == 0u {
-        return vec4<f32>(0.0);
+        return VoxelLight(vec4<f32>(0.0), vec3<f32>(0.0));
     }
     let c = f32(count);
     let albedo = vec3<f32>(f32(s[0]), f32(s[1]), f32(s[2])) / c / 255.0;
@@ -206,6 +242,7 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> vec4<f32> {
     let n = voxel_normal(s);
     let has_normal = dot(n, n) > 0.5;
     var e = e0;
+    var facing = n * weight(emission + albedo / PI * e0);
     for (var k = 0u; k < P.misc.z; k++) {
         let light = lights[k];
         let inc = light_incidence(light, p);
@@ -219,9 +256,11 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> vec4<f32> {
         }
         // Looked up half a voxel along the normal: the surface may lie anywhere in the voxel.
         let lift = 0.5 * P.origin_voxel.w;
-        e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, lift);
+        let direct = inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, lift);
+        e += direct;
+        facing += select(inc.to_light, n, has_normal) * weight(albedo / PI * direct);
     }
-    return vec4<f32>(emission + albedo / PI * e, 1.0);
+    return VoxelLight(vec4<f32>(emission + albedo / PI * e, 1.0), facing);
 }
 
 // Last frame's irradiance of the dynamic voxel `key` (zero where it was not there).
@@ -263,6 +302,7 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     let b1 = brick_index[n];
     let c = unpack3(node_coord[n]);
     var voxels: array<vec4<f32>, 8>;
+    var facings: array<vec3<f32>, 8>;
     for (var o = 0u; o < 8u; o++) {
         let v = 2u * c + octant(o);
         let p = P.origin_voxel.xyz + (vec3<f32>(v) + 0.5) * P.origin_voxel.w;
@@ -280,7 +320,9 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
             bounce_geometry[2u * slot] = key;
             bounce_geometry[2u * slot + 1u] = pack4x8snorm(vec4<f32>(voxel_normal(sums), 0.0));
         }
-        voxels[o] = voxel_value(sums, p, e0);
+        let light = voxel_value(sums, p, e0);
+        voxels[o] = light.value;
+        facings[o] = light.facing;
         voxel_radiance[2u * slot] = pack2x16float(voxels[o].xy);
         voxel_radiance[2u * slot + 1u] = pack2x16float(voxels[o].zw);
     }
@@ -291,13 +333,16 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     for (var t = 0u; t < 27u; t++) {
         let i = vec3<u32>(t % 3u, (t / 3u) % 3u, t / 9u);
         var sum = vec4<f32>(0.0);
+        var facing = vec3<f32>(0.0);
         for (var o = 0u; o < 8u; o++) {
             let a = octant(o);
             if all(i >= a) && all(i - a <= vec3<u32>(1u)) {
                 sum += voxels[o] * 0.125;
+                facing += facings[o] * 0.125;
             }
         }
         pool_store(b, 2u * t, pack2x16float(sum.xy));
         pool_store(b, 2u * t + 1u, pack2x16float(sum.zw));
+        facing_store(b, t, facing);
     }
 }

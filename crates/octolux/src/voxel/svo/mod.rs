@@ -204,6 +204,10 @@ pub struct Svo {
     /// Radiance pool, split like [`Svo::bricks`]: [`BUILD_BRICK_WORDS`] words per brick,
     /// 27 texels of RGBA16F (radiance, opacity). Zero until [`SvoBuilder::inject`].
     radiance: Vec<wgpu::Buffer>,
+    /// Facing pool ([`SvoBuilder::with_facing`]), split and laid out like `radiance`: per
+    /// texel the sum of the radiance's weight (r + g + b) times the direction its surface
+    /// faces, filtered as the radiance (RGBA16F: xyz, 0). `None` without facing.
+    facing: Option<Vec<wgpu::Buffer>>,
     /// Injected radiance and opacity per leaf voxel (RGBA16F): static leaves in the order of
     /// `leaf_sums`, then the dynamic leaves in node order.
     voxel_radiance: wgpu::Buffer,
@@ -281,6 +285,8 @@ pub struct SvoBuilder {
     pool_limit: Option<u32>,
     /// Filter the coarsest levels in one dispatch (`mip_coarse`).
     fuse_coarse: bool,
+    /// Octrees keep the facing of their radiance ([`SvoBuilder::with_facing`]).
+    facing: bool,
     pub(super) light: crate::voxel::svo::inject::SvoLight,
     /// Stands in for the fragments and triangles the transfer and mip kernels do not read.
     mip_placeholder: wgpu::Buffer,
@@ -459,6 +465,7 @@ impl SvoBuilder {
             pack: ctx.compute_pipeline("svo pack bricks", &pack_module, "pack"),
             pool_limit: None,
             fuse_coarse: true,
+            facing: false,
             light: crate::voxel::svo::inject::SvoLight::new(ctx),
             mip_placeholder: ctx.create_buffer(
                 OWNER,
@@ -489,6 +496,15 @@ impl SvoBuilder {
     /// are the same either way (tests compare the two).
     pub fn with_fused_coarse_levels(mut self, fused: bool) -> SvoBuilder {
         self.fuse_coarse = fused;
+        self
+    }
+
+    /// Octrees built by this builder also keep, per radiance texel, the direction the radiance
+    /// leaves in (the radiance-weighted mean facing of its surfaces; a wall thinner than a
+    /// voxel faces the light that lights it): the facing pool, filtered like the radiance,
+    /// 216 bytes per brick (default false; [`crate::gi::vct::VctSettings::facing`]).
+    pub fn with_facing(mut self, facing: bool) -> SvoBuilder {
+        self.facing = facing;
         self
     }
 
@@ -780,6 +796,9 @@ impl SvoBuilder {
             .accumulate(ctx, &mut timer, list, &child, depth, leaves)?;
         timings.extend(sum_timings);
         let radiance = make_pools("radiance pool", BUILD_BRICK_WORDS as u64, brick_capacity);
+        let facing = self
+            .facing
+            .then(|| make_pools("facing pool", BUILD_BRICK_WORDS as u64, brick_capacity));
         let voxel_radiance = scratch(
             "voxel radiance",
             (leaves.1 - leaves.0 + reserve.nodes) as u64 * 16,
@@ -862,6 +881,7 @@ impl SvoBuilder {
             level_params: params,
             leaf_sums,
             radiance,
+            facing,
             voxel_radiance,
             static_nodes: node_count,
             static_bricks: brick_count,
@@ -966,6 +986,35 @@ impl SvoBuilder {
             0,
             &steps,
         );
+        // The facing, filtered as the radiance by the same steps.
+        if let Some(facing) = &svo.facing {
+            let group = self.group0(
+                ctx,
+                &svo.level_params,
+                [
+                    placeholder,
+                    placeholder,
+                    &svo.child,
+                    &svo.neighbours,
+                    &svo.coord,
+                    &svo.brick_index,
+                    &svo.control,
+                    &facing[0],
+                    &facing[1],
+                    &facing[2],
+                    &facing[3],
+                ],
+            );
+            self.record(
+                timer,
+                "svo facing mip",
+                &group,
+                (&args_group, None),
+                &svo.args,
+                0,
+                &steps,
+            );
+        }
         Ok(())
     }
 
@@ -1191,9 +1240,27 @@ impl Svo {
     /// Reads the radiance pool back: 27 (radiance, opacity) texels per brick, brick order as
     /// [`SvoCpu::bricks`] (so an [`SvoCpu`] with these bricks samples radiance).
     pub fn read_radiance(&self, ctx: &GpuContext) -> Result<Vec<[glam::Vec4; 27]>> {
+        self.read_half_pools(ctx, &self.radiance)
+    }
+
+    /// Reads the facing pool back ([`SvoBuilder::with_facing`]): 27 (facing sum, 0) texels per
+    /// brick, brick order as [`SvoCpu::bricks`]; `None` for an octree without facing.
+    pub fn read_facing(&self, ctx: &GpuContext) -> Result<Option<Vec<[glam::Vec4; 27]>>> {
+        self.facing
+            .as_ref()
+            .map(|pools| self.read_half_pools(ctx, pools))
+            .transpose()
+    }
+
+    /// The bricks of a pool of 27 RGBA16F texels per brick, split like [`Svo::bricks`].
+    fn read_half_pools(
+        &self,
+        ctx: &GpuContext,
+        pools: &[wgpu::Buffer],
+    ) -> Result<Vec<[glam::Vec4; 27]>> {
         let mut words: Vec<u32> = Vec::new();
         let mut left = self.brick_count as u64;
-        for pool in &self.radiance {
+        for pool in pools {
             let bricks = left.min(self.pool_bricks as u64);
             if bricks == 0 {
                 break;

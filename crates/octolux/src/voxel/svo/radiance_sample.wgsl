@@ -45,3 +45,66 @@ fn svo_radiance_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     }
     return mix(a, svo_radiance_cell(cells.coarse), lod.t);
 }
+
+// The facing pool (`Svo::facing`, bound at 63..66, `voxel::svo::sample::svo_facing_bindings`):
+// per texel the radiance's weight (r + g + b) times the direction its surface faces, filtered
+// as the radiance. `svo_radiance_facing_sample` reads it with the radiance, from one descent.
+@group(0) @binding(63) var<storage, read> svo_facing0: array<u32>;
+@group(0) @binding(64) var<storage, read> svo_facing1: array<u32>;
+@group(0) @binding(65) var<storage, read> svo_facing2: array<u32>;
+@group(0) @binding(66) var<storage, read> svo_facing3: array<u32>;
+
+fn svo_facing_texel(brick: u32, t: vec3<u32>) -> vec3<f32> {
+    let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
+    var lo = 0u;
+    var hi = 0u;
+    switch brick / svo_info.misc.z {
+        case 0u: { lo = svo_facing0[w]; hi = svo_facing0[w + 1u]; }
+        case 1u: { lo = svo_facing1[w]; hi = svo_facing1[w + 1u]; }
+        case 2u: { lo = svo_facing2[w]; hi = svo_facing2[w + 1u]; }
+        default: { lo = svo_facing3[w]; hi = svo_facing3[w + 1u]; }
+    }
+    return vec3<f32>(unpack2x16float(lo), unpack2x16float(hi).x);
+}
+
+struct SvoRadianceFacing {
+    radiance: vec4<f32>,
+    facing: vec3<f32>,
+}
+
+fn svo_radiance_facing_cell(cell: SvoCell) -> SvoRadianceFacing {
+    var sum = SvoRadianceFacing(vec4<f32>(0.0), vec3<f32>(0.0));
+    if cell.brick == 0u {
+        return sum;
+    }
+    for (var k = 0u; k < 8u; k++) {
+        let o = svo_corner(k);
+        let w = svo_weight(cell, o);
+        sum.radiance += w * svo_radiance_texel(cell.brick - 1u, cell.i0 + o);
+        sum.facing += w * svo_facing_texel(cell.brick - 1u, cell.i0 + o);
+    }
+    return sum;
+}
+
+// `svo_radiance_sample` with the facing sum, from the same cells.
+fn svo_radiance_facing_sample(p: vec3<f32>, footprint: f32) -> SvoRadianceFacing {
+    let lod = svo_lod(p, footprint);
+    let blend = lod.t > 0.0 && lod.fine > 0u;
+    let cells = svo_locate_levels(lod.g, lod.fine, blend);
+    let a = svo_radiance_facing_cell(cells.fine);
+    if !blend {
+        return a;
+    }
+    let b = svo_radiance_facing_cell(cells.coarse);
+    return SvoRadianceFacing(mix(a.radiance, b.radiance, lod.t), mix(a.facing, b.facing, lod.t));
+}
+
+// The share of a sample's radiance that leaves towards the apex of a cone travelling along
+// `dir`. Radiance whose mean facing is F (|F| <= 1, F = facing / (r + g + b)) keeps
+// 1 + F . (-dir), at most 1: what faces the apex is kept whole (as without the facing), what
+// faces away is dropped. Exact for a wall thinner than a voxel whose faces hold radiance a and
+// b: seen from b's side the texel's mean (a + b) / 2 keeps 2b / (a + b) of itself, b.
+fn svo_facing_toward(s: SvoRadianceFacing, dir: vec3<f32>) -> f32 {
+    let f = s.facing / max(s.radiance.r + s.radiance.g + s.radiance.b, 1e-20);
+    return clamp(1.0 - dot(f, dir), 0.0, 1.0);
+}

@@ -23,6 +23,17 @@ pub const SVO_RADIANCE_BINDINGS: u32 = 57;
 pub const SVO_ANISO_BINDING: u32 = 61;
 /// The anisotropic radiance sampler's values (`svo_aniso_radiance`).
 pub const SVO_ANISO_RADIANCE_BINDING: u32 = 62;
+/// The facing sampler's `svo_facing0..3` ([`svo_facing_bindings`]).
+pub const SVO_FACING_BINDINGS: u32 = 63;
+
+/// CPU twin of `svo_facing_toward` (`voxel/svo/radiance_sample.wgsl`): the share of a
+/// sample's radiance (`radiance`, premultiplied, with its facing sum `facing`) that leaves
+/// towards the apex of a cone travelling along `dir`: 1 + F . (-dir) for the mean facing F =
+/// facing / (r + g + b), clamped to [0, 1].
+pub fn facing_toward(radiance: Vec4, facing: Vec3, dir: Vec3) -> f32 {
+    let f = facing / (radiance.x + radiance.y + radiance.z).max(1e-20);
+    (1.0 - f.dot(dir)).clamp(0.0, 1.0)
+}
 
 /// The entries every octree sampler reads: `info` (an [`SvoInfo`] block), `svo`'s child links
 /// and brick of each node.
@@ -54,7 +65,19 @@ pub fn svo_radiance_bindings(svo: &Svo) -> [(u32, wgpu::BindingResource<'_>); 4]
     })
 }
 
-/// Parameter block `SvoInfo` of `voxel/svo/sample.wgsl` (a read-only storage buffer).
+/// The facing pool's 4 buffers at [`SVO_FACING_BINDINGS`].., for `svo_radiance_facing_sample`
+/// (`voxel/svo/radiance_sample.wgsl`); `None` for an octree built without facing
+/// ([`crate::voxel::svo::SvoBuilder::with_facing`]).
+pub fn svo_facing_bindings(svo: &Svo) -> Option<[(u32, wgpu::BindingResource<'_>); 4]> {
+    let facing = svo.facing.as_ref()?;
+    Some(std::array::from_fn(|i| {
+        (
+            SVO_FACING_BINDINGS + i as u32,
+            facing[i].as_entire_binding(),
+        )
+    }))
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SvoInfo {
