@@ -1,25 +1,27 @@
-//! The cone tracers' flags on the command line: `--vct-anisotropic` renders both ways, and a
-//! value that is not a boolean is a usage error naming the flag.
+//! The cone tracers' flags on the command line: `--vct-anisotropic` and `--vct-facing` render
+//! both ways, and a value that is not a boolean is a usage error naming the flag.
 
 mod common;
 
 #[test]
 fn the_anisotropic_flag_renders_and_a_bad_value_is_refused() {
     let dir = common::temp_dir("vct-cli");
-    for value in ["true", "false"] {
-        let output = common::render_small(
-            &dir,
-            None,
-            &[
-                "--gi",
-                "vct-svo",
-                "--vct-octree-resolution",
-                "32",
-                "--vct-anisotropic",
-                value,
-            ],
-        );
-        common::assert_succeeds(&output);
+    for flag in ["--vct-anisotropic", "--vct-facing"] {
+        for value in ["true", "false"] {
+            let output = common::render_small(
+                &dir,
+                None,
+                &[
+                    "--gi",
+                    "vct-svo",
+                    "--vct-octree-resolution",
+                    "32",
+                    flag,
+                    value,
+                ],
+            );
+            common::assert_succeeds(&output);
+        }
     }
     let output = common::render_small(
         &dir,

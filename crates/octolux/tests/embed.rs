@@ -472,3 +472,53 @@ fn every_depth_and_normal_convention_reads_as_octoluxs_own_gbuffer() {
         );
     }
 }
+
+#[test]
+fn vct_svo_facing_says_which_limit_it_needs_beyond_the_required_ones() {
+    use octolux::gi::vct::{VctSettings, FACING_STORAGE_BUFFERS};
+    use octolux::gi::GiSettings;
+    use octolux::render::{RenderSettings, Renderer};
+    let scene = octolux::scene::cornell::scene();
+    let render = |stage_buffers: u32| {
+        let (device, queue) = device_with(wgpu::Limits {
+            max_storage_buffers_per_shader_stage: stage_buffers,
+            ..required_limits()
+        });
+        // Counting work (as `bench` does) binds one buffer more in the counted passes.
+        let ctx = octolux::gpu::GpuContext::from_device(&device, &queue)
+            .unwrap()
+            .with_work_counter();
+        let settings = RenderSettings {
+            width: 32,
+            height: 32,
+            gi: "vct-svo".into(),
+            gi_settings: GiSettings {
+                vct: VctSettings {
+                    facing: true,
+                    ..VctSettings::default()
+                },
+                ..GiSettings::default()
+            },
+            ..RenderSettings::default()
+        };
+        ctx.capture_errors(|| {
+            let mut r = Renderer::new(&ctx, &scene, settings)?;
+            r.render(&scene, 0.0)?;
+            Ok(())
+        })
+    };
+    assert!(FACING_STORAGE_BUFFERS > required_limits().max_storage_buffers_per_shader_stage);
+    let error = render(FACING_STORAGE_BUFFERS - 1)
+        .expect_err("one storage buffer short")
+        .to_string();
+    assert!(
+        error.contains(&format!(
+            "binds {FACING_STORAGE_BUFFERS} storage buffers in its light injection, this device \
+             allows {}",
+            FACING_STORAGE_BUFFERS - 1
+        )),
+        "{error}"
+    );
+    // Exactly the named count suffices: every kernel of the technique is created and runs.
+    render(FACING_STORAGE_BUFFERS).expect("the named limit suffices");
+}

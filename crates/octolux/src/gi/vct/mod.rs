@@ -22,7 +22,7 @@ mod tracer;
 
 pub use clipmap_gi::VctClipmap;
 pub use settings::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
-pub use svo_gi::VctSvo;
+pub use svo_gi::{VctSvo, FACING_STORAGE_BUFFERS};
 
 pub use cone::{march_cone, ConeMarch, ConeParams};
 pub use gather::{cone_set_wgsl, diffuse_cone_dir, gather_irradiance};

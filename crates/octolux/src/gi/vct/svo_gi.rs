@@ -25,6 +25,11 @@ use crate::{Error, Result};
 
 const OWNER: &str = "vct-svo";
 
+/// Storage buffers the light injection binds with `facing` (`voxel/svo/inject.wgsl`: the
+/// octree, its radiance and facing pools, the bounce buffers and the lights), two more than
+/// [`crate::embed::required_limits`] asks of every device.
+pub const FACING_STORAGE_BUFFERS: u32 = 22;
+
 /// Voxel cone tracing on the sparse voxel octree.
 pub struct VctSvo {
     builder: SvoBuilder,
@@ -91,6 +96,15 @@ impl VctSvo {
         height: u32,
     ) -> Result<VctSvo> {
         settings.validate()?;
+        let limit = ctx.device.limits().max_storage_buffers_per_shader_stage;
+        if settings.facing && limit < FACING_STORAGE_BUFFERS {
+            return Err(Error::InvalidArgument(format!(
+                "vct-svo with `facing` binds {FACING_STORAGE_BUFFERS} storage buffers in its light \
+                 injection, this device allows {limit} per shader stage \
+                 (max_storage_buffers_per_shader_stage): create it with the adapter's limits, \
+                 or turn `facing` off"
+            )));
+        }
         let (lo, hi) = scene.gi_bounds_over_animation();
         let extent = (hi - lo).max_element();
         if !extent.is_finite() || extent <= 0.0 {

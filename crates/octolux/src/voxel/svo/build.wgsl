@@ -106,6 +106,64 @@ fn write_texel(brick: u32, t: u32, v: vec4<f32>) {
     bw_store(brick, 2u * t + 1u, pack2x16float(v.zw));
 }
 
+// With the feature `facing` (the radiance mip of an octree that keeps its radiance's facing,
+// `SvoBuilder::with_facing`), the mip and transfer kernels filter the facing pool with the
+// same taps as the radiance, in the same dispatches; without it these are no-ops.
+@if(facing) @group(0) @binding(12) var<storage, read_write> facing0: array<u32>;
+@if(facing) @group(0) @binding(13) var<storage, read_write> facing1: array<u32>;
+@if(facing) @group(0) @binding(14) var<storage, read_write> facing2: array<u32>;
+@if(facing) @group(0) @binding(15) var<storage, read_write> facing3: array<u32>;
+@if(facing) var<workgroup> group_facing: array<vec4<f32>, 216>;
+
+@if(facing) fn read_facing(brick: u32, t: u32) -> vec4<f32> {
+    if brick == INVALID {
+        return vec4<f32>(0.0);
+    }
+    let w = bw_index(brick, 2u * t);
+    var lo = 0u;
+    var hi = 0u;
+    switch brick / L.pool_bricks {
+        case 0u: { lo = facing0[w]; hi = facing0[w + 1u]; }
+        case 1u: { lo = facing1[w]; hi = facing1[w + 1u]; }
+        case 2u: { lo = facing2[w]; hi = facing2[w + 1u]; }
+        default: { lo = facing3[w]; hi = facing3[w + 1u]; }
+    }
+    return vec4<f32>(unpack2x16float(lo), unpack2x16float(hi));
+}
+
+@if(!facing) fn read_facing(brick: u32, t: u32) -> vec4<f32> {
+    return vec4<f32>(0.0);
+}
+
+@if(facing) fn write_facing(brick: u32, t: u32, v: vec4<f32>) {
+    let w = bw_index(brick, 2u * t);
+    let lo = pack2x16float(v.xy);
+    let hi = pack2x16float(v.zw);
+    switch brick / L.pool_bricks {
+        case 0u: { facing0[w] = lo; facing0[w + 1u] = hi; }
+        case 1u: { facing1[w] = lo; facing1[w + 1u] = hi; }
+        case 2u: { facing2[w] = lo; facing2[w + 1u] = hi; }
+        default: { facing3[w] = lo; facing3[w + 1u] = hi; }
+    }
+}
+
+@if(!facing) fn write_facing(brick: u32, t: u32, v: vec4<f32>) {}
+
+// The mip's staging of the children's facing texels (`group_facing`).
+@if(facing) fn stage_facing(i: u32, brick: u32) {
+    group_facing[i] = read_facing(brick, i % 27u);
+}
+
+@if(!facing) fn stage_facing(i: u32, brick: u32) {}
+
+@if(facing) fn staged_facing(i: u32) -> vec4<f32> {
+    return group_facing[i];
+}
+
+@if(!facing) fn staged_facing(i: u32) -> vec4<f32> {
+    return vec4<f32>(0.0);
+}
+
 fn texel_index(i: vec3<u32>) -> u32 {
     return i.x + 3u * i.y + 9u * i.z;
 }
@@ -313,14 +371,18 @@ fn transfer_pair(n: u32, axis: u32) {
         return;
     }
     var sums: array<vec4<f32>, 9>;
+    var facing: array<vec4<f32>, 9>;
     for (var k = 0u; k < 9u; k++) {
         let t = face_texels(axis, k);
         sums[k] = read_texel(bn, t.x) + read_texel(bm, t.y);
+        facing[k] = read_facing(bn, t.x) + read_facing(bm, t.y);
     }
     for (var k = 0u; k < 9u; k++) {
         let t = face_texels(axis, k);
         write_texel(bn, t.x, sums[k]);
         write_texel(bm, t.y, sums[k]);
+        write_facing(bn, t.x, facing[k]);
+        write_facing(bm, t.y, facing[k]);
     }
 }
 
@@ -420,6 +482,7 @@ fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<
     workgroupBarrier();
     for (var i = li; i < 216u; i += 64u) {
         group_texels[i] = read_texel(group_children[i / 27u], i % 27u);
+        stage_facing(i, group_children[i / 27u]);
     }
     workgroupBarrier();
     if li >= 27u {
@@ -429,13 +492,16 @@ fn mip(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<
     let nc = unpack3(coord[n]);
     let c = texel_coords(li);
     var sum = vec4<f32>(0.0);
+    var facing = vec4<f32>(0.0);
     for (var k = 0u; k < 27u; k++) {
         let tap = mip_tap(c, k, nc, 1u << L.d);
         if tap.weight != 0.0 {
             sum += tap.weight * group_texels[tap.texel];
+            facing += tap.weight * staged_facing(tap.texel);
         }
     }
     write_texel(bn, li, sum);
+    write_facing(bn, li, facing);
 }
 
 // The coarsest levels' mip and neighbour transfers in one dispatch of one workgroup: levels
@@ -479,11 +545,15 @@ fn mip_texel(n: u32, t: u32, d: u32) {
     let nc = unpack3(coord[n]);
     let c = texel_coords(t);
     var sum = vec4<f32>(0.0);
+    var facing = vec4<f32>(0.0);
     for (var k = 0u; k < 27u; k++) {
         let tap = mip_tap(c, k, nc, 1u << d);
         if tap.weight != 0.0 {
-            sum += tap.weight * read_texel(brick_of(first + tap.texel / 27u), tap.texel % 27u);
+            let b = brick_of(first + tap.texel / 27u);
+            sum += tap.weight * read_texel(b, tap.texel % 27u);
+            facing += tap.weight * read_facing(b, tap.texel % 27u);
         }
     }
     write_texel(bn, t, sum);
+    write_facing(bn, t, facing);
 }

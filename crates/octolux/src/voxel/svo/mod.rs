@@ -280,13 +280,16 @@ pub struct SvoBuilder {
     /// Group 2 of the dynamic update's kernels (`svo/dynamic.wgsl`).
     pub(super) dyn_layout: wgpu::BindGroupLayout,
     /// Kernels by entry point, with the groups they bind beyond group 0.
-    pipelines: std::collections::HashMap<&'static str, (wgpu::ComputePipeline, Groups)>,
+    pipelines: Pipelines,
     pack: wgpu::ComputePipeline,
     pool_limit: Option<u32>,
     /// Filter the coarsest levels in one dispatch (`mip_coarse`).
     fuse_coarse: bool,
     /// Octrees keep the facing of their radiance ([`SvoBuilder::with_facing`]).
     facing: bool,
+    /// The radiance mip's kernels that also filter the facing pool, compiled when first
+    /// needed.
+    facing_filter: std::cell::OnceCell<FacingFilter>,
     pub(super) light: crate::voxel::svo::inject::SvoLight,
     /// Stands in for the fragments and triangles the transfer and mip kernels do not read.
     mip_placeholder: wgpu::Buffer,
@@ -298,6 +301,25 @@ pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEnt
 
 /// Which bind groups beyond group 0 a kernel uses: group 1 (the dispatch arguments, which a
 /// kernel dispatched indirectly must not bind) and group 2 (the dynamic part).
+/// The mip and transfer kernels compiled with the feature `facing` (`svo/build.wgsl`): group 0
+/// of the build layout plus the facing pool's four buffers (bindings 12..15).
+struct FacingFilter {
+    layout0: wgpu::BindGroupLayout,
+    pipelines: Pipelines,
+}
+
+/// Kernels by entry point, with the groups they bind beyond group 0.
+type Pipelines = std::collections::HashMap<&'static str, (wgpu::ComputePipeline, Groups)>;
+
+/// The entry points that filter a brick pool up the levels (`filter_steps`).
+const FILTER_ENTRIES: [&str; 5] = [
+    "mip",
+    "mip_coarse",
+    "transfer_x",
+    "transfer_y",
+    "transfer_z",
+];
+
 #[derive(Clone, Copy)]
 struct Groups {
     args: bool,
@@ -359,31 +381,17 @@ impl SvoBuilder {
     /// Compiles the build kernels.
     pub fn new(ctx: &GpuContext) -> SvoBuilder {
         let device = &ctx.device;
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                // Per-level slots, read-only storage: "Parameter blocks" in voxel/mod.rs.
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: true,
-                min_binding_size: wgpu::BufferSize::new(32),
-            },
-            count: None,
-        }];
-        entries.push(storage(1, true));
-        entries.push(storage(2, true));
-        entries.extend((3..=11).map(|b| storage(b, false)));
-        let layout0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("svo"),
-            entries: &entries,
-        });
+        let layout0 = layout0_with(device, "svo", 11);
         let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("svo args"),
             entries: &[storage(0, false)],
         });
         let dyn_layout = crate::voxel::svo::dynamic::bind_group_layout(device);
         // The build and the dynamic update: `dynamic` imports `build`, so it holds both.
-        let module = ctx.shader("svo", &library_shader("voxel/svo/dynamic", &[]));
+        let module = ctx.shader(
+            "svo",
+            &library_shader("voxel/svo/dynamic", &[("facing", false)]),
+        );
         let accumulate = ctx.shader(
             "svo accumulate",
             &library_shader("voxel/svo/accumulate", &[]),
@@ -466,6 +474,7 @@ impl SvoBuilder {
             pool_limit: None,
             fuse_coarse: true,
             facing: false,
+            facing_filter: std::cell::OnceCell::new(),
             light: crate::voxel::svo::inject::SvoLight::new(ctx),
             mip_placeholder: ctx.create_buffer(
                 OWNER,
@@ -946,25 +955,31 @@ impl SvoBuilder {
         }
         self.light
             .inject_leaves(ctx, timer, svo, shadows, lights, light_count, bounce)?;
-        // The transfer and mip kernels bind the build layout: no fragments or triangles.
+        // The transfer and mip kernels bind the build layout: no fragments or triangles;
+        // with facing, the facing pool after it, filtered in the same dispatches.
         let placeholder = &self.mip_placeholder;
-        let group = self.group0(
-            ctx,
-            &svo.level_params,
-            [
-                placeholder,
-                placeholder,
-                &svo.child,
-                &svo.neighbours,
-                &svo.coord,
-                &svo.brick_index,
-                &svo.control,
-                &svo.radiance[0],
-                &svo.radiance[1],
-                &svo.radiance[2],
-                &svo.radiance[3],
-            ],
-        );
+        let mut buffers = vec![
+            placeholder,
+            placeholder,
+            &svo.child,
+            &svo.neighbours,
+            &svo.coord,
+            &svo.brick_index,
+            &svo.control,
+        ];
+        buffers.extend(&svo.radiance);
+        let (group, pipelines) = match &svo.facing {
+            Some(facing) => {
+                let filter = self.facing_filter(ctx);
+                buffers.extend(facing);
+                let group = group0_with(ctx, &filter.layout0, &svo.level_params, &buffers);
+                (group, &filter.pipelines)
+            }
+            None => (
+                group0_with(ctx, &self.layout0, &svo.level_params, &buffers),
+                &self.pipelines,
+            ),
+        };
         let args_group = self.args_group(ctx, &svo.args);
         let depth = svo.levels.len() as u32;
         let steps = filter_steps(depth, svo.dynamic.is_some(), self.fuse_coarse);
@@ -977,7 +992,8 @@ impl SvoBuilder {
             0,
             steps.len() as u64,
         )?;
-        self.record(
+        record_steps(
+            pipelines,
             timer,
             "svo radiance mip",
             &group,
@@ -986,35 +1002,6 @@ impl SvoBuilder {
             0,
             &steps,
         );
-        // The facing, filtered as the radiance by the same steps.
-        if let Some(facing) = &svo.facing {
-            let group = self.group0(
-                ctx,
-                &svo.level_params,
-                [
-                    placeholder,
-                    placeholder,
-                    &svo.child,
-                    &svo.neighbours,
-                    &svo.coord,
-                    &svo.brick_index,
-                    &svo.control,
-                    &facing[0],
-                    &facing[1],
-                    &facing[2],
-                    &facing[3],
-                ],
-            );
-            self.record(
-                timer,
-                "svo facing mip",
-                &group,
-                (&args_group, None),
-                &svo.args,
-                0,
-                &steps,
-            );
-        }
         Ok(())
     }
 
@@ -1039,24 +1026,42 @@ impl SvoBuilder {
         params: &wgpu::Buffer,
         buffers: [&wgpu::Buffer; 11],
     ) -> wgpu::BindGroup {
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: params,
-                offset: 0,
-                size: wgpu::BufferSize::new(32),
-            }),
-        }];
-        for (i, b) in buffers.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: i as u32 + 1,
-                resource: b.as_entire_binding(),
+        group0_with(ctx, &self.layout0, params, &buffers)
+    }
+
+    /// The facing kernels, compiled on first use.
+    fn facing_filter(&self, ctx: &GpuContext) -> &FacingFilter {
+        self.facing_filter.get_or_init(|| {
+            let device = &ctx.device;
+            // The facing pool's four buffers after the build's eleven.
+            let layout0 = layout0_with(device, "svo (facing)", 15);
+            let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("svo (facing)"),
+                bind_group_layouts: &[Some(&layout0)],
+                immediate_size: 0,
             });
-        }
-        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("svo"),
-            layout: &self.layout0,
-            entries: &entries,
+            let source = library_shader("voxel/svo/build", &[("facing", true)]);
+            let module = ctx.shader("svo radiance mip (facing)", &source);
+            let pipelines = FILTER_ENTRIES
+                .iter()
+                .map(|&entry| {
+                    let pipeline =
+                        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(entry),
+                            layout: Some(&layout),
+                            module: &module,
+                            entry_point: Some(entry),
+                            compilation_options: Default::default(),
+                            cache: None,
+                        });
+                    let groups = Groups {
+                        args: false,
+                        dynamic: false,
+                    };
+                    (entry, (pipeline, groups))
+                })
+                .collect();
+            FacingFilter { layout0, pipelines }
         })
     }
 
@@ -1069,64 +1074,133 @@ impl SvoBuilder {
         timer: &mut PassTimer,
         name: &str,
         group: &wgpu::BindGroup,
-        (args_group, dynamic): (&wgpu::BindGroup, Option<&wgpu::BindGroup>),
+        groups: (&wgpu::BindGroup, Option<&wgpu::BindGroup>),
         args: &wgpu::Buffer,
         fragments: u32,
         steps: &[(&'static str, u32, Dispatch)],
     ) {
-        let record_step =
-            |encoder: &mut wgpu::CommandEncoder,
-             timestamps: Option<wgpu::ComputePassTimestampWrites>,
-             (entry, d, dispatch): &(&'static str, u32, Dispatch)| {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(entry),
-                    timestamp_writes: timestamps,
-                });
-                let (pipeline, groups) = &self.pipelines[entry];
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, group, &[*d * PARAM_STRIDE as u32]);
-                if groups.args {
-                    pass.set_bind_group(1, args_group, &[]);
-                }
-                if let (true, Some(dynamic)) = (groups.dynamic, dynamic) {
-                    pass.set_bind_group(2, dynamic, &[]);
-                }
-                match dispatch {
-                    Dispatch::Fragments => {
-                        let (x, y) = dispatch_size(fragments);
-                        pass.dispatch_workgroups(x, y, 1);
-                    }
-                    Dispatch::Capacity(n) => {
-                        let (x, y) = dispatch_size(*n);
-                        pass.dispatch_workgroups(x, y, 1);
-                    }
-                    Dispatch::Indirect(slot) => {
-                        pass.dispatch_workgroups_indirect(args, *slot as u64 * 12);
-                    }
-                    Dispatch::PerNode(slot) => {
-                        pass.dispatch_workgroups_indirect(args, (*slot + NODE_ARGS) as u64 * 12);
-                    }
-                    Dispatch::One => {
-                        pass.dispatch_workgroups(1, 1, 1);
-                    }
-                }
-            };
-        if timer.profile_steps() {
-            for step in steps {
-                let label = format!("{name}: {} {}", step.0, step.1);
-                timer.pass(&label, |encoder, stamps| {
-                    record_step(encoder, stamps.compute(), step)
-                });
-            }
-            return;
+        let pipelines = &self.pipelines;
+        record_steps(
+            pipelines, timer, name, group, groups, args, fragments, steps,
+        );
+    }
+}
+
+/// [`SvoBuilder::record`] with the kernels of `pipelines`.
+#[allow(clippy::too_many_arguments)]
+fn record_steps(
+    pipelines: &Pipelines,
+    timer: &mut PassTimer,
+    name: &str,
+    group: &wgpu::BindGroup,
+    (args_group, dynamic): (&wgpu::BindGroup, Option<&wgpu::BindGroup>),
+    args: &wgpu::Buffer,
+    fragments: u32,
+    steps: &[(&'static str, u32, Dispatch)],
+) {
+    let record_step = |encoder: &mut wgpu::CommandEncoder,
+                       timestamps: Option<wgpu::ComputePassTimestampWrites>,
+                       (entry, d, dispatch): &(&'static str, u32, Dispatch)| {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(entry),
+            timestamp_writes: timestamps,
+        });
+        let (pipeline, groups) = &pipelines[entry];
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[*d * PARAM_STRIDE as u32]);
+        if groups.args {
+            pass.set_bind_group(1, args_group, &[]);
         }
-        timer.pass(name, |encoder, stamps| {
-            let last = steps.len().saturating_sub(1);
-            for (i, step) in steps.iter().enumerate() {
-                record_step(encoder, stamps.compute_part(i == 0, i == last), step);
+        if let (true, Some(dynamic)) = (groups.dynamic, dynamic) {
+            pass.set_bind_group(2, dynamic, &[]);
+        }
+        match dispatch {
+            Dispatch::Fragments => {
+                let (x, y) = dispatch_size(fragments);
+                pass.dispatch_workgroups(x, y, 1);
             }
+            Dispatch::Capacity(n) => {
+                let (x, y) = dispatch_size(*n);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            Dispatch::Indirect(slot) => {
+                pass.dispatch_workgroups_indirect(args, *slot as u64 * 12);
+            }
+            Dispatch::PerNode(slot) => {
+                pass.dispatch_workgroups_indirect(args, (*slot + NODE_ARGS) as u64 * 12);
+            }
+            Dispatch::One => {
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+        }
+    };
+    if timer.profile_steps() {
+        for step in steps {
+            let label = format!("{name}: {} {}", step.0, step.1);
+            timer.pass(&label, |encoder, stamps| {
+                record_step(encoder, stamps.compute(), step)
+            });
+        }
+        return;
+    }
+    timer.pass(name, |encoder, stamps| {
+        let last = steps.len().saturating_sub(1);
+        for (i, step) in steps.iter().enumerate() {
+            record_step(encoder, stamps.compute_part(i == 0, i == last), step);
+        }
+    });
+}
+
+/// Group 0's layout of the octree kernels: the per-level parameter slots (read-only storage
+/// with a dynamic offset, "Parameter blocks" in voxel/mod.rs), fragments and triangles
+/// (read-only), and read-write storage buffers up to binding `last`.
+fn layout0_with(device: &wgpu::Device, label: &str, last: u32) -> wgpu::BindGroupLayout {
+    let mut entries = vec![wgpu::BindGroupLayoutEntry {
+        binding: 0,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: true,
+            min_binding_size: wgpu::BufferSize::new(32),
+        },
+        count: None,
+    }];
+    entries.push(storage(1, true));
+    entries.push(storage(2, true));
+    entries.extend((3..=last).map(|b| storage(b, false)));
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &entries,
+    })
+}
+
+/// Group 0 of the octree kernels over `layout`: `params` (per-level slots) and `buffers` at
+/// bindings 1...
+fn group0_with(
+    ctx: &GpuContext,
+    layout: &wgpu::BindGroupLayout,
+    params: &wgpu::Buffer,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let mut entries = vec![wgpu::BindGroupEntry {
+        binding: 0,
+        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: params,
+            offset: 0,
+            size: wgpu::BufferSize::new(32),
+        }),
+    }];
+    for (i, b) in buffers.iter().enumerate() {
+        entries.push(wgpu::BindGroupEntry {
+            binding: i as u32 + 1,
+            resource: b.as_entire_binding(),
         });
     }
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("svo"),
+        layout,
+        entries: &entries,
+    })
 }
 
 impl Svo {

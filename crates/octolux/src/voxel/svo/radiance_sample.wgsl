@@ -46,13 +46,13 @@ fn svo_radiance_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     return mix(a, svo_radiance_cell(cells.coarse), lod.t);
 }
 
-// The facing pool (`Svo::facing`, bound at 63..66, `voxel::svo::sample::svo_facing_bindings`):
+// The facing pool (`Svo::facing`, bound at 68..71, `voxel::svo::sample::svo_facing_bindings`):
 // per texel the radiance's weight (r + g + b) times the direction its surface faces, filtered
 // as the radiance. `svo_radiance_facing_sample` reads it with the radiance, from one descent.
-@group(0) @binding(63) var<storage, read> svo_facing0: array<u32>;
-@group(0) @binding(64) var<storage, read> svo_facing1: array<u32>;
-@group(0) @binding(65) var<storage, read> svo_facing2: array<u32>;
-@group(0) @binding(66) var<storage, read> svo_facing3: array<u32>;
+@group(0) @binding(68) var<storage, read> svo_facing0: array<u32>;
+@group(0) @binding(69) var<storage, read> svo_facing1: array<u32>;
+@group(0) @binding(70) var<storage, read> svo_facing2: array<u32>;
+@group(0) @binding(71) var<storage, read> svo_facing3: array<u32>;
 
 fn svo_facing_texel(brick: u32, t: vec3<u32>) -> vec3<f32> {
     let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);

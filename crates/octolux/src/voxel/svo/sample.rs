@@ -24,7 +24,7 @@ pub const SVO_ANISO_BINDING: u32 = 61;
 /// The anisotropic radiance sampler's values (`svo_aniso_radiance`).
 pub const SVO_ANISO_RADIANCE_BINDING: u32 = 62;
 /// The facing sampler's `svo_facing0..3` ([`svo_facing_bindings`]).
-pub const SVO_FACING_BINDINGS: u32 = 63;
+pub const SVO_FACING_BINDINGS: u32 = 68;
 
 /// CPU twin of `svo_facing_toward` (`voxel/svo/radiance_sample.wgsl`): the share of a
 /// sample's radiance (`radiance`, premultiplied, with its facing sum `facing`) that leaves
