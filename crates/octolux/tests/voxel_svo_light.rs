@@ -1,7 +1,9 @@
 //! Light injection into the sparse voxel octree: lit floor voxels against the closed form
 //! albedo/pi x I cos / r^2 of a point light (visibility from the renderer's shadow maps),
 //! voxels in an occluder's shadow, emission carried into radiance, and every radiance mip
-//! level against the CPU mip filter of the injected leaf voxels.
+//! level against the CPU mip filter of the injected leaf voxels; the radiance's facing
+//! (`SvoBuilder::with_facing`) against its CPU twin, on a wall thinner than a voxel and in a
+//! dynamic part, and its sampler against the CPU sampler.
 
 mod common;
 
@@ -437,8 +439,9 @@ fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
     let ctx = context();
     let (grid, tris, _) = emissive_octree(&ctx);
     // The slanted, non-emissive triangle is static; the emissive one moves down through it.
+    // Built with the radiance's facing, which the dynamic leaves and levels carry too.
     let statics = vec![tris[1]];
-    let builder = SvoBuilder::new(&ctx);
+    let builder = SvoBuilder::new(&ctx).with_facing(true);
     let (mut svo, _) = builder
         .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(4096))
         .unwrap();
@@ -450,7 +453,35 @@ fn a_moving_emitter_in_the_dynamic_part_is_injected_with_the_static_part() {
         builder.update_dynamic(&ctx, &mut svo, &[moving]).unwrap();
         inject_nothing(&ctx, &builder, &svo);
         check_emission(&ctx, &grid, &[statics[0], moving], &svo);
+        check_emission_facing(&ctx, &grid, &[statics[0], moving], &svo);
     }
+}
+
+/// The facing pool of `svo` (lit by nothing) against its CPU twin: every occupied voxel's
+/// emission weight r + g + b times its mean normal (the sum of its fragments' snorm8
+/// normals, as the GPU sums them), filtered up every level, static and dynamic nodes.
+fn check_emission_facing(ctx: &GpuContext, grid: &VoxelGrid, tris: &[VoxelTriangle], svo: &Svo) {
+    let cpu_svo = svo.read_back(ctx).unwrap();
+    let voxels = voxel_map(svo, &cpu_svo, ctx);
+    let mut normals: BTreeMap<[u32; 3], Vec3> = BTreeMap::new();
+    for (v, t) in cpu::voxelize(grid, tris) {
+        let n = (tris[t as usize].normal.clamp(Vec3::NEG_ONE, Vec3::ONE) * 127.0).round();
+        *normals.entry(v).or_default() += n;
+    }
+    let facing: BTreeMap<[u32; 3], Vec4> = voxels
+        .iter()
+        .map(|(v, value)| {
+            let n = normals[v];
+            assert!(n.length() > 12.7, "voxel {v:?} has no dominant normal");
+            let weight = value.x + value.y + value.z;
+            (*v, (n.normalize() * weight).extend(0.0))
+        })
+        .collect();
+    let bricks = svo.read_facing(ctx).unwrap().expect("built with facing");
+    let error = lattice_error(svo, &cpu_svo, &facing, &bricks);
+    println!("emission facing lattice error {error:.2e}");
+    // f16 storage, as the radiance mip's bound.
+    assert!(error < 4e-3, "facing lattice error {error}");
 }
 
 /// Runs `kernel` (a WGSL module with an entry point `probe` reading `points` at binding 0 and
