@@ -605,20 +605,8 @@ fn gpu_facing_samples_equal_the_cpu_twin() {
         facing_toward, svo_bindings, svo_facing_bindings, svo_radiance_bindings, svo_sample,
     };
     let ctx = context();
-    let res = 32;
-    let vs = 2.5 / res as f32;
-    let scene = thin_wall_scene(vs);
-    let (renderer, layers, lights) = point_light_shadows(&ctx, &scene, 512);
-    let grid = VoxelGrid::new(Vec3::new(-1.25, -8.5 * vs, -1.25), vs, res).unwrap();
-    let tris = scene_triangles(&scene, &scene.frame(0.0, 0));
-    let builder = SvoBuilder::new(&ctx).with_facing(true);
-    let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
-    let mut timer = PassTimer::new(&ctx);
-    let shadows = ShadowLookupBuffers::new(&ctx, "test", renderer.shadow_maps().texture(), &layers);
-    builder
-        .inject(&ctx, &mut timer, &svo, shadows.lookup(), &lights, 1)
-        .unwrap();
-    timer.finish_frame().unwrap();
+    let (_, grid, svo) = lit_thin_wall_octree(&ctx);
+    let vs = grid.voxel_size;
     let mut radiance = svo.read_back(&ctx).unwrap();
     radiance.bricks = svo.read_radiance(&ctx).unwrap();
     let mut facing = svo.read_back(&ctx).unwrap();
@@ -905,25 +893,31 @@ fn thin_wall_scene(vs: f32) -> Scene {
     scene
 }
 
+/// The 32^3 octree of [`thin_wall_scene`], with facing, lit by its point light.
+fn lit_thin_wall_octree(ctx: &GpuContext) -> (Scene, VoxelGrid, Svo) {
+    let res = 32;
+    let vs = 2.5 / res as f32;
+    let scene = thin_wall_scene(vs);
+    let (renderer, layers, lights) = point_light_shadows(ctx, &scene, 512);
+    let grid = VoxelGrid::new(Vec3::new(-1.25, -8.5 * vs, -1.25), vs, res).unwrap();
+    let tris = scene_triangles(&scene, &scene.frame(0.0, 0));
+    let builder = SvoBuilder::new(ctx).with_facing(true);
+    let (svo, _) = builder.build(ctx, &grid, &tris).unwrap();
+    let mut timer = PassTimer::new(ctx);
+    let shadows = ShadowLookupBuffers::new(ctx, "test", renderer.shadow_maps().texture(), &layers);
+    builder
+        .inject(ctx, &mut timer, &svo, shadows.lookup(), &lights, 1)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    (scene, grid, svo)
+}
+
 #[test]
 fn facing_points_where_the_radiance_leaves_and_is_filtered_as_the_radiance() {
     use octolux::voxel::svo::sample::facing_toward;
     let ctx = context();
-    let res = 32;
-    let vs = 2.5 / res as f32;
-    let scene = thin_wall_scene(vs);
-    let (renderer, layers, lights) = point_light_shadows(&ctx, &scene, 512);
-    let light = scene.lights[0].position;
-    let grid = VoxelGrid::new(Vec3::new(-1.25, -8.5 * vs, -1.25), vs, res).unwrap();
-    let tris = scene_triangles(&scene, &scene.frame(0.0, 0));
-    let builder = SvoBuilder::new(&ctx).with_facing(true);
-    let (svo, _) = builder.build(&ctx, &grid, &tris).unwrap();
-    let mut timer = PassTimer::new(&ctx);
-    let shadows = ShadowLookupBuffers::new(&ctx, "test", renderer.shadow_maps().texture(), &layers);
-    builder
-        .inject(&ctx, &mut timer, &svo, shadows.lookup(), &lights, 1)
-        .unwrap();
-    timer.finish_frame().unwrap();
+    let (scene, grid, svo) = lit_thin_wall_octree(&ctx);
+    let (light, vs) = (scene.lights[0].position, grid.voxel_size);
     let cpu_svo = svo.read_back(&ctx).unwrap();
     let voxels = voxel_map(&svo, &cpu_svo, &ctx);
     // The CPU facing of every voxel: its radiance's weight r + g + b times the floor's normal,
