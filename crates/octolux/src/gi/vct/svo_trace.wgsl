@@ -1,6 +1,7 @@
 // The octree back-end of `trace.wgsl` (mounted as its `structure`): samples the sparse voxel
-// octree's injected radiance. The flag `anisotropic` follows the setting; the anisotropic
-// radiance is bound either way (a placeholder word without it).
+// octree's injected radiance. The flags `anisotropic` and `facing` follow the settings; the
+// anisotropic radiance is bound either way (a placeholder word without it), the facing pool
+// only with `facing`.
 
 import octolux::voxel::svo::sample::{SvoNodeLod, svo_info, svo_node_lod};
 import octolux::voxel::svo::radiance_sample::{svo_facing_toward, svo_radiance_facing_sample, svo_radiance_sample};

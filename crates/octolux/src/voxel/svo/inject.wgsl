@@ -3,8 +3,9 @@
 // `inject` turns every leaf voxel into outgoing radiance emission + albedo / pi x direct
 // irradiance, with visibility from the renderer's shadow-map array (PCF as in
 // `render/direct.wgsl`), and writes the leaf bricks of the radiance pool (RGBA16F, radiance
-// and opacity) the way `leaf_fill` writes albedo. The transfer and mip kernels of `svo/build.wgsl`
-// then filter the pool upward.
+// and opacity) the way `leaf_fill` writes albedo; with the feature `facing`, the facing pool's
+// leaf bricks too (the direction the radiance leaves in). The transfer and mip kernels of
+// `svo/build.wgsl` then filter the pool upward.
 
 import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index, Tri};
 import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};

@@ -22,7 +22,8 @@
 //! albedo, emission and normal, and an RGBA16F radiance pool (radiance, opacity) in the same
 //! brick layout: [`SvoBuilder::inject`] fills it with emission + albedo/pi x direct irradiance
 //! (visibility from the renderer's shadow maps) and filters it with the same transfer and mip
-//! passes ([`crate::voxel::svo::inject`]).
+//! passes ([`crate::voxel::svo::inject`]). An octree built [`SvoBuilder::with_facing`] also
+//! keeps a facing pool, the direction the radiance leaves in, filtered in the same dispatches.
 //!
 //! Moving geometry goes into a dynamic part ([`crate::voxel::svo::dynamic`], Arnebäck 2017 §3.1.7):
 //! an octree built with [`SvoBuilder::build_with_reserve`] keeps room for dynamic nodes and
