@@ -974,3 +974,49 @@ fn split_leaves_out_clear_triangles_per_object() {
     );
     assert_eq!(moving2, moving);
 }
+
+#[test]
+fn voxel_normals_face_the_side_the_vertex_normals_face() {
+    use glam::Mat4;
+    use octolux::scene::{Material, Mesh, Object, Scene};
+    // A unit quad in y = 0 wound counter-clockwise seen from above (face normal +y).
+    let quad = |name: &str, normal: Vec3| Mesh {
+        name: name.into(),
+        positions: vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 0.0),
+        ],
+        normals: vec![normal; 4],
+        uvs: Vec::new(),
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material: 0,
+    };
+    let object = |name: &str, mesh: u32, transform: Mat4| Object {
+        name: name.into(),
+        meshes: vec![mesh],
+        transform,
+        animation: None,
+    };
+    let scene = Scene {
+        name: "normals".into(),
+        meshes: vec![quad("agrees", Vec3::Y), quad("disagrees", Vec3::NEG_Y)],
+        materials: vec![Material::default()],
+        objects: vec![
+            object("as wound", 0, Mat4::IDENTITY),
+            object("normals down", 1, Mat4::IDENTITY),
+            // Mirrored: the transform reverses the winding, not the normals.
+            object("mirrored", 0, Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))),
+        ],
+        ..Scene::default()
+    };
+    let tris = octolux::voxel::scene_triangles(&scene, &scene.frame(0.0, 0));
+    let normals: Vec<Vec3> = tris.iter().map(|t| t.normal).collect();
+    assert_eq!(normals.len(), 6);
+    for (i, want) in [Vec3::Y, Vec3::NEG_Y, Vec3::Y].iter().enumerate() {
+        for n in &normals[2 * i..2 * i + 2] {
+            assert!(n.abs_diff_eq(*want, 1e-6), "object {i}: {n} against {want}");
+        }
+    }
+}

@@ -225,7 +225,12 @@ fn voxel_triangle(scene: &Scene, t: &crate::scene::WorldTriangle) -> Option<Voxe
     }
     let albedo = (factor * tex.truncate()).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
     let [p0, p1, p2] = t.positions;
-    let normal = (p1 - p0).cross(p2 - p0).normalize_or(t.normals[0]);
+    // The face's normal, turned to the side its vertex normals (the shading) face: a mesh
+    // whose winding disagrees with its normals, or one mirrored by its transform, would
+    // otherwise light and gather its voxels from behind.
+    let face = (p1 - p0).cross(p2 - p0);
+    let shading = t.normals[0] + t.normals[1] + t.normals[2];
+    let normal = if face.dot(shading) < 0.0 { -face } else { face }.normalize_or(t.normals[0]);
     Some(VoxelTriangle {
         positions: t.positions,
         albedo: [
