@@ -1,7 +1,7 @@
 //! The GPU frame: shadow maps -> G-buffer -> direct light -> GI technique -> compose + tone map.
 //!
 //! [`Renderer`] owns every stage. A frame evaluates the scene at a time, uploads transforms,
-//! lights and matrices, records each stage as a named pass (timed by [`PassTimer`]) and leaves
+//! lights and matrices, records each stage as a named pass (timed by [`crate::gpu::PassTimer`]) and leaves
 //! the linear HDR image and the tone-mapped display image ready to read back.
 
 mod compose;

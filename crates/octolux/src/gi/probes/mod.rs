@@ -13,9 +13,9 @@
 //! - [`encoding`]: the probes' irradiance: `004`'s 8 octahedron-facet bins or SH L1.
 //! - [`moments`]: depth moments per probe and DDGI's Chebyshev visibility in the gather,
 //!   against leaks through thin walls.
-//! - [`engine`]: what both techniques share (placement, surfel light, probe integration,
+//! - `engine`: what both techniques share (placement, surfel light, probe integration,
 //!   gather) over a probe set.
-//! - [`grid_gi`]: the `probes-grid` technique, probes on a uniform grid.
+//! - `grid_gi`: the `probes-grid` technique, probes on a uniform grid.
 //! - [`octree`]: `004`'s adaptive octree (encoding, allocation, state machine) on the CPU, the
 //!   specification of the GPU's.
 //! - [`debug`]: the probe debug view (`--view probes`), drawn on the CPU from read-back state.

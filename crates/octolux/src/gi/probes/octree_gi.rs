@@ -2,7 +2,7 @@
 //! [`super::octree`], one `i32` buffer), its free lists and leaf ring live in GPU buffers; the
 //! state machine runs in three compute passes per frame (octree.wgsl), driven by each probe's
 //! surfel hit count inside its cube, and reaches the same buffers bit for bit as the CPU
-//! specification [`ProbeOctree`](super::octree::ProbeOctree) from the same hit counts (tested).
+//! specification [`super::octree::ProbeOctree`] from the same hit counts (tested).
 //! Leaves whose cubes meet the old or new bounds of a moving object are re-placed (L1) or ask
 //! for a probe (M1). Placement, surfel light, integration and the gather are the shared probe
 //! passes over the octree's probe set (octree_set.wgsl, octree_sample.wgsl); a pixel reads the

@@ -104,7 +104,7 @@ fn clip_sample_level(
 }
 
 /// CPU twin of `clip_sample`, over voxels read back with
-/// [`super::clipmap::Clipmap::read_voxels`].
+/// [`super::Clipmap::read_voxels`].
 pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
     clip_sample_with(info, p, footprint, &|l, g| {
         clip_voxel(voxels, info.misc[0], l, g)
@@ -112,7 +112,7 @@ pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> 
 }
 
 /// CPU twin of `clip_radiance_sample`, over radiance read back with
-/// [`super::clipmap::Clipmap::read_radiance`].
+/// [`super::Clipmap::read_radiance`].
 pub fn clip_radiance_sample(info: &ClipInfo, radiance: &[Vec4], p: Vec3, footprint: f32) -> Vec4 {
     let res = info.misc[0];
     clip_sample_with(info, p, footprint, &|l, g| {

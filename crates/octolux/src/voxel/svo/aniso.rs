@@ -7,7 +7,7 @@
 //! bricks mix the two.
 //!
 //! - Finest level (nodes of 2x2x2 voxels): each voxel's isotropic value is the rounded integer
-//!   mean of its fragments' albedo from [`Svo::leaf_sums`], opacity 1 (`leaf_voxel` in
+//!   mean of its fragments' albedo from the octree's leaf sums, opacity 1 (`leaf_voxel` in
 //!   `svo/aniso.wgsl`); direction +x composites the two voxels met along x front to back
 //!   (`c = c_front + (1 - a_front) c_back`, rounded integer arithmetic) and averages the 4
 //!   pairs across y and z.

@@ -146,13 +146,13 @@ fn weight(o: i32) -> f32 {
 }
 
 /// The anisotropic values of the octree's nodes (CPU twin of `svo/aniso.wgsl`) over a
-/// `2^depth` grid with the occupied voxels `voxels` ([`voxel_words`]): entry `d` holds level
+/// `2^depth` grid with the occupied voxels `voxels` ([`crate::voxel::voxelize::cpu::voxel_words`]): entry `d` holds level
 /// `d` (nodes of `2^(depth - d)` voxels) by node coordinates, 6 RGBA8 words per node for
 /// travel along +x, -x, +y, -y, +z, -z. Only nodes containing an occupied voxel are listed;
 /// every other node is zero. On the finest level the values composite the node's 2x2x2 voxels,
 /// above that its 8 children's values for the same direction: the two met along the direction
 /// front to back (rounded integer arithmetic), averaged over the 4 pairs, as
-/// [`clipmap_aniso`] does.
+/// [`crate::voxel::clipmap::cpu::clipmap_aniso`] does.
 pub fn svo_aniso(
     depth: u32,
     voxels: &BTreeMap<[u32; 3], u32>,

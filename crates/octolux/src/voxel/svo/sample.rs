@@ -196,7 +196,7 @@ fn svo_faces(dir: Vec3) -> ([usize; 3], Vec3) {
 }
 
 /// CPU twin of `svo_aniso_level`: node-centred trilinear sample of level `d`'s directional
-/// values `aniso` (per brick, [`super::svo::aniso::SvoAnisoValues::read_back`]) at grid
+/// values `aniso` (per brick, [`super::aniso::SvoAnisoValues::read_back`]) at grid
 /// position `g` (voxels), seen travelling along `dir`.
 pub fn svo_aniso_level(
     svo: &SvoCpu,
@@ -215,7 +215,7 @@ pub fn svo_aniso_level(
 
 /// CPU twin of `svo_radiance_aniso` (`voxel/svo/radiance_sample_aniso.wgsl`):
 /// the anisotropic radiance `values` (per brick,
-/// [`super::svo::aniso_radiance::SvoAnisoRadiance::read_back`]) of the level whose node size
+/// [`super::aniso_radiance::SvoAnisoRadiance::read_back`]) of the level whose node size
 /// matches `footprint` (two finest voxels or more; the finest level below), quadrilinear
 /// between two levels, seen travelling along `dir`.
 pub fn svo_radiance_aniso(
