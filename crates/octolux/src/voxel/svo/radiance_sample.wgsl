@@ -54,22 +54,26 @@ fn svo_radiance_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
 @group(0) @binding(70) var<storage, read> svo_facing2: array<u32>;
 @group(0) @binding(71) var<storage, read> svo_facing3: array<u32>;
 
-fn svo_facing_texel(brick: u32, t: vec3<u32>) -> vec3<f32> {
-    let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
-    var lo = 0u;
-    var hi = 0u;
-    switch brick / svo_info.misc.z {
-        case 0u: { lo = svo_facing0[w]; hi = svo_facing0[w + 1u]; }
-        case 1u: { lo = svo_facing1[w]; hi = svo_facing1[w + 1u]; }
-        case 2u: { lo = svo_facing2[w]; hi = svo_facing2[w + 1u]; }
-        default: { lo = svo_facing3[w]; hi = svo_facing3[w + 1u]; }
-    }
-    return vec3<f32>(unpack2x16float(lo), unpack2x16float(hi).x);
-}
-
 struct SvoRadianceFacing {
     radiance: vec4<f32>,
     facing: vec3<f32>,
+}
+
+// Texel t of brick `brick`: radiance and facing, from one word index and one pool choice.
+fn svo_radiance_facing_texel(brick: u32, t: vec3<u32>) -> SvoRadianceFacing {
+    let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
+    var r: vec2<u32>;
+    var f: vec2<u32>;
+    switch brick / svo_info.misc.z {
+        case 0u: { r = vec2<u32>(svo_radiance0[w], svo_radiance0[w + 1u]); f = vec2<u32>(svo_facing0[w], svo_facing0[w + 1u]); }
+        case 1u: { r = vec2<u32>(svo_radiance1[w], svo_radiance1[w + 1u]); f = vec2<u32>(svo_facing1[w], svo_facing1[w + 1u]); }
+        case 2u: { r = vec2<u32>(svo_radiance2[w], svo_radiance2[w + 1u]); f = vec2<u32>(svo_facing2[w], svo_facing2[w + 1u]); }
+        default: { r = vec2<u32>(svo_radiance3[w], svo_radiance3[w + 1u]); f = vec2<u32>(svo_facing3[w], svo_facing3[w + 1u]); }
+    }
+    return SvoRadianceFacing(
+        vec4<f32>(unpack2x16float(r.x), unpack2x16float(r.y)),
+        vec3<f32>(unpack2x16float(f.x), unpack2x16float(f.y).x),
+    );
 }
 
 fn svo_radiance_facing_cell(cell: SvoCell) -> SvoRadianceFacing {
@@ -80,8 +84,9 @@ fn svo_radiance_facing_cell(cell: SvoCell) -> SvoRadianceFacing {
     for (var k = 0u; k < 8u; k++) {
         let o = svo_corner(k);
         let w = svo_weight(cell, o);
-        sum.radiance += w * svo_radiance_texel(cell.brick - 1u, cell.i0 + o);
-        sum.facing += w * svo_facing_texel(cell.brick - 1u, cell.i0 + o);
+        let texel = svo_radiance_facing_texel(cell.brick - 1u, cell.i0 + o);
+        sum.radiance += w * texel.radiance;
+        sum.facing += w * texel.facing;
     }
     return sum;
 }
