@@ -176,8 +176,11 @@ mod tests {
 
     #[test]
     fn outputs_are_checked() {
-        let dir = std::env::temp_dir().join(format!("octolux-outputs-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let tmp = tempfile::Builder::new()
+            .prefix("octolux-outputs-")
+            .tempdir()
+            .unwrap();
+        let dir = tmp.path();
         let input = dir.join("in.exr");
         std::fs::write(&input, b"x").unwrap();
         let plan = |path: &Path, format| Planned {
@@ -192,7 +195,7 @@ mod tests {
         assert!(err(vec![plan(&dotted, Format::Exr)]).contains("is the input"));
         assert!(err(vec![plan(&dir.join("a.png"), Format::Exr)]).contains(".exr"));
         assert!(err(vec![plan(&dir.join("a.exr"), Format::Png)]).contains(".png"));
-        assert!(err(vec![plan(&dir, Format::Image)]).contains("must end"));
+        assert!(err(vec![plan(dir, Format::Image)]).contains("must end"));
         assert!(err(vec![
             plan(&dir.join("a.exr"), Format::Image),
             plan(&dir.join("./a.exr"), Format::Exr)
@@ -200,6 +203,5 @@ mod tests {
         .contains("both write"));
         check(&[plan(&dir.join("new/b.png"), Format::Png)], &inputs).unwrap();
         assert!(check_fps(1e-40).is_err() && check_fps(30.0).is_ok());
-        std::fs::remove_dir_all(dir).ok();
     }
 }

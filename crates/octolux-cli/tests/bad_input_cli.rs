@@ -77,7 +77,8 @@ fn flags_out_of_range_are_errors_naming_the_flag() {
 
 #[test]
 fn outputs_that_would_overwrite_an_input_are_refused() {
-    let dir = temp_dir("overwrite");
+    let tmp = temp_dir("overwrite");
+    let dir = tmp.path();
     let sky = dir.join("in.exr");
     write_exr(&sky, 1.0);
     let before = std::fs::read(&sky).unwrap();
@@ -139,7 +140,7 @@ fn outputs_that_would_overwrite_an_input_are_refused() {
             "--sky",
             s(&none),
             "--out-dir",
-            s(&dir),
+            s(dir),
             "--no-reference",
         ],
         &["--out-dir", "none.exr", "is the input"],
@@ -149,7 +150,8 @@ fn outputs_that_would_overwrite_an_input_are_refused() {
 
 #[test]
 fn outputs_must_be_named_for_their_format_and_writable() {
-    let dir = temp_dir("formats");
+    let tmp = temp_dir("formats");
+    let dir = tmp.path();
     let a = dir.join("a.exr");
     let b = dir.join("b.exr");
     write_exr(&a, 1.0);
@@ -226,7 +228,8 @@ fn outputs_a_technique_does_not_make_are_errors() {
 
 #[test]
 fn diff_refuses_non_finite_images() {
-    let dir = temp_dir("diff-nan");
+    let tmp = temp_dir("diff-nan");
+    let dir = tmp.path();
     let nan = dir.join("nan.exr");
     let inf = dir.join("inf.exr");
     let one = dir.join("one.exr");
@@ -249,7 +252,8 @@ fn os_errors_are_printed_once() {
 #[cfg(unix)]
 #[test]
 fn a_model_that_is_an_endless_stream_fails_at_once() {
-    let dir = temp_dir("endless");
+    let tmp = temp_dir("endless");
+    let dir = tmp.path();
     let link = dir.join("model.obj");
     std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
     fails_fast(&["render", s(&link)], &["model.obj", "not a regular file"]);
@@ -257,7 +261,8 @@ fn a_model_that_is_an_endless_stream_fails_at_once() {
 
 #[test]
 fn huge_radiance_and_far_geometry_are_errors() {
-    let dir = temp_dir("huge");
+    let tmp = temp_dir("huge");
+    let dir = tmp.path();
     let scene = dir.join("far.toml");
     std::fs::write(
         dir.join("far.obj"),
@@ -307,7 +312,8 @@ fn bench_checks_every_technique_before_measuring_any() {
 
 #[test]
 fn more_lights_than_the_adapter_holds_is_one_clear_error() {
-    let dir = temp_dir("lights");
+    let tmp = temp_dir("lights");
+    let dir = tmp.path();
     let mut text = String::from("[[model]]\npath = \"builtin:cornell-box\"\n");
     for i in 0..3000 {
         let x = (i % 50) as f32 * 0.01;
@@ -339,7 +345,8 @@ fn more_lights_than_the_adapter_holds_is_one_clear_error() {
 /// light's shadow map put its near plane past the box); now the direct light is unchanged.
 #[test]
 fn a_far_triangle_leaves_the_direct_light_unchanged() {
-    let dir = temp_dir("far");
+    let tmp = temp_dir("far");
+    let dir = tmp.path();
     let camera_and_light = "[[light]]\ntype = \"spot\"\nposition = [0.278, 0.538, 0.2796]\n\
         direction = [0.0, -1.0, 0.0]\nintensity = 1.0\ninner_angle = 55.0\nouter_angle = 70.0\n\
         [[camera]]\nposition = [0.278, 0.273, -0.8]\ntarget = [0.278, 0.273, 0.0]\nfov = 39.3\n\
@@ -381,7 +388,8 @@ fn a_far_triangle_leaves_the_direct_light_unchanged() {
 /// error, not an OpenEXR file full of inf.
 #[test]
 fn a_frame_that_overflows_is_an_error() {
-    let dir = temp_dir("overflow");
+    let tmp = temp_dir("overflow");
+    let dir = tmp.path();
     let scene = dir.join("bright.toml");
     std::fs::write(
         &scene,
@@ -405,7 +413,8 @@ fn a_frame_that_overflows_is_an_error() {
 fn an_output_over_a_file_the_scene_reads_is_refused_before_rendering() {
     // The scene file names its sky map; `--exr` aimed at it is refused once the scene is
     // loaded, before any frame, and the map is left as it was.
-    let dir = temp_dir("scene-input");
+    let tmp = temp_dir("scene-input");
+    let dir = tmp.path();
     let mut sky = HdrImage::new(8, 4);
     for y in 0..4 {
         for x in 0..8 {

@@ -3,8 +3,9 @@
 //! and clear errors (exit code 1, an `error:` line naming the problem, no panic).
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
+use tempfile::TempDir;
 
 fn octolux(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_octolux"))
@@ -14,12 +15,12 @@ fn octolux(args: &[&str]) -> Output {
         .expect("run octolux")
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-bench-cli-{name}-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty scratch folder named after `name`, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-bench-cli-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// A scene file that ships with the project.
@@ -222,7 +223,8 @@ fn check_scene(scene: &Value, name: &str) {
 
 #[test]
 fn no_reference_on_the_built_in_cornell_box() {
-    let dir = temp_dir("builtin");
+    let tmp = temp_dir("builtin");
+    let dir = tmp.path();
     let json = dir.join("perf.json");
     let output = bench(&[], &["--json", json.to_str().unwrap()]);
     assert_succeeds(&output);
@@ -276,7 +278,8 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
     // VPL shading with 256 VPLs, 4 x 4 interleaving: each shaded pixel pairs with its
     // sub-image's 256 / 16 VPLs, whatever the adapter; the LPV's RSM is one 64^2 layer of the
     // Cornell box's 30 triangles (none culled: the spot sees the whole room).
-    let dir = temp_dir("work");
+    let tmp = temp_dir("work");
+    let dir = tmp.path();
     let json = dir.join("work.json");
     let run = |extra: &[&str]| {
         // The first measured frame is the first frame (no warm-up), so it draws the RSMs
@@ -349,7 +352,8 @@ fn bounce_gathers_launch_lanes_for_the_cones_of_each_listed_voxel() {
     // lanes: the lanes launched are the voxels that gathered times their cones rounded up to
     // a power of two (at most 16), rounded up to whole workgroups of 64, whatever the
     // structure.
-    let dir = temp_dir("lanes");
+    let tmp = temp_dir("lanes");
+    let dir = tmp.path();
     let json = dir.join("lanes.json");
     let output = bench(
         &[],
@@ -377,7 +381,8 @@ fn bounce_gathers_launch_lanes_for_the_cones_of_each_listed_voxel() {
 
 #[test]
 fn two_scene_files_in_one_run() {
-    let dir = temp_dir("two");
+    let tmp = temp_dir("two");
+    let dir = tmp.path();
     let json_dir = dir.join("per-scene");
     let (a, b) = (scene("cornell-box.toml"), scene("cornell-animated.toml"));
     let output = bench(
@@ -444,7 +449,8 @@ fn unknown_technique_is_an_error() {
 #[test]
 fn bad_fps_and_json_folder_are_errors() {
     assert_fails_with(&bench(&[], &["--fps", "0"]), &["--fps"]);
-    let missing = temp_dir("json").join("no-such-folder").join("perf.json");
+    let tmp = temp_dir("json");
+    let missing = tmp.path().join("no-such-folder").join("perf.json");
     assert_fails_with(
         &bench(&[], &["--json", missing.to_str().unwrap()]),
         &["no-such-folder", "does not exist"],

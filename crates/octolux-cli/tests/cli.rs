@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
+use tempfile::TempDir;
 
 fn octolux(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_octolux"))
@@ -11,12 +12,12 @@ fn octolux(args: &[&str]) -> Output {
         .expect("run octolux")
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-cli-{name}-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty scratch folder named after `name`, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-cli-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// Asserts a clean failure: exit code 1, an `error:` line containing every `needle`, no panic.
@@ -31,7 +32,8 @@ fn assert_fails_with(output: &Output, needles: &[&str]) {
 
 #[test]
 fn renders_the_default_scene_with_stats() {
-    let dir = temp_dir("stats");
+    let tmp = temp_dir("stats");
+    let dir = tmp.path();
     let png = dir.join("cornell.png");
     let exr = dir.join("cornell.exr");
     let output = octolux(&[
@@ -74,7 +76,8 @@ fn renders_the_default_scene_with_stats() {
 
 #[test]
 fn animated_frames_are_numbered() {
-    let dir = temp_dir("frames");
+    let tmp = temp_dir("frames");
+    let dir = tmp.path();
     let out = dir.join("f.png");
     let output = octolux(&[
         "render",
@@ -115,7 +118,8 @@ fn absurd_size_is_an_error() {
 
 #[test]
 fn cameras_are_chosen_by_index_or_name_and_others_are_errors() {
-    let dir = temp_dir("camera");
+    let tmp = temp_dir("camera");
+    let dir = tmp.path();
     let out = dir.join("c.png");
     let out = out.to_str().unwrap();
     let scene = concat!(
@@ -143,7 +147,8 @@ fn cameras_are_chosen_by_index_or_name_and_others_are_errors() {
 #[test]
 fn exposure_flag_replaces_the_scene_exposure() {
     // +2 EV makes the display image brighter, -2 EV darker; a non-finite EV is an error.
-    let dir = temp_dir("exposure");
+    let tmp = temp_dir("exposure");
+    let dir = tmp.path();
     let mean = |ev: &str| {
         let out = dir.join(format!("e{ev}.png"));
         let output = octolux(&[
@@ -179,7 +184,8 @@ fn missing_scene_file_is_an_error() {
 
 #[test]
 fn unknown_scene_extension_is_an_error() {
-    let dir = temp_dir("ext");
+    let tmp = temp_dir("ext");
+    let dir = tmp.path();
     let path = dir.join("model.xyz");
     std::fs::write(&path, "hello").unwrap();
     assert_fails_with(
@@ -214,7 +220,8 @@ fn unknown_adapter_is_an_error() {
 
 #[test]
 fn reference_writes_direct_indirect_and_total() {
-    let dir = temp_dir("reference");
+    let tmp = temp_dir("reference");
+    let dir = tmp.path();
     let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
     let output = octolux(&[
         "render",
@@ -265,7 +272,8 @@ fn bad_bounces_is_an_error() {
 
 #[test]
 fn bench_prints_a_table_and_json() {
-    let dir = temp_dir("bench");
+    let tmp = temp_dir("bench");
+    let dir = tmp.path();
     let json = dir.join("bench.json");
     let output = octolux(&[
         "bench",
@@ -326,7 +334,8 @@ fn bench_prints_a_table_and_json() {
 
 #[test]
 fn diff_of_mismatched_sizes_is_an_error() {
-    let dir = temp_dir("diff");
+    let tmp = temp_dir("diff");
+    let dir = tmp.path();
     let a = dir.join("a.exr");
     let b = dir.join("b.exr");
     octolux::image_io::HdrImage::new(4, 4)
@@ -347,7 +356,8 @@ fn diff_of_mismatched_sizes_is_an_error() {
 
 #[test]
 fn diff_prints_metrics_as_a_table_and_json() {
-    let dir = temp_dir("diff-ok");
+    let tmp = temp_dir("diff-ok");
+    let dir = tmp.path();
     let a = dir.join("a.exr");
     let mut image = octolux::image_io::HdrImage::new(8, 8);
     image.set(3, 3, glam::Vec3::ONE);
@@ -375,9 +385,11 @@ fn diff_prints_metrics_as_a_table_and_json() {
     assert!(stdout.contains("worst 1 % of pixels 100.0 %"), "{stdout}");
 }
 
-/// Writes `files` into a fresh folder and renders the first one at a tiny size.
-fn render_files(name: &str, files: &[(&str, &str)]) -> (Output, PathBuf) {
-    let dir = temp_dir(name);
+/// Writes `files` into a fresh folder and renders the first one at a tiny size: the output, the
+/// image's path and the folder, which is removed when dropped.
+fn render_files(name: &str, files: &[(&str, &str)]) -> (Output, PathBuf, TempDir) {
+    let tmp = temp_dir(name);
+    let dir = tmp.path();
     for (file, text) in files {
         std::fs::write(dir.join(file), text).unwrap();
     }
@@ -393,12 +405,12 @@ fn render_files(name: &str, files: &[(&str, &str)]) -> (Output, PathBuf) {
         "--out",
         out.to_str().unwrap(),
     ]);
-    (output, out)
+    (output, out, tmp)
 }
 
 #[test]
 fn malformed_toml_is_an_error() {
-    let (output, _) = render_files(
+    let (output, ..) = render_files(
         "bad-toml",
         &[("scene.toml", "name = \"x\"\n[[light]\ntype = \"point\"\n")],
     );
@@ -407,7 +419,7 @@ fn malformed_toml_is_an_error() {
 
 #[test]
 fn malformed_obj_is_an_error() {
-    let (output, _) = render_files(
+    let (output, ..) = render_files(
         "bad-obj",
         &[("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")],
     );
@@ -416,13 +428,13 @@ fn malformed_obj_is_an_error() {
 
 #[test]
 fn malformed_gltf_is_an_error() {
-    let (output, _) = render_files("bad-gltf", &[("m.gltf", "{ \"asset\": { \"version\": ")]);
+    let (output, ..) = render_files("bad-gltf", &[("m.gltf", "{ \"asset\": { \"version\": ")]);
     assert_fails_with(&output, &["m.gltf"]);
 }
 
 #[test]
 fn nan_vertex_is_an_error() {
-    let (output, _) = render_files(
+    let (output, ..) = render_files(
         "nan",
         &[("m.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")],
     );
@@ -431,13 +443,13 @@ fn nan_vertex_is_an_error() {
 
 #[test]
 fn scene_without_geometry_is_an_error() {
-    let (output, _) = render_files("empty", &[("m.obj", "# nothing here\n")]);
+    let (output, ..) = render_files("empty", &[("m.obj", "# nothing here\n")]);
     assert_fails_with(&output, &["no geometry"]);
 }
 
 #[test]
 fn unlit_scene_renders_black_with_a_warning() {
-    let (output, out) = render_files(
+    let (output, out, _dir) = render_files(
         "unlit",
         &[("m.obj", "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n")],
     );
@@ -450,7 +462,7 @@ fn unlit_scene_renders_black_with_a_warning() {
 
 #[test]
 fn missing_texture_falls_back_to_the_factor_with_a_warning() {
-    let (output, _) = render_files(
+    let (output, ..) = render_files(
         "missing-texture",
         &[
             (
@@ -482,7 +494,8 @@ fn no_adapter_says_how_to_install_a_driver() {
 
 #[test]
 fn frame_n_of_an_animation_matches_its_time() {
-    let dir = temp_dir("frame-n");
+    let tmp = temp_dir("frame-n");
+    let dir = tmp.path();
     let scene = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../scenes/cornell-animated.toml"
@@ -522,7 +535,8 @@ fn frame_n_of_an_animation_matches_its_time() {
 
 #[test]
 fn voxel_debug_view_renders_and_rejects_bad_input() {
-    let dir = temp_dir("voxels");
+    let tmp = temp_dir("voxels");
+    let dir = tmp.path();
     let out = dir.join("voxels.png");
     let output = octolux(&[
         "render",
@@ -566,7 +580,8 @@ fn voxel_debug_view_renders_and_rejects_bad_input() {
 /// the settings, each layer changes the image, and misuse is a clear error.
 #[test]
 fn probe_debug_view_renders_and_rejects_bad_input() {
-    let dir = temp_dir("probe-view");
+    let tmp = temp_dir("probe-view");
+    let dir = tmp.path();
     let run = |gi: &str, layers: &str, name: &str| {
         let out = dir.join(name);
         let output = octolux(&[
@@ -664,7 +679,8 @@ fn probe_debug_view_renders_and_rejects_bad_input() {
 /// on the GPU and in the reference; a bad value is an error naming it.
 #[test]
 fn sky_flags_light_a_scene_and_bad_ones_are_errors() {
-    let dir = temp_dir("sky");
+    let tmp = temp_dir("sky");
+    let dir = tmp.path();
     for gi in ["none", "reference"] {
         let exr = dir.join(format!("{gi}.exr"));
         let output = octolux(&[
@@ -705,7 +721,8 @@ fn sky_flags_light_a_scene_and_bad_ones_are_errors() {
 /// it does otherwise, naming what it uses and the flag that matches the file.
 #[test]
 fn mitsuba_depth_and_sample_count_are_warned_about_when_not_followed() {
-    let dir = temp_dir("mitsuba-requests");
+    let tmp = temp_dir("mitsuba-requests");
+    let dir = tmp.path();
     let scene = dir.join("lamp.xml");
     std::fs::write(
         &scene,
@@ -759,7 +776,8 @@ fn mitsuba_depth_and_sample_count_are_warned_about_when_not_followed() {
 /// off without a word.
 #[test]
 fn stats_report_the_probes_the_octree_keeps() {
-    let dir = temp_dir("probe-stats");
+    let tmp = temp_dir("probe-stats");
+    let dir = tmp.path();
     let out = dir.join("probes.png");
     let output = octolux(&[
         "render",

@@ -69,18 +69,19 @@ fn mean_over(image: &HdrImage, mask: &[bool]) -> f32 {
 
 #[test]
 fn default_render_lights_the_ceiling_indirectly() {
-    let dir = std::env::temp_dir().join(format!("octolux-default-gi-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let (default, stdout) = render(&dir, "default", &[]);
+    let tmp = tempfile::Builder::new()
+        .prefix("octolux-default-gi-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
+    let (default, stdout) = render(dir, "default", &[]);
     let technique = stdout
         .split("with --gi ")
         .nth(1)
         .and_then(|rest| rest.split_whitespace().next())
         .unwrap_or_else(|| panic!("no technique named in: {stdout}"));
     assert_ne!(technique, "none", "the default render has no GI");
-    let (direct_only, _) = render(&dir, "none", &["--gi", "none"]);
+    let (direct_only, _) = render(dir, "none", &["--gi", "none"]);
 
     let mask = ceiling_mask();
     let ceiling_pixels = mask.iter().filter(|&&m| m).count();
@@ -92,7 +93,7 @@ fn default_render_lights_the_ceiling_indirectly() {
     let with_gi = mean_over(&default, &mask);
     let without = mean_over(&direct_only, &mask);
     let (reference, _) = render(
-        &dir,
+        dir,
         "reference",
         &["--gi", "reference", "--bounces", "1", "--spp", "256"],
     );

@@ -38,7 +38,8 @@ fn scene_file(dir: &Path, settings: &str) -> PathBuf {
 
 #[test]
 fn lpv_flags_render() {
-    let dir = temp_dir("lpv-cli-flags");
+    let tmp = temp_dir("lpv-cli-flags");
+    let dir = tmp.path();
     for args in [
         &["--gi", "lpv", "--lpv-size", "16", "--lpv-iterations", "8"][..],
         &[
@@ -78,7 +79,7 @@ fn lpv_flags_render() {
             "2",
         ][..],
     ] {
-        let output = render(&dir, None, args);
+        let output = render(dir, None, args);
         assert_succeeds(&output);
         assert!(dir.join("out.png").exists(), "{args:?}");
     }
@@ -86,7 +87,8 @@ fn lpv_flags_render() {
 
 #[test]
 fn bad_lpv_values_are_clear_errors() {
-    let dir = temp_dir("lpv-cli-bad");
+    let tmp = temp_dir("lpv-cli-bad");
+    let dir = tmp.path();
     let cases: [(&[&str], &[&str]); 8] = [
         (
             &["--gi", "lpv", "--lpv-size", "0"],
@@ -110,48 +112,50 @@ fn bad_lpv_values_are_clear_errors() {
         (&["--gi", "clpv", "--lpv-cascades", "9"], &["clpv cascades"]),
     ];
     for (args, needles) in cases {
-        assert_fails_with(&render(&dir, None, args), needles);
+        assert_fails_with(&render(dir, None, args), needles);
     }
     // Not a number at all: the argument parser's own error (exit code 2 is clap's usage error).
-    let output = render(&dir, None, &["--gi", "lpv", "--lpv-size=-3"]);
+    let output = render(dir, None, &["--gi", "lpv", "--lpv-size=-3"]);
     assert!(!output.status.success());
     assert!(!String::from_utf8_lossy(&output.stderr).contains("panicked"));
 }
 
 #[test]
 fn scene_file_lpv_table_is_applied() {
-    let dir = temp_dir("lpv-cli-table");
+    let tmp = temp_dir("lpv-cli-table");
+    let dir = tmp.path();
     // Applied: a value the file sets shows in the technique's memory (the RSM dominates it),
     // and an invalid value from the file is refused like the same flag.
-    let small = scene_file(&dir, "[settings.lpv]\nrsm_size = 32\nsize = 8\n");
-    let output = render(&dir, Some(&small), &["--gi", "lpv", "--stats"]);
+    let small = scene_file(dir, "[settings.lpv]\nrsm_size = 32\nsize = 8\n");
+    let output = render(dir, Some(&small), &["--gi", "lpv", "--stats"]);
     assert_succeeds(&output);
     let small_mib = owner_mib(&String::from_utf8_lossy(&output.stdout), "lpv");
-    let plain = scene_file(&dir, "");
-    let output = render(&dir, Some(&plain), &["--gi", "lpv", "--stats"]);
+    let plain = scene_file(dir, "");
+    let output = render(dir, Some(&plain), &["--gi", "lpv", "--stats"]);
     assert_succeeds(&output);
     let default_mib = owner_mib(&String::from_utf8_lossy(&output.stdout), "lpv");
     assert!(
         small_mib < default_mib / 4.0,
         "rsm_size 32 / size 8 from the file: {small_mib} MiB, defaults {default_mib} MiB"
     );
-    let zero = scene_file(&dir, "[settings.lpv]\nsize = 0\n");
-    assert_fails_with(&render(&dir, Some(&zero), &["--gi", "lpv"]), &["lpv size"]);
+    let zero = scene_file(dir, "[settings.lpv]\nsize = 0\n");
+    assert_fails_with(&render(dir, Some(&zero), &["--gi", "lpv"]), &["lpv size"]);
     // A flag overrides the file.
-    let output = render(&dir, Some(&zero), &["--gi", "lpv", "--lpv-size", "8"]);
+    let output = render(dir, Some(&zero), &["--gi", "lpv", "--lpv-size", "8"]);
     assert_succeeds(&output);
     // The cascaded and octree tables too.
-    let octree = scene_file(&dir, "[settings.olpv]\nsize = 12\n");
+    let octree = scene_file(dir, "[settings.olpv]\nsize = 12\n");
     assert_fails_with(
-        &render(&dir, Some(&octree), &["--gi", "olpv"]),
+        &render(dir, Some(&octree), &["--gi", "olpv"]),
         &["olpv size"],
     );
 }
 
 #[test]
 fn unknown_key_in_the_lpv_table_names_the_file() {
-    let dir = temp_dir("lpv-cli-unknown");
-    let path = scene_file(&dir, "[settings.lpv]\nsize = 16\niteratons = 8\n");
-    let output = render(&dir, Some(&path), &["--gi", "lpv"]);
+    let tmp = temp_dir("lpv-cli-unknown");
+    let dir = tmp.path();
+    let path = scene_file(dir, "[settings.lpv]\nsize = 16\niteratons = 8\n");
+    let output = render(dir, Some(&path), &["--gi", "lpv"]);
     assert_fails_with(&output, &["scene.toml", "iteratons"]);
 }

@@ -9,7 +9,7 @@ use std::process::Output;
 fn render(extra: &[&str]) -> Output {
     let mut args = vec!["--gi", "probes-octree"];
     args.extend(extra);
-    common::render_small(&common::temp_dir("probes-cli"), None, &args)
+    common::render_small(common::temp_dir("probes-cli").path(), None, &args)
 }
 
 #[test]

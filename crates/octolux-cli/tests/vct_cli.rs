@@ -5,11 +5,12 @@ mod common;
 
 #[test]
 fn the_anisotropic_flag_renders_and_a_bad_value_is_refused() {
-    let dir = common::temp_dir("vct-cli");
+    let tmp = common::temp_dir("vct-cli");
+    let dir = tmp.path();
     for flag in ["--vct-anisotropic", "--vct-facing"] {
         for value in ["true", "false"] {
             let output = common::render_small(
-                &dir,
+                dir,
                 None,
                 &[
                     "--gi",
@@ -24,7 +25,7 @@ fn the_anisotropic_flag_renders_and_a_bad_value_is_refused() {
         }
     }
     let output = common::render_small(
-        &dir,
+        dir,
         None,
         &["--gi", "vct-svo", "--vct-anisotropic", "maybe"],
     );

@@ -7,6 +7,7 @@
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use tempfile::TempDir;
 
 fn octolux(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_octolux"))
@@ -20,13 +21,12 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("octolux-vct-compare-{name}-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty scratch folder named after `name`, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-vct-compare-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// Whether the shared scenes (Crytek Sponza) are here; says so when not.
@@ -146,7 +146,8 @@ fn the_flight_and_the_moving_sun_bench_with_a_fixed_work_specular_cone() {
 fn moving_spheres_update_both_structures_every_frame() {
     // Two spheres of scenes/models/uv-sphere.obj moving over a ground plane: the octree
     // rebuilds its dynamic part and the clipmap revoxelises where they were and are.
-    let dir = temp_dir("spheres");
+    let tmp = temp_dir("spheres");
+    let dir = tmp.path();
     let sphere = repo().join("scenes/models/uv-sphere.obj");
     let mut text = String::from(
         "[[model]]\npath = \"builtin:ground-plane\"\nsize = 8.0\n\
@@ -175,7 +176,6 @@ fn moving_spheres_update_both_structures_every_frame() {
         clipmap.iter().any(|p| p.ends_with(" voxelize")),
         "{clipmap:?}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -205,11 +205,12 @@ fn the_comparison_script_runs_every_case_and_prints_its_ratios() {
     if !shared_scenes() {
         return;
     }
-    let out = temp_dir("script");
+    let tmp = temp_dir("script");
+    let out = tmp.path();
     let output = Command::new("bash")
         .arg(repo().join("scripts/vct-compare.sh"))
         .args(["24", "16", "1"])
-        .arg(&out)
+        .arg(out)
         .env("OCTOLUX", env!("CARGO_BIN_EXE_octolux"))
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
         .env("RESOLUTIONS", "16")
@@ -240,5 +241,4 @@ fn the_comparison_script_runs_every_case_and_prints_its_ratios() {
         .filter(|l| l.starts_with("| 16^3") || l.starts_with("| 1 |") || l.starts_with("| 2 |"))
         .collect();
     assert_eq!(rows.len(), 6, "{stdout}");
-    std::fs::remove_dir_all(&out).ok();
 }

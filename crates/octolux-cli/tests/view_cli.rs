@@ -5,16 +5,17 @@
 
 use octolux::image_io::HdrImage;
 use octolux::metrics::{self, MetricOptions};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
+use tempfile::TempDir;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-view-{name}-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty scratch folder named after `name`, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-view-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn octolux(args: &[&str], display: Option<&str>) -> Output {
@@ -106,7 +107,8 @@ fn flip(test: &Path, reference: &Path) -> f64 {
 #[test]
 fn switched_view_screenshot_matches_render_of_the_same_technique() {
     let x = XServer::get();
-    let dir = temp_dir("switch");
+    let tmp = temp_dir("switch");
+    let dir = tmp.path();
     let shot = dir.join("view.png");
     let window = dir.join("window.png");
     let (w, h) = ("96", "64");
@@ -178,7 +180,8 @@ fn switched_view_screenshot_matches_render_of_the_same_technique() {
 #[test]
 fn split_screen_renders_a_second_technique_with_its_own_memory() {
     let x = XServer::get();
-    let dir = temp_dir("split");
+    let tmp = temp_dir("split");
+    let dir = tmp.path();
     let window = dir.join("window.png");
     let output = octolux(
         &[

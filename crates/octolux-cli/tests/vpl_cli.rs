@@ -10,7 +10,7 @@ use std::process::Output;
 fn render(extra: &[&str]) -> Output {
     let mut args = vec!["--gi", "vpl"];
     args.extend(extra);
-    common::render_small(&common::temp_dir("vpl-cli"), None, &args)
+    common::render_small(common::temp_dir("vpl-cli").path(), None, &args)
 }
 
 #[test]

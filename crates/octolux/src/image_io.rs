@@ -197,21 +197,25 @@ mod tests {
 
     #[test]
     fn exr_round_trip() {
-        let dir = std::env::temp_dir().join(format!("octolux-exr-{}", std::process::id()));
-        let path = dir.join("a.exr");
+        let dir = tempfile::Builder::new()
+            .prefix("octolux-exr-")
+            .tempdir()
+            .unwrap();
+        let path = dir.path().join("a.exr");
         let mut image = HdrImage::new(3, 2);
         image.set(2, 1, Vec3::new(1.5, 0.25, 100.0));
         image.set(0, 0, Vec3::new(0.001, 2.0, 3.0));
         image.write_exr(&path).unwrap();
         assert_eq!(HdrImage::read_exr(&path).unwrap(), image);
-        std::fs::remove_dir_all(dir).ok();
     }
 
     #[test]
     fn failed_writes_leave_the_file_and_no_temporary() {
-        let dir = std::env::temp_dir().join(format!("octolux-atomic-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("keep.png");
+        let dir = tempfile::Builder::new()
+            .prefix("octolux-atomic-")
+            .tempdir()
+            .unwrap();
+        let path = dir.path().join("keep.png");
         std::fs::write(&path, b"old").unwrap();
         let e = write_atomically(&path, |tmp| {
             std::fs::write(tmp, b"half").unwrap();
@@ -219,8 +223,7 @@ mod tests {
         });
         assert!(e.is_err());
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
-        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
-        std::fs::remove_dir_all(dir).ok();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
     #[test]

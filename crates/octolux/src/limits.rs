@@ -258,12 +258,15 @@ mod tests {
 
     #[test]
     fn files_over_the_limit_are_refused() {
-        let path = std::env::temp_dir().join(format!("octolux-limit-{}", std::process::id()));
-        std::fs::write(&path, [0u8; 100]).unwrap();
-        assert_eq!(read_file_limited(&path, 100).unwrap().len(), 100);
-        let e = read_file_limited(&path, 99).unwrap_err().to_string();
+        let file = tempfile::Builder::new()
+            .prefix("octolux-limit-")
+            .tempfile()
+            .unwrap();
+        let path = file.path();
+        std::fs::write(path, [0u8; 100]).unwrap();
+        assert_eq!(read_file_limited(path, 100).unwrap().len(), 100);
+        let e = read_file_limited(path, 99).unwrap_err().to_string();
         assert!(e.contains("100 bytes") && e.contains("99"), "{e}");
-        std::fs::remove_file(path).ok();
     }
 
     #[test]

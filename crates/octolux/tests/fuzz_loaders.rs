@@ -20,6 +20,7 @@ use std::cell::Cell;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use tempfile::TempDir;
 
 /// Cases per target in the normal test run: 12 targets, 36,000 cases, about 10 s on 2 cores
 /// at the test profile's opt-level 1.
@@ -446,9 +447,13 @@ fn base_seed() -> u64 {
 }
 
 /// A folder holding what the seeds refer to: a texture, a material library, the shipped
-/// models and sky.
-fn workspace(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-fuzz-{}-{name}", std::process::id()));
+/// models and sky; removed when the returned guard drops.
+fn workspace(name: &str) -> TempDir {
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!("octolux-fuzz-{name}-"))
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     std::fs::create_dir_all(dir.join("models")).unwrap();
     std::fs::create_dir_all(dir.join("skies")).unwrap();
     std::fs::write(dir.join("tex.png"), png_seed()).unwrap();
@@ -466,7 +471,7 @@ fn workspace(name: &str) -> PathBuf {
         shipped("scenes/skies/afternoon.hdr"),
     )
     .unwrap();
-    dir
+    tmp
 }
 
 /// The outcome of one case.
@@ -514,7 +519,8 @@ fn load(loader: Loader, path: &Path) -> Result<Outcome, String> {
 /// Runs the target's cases; panics listing the failing inputs (saved to files).
 fn fuzz(name: &str, target: Target) {
     watch_panics();
-    let dir = workspace(name);
+    let tmp = workspace(name);
+    let dir = tmp.path();
     let path = dir.join(target.file);
     let loaded_path = dir.join(target.load.unwrap_or(target.file));
     let iterations = iterations();
@@ -576,7 +582,6 @@ fn fuzz(name: &str, target: Target) {
         slowest.as_secs_f64() * 1e3,
         most_memory as f64 / (1 << 20) as f64
     );
-    std::fs::remove_dir_all(&dir).ok();
     assert!(failures.is_empty(), "{name}:\n{}", failures.join("\n"));
     // The seeds themselves load, so the cases explore past the first check.
     assert!(loaded > 0, "{name}: nothing loaded");
@@ -739,9 +744,7 @@ fn fuzz_hdr() {
 
 #[test]
 fn fuzz_exr() {
-    let dir = workspace("exr-seed");
-    let seed = exr_seed(&dir);
-    std::fs::remove_dir_all(dir).ok();
+    let seed = exr_seed(workspace("exr-seed").path());
     fuzz(
         "exr",
         Target {

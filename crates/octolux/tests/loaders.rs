@@ -7,20 +7,15 @@ use octolux::scene::{AlphaMode, LightKind, Scene};
 use octolux::Error;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
+use tempfile::TempDir;
 
-/// A fresh, empty temporary folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let dir = std::env::temp_dir().join(format!(
-        "octolux-loaders-{name}-{}-{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty temporary folder for one test, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-loaders-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn write(path: &Path, bytes: impl AsRef<[u8]>) {
@@ -125,7 +120,8 @@ const TEX: [u8; 16] = [
 
 #[test]
 fn obj_quad_with_texture_and_mask() {
-    let dir = temp_dir("obj-quad");
+    let tmp = temp_dir("obj-quad");
+    let dir = tmp.path();
     write(&dir.join("quad.obj"), QUAD_OBJ);
     write(
         &dir.join("quad.mtl"),
@@ -198,7 +194,8 @@ f 3 2 1
 
 #[test]
 fn obj_groups_are_objects() {
-    let dir = temp_dir("obj-groups");
+    let tmp = temp_dir("obj-groups");
+    let dir = tmp.path();
     write(&dir.join("groups.obj"), GROUPS_OBJ);
     write(
         &dir.join("groups.mtl"),
@@ -240,7 +237,8 @@ fn obj_groups_are_objects() {
 
 #[test]
 fn obj_mask_is_resized_and_mask_alone_makes_white_texture() {
-    let dir = temp_dir("obj-mask");
+    let tmp = temp_dir("obj-mask");
+    let dir = tmp.path();
     write(
         &dir.join("m.obj"),
         "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl big\nf 1 2 3\ng b\nusemtl only_mask\nf 1 3 2\n",
@@ -273,7 +271,8 @@ fn obj_mask_is_resized_and_mask_alone_makes_white_texture() {
 
 #[test]
 fn obj_missing_texture_uses_factor() {
-    let dir = temp_dir("obj-missing-tex");
+    let tmp = temp_dir("obj-missing-tex");
+    let dir = tmp.path();
     write(
         &dir.join("t.obj"),
         "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
@@ -294,7 +293,8 @@ fn obj_missing_texture_uses_factor() {
 
 #[test]
 fn obj_missing_or_broken_mtl_uses_default_material() {
-    let dir = temp_dir("obj-missing-mtl");
+    let tmp = temp_dir("obj-missing-mtl");
+    let dir = tmp.path();
     write(
         &dir.join("t.obj"),
         "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
@@ -316,7 +316,8 @@ fn obj_missing_or_broken_mtl_uses_default_material() {
 
 #[test]
 fn obj_malformed_is_an_error() {
-    let dir = temp_dir("obj-bad");
+    let tmp = temp_dir("obj-bad");
+    let dir = tmp.path();
     let path = dir.join("bad.obj");
     write(&path, "v 1 2\nf 1 2 3\n");
     let msg = expect_parse_error(Scene::load(&path), "bad.obj");
@@ -338,7 +339,8 @@ fn obj_malformed_is_an_error() {
 
 #[test]
 fn obj_nan_vertex_is_an_error() {
-    let dir = temp_dir("obj-nan");
+    let tmp = temp_dir("obj-nan");
+    let dir = tmp.path();
     let path = dir.join("nan.obj");
     write(&path, "v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n");
     let msg = expect_scene_error(Scene::load(&path));
@@ -347,7 +349,8 @@ fn obj_nan_vertex_is_an_error() {
 
 #[test]
 fn obj_index_out_of_range_is_an_error() {
-    let dir = temp_dir("obj-index");
+    let tmp = temp_dir("obj-index");
+    let dir = tmp.path();
     let path = dir.join("idx.obj");
     write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
     expect_parse_error(Scene::load(&path), "idx.obj");
@@ -355,7 +358,8 @@ fn obj_index_out_of_range_is_an_error() {
 
 #[test]
 fn degenerate_triangles_are_removed() {
-    let dir = temp_dir("degenerate");
+    let tmp = temp_dir("degenerate");
+    let dir = tmp.path();
     let path = dir.join("d.obj");
     write(
         &path,
@@ -371,7 +375,8 @@ fn degenerate_triangles_are_removed() {
 
 #[test]
 fn no_geometry_is_an_error() {
-    let dir = temp_dir("empty");
+    let tmp = temp_dir("empty");
+    let dir = tmp.path();
     let path = dir.join("empty.obj");
     write(&path, "# nothing\nv 0 0 0\n");
     let msg = expect_scene_error(Scene::load(&path));
@@ -380,7 +385,8 @@ fn no_geometry_is_an_error() {
 
 #[test]
 fn missing_file_is_an_error() {
-    let dir = temp_dir("missing");
+    let tmp = temp_dir("missing");
+    let dir = tmp.path();
     match Scene::load(dir.join("nothere.obj")) {
         Err(e @ Error::Io { .. }) => assert!(e.to_string().contains("nothere.obj")),
         other => panic!("expected an I/O error, got {other:?}"),
@@ -389,7 +395,8 @@ fn missing_file_is_an_error() {
 
 #[test]
 fn unknown_extension_is_an_error() {
-    let dir = temp_dir("unknown");
+    let tmp = temp_dir("unknown");
+    let dir = tmp.path();
     let path = dir.join("model.xyz");
     write(&path, "whatever");
     let msg = expect_parse_error(Scene::load(&path), "model.xyz");
@@ -472,7 +479,8 @@ fn check_ply_quad(scene: &Scene) {
 
 #[test]
 fn ply_ascii_with_uvs_and_colours() {
-    let dir = temp_dir("ply-ascii");
+    let tmp = temp_dir("ply-ascii");
+    let dir = tmp.path();
     let path = dir.join("quad.ply");
     write(&path, ascii_ply());
     let scene = Scene::load(&path).unwrap();
@@ -484,7 +492,8 @@ fn ply_ascii_with_uvs_and_colours() {
 
 #[test]
 fn ply_binary_both_endians_and_gzip() {
-    let dir = temp_dir("ply-binary");
+    let tmp = temp_dir("ply-binary");
+    let dir = tmp.path();
     for big in [false, true] {
         let path = dir.join(format!("quad-{big}.ply"));
         write(&path, binary_ply(big));
@@ -501,7 +510,8 @@ fn ply_binary_both_endians_and_gzip() {
 
 #[test]
 fn ply_truncated_is_an_error() {
-    let dir = temp_dir("ply-truncated");
+    let tmp = temp_dir("ply-truncated");
+    let dir = tmp.path();
     let path = dir.join("cut.ply");
     let data = binary_ply(false);
     write(&path, &data[..data.len() - 5]);
@@ -518,7 +528,8 @@ fn ply_truncated_is_an_error() {
 
 #[test]
 fn ply_absurd_counts_are_errors() {
-    let dir = temp_dir("ply-huge");
+    let tmp = temp_dir("ply-huge");
+    let dir = tmp.path();
     let path = dir.join("huge.ply");
     write(
         &path,
@@ -542,7 +553,8 @@ fn ply_absurd_counts_are_errors() {
 
 #[test]
 fn ply_malformed_header_and_values() {
-    let dir = temp_dir("ply-bad");
+    let tmp = temp_dir("ply-bad");
+    let dir = tmp.path();
     let path = dir.join("bad.ply");
     write(
         &path,
@@ -559,7 +571,8 @@ fn ply_malformed_header_and_values() {
 
 #[test]
 fn ply_nan_and_bad_index_are_errors() {
-    let dir = temp_dir("ply-nan");
+    let tmp = temp_dir("ply-nan");
+    let dir = tmp.path();
     let path = dir.join("nan.ply");
     write(&path, ascii_ply().replace("1 0 0 1 0", "NaN 0 0 1 0"));
     let msg = expect_scene_error(Scene::load(&path));
@@ -715,7 +728,8 @@ fn check_gltf_scene(scene: &Scene, textured: bool) {
 
 #[test]
 fn gltf_embedded_buffer_lights_camera_transforms() {
-    let dir = temp_dir("gltf");
+    let tmp = temp_dir("gltf");
+    let dir = tmp.path();
     let image = serde_json::json!({
         "uri": format!("data:image/png;base64,{}", base64(&png_bytes(2, 2, TEX.to_vec())))
     });
@@ -727,7 +741,8 @@ fn gltf_embedded_buffer_lights_camera_transforms() {
 
 #[test]
 fn gltf_external_texture_and_missing_texture() {
-    let dir = temp_dir("gltf-ext");
+    let tmp = temp_dir("gltf-ext");
+    let dir = tmp.path();
     write_png(&dir.join("tex.png"), 2, 2, TEX.to_vec());
     let path = dir.join("ext.gltf");
     write(
@@ -745,7 +760,8 @@ fn gltf_external_texture_and_missing_texture() {
 
 #[test]
 fn glb_with_binary_chunk() {
-    let dir = temp_dir("glb");
+    let tmp = temp_dir("glb");
+    let dir = tmp.path();
     let mut bin = triangle_buffer();
     let bin_len = bin.len();
     let png = png_bytes(2, 2, TEX.to_vec());
@@ -784,7 +800,8 @@ fn glb_with_binary_chunk() {
 
 #[test]
 fn gltf_malformed_is_an_error() {
-    let dir = temp_dir("gltf-bad");
+    let tmp = temp_dir("gltf-bad");
+    let dir = tmp.path();
     let path = dir.join("bad.gltf");
     write(&path, "{not json");
     let msg = expect_parse_error(Scene::load(&path), "bad.gltf");
@@ -923,7 +940,8 @@ fn real_dragon_gz_large() {
 /// never a panic or a runaway allocation.
 #[test]
 fn mutated_inputs_never_panic() {
-    let dir = temp_dir("mutated");
+    let tmp = temp_dir("mutated");
+    let dir = tmp.path();
     let image = serde_json::json!({
         "uri": format!("data:image/png;base64,{}", base64(&png_bytes(2, 2, TEX.to_vec())))
     });
@@ -977,7 +995,8 @@ fn mutated_inputs_never_panic() {
 #[test]
 fn obj_tga_texture_is_read_by_its_extension() {
     // TGA files carry no signature: the format comes from the extension.
-    let dir = temp_dir("obj-tga");
+    let tmp = temp_dir("obj-tga");
+    let dir = tmp.path();
     write(&dir.join("quad.obj"), QUAD_OBJ);
     write(
         &dir.join("quad.mtl"),
@@ -1006,7 +1025,8 @@ fn obj_tga_texture_is_read_by_its_extension() {
 #[cfg(unix)]
 #[test]
 fn a_link_to_an_endless_stream_fails_at_once() {
-    let dir = temp_dir("endless");
+    let tmp = temp_dir("endless");
+    let dir = tmp.path();
     for name in [
         "zero.obj",
         "zero.ply.gz",
@@ -1036,7 +1056,8 @@ fn huge_hdr() -> Vec<u8> {
 
 #[test]
 fn image_sizes_are_checked_before_decoding() {
-    let dir = temp_dir("huge-image");
+    let tmp = temp_dir("huge-image");
+    let dir = tmp.path();
     let hdr = dir.join("huge.hdr");
     write(&hdr, huge_hdr());
     let msg = octolux::scene::EnvironmentMap::load(&hdr)
@@ -1072,7 +1093,8 @@ fn image_sizes_are_checked_before_decoding() {
 
 #[test]
 fn gzip_trailing_data_and_bombs() {
-    let dir = temp_dir("gzip-limits");
+    let tmp = temp_dir("gzip-limits");
+    let dir = tmp.path();
     let gz = |tail: usize| {
         let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
         enc.write_all(&binary_ply(false)).unwrap();
@@ -1099,7 +1121,8 @@ fn gzip_trailing_data_and_bombs() {
 
 #[test]
 fn gltf_malformed_accessors_are_errors_naming_the_accessor() {
-    let dir = temp_dir("gltf-accessors");
+    let tmp = temp_dir("gltf-accessors");
+    let dir = tmp.path();
     let path = dir.join("acc.gltf");
     let load = |json: serde_json::Value| {
         write(&path, json.to_string());
@@ -1129,7 +1152,8 @@ fn gltf_malformed_accessors_are_errors_naming_the_accessor() {
 
 #[test]
 fn gltf_cameras_are_validated() {
-    let dir = temp_dir("gltf-cameras");
+    let tmp = temp_dir("gltf-cameras");
+    let dir = tmp.path();
     let path = dir.join("cam.gltf");
     for (field, value, expect) in [
         ("yfov", 0.0, "field of view"),
@@ -1156,7 +1180,8 @@ fn box_scene(dir: &Path, extra: &str) -> octolux::Result<Scene> {
 
 #[test]
 fn values_beyond_the_limits_are_errors() {
-    let dir = temp_dir("value-limits");
+    let tmp = temp_dir("value-limits");
+    let dir = tmp.path();
     // A far triangle beside the box (it made every GPU technique black).
     write(
         &dir.join("far.obj"),
@@ -1184,7 +1209,7 @@ fn values_beyond_the_limits_are_errors() {
         ),
     ];
     for (extra, expect) in cases {
-        let msg = box_scene(&dir, extra).unwrap_err().to_string();
+        let msg = box_scene(dir, extra).unwrap_err().to_string();
         assert!(msg.contains(expect), "{extra}: {msg}");
     }
     // Emission near f32::MAX in a glTF material.
@@ -1197,7 +1222,7 @@ fn values_beyond_the_limits_are_errors() {
     assert!(msg.contains("emission"), "{msg}");
     // Values at the limits still load.
     box_scene(
-        &dir,
+        dir,
         "[[light]]\ntype = \"point\"\nposition = [0, 0.5, 0]\nintensity = 1e12\n\
          [[camera]]\nposition = [0.3, 0.3, -1]\ntarget = [0.3, 0.3, 0]\nnear = 1e-3\nfar = 1000\n",
     )
@@ -1207,7 +1232,8 @@ fn values_beyond_the_limits_are_errors() {
 /// Found by the fuzz test (`fuzz_loaders.rs`): inputs that panicked inside the glTF crate.
 #[test]
 fn gltf_inputs_the_fuzzer_found() {
-    let dir = temp_dir("gltf-fuzz");
+    let tmp = temp_dir("gltf-fuzz");
+    let dir = tmp.path();
     // A primitive whose POSITION accessor does not exist (the crate's validation indexed it).
     let mut json = gltf_json(data_uri_buffer(), serde_json::json!({"uri": "gone.png"}));
     json["accessors"] = serde_json::json!([]);

@@ -11,17 +11,20 @@ use octolux::scene::{
 };
 use octolux::transport::Bounces;
 use octolux::voxel::scene_triangles;
-use std::path::PathBuf;
+use tempfile::TempDir;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-materials-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty temporary folder for one test, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-materials-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 #[test]
 fn mtl_dissolve_and_transparency_become_opacity() {
-    let dir = temp_dir("mtl");
+    let tmp = temp_dir("mtl");
+    let dir = tmp.path();
     std::fs::write(
         dir.join("glass.obj"),
         "mtllib glass.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl window\nf 1 2 3\n\

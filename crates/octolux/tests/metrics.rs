@@ -172,7 +172,11 @@ fn size_and_mask_errors() {
 
 #[test]
 fn error_map_png_and_mask_loading() {
-    let dir = std::env::temp_dir().join(format!("octolux-metrics-{}", std::process::id()));
+    let tmp = tempfile::Builder::new()
+        .prefix("octolux-metrics-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     let a = noisy(8, 6, 3);
     let b = noisy(8, 6, 4);
     let map = metrics::flip_map(&a, &b, &MetricOptions::default()).unwrap();
@@ -193,5 +197,4 @@ fn error_map_png_and_mask_loading() {
     let exr = dir.join("a.exr");
     a.write_exr(&exr).unwrap();
     assert_eq!(metrics::load_image(&exr).unwrap(), a);
-    std::fs::remove_dir_all(dir).ok();
 }

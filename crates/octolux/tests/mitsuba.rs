@@ -8,19 +8,14 @@ use octolux::image_io::HdrImage;
 use octolux::scene::{srgb_to_linear, AlphaMode, LightKind, Scene, SkyRadiance};
 use octolux::Error;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use tempfile::TempDir;
 
-/// A fresh, empty temporary folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let dir = std::env::temp_dir().join(format!(
-        "octolux-mitsuba-{name}-{}-{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty temporary folder for one test, removed when the returned guard drops.
+fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-mitsuba-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn write(path: &Path, bytes: impl AsRef<[u8]>) {
@@ -232,8 +227,9 @@ fn material_of<'a>(scene: &'a Scene, name: &str) -> &'a octolux::scene::Material
 
 #[test]
 fn every_supported_element() {
-    let dir = temp_dir("all");
-    let scene = Scene::load(write_scene(&dir)).unwrap();
+    let tmp = temp_dir("all");
+    let dir = tmp.path();
+    let scene = Scene::load(write_scene(dir)).unwrap();
     assert_eq!(scene.name, "scene");
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(
@@ -396,12 +392,12 @@ fn every_supported_element() {
     assert_close(cam.target, Vec3::Z);
     // Mitsuba's identity camera has +x on the image's left.
     assert!(cam.view(64, 64).ray_direction(63.5, 32.0).x < -0.1);
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn constant_sky_include_and_old_names() {
-    let dir = temp_dir("constant");
+    let tmp = temp_dir("constant");
+    let dir = tmp.path();
     write(&dir.join("tri.obj"), TRI_OBJ);
     write(
         &dir.join("parts/bsdfs.xml"),
@@ -441,7 +437,6 @@ fn constant_sky_include_and_old_names() {
     let cam = &scene.cameras[0];
     assert_eq!(cam.hfov, None);
     assert_close(cam.target, Vec3::new(0.0, 0.0, 3.0));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 fn expect_parse_error(result: octolux::Result<Scene>, file: &str) -> String {
@@ -458,7 +453,8 @@ fn expect_parse_error(result: octolux::Result<Scene>, file: &str) -> String {
 
 #[test]
 fn errors_name_the_file_and_position() {
-    let dir = temp_dir("errors");
+    let tmp = temp_dir("errors");
+    let dir = tmp.path();
     let load = |name: &str, text: &str| {
         let path = dir.join(name);
         write(&path, text);
@@ -563,7 +559,6 @@ fn errors_name_the_file_and_position() {
         "include.xml",
     );
     assert!(msg.contains("nowhere.xml"), "{msg}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -610,8 +605,9 @@ fn shared_cbox_scene() {
 
 #[test]
 fn imported_scene_renders_on_the_gpu_and_with_the_reference() {
-    let dir = temp_dir("render");
-    let scene = Scene::load(write_scene(&dir)).unwrap();
+    let tmp = temp_dir("render");
+    let dir = tmp.path();
+    let scene = Scene::load(write_scene(dir)).unwrap();
     let ctx = octolux::gpu::GpuContext::shared(&octolux::gpu::GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let settings = octolux::render::RenderSettings {
@@ -640,5 +636,4 @@ fn imported_scene_renders_on_the_gpu_and_with_the_reference() {
     .unwrap();
     assert!(reference.total.pixels.iter().all(|p| p.is_finite()));
     assert!(reference.total.pixels.iter().any(|p| p.max_element() > 0.0));
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -204,10 +204,11 @@ fn animated_cornell_box_moves_as_keyed() {
 
 #[test]
 fn scene_file_errors_name_the_file() {
-    let dir = std::env::temp_dir().join(format!("octolux-scene-files-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = tempfile::Builder::new()
+        .prefix("octolux-scene-files-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     let path = dir.join("broken.toml");
     std::fs::write(&path, "[[model]]\npath = \"meshes/missing.obj\"\n").unwrap();
     let err = Scene::load(&path).unwrap_err().to_string();
@@ -225,7 +226,6 @@ fn scene_file_errors_name_the_file() {
         err.contains("broken.toml") && err.contains("spin") && err.contains("line 3"),
         "{err}"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -265,10 +265,11 @@ fn camera_index_takes_an_index_or_a_name_and_rejects_others() {
 
 #[test]
 fn a_material_override_can_take_a_texture() {
-    let dir = std::env::temp_dir().join(format!("octolux-override-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = tempfile::Builder::new()
+        .prefix("octolux-override-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     let rgba = vec![
         255u8, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255,
     ];
@@ -307,15 +308,15 @@ fn a_material_override_can_take_a_texture() {
         err.contains("missing.png") && err.contains("not found"),
         "{err}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn obj_groups_and_materials_are_selectable_by_name() {
-    let dir = std::env::temp_dir().join(format!("octolux-obj-select-{}", std::process::id()));
-    // A folder of an earlier process with the same id is not this run's.
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = tempfile::Builder::new()
+        .prefix("octolux-obj-select-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     // A floor and a vase (glass body, clay foot) as OBJ groups, plus 25 small groups to show
     // that long name lists are cut short in errors.
     let mut obj = String::from(
@@ -404,7 +405,6 @@ fn obj_groups_and_materials_are_selectable_by_name() {
         err.contains("no material named 'steel'") && err.contains("'clay', 'glass'"),
         "{err}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The scene-format document's example `[settings]` table is one the technique settings

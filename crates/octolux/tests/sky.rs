@@ -443,8 +443,11 @@ fn sky_shadows_follow_moving_objects() {
 /// name the file.
 #[test]
 fn sky_maps_load_from_exr_and_hdr() {
-    let dir = std::env::temp_dir().join(format!("octolux-sky-maps-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = tempfile::Builder::new()
+        .prefix("octolux-sky-maps-")
+        .tempdir()
+        .unwrap();
+    let dir = tmp.path();
     let mut image = HdrImage::new(8, 4);
     image.set(3, 1, Vec3::new(5.0, 0.25, 1e4));
     image.write_exr(&dir.join("m.exr")).unwrap();
@@ -476,5 +479,4 @@ fn sky_maps_load_from_exr_and_hdr() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("bad.hdr"), "{e}");
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -2,8 +2,9 @@
 //! the checks of a clean success or failure.
 #![allow(dead_code)] // each test binary uses a part
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
+use tempfile::TempDir;
 
 /// Runs the `octolux` binary with `args`.
 pub fn octolux(args: &[&str]) -> Output {
@@ -14,13 +15,12 @@ pub fn octolux(args: &[&str]) -> Output {
         .expect("run octolux")
 }
 
-/// A scratch folder for this test process, named after `name`, empty: a folder left by an
-/// earlier process with the same id is removed first.
-pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("octolux-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh, empty scratch folder named after `name`, removed when the returned guard drops.
+pub fn temp_dir(name: &str) -> TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("octolux-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// `octolux render` of `scene` (the built-in Cornell box for `None`) at 16 x 16 with 64^2

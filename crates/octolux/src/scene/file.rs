@@ -1812,7 +1812,11 @@ mod tests {
             example = example.replace("scenes:stanford-bunny/bunny.ply", "builtin:cornell-box");
         }
         // The example's model file only has to exist for the description to be checked.
-        let dir = std::env::temp_dir().join(format!("octolux-doc-example-{}", std::process::id()));
+        let tmp = tempfile::Builder::new()
+            .prefix("octolux-doc-example-")
+            .tempdir()
+            .unwrap();
+        let dir = tmp.path();
         std::fs::create_dir_all(dir.join("models")).unwrap();
         std::fs::write(dir.join("models/statue.obj"), "").unwrap();
         std::fs::create_dir_all(dir.join("skies")).unwrap();
@@ -1824,9 +1828,7 @@ mod tests {
             dir.join("skies/afternoon.hdr"),
         )
         .unwrap();
-        let description = describe(&example, &dir.join("example.toml"));
-        std::fs::remove_dir_all(&dir).ok();
-        let description = description.unwrap();
+        let description = describe(&example, &dir.join("example.toml")).unwrap();
         assert_eq!(description.models.len(), 5);
         assert_eq!(description.lights.len(), 3);
         assert_eq!(description.cameras.len(), 1);
