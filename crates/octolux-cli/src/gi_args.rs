@@ -109,7 +109,8 @@ pub struct GiArgs {
     #[arg(long)]
     pub vct_anisotropic_bounce: Option<bool>,
     /// vct-svo: keep the direction the octree's radiance leaves in, so a cone does not see the
-    /// light on the far face of a voxel-thin wall (docs/vct.md, "The radiance's facing").
+    /// light on the far face of a thin wall (default false; docs/vct.md, "The radiance's
+    /// facing").
     #[arg(long)]
     pub vct_facing: Option<bool>,
     /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over

@@ -104,12 +104,21 @@ fn svo_radiance_facing_sample(p: vec3<f32>, footprint: f32) -> SvoRadianceFacing
     return SvoRadianceFacing(mix(a.radiance, b.radiance, lod.t), mix(a.facing, b.facing, lod.t));
 }
 
+// How fast radiance seen from behind fades: all of it is dropped once the cone travels
+// more than asin(1 / FACING_SHARPNESS) (14.5 degrees) off the plane its surface faces out of.
+// 1 kept 1 - cos(angle) of the light on a wall's far face seen obliquely (docs/vct.md, "The
+// radiance's facing", measured).
+const FACING_SHARPNESS: f32 = 4.0;
+
 // The share of a sample's radiance that leaves towards the apex of a cone travelling along
 // `dir`. Radiance whose mean facing is F (|F| <= 1, F = facing / (r + g + b)) keeps
-// 1 + F . (-dir), at most 1: what faces the apex is kept whole (as without the facing), what
-// faces away is dropped. Exact for a wall thinner than a voxel whose faces hold radiance a and
-// b: seen from b's side the texel's mean (a + b) / 2 keeps 2b / (a + b) of itself, b.
+// 1 - FACING_SHARPNESS F . dir, at most 1 and at least 1 - |F|: what faces the apex is kept
+// whole (as without the facing), what faces away is dropped. The floor 1 - |F| is the share
+// that does not face away: for a wall thinner than a voxel whose faces hold radiance a and b,
+// the texel's mean (a + b) / 2 keeps 2b / (a + b) of itself seen from b's side, b, at every
+// angle more than 14.5 degrees off the wall's plane.
 fn svo_facing_toward(s: SvoRadianceFacing, dir: vec3<f32>) -> f32 {
     let f = s.facing / max(s.radiance.r + s.radiance.g + s.radiance.b, 1e-20);
-    return clamp(1.0 - dot(f, dir), 0.0, 1.0);
+    let undirected = 1.0 - min(length(f), 1.0);
+    return clamp(1.0 - FACING_SHARPNESS * dot(f, dir), undirected, 1.0);
 }
