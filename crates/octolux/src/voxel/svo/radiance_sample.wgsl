@@ -106,8 +106,9 @@ fn svo_radiance_facing_sample(p: vec3<f32>, footprint: f32) -> SvoRadianceFacing
 
 // How fast radiance seen from behind fades: all of it is dropped once the cone travels
 // more than asin(1 / FACING_SHARPNESS) (14.5 degrees) off the plane its surface faces out of.
-// 1 kept 1 - cos(angle) of the light on a wall's far face seen obliquely (docs/vct.md, "The
-// radiance's facing", measured).
+// A sharpness of 1 kept 1 - cos(angle) of the light on a wall's far face seen at that angle
+// off its normal, and let most of a thin wall's leak through (docs/vct.md, "The radiance's
+// facing", measured). The CPU twin is `voxel::svo::sample::FACING_SHARPNESS`.
 const FACING_SHARPNESS: f32 = 4.0;
 
 // The share of a sample's radiance that leaves towards the apex of a cone travelling along
