@@ -194,9 +194,10 @@ fn radiance_facing_stops_the_cones_seeing_through_a_thin_wall() {
     // One bounce (the pixels' cones alone, no voxel gather feeding the leak back), the
     // default 128^3 octree, one frame at 64 x 64, lavapipe: 4.93e-2 -> 1.28e-2 W/m^2 in the
     // dark room (3.9x; 1.9x when radiance seen from behind faded as 1 - cos of its angle),
-    // 0.154 -> 0.148 in the lit room. What stays is mostly the wall's lit face where the
-    // coarse levels mix it with the lit room's floor and ceiling, whose light faces neither
-    // room (docs/vct.md, "A thin wall lets light through"). Bounds at about half the margins.
+    // 0.154 -> 0.148 in the lit room. What stays is still mostly the wall's lit face (likely
+    // where the coarse levels mix it with the lit room's floor and ceiling, whose light faces
+    // neither room: docs/vct.md, "A thin wall lets light through"). Bounds at about half the
+    // margins.
     assert!(dark_plain > 0.2 * lit_plain, "no leak to cut");
     assert!(dark * 2.5 < dark_plain, "dark room {dark_plain} -> {dark}");
     assert!(lit > 0.92 * lit_plain, "lit room {lit_plain} -> {lit}");

@@ -160,17 +160,18 @@ pub struct VctSettings {
     /// `vct-svo`: only the voxels' bounce gather reads the anisotropic radiance; the pixels'
     /// cones keep the isotropic lattice (default false; `anisotropic` implies it). Measured,
     /// it cuts the excess light small bright objects send their surroundings and the leak
-    /// through thin walls
-    /// without the error `anisotropic` adds in rooms lit by their bounce light, at the cost
-    /// of a slower bounce gather (docs/vct.md, "Anisotropic radiance in the bounce only").
+    /// through thin walls without the error `anisotropic` adds in rooms lit by their bounce
+    /// light, at the cost of a slower bounce gather (docs/vct.md, "Anisotropic radiance in
+    /// the bounce only").
     pub anisotropic_bounce: bool,
     /// `vct-svo`: every radiance texel also keeps the direction its radiance leaves in (the
     /// radiance-weighted mean facing of its surfaces; a wall thinner than a voxel faces the
     /// light that lights it), and a cone sample keeps of the radiance only the share that
     /// leaves towards the cone's apex, so light on one face of a thin wall is not seen from
-    /// the other face. With it `vct-svo` beats GI off on every shipped scene; it costs 216
-    /// bytes per brick, a second radiance mip per frame and more error in rooms lit by their
-    /// own bounce light (docs/vct.md, "The radiance's facing").
+    /// the other face. With it `vct-svo` beats GI off on every shipped scene of the error
+    /// table (4 frames; with its bounces settled the thin wall's leak partly returns); it
+    /// costs 216 bytes per brick, a second radiance mip per frame and more error in rooms lit
+    /// by their own bounce light (docs/vct.md, "The radiance's facing").
     pub facing: bool,
     /// Multiple bounces: every frame the voxels (the octree's static voxels, every clipmap
     /// voxel) gather indirect irradiance with the diffuse cones and add it to their direct
