@@ -7,7 +7,11 @@
 # `cornell-crossing` jumps into the beam. Every technique is judged against the
 # unlimited-bounce reference.
 #
-#   scripts/temporal.sh [BINARY] [OUT_DIR]
+# Writes OUT_DIR/<case>.json (bench JSON with the commit, adapter, date and command line) and
+# <case>.txt; the docs' table is remade from the committed JSON with
+# `cargo run -p octolux-tables` (results/README.md).
+#
+#   scripts/temporal.sh [BINARY] [OUT_DIR]     (OUT_DIR default: results/lavapipe/temporal-SIZE)
 #
 # Environment: GI (technique list, default: all), SIZE (default 64x48), SPP (reference
 # samples, default 64), OCTOLUX_SCENES (where Sponza lies, default ../shared/scenes).
@@ -15,10 +19,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 bin=${1:-target/release/octolux}
-out=${2:-temporal}
 [ -x "$bin" ] || { echo "temporal: '$bin' is not an executable" >&2; exit 1; }
 gi=${GI:-none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree}
 size=${SIZE:-64x48}
+out=${2:-results/lavapipe/temporal-$size}
 spp=${SPP:-64}
 export OCTOLUX_SCENES=${OCTOLUX_SCENES:-../shared/scenes}
 mkdir -p "$out"
@@ -38,20 +42,4 @@ run cornell-crossing scenes/cornell-crossing.toml --lag jump:0..1
 run two-rooms-far-light scenes/two-rooms-far-light.toml
 run sponza-flythrough scenes/sponza-flythrough.toml --time 5
 
-python3 - "$out" <<'PY'
-import json, sys
-out = sys.argv[1]
-def load(name):
-    return {t["technique"]: t for t in json.load(open(f"{out}/{name}.json"))["scenes"][0]["techniques"]}
-box, animated, crossing = load("cornell-box"), load("cornell-animated"), load("cornell-crossing")
-far, flight = load("two-rooms-far-light"), load("sponza-flythrough")
-def lag(t, i):
-    l = t["lag"][i]
-    return f'{l["frames"]} ({l["rel_mse"][0]:.3g} -> {l["settled_rel_mse"]:.3g})'
-print("| technique | still flicker | far light | camera flight | lag: spot on | spot off | spot jumps | sphere jumps |")
-print("| --- | ---: | ---: | ---: | --- | --- | --- | --- |")
-for name, t in box.items():
-    print(f'| {name} | {t["flicker"]:.2e} | {far[name]["motion_flicker"]:.2e} | '
-          f'{flight[name]["motion_flicker"]:.2e} | {lag(t, 0)} | {lag(t, 1)} | '
-          f'{lag(animated[name], 0)} | {lag(crossing[name], 0)} |')
-PY
+echo "temporal: wrote $out; remake the docs' table with: cargo run -p octolux-tables" >&2

@@ -398,6 +398,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         )?;
         let run = run.get_or_insert_with(|| BenchReport {
             version: report::JSON_VERSION,
+            provenance: report::Provenance::now(),
             adapter,
             width: args.width,
             height: args.height,

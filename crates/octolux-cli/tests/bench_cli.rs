@@ -130,6 +130,31 @@ fn check_run(report: &Value) {
         source == "GPU timestamps" || source == "CPU submit+wait",
         "{source}"
     );
+    // Provenance: the commit of this checkout (the tests run inside one), the date and the
+    // command line that made the figures.
+    let provenance = &report["provenance"];
+    let commit = provenance["commit"].as_str().unwrap();
+    let hash = commit.trim_end_matches("+dirty");
+    let in_git = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if in_git {
+        assert!(
+            hash.len() == 40 && hash.chars().all(|c| c.is_ascii_hexdigit()),
+            "{provenance}"
+        );
+    } else {
+        assert_eq!(commit, "unknown", "{provenance}");
+    }
+    let date = provenance["date"].as_str().unwrap();
+    assert!(
+        date.len() == 20 && date.starts_with("20") && date.ends_with('Z'),
+        "{date}"
+    );
+    let args = provenance["command_line"].as_array().unwrap();
+    assert_eq!(args[1], "bench", "{provenance}");
 }
 
 /// Whether the scene's report says it moves.

@@ -283,11 +283,64 @@ impl AdapterReport {
     }
 }
 
+/// What a reader needs to reproduce a run: the commit the binary was built from, when it ran
+/// and how it was called.
+#[derive(Clone, Debug, Serialize)]
+pub struct Provenance {
+    /// The git commit of the build (`+dirty`: tracked files differed from it; `unknown`:
+    /// built outside a git checkout).
+    pub commit: String,
+    /// The package version.
+    pub version: String,
+    /// When the run started, UTC (RFC 3339, seconds).
+    pub date: String,
+    /// The command line, as given.
+    pub command_line: Vec<String>,
+}
+
+impl Provenance {
+    /// This process: its build's commit, the time now and its arguments.
+    pub fn now() -> Provenance {
+        Provenance {
+            commit: env!("OCTOLUX_COMMIT").to_string(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            date: utc_rfc3339(std::time::SystemTime::now()),
+            command_line: std::env::args().collect(),
+        }
+    }
+}
+
+/// `time` as `YYYY-MM-DDTHH:MM:SSZ` (the proleptic Gregorian calendar from days since 1970).
+pub fn utc_rfc3339(time: std::time::SystemTime) -> String {
+    let secs = time
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    // Howard Hinnant's civil_from_days, on eras of 400 years.
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
 /// The whole run: one document for every scene.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
     /// Version of this layout.
     pub version: u32,
+    /// Where the figures come from: the code, the time and the command line.
+    pub provenance: Provenance,
     /// The adapter every technique ran on.
     pub adapter: AdapterReport,
     /// Image width.
@@ -505,6 +558,17 @@ mod tests {
             ms,
             source: TimingSource::CpuSubmitWait,
         }
+    }
+
+    #[test]
+    fn dates_in_utc() {
+        use std::time::{Duration, UNIX_EPOCH};
+        let at = |secs| utc_rfc3339(UNIX_EPOCH + Duration::from_secs(secs));
+        assert_eq!(at(0), "1970-01-01T00:00:00Z");
+        // A leap day and the turn of a century year that is a leap year.
+        assert_eq!(at(951_782_400), "2000-02-29T00:00:00Z");
+        assert_eq!(at(1_798_761_599), "2026-12-31T23:59:59Z");
+        assert_eq!(at(4_107_542_400), "2100-03-01T00:00:00Z");
     }
 
     #[test]
