@@ -64,7 +64,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_work_counts: bool,
     /// Skip flicker (the indirect irradiance's change from frame to frame at the same surface
-    /// points): held still, 4 frames to settle and 4 measured, after the timed ones, per
+    /// points): held still, 4 frames (or the technique's own settling count) to settle and 4 measured, after the timed ones, per
     /// technique; on an animated scene also 4 frames more of its motion.
     #[arg(long)]
     pub no_flicker: bool,

@@ -183,6 +183,10 @@ pub struct GiArgs {
     /// false).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
+    /// Probe grid: frames each probe's value is the mean of, its rays turned anew every frame,
+    /// 0..=1024 (0: one fixed lattice, no history; default 32).
+    #[arg(long)]
+    pub probes_history: Option<u32>,
     /// Probe octree: deepest level, 2..=5 (default 4); each level halves the probe spacing and
     /// costs 8x the probe slots (3 is too coarse for large interiors such as Sponza:
     /// docs/probes.md, "Probe spacing and freeing on large scenes").
@@ -308,6 +312,7 @@ impl GiArgs {
         set(&mut probes.lattice, self.probes_lattice);
         set(&mut probes.encoding, self.probes_encoding);
         set(&mut probes.multi_bounce, self.probes_multi_bounce);
+        set(&mut probes.history, self.probes_history);
         set(&mut probes.max_depth, self.probes_max_depth);
         set(&mut probes.min_depth, self.probes_min_depth);
         set(&mut probes.max_probes, self.probes_max_probes);

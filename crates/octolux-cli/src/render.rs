@@ -39,6 +39,12 @@ pub struct RenderArgs {
     /// numbered (render_0000.png, ...).
     #[arg(long, default_value_t = 1)]
     pub frames: u32,
+    /// Frames rendered at the first frame's time before the first one written, so that a
+    /// technique that converges over frames shows its settled picture (`probes-grid`'s
+    /// history; GPU techniques only). Default: the technique's own count (`probes-grid`: its
+    /// `--probes-history`, 32; the others 0).
+    #[arg(long)]
+    pub warmup: Option<u32>,
     /// Frames per second of scene time when rendering several frames.
     #[arg(long, default_value_t = 30.0)]
     pub fps: f32,
@@ -439,6 +445,12 @@ fn check_args(args: &RenderArgs, loaded: &[PathBuf]) -> Result<()> {
     if args.frames == 0 || args.frames > MAX_FRAMES {
         bail!("--frames {}: expected 1..={MAX_FRAMES}", args.frames);
     }
+    if args.warmup.is_some_and(|w| w > MAX_FRAMES) {
+        bail!(
+            "--warmup {}: expected 0..={MAX_FRAMES}",
+            args.warmup.unwrap_or(0)
+        );
+    }
     check_fps(args.fps)?;
     if !args.time.is_finite() {
         bail!("--time {}: expected a finite number of seconds", args.time);
@@ -573,11 +585,18 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         None,
     );
     renderer.set_output(output);
-    let progress = if args.frames > 1 {
-        progress_bar(args.frames as u64, "frames")
+    let warmup = args
+        .warmup
+        .unwrap_or_else(|| renderer.technique().settle_frames());
+    let progress = if args.frames + warmup > 1 {
+        progress_bar((args.frames + warmup) as u64, "frames")
     } else {
         ProgressBar::hidden()
     };
+    for _ in 0..warmup {
+        renderer.render(&scene, start_time)?;
+        progress.inc(1);
+    }
     let mut all_timings = Vec::new();
     for i in 0..args.frames {
         let t = start_time + i as f32 / args.fps;
@@ -605,8 +624,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     progress.finish_and_clear();
     println!(
-        "rendered {} frame(s) of '{}' ({} triangles) at {}x{} with --gi {} in {:.2} s -> {}",
+        "rendered {} frame(s){} of '{}' ({} triangles) at {}x{} with --gi {} in {:.2} s -> {}",
         args.frames,
+        if warmup > 0 {
+            format!(" after {warmup} to settle")
+        } else {
+            String::new()
+        },
         scene.name,
         scene.triangle_count(),
         args.width,

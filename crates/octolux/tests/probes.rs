@@ -195,10 +195,12 @@ fn moving_objects_are_lit_where_they_are() {
         ("probes-grid", RayBackend::Bvh),
         ("probes-grid", RayBackend::Voxels),
     ] {
+        // The fixed lattice: placement keeps the surfels no moved box can have changed.
         let probes = ProbeSettings {
             grid: [12; 3],
             rays,
             voxel_resolution: 64,
+            history: 0,
             ..Default::default()
         };
         let mut r = Renderer::new(&ctx, &scene, settings(technique, probes.clone())).unwrap();
@@ -430,7 +432,7 @@ fn bad_probe_settings_are_clear_errors() {
     let scene = octolux::scene::cornell::scene();
     // The grid's settings (the octree checks them as well), then the octree's own.
     type Change = fn(&mut ProbeSettings);
-    let cases: [(&str, Change, &str); 16] = [
+    let cases: [(&str, Change, &str); 18] = [
         ("probes-grid", |s| s.grid = [21, 1, 21], "probes grid"),
         ("probes-grid", |s| s.surfels = Some(4), "probes surfels"),
         (
@@ -455,7 +457,21 @@ fn bad_probe_settings_are_clear_errors() {
             "16M surfels",
         ),
         // 13.8M surfels, 663 MiB: more than one storage binding holds.
-        ("probes-grid", |s| s.grid = [60; 3], "per storage binding"),
+        (
+            "probes-grid",
+            |s| {
+                s.grid = [60; 3];
+                s.history = 0;
+            },
+            "per storage binding",
+        ),
+        // With a history the two surfel sets count against the 16M.
+        (
+            "probes-grid",
+            |s| s.grid = [60; 3],
+            "x 2 sets with a history",
+        ),
+        ("probes-grid", |s| s.history = 1025, "probes history"),
         (
             "probes-grid",
             |s| {

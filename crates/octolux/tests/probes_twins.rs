@@ -274,11 +274,14 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
             Visibility::Moments,
         ),
     ] {
+        // The fixed lattice (no history: one surfel set per probe); probes_history.rs has
+        // the turned lattices and the history.
         let probes = octolux::gi::probes::ProbeSettings {
             grid: [10; 3],
             encoding,
             lattice,
             visibility,
+            history: 0,
             ..Default::default()
         };
         let settings = RenderSettings {

@@ -163,10 +163,13 @@ pub fn flicker(
 }
 
 /// Flicker with nothing moving: the scene held at `t` (camera, lights and objects still, so
-/// the reference does not change), settled [`FLICKER_SETTLE`] frames, then measured over
+/// the reference does not change), settled [`FLICKER_SETTLE`] frames (or the technique's
+/// `settle_frames`, where more), then measured over
 /// [`FLICKER_FRAMES`]. Zero for a technique whose image is a function of the scene alone.
 pub fn still_flicker(renderer: &mut Renderer, scene: &Scene, t: f32) -> Result<f64> {
-    for _ in 0..FLICKER_SETTLE {
+    // Held still means settled: at least the technique's own count (a probe history fills).
+    let settle = FLICKER_SETTLE.max(renderer.technique().settle_frames());
+    for _ in 0..settle {
         renderer.render(scene, t)?;
     }
     let start = Snapshot::of(renderer)?;

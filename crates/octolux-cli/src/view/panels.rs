@@ -287,6 +287,13 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 let mut side = p.grid[0];
                 changed |= drag(ui, "probes per axis", &mut side, 2, 64);
                 p.grid = [side; 3];
+                changed |= drag(
+                    ui,
+                    "history (frames, 0: fixed rays)",
+                    &mut p.history,
+                    0,
+                    1024,
+                );
             } else {
                 changed |= drag(ui, "max depth", &mut p.max_depth, 2, 5);
                 changed |= drag(ui, "min depth (complete down to)", &mut p.min_depth, 0, 5);

@@ -24,7 +24,8 @@ pub fn temp_dir(name: &str) -> TempDir {
 }
 
 /// `octolux render` of `scene` (the built-in Cornell box for `None`) at 16 x 16 with 64^2
-/// shadow maps into `dir`, with extra arguments.
+/// shadow maps into `dir`, with extra arguments; no warm-up frames (the tests that judge a
+/// settled picture render on their own).
 pub fn render_small(dir: &Path, scene: Option<&Path>, extra: &[&str]) -> Output {
     let out = dir.join("out.png");
     let mut args = vec!["render"];
@@ -41,6 +42,9 @@ pub fn render_small(dir: &Path, scene: Option<&Path>, extra: &[&str]) -> Output 
         "--out",
         out.to_str().unwrap(),
     ]);
+    if !extra.contains(&"--warmup") {
+        args.extend(["--warmup", "0"]);
+    }
     args.extend(extra);
     octolux(&args)
 }

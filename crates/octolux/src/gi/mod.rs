@@ -73,6 +73,12 @@ pub trait GiTechnique {
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         None
     }
+    /// Frames a still view takes to reach the picture this technique converges to (0 by
+    /// default: every frame is computed afresh). `octolux render` runs this many frames
+    /// before the one it writes.
+    fn settle_frames(&self) -> u32 {
+        0
+    }
 }
 
 /// Settings of every technique, one field per technique family, each with documented defaults.

@@ -166,7 +166,7 @@ fn read_surfels(
     Ok(surfel_marks(
         &vec4s(&read_all(ctx, geometry)?),
         &vec4s(&read_all(ctx, radiance)?),
-        settings.surfel_count() as usize,
+        (settings.surfel_count() * settings.surfel_sets()) as usize,
         live,
     ))
 }

@@ -8,7 +8,7 @@
 //! `gi/probes/rays`; the technique says which modules those are ([`ProbeSetModules`]).
 
 use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
-use super::params::{storage, ProbeParams};
+use super::params::{rotation_rows, storage, ProbeParams};
 use super::rays::Rays;
 use super::ProbeSettings;
 use crate::frame::light_bindings;
@@ -142,6 +142,9 @@ pub(crate) struct ProbeEngine {
     surfels: wgpu::Buffer,
     radiance: wgpu::Buffer,
     probes: wgpu::Buffer,
+    /// With a history: per probe the coefficients of the set placed most recently as last
+    /// integrated (integrate.wgsl); else a placeholder.
+    raw: wgpu::Buffer,
     moments: wgpu::Buffer,
     pub place: wgpu::ComputePipeline,
     pub moments_build: wgpu::ComputePipeline,
@@ -176,7 +179,8 @@ impl ProbeEngine {
             .count();
         let animated = animated_objects > 0;
         let probes = layout.probes;
-        let surfels = probes as u64 * settings.surfel_count() as u64;
+        let sets = settings.surfel_sets();
+        let surfels = probes as u64 * settings.surfel_count() as u64 * sets as u64;
         if surfels > u32::MAX as u64 / SURFEL_VEC4 as u32 as u64 {
             return Err(Error::InvalidArgument(format!(
                 "{owner}: {surfels} surfels are too many"
@@ -203,6 +207,8 @@ impl ProbeEngine {
             ],
             vis: [variance_floor(layout.cell), 0.0, 0.0, 0.0],
             frame: [0; 4],
+            sets: [sets, 0, 0, settings.history],
+            rot: rotation_rows([glam::Mat3::IDENTITY; 2]),
         };
         let rays = Rays::new(
             ctx,
@@ -239,6 +245,12 @@ impl ProbeEngine {
             surfels: storage(ctx, owner, "surfels", surfels * SURFEL_VEC4 * 16)?,
             radiance: storage(ctx, owner, "surfel radiance", surfels * 16)?,
             probes: storage(ctx, owner, "probes", probes as u64 * PROBE_VEC4 * 16)?,
+            raw: storage(
+                ctx,
+                owner,
+                "probe samples",
+                if sets > 1 { probes as u64 * 8 * 16 } else { 16 },
+            )?,
             // Without visibility the gather never reads the maps: a placeholder binding.
             moments: storage(
                 ctx,
@@ -288,6 +300,12 @@ impl ProbeEngine {
     /// The surfel buffer and the surfels' outgoing radiance.
     pub fn surfel_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
         (&self.surfels, &self.radiance)
+    }
+
+    /// Per probe, the 8 coefficients of the latest surfel set as last integrated (16 bytes
+    /// without a history).
+    pub fn sample_buffer(&self) -> &wgpu::Buffer {
+        &self.raw
     }
 
     /// Brings the rays and lights up to date with `frame`: the animated objects in the ray
@@ -342,6 +360,24 @@ impl ProbeEngine {
         self.params.limits[2] = boxes.len() as u32;
         self.params.limits[3] = u32::from(selective);
         Ok(())
+    }
+
+    /// This frame's rays, for a probe set with a history (two surfel sets; call before
+    /// [`ProbeEngine::begin_frame`]): `sample` places set `set` anew along its lattice turned
+    /// by `rotations[set]` (a new sample for every probe) or, `None`, keeps both sets and
+    /// relights the latest; `moments_keep` is the weight of the depth maps' history in this
+    /// frame's blend (0: made afresh).
+    pub fn set_rays(
+        &mut self,
+        sample: Option<u32>,
+        latest: u32,
+        rotations: [glam::Mat3; 2],
+        moments_keep: f32,
+    ) {
+        self.params.sets[1] = sample.unwrap_or(latest);
+        self.params.sets[2] = u32::from(sample.is_some());
+        self.params.rot = rotation_rows(rotations);
+        self.params.vis[1] = moments_keep;
     }
 
     fn surfel_groups(&self) -> (u32, u32) {
@@ -425,6 +461,7 @@ impl ProbeEngine {
                 (1, buf(&self.surfels)),
                 (2, buf(&self.radiance)),
                 (3, buf(&self.probes)),
+                (4, buf(&self.raw)),
             ],
         );
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)

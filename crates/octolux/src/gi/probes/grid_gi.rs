@@ -6,13 +6,13 @@ use super::encoding::COEFFS;
 use super::engine::{
     facing_weight, moved_boxes, ProbeEngine, ProbeLayout, ProbeSetModules, PROBE_VEC4,
 };
-use super::lattice::direction;
+use super::lattice::{direction, frame_rotation};
 use super::moments::MomentMaps;
 use super::ProbeSettings;
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::{Error, Result};
-use glam::{UVec3, Vec3};
+use glam::{Mat3, UVec3, Vec3};
 
 const OWNER: &str = "probes-grid";
 
@@ -59,26 +59,114 @@ impl ProbeGrid {
     }
 }
 
-/// CPU twin of integrate.wgsl for one probe: its encoding's coefficients and (back-face
-/// share, hit share, valid, 0) from its surfels' states (0 miss, 1 front, 2 back) and outgoing
-/// radiance, in lattice order.
+/// One surfel set of a probe as integrate.wgsl reads it: the surfels' states (0 miss,
+/// 1 front, 2 back) and outgoing radiance in lattice order, and the rotation the set's
+/// lattice was turned by.
+#[derive(Clone, Copy)]
+pub struct SurfelSet<'a> {
+    pub states: &'a [f32],
+    pub radiance: &'a [Vec3],
+    pub rotation: Mat3,
+}
+
+/// A set's coefficients and its back-face and total hits.
+fn integrate_set(settings: &ProbeSettings, set: SurfelSet) -> ([Vec3; COEFFS], u32, u32) {
+    let n = settings.surfel_count();
+    let mut coeffs = [Vec3::ZERO; COEFFS];
+    let (mut hits, mut back) = (0, 0);
+    for k in 0..n {
+        let state = set.states[k as usize];
+        hits += (state > 0.5) as u32;
+        back += (state > 1.5) as u32;
+        let (d, dw) = direction(settings.lattice, k, n);
+        // As probe_ray_dir: each row of the rotation dotted with the lattice direction.
+        let r = set.rotation;
+        let dir = Vec3::new(r.row(0).dot(d), r.row(1).dot(d), r.row(2).dot(d));
+        settings
+            .encoding
+            .add(&mut coeffs, set.radiance[k as usize], dir, dw);
+    }
+    (coeffs, back, hits)
+}
+
+/// What a probe with a history holds between frames (integrate.wgsl with two surfel sets):
+/// its value (the mean over its samples, relit), its state (back-face share, hit share,
+/// valid, frames in the history) and the latest set's coefficients as last integrated.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProbeHistory {
+    pub coeffs: [Vec3; COEFFS],
+    pub state: [f32; 4],
+    pub raw: [Vec3; COEFFS],
+}
+
+/// Sum of the absolute values of every coefficient's channels (`level` in integrate.wgsl).
+fn level(c: &[Vec3; COEFFS]) -> f32 {
+    c.iter().map(|v| v.abs().element_sum()).sum()
+}
+
+/// CPU twin of integrate.wgsl with two surfel sets, for one probe: `before` is the set
+/// placed before (integrated again in this frame's light: the history is relit by what
+/// changed since `history.raw` and forgets in proportion), `new` the set placed this frame
+/// (`None`: no new sample; the history is only relit), with at most `settings.history`
+/// frames kept; a full history whose light did not change keeps its value.
+pub fn integrate_probe_history(
+    settings: &ProbeSettings,
+    history: &ProbeHistory,
+    before: SurfelSet,
+    new: Option<SurfelSet>,
+) -> ProbeHistory {
+    let n = settings.surfel_count() as f32;
+    let (relit, _, _) = integrate_set(settings, before);
+    let mut coeffs = history.coeffs;
+    let mut change = 0.0;
+    for k in 0..COEFFS {
+        let delta = relit[k] - history.raw[k];
+        coeffs[k] += delta;
+        change += delta.abs().element_sum();
+    }
+    let scale = level(&history.raw).max(level(&relit)).max(1e-30);
+    let mut frames = history.state[3] * (1.0 - change / scale).max(0.0);
+    let [mut back, mut hits, _, _] = history.state;
+    let mut latest = relit;
+    let settled = frames >= settings.history as f32 && change == 0.0;
+    if let (Some(new), true) = (new, settled) {
+        latest = integrate_set(settings, new).0;
+    } else if let Some(new) = new {
+        let (c, b, h) = integrate_set(settings, new);
+        let keep = frames / (frames + 1.0);
+        for k in 0..COEFFS {
+            coeffs[k] = c[k] + (coeffs[k] - c[k]) * keep;
+        }
+        back = b as f32 / n + (back - b as f32 / n) * keep;
+        hits = h as f32 / n + (hits - h as f32 / n) * keep;
+        frames = (frames + 1.0).min(settings.history as f32);
+        latest = c;
+    }
+    let valid = back * n <= settings.max_back_faces() as f32 + 0.5;
+    ProbeHistory {
+        coeffs,
+        state: [back, hits, if valid { 1.0 } else { 0.0 }, frames],
+        raw: latest,
+    }
+}
+
+/// CPU twin of integrate.wgsl for one probe without a history (one fixed lattice): its
+/// encoding's coefficients and (back-face share, hit share, valid, 0) from its surfels'
+/// states (0 miss, 1 front, 2 back) and outgoing radiance, in lattice order.
 pub fn integrate_probe(
     settings: &ProbeSettings,
     states: &[f32],
     radiance: &[Vec3],
 ) -> ([Vec3; COEFFS], [f32; 4]) {
     let n = settings.surfel_count();
-    let mut coeffs = [Vec3::ZERO; COEFFS];
-    let (mut hits, mut back) = (0, 0);
-    for k in 0..n {
-        let state = states[k as usize];
-        hits += (state > 0.5) as u32;
-        back += (state > 1.5) as u32;
-        let (dir, dw) = direction(settings.lattice, k, n);
-        settings
-            .encoding
-            .add(&mut coeffs, radiance[k as usize], dir, dw);
-    }
+    let (coeffs, back, hits) = integrate_set(
+        settings,
+        SurfelSet {
+            states,
+            radiance,
+            rotation: Mat3::IDENTITY,
+        },
+    );
     let valid = if back <= settings.max_back_faces() {
         1.0
     } else {
@@ -137,6 +225,34 @@ pub struct ProbesGrid {
     placed: bool,
     /// Object transforms of the previous frame (None before the first).
     last_transforms: Option<Vec<glam::Mat4>>,
+    /// The lights of the previous frame, as they light the surfels.
+    last_lights: Option<Vec<LightState>>,
+    /// With a history: frames since the lights or an object last changed.
+    quiet: u32,
+    /// Samples placed so far (the index of the next lattice rotation).
+    samples: u32,
+    /// The surfel set placed most recently, and each set's rotation.
+    latest: u32,
+    rotations: [Mat3; 2],
+    /// Whether the last frame placed a new sample.
+    sampled: bool,
+    /// Samples in the depth maps' history since an object last moved.
+    moment_samples: u32,
+}
+
+/// Samples the depth maps average over: they see only geometry, which a new sample changes
+/// far less than the light, so they stop after these until an object moves (each costs
+/// n x 64 kernel terms per probe, the dearest pass of a sample).
+const MOMENT_SAMPLES: u32 = 8;
+
+/// What of a light changes what the surfels receive.
+type LightState = (crate::scene::LightKind, Vec3, f32, Vec3, Vec3);
+
+fn light_states(lights: &[crate::scene::Light]) -> Vec<LightState> {
+    lights
+        .iter()
+        .map(|l| (l.kind, l.color, l.intensity, l.position, l.direction))
+        .collect()
 }
 
 impl ProbesGrid {
@@ -170,6 +286,13 @@ impl ProbesGrid {
             passes,
             placed: false,
             last_transforms: None,
+            last_lights: None,
+            quiet: 0,
+            samples: 0,
+            latest: 0,
+            rotations: [Mat3::IDENTITY; 2],
+            sampled: false,
+            moment_samples: 0,
         })
     }
 
@@ -204,9 +327,56 @@ impl ProbesGrid {
     }
 
     /// The surfel buffer (per surfel position + state, normal + albedo, emission + distance)
-    /// and the surfels' outgoing radiance.
+    /// and the surfels' outgoing radiance. With a history each probe holds two sets of
+    /// `surfel_count` surfels, set 0 first.
     pub fn surfel_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
         self.passes.surfel_buffers()
+    }
+
+    /// With a history: per probe, the latest set's 8 coefficients as last integrated.
+    pub fn sample_buffer(&self) -> &wgpu::Buffer {
+        self.passes.sample_buffer()
+    }
+
+    /// The rays of the last frame: the surfel set placed most recently, whether the last
+    /// frame placed it (a new sample), and each set's lattice rotation.
+    pub fn frame_rays(&self) -> (u32, bool, [Mat3; 2]) {
+        (self.latest, self.sampled, self.rotations)
+    }
+
+    /// With a history, what this frame does: a new sample while the lights or objects
+    /// changed in the last `history` frames, each along the lattice turned anew.
+    fn plan_rays(&mut self, changed: bool, moved: bool) {
+        let history = self.passes.settings.history;
+        if history == 0 {
+            return;
+        }
+        self.quiet = if changed {
+            0
+        } else {
+            self.quiet.saturating_add(1)
+        };
+        // After a change, every probe's history fills up again before the rays stop.
+        self.sampled = self.quiet <= history;
+        let mut keep = 0.0;
+        if self.sampled {
+            self.latest = if self.samples == 0 {
+                0
+            } else {
+                1 - self.latest
+            };
+            self.rotations[self.latest as usize] = frame_rotation(self.samples);
+            self.samples = self.samples.wrapping_add(1);
+            self.moment_samples = if moved { 1 } else { self.moment_samples + 1 };
+            let kept = (self.moment_samples - 1) as f32;
+            keep = kept / (kept + 1.0);
+        }
+        self.passes.set_rays(
+            self.sampled.then_some(self.latest),
+            self.latest,
+            self.rotations,
+            keep,
+        );
     }
 }
 
@@ -222,24 +392,34 @@ impl GiTechnique for ProbesGrid {
             None => Vec::new(),
         };
         self.last_transforms = Some(now.clone());
+        let lights = light_states(&frame.frame.lights);
+        let changed = !moved.is_empty() || self.last_lights.as_ref() != Some(&lights);
+        self.last_lights = Some(lights);
+        self.plan_rays(changed, !moved.is_empty());
         // Surfels are placed once, then again where an object moved: only the rays that cross
-        // its old or new bounds.
-        let place = !self.placed || !moved.is_empty();
+        // its old or new bounds. With a history, a new set along the turned lattice every
+        // frame until the light has been still for `history` frames.
+        let place = !self.placed || !moved.is_empty() || self.sampled;
         if place {
+            let selective = self.placed && !moved.is_empty();
             self.passes
-                .set_moved(ctx, self.placed.then_some(moved.as_slice()))?;
+                .set_moved(ctx, selective.then_some(moved.as_slice()))?;
         }
         self.passes.begin_frame(ctx, frame, timer)?;
         // 1. Surfels: rays from every probe along its lattice (see above), and the probes'
         //    depth moments from them.
         if place {
             self.passes.place(ctx, timer, None);
-            self.passes.build_moments(ctx, timer, None);
+            let history = self.passes.settings.history > 0;
+            if !history || self.moment_samples <= MOMENT_SAMPLES {
+                self.passes.build_moments(ctx, timer, None);
+            }
             self.placed = true;
         }
         // 2. Surfel light: direct light with shadow-map visibility (+ last frame's probes).
         self.passes.light(ctx, frame, timer, None)?;
-        // 3. Probes: each integrates its surfels into its encoding.
+        // 3. Probes: each integrates its surfels into its encoding (with a history: relights
+        //    it and blends the new sample in).
         self.passes.integrate(ctx, timer, None);
         // 4. Pixels: interpolation between the 8 probes around each.
         self.passes.gather(ctx, frame, timer, None);
@@ -260,5 +440,10 @@ impl GiTechnique for ProbesGrid {
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
+    }
+
+    fn settle_frames(&self) -> u32 {
+        // Every probe's history full; the next frame stops tracing.
+        self.passes.settings.history
     }
 }

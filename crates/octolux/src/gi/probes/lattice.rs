@@ -92,9 +92,64 @@ pub fn directions(lattice: Lattice, n: u32) -> Vec<(Vec3, f32)> {
     (0..n).map(|k| direction(lattice, k, n)).collect()
 }
 
+/// The radical inverse of `i` in `base` (the Halton sequence's coordinate).
+fn radical_inverse(mut i: u32, base: u32) -> f32 {
+    let (mut inv, mut f) = (0.0f64, 1.0f64 / base as f64);
+    while i > 0 {
+        inv += f * (i % base) as f64;
+        i /= base;
+        f /= base as f64;
+    }
+    inv as f32
+}
+
+/// The rotation that turns the lattice for sample `i` of a probe's history
+/// (`probes-grid`'s accumulation, docs/probes.md "Rays that turn every frame"): the identity
+/// for `i = 0`, so that a single frame sees the plain lattice, then rotations spread evenly
+/// over all of SO(3) (Shoemake's uniform quaternion of the Halton point `i` in bases 2, 3
+/// and 5), so that the mean over samples integrates over the whole sphere. Made on the CPU
+/// only: the GPU receives its rows.
+pub fn frame_rotation(i: u32) -> glam::Mat3 {
+    if i == 0 {
+        return glam::Mat3::IDENTITY;
+    }
+    let (u1, u2, u3) = (
+        radical_inverse(i, 2),
+        radical_inverse(i, 3),
+        radical_inverse(i, 5),
+    );
+    let tau = std::f32::consts::TAU;
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    let q = glam::Quat::from_xyzw(
+        a * (tau * u2).sin(),
+        a * (tau * u2).cos(),
+        b * (tau * u3).sin(),
+        b * (tau * u3).cos(),
+    );
+    glam::Mat3::from_quat(q.normalize())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frame_rotations_start_at_the_identity_and_cover_the_sphere() {
+        assert_eq!(frame_rotation(0), glam::Mat3::IDENTITY);
+        let mut mean = Vec3::ZERO;
+        for i in 1..1024 {
+            let r = frame_rotation(i);
+            assert!(
+                (r.transpose() * r).abs_diff_eq(glam::Mat3::IDENTITY, 1e-5),
+                "{i}: {r}"
+            );
+            assert!((r.determinant() - 1.0).abs() < 1e-5, "{i}");
+            mean += r * Vec3::Y;
+        }
+        // Uniform over SO(3): the turned pole averages to the centre of the sphere.
+        assert!((mean / 1023.0).length() < 0.02, "{mean}");
+        assert_ne!(frame_rotation(1), frame_rotation(2));
+    }
 
     #[test]
     fn weights_cover_the_sphere_and_directions_are_unit() {

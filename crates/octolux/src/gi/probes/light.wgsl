@@ -2,11 +2,12 @@
 // with E the direct irradiance from the renderer's lights and shadow maps (`frame/lights.wgsl`,
 // as the deferred pass lights pixels) plus, with multiple bounces, the probes' irradiance of
 // the previous frame at the surfel. Back faces and misses send no light (the sky seen directly
-// is the direct pass's).
+// is the direct pass's). With two surfel sets both are lit while samples come (the older one
+// relights the probes' history), the latest alone once the probes keep their value.
 
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 import octolux::frame::common::PI;
-import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
+import octolux::gi::probes::probes::{linear_index, P, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots};
 import octolux::gi::probes::set_sample::probes_irradiance;
 
@@ -18,13 +19,17 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         @builtin(local_invocation_index) li: u32) {
     // Invocation k: surfel k % n of the set's (k / n)-th probe.
     let k = linear_index(wg, nwg, li);
-    let per_probe = P.dims.w;
+    let per_probe = probe_surfels();
     if k >= probe_slots() * per_probe {
         return;
     }
     let probe = probe_slot(k / per_probe);
     let s = probe * per_probe + k % per_probe;
     if !probe_live(probe) {
+        return;
+    }
+    // Two sets and no new sample this frame: only the latest set is integrated.
+    if P.sets.x > 1u && P.sets.z == 0u && (k % per_probe) / P.dims.w != P.sets.y {
         return;
     }
     let b = s * SURFEL_VEC4;

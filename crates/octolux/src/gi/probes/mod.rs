@@ -36,7 +36,10 @@ pub mod rays;
 
 pub use encoding::Encoding;
 pub use engine::{PROBE_VEC4, SURFEL_VEC4};
-pub use grid_gi::{grid_irradiance, integrate_probe, ProbeGrid, ProbesGrid};
+pub use grid_gi::{
+    grid_irradiance, integrate_probe, integrate_probe_history, ProbeGrid, ProbeHistory, ProbesGrid,
+    SurfelSet,
+};
 pub use lattice::Lattice;
 pub use moments::Visibility;
 pub use octree_gi::{OctreeView, ProbesOctree};
@@ -126,6 +129,13 @@ pub struct ProbeSettings {
     /// Surfels also receive the probes' own indirect light of the previous frame, so light
     /// bounces once more every frame (default false: one bounce).
     pub multi_bounce: bool,
+    /// `probes-grid`: frames a probe's value is the mean of, each frame's rays along the
+    /// lattice turned anew (0..=1024; 0: one fixed lattice, recomputed every frame, no
+    /// history; default 32). Light that changes reaches the history at once and makes it
+    /// forget in proportion (docs/probes.md, "Rays that turn every frame"); held still for
+    /// this many frames, the probes stop tracing and keep their value. `probes-octree` keeps
+    /// one fixed lattice.
+    pub history: u32,
     /// Offset of the gather point along the surface normal, in probe spacings (default 0.2):
     /// keeps a wall's own probes from seeing the wall edge-on.
     pub normal_bias: f32,
@@ -183,6 +193,7 @@ impl Default for ProbeSettings {
             lattice: Lattice::Fibonacci,
             encoding: Encoding::ShL1,
             multi_bounce: false,
+            history: 32,
             normal_bias: 0.2,
             backface_limit: 0.25,
             max_depth: 4,
@@ -246,6 +257,7 @@ impl ProbeSettings {
             "probes surfels on the lat-long lattice",
             "a multiple of 8 (8 parallels: 64 = 8 x 8, 128 = 8 x 16)",
         )?;
+        self.check_history()?;
         check(
             self.normal_bias.is_finite() && (0.0..=1.0).contains(&self.normal_bias),
             "probes normal_bias",
@@ -291,13 +303,29 @@ impl ProbeSettings {
             "probes voxel_resolution",
             "a power of two in 16..=1024",
         )?;
-        let count =
-            self.grid.iter().map(|&n| n as u64).product::<u64>() * self.surfel_count() as u64;
+        let count = self.grid.iter().map(|&n| n as u64).product::<u64>()
+            * self.surfel_count() as u64
+            * self.surfel_sets() as u64;
         check(
             count <= 1 << 24,
-            "probes grid x surfels",
+            "probes grid x surfels (x 2 sets with a history)",
             "at most 16M surfels",
         )
+    }
+
+    /// Checks `history`'s range (the octree ignores the value but not a bad one).
+    pub(crate) fn check_history(&self) -> Result<()> {
+        check(self.history <= 1024, "probes history", "0..=1024 frames")
+    }
+
+    /// Surfel sets per probe: two when the probes keep a history (the set placed this frame
+    /// and the one before), else one.
+    pub fn surfel_sets(&self) -> u32 {
+        if self.history > 0 {
+            2
+        } else {
+            1
+        }
     }
 
     /// Most back-face hits of a probe that is still gathered: decided in integers on the CPU

@@ -4,11 +4,13 @@
 // the kernel-weighted mean distance and mean squared distance of the probe's surfels (misses
 // at the ray's maximum distance, P.lo.w), weighted by `moment_kernel`, max(0, t . d)^32, for
 // the texel's direction t and the surfel's lattice direction d. Each invocation writes its
-// own texel: no atomics.
+// own texel: no atomics. With two surfel sets (probes-grid's accumulation) the maps are made
+// from the set placed this frame, along its turned lattice, and blended into the maps of the
+// frames before with weight 1 - P.vis.y (P.vis.y is 0 on the first frame and after an object
+// moved).
 
-import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
+import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
-import octolux::gi::probes::lattice::lattice_dir;
 import octolux::gi::probes::set::{probe_slot, probe_slots, probe_wants_place};
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
@@ -28,20 +30,24 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if !probe_wants_place(probe) {
         return;
     }
-    if P.limits.w != 0u && probe_stamps[probe] != P.frame.x {
+    let accumulate = P.sets.x > 1u;
+    if !accumulate && P.limits.w != 0u && probe_stamps[probe] != P.frame.x {
         return;
     }
     let t = moment_texel_dir(id % MOMENT_TEXELS);
     let n = P.dims.w;
+    let ray_set = select(0u, P.sets.y, accumulate);
+    let first = probe * probe_surfels() + ray_set * n;
     var sum = vec2<f32>(0.0);
     var total = 0.0;
     for (var k = 0u; k < n; k++) {
-        let s = (probe * n + k) * SURFEL_VEC4;
+        let s = (first + k) * SURFEL_VEC4;
         let dist = select(P.lo.w, abs(surfels[s + 2u].w), surfels[s].w > 0.5);
-        let w = moment_kernel(t, lattice_dir(P.misc.x, k, n).xyz);
+        let w = moment_kernel(t, probe_ray_dir(ray_set, k, n).xyz);
         sum += w * vec2<f32>(dist, dist * dist);
         total += w;
     }
     let far = vec2<f32>(P.lo.w, P.lo.w * P.lo.w);
-    moments_out[id] = select(far, sum / total, total > 0.0);
+    let m = select(far, sum / total, total > 0.0);
+    moments_out[id] = select(m, mix(m, moments_out[id], P.vis.y), accumulate);
 }

@@ -492,7 +492,12 @@ impl ProbesOctree {
         width: u32,
         height: u32,
     ) -> Result<ProbesOctree> {
-        let settings = &settings.resolved(true);
+        settings.check_history()?;
+        // One fixed lattice: the octree keeps no history (its slots move between probes).
+        let settings = &ProbeSettings {
+            history: 0,
+            ..settings.resolved(true)
+        };
         settings.validate()?;
         let (lo, size) = root_cube(scene.gi_bounds_at(0.0))?;
         let rule = settings.octree_rule();

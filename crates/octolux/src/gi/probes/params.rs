@@ -16,6 +16,14 @@ pub(crate) struct ProbeParams {
     pub(crate) limits: [u32; 4],
     pub(crate) vis: [f32; 4],
     pub(crate) frame: [u32; 4],
+    pub(crate) sets: [u32; 4],
+    /// Rows of set 0's lattice rotation, then set 1's.
+    pub(crate) rot: [[f32; 4]; 6],
+}
+
+/// The six rows of `rot` for two sets' rotations.
+pub(crate) fn rotation_rows(sets: [glam::Mat3; 2]) -> [[f32; 4]; 6] {
+    std::array::from_fn(|i| sets[i / 3].row(i % 3).extend(0.0).to_array())
 }
 
 /// A storage buffer of `bytes` for the probes, with a clear error when it exceeds the adapter's

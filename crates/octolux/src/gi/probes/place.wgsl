@@ -8,10 +8,11 @@
 // hits. With P.limits.w set (surfels placed by an earlier frame, objects moved since), a
 // surfel whose ray, from the probe to its hit (or to the ray's end for a miss), crosses none
 // of the moved objects' old and new boxes keeps its hit: only the rays that may have changed
-// are traced again.
+// are traced again. With two surfel sets (P.sets.x, probes-grid's accumulation) the set
+// placed this frame is traced whole along its turned lattice, and the other set keeps its
+// surfels but where objects moved.
 
-import octolux::gi::probes::probes::{linear_index, P, SURFEL_VEC4};
-import octolux::gi::probes::lattice::lattice_dir;
+import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_slot, probe_slots, probe_wants_place};
 import octolux::gi::probes::rays::surfel_hit;
 
@@ -41,21 +42,29 @@ fn segment_meets_moved(a: vec3<f32>, b: vec3<f32>) -> bool {
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    // Invocation k: surfel k % n of the set's (k / n)-th probe.
+    // Invocation k: surfel k % per of the set's (k / per)-th probe; per probe, set j holds
+    // surfels j n .. j n + n - 1.
     let k = linear_index(wg, nwg, li);
     let n = P.dims.w;
-    if k >= probe_slots() * n {
+    let per = probe_surfels();
+    if k >= probe_slots() * per {
         return;
     }
-    let probe = probe_slot(k / n);
-    let s = probe * n + k % n;
+    let probe = probe_slot(k / per);
+    let ray_set = (k % per) / n;
+    let s = probe * per + k % per;
     if !probe_wants_place(probe) {
         return;
     }
-    let d = lattice_dir(P.misc.x, s % n, n).xyz;
+    let fresh = P.sets.z != 0u && ray_set == P.sets.y;
+    // Two sets, nothing moved: the older set keeps its surfels.
+    if !fresh && P.sets.x > 1u && P.limits.w == 0u {
+        return;
+    }
+    let d = probe_ray_dir(ray_set, k % n, n).xyz;
     let o = probe_origin(probe);
     let b = s * SURFEL_VEC4;
-    if P.limits.w != 0u {
+    if !fresh && P.limits.w != 0u {
         let old = surfels[b];
         let end = select(old.xyz, o + d * P.lo.w, old.w == 0.0);
         if !segment_meets_moved(o, end) {

@@ -3,12 +3,14 @@
 // octree_set.wgsl, composed in as `gi/probes/set`, with its irradiance lookup as
 // `gi/probes/set_sample`) gives the probes' positions.
 
+import octolux::gi::probes::lattice::lattice_dir;
+
 struct ProbeParams {
     // xyz: lower corner of the scene's box; w: max ray distance
     lo: vec4<f32>,
     // xyz: grid probe spacing per axis; w: gather offset along the normal (m)
     spacing: vec4<f32>,
-    // xyz: grid probes per axis; w: surfels per probe
+    // xyz: grid probes per axis; w: surfels per probe and set (rays of one lattice)
     dims: vec4<u32>,
     // x: lattice kind, y: encoding kind, z: light count, w: 1 = surfels get probe light
     misc: vec4<u32>,
@@ -22,6 +24,15 @@ struct ProbeParams {
     vis: vec4<f32>,
     // x: this frame's number (1, 2, ...), which placement stamps on the probes it re-traces
     frame: vec4<u32>,
+    // Surfel sets (probes-grid's accumulation over frames, docs/probes.md "Rays that turn
+    // every frame"): x: sets per probe (1: one fixed lattice, no history; 2: the lattice turned
+    // anew each frame into one set, the other set the previous frame's), y: the set placed
+    // most recently, z: 1 = set y was placed this frame (a new sample), w: most frames a
+    // probe's history holds
+    sets: vec4<u32>,
+    // Rows of the rotation that turns each set's lattice (w unused): set 0's, then set 1's.
+    // Made on the CPU (`lattice::frame_rotation`): the GPU only multiplies.
+    rot: array<vec4<f32>, 6>,
 };
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -42,6 +53,20 @@ const PROBE_VEC4: u32 = 9u;
 // vec4s per surfel: (position, state 0 miss / 1 front / 2 back), (normal towards the probe,
 // albedo bits), (emission, hit distance; negative: the hit lies beyond the probe's cube).
 const SURFEL_VEC4: u32 = 3u;
+
+// Surfels per probe over all its sets.
+fn probe_surfels() -> u32 {
+    return P.dims.w * P.sets.x;
+}
+
+// Direction k of n of surfel set `ray_set` and its solid angle: the lattice turned by the set's
+// rotation (the identity on the first frame, so that a single frame sees the plain lattice:
+// 1 x + 0 y + 0 z is exact on every adapter).
+fn probe_ray_dir(ray_set: u32, k: u32, n: u32) -> vec4<f32> {
+    let d = lattice_dir(P.misc.x, k, n);
+    let r = 3u * min(ray_set, 1u);
+    return vec4<f32>(dot(P.rot[r].xyz, d.xyz), dot(P.rot[r + 1u].xyz, d.xyz), dot(P.rot[r + 2u].xyz, d.xyz), d.w);
+}
 
 // One invocation per item over a 2D grid of 64-wide workgroups (more than 65535 groups).
 fn linear_index(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {

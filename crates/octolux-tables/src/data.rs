@@ -1,0 +1,353 @@
+//! The committed data behind the tables: `bench` JSON documents (one per scene) and the GPU
+//! runs kept as JSON.
+use anyhow::{bail, Context, Result};
+use serde_json::Value;
+use std::collections::BTreeSet;
+use std::path::Path;
+
+/// Where a set of figures comes from.
+#[derive(Debug, Default)]
+pub struct Provenance {
+    /// The data's path from the document.
+    pub data: String,
+    /// Every distinct commit, date (day) and adapter of the files read.
+    pub commits: BTreeSet<String>,
+    pub days: BTreeSet<String>,
+    pub adapters: BTreeSet<String>,
+    /// Command lines, one per file, in file order (shown as the first one).
+    pub command: Option<String>,
+}
+
+impl Provenance {
+    fn add(&mut self, doc: &Value) {
+        let p = &doc["provenance"];
+        let commit = p["commit"].as_str().unwrap_or("unknown");
+        self.commits.insert(short_commit(commit));
+        if let Some(date) = p["date"].as_str() {
+            self.days.insert(date.chars().take(10).collect());
+        }
+        if let Some(name) = doc["adapter"]["name"].as_str() {
+            self.adapters.insert(name.to_string());
+        }
+        if self.command.is_none() {
+            if let Some(args) = p["command_line"].as_array() {
+                let words: Vec<&str> = args.iter().filter_map(Value::as_str).collect();
+                self.command = Some(words.join(" "));
+            }
+        }
+    }
+
+    /// One sentence: the data, the commit(s), the date(s), the adapter(s).
+    pub fn sentence(&self) -> String {
+        let join = |set: &BTreeSet<String>| {
+            set.iter()
+                .map(|s| format!("`{s}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let plain = |set: &BTreeSet<String>| set.iter().cloned().collect::<Vec<_>>().join(", ");
+        format!(
+            "*Data: [`{data}`]({link}); measured with the build of commit {commits} on {days}, {adapters}.*",
+            data = self.data.trim_start_matches("../"),
+            link = self.data,
+            commits = join(&self.commits),
+            days = plain(&self.days),
+            adapters = plain(&self.adapters),
+        )
+    }
+}
+
+/// A commit hash cut to 10 digits, `+dirty` kept.
+fn short_commit(commit: &str) -> String {
+    let (hash, dirty) = match commit.strip_suffix("+dirty") {
+        Some(hash) => (hash, "+dirty"),
+        None => (commit, ""),
+    };
+    format!("{}{dirty}", &hash[..hash.len().min(10)])
+}
+
+fn read_json(path: &Path) -> Result<Value> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))
+}
+
+/// The `bench` JSON files of a folder, in name order.
+fn bench_files(dir: &Path) -> Result<Vec<(String, Value)>> {
+    let mut paths: Vec<_> = std::fs::read_dir(dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        bail!("no .json files in {}", dir.display());
+    }
+    paths
+        .into_iter()
+        .map(|p| {
+            let name = p.file_stem().unwrap().to_string_lossy().to_string();
+            Ok((name, read_json(&p)?))
+        })
+        .collect()
+}
+
+/// FLIP and relMSE of one technique on one scene.
+#[derive(Clone, Copy, Debug)]
+pub struct Error {
+    pub flip: f64,
+    pub rel_mse: f64,
+}
+
+/// The error of every technique on every scene of one protocol.
+#[derive(Debug)]
+pub struct ErrorRun {
+    pub provenance: Provenance,
+    /// Scene names, in file order.
+    pub scenes: Vec<String>,
+    /// Per technique (in the first file's order), its error per scene.
+    pub techniques: Vec<(String, Vec<Error>)>,
+    pub width: u64,
+    pub height: u64,
+    pub warmup: u64,
+    /// Reference samples per pixel and transport.
+    pub spp: u64,
+    pub against: String,
+}
+
+impl ErrorRun {
+    pub fn load(dir: &Path, shown: &str) -> Result<ErrorRun> {
+        let files = bench_files(dir)?;
+        let mut provenance = Provenance {
+            data: shown.to_string(),
+            ..Default::default()
+        };
+        let mut scenes = Vec::new();
+        let mut techniques: Vec<(String, Vec<Error>)> = Vec::new();
+        let first = &files[0].1;
+        for (i, (name, doc)) in files.iter().enumerate() {
+            provenance.add(doc);
+            let scene = &doc["scenes"][0];
+            let list = scene["techniques"]
+                .as_array()
+                .with_context(|| format!("{name}.json: no techniques"))?;
+            if i == 0 {
+                techniques = list
+                    .iter()
+                    .map(|t| (t["technique"].as_str().unwrap_or("?").to_string(), vec![]))
+                    .collect();
+            }
+            for (technique, errors) in &mut techniques {
+                let t = list
+                    .iter()
+                    .find(|t| t["technique"] == technique.as_str())
+                    .with_context(|| format!("{name}.json: no technique '{technique}'"))?;
+                let m = &t["metrics"];
+                errors.push(Error {
+                    flip: number(m, "flip", name)?,
+                    rel_mse: number(m, "rel_mse", name)?,
+                });
+            }
+            scenes.push(name.clone());
+        }
+        let reference = &first["scenes"][0]["references"][0];
+        Ok(ErrorRun {
+            provenance,
+            scenes,
+            techniques,
+            width: first["width"].as_u64().unwrap_or(0),
+            height: first["height"].as_u64().unwrap_or(0),
+            warmup: first["warmup"].as_u64().unwrap_or(0),
+            spp: reference["spp"].as_u64().unwrap_or(0),
+            against: reference["bounces"].as_str().unwrap_or("?").to_string(),
+        })
+    }
+
+    /// GI off's errors (the technique `none`).
+    pub fn off(&self) -> Result<&[Error]> {
+        self.of("none")
+            .context("the data has no `none` (GI off) to compare with")
+    }
+
+    pub fn of(&self, technique: &str) -> Option<&[Error]> {
+        self.techniques
+            .iter()
+            .find(|(t, _)| t == technique)
+            .map(|(_, e)| e.as_slice())
+    }
+}
+
+fn number(v: &Value, key: &str, file: &str) -> Result<f64> {
+    v[key]
+        .as_f64()
+        .with_context(|| format!("{file}.json: no number '{key}' in {v}"))
+}
+
+/// One technique's temporal figures (`scripts/temporal.sh`).
+#[derive(Debug)]
+pub struct Temporal {
+    pub technique: String,
+    pub still_flicker: f64,
+    pub far_light: f64,
+    pub camera_flight: f64,
+    /// Lag events: (name, frames, first relMSE after the change, settled relMSE).
+    pub lags: Vec<(String, u64, f64, f64)>,
+}
+
+/// Flicker and lag of every technique.
+#[derive(Debug)]
+pub struct TemporalRun {
+    pub provenance: Provenance,
+    pub rows: Vec<Temporal>,
+}
+
+impl TemporalRun {
+    pub fn load(dir: &Path, shown: &str) -> Result<TemporalRun> {
+        let mut provenance = Provenance {
+            data: shown.to_string(),
+            ..Default::default()
+        };
+        let mut load = |name: &str| -> Result<Vec<Value>> {
+            let doc = read_json(&dir.join(format!("{name}.json")))?;
+            provenance.add(&doc);
+            Ok(doc["scenes"][0]["techniques"]
+                .as_array()
+                .with_context(|| format!("{name}.json: no techniques"))?
+                .clone())
+        };
+        let still = load("cornell-box")?;
+        let animated = load("cornell-animated")?;
+        let crossing = load("cornell-crossing")?;
+        let far = load("two-rooms-far-light")?;
+        let flight = load("sponza-flythrough")?;
+        let find = |list: &[Value], name: &str| -> Result<Value> {
+            list.iter()
+                .find(|t| t["technique"] == name)
+                .cloned()
+                .with_context(|| format!("no technique '{name}' in every temporal file"))
+        };
+        let mut rows = Vec::new();
+        for t in &still {
+            let name = t["technique"].as_str().unwrap_or("?");
+            let mut lags = Vec::new();
+            for (label, source) in [
+                ("spot on", t.clone()),
+                ("spot off", t.clone()),
+                ("spot jumps", find(&animated, name)?),
+                ("sphere jumps", find(&crossing, name)?),
+            ] {
+                let index = if label == "spot off" { 1 } else { 0 };
+                let lag = &source["lag"][index];
+                lags.push((
+                    label.to_string(),
+                    lag["frames"].as_u64().context("a lag without frames")?,
+                    lag["rel_mse"][0].as_f64().unwrap_or(f64::NAN),
+                    lag["settled_rel_mse"].as_f64().unwrap_or(f64::NAN),
+                ));
+            }
+            rows.push(Temporal {
+                technique: name.to_string(),
+                still_flicker: number(t, "flicker", "cornell-box")?,
+                far_light: number(&find(&far, name)?, "motion_flicker", "two-rooms-far-light")?,
+                camera_flight: number(
+                    &find(&flight, name)?,
+                    "motion_flicker",
+                    "sponza-flythrough",
+                )?,
+                lags,
+            });
+        }
+        Ok(TemporalRun { provenance, rows })
+    }
+
+    pub fn of(&self, technique: &str) -> Option<&Temporal> {
+        self.rows.iter().find(|r| r.technique == technique)
+    }
+}
+
+/// GI times of a GPU run, per technique and scene (`results/<gpu>/*.json`).
+#[derive(Debug)]
+pub struct GpuRun {
+    pub provenance: Provenance,
+    /// How the figures were kept (raw bench output, or transcribed).
+    pub note: String,
+    pub command: String,
+    pub scenes: Vec<String>,
+    /// Per technique: GI ms per scene, the dominant passes, the commit of the build.
+    pub rows: Vec<(String, Vec<f64>, String, String)>,
+    /// Per technique, the figures of an earlier run (`earlier` names it), where kept.
+    pub earlier: Option<(String, Vec<String>)>,
+}
+
+impl GpuRun {
+    pub fn load(path: &Path, shown: &str) -> Result<GpuRun> {
+        let doc = read_json(path)?;
+        let scenes: Vec<String> = doc["scenes"]
+            .as_array()
+            .context("no 'scenes'")?
+            .iter()
+            .filter_map(|s| s.as_str().map(str::to_string))
+            .collect();
+        let mut provenance = Provenance {
+            data: shown.to_string(),
+            ..Default::default()
+        };
+        provenance
+            .adapters
+            .insert(doc["adapter"].as_str().context("no 'adapter'")?.to_string());
+        if let Some(day) = doc["date"].as_str() {
+            provenance.days.insert(day.to_string());
+        }
+        let mut rows = Vec::new();
+        for row in doc["gi_ms"].as_array().context("no 'gi_ms'")? {
+            let technique = row["technique"]
+                .as_str()
+                .context("a row without technique")?;
+            let ms: Vec<f64> = row["ms"]
+                .as_array()
+                .with_context(|| format!("{technique}: no 'ms'"))?
+                .iter()
+                .filter_map(Value::as_f64)
+                .collect();
+            if ms.len() != scenes.len() {
+                bail!(
+                    "{technique}: {} times for {} scenes",
+                    ms.len(),
+                    scenes.len()
+                );
+            }
+            let commit = short_commit(row["commit"].as_str().unwrap_or("unknown"));
+            provenance.commits.insert(commit.clone());
+            rows.push((
+                technique.to_string(),
+                ms,
+                row["dominant"].as_str().unwrap_or("").to_string(),
+                commit,
+            ));
+        }
+        let earlier = doc["earlier"].as_str().map(|what| {
+            let cells = doc["gi_ms"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|r| r["earlier"].as_str().unwrap_or("-").to_string())
+                .collect();
+            (what.to_string(), cells)
+        });
+        Ok(GpuRun {
+            earlier,
+            provenance,
+            note: doc["note"].as_str().unwrap_or("").to_string(),
+            command: doc["command_line"].as_str().unwrap_or("").to_string(),
+            scenes,
+            rows,
+        })
+    }
+
+    pub fn of(&self, technique: &str) -> Option<&[f64]> {
+        self.rows
+            .iter()
+            .find(|r| r.0 == technique)
+            .map(|r| r.1.as_slice())
+    }
+}

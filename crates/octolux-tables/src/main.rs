@@ -1,0 +1,88 @@
+//! `tables`: rewrites every generated table in README.md and docs/*.md from results/, or with
+//! `--check` reports the tables that differ from what the data gives and exits non-zero.
+//!
+//! ```sh
+//! cargo run -p octolux-tables            # rewrite
+//! cargo run -p octolux-tables -- --check # compare only
+//! ```
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let argv: Vec<String> = std::env::args().collect();
+    if argv.get(1).map(String::as_str) == Some("sheet") {
+        return sheet(&argv[2..]);
+    }
+    let mut check = false;
+    let mut root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut args = std::env::args().skip(1);
+    while let Some(arg) = args.next() {
+        match arg.as_str() {
+            "--check" => check = true,
+            "--root" => match args.next() {
+                Some(dir) => root = PathBuf::from(dir),
+                None => return usage("--root needs a folder"),
+            },
+            "-h" | "--help" => {
+                println!(
+                    "tables [--check] [--root DIR]\n\
+                     tables sheet IMAGES_DIR OUT.png [COLUMNS]\n\n\
+                     Regenerates the tables between `<!-- table: ... -->` and `<!-- end table -->` in\n\
+                     DIR/README.md and DIR/docs/*.md from the data in DIR/results/ (DIR: the\n\
+                     repository). --check: change nothing, list the tables that differ, exit 1 if any."
+                );
+                return ExitCode::SUCCESS;
+            }
+            other => return usage(&format!("unknown argument '{other}'")),
+        }
+    }
+    match octolux_tables::run(&root, check) {
+        Ok(report) => {
+            for line in &report.lines {
+                println!("{line}");
+            }
+            if check && !report.stale.is_empty() {
+                eprintln!(
+                    "error: {} table(s) differ from results/: run `cargo run -p octolux-tables`",
+                    report.stale.len()
+                );
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// `tables sheet DIR OUT.png [COLUMNS]`: one scene's images side by side.
+fn sheet(args: &[String]) -> ExitCode {
+    let (Some(dir), Some(out)) = (args.first(), args.get(1)) else {
+        return usage("sheet needs IMAGES_DIR and OUT.png");
+    };
+    let columns = match args.get(2).map(|c| c.parse::<u32>()) {
+        None => 5,
+        Some(Ok(c)) if c > 0 => c,
+        Some(_) => return usage("COLUMNS: a whole number above 0"),
+    };
+    match octolux_tables::sheet(dir.as_ref(), out.as_ref(), columns) {
+        Ok(names) => {
+            println!("{out}: {}", names.join(", "));
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn usage(problem: &str) -> ExitCode {
+    eprintln!(
+        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png [COLUMNS]"
+    );
+    ExitCode::FAILURE
+}

@@ -1,0 +1,308 @@
+//! The Markdown of each kind of table.
+use crate::data::{Error, ErrorRun, GpuRun, TemporalRun};
+use anyhow::{Context, Result};
+use std::fmt::Write;
+
+/// Whether a technique beats GI off on a scene: lower FLIP and lower relMSE.
+fn beats(e: Error, off: Error) -> bool {
+    e.flip < off.flip && e.rel_mse < off.rel_mse
+}
+
+/// Whether GI off is not exact on a scene (its reference is not black there).
+fn beatable(off: Error) -> bool {
+    off.flip > 0.0 || off.rel_mse > 0.0
+}
+
+/// Geometric means over the beatable scenes of a technique's error as a fraction of GI off's:
+/// (FLIP, relMSE, wins, beatable scenes).
+pub fn fractions(errors: &[Error], off: &[Error]) -> (f64, f64, usize, usize) {
+    let (mut log_flip, mut log_rel, mut wins, mut n) = (0.0, 0.0, 0, 0);
+    for (&e, &o) in errors.iter().zip(off) {
+        if !beatable(o) {
+            continue;
+        }
+        // A technique exact where GI off is not would be a ratio of 0: floored so that one
+        // such scene does not make the mean 0.
+        log_flip += (e.flip / o.flip).max(1e-6).ln();
+        log_rel += (e.rel_mse / o.rel_mse).max(1e-6).ln();
+        wins += usize::from(beats(e, o));
+        n += 1;
+    }
+    let n_f = n.max(1) as f64;
+    ((log_flip / n_f).exp(), (log_rel / n_f).exp(), wins, n)
+}
+
+/// Every technique's FLIP / relMSE per scene, `*` where it beats GI off, then the geometric
+/// means.
+pub fn error(run: &ErrorRun) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", run.provenance.sentence());
+    let _ = writeln!(
+        s,
+        "*{}x{}, {} warm-up frames and 1 measured, against the `{}` reference at {} spp. FLIP / relMSE; `*`: beats GI off (`none`) on both.*",
+        run.width, run.height, run.warmup, run.against, run.spp
+    );
+    s.push('\n');
+    let _ = writeln!(
+        s,
+        "| technique | {} | beats GI off |",
+        run.scenes.join(" | ")
+    );
+    let _ = writeln!(s, "| --- |{}", " --- |".repeat(run.scenes.len() + 1));
+    let Ok(off) = run.off() else {
+        return s;
+    };
+    for (technique, errors) in &run.techniques {
+        let _ = write!(s, "| {technique} |");
+        for (&e, &o) in errors.iter().zip(off) {
+            let star = if technique != "none" && beats(e, o) {
+                " *"
+            } else {
+                ""
+            };
+            let _ = write!(s, " {:.3} / {:.4}{star} |", e.flip, e.rel_mse);
+        }
+        let (_, _, wins, n) = fractions(errors, off);
+        if technique == "none" {
+            s.push_str(" - |\n");
+        } else {
+            let _ = writeln!(s, " {wins} / {n} |");
+        }
+    }
+    let n_scenes = off.iter().filter(|&&o| beatable(o)).count();
+    let _ = write!(
+        s,
+        "\nGeometric means over the {n_scenes} scenes whose reference is not black, as a fraction of GI off's error, FLIP / relMSE:"
+    );
+    let mut means: Vec<(String, f64, f64)> = run
+        .techniques
+        .iter()
+        .filter(|(t, _)| t != "none")
+        .map(|(t, e)| {
+            let (f, r, _, _) = fractions(e, off);
+            (t.clone(), f, r)
+        })
+        .collect();
+    means.sort_by(|a, b| a.2.total_cmp(&b.2).then(a.1.total_cmp(&b.1)));
+    let list: Vec<String> = means
+        .iter()
+        .map(|(t, f, r)| format!(" `{t}` {f:.2} / {r:.2}"))
+        .collect();
+    let _ = writeln!(s, "{}.", list.join(","));
+    s
+}
+
+/// `x` with three significant digits, as C's `%.3g`.
+pub fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let exp = x.abs().log10().floor() as i32;
+    if !(-4..3).contains(&exp) {
+        let t = format!("{x:.2e}");
+        // 1.20e-5 -> 1.2e-5, as %g drops trailing zeros.
+        let (m, e) = t.split_once('e').unwrap();
+        let m = m.trim_end_matches('0').trim_end_matches('.');
+        return format!("{m}e{e}");
+    }
+    let decimals = (2 - exp).max(0) as usize;
+    let t = format!("{x:.decimals$}");
+    if t.contains('.') {
+        t.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        t
+    }
+}
+
+/// Flicker held still, under a far moving light and a flying camera, and the lag after each
+/// change, per technique.
+pub fn temporal(run: &TemporalRun) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", run.provenance.sentence());
+    s.push('\n');
+    let _ = writeln!(s, "| technique | still flicker | far light | camera flight | lag: spot on | spot off | spot jumps | sphere jumps |");
+    let _ = writeln!(s, "| --- | ---: | ---: | ---: | --- | --- | --- | --- |");
+    for r in &run.rows {
+        let _ = write!(
+            s,
+            "| {} | {} | {} | {} |",
+            r.technique,
+            sci2(r.still_flicker),
+            sci2(r.far_light),
+            sci2(r.camera_flight)
+        );
+        for (_, frames, first, settled) in &r.lags {
+            let _ = write!(s, " {frames} ({} -> {}) |", sig3(*first), sig3(*settled));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `x` with two decimals in scientific notation, `0` for zero.
+fn sci2(x: f64) -> String {
+    if x == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{x:.2e}")
+    }
+}
+
+/// `x` with one decimal in scientific notation, `0` for zero.
+fn sci1(x: f64) -> String {
+    if x == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{x:.1e}")
+    }
+}
+
+/// `lo-hi` of `values` with `decimals`, or one value when they round alike.
+fn range(values: impl Iterator<Item = f64>, decimals: usize) -> String {
+    let v: Vec<f64> = values.collect();
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (a, b) = (format!("{lo:.decimals$}"), format!("{hi:.decimals$}"));
+    if a == b {
+        a
+    } else {
+        format!("{a}-{b}")
+    }
+}
+
+/// GI time per technique and scene on a GPU.
+pub fn gpu_gi(run: &GpuRun) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", run.provenance.sentence());
+    if !run.note.is_empty() {
+        let _ = writeln!(s, "*{}*", run.note);
+    }
+    if !run.command.is_empty() {
+        let _ = writeln!(s, "*Command: `{}`.*", run.command);
+    }
+    s.push('\n');
+    let earlier = run
+        .earlier
+        .as_ref()
+        .map_or(String::new(), |(what, _)| format!(" {what} |"));
+    let _ = writeln!(
+        s,
+        "| technique | {} | dominant passes | build |{earlier}",
+        run.scenes.join(" | ")
+    );
+    let _ = writeln!(
+        s,
+        "| --- |{} --- | --- |{}",
+        " ---: |".repeat(run.scenes.len()),
+        if earlier.is_empty() { "" } else { " --- |" }
+    );
+    for (i, (technique, ms, dominant, commit)) in run.rows.iter().enumerate() {
+        let cells: Vec<String> = ms.iter().map(|m| format!("{m:.2}")).collect();
+        let old = run
+            .earlier
+            .as_ref()
+            .map_or(String::new(), |(_, cells)| format!(" {} |", cells[i]));
+        let _ = writeln!(
+            s,
+            "| {technique} | {} | {dominant} | `{commit}` |{old}",
+            cells.join(" | ")
+        );
+    }
+    s
+}
+
+/// The table the default technique is chosen from: error against GI off's, wins, GPU time,
+/// lag and flicker per technique; the default first, the others by relMSE.
+pub fn gi_choice(
+    error: &ErrorRun,
+    temporal: &TemporalRun,
+    gpu: &GpuRun,
+    default: &str,
+) -> Result<String> {
+    let off = error.off()?;
+    let mut rows = Vec::new();
+    for (technique, errors) in error.techniques.iter().filter(|(t, _)| t != "none") {
+        let (flip, rel, wins, n) = fractions(errors, off);
+        let t = temporal
+            .of(technique)
+            .with_context(|| format!("no temporal data for '{technique}'"))?;
+        let ms = gpu
+            .of(technique)
+            .map_or("-".to_string(), |ms| range(ms.iter().copied(), 2));
+        let lag = range(t.lags.iter().map(|l| l.1 as f64), 0);
+        let beats = if wins == n {
+            "every scene it can".to_string()
+        } else {
+            format!("{wins} of {n}")
+        };
+        let name = if technique == default {
+            format!("`{technique}` (default)")
+        } else {
+            format!("`{technique}`")
+        };
+        rows.push((
+            technique == default,
+            rel,
+            format!(
+                "| {name} | {flip:.2} / {rel:.2} | {beats} | {ms} | {lag} | {} / {} / {} |",
+                sci1(t.still_flicker),
+                sci1(t.far_light),
+                sci1(t.camera_flight)
+            ),
+        ));
+    }
+    rows.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", error.provenance.sentence());
+    let _ = writeln!(s, "{}", temporal.provenance.sentence());
+    let _ = writeln!(s, "{}", gpu.provenance.sentence());
+    s.push('\n');
+    let adapter = gpu
+        .provenance
+        .adapters
+        .iter()
+        .next()
+        .map_or("GPU", |a| a.as_str());
+    let short = adapter.split(" (").next().unwrap_or(adapter);
+    let _ = writeln!(s, "| technique | error, fraction of GI off's (FLIP / relMSE) | beats GI off | GI ms, {short}, 1920x1080 | lag (frames) | flicker: still / far light / camera flight |");
+    let _ = writeln!(s, "| --- | --- | --- | --- | --- | --- |");
+    for (_, _, row) in rows {
+        let _ = writeln!(s, "{row}");
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn three_significant_digits_as_c_does() {
+        assert_eq!(sig3(0.0762), "0.0762");
+        assert_eq!(sig3(0.08), "0.08");
+        assert_eq!(sig3(1.33), "1.33");
+        assert_eq!(sig3(0.0), "0");
+        assert_eq!(sig3(1.25e-7), "1.25e-7");
+        assert_eq!(sig3(3.91e-17), "3.91e-17");
+        assert_eq!(sig3(0.92), "0.92");
+        assert_eq!(sig3(1.2e-5), "1.2e-5");
+    }
+
+    #[test]
+    fn geometric_means_skip_scenes_gi_off_gets_exact() {
+        let e = |flip, rel_mse| Error { flip, rel_mse };
+        let off = [e(0.4, 0.2), e(0.0, 0.0), e(0.1, 0.05)];
+        let t = [e(0.1, 0.1), e(0.3, 0.1), e(0.1, 0.025)];
+        let (flip, rel, wins, n) = fractions(&t, &off);
+        assert_eq!((wins, n), (1, 2));
+        assert!((flip - 0.5).abs() < 1e-12, "{flip}");
+        assert!((rel - 0.5).abs() < 1e-12, "{rel}");
+    }
+
+    #[test]
+    fn ranges_collapse_when_equal() {
+        assert_eq!(range([2.0, 14.0, 6.0].into_iter(), 0), "2-14");
+        assert_eq!(range([0.0, 0.0].into_iter(), 0), "0");
+        assert_eq!(range([0.201, 0.249].into_iter(), 2), "0.20-0.25");
+    }
+}

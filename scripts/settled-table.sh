@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# The error table as people see the pictures: every technique at 640 x 360 after it has
+# settled (40 frames held still before the measured one: `probes-grid`'s 32-frame history, the
+# cone tracers' bounces), against the unlimited-bounce reference at 1024 spp, whose own noise
+# is measured seed to seed and printed beside it. Writes OUT_DIR/<scene>.json (bench JSON),
+# <scene>.txt, <scene>-noise.txt (the reference against a second one of another seed) and a
+# sheet of the images, OUT_DIR/<scene>.png (GI off, the techniques, the reference;
+# `cargo run -p octolux-tables -- sheet`). The images themselves stay in OUT_DIR/<scene>/
+# and are not committed (ignored: only the sheet is).
+#
+#   scripts/settled-table.sh [BINARY] [OUT_DIR]   (OUT_DIR default: results/lavapipe/settled-SIZE)
+#
+# Environment: GI (technique list, default: all), SIZE (default 640x360), SPP (reference
+# samples, default 1024), SCENES (default: scenes/cornell-box.toml), WARMUP (default 40),
+# OCTOLUX_SCENES (where the external models lie, default ../shared/scenes).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bin=${1:-target/release/octolux}
+[ -x "$bin" ] || { echo "settled-table: '$bin' is not an executable" >&2; exit 1; }
+gi=${GI:-none,lpv,clpv,olpv,vct-svo,vct-clipmap,vpl,probes-grid,probes-octree}
+size=${SIZE:-640x360}
+spp=${SPP:-1024}
+warmup=${WARMUP:-40}
+scenes=${SCENES:-scenes/cornell-box.toml}
+out=${2:-results/lavapipe/settled-$size}
+export OCTOLUX_SCENES=${OCTOLUX_SCENES:-../shared/scenes}
+mkdir -p "$out"
+
+for scene in $scenes; do
+  name=$(basename "${scene%.*}")
+  echo "settled-table: $name" >&2
+  "$bin" bench "$scene" --gi "$gi" --width "${size%x*}" --height "${size#*x}" --warmup "$warmup" \
+    --frames 1 --spp "$spp" --seed 7 --against unlimited --no-work-counts --no-flicker \
+    --json "$out/$name.json" --out-dir "$out/$name" > "$out/$name.txt"
+  # The reference's own noise: a second render with another seed, compared with the first.
+  "$bin" render "$scene" --gi reference --bounces unlimited --spp "$spp" --seed 8 \
+    --width "${size%x*}" --height "${size#*x}" --out "$out/$name/reference-seed8.png" \
+    --exr "$out/$name/reference-seed8.exr" > /dev/null
+  "$bin" diff "$out/$name/reference-seed8.exr" "$out/$name/reference-unlimited.exr" \
+    > "$out/$name-noise.txt"
+  rm "$out/$name/reference-seed8.png"
+  cargo run -q -p octolux-tables -- sheet "$out/$name" "$out/$name.png" 5
+done
+echo "settled-table: wrote $out; remake the docs' tables with: cargo run -p octolux-tables" >&2
