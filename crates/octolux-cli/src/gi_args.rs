@@ -180,7 +180,7 @@ pub struct GiArgs {
     #[arg(long, value_parser = parse_encoding)]
     pub probes_encoding: Option<Encoding>,
     /// Probes: surfels also receive the probes' light, one more bounce per frame (default
-    /// false).
+    /// true for probes-grid, false for probes-octree).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
     /// Probe grid: frames each probe's value is the mean of, its rays turned anew every frame,
@@ -311,7 +311,9 @@ impl GiArgs {
         set(&mut probes.surfels, self.probes_surfels.map(Some));
         set(&mut probes.lattice, self.probes_lattice);
         set(&mut probes.encoding, self.probes_encoding);
-        set(&mut probes.multi_bounce, self.probes_multi_bounce);
+        if let Some(on) = self.probes_multi_bounce {
+            probes.multi_bounce = Some(on);
+        }
         set(&mut probes.history, self.probes_history);
         set(&mut probes.max_depth, self.probes_max_depth);
         set(&mut probes.min_depth, self.probes_min_depth);

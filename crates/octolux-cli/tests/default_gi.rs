@@ -1,7 +1,7 @@
 //! `octolux render` without `--gi` renders with global illumination: the default technique is
 //! not `none`, and the Cornell box's ceiling, which its downward spot light does not reach,
-//! receives about the indirect light the one-bounce reference (what the default computes) gives
-//! it.
+//! receives about the indirect light the unlimited-bounce reference (what the default
+//! computes) gives it.
 
 use glam::Vec3;
 use octolux::gpu::{GpuContext, GpuOptions};
@@ -95,15 +95,22 @@ fn default_render_lights_the_ceiling_indirectly() {
     let (reference, _) = render(
         dir,
         "reference",
-        &["--gi", "reference", "--bounces", "1", "--spp", "256"],
+        &[
+            "--gi",
+            "reference",
+            "--bounces",
+            "unlimited",
+            "--spp",
+            "256",
+        ],
     );
     let expected = mean_over(&reference, &mask);
     println!("ceiling radiance: {technique} {with_gi}, reference {expected}, none {without}");
     // The spot points down and its cone does not reach the ceiling: without GI the ceiling is
-    // black (exactly 0). With the default technique (`probes-grid`, one bounce) it receives
-    // the floor's bounce: measured at this size 0.225 against the one-bounce reference's 0.248
-    // (256 spp, about 1% noise), 0.91 of it (`lpv`, the former default, 0.57 of it). The
-    // bound allows the probes' interpolation a quarter either way.
+    // black (exactly 0). With the default technique (`probes-grid`, settled over its history
+    // with every bounce) it receives the room's light as the unlimited reference does (one
+    // bounce alone gave 0.225 against 0.248 of the one-bounce reference). The bound allows
+    // the probes' interpolation a quarter either way.
     assert_eq!(without, 0.0, "the ceiling has direct light: {without}");
     assert!(expected > 0.1, "reference ceiling radiance {expected}");
     let ratio = with_gi / expected;

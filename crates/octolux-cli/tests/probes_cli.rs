@@ -47,7 +47,7 @@ fn octree_flags_render_and_bad_values_are_clear_errors() {
         ),
         (&["--probes-max-probes", "8"][..], "probes max_probes", 1),
         (&["--probes-history", "5000"][..], "probes history", 1),
-        (&["--probes-history", "-1"][..], "--probes-history", 2),
+        (&["--probes-history=-1"][..], "--probes-history", 2),
         (&["--probes-min-depth=-1"][..], "--probes-min-depth", 2),
         (&["--probes-min-depth", "two"][..], "--probes-min-depth", 2),
         (&["--probes-rays", "cones"][..], "--probes-rays", 2),

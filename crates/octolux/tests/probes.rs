@@ -146,7 +146,7 @@ fn multiple_bounces_converge_towards_the_full_reference() {
     for multi_bounce in [false, true] {
         let probes = ProbeSettings {
             grid: [12; 3],
-            multi_bounce,
+            multi_bounce: Some(multi_bounce),
             ..Default::default()
         };
         let mut r = Renderer::new(&ctx, &scene, settings("probes-grid", probes)).unwrap();
@@ -201,6 +201,7 @@ fn moving_objects_are_lit_where_they_are() {
             rays,
             voxel_resolution: 64,
             history: 0,
+            multi_bounce: Some(false),
             ..Default::default()
         };
         let mut r = Renderer::new(&ctx, &scene, settings(technique, probes.clone())).unwrap();
@@ -382,7 +383,7 @@ fn scene_files_set_the_probe_settings() {
     assert_eq!(s.surfels, Some(128));
     assert_eq!(s.lattice, octolux::gi::probes::Lattice::LatLong);
     assert_eq!(s.encoding, Encoding::Octahedron);
-    assert!(s.multi_bounce);
+    assert_eq!(s.multi_bounce, Some(true));
     assert_eq!(s.probe_count(), 720);
     assert_eq!((s.max_depth, s.min_depth, s.max_probes), (4, 1, 300));
     assert_eq!((s.split_fraction, s.free_fraction), (0.6, 0.2));

@@ -147,7 +147,9 @@ fn drift_settings() -> GiSettings {
     let mut settings = GiSettings::default();
     settings.vct.multi_bounce = false;
     settings.vct.octree_resolution = 64;
-    settings.probes.multi_bounce = false;
+    settings.probes.multi_bounce = Some(false);
+    // The probes' history too: a fresh renderer has none.
+    settings.probes.history = 0;
     settings
 }
 

@@ -357,9 +357,11 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     ui.selectable_value(&mut p.rays, RayBackend::Voxels, "voxel octree");
                 });
             changed |= before != (p.surfels, p.lattice, p.encoding, p.visibility, p.rays);
-            changed |= ui
-                .checkbox(&mut p.multi_bounce, "multiple bounces")
-                .changed();
+            let mut bounces = p.multi_bounce.unwrap_or(technique == "probes-grid");
+            if ui.checkbox(&mut bounces, "multiple bounces").changed() {
+                p.multi_bounce = Some(bounces);
+                changed = true;
+            }
             changed |= ui
                 .add(Slider::new(&mut p.normal_bias, 0.0..=1.0).text("normal bias (spacings)"))
                 .changed();

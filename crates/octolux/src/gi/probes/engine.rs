@@ -195,7 +195,7 @@ impl ProbeEngine {
                 settings.lattice.gpu_kind(),
                 settings.encoding.gpu_kind(),
                 0,
-                settings.multi_bounce as u32,
+                settings.bounces_over_frames() as u32,
             ],
             // The BVH roots are set by `Rays::new`.
             roots: [0, 0, probes, surfels as u32],
@@ -523,7 +523,7 @@ impl ProbeEngine {
         // Surfels store emission with the reflected direct light, so emissive surfaces light
         // the scene through the probes, one bounce behind the lights.
         crate::transport::Transport {
-            bounces: if self.settings.multi_bounce {
+            bounces: if self.settings.bounces_over_frames() {
                 crate::transport::Bounces::Unlimited
             } else {
                 crate::transport::Bounces::Indirect(1)

@@ -127,8 +127,10 @@ pub struct ProbeSettings {
     /// the cosine convolution) or `"octahedron"` (`004`'s 8 facet bins).
     pub encoding: Encoding,
     /// Surfels also receive the probes' own indirect light of the previous frame, so light
-    /// bounces once more every frame (default false: one bounce).
-    pub multi_bounce: bool,
+    /// bounces once more every frame; unset: each technique's default, on for `probes-grid`
+    /// (its history relights the bounces at once: settled, a fifth of one bounce's error on
+    /// the Cornell box, docs/probes.md) and off for `probes-octree`.
+    pub multi_bounce: Option<bool>,
     /// `probes-grid`: frames a probe's value is the mean of, each frame's rays along the
     /// lattice turned anew (0..=1024; 0: one fixed lattice, recomputed every frame, no
     /// history; default 32). Light that changes reaches the history at once and makes it
@@ -192,7 +194,7 @@ impl Default for ProbeSettings {
             surfels: None,
             lattice: Lattice::Fibonacci,
             encoding: Encoding::ShL1,
-            multi_bounce: false,
+            multi_bounce: None,
             history: 32,
             normal_bias: 0.2,
             backface_limit: 0.25,
@@ -235,6 +237,7 @@ impl ProbeSettings {
         let default = if octree { OCTREE_SURFELS } else { GRID_SURFELS };
         ProbeSettings {
             surfels: Some(self.surfels.unwrap_or(default)),
+            multi_bounce: Some(self.multi_bounce.unwrap_or(!octree)),
             ..self.clone()
         }
     }
@@ -311,6 +314,12 @@ impl ProbeSettings {
             "probes grid x surfels (x 2 sets with a history)",
             "at most 16M surfels",
         )
+    }
+
+    /// Whether light bounces once more every frame (`multi_bounce` as resolved; unset counts
+    /// as off).
+    pub fn bounces_over_frames(&self) -> bool {
+        self.multi_bounce == Some(true)
     }
 
     /// Checks `history`'s range (the octree ignores the value but not a bad one).
