@@ -3,7 +3,8 @@
 # image a user would call correct), the table the default technique is chosen from (README,
 # "Global illumination by default"). Writes OUT_DIR/<scene>.json (bench JSON: the figures, the
 # commit, adapter, date and command line), <scene>.txt (bench's own table) and every image
-# and reference in OUT_DIR/<scene>/ (EXR + PNG; the PNGs are committed with the JSON). The
+# and reference in OUT_DIR/<scene>/ (EXR + PNG; the PNGs are committed with the JSON) and
+# their sheet OUT_DIR/<scene>.png (GI off, the techniques, the reference). The
 # tables in README.md and docs/ are then remade from the committed data with
 # `cargo run -p octolux-tables` (results/README.md).
 #
@@ -34,6 +35,8 @@ for scene in $scenes; do
   "$bin" bench "$scene" --gi "$gi" --width "${size%x*}" --height "${size#*x}" --warmup "$warmup" \
     --frames 1 --spp "$spp" --seed 7 --against unlimited --no-work-counts --no-flicker ${ARGS:-} \
     --json "$out/$name.json" --out-dir "$out/$name" > "$out/$name.txt"
+  # The scene's sheet: GI off, the techniques, the reference, side by side.
+  cargo run -q -p octolux-tables -- sheet "$out/$name" "$out/$name.png" 5 >&2
 done
 
 echo "error-table: wrote $out; remake the docs' tables with: cargo run -p octolux-tables" >&2

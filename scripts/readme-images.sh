@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Makes the README's pictures in docs/images/: the default render (GI on) beside the CPU
-# reference, and the viewer's window with its panels (needs a display; started under Xvfb when
+# reference (the first part alone with `--default-only`), and the viewer's window with its panels (needs a display; started under Xvfb when
 # DISPLAY is unset and Xvfb is installed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -10,11 +10,12 @@ out=docs/images
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-# Default render and the one-bounce reference (what the default technique computes) of the
-# same view.
+# Default render (settled: `render` runs the technique's warm-up frames first) and the
+# unlimited-bounce reference (what the default technique computes) of the same view.
 $bin render --width 320 --height 320 --out "$tmp/default.png"
-$bin render --gi reference --bounces 1 --spp 4096 --width 320 --height 320 --out "$tmp/reference.png"
+$bin render --gi reference --bounces unlimited --spp 4096 --width 320 --height 320 --out "$tmp/reference.png"
 target/release/examples/side_by_side "$tmp/default.png" "$tmp/reference.png" "$out/default-vs-reference.png"
+[ "${1:-}" = "--default-only" ] && exit 0
 
 # The viewer, under a virtual display when there is none.
 view() {
