@@ -205,7 +205,7 @@ impl ProbeEngine {
                 0,
                 0,
             ],
-            vis: [variance_floor(layout.cell), 0.0, 0.0, 0.0],
+            vis: [variance_floor(layout.cell), 0.0, 1.0, 1.0],
             frame: [0; 4],
             sets: [sets, 0, 0, settings.history],
             rot: rotation_rows([glam::Mat3::IDENTITY; 2]),
@@ -423,6 +423,17 @@ impl ProbeEngine {
         let size = dispatch_size(self.params.roots[2] * super::moments::MOMENT_TEXELS);
         let dispatch = set_dispatch(set, 12, size);
         run_dispatch(timer, "moments", &self.moments_build, &groups, dispatch);
+    }
+
+    /// The scale of last frame's probe light in this frame's surfel light (call before
+    /// [`ProbeEngine::begin_frame`]).
+    pub fn set_bounce_scale(&mut self, scale: f32) {
+        self.params.vis[2] = scale;
+    }
+
+    /// How strongly the probes' histories forget in proportion to their change this frame.
+    pub fn set_forgetting(&mut self, strength: f32) {
+        self.params.vis[3] = strength;
     }
 
     /// Surfel light: direct light with shadow-map visibility (+ last frame's probes).

@@ -104,9 +104,20 @@ fn level(c: &[Vec3; COEFFS]) -> f32 {
     c.iter().map(|v| v.abs().element_sum()).sum()
 }
 
+/// How strongly a probe's history forgets in a frame where a light or an object changed: the
+/// frames it keeps shrink by this times its change over its level (a change of a quarter or
+/// more starts it afresh). The relit history carries the change at once, but seen through
+/// one lattice, whose noise on the change a long history would keep for many frames (the
+/// lag after a light or an object jumps); forgetting harder lets the new samples average it
+/// away. In frames where nothing changed, the probes' change is the bounces converging and
+/// their own noise fed back, which nothing needs forgotten (forgetting it there would feed
+/// the noise back again).
+pub const FORGETTING: f32 = 4.0;
+
 /// CPU twin of integrate.wgsl with two surfel sets, for one probe: `before` is the set
 /// placed before (integrated again in this frame's light: the history is relit by what
-/// changed since `history.raw` and forgets in proportion), `new` the set placed this frame
+/// changed since `history.raw` and forgets `forgetting` times in proportion: [`FORGETTING`]
+/// in a frame where a light or an object changed, else 0), `new` the set placed this frame
 /// (`None`: no new sample; the history is only relit), with at most `settings.history`
 /// frames kept; a full history whose light did not change keeps its value.
 pub fn integrate_probe_history(
@@ -114,6 +125,7 @@ pub fn integrate_probe_history(
     history: &ProbeHistory,
     before: SurfelSet,
     new: Option<SurfelSet>,
+    forgetting: f32,
 ) -> ProbeHistory {
     let n = settings.surfel_count() as f32;
     let (relit, _, _) = integrate_set(settings, before);
@@ -125,7 +137,7 @@ pub fn integrate_probe_history(
         change += delta.abs().element_sum();
     }
     let scale = level(&history.raw).max(level(&relit)).max(1e-30);
-    let mut frames = history.state[3] * (1.0 - change / scale).max(0.0);
+    let mut frames = history.state[3] * (1.0 - forgetting * change / scale).max(0.0);
     let [mut back, mut hits, _, _] = history.state;
     let mut latest = relit;
     let settled = frames >= settings.history as f32 && change == 0.0;
@@ -227,6 +239,8 @@ pub struct ProbesGrid {
     last_transforms: Option<Vec<glam::Mat4>>,
     /// The lights of the previous frame, as they light the surfels.
     last_lights: Option<Vec<LightState>>,
+    /// The lights' power in the previous frame ([`light_power`]).
+    last_power: Option<f32>,
     /// With a history: frames since the lights or an object last changed.
     quiet: u32,
     /// Samples placed so far (the index of the next lattice rotation).
@@ -247,6 +261,38 @@ const MOMENT_SAMPLES: u32 = 8;
 
 /// What of a light changes what the surfels receive.
 type LightState = (crate::scene::LightKind, Vec3, f32, Vec3, Vec3);
+
+/// The power `light` sends into a box of `extent` (luminance-weighted W; for a directional
+/// light, its irradiance times the box's area across the light). Last frame's bounces, which
+/// the surfels receive with multiple bounces, scale with it.
+fn light_power(light: &crate::scene::Light, extent: Vec3) -> f32 {
+    use crate::scene::LightKind;
+    use std::f32::consts::PI;
+    let luminance = light.color.dot(Vec3::new(0.2126, 0.7152, 0.0722)) * light.intensity.max(0.0);
+    match light.kind {
+        LightKind::Point => 4.0 * PI * luminance,
+        LightKind::Spot {
+            inner_angle,
+            outer_angle,
+        } => 2.0 * PI * (1.0 - (0.5 * (inner_angle + outer_angle)).cos()) * luminance,
+        LightKind::Directional => {
+            let d = light.direction.abs();
+            let e = extent;
+            luminance * (d.x * e.y * e.z + d.y * e.x * e.z + d.z * e.x * e.y)
+        }
+    }
+}
+
+/// How much of last frame's bounced light this frame's lights still make: their power over
+/// last frame's, at most 1 (exact when every light dims alike or all switch off; where one of
+/// several changes, the bounces catch up over the next frames as before).
+fn bounce_scale(before: f32, now: f32) -> f32 {
+    if before > 0.0 {
+        (now / before).min(1.0)
+    } else {
+        1.0
+    }
+}
 
 fn light_states(lights: &[crate::scene::Light]) -> Vec<LightState> {
     lights
@@ -287,6 +333,7 @@ impl ProbesGrid {
             placed: false,
             last_transforms: None,
             last_lights: None,
+            last_power: None,
             quiet: 0,
             samples: 0,
             latest: 0,
@@ -395,6 +442,20 @@ impl GiTechnique for ProbesGrid {
         let lights = light_states(&frame.frame.lights);
         let changed = !moved.is_empty() || self.last_lights.as_ref() != Some(&lights);
         self.last_lights = Some(lights);
+        let extent = self.grid.spacing * self.grid.dims.as_vec3();
+        let power: f32 = frame
+            .frame
+            .lights
+            .iter()
+            .map(|l| light_power(l, extent))
+            .sum();
+        let scale = self
+            .last_power
+            .map_or(1.0, |before| bounce_scale(before, power));
+        self.last_power = Some(power);
+        self.passes.set_bounce_scale(scale);
+        self.passes
+            .set_forgetting(if changed { FORGETTING } else { 0.0 });
         self.plan_rays(changed, !moved.is_empty());
         // Surfels are placed once, then again where an object moved: only the rays that cross
         // its old or new bounds. With a history, a new set along the turned lattice every

@@ -7,8 +7,9 @@
 // of the last frames (up to P.sets.w), each sample one turned lattice. The history is first
 // relit: the set placed before is integrated again in this frame's light, and what changed
 // since it was integrated last (its stored raw value, `probe_raw`) is added, so that light
-// that moved, switched or bounced once more reaches the history at once. The history also
-// forgets in proportion to that change, so the noise of a change fades as new samples come.
+// that moved, switched or bounced once more reaches the history at once. In a frame where a
+// light or an object changed, the history also forgets in proportion to that change, times
+// P.vis.w (grid_gi.rs, FORGETTING), so the noise of a change fades as new samples come.
 // Then the new set's sample is blended in with weight 1 / (frames + 1); a probe whose
 // history is full and whose light did not change keeps its value (no flicker where nothing
 // that lights it moves, though a light elsewhere does).
@@ -98,7 +99,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // (back-face share, hit share, valid, frames in the history)
     let state = probes[b + 8u];
     let scale = max(max(level(raw), level(relit.c)), 1e-30);
-    var frames = state.w * max(1.0 - change / scale, 0.0);
+    var frames = state.w * max(1.0 - P.vis.w * change / scale, 0.0);
     var back = state.x;
     var hits = state.y;
     var latest = relit.c;

@@ -53,7 +53,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
     }
     if P.misc.w != 0u {
-        e += probes_irradiance(p, n);
+        // Last frame's bounces scale with the lights that made them: a light that dims or
+        // switches off takes its higher bounces with it at once, not over a bounce per frame.
+        e += P.vis.z * probes_irradiance(p, n);
     }
     radiance[s] = vec4<f32>(surfels[b + 2u].rgb + albedo / PI * e, 0.0);
 }

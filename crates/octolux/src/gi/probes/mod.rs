@@ -38,7 +38,7 @@ pub use encoding::Encoding;
 pub use engine::{PROBE_VEC4, SURFEL_VEC4};
 pub use grid_gi::{
     grid_irradiance, integrate_probe, integrate_probe_history, ProbeGrid, ProbeHistory, ProbesGrid,
-    SurfelSet,
+    SurfelSet, FORGETTING,
 };
 pub use lattice::Lattice;
 pub use moments::Visibility;

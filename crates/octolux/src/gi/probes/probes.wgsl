@@ -20,7 +20,9 @@ struct ProbeParams {
     // x: most back-face hits of a probe still gathered; y: visibility (0 none, 1 moments);
     // z: moved boxes; w: 1 = placement keeps the surfels whose rays cross no moved box
     limits: vec4<u32>,
-    // x: variance floor of the depth moments (m^2)
+    // x: variance floor of the depth moments (m^2); y: weight of the depth maps' history;
+    // z: scale of last frame's probe light in the surfels' (the lights' power now over then,
+    // at most 1); w: forgetting strength
     vis: vec4<f32>,
     // x: this frame's number (1, 2, ...), which placement stamps on the probes it re-traces
     frame: vec4<u32>,
