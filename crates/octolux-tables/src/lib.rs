@@ -12,8 +12,12 @@
 //! the repository). Every table starts with a line that says where its figures come from: the
 //! data folder, the commit the binary that measured them was built from, the date and the
 //! adapter. A table typed by hand between markers is overwritten; `--check` finds it.
+//!
+//! A measured figure in the prose around the tables names the file under `results/` it comes
+//! from ([`figures`]; `tables figures` lists those that do not).
 
 mod data;
+pub mod figures;
 mod sheet;
 mod tables;
 

@@ -1,9 +1,11 @@
 //! `tables`: rewrites every generated table in README.md and docs/*.md from results/, or with
-//! `--check` reports the tables that differ from what the data gives and exits non-zero.
+//! `--check` reports the tables that differ from what the data gives and exits non-zero;
+//! `tables figures` lists the measured figures in the prose that name no file in results/.
 //!
 //! ```sh
-//! cargo run -p octolux-tables            # rewrite
-//! cargo run -p octolux-tables -- --check # compare only
+//! cargo run -p octolux-tables              # rewrite
+//! cargo run -p octolux-tables -- --check   # compare only
+//! cargo run -p octolux-tables -- figures   # uncited measured figures
 //! ```
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -12,6 +14,9 @@ fn main() -> ExitCode {
     let argv: Vec<String> = std::env::args().collect();
     if argv.get(1).map(String::as_str) == Some("sheet") {
         return sheet(&argv[2..]);
+    }
+    if argv.get(1).map(String::as_str) == Some("figures") {
+        return figures(&argv[2..]);
     }
     let mut check = false;
     let mut root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -26,10 +31,14 @@ fn main() -> ExitCode {
             "-h" | "--help" => {
                 println!(
                     "tables [--check] [--root DIR]\n\
-                     tables sheet IMAGES_DIR OUT.png [COLUMNS]\n\n\
+                     tables sheet IMAGES_DIR OUT.png [COLUMNS]\n\
+                     tables figures [--root DIR]\n\n\
                      Regenerates the tables between `<!-- table: ... -->` and `<!-- end table -->` in\n\
                      DIR/README.md and DIR/docs/*.md from the data in DIR/results/ (DIR: the\n\
-                     repository). --check: change nothing, list the tables that differ, exit 1 if any."
+                     repository). --check: change nothing, list the tables that differ, exit 1 if any.\n\
+                     figures: list the measured figures in the prose (times, sizes, ratios, errors)\n\
+                     whose paragraph names no file in results/, and the cited files in results/\n\
+                     that do not exist; exit 1 if any."
                 );
                 return ExitCode::SUCCESS;
             }
@@ -80,9 +89,48 @@ fn sheet(args: &[String]) -> ExitCode {
     }
 }
 
+/// `tables figures [--root DIR]`: the measured figures that name no file in results/.
+fn figures(args: &[String]) -> ExitCode {
+    let root = match args {
+        [] => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../.."),
+        [flag, dir] if flag == "--root" => PathBuf::from(dir),
+        _ => return usage("figures takes only --root DIR"),
+    };
+    let found = octolux_tables::figures::uncited(&root)
+        .and_then(|uncited| Ok((uncited, octolux_tables::figures::missing_sources(&root)?)));
+    match found {
+        Ok((uncited, missing)) if uncited.is_empty() && missing.is_empty() => {
+            println!(
+                "every measured figure names its file in results/, and every file cited exists"
+            );
+            ExitCode::SUCCESS
+        }
+        Ok((uncited, missing)) => {
+            for f in &uncited {
+                println!("{f}");
+            }
+            for f in &missing {
+                println!("{f} (no such file)");
+            }
+            eprintln!(
+                "error: {} measured figure(s) name no file in results/ (cite the file and line, \
+                 or mark figures that are not measurements with `{}`), {} cited file(s) missing",
+                uncited.len(),
+                octolux_tables::figures::NOT_MEASURED,
+                missing.len()
+            );
+            ExitCode::FAILURE
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn usage(problem: &str) -> ExitCode {
     eprintln!(
-        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png [COLUMNS]"
+        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png [COLUMNS] | tables figures [--root DIR]"
     );
     ExitCode::FAILURE
 }
