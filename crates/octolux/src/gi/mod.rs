@@ -46,7 +46,9 @@ pub struct GiFrame<'a> {
 }
 
 /// A GI technique: owns its GPU state, updates it each frame and outputs indirect irradiance.
-pub trait GiTechnique {
+/// `Send`, so that a [`crate::embed::GiEngine`] can live on a renderer's own thread (Bevy's
+/// render world runs beside its main world).
+pub trait GiTechnique: Send {
     /// Short name, as on the command line.
     fn name(&self) -> &str;
     /// Records the passes that bring the technique up to date with `frame` and write the
