@@ -109,8 +109,8 @@ pub struct GiArgs {
     #[arg(long)]
     pub vct_anisotropic_bounce: Option<bool>,
     /// vct-svo: keep the direction the octree's radiance leaves in, so a cone does not see the
-    /// light on the far face of a thin wall (default false; docs/vct.md, "The radiance's
-    /// facing").
+    /// light on the far face of a thin wall, nor the sunlit outside of a building from inside
+    /// (default true; docs/vct.md, "The radiance's facing").
     #[arg(long)]
     pub vct_facing: Option<bool>,
     /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over
@@ -201,7 +201,7 @@ pub struct GiArgs {
     #[arg(long)]
     pub probes_max_probes: Option<u32>,
     /// Probe octree: share of a probe's surfels inside its cube from which its leaf splits
-    /// (default 0.5).
+    /// (default 0.25; `004`: 0.5).
     #[arg(long)]
     pub probes_split_fraction: Option<f32>,
     /// Probe octree: share of a probe's surfels inside its cube below which it is freed

@@ -16,7 +16,8 @@ pub fn required_features() -> wgpu::Features {
 /// which setting to lower.
 pub fn required_limits() -> wgpu::Limits {
     wgpu::Limits {
-        max_storage_buffers_per_shader_stage: 20,
+        // vct-svo's light injection with the radiance's facing (its default) binds 22.
+        max_storage_buffers_per_shader_stage: crate::gi::vct::FACING_STORAGE_BUFFERS,
         ..wgpu::Limits::default()
     }
 }

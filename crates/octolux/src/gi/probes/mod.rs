@@ -163,7 +163,10 @@ pub struct ProbeSettings {
     /// they split (72 at `min_depth` 2).
     pub max_probes: u32,
     /// `probes-octree`: a leaf splits when at least this share of its probe's surfels land
-    /// inside its cube (`004`: 1/2; default 0.5).
+    /// inside its cube (`004`: 1/2; default 1/4: at 1/2 a room whose height is less than
+    /// the complete levels' cells, such as `living-room` in a scene that also holds the
+    /// ground outside its window, keeps those coarse cells, and its pixels gather probes
+    /// above its ceiling and beyond its walls: patches brighter and darker than GI off).
     pub split_fraction: f32,
     /// `probes-octree`: a probe is freed when less than this share of its surfels land inside
     /// its cube (`004`: 1/4; default 0: no probe is freed, since the buffers hold the full
@@ -201,7 +204,7 @@ impl Default for ProbeSettings {
             max_depth: 4,
             min_depth: 2,
             max_probes: 2048,
-            split_fraction: 0.5,
+            split_fraction: 0.25,
             free_fraction: 0.0,
             gather: OctreeGather::Octree,
             surfel_range: SurfelRange::Scene,
