@@ -104,13 +104,15 @@ fn settled_radiance(technique: &str, max_frames: u32) -> (f32, u32) {
 }
 
 /// Measured (lavapipe, 32 x 32, defaults; docs/vct.md and docs/probes.md "Closed-box energy"):
-/// vct-svo 1.970 (one bounce on its first frame: 1.487, the exact one-bounce value is 1.5),
+/// vct-svo 1.822 with the radiance's facing, its default (1.970 without; one bounce on its
+/// first frame: 1.487, the exact one-bounce value is 1.5),
 /// vct-clipmap 1.089, probes-grid 1.101, probes-octree 1.312, against 2.0: the structures of
 /// the last three lose light per bounce in a small closed room, none gains. The bounds: not
 /// above the exact value (2 % for the techniques' rounding and half-float storage; a loop gain
 /// of one or more grows without bound), and some bounce light (at least 5 % above the emission
-/// alone); `vct-svo`, whose voxels gather as its pixels do, within 5 % of the exact value (its
-/// voxels' normals turned to their walls' outside took 17.6 % off).
+/// alone); `vct-svo`, whose voxels gather as its pixels do, within 10 % of the exact value
+/// (its voxels' normals turned to their walls' outside took 17.6 % off; the facing drops the
+/// share of a coarse texel's light that faces away from a cone, 9 % here).
 #[test]
 fn no_technique_gains_energy_in_a_closed_emitting_box() {
     let exact = L / (1.0 - RHO);
@@ -130,7 +132,7 @@ fn no_technique_gains_energy_in_a_closed_emitting_box() {
         );
         if technique == "vct-svo" {
             assert!(
-                radiance >= exact * 0.95,
+                radiance >= exact * 0.9,
                 "vct-svo: {radiance} against the exact {exact}: its bounce loses light"
             );
         }

@@ -324,10 +324,16 @@ fn octree_probes_light_an_open_scene() {
     let options = MetricOptions::default();
     let mut errors = Vec::new();
     for (gi, min_depth) in [("none", 2), ("probes-octree", 0), ("probes-octree", 2)] {
-        // `004`'s rule: no complete levels, and probes freed below a quarter of hits.
-        let free_fraction = if min_depth == 0 { 0.25 } else { 0.0 };
+        // `004`'s rule: no complete levels, leaves split from half their hits and probes
+        // freed below a quarter.
+        let (split_fraction, free_fraction) = if min_depth == 0 {
+            (0.5, 0.25)
+        } else {
+            (ProbeSettings::default().split_fraction, 0.0)
+        };
         let probes = ProbeSettings {
             min_depth,
+            split_fraction,
             free_fraction,
             ..Default::default()
         };
