@@ -16,8 +16,9 @@ pub fn required_features() -> wgpu::Features {
 /// which setting to lower.
 pub fn required_limits() -> wgpu::Limits {
     wgpu::Limits {
-        // vct-svo's light injection with the radiance's facing (its default) binds 22.
-        max_storage_buffers_per_shader_stage: crate::gi::vct::FACING_STORAGE_BUFFERS,
+        // vct-svo's light injection with the radiance's facing (its default) binds 22
+        // (`gi::vct::FACING_STORAGE_BUFFERS`; tests/embed.rs checks that they agree).
+        max_storage_buffers_per_shader_stage: 22,
         ..wgpu::Limits::default()
     }
 }
