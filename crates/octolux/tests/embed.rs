@@ -492,10 +492,10 @@ fn vct_svo_facing_binds_exactly_the_required_storage_buffers() {
         });
         octolux::gpu::GpuContext::from_device(&device, &queue)
     };
-    let error = context(FACING_STORAGE_BUFFERS - 1)
-        .err()
-        .expect("one storage buffer short")
-        .to_string();
+    let Err(error) = context(FACING_STORAGE_BUFFERS - 1) else {
+        panic!("one storage buffer short, and the context was made");
+    };
+    let error = error.to_string();
     assert!(
         error.contains(&format!(
             "max_storage_buffers_per_shader_stage is {}, octolux needs {FACING_STORAGE_BUFFERS}",
