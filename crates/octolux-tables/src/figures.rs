@@ -46,14 +46,7 @@ impl std::fmt::Display for Uncited {
 /// paragraph) cites no file under `results/`.
 pub fn uncited(root: &Path) -> Result<Vec<Uncited>> {
     let mut found = Vec::new();
-    for path in crate::documents(root)? {
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("reading {}", path.display()))?;
-        let file = path
-            .strip_prefix(root)
-            .unwrap_or(&path)
-            .display()
-            .to_string();
+    for (file, text) in documents(root)? {
         found.extend(scan(&text).into_iter().map(|(line, figure)| Uncited {
             file: file.clone(),
             line,
@@ -67,14 +60,7 @@ pub fn uncited(root: &Path) -> Result<Vec<Uncited>> {
 /// (in prose or a link) and that does not exist: (document, 1-based line, path).
 pub fn missing_sources(root: &Path) -> Result<Vec<Uncited>> {
     let mut missing = Vec::new();
-    for path in crate::documents(root)? {
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("reading {}", path.display()))?;
-        let file = path
-            .strip_prefix(root)
-            .unwrap_or(&path)
-            .display()
-            .to_string();
+    for (file, text) in documents(root)? {
         for (i, line) in text.lines().enumerate() {
             for cited in cited_paths(line) {
                 if !root.join(&cited).exists() {
@@ -88,6 +74,23 @@ pub fn missing_sources(root: &Path) -> Result<Vec<Uncited>> {
         }
     }
     Ok(missing)
+}
+
+/// README.md and docs/*.md of `root`: (path relative to `root`, text).
+fn documents(root: &Path) -> Result<Vec<(String, String)>> {
+    crate::documents(root)?
+        .into_iter()
+        .map(|path| {
+            let text = std::fs::read_to_string(&path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let file = path
+                .strip_prefix(root)
+                .unwrap_or(&path)
+                .display()
+                .to_string();
+            Ok((file, text))
+        })
+        .collect()
 }
 
 /// The `results/...` paths of a line, outside inline code (`../results/x` as `results/x`).
