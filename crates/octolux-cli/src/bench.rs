@@ -105,6 +105,9 @@ pub struct BenchArgs {
     /// Sky light.
     #[command(flatten, next_help_heading = "Sky")]
     pub sky_args: crate::sky_args::SkyArgs,
+    /// What the scene may pull in.
+    #[command(flatten, next_help_heading = "Scene budget")]
+    pub budget: crate::inputs::BudgetArgs,
 }
 
 /// A scene to measure.
@@ -120,7 +123,7 @@ const MAX_FRAMES: u32 = 1_000_000;
 /// Loads every scene of `args` (the built-in one when none is named).
 fn load_inputs(args: &BenchArgs) -> Result<Vec<SceneInput>> {
     if args.scenes.is_empty() {
-        let (scene, gi_settings) = load_scene(None, &args.gi_args, &args.sky_args)?;
+        let (scene, gi_settings) = load_scene(None, &args.gi_args, &args.sky_args, &args.budget)?;
         Ok(vec![SceneInput {
             file: None,
             scene,
@@ -130,8 +133,9 @@ fn load_inputs(args: &BenchArgs) -> Result<Vec<SceneInput>> {
         args.scenes
             .iter()
             .map(|path| {
-                let (scene, gi_settings) = load_scene(Some(path), &args.gi_args, &args.sky_args)
-                    .with_context(|| format!("scene file {}", path.display()))?;
+                let (scene, gi_settings) =
+                    load_scene(Some(path), &args.gi_args, &args.sky_args, &args.budget)
+                        .with_context(|| format!("scene file {}", path.display()))?;
                 Ok(SceneInput {
                     file: Some(path.clone()),
                     scene,

@@ -7,6 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use octolux::gi::GiSettings;
 use octolux::gpu::{AdapterChoice, GpuOptions, Timestamps};
+use octolux::limits::{Account, Budget};
 use octolux::render::Output;
 use octolux::scene::{cornell, Scene};
 use std::path::Path;
@@ -42,24 +43,50 @@ impl GpuArgs {
     }
 }
 
+/// `--budget NAME=N`: what one scene may pull in (`octolux::limits::Budget`).
+#[derive(Args, Debug, Clone, Default)]
+pub struct BudgetArgs {
+    /// Raises (or lowers) a limit on what the scene pulls in, in all: `triangles=50M`,
+    /// `instances=N`, `file-reads=N`, `bytes-read=16GiB` or `includes=N` (repeatable; the
+    /// README's Limits section has the defaults).
+    #[arg(long = "budget", value_name = "NAME=N")]
+    pub budget: Vec<String>,
+}
+
+impl BudgetArgs {
+    /// The default budget with the flags applied.
+    pub fn budget(&self) -> Result<Budget> {
+        let mut budget = Budget::default();
+        for text in &self.budget {
+            budget.apply(text)?;
+        }
+        Ok(budget)
+    }
+}
+
 /// Loads the scene named on the command line (default: the built-in Cornell box) and the GI
 /// settings of its scene file, with the command-line flags (technique settings, sky) applied
-/// on top.
+/// on top. A scene without a camera gets one that looks into it; a scene that nothing lights
+/// (no light, no emissive surface, no sky, after `--sky`) is warned about.
 pub fn load_scene(
     path: Option<&Path>,
     flags: &GiArgs,
     sky: &SkyArgs,
+    budget: &BudgetArgs,
 ) -> Result<(Scene, GiSettings)> {
+    let budget = budget.budget()?;
     let (mut scene, mut settings) = match path {
         None => (cornell::scene(), GiSettings::default()),
         Some(p)
             if p.extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("toml")) =>
         {
-            let (scene, table) = octolux::scene::file::load_with_settings(p)?;
+            let account = Account::new(budget);
+            let (mut scene, table) = octolux::scene::file::load_within(p, &account)?;
+            scene.add_framing_camera();
             (scene, GiSettings::from_table(&table, p)?)
         }
-        Some(p) => (Scene::load(p)?, GiSettings::default()),
+        Some(p) => (Scene::load_within(p, budget)?, GiSettings::default()),
     };
     flags.apply(&mut settings);
     if sky.sky.is_some() || sky.sky_intensity.is_some() {
@@ -69,6 +96,13 @@ pub fn load_scene(
         octolux::scene::validate(&mut scene).context("with --sky")?;
     } else {
         sky.apply(&mut scene)?;
+    }
+    if !scene.has_light() {
+        eprintln!(
+            "warning: scene '{}' has no lights, no emissive surfaces and no sky: the image \
+             will be black (add a light, or light it with --sky)",
+            scene.name
+        );
     }
     Ok((scene, settings))
 }

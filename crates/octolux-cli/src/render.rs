@@ -111,6 +111,9 @@ pub struct RenderArgs {
     /// Sky light.
     #[command(flatten, next_help_heading = "Sky")]
     pub sky_args: SkyArgs,
+    /// What the scene may pull in.
+    #[command(flatten, next_help_heading = "Scene budget")]
+    pub budget: crate::inputs::BudgetArgs,
 }
 
 impl RenderArgs {
@@ -250,6 +253,7 @@ fn run_reference(args: &RenderArgs, scene: &Scene) -> Result<()> {
         let camera = scene.camera_index(&args.camera)?;
         let images = reference_frame(scene, t, camera, args.width, args.height, &settings)?;
         spp_done = images.spp_done;
+        warn_if_black(scene, camera, t, &images.total);
         write_image(
             &frame_path(&args.out, i, args.frames),
             &images.total,
@@ -390,6 +394,50 @@ pub fn frame_path(base: &Path, i: u32, n: u32) -> PathBuf {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
     base.with_file_name(format!("{stem}_{i:04}.{ext}"))
+}
+
+/// Linear radiance under which a pixel shows as 0 in an 8-bit sRGB image (half a step).
+const DISPLAYS_AS_BLACK: f32 = 0.5 / 255.0 / 12.92;
+
+/// Warns, with the likely cause, when `image` (camera `camera` at time `t`) shows nothing but
+/// the scene has light: a camera outside a closed room, behind a wall or looking at nothing,
+/// or lights that do not reach what it sees.
+fn warn_if_black(scene: &Scene, camera: usize, t: f32, image: &HdrImage) {
+    if !scene.has_light() {
+        return; // warned when the scene was loaded
+    }
+    let gain = 2f32.powf(scene.exposure);
+    if image
+        .pixels
+        .iter()
+        .any(|p| p.max_element() * gain >= DISPLAYS_AS_BLACK)
+    {
+        return;
+    }
+    let view = scene.camera_at(t, camera);
+    let survey = scene.view_survey(&view, t);
+    let percent = |n: u32| 100 * n / survey.rays.max(1);
+    let cause = if survey.misses == survey.rays {
+        format!(
+            "camera '{}' sees no geometry: check its position and target",
+            view.name
+        )
+    } else if survey.back_faces > survey.front_faces {
+        format!(
+            "camera '{}' sees mostly the backs of surfaces ({}% of its view), as from outside a \
+             closed room or behind a wall: move it inside, or leave the scene without a camera \
+             and octolux frames it",
+            view.name,
+            percent(survey.back_faces)
+        )
+    } else {
+        format!(
+            "the light does not reach what camera '{}' sees (the lights are blocked, point \
+             away or are far too weak), or the exposure ({} EV) is far too low",
+            view.name, scene.exposure
+        )
+    };
+    eprintln!("warning: the image is black although the scene has light: {cause}");
 }
 
 /// Writes an image to `path`, choosing PNG or EXR by extension.
@@ -533,7 +581,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let start_time = args.start_time();
     let load_start = std::time::Instant::now();
     let (loaded, files) = octolux::limits::recording_reads(|| {
-        load_scene(args.scene.as_deref(), &args.gi_args, &args.sky_args)
+        load_scene(
+            args.scene.as_deref(),
+            &args.gi_args,
+            &args.sky_args,
+            &args.budget,
+        )
     });
     let (mut scene, gi_settings) = loaded?;
     check_args(args, &files)?;
@@ -543,7 +596,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         scene.name,
         scene.triangle_count()
     );
-    scene.camera_index(&args.camera)?;
+    let camera = scene.camera_index(&args.camera)?;
     if let Some(ev) = args.exposure {
         if !ev.is_finite() || ev.abs() > 64.0 {
             bail!("--exposure {ev}: expected a finite EV within -64..=64");
@@ -609,6 +662,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                  65504); lower the scene's light intensities or emission",
                 args.gi
             );
+        }
+        if output == Output::Final {
+            warn_if_black(&scene, camera, t, &hdr);
         }
         let display = renderer.read_display()?;
         write_image(

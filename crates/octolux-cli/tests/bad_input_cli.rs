@@ -477,3 +477,107 @@ fn an_output_over_a_file_the_scene_reads_is_refused_before_rendering() {
         "newmtl m\nKd 0.5 0.5 0.5\n"
     );
 }
+
+/// Mean of an 8-bit PNG's channels, 0..255.
+fn mean_png(path: &Path) -> f64 {
+    let image = image::open(path).unwrap().to_rgb8();
+    image.as_raw().iter().map(|&c| c as f64).sum::<f64>() / image.as_raw().len() as f64
+}
+
+#[test]
+fn a_scene_without_a_camera_is_framed_so_that_it_renders_lit() {
+    let dir = temp_dir("no-camera");
+    // The Cornell box and its light, no camera: octolux used to look from +z, at the back of
+    // the back wall, and write a black image without a word.
+    let scene = dir.path().join("box.toml");
+    std::fs::write(
+        &scene,
+        "[[model]]\npath = \"builtin:cornell-box\"\n\
+         [[light]]\ntype = \"point\"\nposition = [0.278, 0.5, 0.28]\nintensity = 0.5\n",
+    )
+    .unwrap();
+    for gi in ["none", "reference"] {
+        let out = dir.path().join(format!("{gi}.png"));
+        let output = octolux(&[
+            "render",
+            s(&scene),
+            "--gi",
+            gi,
+            "--spp",
+            "4",
+            "--width",
+            "48",
+            "--height",
+            "32",
+            "--out",
+            s(&out),
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{gi}: {stderr}");
+        assert!(!stderr.contains("black"), "{gi}: {stderr}");
+        let mean = mean_png(&out);
+        assert!(mean > 20.0, "{gi}: mean {mean:.1} of 255");
+    }
+}
+
+#[test]
+fn a_black_image_is_explained_and_a_sky_counts_as_light() {
+    let dir = temp_dir("black");
+    // A camera behind the Cornell box's back wall, looking at its back.
+    let behind = dir.path().join("behind.toml");
+    std::fs::write(
+        &behind,
+        "[[model]]\npath = \"builtin:cornell-box\"\n\
+         [[light]]\ntype = \"point\"\nposition = [0.278, 0.5, 0.28]\nintensity = 0.5\n\
+         [[camera]]\nposition = [0.278, 0.273, 1.5]\ntarget = [0.278, 0.273, 0.0]\n",
+    )
+    .unwrap();
+    let out = dir.path().join("behind.png");
+    let output = octolux(&small_render(s(&behind), "none", s(&out)));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("the image is black although the scene has light")
+            && stderr.contains("backs of surfaces"),
+        "{stderr}"
+    );
+    // A model lit by --sky alone is lit: no warning that it will be black.
+    let out = dir.path().join("sky.png");
+    let mut args = small_render("../../scenes/models/uv-sphere.obj", "none", s(&out)).to_vec();
+    args.extend(["--sky", "1,1,1"]);
+    let output = octolux(&args);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(!stderr.contains("black"), "{stderr}");
+    assert!(mean_png(&out) > 5.0);
+    // Without the sky it has no light at all, and says so once.
+    let output = octolux(&small_render(
+        "../../scenes/models/uv-sphere.obj",
+        "none",
+        s(&out),
+    ));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(stderr.matches("will be black").count(), 1, "{stderr}");
+}
+
+#[test]
+fn budget_flags_are_checked_and_named() {
+    fails_fast(
+        &["render", "--budget", "polygons=3"],
+        &["unknown budget 'polygons'", "triangles"],
+    );
+    fails_fast(
+        &["render", "--budget", "triangles=lots"],
+        &["--budget triangles=lots", "positive count"],
+    );
+    // A budget too small for the scene stops it, naming how to raise it.
+    fails_fast(
+        &[
+            "render",
+            "../../scenes/cornell-box.toml",
+            "--budget",
+            "triangles=10",
+        ],
+        &["triangles", "--budget triangles=N"],
+    );
+}

@@ -35,6 +35,9 @@ pub enum Error {
     /// An argument or setting is out of range.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// A scene pulls in more than its [`crate::limits::Budget`] allows.
+    #[error("{0}")]
+    OverBudget(String),
     /// No usable GPU adapter, device creation failed, or a GPU operation failed.
     #[error("GPU: {0}")]
     Gpu(String),

@@ -519,3 +519,70 @@ fn vct_svo_facing_binds_exactly_the_required_storage_buffers() {
     })
     .expect("the required limits suffice");
 }
+
+#[test]
+fn a_scene_handed_over_whole_is_validated_not_trusted() {
+    use octolux::scene::{cornell, Keyframe, Texture, Track};
+    let ctx = common::context();
+    let config = || GiConfig::new(32, 32, "probes-grid");
+    let fails = |scene: octolux::scene::Scene, needle: &str| {
+        let e = GiEngine::with_context(&ctx, scene, config())
+            .err()
+            .unwrap_or_else(|| panic!("accepted a scene with {needle}"))
+            .to_string();
+        assert!(e.contains(needle), "'{needle}' not in: {e}");
+    };
+    // An index past the mesh's vertices (world_triangles indexed it and panicked).
+    let mut scene = cornell::scene();
+    scene.meshes[0].indices[0] = 1_000_000;
+    fails(scene, "index 1000000 out of range");
+    // A track without keys (sampling it read keys[0] and panicked).
+    let mut scene = cornell::scene();
+    scene.objects[0].animation = Some(Track {
+        keys: Vec::new(),
+        looping: true,
+    });
+    fails(scene, "animation has no keys");
+    // A key far beyond the coordinate limit.
+    let mut scene = cornell::scene();
+    scene.objects[0].animation = Track::new(
+        vec![Keyframe {
+            time: 0.0,
+            translation: Vec3::new(3e38, 0.0, 0.0),
+            rotation: glam::Quat::IDENTITY,
+        }],
+        false,
+    );
+    fails(scene, "beyond the coordinate limit");
+    // A texture of zero width (sampling it divided by zero and panicked).
+    let mut scene = cornell::scene();
+    scene.textures.push(Texture {
+        name: "empty".into(),
+        width: 0,
+        height: 4,
+        rgba: Vec::new(),
+    });
+    fails(scene, "texture 'empty'");
+    // The functions themselves hold: no panic on the same data.
+    let empty = Track {
+        keys: Vec::new(),
+        looping: false,
+    };
+    assert_eq!(empty.transform_at(2.0), Mat4::IDENTITY);
+    let texture = Texture {
+        name: "empty".into(),
+        width: 0,
+        height: 4,
+        rgba: Vec::new(),
+    };
+    assert!(texture.check().is_err());
+    assert_eq!(texture.sample(glam::Vec2::splat(0.5)), glam::Vec4::ONE);
+    let mut mesh = quad_mesh();
+    mesh.indices.push(99);
+    let e = mesh.compute_normals().unwrap_err().to_string();
+    assert!(e.contains("not a multiple of 3"), "{e}");
+    mesh.indices.extend([99, 99]);
+    let e = mesh.compute_normals().unwrap_err().to_string();
+    assert!(e.contains("index 99 out of range"), "{e}");
+    assert_eq!(mesh.normals.len(), mesh.positions.len());
+}

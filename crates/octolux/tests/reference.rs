@@ -243,7 +243,7 @@ fn floor_scene(albedo: f32, light: Light) -> Scene {
         material: 0,
         ..Mesh::default()
     };
-    mesh.compute_normals();
+    mesh.compute_normals().unwrap();
     Scene {
         name: "floor".into(),
         meshes: vec![mesh],
@@ -616,7 +616,7 @@ fn square(r: f32, y: f32, up: bool, material: u32) -> Mesh {
         material,
         ..Mesh::default()
     };
-    mesh.compute_normals();
+    mesh.compute_normals().unwrap();
     mesh
 }
 

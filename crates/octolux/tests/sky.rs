@@ -40,7 +40,7 @@ fn quad(name: &str, corners: [Vec3; 4], material: u32) -> Mesh {
         material,
         ..Mesh::default()
     };
-    mesh.compute_normals();
+    mesh.compute_normals().unwrap();
     mesh
 }
 

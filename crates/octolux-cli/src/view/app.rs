@@ -58,6 +58,7 @@ pub struct Config {
     soft_sky_shadows: bool,
     gi_args: GiArgs,
     sky_args: crate::sky_args::SkyArgs,
+    budget: crate::inputs::BudgetArgs,
 }
 
 impl Config {
@@ -177,6 +178,7 @@ impl Config {
             soft_sky_shadows: args.gpu.soft_sky_shadows,
             gi_args: args.gi_args.clone(),
             sky_args: args.sky_args.clone(),
+            budget: args.budget.clone(),
         })
     }
 
@@ -192,8 +194,12 @@ impl Config {
 
 /// Opens the window and runs until it is closed or a scripted run ends.
 pub fn run(config: Config, verbose: bool) -> Result<()> {
-    let (mut scene, gi_settings) =
-        crate::inputs::load_scene(config.scene.as_deref(), &config.gi_args, &config.sky_args)?;
+    let (mut scene, gi_settings) = crate::inputs::load_scene(
+        config.scene.as_deref(),
+        &config.gi_args,
+        &config.sky_args,
+        &config.budget,
+    )?;
     let camera_index = scene.camera_index(&config.camera)?;
     if let Some(ev) = config.exposure {
         scene.exposure = ev;

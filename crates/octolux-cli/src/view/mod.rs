@@ -100,6 +100,9 @@ pub struct ViewArgs {
     /// Sky light.
     #[command(flatten, next_help_heading = "Sky")]
     pub sky_args: crate::sky_args::SkyArgs,
+    /// What the scene may pull in.
+    #[command(flatten, next_help_heading = "Scene budget")]
+    pub budget: crate::inputs::BudgetArgs,
 }
 
 /// Parses `WIDTHxHEIGHT`.

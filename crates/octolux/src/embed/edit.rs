@@ -132,18 +132,7 @@ impl GiEngine {
 
     /// Adds a base-colour texture (RGBA8, sRGB colour) for materials to refer to.
     pub fn add_texture(&mut self, texture: Texture) -> Result<TextureId> {
-        if texture.rgba.len() as u64 != texture.width as u64 * texture.height as u64 * 4
-            || texture.width == 0
-            || texture.height == 0
-        {
-            return Err(Error::InvalidArgument(format!(
-                "texture '{}': {} bytes do not make {}x{} RGBA8 texels",
-                texture.name,
-                texture.rgba.len(),
-                texture.width,
-                texture.height
-            )));
-        }
+        texture.check()?;
         self.scene.textures.push(texture);
         self.structure_changed();
         Ok(TextureId(self.scene.textures.len() as u32 - 1))

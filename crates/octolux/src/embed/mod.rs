@@ -119,7 +119,12 @@ impl GiEngine {
 
     /// An engine on an octolux context holding `scene` (for example one loaded from a file);
     /// the scene can be edited further through the engine.
-    pub fn with_context(ctx: &GpuContext, scene: Scene, config: GiConfig) -> Result<GiEngine> {
+    /// The scene is validated first ([`crate::scene::validate`]): malformed data is an error
+    /// naming what is wrong, never a panic later.
+    pub fn with_context(ctx: &GpuContext, mut scene: Scene, config: GiConfig) -> Result<GiEngine> {
+        if !scene.objects.is_empty() || !scene.meshes.is_empty() {
+            crate::scene::validate(&mut scene)?;
+        }
         crate::image_io::check_image_size(config.width, config.height)?;
         let max_dim = ctx.device.limits().max_texture_dimension_2d;
         if config.width > max_dim || config.height > max_dim {

@@ -50,10 +50,13 @@ impl Track {
         Mat4::from_rotation_translation(rotation, translation)
     }
 
-    /// Interpolated (translation, rotation) at time `t` (a NaN time holds the first key).
+    /// Interpolated (translation, rotation) at time `t` (a NaN time holds the first key; a
+    /// track without keys, which [`crate::scene::validate`] refuses, holds still at the
+    /// origin).
     pub fn sample(&self, t: f32) -> (Vec3, Quat) {
-        let first = self.keys[0];
-        let last = self.keys[self.keys.len() - 1];
+        let (Some(&first), Some(&last)) = (self.keys.first(), self.keys.last()) else {
+            return (Vec3::ZERO, Quat::IDENTITY);
+        };
         let mut t = t;
         let duration = last.time - first.time;
         if self.looping && duration > 0.0 {
@@ -99,6 +102,16 @@ mod tests {
             assert!(track.sample(f32::INFINITY).0.is_finite());
             assert!(track.sample(f32::NEG_INFINITY).0.is_finite());
         }
+    }
+
+    #[test]
+    fn a_track_without_keys_holds_still() {
+        let track = Track {
+            keys: Vec::new(),
+            looping: true,
+        };
+        assert_eq!(track.sample(1.0), (Vec3::ZERO, Quat::IDENTITY));
+        assert_eq!(track.transform_at(1.0), Mat4::IDENTITY);
     }
 
     #[test]

@@ -69,9 +69,11 @@ use super::{
     cornell, Camera, EnvironmentMap, Keyframe, Light, LightKind, Material, Mesh, Object, Scene,
     Sky, Track,
 };
+use crate::limits::{Account, Resource};
 use crate::{Error, Result};
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 use serde::Deserialize;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// Prefix of model paths resolved against the shared scenes folder.
@@ -89,21 +91,20 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Loads and validates a scene file; also returns its `[settings]` table (empty when absent),
 /// which holds GI technique settings read elsewhere.
 pub fn load_with_settings(path: &Path) -> Result<(Scene, toml::Table)> {
+    load_within(path, &Account::default())
+}
+
+/// [`load_with_settings`], charging what the scene pulls in to `account` (see
+/// [`crate::limits::Budget`]).
+pub fn load_within(path: &Path, account: &Account) -> Result<(Scene, toml::Table)> {
     if !path.exists() {
         return Err(Error::io(
             path,
             std::io::Error::new(std::io::ErrorKind::NotFound, "file not found"),
         ));
     }
-    let text = crate::limits::read_text(path)?;
-    let (scene, settings) = parse_with_settings(&text, path)?;
-    if !scene.has_light() {
-        log::warn!(
-            "scene '{}': no lights and no emissive surfaces; the image will be black",
-            scene.name
-        );
-    }
-    Ok((scene, settings))
+    let text = account.read_text(path)?;
+    parse_within(&text, path, account)
 }
 
 /// Parses and validates scene-file text as if it had been read from `path` (relative model
@@ -114,13 +115,18 @@ pub fn parse(text: &str, path: &Path) -> Result<Scene> {
 
 /// [`parse`], also returning the `[settings]` table.
 pub fn parse_with_settings(text: &str, path: &Path) -> Result<(Scene, toml::Table)> {
+    parse_within(text, path, &Account::default())
+}
+
+fn parse_within(text: &str, path: &Path, account: &Account) -> Result<(Scene, toml::Table)> {
     let description = describe(text, path)?;
     let settings = description.settings.clone();
     let unit = description.unit;
-    let mut scene = build(description, path)?;
+    let mut scene = build(description, path, account)?;
     if unit != 1.0 {
         scene.scale_world(unit);
     }
+    account.check()?;
     super::validate(&mut scene)?;
     Ok((scene, settings))
 }
@@ -1033,15 +1039,46 @@ fn describe_camera(index: usize, c: &RawCamera, path: &Path) -> Result<Camera> {
 // ---------------------------------------------------------------------------------------------
 // Building the scene.
 
-fn build(description: Description, path: &Path) -> Result<Scene> {
+fn build(description: Description, path: &Path, account: &Account) -> Result<Scene> {
     let mut scene = Scene {
         name: description.name,
         exposure: description.exposure,
         ..Scene::default()
     };
-    for model in description.models {
-        let part = load_model(&model, path)?;
-        scene.merge(part);
+    // A model placed by many `[[model]]`s is read once, and its meshes are in the scene once
+    // for each selection and material override: each placement adds only objects that share
+    // them. Each placement is charged to the budget before it is added, so a model listed
+    // thousands of times stops with an error, not after minutes and gigabytes.
+    let mut files: HashMap<PathBuf, Scene> = HashMap::new();
+    let mut templates: HashMap<String, Template> = HashMap::new();
+    for model in &description.models {
+        let key = model.template_key();
+        if !templates.contains_key(&key) {
+            let base = match &model.source {
+                Source::CornellBox => cornell::geometry(),
+                Source::GroundPlane(size) => ground_plane(*size),
+                Source::File(file) => match files.get(file) {
+                    Some(base) => base.clone(),
+                    None => {
+                        let loaded = Scene::load_model_within(file, account).map_err(|e| {
+                            bad(
+                                path,
+                                format!("{}: could not load the model: {e}", model.label),
+                            )
+                        })?;
+                        files.insert(file.clone(), loaded.clone());
+                        loaded
+                    }
+                },
+            };
+            let part = prepare_model(base, model, path, account)?;
+            templates.insert(key.clone(), Template::add(&mut scene, part));
+        }
+        let template = &templates[&key];
+        let what = || format!("{}: {}", path.display(), model.label);
+        account.charge(Resource::Instances, template.objects.len() as u64, what)?;
+        account.charge(Resource::Triangles, template.triangles, what)?;
+        place(&mut scene, template, model);
     }
     scene.lights.extend(description.lights);
     scene.cameras.extend(description.cameras);
@@ -1051,17 +1088,72 @@ fn build(description: Description, path: &Path) -> Result<Scene> {
     Ok(scene)
 }
 
-fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
-    let mut part = match &model.source {
-        Source::CornellBox => cornell::geometry(),
-        Source::GroundPlane(size) => ground_plane(*size),
-        Source::File(file) => Scene::load_model(file).map_err(|e| {
-            bad(
-                path,
-                format!("{}: could not load the model: {e}", model.label),
-            )
-        })?,
-    };
+/// A model as its `[[model]]`s place it: meshes already in the scene, objects (in model
+/// space) that refer to them, and the lights and cameras that came with it.
+struct Template {
+    objects: Vec<Object>,
+    lights: Vec<Light>,
+    cameras: Vec<Camera>,
+    /// Triangles of one placement.
+    triangles: u64,
+}
+
+impl Template {
+    /// Adds `part`'s meshes, materials and textures to `scene`; keeps its objects, lights and
+    /// cameras for placing.
+    fn add(scene: &mut Scene, mut part: Scene) -> Template {
+        let triangles = part.triangle_count() as u64;
+        let objects = std::mem::take(&mut part.objects);
+        let lights = std::mem::take(&mut part.lights);
+        let cameras = std::mem::take(&mut part.cameras);
+        let ids = scene.merge(part);
+        let objects = objects
+            .into_iter()
+            .map(|mut o| {
+                o.meshes.iter_mut().for_each(|m| *m = ids[*m as usize]);
+                o
+            })
+            .collect();
+        Template {
+            objects,
+            lights,
+            cameras,
+            triangles,
+        }
+    }
+}
+
+impl ModelSpec {
+    /// What makes two `[[model]]`s share their meshes: the same source, selection and
+    /// material overrides (placement, animation and names may differ).
+    fn template_key(&self) -> String {
+        let source = match &self.source {
+            Source::CornellBox => "builtin:cornell-box".to_string(),
+            Source::GroundPlane(size) => format!("builtin:ground-plane {size}"),
+            Source::File(file) => file.display().to_string(),
+        };
+        format!(
+            "{source}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}",
+            self.selection.objects,
+            self.selection.materials,
+            self.selection.exclude_objects,
+            self.selection.exclude_materials,
+            self.albedo,
+            self.emission,
+            self.two_sided,
+            self.texture,
+            self.animation.is_some()
+        )
+    }
+}
+
+/// The parts of `part` that `model` keeps, with its material overrides applied.
+fn prepare_model(
+    mut part: Scene,
+    model: &ModelSpec,
+    path: &Path,
+    account: &Account,
+) -> Result<Scene> {
     if part.objects.is_empty() {
         // A loader that only returns meshes: one object holds them all.
         part.objects.push(Object {
@@ -1074,7 +1166,8 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
     select_parts(&mut part, &model.selection, &model.label, path)?;
     let texture = match &model.texture {
         Some(file) => {
-            part.textures.push(super::Texture::load(file)?);
+            part.textures
+                .push(super::Texture::load_within(file, account)?);
             Some(part.textures.len() as u32 - 1)
         }
         None => None,
@@ -1098,6 +1191,24 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
             material.emission_two_sided = two_sided;
         }
     }
+    if model.animation.is_some() {
+        if let Some(object) = part.objects.iter().find(|o| o.animation.is_some()) {
+            return Err(bad(
+                path,
+                format!(
+                    "{}: object '{}' is already animated in the model file; \
+                     it cannot take a model animation too",
+                    model.label, object.name
+                ),
+            ));
+        }
+    }
+    Ok(part)
+}
+
+/// Adds one placement of `template` to `scene`: its objects placed and named as `model`
+/// says, and the lights and cameras that came with the model placed with it.
+fn place(scene: &mut Scene, template: &Template, model: &ModelSpec) {
     let animated = model.animation.is_some();
     // Rest placement; when animated the translation lives in the track's keys.
     let rest_translation = if animated {
@@ -1109,18 +1220,9 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
         Mat4::from_scale_rotation_translation(model.scale, model.rotation, rest_translation)
             * Mat4::from_translation(-model.pivot)
     });
-    let single = part.objects.len() == 1;
-    for object in &mut part.objects {
-        if animated && object.animation.is_some() {
-            return Err(bad(
-                path,
-                format!(
-                    "{}: object '{}' is already animated in the model file; \
-                     it cannot take a model animation too",
-                    model.label, object.name
-                ),
-            ));
-        }
+    let single = template.objects.len() == 1;
+    for template_object in &template.objects {
+        let mut object = template_object.clone();
         if placement != Mat4::IDENTITY {
             object.transform = placement * object.transform;
         }
@@ -1134,19 +1236,23 @@ fn load_model(model: &ModelSpec, path: &Path) -> Result<Scene> {
                 format!("{name}/{}", object.name)
             };
         }
+        scene.objects.push(object);
     }
     // Lights and cameras that come with a model (glTF) are placed with it.
-    for light in &mut part.lights {
+    for light in &template.lights {
+        let mut light = light.clone();
         light.position = placement.transform_point3(light.position);
         light.direction = placement
             .transform_vector3(light.direction)
             .normalize_or(light.direction);
+        scene.lights.push(light);
     }
-    for camera in &mut part.cameras {
+    for camera in &template.cameras {
+        let mut camera = camera.clone();
         camera.position = placement.transform_point3(camera.position);
         camera.target = placement.transform_point3(camera.target);
+        scene.cameras.push(camera);
     }
-    Ok(part)
 }
 
 /// The parts of a model a `[[model]]` keeps: `objects` and `materials` keep only what they

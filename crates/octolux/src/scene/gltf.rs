@@ -20,6 +20,7 @@
 //!   +Y axis as up. Orthographic cameras are skipped with a warning.
 
 use super::{AlphaMode, Camera, Light, LightKind, Material, Mesh, Object, Scene, Texture};
+use crate::limits::Account;
 use crate::{Error, Result};
 use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
 use std::collections::HashMap;
@@ -30,19 +31,26 @@ pub const LUMENS_PER_WATT: f32 = 683.0;
 
 /// Loads a `.gltf` or `.glb` file.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = crate::limits::read_file(path)?;
+    load_within(path, &Account::default())
+}
+
+/// [`load`], charging the files it reads (the document, buffers and images) to `account`.
+pub fn load_within(path: &Path, account: &Account) -> Result<Scene> {
+    let bytes = account.read_file(path)?;
     let gltf = parse_document(&bytes).map_err(|e| Error::parse(path, e))?;
     drop(bytes);
     let base = path.parent().unwrap_or(Path::new("."));
     // Accessors are checked before they are read (`check_accessor`); should the glTF crate
     // still panic on data it assumes well-formed, that is reported as a parse error.
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| convert(path, base, gltf)))
-        .unwrap_or_else(|_| {
-            Err(Error::parse(
-                path,
-                "malformed glTF (inconsistent buffers, accessors or references)",
-            ))
-        })
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        convert(path, base, gltf, account)
+    }))
+    .unwrap_or_else(|_| {
+        Err(Error::parse(
+            path,
+            "malformed glTF (inconsistent buffers, accessors or references)",
+        ))
+    })
 }
 
 /// Parses and validates a glTF or GLB document, after the checks the glTF crate's own
@@ -94,9 +102,9 @@ fn parse_document(bytes: &[u8]) -> std::result::Result<gltf::Gltf, String> {
     gltf::Gltf::from_slice(bytes).map_err(|e| format!("malformed glTF: {e}"))
 }
 
-fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
+fn convert(path: &Path, base: &Path, gltf: gltf::Gltf, account: &Account) -> Result<Scene> {
     let gltf::Gltf { document, blob } = gltf;
-    let buffers = load_buffers(path, base, &document, blob)?;
+    let buffers = load_buffers(path, base, &document, blob, account)?;
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -123,7 +131,7 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
             set = info.tex_coord();
             let image = info.texture().source();
             texture = *image_textures.entry(image.index()).or_insert_with(|| {
-                match load_image(path, base, &image, &buffers) {
+                match load_image(path, base, &image, &buffers, account) {
                     Some(t) => {
                         scene.textures.push(t);
                         Some(scene.textures.len() as u32 - 1)
@@ -292,7 +300,8 @@ fn convert(path: &Path, base: &Path, gltf: gltf::Gltf) -> Result<Scene> {
                             material,
                         };
                         if out.normals.is_empty() {
-                            out.compute_normals_checked();
+                            // A bad index is reported by validation, which names the file.
+                            out.compute_normals().ok();
                         }
                         scene.meshes.push(out);
                         ids.push(scene.meshes.len() as u32 - 1);
@@ -384,6 +393,7 @@ fn load_image(
     base: &Path,
     image: &gltf::Image,
     buffers: &[gltf::buffer::Data],
+    account: &Account,
 ) -> Option<Texture> {
     let label = match image.source() {
         gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => uri.to_string(),
@@ -392,7 +402,7 @@ fn load_image(
             .map(str::to_string)
             .unwrap_or_else(|| format!("image{}", image.index())),
     };
-    let decoded = image_bytes(base, image, buffers).and_then(|(bytes, mime)| {
+    let decoded = image_bytes(base, image, buffers, account).and_then(|(bytes, mime)| {
         let format = mime.and_then(image::ImageFormat::from_mime_type);
         crate::limits::decode_image(Path::new(&label), &bytes, format).map_err(|e| e.to_string())
     });
@@ -420,6 +430,7 @@ fn image_bytes<'a>(
     base: &Path,
     image: &'a gltf::Image,
     buffers: &[gltf::buffer::Data],
+    account: &Account,
 ) -> std::result::Result<(Vec<u8>, Option<&'a str>), String> {
     match image.source() {
         gltf::image::Source::View { view, mime_type } => {
@@ -433,14 +444,14 @@ fn image_bytes<'a>(
             }
         }
         gltf::image::Source::Uri { uri, mime_type } => {
-            let bytes = uri_bytes(base, uri).map_err(|e| e.to_string())?;
+            let bytes = uri_bytes(base, uri, account).map_err(|e| e.to_string())?;
             Ok((bytes, mime_type))
         }
     }
 }
 
 /// The bytes a glTF URI names: a base64 data URI or a file relative to `base`.
-fn uri_bytes(base: &Path, uri: &str) -> Result<Vec<u8>> {
+fn uri_bytes(base: &Path, uri: &str, account: &Account) -> Result<Vec<u8>> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let data = rest.split_once(";base64,").map_or(rest, |(_, d)| d);
         return base64::decode(data)
@@ -458,7 +469,7 @@ fn uri_bytes(base: &Path, uri: &str) -> Result<Vec<u8>> {
             .map_err(|_| Error::parse(base, format!("URI '{uri}': invalid percent-encoding")))?
             .into_owned()
     };
-    crate::limits::read_file(&base.join(relative))
+    account.read_file(&base.join(relative))
 }
 
 /// Loads every buffer: the GLB binary chunk, data URIs and files (read with the size limit),
@@ -468,6 +479,7 @@ fn load_buffers(
     base: &Path,
     document: &gltf::Document,
     mut blob: Option<Vec<u8>>,
+    account: &Account,
 ) -> Result<Vec<gltf::buffer::Data>> {
     let mut out = Vec::new();
     for buffer in document.buffers() {
@@ -475,7 +487,7 @@ fn load_buffers(
             gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                 Error::parse(path, format!("buffer {}: no binary chunk", buffer.index()))
             })?,
-            gltf::buffer::Source::Uri(uri) => uri_bytes(base, uri)
+            gltf::buffer::Source::Uri(uri) => uri_bytes(base, uri, account)
                 .map_err(|e| Error::parse(path, format!("buffer {}: {e}", buffer.index())))?,
         };
         if data.len() < buffer.length() {

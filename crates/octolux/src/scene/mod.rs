@@ -11,6 +11,7 @@ mod animation;
 mod camera;
 pub mod cornell;
 pub mod file;
+mod framing;
 pub mod gltf;
 pub mod mitsuba;
 pub mod obj;
@@ -22,11 +23,13 @@ mod validate;
 
 pub use animation::{Keyframe, Track};
 pub use camera::{Camera, CameraView};
+pub use framing::ViewSurvey;
 pub use scenes_dir::scenes_dir;
 pub use sky::{direction_to_uv, uv_to_direction, EnvironmentMap, Sky, SkyRadiance};
 pub use texture::{srgb_to_linear, Texture};
 pub use validate::{validate, MAX_DEPTH_RATIO, MAX_EXPOSURE};
 
+use crate::limits::{Account, Budget, Resource};
 use crate::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};
 use std::path::Path;
@@ -55,9 +58,27 @@ impl Mesh {
         self.indices.len() / 3
     }
 
-    /// Fills `normals` with area-weighted vertex normals computed from the triangles.
-    pub fn compute_normals(&mut self) {
-        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+    /// Fills `normals` with area-weighted vertex normals computed from the triangles. Indices
+    /// not in threes or out of range are an error naming the mesh; the normals are then all
+    /// +y, so that the mesh stays well-formed for [`validate`] to report.
+    pub fn compute_normals(&mut self) -> Result<()> {
+        let n = self.positions.len();
+        let bad = if !self.indices.len().is_multiple_of(3) {
+            Some(format!(
+                "{} indices is not a multiple of 3",
+                self.indices.len()
+            ))
+        } else {
+            self.indices
+                .iter()
+                .find(|&&i| i as usize >= n)
+                .map(|i| format!("index {i} out of range (the mesh has {n} vertices)"))
+        };
+        if let Some(problem) = bad {
+            self.normals = vec![Vec3::Y; n];
+            return Err(Error::scene(&self.name, problem));
+        }
+        let mut normals = vec![Vec3::ZERO; n];
         for tri in self.indices.chunks_exact(3) {
             let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
             let n = (self.positions[b] - self.positions[a])
@@ -70,6 +91,7 @@ impl Mesh {
             .into_iter()
             .map(|n| n.try_normalize().unwrap_or(Vec3::Y))
             .collect();
+        Ok(())
     }
 }
 
@@ -367,22 +389,29 @@ impl Scene {
     }
 
     /// Loads a scene or model file, choosing the loader by extension: `.toml` (scene file),
-    /// `.xml` (Mitsuba 3 scene), `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`. The result is
-    /// validated, and a scene that nothing lights gets a warning (it renders black).
+    /// `.xml` (Mitsuba 3 scene), `.gltf`/`.glb`, `.obj`, `.ply`, `.ply.gz`, within the default
+    /// [`Budget`]. The result is validated. A scene without a camera gets one that looks into
+    /// it ([`Scene::add_framing_camera`]).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
-        let scene = Self::load_model(path)?;
-        if !scene.has_light() {
-            log::warn!(
-                "scene '{}': no lights and no emissive surfaces; the image will be black",
-                scene.name
-            );
-        }
+        Self::load_within(path, Budget::default())
+    }
+
+    /// [`Scene::load`] within `budget`: a scene that would pull in more triangles, instances,
+    /// file reads, bytes or includes is an error naming the budget it passed.
+    pub fn load_within(path: impl AsRef<Path>, budget: Budget) -> Result<Scene> {
+        let mut scene = Self::load_model_within(path, &Account::new(budget))?;
+        scene.add_framing_camera();
         Ok(scene)
     }
 
-    /// Like [`Scene::load`] without the warning about lights: for models that a scene file
-    /// lights itself.
+    /// Like [`Scene::load`] without the camera: for models that a scene file places.
     pub fn load_model(path: impl AsRef<Path>) -> Result<Scene> {
+        Self::load_model_within(path, &Account::default())
+    }
+
+    /// [`Scene::load_model`], charging what the model pulls in to `account`; the whole model
+    /// must fit the account's budget of triangles and instances.
+    pub fn load_model_within(path: impl AsRef<Path>, account: &Account) -> Result<Scene> {
         let path = path.as_ref();
         if !path.exists() {
             return Err(Error::io(
@@ -395,21 +424,45 @@ impl Scene {
             .map(|s| s.to_string_lossy().to_lowercase())
             .unwrap_or_default();
         let mut scene = if name.ends_with(".toml") {
-            file::load(path)?
+            file::load_within(path, account)?.0
         } else if name.ends_with(".xml") {
-            mitsuba::load(path)?
+            mitsuba::load_within(path, account)?
         } else if name.ends_with(".gltf") || name.ends_with(".glb") {
-            gltf::load(path)?
+            gltf::load_within(path, account)?
         } else if name.ends_with(".obj") {
-            obj::load(path)?
+            obj::load_within(path, account)?
         } else if name.ends_with(".ply") || name.ends_with(".ply.gz") {
-            ply::load(path)?
+            ply::load_within(path, account)?
         } else {
             return Err(Error::parse(
                 path,
                 "unknown scene format (expected .toml, .xml, .gltf, .glb, .obj, .ply or .ply.gz)",
             ));
         };
+        // Scene files and Mitsuba scenes charge each placement as they add it; a single model
+        // (a glTF whose nodes share a mesh, say) is checked whole here.
+        let budget = account.budget();
+        let (objects, triangles) = (scene.objects.len() as u64, scene.triangle_count() as u64);
+        for (resource, count, cap) in [
+            (Resource::Instances, objects, budget.instances),
+            (Resource::Triangles, triangles, budget.triangles),
+        ] {
+            if count > cap {
+                return Err(Error::parse(
+                    path,
+                    format!(
+                        "the model has {} {}, more than the budget of {}; if it is meant to be \
+                         this large, raise the budget with `--budget {}=N` \
+                         (octolux::limits::Budget in the library)",
+                        crate::limits::grouped(count),
+                        resource.name(),
+                        crate::limits::grouped(cap),
+                        resource.name()
+                    ),
+                ));
+            }
+        }
+        account.check()?;
         validate(&mut scene)?;
         Ok(scene)
     }
@@ -419,7 +472,8 @@ impl Scene {
         self.objects
             .iter()
             .flat_map(|o| o.meshes.iter())
-            .map(|&m| self.meshes[m as usize].triangle_count())
+            .filter_map(|&m| self.meshes.get(m as usize))
+            .map(Mesh::triangle_count)
             .sum()
     }
 
@@ -536,7 +590,10 @@ impl Scene {
         for object in self.objects.iter().filter(|o| keep(o)) {
             let m = object.transform_at(t);
             for &mesh in &object.meshes {
-                for &p in &self.meshes[mesh as usize].positions {
+                let Some(mesh) = self.meshes.get(mesh as usize) else {
+                    continue;
+                };
+                for &p in &mesh.positions {
                     let w = m.transform_point3(p);
                     lo = lo.min(w);
                     hi = hi.max(w);
@@ -695,15 +752,24 @@ impl Scene {
                 continue;
             }
             let normal_matrix = m.inverse().transpose();
-            for &mesh_index in &object.meshes {
-                let mesh = &self.meshes[mesh_index as usize];
+            // Unvalidated data (a scene built by hand) must not panic here: meshes and
+            // triangles that point past their data are left out, missing normals face +y.
+            for mesh in object
+                .meshes
+                .iter()
+                .filter_map(|&i| self.meshes.get(i as usize))
+            {
+                let n = mesh.positions.len();
                 for tri in mesh.indices.chunks_exact(3) {
                     let v = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                    if v.iter().any(|&i| i >= n) {
+                        continue;
+                    }
                     out.push(WorldTriangle {
                         positions: v.map(|i| m.transform_point3(mesh.positions[i])),
                         normals: v.map(|i| {
                             normal_matrix
-                                .transform_vector3(mesh.normals[i])
+                                .transform_vector3(mesh.normals.get(i).copied().unwrap_or(Vec3::Y))
                                 .normalize_or(Vec3::Y)
                         }),
                         uvs: v.map(|i| mesh.uvs.get(i).copied().unwrap_or(Vec2::ZERO)),

@@ -18,6 +18,7 @@
 //!   the default material).
 
 use super::{AlphaMode, Material, Mesh, Object, Scene, Texture};
+use crate::limits::Account;
 use crate::{Error, Result};
 use glam::{Mat4, Vec2, Vec3};
 use rayon::prelude::*;
@@ -27,7 +28,12 @@ use std::sync::Mutex;
 
 /// Loads an OBJ file (and the MTL files it references): one object per `o`/`g` name.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = crate::limits::read_file(path)?;
+    load_within(path, &Account::default())
+}
+
+/// [`load`], charging the files it reads to `account`.
+pub fn load_within(path: &Path, account: &Account) -> Result<Scene> {
+    let bytes = account.read_file(path)?;
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let warnings = Mutex::new(Vec::<String>::new());
     let options = tobj::LoadOptions {
@@ -38,7 +44,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     };
     let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         tobj::load_obj_buf(&mut &bytes[..], &options, |mtl| {
-            load_mtl(&dir, mtl, &warnings)
+            load_mtl(&dir, mtl, &warnings, account)
         })
     }))
     .map_err(|_| Error::parse(path, "malformed OBJ (the OBJ parser failed)"))?;
@@ -62,7 +68,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         }
     };
 
-    let (materials, textures) = convert_materials(&mtl_materials);
+    let (materials, textures) = convert_materials(&mtl_materials, account);
     let mut scene = Scene {
         name: path
             .file_name()
@@ -149,7 +155,8 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
     for mesh in &mut scene.meshes {
         if mesh.normals.len() != mesh.positions.len() {
-            mesh.compute_normals_checked();
+            // A bad index is reported by validation, which names the file.
+            mesh.compute_normals().ok();
         }
     }
     scene.objects = group_objects(&scene.meshes, &scene.name);
@@ -246,7 +253,12 @@ fn bad_line(text: &str, error: &tobj::LoadError) -> Option<(usize, String)> {
 
 /// Reads an MTL file, repairing what `tobj` would reject or choke on (colours with fewer than
 /// three components, unparsable numbers) with a warning.
-fn load_mtl(dir: &Path, mtl: &Path, warnings: &Mutex<Vec<String>>) -> tobj::MTLLoadResult {
+fn load_mtl(
+    dir: &Path,
+    mtl: &Path,
+    warnings: &Mutex<Vec<String>>,
+    account: &Account,
+) -> tobj::MTLLoadResult {
     let warn = |w: String| {
         if let Ok(mut list) = warnings.lock() {
             list.push(w);
@@ -255,7 +267,7 @@ fn load_mtl(dir: &Path, mtl: &Path, warnings: &Mutex<Vec<String>>) -> tobj::MTLL
     let path = dir.join(normalize_separators(&mtl.to_string_lossy()));
     let path = find_file(&path).unwrap_or(path);
     let mtl_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let text = match crate::limits::read_file_limited(&path, crate::limits::MAX_TEXT_BYTES) {
+    let text = match account.read_file_limited(&path, crate::limits::MAX_TEXT_BYTES) {
         Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
         Err(e) => {
             warn(format!(
@@ -366,7 +378,7 @@ fn find_file(path: &Path) -> Option<PathBuf> {
 type TextureKey = (Option<PathBuf>, Option<PathBuf>);
 
 /// Converts MTL materials, loading each distinct (colour, mask) texture once, in parallel.
-fn convert_materials(mtl: &[tobj::Material]) -> (Vec<Material>, Vec<Texture>) {
+fn convert_materials(mtl: &[tobj::Material], account: &Account) -> (Vec<Material>, Vec<Texture>) {
     // `load_mtl` already turned texture names into paths.
     let resolve = |name: &Option<String>| name.as_ref().map(PathBuf::from);
     let keys: Vec<TextureKey> = mtl
@@ -382,7 +394,7 @@ fn convert_materials(mtl: &[tobj::Material]) -> (Vec<Material>, Vec<Texture>) {
     unique.dedup();
     let built: Vec<(Option<Texture>, bool)> = unique
         .par_iter()
-        .map(|(color, mask)| build_texture(color.as_deref(), mask.as_deref()))
+        .map(|(color, mask)| build_texture(color.as_deref(), mask.as_deref(), account))
         .collect();
     let mut textures = Vec::new();
     let mut index: HashMap<&TextureKey, (Option<u32>, bool)> = HashMap::new();
@@ -429,10 +441,14 @@ fn convert_materials(mtl: &[tobj::Material]) -> (Vec<Material>, Vec<Texture>) {
 
 /// Loads a colour texture and/or a mask; returns the texture and whether it carries a mask.
 /// Failures are warnings.
-pub(crate) fn build_texture(color: Option<&Path>, mask: Option<&Path>) -> (Option<Texture>, bool) {
+pub(crate) fn build_texture(
+    color: Option<&Path>,
+    mask: Option<&Path>,
+    account: &Account,
+) -> (Option<Texture>, bool) {
     let load = |p: &Path| -> Option<Texture> {
         let found = find_file(p).unwrap_or(p.to_path_buf());
-        match Texture::load(&found) {
+        match Texture::load_within(&found, account) {
             Ok(t) => Some(t),
             Err(e) => {
                 log::warn!("texture {}: {e}; using the material colour", p.display());

@@ -20,7 +20,12 @@ use std::path::Path;
 
 /// Loads a PLY or gzipped PLY file as a one-object scene.
 pub fn load(path: &Path) -> Result<Scene> {
-    let raw = crate::limits::read_file(path)?;
+    load_within(path, &crate::limits::Account::default())
+}
+
+/// [`load`], charging the file to `account`.
+pub fn load_within(path: &Path, account: &crate::limits::Account) -> Result<Scene> {
+    let raw = account.read_file(path)?;
     let data = if raw.starts_with(&[0x1f, 0x8b]) {
         crate::limits::gunzip(path, &raw)?
     } else {
@@ -59,7 +64,8 @@ pub fn load(path: &Path) -> Result<Scene> {
         material: 0,
     };
     if out.normals.len() != out.positions.len() {
-        out.compute_normals_checked();
+        // A bad index is reported by validation, which names the file.
+        out.compute_normals().ok();
     }
     Ok(Scene {
         name: name.clone(),
@@ -73,19 +79,6 @@ pub fn load(path: &Path) -> Result<Scene> {
         }],
         ..Scene::default()
     })
-}
-
-impl Mesh {
-    /// Computes normals only when every index is in range; otherwise fills in placeholders
-    /// so that validation gets to report the bad index as an error.
-    pub(crate) fn compute_normals_checked(&mut self) {
-        let n = self.positions.len();
-        if self.indices.iter().all(|&i| (i as usize) < n) {
-            self.compute_normals();
-        } else {
-            self.normals = vec![Vec3::Y; n];
-        }
-    }
 }
 
 /// What the PLY file yields.

@@ -36,7 +36,12 @@ impl Texture {
     /// the file extension first (TGA has no signature to recognise it by), then from the
     /// content.
     pub fn load(path: &Path) -> Result<Texture> {
-        let bytes = crate::limits::read_file(path)?;
+        Self::load_within(path, &crate::limits::Account::default())
+    }
+
+    /// [`Texture::load`], charging the file to `account`.
+    pub fn load_within(path: &Path, account: &crate::limits::Account) -> Result<Texture> {
+        let bytes = account.read_file(path)?;
         let image =
             crate::limits::decode_image(path, &bytes, image::ImageFormat::from_path(path).ok())?;
         if image.width() > Self::MAX_SIZE || image.height() > Self::MAX_SIZE {
@@ -62,12 +67,40 @@ impl Texture {
         })
     }
 
-    /// One texel as linear RGB + alpha, with repeat addressing.
+    /// Checks that the texels fill the size: `width` x `height` RGBA8 texels, neither side 0
+    /// nor above [`Texture::MAX_SIZE`]. [`crate::scene::validate`] checks every texture so.
+    pub fn check(&self) -> Result<()> {
+        let expected = self.width as u64 * self.height as u64 * 4;
+        if self.width == 0
+            || self.height == 0
+            || self.width > Self::MAX_SIZE
+            || self.height > Self::MAX_SIZE
+            || self.rgba.len() as u64 != expected
+        {
+            return Err(Error::InvalidArgument(format!(
+                "texture '{}': {} bytes do not make {}x{} RGBA8 texels (1 to {} per side)",
+                self.name,
+                self.rgba.len(),
+                self.width,
+                self.height,
+                Self::MAX_SIZE
+            )));
+        }
+        Ok(())
+    }
+
+    /// One texel as linear RGB + alpha, with repeat addressing (opaque white for a texture
+    /// that fails [`Texture::check`]).
     pub fn texel(&self, x: i64, y: i64) -> Vec4 {
+        if self.width == 0 || self.height == 0 {
+            return Vec4::ONE;
+        }
         let x = x.rem_euclid(self.width as i64) as usize;
         let y = y.rem_euclid(self.height as i64) as usize;
         let i = (y * self.width as usize + x) * 4;
-        let t = &self.rgba[i..i + 4];
+        let Some(t) = self.rgba.get(i..i + 4) else {
+            return Vec4::ONE;
+        };
         Vec4::new(
             SRGB_LUT[t[0] as usize],
             SRGB_LUT[t[1] as usize],

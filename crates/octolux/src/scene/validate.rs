@@ -43,7 +43,7 @@ pub fn validate(scene: &mut Scene) -> Result<()> {
             )));
         }
         if mesh.normals.len() != n {
-            mesh.compute_normals();
+            mesh.compute_normals()?;
         }
         if let Some(i) = mesh.normals.iter().position(|v| !v.is_finite()) {
             return Err(err(format!(
@@ -102,6 +102,33 @@ pub fn validate(scene: &mut Scene) -> Result<()> {
             )));
         }
     }
+    for texture in &scene.textures {
+        texture.check().map_err(|e| match e {
+            Error::InvalidArgument(message) => err(message),
+            other => other,
+        })?;
+    }
+    let tracks = scene
+        .objects
+        .iter()
+        .map(|o| ("object", &o.name, &o.animation))
+        .chain(
+            scene
+                .lights
+                .iter()
+                .map(|l| ("light", &l.name, &l.animation)),
+        )
+        .chain(
+            scene
+                .cameras
+                .iter()
+                .map(|c| ("camera", &c.name, &c.animation)),
+        );
+    for (kind, item, track) in tracks {
+        if let Some(track) = track {
+            check_track(track).map_err(|m| err(format!("{kind} '{item}': animation {m}")))?;
+        }
+    }
     for object in &scene.objects {
         if let Some(&m) = object
             .meshes
@@ -147,6 +174,39 @@ pub fn validate(scene: &mut Scene) -> Result<()> {
 
 /// Largest scene exposure, in stops either way (the same as the `--exposure` flag's).
 pub const MAX_EXPOSURE: f32 = 64.0;
+
+/// A track's keys: at least one, sorted, finite, with unit-length rotations.
+fn check_track(track: &super::Track) -> std::result::Result<(), String> {
+    if track.keys.is_empty() {
+        return Err("has no keys".into());
+    }
+    for (i, key) in track.keys.iter().enumerate() {
+        if !key.time.is_finite() || !key.translation.is_finite() || !key.rotation.is_finite() {
+            return Err(format!(
+                "key {i}: time, translation and rotation must be finite"
+            ));
+        }
+        if key.translation.abs().max_element() > crate::limits::MAX_COORDINATE {
+            return Err(format!(
+                "key {i}: translation {} is beyond the coordinate limit of +-{:e} m",
+                key.translation,
+                crate::limits::MAX_COORDINATE
+            ));
+        }
+        if (key.rotation.length() - 1.0).abs() > 1e-3 {
+            return Err(format!(
+                "key {i}: rotation {} is not a unit quaternion",
+                key.rotation
+            ));
+        }
+        if i > 0 && key.time < track.keys[i - 1].time {
+            return Err(format!(
+                "key {i}: keys must be sorted by time (Track::new sorts them)"
+            ));
+        }
+    }
+    Ok(())
+}
 
 /// The range checks of [`validate`] on values that are finite but too large to render.
 fn check_ranges(scene: &Scene) -> std::result::Result<(), String> {

@@ -145,7 +145,8 @@ impl<'a> Loader<'a> {
             let index = match self.textures.get(&key) {
                 Some(&t) => t,
                 None => {
-                    let (texture, _) = obj::build_texture(color.as_deref(), Some(&mask));
+                    let (texture, _) =
+                        obj::build_texture(color.as_deref(), Some(&mask), self.account);
                     let texture = texture.ok_or_else(|| {
                         self.doc
                             .error(p, format!("cannot read the mask {}", mask.display()))
@@ -212,7 +213,7 @@ impl<'a> Loader<'a> {
                 if let Some(&t) = self.textures.get(&key) {
                     return Ok((Vec3::ONE, Some(t)));
                 }
-                let mut texture = Texture::load(&file)
+                let mut texture = Texture::load_within(&file, self.account)
                     .map_err(|e| self.doc.error(p, format!("{}: {e}", p.describe())))?;
                 if raw {
                     // Linear texel values: store them sRGB-encoded as every texture is.

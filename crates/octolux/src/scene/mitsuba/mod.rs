@@ -34,7 +34,8 @@ mod shapes;
 mod spectrum;
 mod xml;
 
-use super::{obj, ply, AlphaMode, Asked, FileRequest, Material, Object, Scene};
+use super::{obj, ply, AlphaMode, Asked, FileRequest, Material, Mesh, Object, Scene};
+use crate::limits::{Account, Resource};
 use crate::Result;
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
@@ -48,11 +49,20 @@ const WARNINGS_PER_KIND: usize = 3;
 
 /// Loads a Mitsuba 3 XML scene.
 pub fn load(path: &Path) -> Result<Scene> {
-    let doc = Document::read(path)?;
+    load_within(path, &Account::default())
+}
+
+/// [`load`], charging the files it reads, the includes it follows and the shapes it places
+/// to `account`.
+pub fn load_within(path: &Path, account: &Account) -> Result<Scene> {
+    let doc = Document::read(path, account)?;
     let mut ids = HashMap::new();
     collect_ids(&doc, &doc.root, &mut ids)?;
     let mut loader = Loader {
         doc: &doc,
+        account,
+        files: HashMap::new(),
+        placed: HashMap::new(),
         ids,
         scene: Scene {
             name: path
@@ -102,6 +112,18 @@ fn collect_ids<'a>(
     Ok(())
 }
 
+/// What a shape is made of.
+enum Geometry {
+    /// An OBJ or PLY file, with the flags that change its meshes.
+    File {
+        file: PathBuf,
+        unflip_uv: bool,
+        face_normals: bool,
+    },
+    /// A tessellated primitive.
+    Meshes(Vec<Mesh>),
+}
+
 /// What a bsdf becomes.
 #[derive(Clone)]
 struct Surface {
@@ -129,6 +151,11 @@ impl Surface {
 
 struct Loader<'a> {
     doc: &'a Document,
+    account: &'a Account,
+    /// The meshes of each model file, read once however many shapes name it.
+    files: HashMap<PathBuf, Vec<Mesh>>,
+    /// Mesh indices in the scene by what makes shapes share them (file, flags, material).
+    placed: HashMap<String, Vec<u32>>,
     ids: HashMap<&'a str, &'a Element>,
     scene: Scene,
     /// Converted bsdfs by key.
@@ -279,7 +306,7 @@ impl<'a> Loader<'a> {
             .map_or_else(|| format!("shape{index}"), str::to_string);
         let mut to_world = self.to_world(el)?;
         let doc = self.doc;
-        let mut meshes = match el.kind() {
+        let geometry = match el.kind() {
             "obj" | "ply" => {
                 let file = self.file(el, "filename")?;
                 let lower = file.to_string_lossy().to_lowercase();
@@ -299,34 +326,23 @@ impl<'a> Loader<'a> {
                         ),
                     ));
                 }
-                let part = if el.kind() == "obj" {
-                    obj::load(&file)
-                } else {
-                    ply::load(&file)
+                Geometry::File {
+                    file,
+                    // Our OBJ loader flips v as Mitsuba does by default.
+                    unflip_uv: el.kind() == "obj" && !doc.boolean(el, "flip_tex_coords", true)?,
+                    face_normals: doc.boolean(el, "face_normals", false)?,
                 }
-                .map_err(|e| doc.error(el, format!("shape '{name}': {e}")))?;
-                let mut meshes = part.meshes;
-                if el.kind() == "obj" && !doc.boolean(el, "flip_tex_coords", true)? {
-                    // Our OBJ loader flips v as Mitsuba does by default; undo it.
-                    for uv in meshes.iter_mut().flat_map(|m| m.uvs.iter_mut()) {
-                        uv.y = 1.0 - uv.y;
-                    }
-                }
-                if doc.boolean(el, "face_normals", false)? {
-                    meshes.iter_mut().for_each(shapes::face_normals);
-                }
-                meshes
             }
-            "rectangle" => vec![shapes::rectangle()],
-            "cube" => vec![shapes::cube()],
-            "disk" => vec![shapes::disk()],
+            "rectangle" => Geometry::Meshes(vec![shapes::rectangle()]),
+            "cube" => Geometry::Meshes(vec![shapes::cube()]),
+            "disk" => Geometry::Meshes(vec![shapes::disk()]),
             "sphere" => {
                 let center = doc.point(el, "center")?.unwrap_or(Vec3::ZERO);
                 let radius = doc.float(el, "radius", 1.0)?;
                 to_world = to_world
                     * Mat4::from_translation(center)
                     * Mat4::from_scale(Vec3::splat(radius));
-                vec![shapes::sphere()]
+                Geometry::Meshes(vec![shapes::sphere()])
             }
             "cylinder" => {
                 let p0 = doc.point(el, "p0")?.unwrap_or(Vec3::ZERO);
@@ -344,7 +360,7 @@ impl<'a> Loader<'a> {
                     p0.extend(1.0),
                 );
                 to_world *= frame;
-                vec![shapes::cylinder()]
+                Geometry::Meshes(vec![shapes::cylinder()])
             }
             _ => {
                 self.skip(el, "is not a supported shape type");
@@ -354,9 +370,7 @@ impl<'a> Loader<'a> {
         if to_world.determinant().abs() < 1e-20 {
             return Err(doc.error(el, format!("shape '{name}': to_world is singular")));
         }
-        if doc.boolean(el, "flip_normals", false)? {
-            meshes.iter_mut().for_each(shapes::flip);
-        }
+        let flip_normals = doc.boolean(el, "flip_normals", false)?;
 
         // Material: the bsdf (nested or referenced) and the area emitter, if any.
         let mut bsdf = None;
@@ -397,22 +411,104 @@ impl<'a> Loader<'a> {
             None => Surface::grey("default".into(), "default".into()),
         };
         let material = self.material(&surface, emission);
-        let first = self.scene.meshes.len() as u32;
-        let count = meshes.len() as u32;
-        for mut mesh in meshes {
-            mesh.material = material;
-            if el.kind() != "obj" && el.kind() != "ply" {
-                mesh.name = name.clone();
-            }
-            self.scene.meshes.push(mesh);
-        }
+        let meshes = self.place_meshes(el, &name, geometry, flip_normals, material)?;
         self.scene.objects.push(Object {
             name,
-            meshes: (first..first + count).collect(),
+            meshes,
             transform: to_world,
             animation: None,
         });
         Ok(())
+    }
+
+    /// The scene's meshes for one shape, charged to the budget: a model file's meshes are
+    /// added once for each set of flags and material, and every shape that agrees on them
+    /// shares them (a file placed by thousands of shapes is read and stored once).
+    fn place_meshes(
+        &mut self,
+        el: &Element,
+        name: &str,
+        geometry: Geometry,
+        flip_normals: bool,
+        material: u32,
+    ) -> Result<Vec<u32>> {
+        let doc = self.doc;
+        let shared_key = match &geometry {
+            Geometry::File {
+                file,
+                unflip_uv,
+                face_normals,
+            } => Some(format!(
+                "{}|{unflip_uv}|{face_normals}|{flip_normals}|{material}",
+                file.display()
+            )),
+            Geometry::Meshes(_) => None,
+        };
+        let what = || format!("{}: shape '{name}'", doc.at(el));
+        if let Some(ids) = shared_key.as_ref().and_then(|k| self.placed.get(k)) {
+            let triangles = ids
+                .iter()
+                .map(|&m| self.scene.meshes[m as usize].triangle_count() as u64)
+                .sum();
+            self.account.charge(Resource::Instances, 1, what)?;
+            self.account.charge(Resource::Triangles, triangles, what)?;
+            return Ok(ids.clone());
+        }
+        let mut meshes = match geometry {
+            Geometry::Meshes(meshes) => meshes,
+            Geometry::File {
+                file,
+                unflip_uv,
+                face_normals,
+            } => {
+                let mut meshes = self.file_meshes(el, name, &file)?;
+                if unflip_uv {
+                    for uv in meshes.iter_mut().flat_map(|m| m.uvs.iter_mut()) {
+                        uv.y = 1.0 - uv.y;
+                    }
+                }
+                if face_normals {
+                    meshes.iter_mut().for_each(shapes::face_normals);
+                }
+                meshes
+            }
+        };
+        if flip_normals {
+            meshes.iter_mut().for_each(shapes::flip);
+        }
+        let triangles = meshes.iter().map(|m| m.triangle_count() as u64).sum();
+        self.account.charge(Resource::Instances, 1, what)?;
+        self.account.charge(Resource::Triangles, triangles, what)?;
+        let first = self.scene.meshes.len() as u32;
+        let count = meshes.len() as u32;
+        let primitive = shared_key.is_none();
+        for mut mesh in meshes {
+            mesh.material = material;
+            if primitive {
+                mesh.name = name.to_string();
+            }
+            self.scene.meshes.push(mesh);
+        }
+        let ids: Vec<u32> = (first..first + count).collect();
+        if let Some(key) = shared_key {
+            self.placed.insert(key, ids.clone());
+        }
+        Ok(ids)
+    }
+
+    /// The meshes of model file `file` (read on first use).
+    fn file_meshes(&mut self, el: &Element, name: &str, file: &Path) -> Result<Vec<Mesh>> {
+        if let Some(meshes) = self.files.get(file) {
+            return Ok(meshes.clone());
+        }
+        let part = if el.kind() == "obj" {
+            obj::load_within(file, self.account)
+        } else {
+            ply::load_within(file, self.account)
+        }
+        .map_err(|e| self.doc.error(el, format!("shape '{name}': {e}")))?;
+        self.files.insert(file.to_path_buf(), part.meshes.clone());
+        Ok(part.meshes)
     }
 
     /// The material for a surface with an emission (one material per distinct pair).

@@ -5,12 +5,17 @@
 //! column.
 
 use super::numbers;
+use crate::limits::{Account, Resource};
 use crate::{Error, Result};
 use glam::{Mat3, Mat4, Vec3};
 use std::path::{Path, PathBuf};
 
 /// How deep `<include>`s may nest (a loop of includes stops here).
 const MAX_INCLUDE_DEPTH: usize = 16;
+/// How deep elements may nest, includes counted (real scenes nest fewer than ten: scene,
+/// shape, bsdf, texture, transform). Every step below is a recursion, so a file nested
+/// thousands deep would otherwise overflow the stack.
+pub(super) const MAX_ELEMENT_DEPTH: usize = 64;
 
 /// One XML element with its attributes (substituted) and element children.
 #[derive(Clone, Debug)]
@@ -72,8 +77,9 @@ pub(super) struct Document {
 }
 
 impl Document {
-    /// Reads `path` and everything it includes.
-    pub fn read(path: &Path) -> Result<Document> {
+    /// Reads `path` and everything it includes, charging the files and includes to
+    /// `account`.
+    pub fn read(path: &Path, account: &Account) -> Result<Document> {
         let mut doc = Document {
             root: Element {
                 tag: String::new(),
@@ -86,7 +92,7 @@ impl Document {
             files: Vec::new(),
         };
         let mut params = Vec::new();
-        doc.root = doc.read_file(path, &mut params, 0)?;
+        doc.root = doc.read_file(path, &mut params, 0, 0, account)?;
         Ok(doc)
     }
 
@@ -129,8 +135,10 @@ impl Document {
         path: &Path,
         params: &mut Vec<(String, String)>,
         depth: usize,
+        element_depth: usize,
+        account: &Account,
     ) -> Result<Element> {
-        let text = crate::limits::read_text(path)?;
+        let text = account.read_text(path)?;
         let file = self.files.len();
         self.files.push(path.to_path_buf());
         let xml = roxmltree::Document::parse(&text).map_err(|e| {
@@ -165,8 +173,9 @@ impl Document {
             file,
             old: major < 2,
             depth,
+            account,
         };
-        self.convert(&xml, root, &context, params)
+        self.convert(&xml, root, &context, params, element_depth)
     }
 
     fn convert(
@@ -175,8 +184,21 @@ impl Document {
         node: roxmltree::Node,
         context: &Context,
         params: &mut Vec<(String, String)>,
+        element_depth: usize,
     ) -> Result<Element> {
         let pos = xml.text_pos_at(node.range().start);
+        if element_depth >= MAX_ELEMENT_DEPTH {
+            return Err(Error::parse(
+                &self.files[context.file],
+                format!(
+                    "line {}, column {}: <{}> is nested {MAX_ELEMENT_DEPTH} elements deep; \
+                     octolux reads at most {MAX_ELEMENT_DEPTH} levels",
+                    pos.row,
+                    pos.col,
+                    node.tag_name().name()
+                ),
+            ));
+        }
         let mut tag = node.tag_name().name().to_string();
         if context.old && tag == "lookAt" {
             tag = "lookat".into();
@@ -216,7 +238,7 @@ impl Document {
                     params.push((key.to_string(), value.to_string()));
                 }
             } else if name == "include" {
-                let included = self.convert(xml, child, context, params)?;
+                let included = self.convert(xml, child, context, params, element_depth + 1)?;
                 let Some(file) = included.attr("filename") else {
                     return Err(self.error(&included, "<include> needs a filename attribute"));
                 };
@@ -233,10 +255,20 @@ impl Document {
                         format!("included file '{file}' not found ({})", target.display()),
                     ));
                 }
-                let scene = self.read_file(&target, params, context.depth + 1)?;
+                context.account.charge(Resource::Includes, 1, || {
+                    format!("{}: <include filename=\"{file}\">", self.at(&included))
+                })?;
+                let scene = self.read_file(
+                    &target,
+                    params,
+                    context.depth + 1,
+                    element_depth,
+                    context.account,
+                )?;
                 el.children.extend(scene.children);
             } else {
-                el.children.push(self.convert(xml, child, context, params)?);
+                el.children
+                    .push(self.convert(xml, child, context, params, element_depth + 1)?);
             }
         }
         Ok(el)
@@ -244,11 +276,13 @@ impl Document {
 }
 
 /// Where elements being converted come from.
-struct Context {
+struct Context<'a> {
     file: usize,
     /// A file older than Mitsuba 2 (camelCase parameter names).
     old: bool,
+    /// How deep the includes nest here.
     depth: usize,
+    account: &'a Account,
 }
 
 /// Replaces `$name` with the parameter's value. An unknown name is an error.

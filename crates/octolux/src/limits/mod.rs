@@ -7,6 +7,11 @@
 //! Scene values are bounded too: coordinates by [`MAX_COORDINATE`], radiance and light
 //! intensities by [`MAX_RADIANCE`]. The README's "Limits" section lists them.
 
+mod budget;
+
+pub(crate) use budget::grouped;
+pub use budget::{Account, Budget, Resource};
+
 use crate::{Error, Result};
 use std::io::Read;
 use std::path::Path;
@@ -71,8 +76,10 @@ fn too_large(path: &Path, size: u64, limit: u64) -> Error {
 fn human(bytes: u64) -> String {
     if bytes >= 1 << 30 {
         format!("{} GiB", bytes >> 30)
-    } else {
+    } else if bytes >= 1 << 20 {
         format!("{} MiB", bytes >> 20)
+    } else {
+        format!("{bytes} bytes")
     }
 }
 
@@ -118,7 +125,11 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
 
 /// Reads a UTF-8 text file of at most [`MAX_TEXT_BYTES`].
 pub fn read_text(path: &Path) -> Result<String> {
-    let bytes = read_file_limited(path, MAX_TEXT_BYTES)?;
+    text_from_bytes(path, read_file_limited(path, MAX_TEXT_BYTES)?)
+}
+
+/// `bytes` read from `path` as UTF-8 text.
+fn text_from_bytes(path: &Path, bytes: Vec<u8>) -> Result<String> {
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
