@@ -1,69 +1,104 @@
 //! Mutation fuzzing of every loader: TOML scene files, OBJ + MTL, PLY (ASCII, binary and
 //! gzipped), glTF and GLB, Mitsuba XML, and Radiance HDR, OpenEXR, PNG and TGA images.
 //!
-//! Each target starts from seeds (the shipped files under `scenes/` and small files made here
-//! with the library's own writers), mutates them with a seeded generator (so a run is
-//! reproducible) and loads the result. Every case must end in a value or an error: no panic
-//! (each case runs under `catch_unwind`, and a panic hook also catches panics a loader catches
-//! itself), at most [`MEMORY_CAP`] bytes allocated at once by
-//! the loading thread, at most [`TIME_CAP`] per case, and a loaded scene must pass validation
-//! again. A failing case is saved under the temporary folder and named in the failure.
+//! Each target first loads its corpus, `tests/fuzz_corpus/<target>/` (inputs that once failed,
+//! kept so that every run tries them), then its seeds (the shipped files under `scenes/` and
+//! small files made here with the library's own writers), then mutations of the seeds made by
+//! a seeded generator. Cases run one at a time on a worker thread. Every case must end in a
+//! value or an error within [`CASE_DEADLINE`] (a case still running then fails the test at
+//! once): no panic (each case runs under `catch_unwind`, and a panic hook also catches panics
+//! a loader catches itself, on any thread), at most [`MEMORY_CAP`] bytes allocated at once by
+//! the whole process, and a loaded scene must survive what the renderers first compute from
+//! it. A failing case is saved under the temporary folder and named in the failure with the
+//! seed that repeats the run.
 //!
-//! The normal test run does [`DEFAULT_ITERATIONS`] cases per target. More on demand:
-//! `OCTOLUX_FUZZ_ITERS=100000 cargo test --release -p octolux --test fuzz_loaders`, with
-//! `OCTOLUX_FUZZ_SEED=N` to try other mutations.
+//! The base seed changes from run to run and is printed at the start; `OCTOLUX_FUZZ_SEED=S`
+//! repeats run S. The normal test run does [`DEFAULT_ITERATIONS`] cases per target. More on
+//! demand: `OCTOLUX_FUZZ_ITERS=100000 cargo test --release -p octolux --test fuzz_loaders`.
 
 use octolux::image_io::HdrImage;
 use octolux::scene::{EnvironmentMap, Scene, Texture};
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicIsize, Ordering::Relaxed};
+use std::sync::{mpsc, Mutex, MutexGuard, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
 use tempfile::TempDir;
 
-/// Cases per target in the normal test run: 12 targets, 36,000 cases, about 10 s on 2 cores
-/// at the test profile's opt-level 1.
+/// Cases per target in the normal test run (after its corpus).
 const DEFAULT_ITERATIONS: usize = 3000;
-/// Most bytes the loading thread may hold at once beyond what it held before the case.
+/// Most bytes the process may hold at once during a case beyond what it held before.
 const MEMORY_CAP: isize = 512 << 20;
-/// Longest time one case may take.
-const TIME_CAP: Duration = Duration::from_secs(10);
+/// Longest time one case may take; a case still running then fails the test at once.
+const CASE_DEADLINE: Duration = Duration::from_secs(10);
+/// The targets, each the name of its corpus folder under [`corpus_dir`].
+const TARGETS: [&str; 12] = [
+    "toml", "obj", "mtl", "ply", "ply-gz", "gltf", "glb", "xml", "hdr", "exr", "png", "tga",
+];
+
+// ---------------------------------------------------------------- one case at a time
+
+/// Held by every test here while it runs: the memory counts and the panic flag are the whole
+/// process's, so a case must run alone (the test harness runs tests on several threads).
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// A case that never finished: its thread is still running, so no later case could be
+/// measured alone.
+static STUCK: OnceLock<String> = OnceLock::new();
+
+/// Waits for the other targets; fails when one of them left a case running.
+fn alone() -> MutexGuard<'static, ()> {
+    // A target that failed poisons the lock; that failure is already reported.
+    let guard = ONE_AT_A_TIME.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some(stuck) = STUCK.get() {
+        panic!("not run: a case of another target never finished:\n{stuck}");
+    }
+    guard
+}
 
 // ---------------------------------------------------------------- allocation counting
 
-/// The system allocator, counting each thread's live bytes and their peak.
+/// The system allocator, counting the process's live bytes and their peak. Process-wide, not
+/// per thread: loaders work on other threads too (OBJ textures decode on rayon's pool).
 struct Counting;
 
-thread_local! {
-    static LIVE: Cell<isize> = const { Cell::new(0) };
-    static PEAK: Cell<isize> = const { Cell::new(0) };
-    /// Set by the panic hook: a panic on this thread, even one a loader catches itself.
-    static PANICKED: Cell<bool> = const { Cell::new(false) };
-}
+static LIVE: AtomicIsize = AtomicIsize::new(0);
+static PEAK: AtomicIsize = AtomicIsize::new(0);
+/// Set by the panic hook: a panic on any thread, even one a loader catches itself.
+static PANICKED: AtomicBool = AtomicBool::new(false);
 
-/// Installs (once) a panic hook that marks the panicking thread, then reports as usual.
+/// Installs (once) a panic hook that sets [`PANICKED`], then reports as usual.
 fn watch_panics() {
     static HOOK: std::sync::Once = std::sync::Once::new();
     HOOK.call_once(|| {
         let report = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            let _ = PANICKED.try_with(|p| p.set(true));
+            PANICKED.store(true, Relaxed);
             report(info);
         }));
     });
 }
 
 fn count(delta: isize) {
-    let _ = LIVE.try_with(|live| {
-        let now = live.get() + delta;
-        live.set(now);
-        let _ = PEAK.try_with(|peak| peak.set(peak.get().max(now)));
-    });
+    let now = LIVE.fetch_add(delta, Relaxed) + delta;
+    PEAK.fetch_max(now, Relaxed);
 }
 
-// SAFETY: every call is forwarded to the system allocator unchanged; the counters are
-// thread-local cells that never allocate.
+/// Starts a new peak at the bytes live now, which it returns.
+fn reset_peak() -> isize {
+    let live = LIVE.load(Relaxed);
+    PEAK.store(live, Relaxed);
+    live
+}
+
+/// The most bytes held at once since [`reset_peak`] returned `base`, beyond `base`.
+fn peak_since(base: isize) -> isize {
+    PEAK.load(Relaxed) - base
+}
+
+// SAFETY: every call is forwarded to the system allocator unchanged; the counters are atomics
+// that never allocate.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         count(layout.size() as isize);
@@ -89,15 +124,6 @@ unsafe impl GlobalAlloc for Counting {
 
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
-
-/// Runs `f` and returns its result with the most bytes this thread held at once meanwhile,
-/// beyond what it held before.
-fn peak_during<T>(f: impl FnOnce() -> T) -> (T, isize) {
-    let base = LIVE.with(Cell::get);
-    PEAK.with(|p| p.set(base));
-    let out = f();
-    (out, PEAK.with(Cell::get) - base)
-}
 
 // ---------------------------------------------------------------- mutation
 
@@ -432,18 +458,54 @@ struct Target {
     finish: fn(Vec<u8>) -> Vec<u8>,
 }
 
-fn iterations() -> usize {
-    std::env::var("OCTOLUX_FUZZ_ITERS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(DEFAULT_ITERATIONS)
+/// The number in environment variable `name`, or `default` when it is not set.
+fn from_env<T: std::str::FromStr>(name: &str, default: impl FnOnce() -> T) -> T {
+    match std::env::var(name) {
+        Ok(v) => v
+            .parse()
+            .unwrap_or_else(|_| panic!("{name}={v} is not a number")),
+        Err(_) => default(),
+    }
 }
 
+fn iterations() -> usize {
+    from_env("OCTOLUX_FUZZ_ITERS", || DEFAULT_ITERATIONS)
+}
+
+/// The run's base seed: `OCTOLUX_FUZZ_SEED`, or a new one each run so that runs try different
+/// mutations. Printed once, past the test harness's capture, so that every log shows it.
 fn base_seed() -> u64 {
-    std::env::var("OCTOLUX_FUZZ_SEED")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(0x00c7_01c5)
+    static SEED: OnceLock<u64> = OnceLock::new();
+    *SEED.get_or_init(|| {
+        let seed = from_env("OCTOLUX_FUZZ_SEED", || fastrand::u64(..));
+        let line =
+            format!("fuzz_loaders: base seed {seed} (OCTOLUX_FUZZ_SEED={seed} repeats the run)\n");
+        let _ = std::io::stderr().write_all(line.as_bytes());
+        seed
+    })
+}
+
+/// Where a target's corpus lives: inputs that once failed, loaded first in every run.
+fn corpus_dir(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz_corpus")
+        .join(name)
+}
+
+/// The files of a target's corpus (none when it has no folder), in name order.
+fn corpus(name: &str) -> Vec<(PathBuf, Vec<u8>)> {
+    let Ok(entries) = std::fs::read_dir(corpus_dir(name)) else {
+        return Vec::new();
+    };
+    let mut paths: Vec<PathBuf> = entries.map(|e| e.unwrap().path()).collect();
+    paths.sort();
+    paths
+        .into_iter()
+        .map(|p| {
+            let data = std::fs::read(&p).unwrap();
+            (p, data)
+        })
+        .collect()
 }
 
 /// A folder holding what the seeds refer to: a texture, a material library, the shipped
@@ -474,6 +536,16 @@ fn workspace(name: &str) -> TempDir {
     tmp
 }
 
+/// Replaces the file at `path` with `data`. Removed and written anew, not truncated: ext4
+/// flushes a file that is truncated and written again when it is closed, which made writing a
+/// case take longer than loading it.
+fn replace(path: &Path, data: &[u8]) {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => panic!("{}: {e}", path.display()),
+        _ => std::fs::write(path, data).unwrap(),
+    }
+}
+
 /// The outcome of one case.
 enum Outcome {
     Loaded,
@@ -482,30 +554,25 @@ enum Outcome {
 
 fn load(loader: Loader, path: &Path) -> Result<Outcome, String> {
     match loader {
+        // Loading validates the scene; what is left to try is what the renderers compute from
+        // a scene validation let through (a panic there fails the case).
         Loader::Scene => match Scene::load(path) {
-            Ok(mut scene) => {
-                octolux::scene::validate(&mut scene)
-                    .map_err(|e| format!("a loaded scene fails validation: {e}"))?;
+            Ok(scene) => {
+                let frame = scene.frame(0.0, 0);
+                std::hint::black_box(scene.world_triangles(&frame));
+                std::hint::black_box(scene.gi_bounds_over_animation());
                 Ok(Outcome::Loaded)
             }
             Err(_) => Ok(Outcome::Rejected),
         },
-        Loader::Sky => match EnvironmentMap::load(path) {
-            Ok(map) => {
-                let bad = map
-                    .image
-                    .pixels
-                    .iter()
-                    .any(|p| !p.is_finite() || p.min_element() < 0.0);
-                if bad {
-                    return Err("a loaded sky map has negative or non-finite texels".into());
-                }
-                Ok(Outcome::Loaded)
-            }
-            Err(_) => Ok(Outcome::Rejected),
-        },
+        // Loading checks the texels (negative or non-finite are errors).
+        Loader::Sky => Ok(match EnvironmentMap::load(path) {
+            Ok(_) => Outcome::Loaded,
+            Err(_) => Outcome::Rejected,
+        }),
         Loader::Texture => match Texture::load(path) {
             Ok(t) => {
+                // The GPU upload takes the size and the texels as they are.
                 if t.rgba.len() != t.width as usize * t.height as usize * 4 {
                     return Err("a loaded texture's size does not match its texels".into());
                 }
@@ -516,75 +583,175 @@ fn load(loader: Loader, path: &Path) -> Result<Outcome, String> {
     }
 }
 
-/// Runs the target's cases; panics listing the failing inputs (saved to files).
-fn fuzz(name: &str, target: Target) {
-    watch_panics();
-    let tmp = workspace(name);
-    let dir = tmp.path();
-    let path = dir.join(target.file);
-    let loaded_path = dir.join(target.load.unwrap_or(target.file));
-    let iterations = iterations();
-    let mut rng = fastrand::Rng::with_seed(base_seed() ^ fxhash(name));
-    let (mut loaded, mut rejected, mut failures) = (0usize, 0usize, Vec::new());
-    let mut slowest = Duration::ZERO;
-    let mut most_memory = 0isize;
-    let start = Instant::now();
-    for case in 0..iterations {
-        let seed = &target.seeds[case % target.seeds.len()];
-        // The first cases are the seeds themselves.
-        let data = if case < target.seeds.len() {
-            seed.clone()
-        } else {
-            mutate(&mut rng, seed, &target.seeds)
-        };
-        let data = (target.finish)(data);
-        std::fs::write(&path, &data).unwrap();
+/// A thread that loads a target's file each time it is told to, so that the test can stop
+/// waiting for a case that hangs (a thread cannot be stopped; a hung one is left behind).
+struct Worker {
+    go: mpsc::Sender<()>,
+    done: mpsc::Receiver<Result<Outcome, String>>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+/// How a case went wrong.
+enum Failure {
+    /// The case ended, badly.
+    Failed(String),
+    /// The case is still running at its deadline.
+    Stuck,
+}
+
+impl Worker {
+    fn start(name: &str, loader: Loader, path: PathBuf) -> Worker {
+        let (go, go_rx) = mpsc::channel();
+        let (done_tx, done) = mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name(format!("fuzz-{name}"))
+            .spawn(move || {
+                for () in go_rx {
+                    let result = std::panic::catch_unwind(|| load(loader, &path))
+                        .unwrap_or_else(|_| Err("panicked".into()));
+                    if done_tx.send(result).is_err() {
+                        return;
+                    }
+                }
+            })
+            .unwrap();
+        Worker { go, done, thread }
+    }
+
+    /// Loads the target's file once, adding the outcome, the time and the most memory held at
+    /// once meanwhile to `stats`.
+    fn run(&self, stats: &mut Stats) -> Result<(), Failure> {
+        PANICKED.store(false, Relaxed);
+        let base = reset_peak();
         let began = Instant::now();
-        PANICKED.with(|p| p.set(false));
-        let (result, memory) = peak_during(|| {
-            std::panic::catch_unwind(|| load(target.loader, &loaded_path))
-                .unwrap_or_else(|_| Err("panicked".into()))
-        });
-        let took = began.elapsed();
-        slowest = slowest.max(took);
-        most_memory = most_memory.max(memory);
-        let mut failure = None;
+        self.go.send(()).unwrap();
+        let result = match self.done.recv_timeout(CASE_DEADLINE) {
+            Ok(result) => result,
+            Err(mpsc::RecvTimeoutError::Timeout) => return Err(Failure::Stuck),
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                unreachable!("the worker catches every panic")
+            }
+        };
+        stats.slowest = stats.slowest.max(began.elapsed());
+        let memory = peak_since(base);
+        stats.most_memory = stats.most_memory.max(memory);
         match result {
-            Ok(Outcome::Loaded) => loaded += 1,
-            Ok(Outcome::Rejected) => rejected += 1,
-            Err(why) => failure = Some(why),
+            Ok(Outcome::Loaded) => stats.loaded += 1,
+            Ok(Outcome::Rejected) => stats.rejected += 1,
+            Err(why) => return Err(Failure::Failed(why)),
         }
-        if failure.is_none() && PANICKED.with(Cell::get) {
-            failure = Some("panicked (caught inside the loader)".into());
+        if PANICKED.load(Relaxed) {
+            return Err(Failure::Failed(
+                "panicked (caught inside the loader)".into(),
+            ));
         }
         if memory > MEMORY_CAP {
-            failure = Some(format!("allocated {} MiB at once", memory >> 20));
+            return Err(Failure::Failed(format!(
+                "allocated {} MiB at once",
+                memory >> 20
+            )));
         }
-        if took > TIME_CAP {
-            failure = Some(format!("took {:.1} s", took.as_secs_f64()));
+        Ok(())
+    }
+
+    fn stop(self) {
+        drop(self.go);
+        self.thread.join().unwrap();
+    }
+}
+
+/// What a target's cases did.
+#[derive(Default)]
+struct Stats {
+    loaded: usize,
+    rejected: usize,
+    slowest: Duration,
+    most_memory: isize,
+}
+
+/// Runs the target's corpus and cases; panics listing the failing inputs (saved to files), or
+/// at once naming a case that runs past [`CASE_DEADLINE`].
+fn fuzz(name: &'static str, target: impl FnOnce() -> Target) {
+    assert!(TARGETS.contains(&name), "{name} is not in TARGETS");
+    let _alone = alone();
+    watch_panics();
+    let seed = base_seed();
+    let target = target();
+    let tmp = workspace(name);
+    let path = tmp.path().join(target.file);
+    let worker = Worker::start(
+        name,
+        target.loader,
+        tmp.path().join(target.load.unwrap_or(target.file)),
+    );
+    let heading = format!("{name} (base seed {seed}; OCTOLUX_FUZZ_SEED={seed} repeats the run)");
+    // A failed case is listed at the end; a stuck one fails the test at once, since its thread
+    // cannot be stopped.
+    let mut failures = Vec::new();
+    let mut report = |failure: Failure, case: String, input: String| match failure {
+        Failure::Failed(why) => failures.push(format!("{case}: {why}{input}")),
+        Failure::Stuck => {
+            let message = format!(
+                "{heading}:\n{case}: did not finish within {} s{input}",
+                CASE_DEADLINE.as_secs()
+            );
+            // Past the harness's capture too, in case the process never gets to print it.
+            let _ = std::io::stderr().write_all(format!("{message}\n").as_bytes());
+            STUCK.set(message.clone()).unwrap();
+            panic!("{message}");
         }
-        if let Some(why) = failure {
-            let saved = std::env::temp_dir().join(format!(
-                "octolux-fuzz-failure-{name}-{case}-{}",
-                target.file
-            ));
-            std::fs::write(&saved, &data).unwrap();
-            failures.push(format!(
-                "case {case}: {why}; input saved to {}",
-                saved.display()
-            ));
+    };
+    let mut stats = Stats::default();
+    let start = Instant::now();
+    let corpus = corpus(name);
+    for (file, data) in &corpus {
+        replace(&path, data);
+        if let Err(failure) = worker.run(&mut stats) {
+            report(
+                failure,
+                format!("corpus file {}", file.display()),
+                String::new(),
+            );
         }
     }
+    let iterations = iterations();
+    let mut rng = fastrand::Rng::with_seed(seed ^ fxhash(name));
+    for case in 0..iterations {
+        let original = &target.seeds[case % target.seeds.len()];
+        // The first cases are the seeds themselves.
+        let data = if case < target.seeds.len() {
+            original.clone()
+        } else {
+            mutate(&mut rng, original, &target.seeds)
+        };
+        let data = (target.finish)(data);
+        replace(&path, &data);
+        if let Err(failure) = worker.run(&mut stats) {
+            let saved = std::env::temp_dir()
+                .join(format!("octolux-fuzz-{name}-{seed}-{case}-{}", target.file));
+            std::fs::write(&saved, &data).unwrap();
+            let input = format!(
+                "; input saved to {} (to try it in every run, copy it into {}/)",
+                saved.display(),
+                corpus_dir(name).display()
+            );
+            report(failure, format!("case {case}"), input);
+        }
+    }
+    worker.stop();
     println!(
-        "{name}: {iterations} cases in {:.1} s: {loaded} loaded, {rejected} rejected, slowest {:.0} ms, \
-         most memory {:.1} MiB",
+        "{name}: {iterations} cases after {} from the corpus (base seed {seed}) in {:.1} s: {} \
+         loaded, {} rejected, slowest {:.0} ms, most memory {:.1} MiB",
+        corpus.len(),
         start.elapsed().as_secs_f64(),
-        slowest.as_secs_f64() * 1e3,
-        most_memory as f64 / (1 << 20) as f64
+        stats.loaded,
+        stats.rejected,
+        stats.slowest.as_secs_f64() * 1e3,
+        stats.most_memory as f64 / (1 << 20) as f64
     );
-    assert!(failures.is_empty(), "{name}:\n{}", failures.join("\n"));
+    assert!(failures.is_empty(), "{heading}:\n{}", failures.join("\n"));
     // The seeds themselves load, so the cases explore past the first check.
-    assert!(loaded > 0, "{name}: nothing loaded");
+    assert!(stats.loaded > 0, "{name}: nothing loaded");
 }
 
 /// A stable hash of a name, so that each target mutates differently.
@@ -609,192 +776,175 @@ fn gzipped(data: Vec<u8>) -> Vec<u8> {
 
 #[test]
 fn fuzz_scene_files() {
-    let mut seeds = shipped_with_extension("scenes", "toml");
-    // The shipped scenes that need the shared scenes folder fail at once without it: keep
-    // the self-contained ones first, so most cases start from a scene that loads.
-    seeds.sort_by_key(|s| String::from_utf8_lossy(s).contains("scenes:"));
-    seeds.truncate(5);
-    fuzz(
-        "toml",
+    fuzz("toml", || {
+        let mut seeds = shipped_with_extension("scenes", "toml");
+        // The shipped scenes that need the shared scenes folder fail at once without it:
+        // keep the self-contained ones first, so most cases start from a scene that loads.
+        seeds.sort_by_key(|s| String::from_utf8_lossy(s).contains("scenes:"));
+        seeds.truncate(5);
         Target {
             file: "scene.toml",
             load: None,
             loader: Loader::Scene,
             seeds,
             finish: keep,
-        },
-    );
+        }
+    });
 }
 
 #[test]
 fn fuzz_obj() {
-    fuzz(
-        "obj",
-        Target {
-            file: "fuzz.obj",
-            load: None,
-            loader: Loader::Scene,
-            seeds: vec![
-                OBJ_WITH_MTL.as_bytes().to_vec(),
-                shipped("scenes/models/two-rooms.obj"),
-            ],
-            finish: keep,
-        },
-    );
+    fuzz("obj", || Target {
+        file: "fuzz.obj",
+        load: None,
+        loader: Loader::Scene,
+        seeds: vec![
+            OBJ_WITH_MTL.as_bytes().to_vec(),
+            shipped("scenes/models/two-rooms.obj"),
+        ],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_mtl() {
     // The mutated file is the material library of a fixed OBJ.
-    fuzz(
-        "mtl",
-        Target {
-            file: "scene.mtl",
-            load: Some("scene.obj"),
-            loader: Loader::Scene,
-            seeds: vec![MTL.as_bytes().to_vec()],
-            finish: keep,
-        },
-    );
+    fuzz("mtl", || Target {
+        file: "scene.mtl",
+        load: Some("scene.obj"),
+        loader: Loader::Scene,
+        seeds: vec![MTL.as_bytes().to_vec()],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_ply() {
-    fuzz(
-        "ply",
-        Target {
-            file: "fuzz.ply",
-            load: None,
-            loader: Loader::Scene,
-            seeds: vec![ascii_ply(), binary_ply()],
-            finish: keep,
-        },
-    );
+    fuzz("ply", || Target {
+        file: "fuzz.ply",
+        load: None,
+        loader: Loader::Scene,
+        seeds: vec![ascii_ply(), binary_ply()],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_ply_gz() {
-    fuzz(
-        "ply-gz",
-        Target {
-            file: "fuzz.ply.gz",
-            load: None,
-            loader: Loader::Scene,
-            seeds: vec![binary_ply(), ascii_ply()],
-            finish: gzipped,
-        },
-    );
+    fuzz("ply-gz", || Target {
+        file: "fuzz.ply.gz",
+        load: None,
+        loader: Loader::Scene,
+        seeds: vec![binary_ply(), ascii_ply()],
+        finish: gzipped,
+    });
 }
 
 #[test]
 fn fuzz_gltf() {
-    fuzz(
-        "gltf",
-        Target {
-            file: "fuzz.gltf",
-            load: None,
-            loader: Loader::Scene,
-            seeds: vec![gltf_seed()],
-            finish: keep,
-        },
-    );
+    fuzz("gltf", || Target {
+        file: "fuzz.gltf",
+        load: None,
+        loader: Loader::Scene,
+        seeds: vec![gltf_seed()],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_glb() {
-    fuzz(
-        "glb",
-        Target {
-            file: "fuzz.glb",
-            load: None,
-            loader: Loader::Scene,
-            seeds: vec![glb_seed()],
-            finish: keep,
-        },
-    );
+    fuzz("glb", || Target {
+        file: "fuzz.glb",
+        load: None,
+        loader: Loader::Scene,
+        seeds: vec![glb_seed()],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_mitsuba() {
-    fuzz(
-        "xml",
-        Target {
-            file: "fuzz.xml",
-            load: None,
-            loader: Loader::Scene,
-            seeds: vec![shipped("scenes/mitsuba-example.xml")],
-            finish: keep,
-        },
-    );
+    fuzz("xml", || Target {
+        file: "fuzz.xml",
+        load: None,
+        loader: Loader::Scene,
+        seeds: vec![shipped("scenes/mitsuba-example.xml")],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_hdr() {
-    fuzz(
-        "hdr",
-        Target {
-            file: "fuzz.hdr",
-            load: None,
-            loader: Loader::Sky,
-            seeds: vec![shipped("scenes/skies/afternoon.hdr")],
-            finish: keep,
-        },
-    );
+    fuzz("hdr", || Target {
+        file: "fuzz.hdr",
+        load: None,
+        loader: Loader::Sky,
+        seeds: vec![shipped("scenes/skies/afternoon.hdr")],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_exr() {
-    let seed = exr_seed(workspace("exr-seed").path());
-    fuzz(
-        "exr",
-        Target {
-            file: "fuzz.exr",
-            load: None,
-            loader: Loader::Sky,
-            seeds: vec![seed],
-            finish: keep,
-        },
-    );
+    fuzz("exr", || Target {
+        file: "fuzz.exr",
+        load: None,
+        loader: Loader::Sky,
+        seeds: vec![exr_seed(workspace("exr-seed").path())],
+        finish: keep,
+    });
 }
 
 #[test]
 fn fuzz_png() {
-    fuzz(
-        "png",
-        Target {
-            file: "fuzz.png",
-            load: None,
-            loader: Loader::Texture,
-            seeds: vec![png_seed()],
-            finish: png_crcs,
-        },
-    );
+    fuzz("png", || Target {
+        file: "fuzz.png",
+        load: None,
+        loader: Loader::Texture,
+        seeds: vec![png_seed()],
+        finish: png_crcs,
+    });
 }
 
 #[test]
 fn fuzz_tga() {
-    fuzz(
-        "tga",
-        Target {
-            file: "fuzz.tga",
-            load: None,
-            loader: Loader::Texture,
-            seeds: vec![tga_seed()],
-            finish: keep,
-        },
-    );
+    fuzz("tga", || Target {
+        file: "fuzz.tga",
+        load: None,
+        loader: Loader::Texture,
+        seeds: vec![tga_seed()],
+        finish: keep,
+    });
 }
 
 #[test]
-fn the_allocation_counter_sees_allocations() {
-    let (v, peak) = peak_during(|| vec![1u8; 8 << 20]);
-    assert!(peak >= 8 << 20, "{peak}");
-    drop(v);
+fn the_allocation_counter_sees_every_thread() {
+    let _alone = alone();
+    let base = reset_peak();
+    std::thread::spawn(|| drop(std::hint::black_box(vec![1u8; 8 << 20])))
+        .join()
+        .unwrap();
+    // Not quite 8 MiB: what other threads free meanwhile counts too.
+    let peak = peak_since(base);
+    assert!(peak > 7 << 20, "{peak}");
     // A mutation never panics, whatever the data.
     let mut rng = fastrand::Rng::with_seed(1);
     for len in [0, 1, 3, 4, 100] {
         for _ in 0..200 {
             mutate(&mut rng, &vec![7u8; len], &[vec![], vec![1, 2, 3]]);
         }
+    }
+}
+
+#[test]
+fn every_corpus_folder_is_a_target() {
+    let _alone = alone();
+    for entry in std::fs::read_dir(corpus_dir("")).unwrap() {
+        let name = entry.unwrap().file_name();
+        let name = name.to_string_lossy();
+        assert!(
+            TARGETS.contains(&name.as_ref()),
+            "tests/fuzz_corpus/{name} names no target; the targets are {TARGETS:?}"
+        );
     }
 }
