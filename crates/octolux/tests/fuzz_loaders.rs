@@ -16,12 +16,14 @@
 //! repeats run S. The normal test run does [`DEFAULT_ITERATIONS`] cases per target. More on
 //! demand: `OCTOLUX_FUZZ_ITERS=100000 cargo test --release -p octolux --test fuzz_loaders`.
 
+mod counting_alloc;
+
+use counting_alloc::{peak_since, reset_peak};
 use octolux::image_io::HdrImage;
 use octolux::scene::{EnvironmentMap, Scene, Texture};
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicIsize, Ordering::Relaxed};
+use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
 use std::sync::{mpsc, Mutex, MutexGuard, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
 use tempfile::TempDir;
@@ -57,14 +59,8 @@ fn alone() -> MutexGuard<'static, ()> {
     guard
 }
 
-// ---------------------------------------------------------------- allocation counting
+// ---------------------------------------------------------------- panics on any thread
 
-/// The system allocator, counting the process's live bytes and their peak. Process-wide, not
-/// per thread: loaders work on other threads too (OBJ textures decode on rayon's pool).
-struct Counting;
-
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-static PEAK: AtomicIsize = AtomicIsize::new(0);
 /// Set by the panic hook: a panic on any thread, even one a loader catches itself.
 static PANICKED: AtomicBool = AtomicBool::new(false);
 
@@ -79,51 +75,6 @@ fn watch_panics() {
         }));
     });
 }
-
-fn count(delta: isize) {
-    let now = LIVE.fetch_add(delta, Relaxed) + delta;
-    PEAK.fetch_max(now, Relaxed);
-}
-
-/// Starts a new peak at the bytes live now, which it returns.
-fn reset_peak() -> isize {
-    let live = LIVE.load(Relaxed);
-    PEAK.store(live, Relaxed);
-    live
-}
-
-/// The most bytes held at once since [`reset_peak`] returned `base`, beyond `base`.
-fn peak_since(base: isize) -> isize {
-    PEAK.load(Relaxed) - base
-}
-
-// SAFETY: every call is forwarded to the system allocator unchanged; the counters are atomics
-// that never allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count(layout.size() as isize);
-        // SAFETY: forwarded with the caller's layout.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        count(-(layout.size() as isize));
-        // SAFETY: forwarded with the caller's pointer and layout.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count(layout.size() as isize);
-        // SAFETY: forwarded with the caller's layout.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count(new_size as isize - layout.size() as isize);
-        // SAFETY: forwarded with the caller's pointer, layout and size.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Counting = Counting;
 
 // ---------------------------------------------------------------- mutation
 

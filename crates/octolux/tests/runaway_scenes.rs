@@ -2,50 +2,14 @@
 //! error naming the budget or the depth it passed, within seconds and a few hundred MB, and a
 //! model placed many times is read and stored once.
 
+mod counting_alloc;
+
+use counting_alloc::{peak_since, reset_peak};
 use octolux::limits::Budget;
 use octolux::scene::Scene;
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicIsize, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
-
-// ---------------------------------------------------------------- memory, process-wide
-
-/// The system allocator, counting the live bytes of every thread and their peak.
-struct Counting;
-
-static LIVE: AtomicIsize = AtomicIsize::new(0);
-static PEAK: AtomicIsize = AtomicIsize::new(0);
-
-fn count(delta: isize) {
-    let live = LIVE.fetch_add(delta, Ordering::Relaxed) + delta;
-    PEAK.fetch_max(live, Ordering::Relaxed);
-}
-
-// SAFETY: every call is forwarded to the system allocator unchanged; the counters are atomics
-// that never allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count(layout.size() as isize);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        count(-(layout.size() as isize));
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count(layout.size() as isize);
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        count(new_size as isize - layout.size() as isize);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: Counting = Counting;
 
 /// One measured load at a time: the peak is the process's.
 static MEASURING: Mutex<()> = Mutex::new(());
@@ -58,12 +22,11 @@ const TIME_CAP: Duration = Duration::from_secs(20);
 /// Loads `path` within `budget`, measuring the time and the peak memory above what was live.
 fn measured_load(path: &Path, budget: Budget) -> (octolux::Result<Scene>, Duration, isize) {
     let _one = MEASURING.lock().unwrap_or_else(|e| e.into_inner());
-    let before = LIVE.load(Ordering::Relaxed);
-    PEAK.store(before, Ordering::Relaxed);
+    let base = reset_peak();
     let start = Instant::now();
     let result = Scene::load_within(path, budget);
     let took = start.elapsed();
-    let peak = PEAK.load(Ordering::Relaxed) - before;
+    let peak = peak_since(base);
     (result, took, peak)
 }
 
@@ -162,17 +125,12 @@ fn a_model_placed_many_times_is_read_and_stored_once() {
     placements(&dir.join("scene.toml"), "grid.obj", 2000);
     let ((scene, files), took, peak) = {
         let _one = MEASURING.lock().unwrap_or_else(|e| e.into_inner());
-        let before = LIVE.load(Ordering::Relaxed);
-        PEAK.store(before, Ordering::Relaxed);
+        let base = reset_peak();
         let start = Instant::now();
         let (scene, files) = octolux::limits::recording_reads(|| {
             Scene::load(dir.join("scene.toml")).expect("a scene of 400,000 triangles loads")
         });
-        (
-            (scene, files),
-            start.elapsed(),
-            PEAK.load(Ordering::Relaxed) - before,
-        )
+        ((scene, files), start.elapsed(), peak_since(base))
     };
     assert_eq!(scene.objects.len(), 2000);
     assert_eq!(scene.meshes.len(), 1, "every placement shares the one mesh");
