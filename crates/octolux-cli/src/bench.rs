@@ -12,7 +12,7 @@ use crate::stats::mib;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::ProgressBar;
-use octolux::gi::{GiSettings, TECHNIQUES};
+use octolux::gi::{technique, GiSettings};
 use octolux::gpu::GpuContext;
 use octolux::image_io::check_image_size;
 use octolux::image_io::HdrImage;
@@ -273,12 +273,7 @@ fn validate(args: &BenchArgs) -> Result<()> {
                  unless --no-reference"
             );
         }
-        if !TECHNIQUES.contains(&name.as_str()) {
-            bail!(
-                "--gi: unknown technique '{name}' (available: {})",
-                TECHNIQUES.join(", ")
-            );
-        }
+        technique(name).context("--gi")?;
         if args.gi[..i].contains(name) {
             bail!("--gi: '{name}' is listed twice");
         }
@@ -342,20 +337,10 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     check_dir_outputs(args, &names, &loaded)?;
     let read = bench_inputs(args, &loaded);
     // Every technique's settings are checked before the first is measured.
-    use octolux::gi::lpv;
     for input in &inputs {
         for name in &args.gi {
-            let s = &input.gi_settings;
-            let checked = match name.as_str() {
-                "vct-svo" | "vct-clipmap" => s.vct.validate(),
-                "vpl" => s.vpl.validate(),
-                "probes-grid" | "probes-octree" => s.probes.validate(),
-                "lpv" => lpv::validate(lpv::Variant::Uniform, s),
-                "clpv" => lpv::validate(lpv::Variant::Cascaded, s),
-                "olpv" => lpv::validate(lpv::Variant::Octree, s),
-                _ => Ok(()),
-            };
-            checked.with_context(|| format!("--gi {name}"))?;
+            (technique(name)?.validate)(&input.gi_settings)
+                .with_context(|| format!("--gi {name}"))?;
         }
     }
     for input in &inputs {

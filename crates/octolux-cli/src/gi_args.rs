@@ -6,7 +6,7 @@ use octolux::gi::GiSettings;
 
 /// The technique `render` and `view` use when `--gi` is not given, chosen from the error and
 /// time measurements in the README ("Global illumination by default").
-pub const DEFAULT_GI: &str = "probes-grid";
+pub const DEFAULT_GI: &str = octolux::gi::DEFAULT_TECHNIQUE;
 
 /// Per-technique settings; each flag overrides the scene file's `[settings]` and the default.
 #[derive(Args, Debug, Clone, Default)]

@@ -335,7 +335,7 @@ fn render_settings(
 
 fn run_probe_view(args: &RenderArgs, scene: &Scene, gi_settings: GiSettings) -> Result<()> {
     use octolux::gi::probes::debug::{Layers, ProbeSnapshot};
-    if !matches!(args.gi.as_str(), "probes-grid" | "probes-octree") {
+    if !octolux::gi::technique(&args.gi).is_ok_and(|t| t.is_probes()) {
         bail!(
             "--view probes shows a probe technique: use --gi probes-grid or probes-octree, not {}",
             args.gi

@@ -467,7 +467,7 @@ fn zero_frames_is_an_error() {
 fn unknown_technique_is_an_error() {
     assert_fails_with(
         &octolux(&["bench", "--no-reference", "--gi", "none,lpvv"]),
-        &["lpvv", "unknown technique", "olpv"],
+        &["lpvv", "unknown GI technique", "olpv"],
     );
 }
 

@@ -21,18 +21,8 @@ const ALBEDO: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const NORMAL: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// The techniques `T` cycles through.
-pub const TECHNIQUES: &[&str] = &[
-    "probes-grid",
-    "lpv",
-    "clpv",
-    "olpv",
-    "vct-svo",
-    "vct-clipmap",
-    "vpl",
-    "probes-octree",
-    "none",
-];
+/// The techniques `T` cycles through: octolux's, in its order.
+pub use octolux::gi::TECHNIQUES;
 
 /// A device for the example: the best adapter, with octolux's required limits and GPU
 /// timestamps where the adapter has them.

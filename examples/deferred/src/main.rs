@@ -22,7 +22,7 @@ struct Args {
     #[arg(long, default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/room.gltf"))]
     gltf: PathBuf,
     /// The GI technique to start with (T switches in the window).
-    #[arg(long, default_value = "probes-grid")]
+    #[arg(long, default_value = octolux::gi::DEFAULT_TECHNIQUE)]
     technique: String,
     /// Width in pixels.
     #[arg(long, default_value_t = 960)]

@@ -84,7 +84,7 @@ impl Config {
 }
 
 fn check_technique(name: &str, flag: &str) -> Result<()> {
-    if !TECHNIQUES.contains(&name) {
+    if octolux::gi::technique(name).is_err() {
         bail!(
             "{flag} {name}: the viewer shows the GPU techniques ({}); the CPU reference is its \
              compare mode (--compare)",

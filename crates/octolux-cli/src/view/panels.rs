@@ -172,26 +172,50 @@ fn split_widgets(ui: &mut Ui, controls: &mut Controls) {
 
 /// The settings of `technique` as widgets; returns whether one changed.
 fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
+    use octolux::gi::{lpv, lpv::Variant, probes, vct, Family};
+    let Ok(technique) = octolux::gi::technique(technique) else {
+        return false;
+    };
     let mut changed = false;
-    let drag = |ui: &mut Ui, label: &str, v: &mut u32, lo: u32, hi: u32| {
+    let drag = |ui: &mut Ui, label: &str, v: &mut u32, range: std::ops::RangeInclusive<u32>| {
         ui.horizontal(|ui| {
-            let changed = ui.add(DragValue::new(v).range(lo..=hi)).changed();
+            let changed = ui.add(DragValue::new(v).range(range)).changed();
             ui.label(label);
             changed
         })
         .inner
     };
-    match technique {
-        "lpv" => {
-            changed |= drag(ui, "cells per side", &mut s.lpv.size, 4, 128);
-            changed |= drag(ui, "iterations", &mut s.lpv.iterations, 0, 256);
+    match technique.family {
+        Family::Lpv(Variant::Uniform) => {
+            changed |= drag(ui, "cells per side", &mut s.lpv.size, lpv::LPV_SIZE.range());
+            changed |= drag(
+                ui,
+                "iterations",
+                &mut s.lpv.iterations,
+                lpv::LPV_ITERATIONS.range(),
+            );
         }
-        "clpv" => {
-            changed |= drag(ui, "cascades", &mut s.clpv.cascades, 1, 8);
-            changed |= drag(ui, "cells per side", &mut s.clpv.size, 4, 128);
-            changed |= drag(ui, "iterations", &mut s.clpv.iterations, 0, 256);
+        Family::Lpv(Variant::Cascaded) => {
+            changed |= drag(
+                ui,
+                "cascades",
+                &mut s.clpv.cascades,
+                lpv::CLPV_CASCADES.range(),
+            );
+            changed |= drag(
+                ui,
+                "cells per side",
+                &mut s.clpv.size,
+                lpv::CLPV_SIZE.range(),
+            );
+            changed |= drag(
+                ui,
+                "iterations",
+                &mut s.clpv.iterations,
+                lpv::CLPV_ITERATIONS.range(),
+            );
         }
-        "olpv" => {
+        Family::Lpv(Variant::Octree) => {
             let mut size = s.olpv.size;
             ComboBox::from_label("level-0 side")
                 .selected_text(size.to_string())
@@ -204,9 +228,14 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 s.olpv.size = size;
                 changed = true;
             }
-            changed |= drag(ui, "iterations per level", &mut s.olpv.iterations, 0, 64);
+            changed |= drag(
+                ui,
+                "iterations per level",
+                &mut s.olpv.iterations,
+                lpv::OLPV_ITERATIONS.range(),
+            );
         }
-        "vct-clipmap" | "vct-svo" => {
+        Family::ConeTracing(structure) => {
             use octolux::gi::vct::VctStructure;
             let v = &mut s.vct;
             let combo = |ui: &mut Ui, label: &str, value: &mut u32, choices: &[u32]| {
@@ -222,7 +251,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 *value = chosen;
                 changed
             };
-            let structure = if technique == "vct-svo" {
+            if structure == VctStructure::Octree {
                 changed |= combo(
                     ui,
                     "octree voxels per side",
@@ -238,7 +267,6 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 changed |= ui
                     .checkbox(&mut v.facing, "radiance facing (thin walls)")
                     .changed();
-                VctStructure::Octree
             } else {
                 changed |= combo(
                     ui,
@@ -246,14 +274,18 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     &mut v.resolution,
                     &[16, 32, 64, 128],
                 );
-                changed |= drag(ui, "levels", &mut v.levels, 1, 8);
-                VctStructure::Clipmap
-            };
+                changed |= drag(ui, "levels", &mut v.levels, vct::LEVELS.range());
+            }
             changed |= ui
                 .checkbox(&mut v.multi_bounce, "multiple bounces")
                 .changed();
             if v.multi_bounce {
-                changed |= drag(ui, "bounce gather frames", &mut v.bounce_frames, 1, 8);
+                changed |= drag(
+                    ui,
+                    "bounce gather frames",
+                    &mut v.bounce_frames,
+                    vct::BOUNCE_FRAMES.range(),
+                );
             }
             let slider = |ui: &mut Ui, label: &str, x: &mut f32, lo: f32, hi: f32| {
                 ui.add(Slider::new(x, lo..=hi).text(label)).changed()
@@ -266,40 +298,71 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 v.aperture = Some(aperture);
                 changed = true;
             }
-            changed |= slider(ui, "step (x footprint)", &mut v.step, 0.1, 2.0);
-            if slider(ui, "start (voxels)", &mut start, 0.0, 4.0) {
+            changed |= slider(
+                ui,
+                "step (x footprint)",
+                &mut v.step,
+                vct::STEP.min,
+                vct::STEP.max,
+            );
+            if slider(
+                ui,
+                "start (voxels)",
+                &mut start,
+                vct::START.min,
+                vct::START.max,
+            ) {
                 v.start = Some(start);
                 changed = true;
             }
             changed |= slider(ui, "stop opacity", &mut v.stop_opacity, 0.5, 1.0);
-            if technique == "vct-clipmap" {
-                changed |= drag(ui, "injection steps", &mut v.inject_steps, 8, 1024);
+            if structure == VctStructure::Clipmap {
+                changed |= drag(
+                    ui,
+                    "injection steps",
+                    &mut v.inject_steps,
+                    vct::INJECT_STEPS.range(),
+                );
             }
-            changed |= drag(ui, "sparse (N x N block)", &mut v.sparse, 1, 8);
+            changed |= drag(
+                ui,
+                "sparse (N x N block, 0: auto)",
+                &mut v.sparse,
+                vct::SPARSE.range(),
+            );
             return changed;
         }
-        "probes-grid" | "probes-octree" => {
+        Family::Probes { octree } => {
             use octolux::gi::probes::{
                 Encoding, Lattice, OctreeGather, RayBackend, SurfelRange, Visibility,
             };
             let p = &mut s.probes;
-            if technique == "probes-grid" {
+            if !octree {
                 let mut side = p.grid[0];
-                changed |= drag(ui, "probes per axis", &mut side, 2, 64);
+                changed |= drag(ui, "probes per axis", &mut side, probes::GRID.range());
                 p.grid = [side; 3];
                 changed |= drag(
                     ui,
                     "history (frames, 0: fixed rays)",
                     &mut p.history,
-                    0,
-                    1024,
+                    probes::HISTORY.range(),
                 );
             } else {
-                changed |= drag(ui, "max depth", &mut p.max_depth, 2, 5);
-                changed |= drag(ui, "min depth (complete down to)", &mut p.min_depth, 0, 5);
+                changed |= drag(ui, "max depth", &mut p.max_depth, probes::MAX_DEPTH.range());
+                changed |= drag(
+                    ui,
+                    "min depth (complete down to)",
+                    &mut p.min_depth,
+                    0..=probes::MAX_DEPTH.max,
+                );
                 // Keep it within the depth, as the settings require.
                 p.min_depth = p.min_depth.min(p.max_depth);
-                changed |= drag(ui, "max probes (0: full tree)", &mut p.max_probes, 0, 36864);
+                changed |= drag(
+                    ui,
+                    "max probes (0: full tree)",
+                    &mut p.max_probes,
+                    0..=36864,
+                );
                 changed |= ui
                     .add(Slider::new(&mut p.split_fraction, 0.05..=1.0).text("split fraction"))
                     .changed();
@@ -357,24 +420,30 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     ui.selectable_value(&mut p.rays, RayBackend::Voxels, "voxel octree");
                 });
             changed |= before != (p.surfels, p.lattice, p.encoding, p.visibility, p.rays);
-            let mut bounces = p.multi_bounce.unwrap_or(technique == "probes-grid");
+            let mut bounces = p.multi_bounce.unwrap_or(!octree);
             if ui.checkbox(&mut bounces, "multiple bounces").changed() {
                 p.multi_bounce = Some(bounces);
                 changed = true;
             }
             changed |= ui
-                .add(Slider::new(&mut p.normal_bias, 0.0..=1.0).text("normal bias (spacings)"))
+                .add(
+                    Slider::new(&mut p.normal_bias, probes::NORMAL_BIAS.range())
+                        .text("normal bias (spacings)"),
+                )
                 .changed();
             return changed;
         }
-        _ => return false,
+        Family::None | Family::Vpl => return false,
     }
     // Reflective shadow maps, injection and lookup, shared by the LPV family.
-    changed |= drag(ui, "RSM side", &mut s.lpv.rsm_size, 16, 2048);
-    changed |= drag(ui, "RSM stride", &mut s.lpv.rsm_stride, 1, 16);
-    changed |= drag(ui, "sky RSMs", &mut s.lpv.sky_rsms, 1, 64);
+    changed |= drag(ui, "RSM side", &mut s.lpv.rsm_size, 16..=2048);
+    changed |= drag(ui, "RSM stride", &mut s.lpv.rsm_stride, 1..=16);
+    changed |= drag(ui, "sky RSMs", &mut s.lpv.sky_rsms, 1..=64);
     changed |= ui
-        .add(Slider::new(&mut s.lpv.directional, 0.0..=1.0).text("directional transfer"))
+        .add(
+            Slider::new(&mut s.lpv.directional, lpv::DIRECTIONAL.range())
+                .text("directional transfer"),
+        )
         .changed();
     changed |= ui
         .add(Slider::new(&mut s.lpv.damping, 0.0..=1.0).text("damping"))

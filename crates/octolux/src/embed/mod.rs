@@ -458,13 +458,7 @@ fn camera_of(view: &CameraView) -> Camera {
 
 /// A clear error for a name that is not one of [`gi::TECHNIQUES`], before anything is built.
 fn check_technique(name: &str) -> Result<()> {
-    if gi::TECHNIQUES.contains(&name) {
-        return Ok(());
-    }
-    Err(Error::InvalidArgument(format!(
-        "unknown GI technique '{name}' (available: {})",
-        gi::TECHNIQUES.join(", ")
-    )))
+    gi::technique(name).map(|_| ())
 }
 
 fn not_prepared() -> Error {

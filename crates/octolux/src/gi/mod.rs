@@ -4,14 +4,18 @@
 //! the scene geometry, and writes an HDR *indirect irradiance* image (W/m^2, `Rgba16Float`,
 //! aligned with the G-buffer). Compose turns it into outgoing radiance as albedo/pi x E.
 
+pub mod bounds;
 pub mod lpv;
 mod none;
 pub mod probes;
+mod registry;
 pub mod vct;
 pub mod vpl;
 
+pub use bounds::Bounds;
 pub use lpv::{ClpvSettings, LpvGi, LpvSettings, OlpvSettings};
 pub use none::NoGi;
+pub use registry::{technique, Family, Technique, DEFAULT_TECHNIQUE, REGISTRY, TECHNIQUES};
 
 use crate::frame::{GiSurfaces, LayerView, SceneGpu, ShadowMaps};
 use crate::gpu::{GpuContext, PassTimer};
@@ -134,20 +138,8 @@ pub(crate) fn indirect_target(
     )
 }
 
-/// The GPU techniques that can be selected by name.
-pub const TECHNIQUES: &[&str] = &[
-    "none",
-    "lpv",
-    "clpv",
-    "olpv",
-    "vct-svo",
-    "vct-clipmap",
-    "vpl",
-    "probes-grid",
-    "probes-octree",
-];
-
-/// Creates the technique called `name` for images of `width` x `height`.
+/// Creates the technique called `name` (one of [`TECHNIQUES`]) for images of `width` x
+/// `height`.
 pub fn create(
     name: &str,
     ctx: &GpuContext,
@@ -156,45 +148,5 @@ pub fn create(
     width: u32,
     height: u32,
 ) -> Result<Box<dyn GiTechnique>> {
-    match name {
-        "none" => Ok(Box::new(NoGi::new(ctx, width, height))),
-        "vct-svo" => Ok(Box::new(vct::VctSvo::new(
-            ctx,
-            &settings.vct,
-            scene,
-            width,
-            height,
-        )?)),
-        "vct-clipmap" => Ok(Box::new(vct::VctClipmap::new(
-            ctx,
-            &settings.vct,
-            scene,
-            width,
-            height,
-        )?)),
-        "vpl" => Ok(Box::new(vpl::VplGi::new(
-            ctx,
-            &settings.vpl,
-            scene,
-            width,
-            height,
-        )?)),
-        "probes-grid" | "probes-octree" => {
-            probes::create(name, ctx, &settings.probes, scene, width, height)
-        }
-        "lpv" | "clpv" | "olpv" => {
-            let variant = match name {
-                "lpv" => lpv::Variant::Uniform,
-                "clpv" => lpv::Variant::Cascaded,
-                _ => lpv::Variant::Octree,
-            };
-            Ok(Box::new(LpvGi::new(
-                ctx, variant, settings, scene, width, height,
-            )?))
-        }
-        other => Err(Error::InvalidArgument(format!(
-            "unknown GI technique '{other}' (available: {}, reference)",
-            TECHNIQUES.join(", ")
-        ))),
-    }
+    technique(name)?.create(ctx, scene, settings, width, height)
 }

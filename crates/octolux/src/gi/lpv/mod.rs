@@ -25,6 +25,7 @@ pub mod sh;
 
 use super::{GiFrame, GiTechnique};
 use crate::frame::rsm;
+use crate::gi::bounds::{require as check, Bounds};
 use crate::gpu::alloc::{param_slots, storage};
 use crate::gpu::pass::{bind, groups, slot, SLOT};
 use crate::gpu::{GpuContext, PassTimer};
@@ -496,6 +497,23 @@ impl LpvGi {
     }
 }
 
+/// Accepted cells per side of the uniform LPV.
+pub const LPV_SIZE: Bounds<u32> = Bounds::new("lpv size", 2, 128);
+/// Accepted propagation iterations of the uniform LPV.
+pub const LPV_ITERATIONS: Bounds<u32> = Bounds::new("lpv iterations", 0, 256);
+/// Accepted cascade counts of the cascaded LPV.
+pub const CLPV_CASCADES: Bounds<u32> = Bounds::new("clpv cascades", 1, MAX_GRIDS as u32);
+/// Accepted cells per side of each cascade.
+pub const CLPV_SIZE: Bounds<u32> = Bounds::new("clpv size", 2, 128);
+/// Accepted propagation iterations per cascade.
+pub const CLPV_ITERATIONS: Bounds<u32> = Bounds::new("clpv iterations", 0, 256);
+/// Accepted level-0 sides of the octree LPV (powers of two within).
+pub const OLPV_SIZE: Bounds<u32> = Bounds::new("olpv size", 2, 128);
+/// Accepted propagation iterations per level of the octree LPV.
+pub const OLPV_ITERATIONS: Bounds<u32> = Bounds::new("olpv iterations", 0, 256);
+/// Accepted share of the directional transfer.
+pub const DIRECTIONAL: Bounds<f32> = Bounds::new("lpv directional", 0.0, 1.0);
+
 /// Checks the settings of the LPV `variant` (before any GPU work, so that a tool can check
 /// every technique's settings before it runs the first).
 pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
@@ -525,11 +543,7 @@ pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
         "lpv damping",
         "finite, >= 0",
     )?;
-    check(
-        (0.0..=1.0).contains(&s.directional),
-        "lpv directional",
-        "0..=1",
-    )?;
+    DIRECTIONAL.check(s.directional)?;
     if let Some([lo, hi]) = s.bounds {
         let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
         check(
@@ -540,18 +554,14 @@ pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
     }
     match variant {
         Variant::Uniform => {
-            check(s.size >= 2 && s.size <= 128, "lpv size", "2..=128")?;
-            check(s.iterations <= 256, "lpv iterations", "0..=256")
+            LPV_SIZE.check(s.size)?;
+            LPV_ITERATIONS.check(s.iterations)
         }
         Variant::Cascaded => {
             let c = &settings.clpv;
-            check(
-                c.cascades >= 1 && c.cascades as usize <= MAX_GRIDS,
-                "clpv cascades",
-                "1..=8",
-            )?;
-            check(c.size >= 2 && c.size <= 128, "clpv size", "2..=128")?;
-            check(c.iterations <= 256, "clpv iterations", "0..=256")?;
+            CLPV_CASCADES.check(c.cascades)?;
+            CLPV_SIZE.check(c.size)?;
+            CLPV_ITERATIONS.check(c.iterations)?;
             check(
                 c.extent.is_finite() && c.extent >= 0.0,
                 "clpv extent",
@@ -561,20 +571,12 @@ pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
         Variant::Octree => {
             let o = &settings.olpv;
             check(
-                o.size >= 2 && o.size <= 128 && o.size.is_power_of_two(),
-                "olpv size",
-                "a power of two in 2..=128",
+                OLPV_SIZE.contains(o.size) && o.size.is_power_of_two(),
+                OLPV_SIZE.name,
+                &format!("a power of two in {}", OLPV_SIZE.text()),
             )?;
-            check(o.iterations <= 256, "olpv iterations", "0..=256")
+            OLPV_ITERATIONS.check(o.iterations)
         }
-    }
-}
-
-fn check(ok: bool, what: &str, range: &str) -> Result<()> {
-    if ok {
-        Ok(())
-    } else {
-        Err(Error::InvalidArgument(format!("{what} must be {range}")))
     }
 }
 

@@ -45,23 +45,8 @@ pub use moments::Visibility;
 pub use octree_gi::{OctreeView, ProbesOctree};
 pub use rays::RayBackend;
 
+use crate::gi::bounds::{require as check, Bounds};
 use crate::{Error, Result};
-
-/// Creates `probes-grid` or `probes-octree` (`name`) for `scene` at `width` x `height`.
-pub fn create(
-    name: &str,
-    ctx: &crate::gpu::GpuContext,
-    settings: &ProbeSettings,
-    scene: &crate::scene::Scene,
-    width: u32,
-    height: u32,
-) -> Result<Box<dyn crate::gi::GiTechnique>> {
-    Ok(if name == "probes-octree" {
-        Box::new(ProbesOctree::new(ctx, settings, scene, width, height)?)
-    } else {
-        Box::new(ProbesGrid::new(ctx, settings, scene, width, height)?)
-    })
-}
 
 /// How `probes-octree` reads its probes at a pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
@@ -215,13 +200,15 @@ impl Default for ProbeSettings {
     }
 }
 
-fn check(ok: bool, what: &str, range: &str) -> Result<()> {
-    if ok {
-        Ok(())
-    } else {
-        Err(Error::InvalidArgument(format!("{what} must be {range}")))
-    }
-}
+/// Accepted probes per axis of the uniform grid.
+pub const GRID: Bounds<u32> = Bounds::new("probes grid", 2, 128).counting("probes per axis");
+/// Accepted history lengths (0: fixed rays, no history).
+pub const HISTORY: Bounds<u32> = Bounds::new("probes history", 0, 1024).counting("frames");
+/// Accepted depths of the probe octree.
+pub const MAX_DEPTH: Bounds<u32> = Bounds::new("probes max_depth", 2, 5);
+/// Accepted normal biases, in probe spacings.
+pub const NORMAL_BIAS: Bounds<f32> =
+    Bounds::new("probes normal_bias", 0.0, 1.0).counting("probe spacings");
 
 /// Surfels per probe of `probes-grid` when `surfels` is unset (`004`'s 64).
 pub const GRID_SURFELS: u32 = 64;
@@ -248,9 +235,9 @@ impl ProbeSettings {
     /// Checks every value's range.
     pub fn validate(&self) -> Result<()> {
         check(
-            self.grid.iter().all(|n| (2..=128).contains(n)),
-            "probes grid",
-            "2..=128 probes per axis",
+            self.grid.iter().all(|&n| GRID.contains(n)),
+            GRID.name,
+            &GRID.text(),
         )?;
         check(
             (8..=1024).contains(&self.surfel_count()),
@@ -264,21 +251,13 @@ impl ProbeSettings {
             "a multiple of 8 (8 parallels: 64 = 8 x 8, 128 = 8 x 16)",
         )?;
         self.check_history()?;
-        check(
-            self.normal_bias.is_finite() && (0.0..=1.0).contains(&self.normal_bias),
-            "probes normal_bias",
-            "0..=1 probe spacings",
-        )?;
+        NORMAL_BIAS.check(self.normal_bias)?;
         check(
             self.backface_limit.is_finite() && (0.0..=1.0).contains(&self.backface_limit),
             "probes backface_limit",
             "0..=1",
         )?;
-        check(
-            (2..=5).contains(&self.max_depth),
-            "probes max_depth",
-            "2..=5",
-        )?;
+        MAX_DEPTH.check(self.max_depth)?;
         check(
             self.min_depth <= self.max_depth,
             "probes min_depth",
@@ -327,7 +306,7 @@ impl ProbeSettings {
 
     /// Checks `history`'s range (the octree ignores the value but not a bad one).
     pub(crate) fn check_history(&self) -> Result<()> {
-        check(self.history <= 1024, "probes history", "0..=1024 frames")
+        HISTORY.check(self.history)
     }
 
     /// Surfel sets per probe: two when the probes keep a history (the set placed this frame

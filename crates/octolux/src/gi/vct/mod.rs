@@ -21,7 +21,10 @@ mod svo_gi;
 mod tracer;
 
 pub use clipmap_gi::VctClipmap;
-pub use settings::{ClipmapInjection, DiffuseCones, VctSettings, VctStructure};
+pub use settings::{
+    ClipmapInjection, DiffuseCones, VctSettings, VctStructure, BOUNCE_FRAMES, INJECT_STEPS, LEVELS,
+    SPARSE, START, STEP,
+};
 pub use svo_gi::{VctSvo, FACING_STORAGE_BUFFERS};
 
 pub use cone::{march_cone, ConeMarch, ConeParams};

@@ -6,6 +6,7 @@
 //! measured on the shipped scenes (docs/vct.md), and a value given in the settings overrides
 //! them for both techniques and both gathers.
 
+use crate::gi::bounds::{require as check, Bounds};
 use crate::{Error, Result};
 
 /// Default sparse factor: chosen from the image height ([`VctSettings::sparse_factor`]; see
@@ -230,13 +231,18 @@ impl Default for VctSettings {
     }
 }
 
-fn check(ok: bool, what: &str, range: &str) -> Result<()> {
-    if ok {
-        Ok(())
-    } else {
-        Err(Error::InvalidArgument(format!("{what} must be {range}")))
-    }
-}
+/// Accepted clipmap levels.
+pub const LEVELS: Bounds<u32> = Bounds::new("vct levels", 1, 8);
+/// Accepted frames over which the bounce gather is spread.
+pub const BOUNCE_FRAMES: Bounds<u32> = Bounds::new("vct bounce_frames", 1, 8);
+/// Accepted steps of the clipmap's injection march.
+pub const INJECT_STEPS: Bounds<u32> = Bounds::new("vct inject_steps", 1, 4096);
+/// Accepted sparse-tracing block sides (0: chosen from the image height).
+pub const SPARSE: Bounds<u32> = Bounds::new("vct sparse", 0, 16);
+/// Accepted cone step, in footprints.
+pub const STEP: Bounds<f32> = Bounds::new("vct step", 0.05, 4.0);
+/// Accepted cone start, in voxels.
+pub const START: Bounds<f32> = Bounds::new("vct start", 0.0, 16.0).counting("voxels");
 
 impl VctSettings {
     /// The sparse factor for images `height` pixels high: the setting, or where it is 0 the
@@ -259,12 +265,8 @@ impl VctSettings {
             "vct resolution",
             "a power of two from 8 to 256",
         )?;
-        check((1..=8).contains(&self.levels), "vct levels", "1..=8")?;
-        check(
-            (1..=8).contains(&self.bounce_frames),
-            "vct bounce_frames",
-            "1..=8",
-        )?;
+        LEVELS.check(self.levels)?;
+        BOUNCE_FRAMES.check(self.bounce_frames)?;
         check(
             self.cones.is_none_or(super::gather::check_cone_count),
             "vct cones",
@@ -276,30 +278,19 @@ impl VctSettings {
             "vct aperture",
             "in (0, 180) degrees",
         )?;
-        check(
-            self.step.is_finite() && self.step >= 0.05 && self.step <= 4.0,
-            "vct step",
-            "0.05..=4",
-        )?;
-        check(
-            self.start
-                .is_none_or(|s| s.is_finite() && (0.0..=16.0).contains(&s)),
-            "vct start",
-            "0..=16 voxels",
-        )?;
+        STEP.check(self.step)?;
+        if let Some(start) = self.start {
+            START.check(start)?;
+        }
         check(
             self.stop_opacity.is_finite() && self.stop_opacity > 0.0 && self.stop_opacity <= 1.0,
             "vct stop_opacity",
             "in (0, 1]",
         )?;
+        INJECT_STEPS.check(self.inject_steps)?;
         check(
-            (1..=4096).contains(&self.inject_steps),
-            "vct inject_steps",
-            "1..=4096",
-        )?;
-        check(
-            self.sparse <= 16,
-            "vct sparse",
+            SPARSE.contains(self.sparse),
+            SPARSE.name,
             "0 (chosen from the image height) or 1..=16",
         )?;
         check(

@@ -30,7 +30,7 @@ use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
 use crate::voxel::svo::walk;
 use crate::voxel::svo::{Svo, SvoBuilder};
-use crate::{Error, Result};
+use crate::Result;
 use bytemuck::{Pod, Zeroable};
 
 const OWNER: &str = "vpl";
@@ -109,14 +109,9 @@ impl Default for VplSettings {
     }
 }
 
+/// [`crate::gi::bounds::require`] for `vpl`'s settings, which messages name `vpl <field>`.
 fn check(ok: bool, what: &str, range: &str) -> Result<()> {
-    if ok {
-        Ok(())
-    } else {
-        Err(Error::InvalidArgument(format!(
-            "vpl {what} must be {range}"
-        )))
-    }
+    crate::gi::bounds::require(ok, &format!("vpl {what}"), range)
 }
 
 impl VplSettings {
