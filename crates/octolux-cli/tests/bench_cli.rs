@@ -360,8 +360,16 @@ fn work_counts_per_pass_in_the_table_and_the_json() {
         count(&shade, "octree nodes") >= count(&shade, "ray cells"),
         "{shade:?}"
     );
-    // A pass that counts nothing has an empty list; the same run again counts the same.
-    assert!(work_of(&report, 1, "lpv propagate").is_empty());
+    // Propagation counts what its settings say (8^3 cells x 2 steps); a pass that counts
+    // nothing has an empty list; the same run again counts the same.
+    let propagate = work_of(&report, 1, "lpv propagate");
+    assert_eq!(count(&propagate, "steps"), 2, "{propagate:?}");
+    assert_eq!(
+        count(&propagate, "cell updates"),
+        8 * 8 * 8 * 2,
+        "{propagate:?}"
+    );
+    assert!(work_of(&report, 1, "lpv lookup").is_empty());
     let (_, again) = run(&[]);
     assert_eq!(work_of(&again, 2, "vpl shade"), shade);
     // Without counting: no work anywhere, nothing in the table.

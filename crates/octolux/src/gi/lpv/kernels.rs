@@ -109,7 +109,7 @@ pub fn propagate(
     );
     let p = Propagate::new(ctx, &slots, &v);
     let mut timer = PassTimer::new(ctx);
-    p.record(&mut timer, "propagate", &v, &grid_layouts, iterations);
+    p.record(&mut timer, "propagate", &v, &grid_layouts, iterations)?;
     timer.finish_frame()?;
     let last = if iterations.is_multiple_of(2) {
         &v.a
@@ -186,7 +186,7 @@ pub fn octree(
         .collect();
     write_slots(ctx, &slots, &grids, directional);
     let p = Propagate::new(ctx, &slots, &v);
-    p.record(&mut timer, "propagate", &v, &grid_layouts, iterations);
+    p.record(&mut timer, "propagate", &v, &grid_layouts, iterations)?;
     o.record_merge(&mut timer);
     timer.finish_frame()?;
     let mut accumulated = Vec::new();

@@ -643,7 +643,7 @@ impl GiTechnique for LpvGi {
             &self.volumes,
             &self.layouts,
             self.iterations,
-        );
+        )?;
         if let Some(octree) = &p.octree {
             octree.record_merge(timer);
         }

@@ -4,6 +4,7 @@
 use super::{bind, groups, storage, GpuGrid, Layout, CELL_BYTES, SLOT};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
+use crate::Result;
 
 /// The light and geometry buffers every pass of the family shares.
 pub struct Volumes {
@@ -49,6 +50,11 @@ impl Volumes {
         }
     }
 }
+
+/// What propagation counts, on the CPU (its work is fixed by the grids and the iterations):
+/// steps (dispatches, each waiting for the one before), lanes (invocations launched: every
+/// grid's 4x4x4-cell bricks x 64, per step) and cell updates (every grid's cells, per step).
+const PROPAGATE_WORK: &[&str] = &["steps", "lanes", "cell updates"];
 
 /// The propagation pipeline and its bind groups (A->B and B->A, every grid at once).
 pub struct Propagate {
@@ -100,8 +106,9 @@ impl Propagate {
         Propagate { pipeline, groups }
     }
 
-    /// Records: acc = A, then `iterations` steps, each one dispatch over every grid. The last
-    /// state ends in A or B; only `acc` is used afterwards.
+    /// Records the pass `name`: acc = A, then `iterations` steps, each one dispatch over every
+    /// grid. The last state ends in A or B; only `acc` is used afterwards. Where the context
+    /// counts work, adds the steps, lanes and cell updates to `name`'s counts.
     pub fn record(
         &self,
         timer: &mut PassTimer,
@@ -109,8 +116,16 @@ impl Propagate {
         v: &Volumes,
         layouts: &[Layout],
         iterations: u32,
-    ) {
+    ) -> Result<()> {
         let bricks: u32 = layouts.iter().map(|l| groups(l.n, 4).pow(3)).sum();
+        let cells: u64 = layouts.iter().map(|l| (l.n as u64).pow(3)).sum();
+        let steps = iterations as u64;
+        for (q, n) in [steps, steps * bricks as u64 * 64, steps * cells]
+            .into_iter()
+            .enumerate()
+        {
+            crate::gpu::work::add(timer.context(), name, PROPAGATE_WORK, q, n)?;
+        }
         timer.pass(name, |encoder, stamps| {
             encoder.copy_buffer_to_buffer(&v.a, 0, &v.acc, 0, v.cells as u64 * CELL_BYTES);
             if iterations == 0 {
@@ -132,5 +147,6 @@ impl Propagate {
                 pass.dispatch_workgroups(bricks.min(65535), bricks.div_ceil(65535), 1);
             }
         });
+        Ok(())
     }
 }

@@ -136,6 +136,15 @@ pub struct BvhHit {
     pub v: f32,
 }
 
+/// The work of traversals, as a counting shader counts it (`note_bvh` in `bvh.wgsl`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BvhWork {
+    /// Nodes visited: popped from the stack with the ray entering their box.
+    pub nodes: u64,
+    /// Triangles tested (ray-triangle intersections computed).
+    pub triangles: u64,
+}
+
 /// A BVH with its triangles in leaf order. Node indices are local (root 0).
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
@@ -329,13 +338,14 @@ impl Bvh {
     }
 
     /// Walks the nodes whose boxes `o + t d` enters before `t_max` (nearer child first),
-    /// calling `leaf` with each leaf's triangle range; `leaf` returns the new `t_max`, or
-    /// None to stop.
+    /// counting them in `nodes` and calling `leaf` with each leaf's triangle range; `leaf`
+    /// returns the new `t_max`, or None to stop.
     fn walk(
         &self,
         o: Vec3,
         d: Vec3,
         mut t_max: f32,
+        nodes: &mut u64,
         mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Option<f32>,
     ) {
         if self.nodes.is_empty() {
@@ -351,6 +361,7 @@ impl Bvh {
             if slab(node, o, inv, t_max).is_none() {
                 continue;
             }
+            *nodes += 1;
             if node.b > 0 {
                 let first = node.a as usize;
                 match leaf(first..first + node.b as usize, t_max) {
@@ -379,9 +390,23 @@ impl Bvh {
 
     /// Closest hit along `o + t d`, t in (0, t_max).
     pub fn closest(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<BvhHit> {
+        self.closest_counted(o, d, t_max, &mut BvhWork::default())
+    }
+
+    /// [`Bvh::closest`], adding the nodes it visits and the triangles it tests to `work` (as
+    /// a counting shader counts `bvh_closest`'s).
+    pub fn closest_counted(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        work: &mut BvhWork,
+    ) -> Option<BvhHit> {
         let mut best = None;
-        self.walk(o, d, t_max, |range, mut t_max| {
+        let triangles = &mut work.triangles;
+        self.walk(o, d, t_max, &mut work.nodes, |range, mut t_max| {
             for i in range {
+                *triangles += 1;
                 if let Some((t, u, v)) = self.tris[i].intersect(o, d, t_max) {
                     t_max = t;
                     best = Some(BvhHit {
@@ -400,7 +425,7 @@ impl Bvh {
     /// Whether any triangle lies on `o + t d`, t in (0, t_max).
     pub fn occluded(&self, o: Vec3, d: Vec3, t_max: f32) -> bool {
         let mut hit = false;
-        self.walk(o, d, t_max, |range, t_max| {
+        self.walk(o, d, t_max, &mut 0, |range, t_max| {
             hit = range
                 .into_iter()
                 .any(|i| self.tris[i].intersect(o, d, t_max).is_some());
@@ -569,13 +594,27 @@ impl SceneBvh {
         d: Vec3,
         t_max: f32,
     ) -> Option<SceneHit> {
+        self.closest_counted(instances, o, d, t_max, &mut BvhWork::default())
+    }
+
+    /// [`SceneBvh::closest`], adding the nodes it visits and the triangles it tests in every
+    /// BVH to `work` (as a counting shader counts `bvh_closest`'s).
+    pub fn closest_counted(
+        &self,
+        instances: &[GpuInstance],
+        o: Vec3,
+        d: Vec3,
+        t_max: f32,
+        work: &mut BvhWork,
+    ) -> Option<SceneHit> {
         let mut best = self
             .still
-            .closest(o, d, t_max)
+            .closest_counted(o, d, t_max, work)
             .map(|hit| SceneHit { hit, object: None });
         for (k, (inst, (_, bvh))) in instances.iter().zip(&self.objects).enumerate() {
             let reach = best.map_or(t_max, |b| b.hit.t);
-            if let Some(hit) = bvh.closest(inst.to_object(o, 1.0), inst.to_object(d, 0.0), reach) {
+            let (oo, dd) = (inst.to_object(o, 1.0), inst.to_object(d, 0.0));
+            if let Some(hit) = bvh.closest_counted(oo, dd, reach, work) {
                 best = Some(SceneHit {
                     hit,
                     object: Some(k),

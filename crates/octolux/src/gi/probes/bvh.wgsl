@@ -6,6 +6,8 @@
 // in its model space, traversed with the ray moved into that space by the object's
 // world-to-object transform of this frame (`bvh_instances`).
 
+import octolux::gpu::work::count_work;
+
 struct BvhNode {
     min: vec3<f32>,
     a: u32,
@@ -47,6 +49,26 @@ struct BvhInstance {
 @group(0) @binding(2) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(3) var<storage, read> bvh_tris: array<BvhTri>;
 @group(0) @binding(4) var<storage, read> bvh_instances: array<BvhInstance>;
+
+// Work of the traversals of one invocation (`gpu/work.wgsl`): nodes visited (popped, their
+// box entered) and triangles tested, kept only by a counting shader (`Bvh::closest_counted`
+// counts the same); a pass adds them to its counts with `count_bvh_work`.
+@if(count_work) var<private> bvh_work: vec2<u32>;
+
+@if(count_work) fn note_bvh(nodes: u32, tris: u32) {
+    bvh_work += vec2<u32>(nodes, tris);
+}
+
+@if(!count_work) fn note_bvh(nodes: u32, tris: u32) {}
+
+// Adds this invocation's traversal work to quantities `nodes_q` and `tris_q` of the pass's
+// counts.
+@if(count_work) fn count_bvh_work(nodes_q: u32, tris_q: u32) {
+    count_work(nodes_q, bvh_work.x);
+    count_work(tris_q, bvh_work.y);
+}
+
+@if(!count_work) fn count_bvh_work(nodes_q: u32, tris_q: u32) {}
 
 const BVH_MISS: u32 = 0xffffffffu;
 const BVH_STACK: u32 = 42u; // MAX_DEPTH + 2 in bvh.rs
@@ -113,9 +135,11 @@ fn bvh_trace(root: u32, o: vec3<f32>, d: vec3<f32>, t_max_in: f32, any_hit: bool
         if bvh_slab(index, o, inv, best.t) < 0.0 {
             continue;
         }
+        note_bvh(1u, 0u);
         let node = bvh_nodes[index];
         if node.b > 0u {
             for (var i = node.a; i < node.a + node.b; i++) {
+                note_bvh(0u, 1u);
                 let h = bvh_intersect(i, o, d, best.t);
                 if h.w > 0.0 {
                     best = BvhHit(i, h.x, h.y, h.z, BVH_MISS);

@@ -15,6 +15,7 @@ use crate::frame::light_bindings;
 use crate::gi::GiFrame;
 use crate::gpu::pass::{dispatch_size, KeptBindGroup};
 use crate::gpu::shader::{library_shader_with, module_source};
+use crate::gpu::work::WorkRegion;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -34,6 +35,56 @@ pub(crate) struct ProbeSetModules {
     pub set: &'static str,
     pub sample: &'static str,
     pub tree: Option<&'static str>,
+    /// What the set's `count_sample_work` counts (`probes_irradiance`'s work).
+    pub sample_work: &'static [&'static str],
+}
+
+/// What `probes-grid`'s lookups count (`count_sample_work` in grid_sample.wgsl).
+pub(crate) const GRID_SAMPLE_WORK: &[&str] = &["probes read"];
+/// What `probes-octree`'s lookups count (`count_sample_work` in octree_sample.wgsl).
+pub(crate) const OCTREE_SAMPLE_WORK: &[&str] = &["probes read", "octree lookups", "octree nodes"];
+/// What the placement counts before its rays' work (place.wgsl; then [`Rays::work`]).
+const PLACE_WORK: &[&str] = &["probes", "rays"];
+/// What the depth moments count (moments_build.wgsl).
+const MOMENTS_WORK: &[&str] = &["texels", "kernel terms"];
+/// What the surfel light counts before its probe lookups' (light.wgsl).
+const LIGHT_WORK: &[&str] = &["surfels", "shadow lookups"];
+/// What the integration counts (integrate.wgsl).
+const INTEGRATE_WORK: &[&str] = &["probes", "surfels"];
+/// What the gather counts before its lookups' (gather.wgsl).
+const GATHER_WORK: &[&str] = &["pixels"];
+
+/// The work regions of the five shared passes, where `ctx` counts work: place, moments,
+/// light, integrate and gather, named `<owner> <pass>` as the timer names them.
+fn work_regions(
+    ctx: &GpuContext,
+    owner: &str,
+    rays: &Rays,
+    set: &ProbeSetModules,
+) -> Result<[Option<WorkRegion>; 5]> {
+    let Some(work) = ctx.work() else {
+        return Ok([None; 5]);
+    };
+    let passes: [(&str, Vec<&'static str>); 5] = [
+        ("place", [PLACE_WORK, rays.work()].concat()),
+        ("moments", MOMENTS_WORK.to_vec()),
+        ("light", [LIGHT_WORK, set.sample_work].concat()),
+        ("integrate", INTEGRATE_WORK.to_vec()),
+        ("gather", [GATHER_WORK, set.sample_work].concat()),
+    ];
+    let mut out = [None; 5];
+    for (slot, (pass, quantities)) in out.iter_mut().zip(passes) {
+        *slot = Some(work.region(&format!("{owner} {pass}"), &quantities)?);
+    }
+    Ok(out)
+}
+
+/// The bind group entry of `region` where `ctx` counts work.
+fn work_entry(
+    ctx: &GpuContext,
+    region: Option<WorkRegion>,
+) -> Option<(u32, wgpu::BindingResource<'_>)> {
+    ctx.work().zip(region).map(|(work, r)| work.entry(r))
 }
 
 /// The source of the library module `path` (one of [`crate::gpu::shader::MODULES`]).
@@ -157,6 +208,8 @@ pub(crate) struct ProbeEngine {
     /// The bind groups of place, moments, light, integrate and gather, kept while their
     /// resources are.
     groups: [KeptBindGroup; 5],
+    /// Their work regions, where the context counts work.
+    work: [Option<WorkRegion>; 5],
 }
 
 impl ProbeEngine {
@@ -232,10 +285,12 @@ impl ProbeEngine {
         ];
         modules.extend(set.tree.map(|t| ("gi/probes/tree_bindings", module(t))));
         let pipeline = |name: &str, pass: &str| {
-            let module = ctx.shader(name, &library_shader_with(pass, &[], &modules));
+            let source = library_shader_with(pass, &[ctx.work_feature()], &modules);
+            let module = ctx.shader(name, &source);
             ctx.compute_pipeline(name, &module, "main")
         };
         let (texture, view) = crate::gi::indirect_target(ctx, owner, width, height);
+        let work = work_regions(ctx, owner, &rays, set)?;
         Ok(ProbeEngine {
             owner,
             settings: settings.clone(),
@@ -273,6 +328,7 @@ impl ProbeEngine {
             view,
             size: (width, height),
             groups: Default::default(),
+            work,
         })
     }
 
@@ -393,6 +449,7 @@ impl ProbeEngine {
             (8, buf(&self.stamps)),
         ];
         entries.extend(self.rays.place_bindings());
+        entries.extend(work_entry(ctx, self.work[0]));
         let group = self.groups[0].get(ctx, "place", &self.place, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
@@ -406,17 +463,14 @@ impl ProbeEngine {
         if self.settings.visibility == Visibility::None {
             return;
         }
-        let group = self.groups[1].get(
-            ctx,
-            "moments",
-            &self.moments_build,
-            &[
-                (0, buf(&self.params_buffer)),
-                (1, buf(&self.surfels)),
-                (2, buf(&self.moments)),
-                (3, buf(&self.stamps)),
-            ],
-        );
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.surfels)),
+            (2, buf(&self.moments)),
+            (3, buf(&self.stamps)),
+        ];
+        entries.extend(work_entry(ctx, self.work[1]));
+        let group = self.groups[1].get(ctx, "moments", &self.moments_build, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
@@ -452,6 +506,7 @@ impl ProbeEngine {
             (8, buf(&self.moments)),
         ];
         entries.extend(light_bindings(frame.lights, frame.shadows.lookup()));
+        entries.extend(work_entry(ctx, self.work[2]));
         let group = self.groups[2].get(ctx, "light", &self.light, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
@@ -463,18 +518,15 @@ impl ProbeEngine {
 
     /// Probes: each integrates its surfels into its encoding.
     pub fn integrate(&self, ctx: &GpuContext, timer: &mut PassTimer, set: Option<SetPass>) {
-        let group = self.groups[3].get(
-            ctx,
-            "integrate",
-            &self.integrate,
-            &[
-                (0, buf(&self.params_buffer)),
-                (1, buf(&self.surfels)),
-                (2, buf(&self.radiance)),
-                (3, buf(&self.probes)),
-                (4, buf(&self.raw)),
-            ],
-        );
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.surfels)),
+            (2, buf(&self.radiance)),
+            (3, buf(&self.probes)),
+            (4, buf(&self.raw)),
+        ];
+        entries.extend(work_entry(ctx, self.work[3]));
+        let group = self.groups[3].get(ctx, "integrate", &self.integrate, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
@@ -490,26 +542,18 @@ impl ProbeEngine {
         timer: &mut PassTimer,
         set: Option<&wgpu::BindGroup>,
     ) {
-        let group = self.groups[4].get(
-            ctx,
-            "gather",
-            &self.gather,
-            &[
-                (0, buf(&self.params_buffer)),
-                (1, buf(frame.camera_uniform)),
-                (
-                    2,
-                    wgpu::BindingResource::TextureView(frame.gbuffer.depth_view),
-                ),
-                (3, buf(&self.probes)),
-                (
-                    4,
-                    wgpu::BindingResource::TextureView(frame.gbuffer.normal_view),
-                ),
-                (5, wgpu::BindingResource::TextureView(&self.view)),
-                (8, buf(&self.moments)),
-            ],
-        );
+        let tex = wgpu::BindingResource::TextureView;
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(frame.camera_uniform)),
+            (2, tex(frame.gbuffer.depth_view)),
+            (3, buf(&self.probes)),
+            (4, tex(frame.gbuffer.normal_view)),
+            (5, tex(&self.view)),
+            (8, buf(&self.moments)),
+        ];
+        entries.extend(work_entry(ctx, self.work[4]));
+        let group = self.groups[4].get(ctx, "gather", &self.gather, &entries);
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group).chain(set).collect();
         let (w, h) = self.size;
         run_pass(

@@ -1,7 +1,8 @@
 // Pixel gather: the indirect irradiance of every G-buffer pixel from the probes around it.
 
 import octolux::frame::common::{Camera, world_from_depth};
-import octolux::gi::probes::set_sample::probes_irradiance;
+import octolux::gi::probes::set_sample::{count_sample_work, probes_irradiance};
+import octolux::gpu::work::count_work;
 
 // The probes (3) and their depth moments (8) are the sampler's bindings (probe_values.wgsl,
 // moments.wgsl).
@@ -24,4 +25,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = world_from_depth(cam, id.xy, depth);
     let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
     textureStore(out_tex, id.xy, vec4<f32>(probes_irradiance(p, n), 1.0));
+    // Work counts (`*_GATHER_WORK` in engine.rs): pixels gathered, then the lookup's work.
+    count_work(0u, 1u);
+    count_sample_work(1u);
 }

@@ -325,6 +325,7 @@ impl ProbesGrid {
             set: "gi/probes/grid",
             sample: "gi/probes/grid_sample",
             tree: None,
+            sample_work: super::engine::GRID_SAMPLE_WORK,
         };
         let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         Ok(ProbesGrid {

@@ -5,6 +5,24 @@ import octolux::gi::probes::set::probe_position;
 import octolux::gi::probes::probe_values::{probe_coeffs, probe_valid};
 import octolux::gi::probes::moments::probe_visibility;
 import octolux::gi::probes::encoding::probe_irradiance;
+import octolux::gpu::work::count_work;
+
+// Work of the lookups of one invocation (`gpu/work.wgsl`): probes read (valid, weighed),
+// kept only by a counting shader; a pass adds them from its quantity `q` on with
+// `count_sample_work` (`GRID_SAMPLE_WORK` in engine.rs).
+@if(count_work) var<private> sample_work: u32;
+
+@if(count_work) fn note_probe_read() {
+    sample_work += 1u;
+}
+
+@if(!count_work) fn note_probe_read() {}
+
+@if(count_work) fn count_sample_work(q: u32) {
+    count_work(q, sample_work);
+}
+
+@if(!count_work) fn count_sample_work(q: u32) {}
 
 // Irradiance at p (unit normal n) from the 8 probes around p + bias n: trilinear weights times
 // the back-face weight for the direction to the probe; probes inside geometry (too many
@@ -24,6 +42,7 @@ fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         if !probe_valid(probe) {
             continue;
         }
+        note_probe_read();
         let tri = select(vec3<f32>(1.0) - t, t, off == vec3<u32>(1u));
         let x = probe_position(coord);
         let w = tri.x * tri.y * tri.z * probe_facing_weight(x - p, n) * probe_visibility(probe, x, q);

@@ -17,6 +17,7 @@
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, PROBE_VEC4, SURFEL_VEC4};
 import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots, probe_store_hits};
 import octolux::gi::probes::encoding::probe_encode;
+import octolux::gpu::work::count_work;
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
@@ -24,6 +25,23 @@ import octolux::gi::probes::encoding::probe_encode;
 // Per probe, 8 vec4s: the coefficients of the set placed most recently as last integrated
 // (a placeholder with one set).
 @group(0) @binding(4) var<storage, read_write> probe_raw: array<vec4<f32>>;
+
+// Work counts (`INTEGRATE_WORK` in engine.rs): surfels read by this invocation, kept only by
+// a counting shader; `count_integrate_work` adds them and the probe integrated.
+@if(count_work) var<private> surfels_read: u32;
+
+@if(count_work) fn note_surfels(n: u32) {
+    surfels_read += n;
+}
+
+@if(!count_work) fn note_surfels(n: u32) {}
+
+@if(count_work) fn count_integrate_work() {
+    count_work(0u, 1u);
+    count_work(1u, surfels_read);
+}
+
+@if(!count_work) fn count_integrate_work() {}
 
 // One set's sums: coefficients and hit counts.
 struct SetSums {
@@ -39,6 +57,7 @@ fn integrate_set(probe: u32, ray_set: u32, n: u32) -> SetSums {
     var hits = 0u;
     var inside = 0u;
     let first = probe * probe_surfels() + ray_set * n;
+    note_surfels(n);
     for (var k = 0u; k < n; k++) {
         let s = first + k;
         let state = surfels[s * SURFEL_VEC4].w;
@@ -80,6 +99,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         }
         probe_store_hits(probe, r.inside);
         probes[b + 8u] = vec4<f32>(f32(r.back) / f32(n), f32(r.hits) / f32(n), select(0.0, 1.0, r.back <= P.limits.x), 0.0);
+        count_integrate_work();
         return;
     }
     let sampled = P.sets.z != 0u;
@@ -127,4 +147,5 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // count (+ 0.5: a single sample's share times n is an integer up to rounding).
     let valid = back * f32(n) <= f32(P.limits.x) + 0.5;
     probes[b + 8u] = vec4<f32>(back, hits, select(0.0, 1.0, valid), frames);
+    count_integrate_work();
 }

@@ -9,7 +9,8 @@ import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibilit
 import octolux::frame::common::PI;
 import octolux::gi::probes::probes::{linear_index, P, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots};
-import octolux::gi::probes::set_sample::probes_irradiance;
+import octolux::gi::probes::set_sample::{count_sample_work, probes_irradiance};
+import octolux::gpu::work::count_work;
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> radiance: array<vec4<f32>>;
@@ -43,6 +44,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     let n = s1.xyz;
     let albedo = unpack4x8unorm(bitcast<u32>(s1.w)).rgb;
     var e = vec3<f32>(0.0);
+    // Work counts (`*_LIGHT_WORK` in engine.rs): surfels lit, shadow lookups, then the probe
+    // lookups' work (with multiple bounces).
+    var shadow_lookups = 0u;
     for (var i = 0u; i < P.misc.z; i++) {
         let light = lights[i];
         let inc = light_incidence(light, p);
@@ -50,6 +54,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         if cos_theta <= 0.0 || all(inc.irradiance <= vec3<f32>(0.0)) {
             continue;
         }
+        shadow_lookups += 1u;
         e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
     }
     if P.misc.w != 0u {
@@ -57,5 +62,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         // switches off takes its higher bounces with it at once, not over a bounce per frame.
         e += P.vis.z * probes_irradiance(p, n);
     }
+    count_work(0u, 1u);
+    count_work(1u, shadow_lookups);
+    count_sample_work(2u);
     radiance[s] = vec4<f32>(surfels[b + 2u].rgb + albedo / PI * e, 0.0);
 }

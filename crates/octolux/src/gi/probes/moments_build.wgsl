@@ -12,6 +12,7 @@
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
 import octolux::gi::probes::set::{probe_slot, probe_slots, probe_wants_place};
+import octolux::gpu::work::count_work;
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> moments_out: array<vec2<f32>>;
@@ -36,6 +37,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     let t = moment_texel_dir(id % MOMENT_TEXELS);
     let n = P.dims.w;
+    // Work counts (`MOMENTS_WORK` in engine.rs): texels made, kernel terms (surfels read).
+    count_work(0u, 1u);
+    count_work(1u, n);
     let ray_set = select(0u, P.sets.y, accumulate);
     let first = probe * probe_surfels() + ray_set * n;
     var sum = vec2<f32>(0.0);

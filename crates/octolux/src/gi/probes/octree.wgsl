@@ -7,6 +7,7 @@
 
 import octolux::gi::probes::octree_tree::{octree_cube, octree_meta};
 import octolux::gi::probes::tree_bindings::{O, tree};
+import octolux::gpu::work::count_work;
 
 // The parameters and the tree (bindings 0, 1) are octree_tree_write.wgsl's.
 // Per probe slot: position and depth, or (0, 0, 0, -1) when free.
@@ -75,6 +76,23 @@ fn set_probe(node: u32, p: u32) {
     probe_info[p] = vec4<f32>(c.lo + vec3<f32>(c.size * 0.5), f32(c.depth));
     tree[node] = ~i32(p);
 }
+
+// Work counts of a memory update thread (`MEMORY_WORK` in octree_gi.rs): probes allocated
+// and freed, kept only by a counting shader and added at the thread's end.
+@if(count_work) var<private> memory_work: vec2<u32>;
+
+@if(count_work) fn note_memory(allocated: u32, freed: u32) {
+    memory_work += vec2<u32>(allocated, freed);
+}
+
+@if(!count_work) fn note_memory(allocated: u32, freed: u32) {}
+
+@if(count_work) fn count_memory_work() {
+    count_work(2u, memory_work.x);
+    count_work(3u, memory_work.y);
+}
+
+@if(!count_work) fn count_memory_work() {}
 
 var<workgroup> scan: array<vec2<u32>, THREADS>;
 var<workgroup> scan_total: vec2<u32>;
@@ -206,6 +224,7 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
             before = after;
             continue;
         }
+        note_memory(d.y, 0u);
         if r == 1u {
             set_probe(i, state[free_probe_at(probe_top - 1u - before.y)]);
             push(1u, i, L1);
@@ -247,6 +266,7 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
         } else if f != 0u {
             state[free_probe_at(probes_left + before.y)] = f - 1u;
             before.y += 1u;
+            note_memory(0u, 1u);
         }
         state[freed_at(i)] = 0u;
         state[request_at(i)] = 0u;
@@ -259,6 +279,7 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
     storageBarrier();
     workgroupBarrier();
     list_live_probes(t);
+    count_memory_work();
 }
 
 // Lists the live probe slots in increasing order (each thread a run of consecutive slots)
@@ -283,6 +304,8 @@ fn list_live_probes(t: u32) {
     if t == 0u {
         let count = scanned.z;
         live[0] = count;
+        // Work counts: the live probes the shared passes run over.
+        count_work(1u, count);
         set_args(0u, count * O.shape.x);
         set_args(3u, count * O.shape.y);
         set_args(6u, count);
@@ -312,6 +335,8 @@ fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
     if code == 0u {
         return;
     }
+    // Work counts (`SELECT_WORK` in octree_gi.rs): queued nodes, box tests, placements asked.
+    count_work(1u, 1u);
     atomicStore(&ring[at], 0u);
     let v = tree[i];
     if code == L0 || v > 0 {
@@ -319,10 +344,13 @@ fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let c = octree_cube(i);
     let hi = c.lo + vec3<f32>(c.size);
+    var tests = O.frame.y;
     for (var k = 0u; k < O.frame.y; k++) {
         if all(c.lo <= boxes[2u * k + 1u].xyz) && all(boxes[2u * k].xyz <= hi) {
+            tests = k + 1u;
             state[no_split_at(i)] = 0u;
             if v == 0 {
+                count_work(2u, tests);
                 push(2u, i, M1);
                 return;
             }
@@ -330,7 +358,9 @@ fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
             break;
         }
     }
+    count_work(2u, tests);
     if code == L1 && v < 0 {
+        count_work(3u, 1u);
         state[request_at(i)] = 1u;
         place_flags[u32(~v)] = 1u;
         return;
@@ -346,6 +376,8 @@ fn light_decide(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= O.sizes.x || state[request_at(i)] == 0u {
         return;
     }
+    // Work counts (`DECIDE_WORK` in octree_gi.rs): leaves decided.
+    count_work(1u, 1u);
     state[request_at(i)] = 0u;
     let p = u32(~tree[i]);
     place_flags[p] = 0u;

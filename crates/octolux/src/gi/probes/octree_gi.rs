@@ -20,6 +20,7 @@ use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::shader::library_shader_with;
+use crate::gpu::work::WorkRegion;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
@@ -39,6 +40,15 @@ struct OctreeParams {
     modes: [u32; 4],
     shape: [u32; 4],
 }
+
+/// What the memory update counts (octree.wgsl): tree nodes it sweeps (every pass over the
+/// tree; the dispatch size), live probes listed, probes allocated and freed.
+const MEMORY_WORK: &[&str] = &["nodes", "live probes", "probes allocated", "probes freed"];
+/// What the light select counts: nodes (one invocation each), nodes the leaf ring queued,
+/// moved-box tests, probes asked to place their surfels.
+const SELECT_WORK: &[&str] = &["nodes", "queued nodes", "box tests", "placements"];
+/// What the light decide counts: nodes (one invocation each), leaves decided.
+const DECIDE_WORK: &[&str] = &["nodes", "leaves decided"];
 
 /// The probe octree in GPU buffers and the passes of its state machine.
 pub struct GpuOctree {
@@ -64,6 +74,8 @@ pub struct GpuOctree {
     /// The bind groups of memory update, light select and light decide, kept while their
     /// resources are.
     groups: [KeptBindGroup; 3],
+    /// Their work regions, where the context counts work.
+    work: [Option<WorkRegion>; 3],
 }
 
 /// Creates a storage buffer holding `data` under `owner`.
@@ -118,7 +130,7 @@ impl GpuOctree {
         };
         let source = library_shader_with(
             "gi/probes/octree",
-            &[],
+            &[ctx.work_feature()],
             &[(
                 "gi/probes/tree_bindings",
                 module("gi/probes/octree_tree_write"),
@@ -126,6 +138,17 @@ impl GpuOctree {
         );
         let module = ctx.shader("probes octree", &source);
         let zeros = |n: usize| vec![0u8; 4 * n];
+        let mut work = [None; 3];
+        if let Some(counter) = ctx.work() {
+            let passes = [
+                ("memory update", MEMORY_WORK),
+                ("light select", SELECT_WORK),
+                ("light decide", DECIDE_WORK),
+            ];
+            for (slot, (pass, quantities)) in work.iter_mut().zip(passes) {
+                *slot = Some(counter.region(&format!("{OWNER} {pass}"), quantities)?);
+            }
+        }
         Ok(GpuOctree {
             rule,
             params,
@@ -155,6 +178,7 @@ impl GpuOctree {
             light_decide: ctx.compute_pipeline("light decide", &module, "light_decide"),
             origin: origin as u32,
             groups: Default::default(),
+            work,
         })
     }
 
@@ -214,20 +238,17 @@ impl GpuOctree {
 
     /// The memory update (M states).
     pub fn memory_update(&self, ctx: &GpuContext, timer: &mut PassTimer) {
-        let group = self.groups[0].get(
-            ctx,
-            "memory update",
-            &self.memory_update,
-            &[
-                (0, buf(&self.params_buffer)),
-                (1, buf(&self.tree)),
-                (2, buf(&self.probe_info)),
-                (5, buf(&self.state)),
-                (6, buf(&self.ring)),
-                (8, buf(&self.live)),
-                (9, buf(&self.live_args)),
-            ],
-        );
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.tree)),
+            (2, buf(&self.probe_info)),
+            (5, buf(&self.state)),
+            (6, buf(&self.ring)),
+            (8, buf(&self.live)),
+            (9, buf(&self.live_args)),
+        ];
+        entries.extend(self.count_nodes(ctx, 0));
+        let group = self.groups[0].get(ctx, "memory update", &self.memory_update, &entries);
         run_pass(
             timer,
             "memory update",
@@ -237,45 +258,52 @@ impl GpuOctree {
         );
     }
 
+    /// Where `ctx` counts work: adds the tree's nodes to quantity 0 of pass `pass`'s region
+    /// (its dispatch size: every pass sweeps or runs over every node) and gives the region's
+    /// bind group entry.
+    fn count_nodes<'a>(
+        &self,
+        ctx: &'a GpuContext,
+        pass: usize,
+    ) -> Option<(u32, wgpu::BindingResource<'a>)> {
+        let (work, region) = ctx.work().zip(self.work[pass])?;
+        work.add(region, 0, self.params.sizes[0] as u64);
+        Some(work.entry(region))
+    }
+
     fn node_groups(&self) -> (u32, u32) {
         (self.params.sizes[0].div_ceil(64), 1)
     }
 
     /// The light update's first half: moved geometry, L1 leaves ask for surfels.
     pub fn light_select(&self, ctx: &GpuContext, timer: &mut PassTimer) {
-        let group = self.groups[1].get(
-            ctx,
-            "light select",
-            &self.light_select,
-            &[
-                (0, buf(&self.params_buffer)),
-                (1, buf(&self.tree)),
-                (3, buf(&self.place_flags)),
-                (5, buf(&self.state)),
-                (6, buf(&self.ring)),
-                (7, buf(&self.boxes)),
-            ],
-        );
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.tree)),
+            (3, buf(&self.place_flags)),
+            (5, buf(&self.state)),
+            (6, buf(&self.ring)),
+            (7, buf(&self.boxes)),
+        ];
+        entries.extend(self.count_nodes(ctx, 1));
+        let group = self.groups[1].get(ctx, "light select", &self.light_select, &entries);
         let size = self.node_groups();
         run_pass(timer, "light select", &self.light_select, &[&group], size);
     }
 
     /// The light update's second half: the split/free rule from the hit counts.
     pub fn light_decide(&self, ctx: &GpuContext, timer: &mut PassTimer) {
-        let group = self.groups[2].get(
-            ctx,
-            "light decide",
-            &self.light_decide,
-            &[
-                (0, buf(&self.params_buffer)),
-                (1, buf(&self.tree)),
-                (2, buf(&self.probe_info)),
-                (3, buf(&self.place_flags)),
-                (4, buf(&self.hits)),
-                (5, buf(&self.state)),
-                (6, buf(&self.ring)),
-            ],
-        );
+        let mut entries = vec![
+            (0, buf(&self.params_buffer)),
+            (1, buf(&self.tree)),
+            (2, buf(&self.probe_info)),
+            (3, buf(&self.place_flags)),
+            (4, buf(&self.hits)),
+            (5, buf(&self.state)),
+            (6, buf(&self.ring)),
+        ];
+        entries.extend(self.count_nodes(ctx, 2));
+        let group = self.groups[2].get(ctx, "light decide", &self.light_decide, &entries);
         let size = self.node_groups();
         run_pass(timer, "light decide", &self.light_decide, &[&group], size);
     }
@@ -516,6 +544,7 @@ impl ProbesOctree {
             set: "gi/probes/octree_set",
             sample: "gi/probes/octree_sample",
             tree: Some("gi/probes/octree_tree_read"),
+            sample_work: super::engine::OCTREE_SAMPLE_WORK,
         };
         let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits, live

@@ -8,6 +8,35 @@ import octolux::gi::probes::set::{probe_edge, probe_info, probe_live};
 import octolux::gi::probes::probe_values::{probe_coeffs, probe_valid};
 import octolux::gi::probes::moments::probe_visibility;
 import octolux::gi::probes::encoding::probe_irradiance;
+import octolux::gpu::work::count_work;
+
+// Work of the lookups of one invocation (`gpu/work.wgsl`): probes read (valid, weighed),
+// leaf lookups (descents of the tree) and the tree nodes they read, kept only by a counting
+// shader; a pass adds them from its quantity `q` on with `count_sample_work`
+// (`OCTREE_SAMPLE_WORK` in engine.rs).
+@if(count_work) var<private> sample_work: vec3<u32>;
+
+@if(count_work) fn note_sample(probes: u32, lookups: u32, nodes: u32) {
+    sample_work += vec3<u32>(probes, lookups, nodes);
+}
+
+@if(!count_work) fn note_sample(probes: u32, lookups: u32, nodes: u32) {}
+
+@if(count_work) fn count_sample_work(q: u32) {
+    count_work(q, sample_work.x);
+    count_work(q + 1u, sample_work.y);
+    count_work(q + 2u, sample_work.z);
+}
+
+@if(!count_work) fn count_sample_work(q: u32) {}
+
+// The leaf holding q, noted as one lookup: `octree_leaf` reads one tree word per level down
+// to the leaf's depth (y).
+fn leaf_at(q: vec3<f32>) -> vec2<u32> {
+    let leaf = octree_leaf(q);
+    note_sample(0u, 1u, leaf.y + 1u);
+    return leaf;
+}
 
 // Through the octree: at q = p + bias n, the leaves holding the 8 corners of a box of the
 // size of q's leaf around q; their probes are blended with tent weights (radius: the larger of
@@ -21,7 +50,7 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let lo = O.root.xyz;
     let hi = lo + vec3<f32>(O.root.w);
     let q = p + n * P.spacing.w;
-    let leaf = octree_leaf(clamp(q, lo, hi));
+    let leaf = leaf_at(clamp(q, lo, hi));
     var h = ldexp(O.root.w, -i32(leaf.y)) * 0.5;
     var sum = vec3<f32>(0.0);
     var total = 0.0;
@@ -34,7 +63,7 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         for (var c = 0u; c < 8u; c++) {
             let upper = vec3<bool>((c & 1u) != 0u, (c & 2u) != 0u, (c & 4u) != 0u);
             let corner = clamp(q + select(vec3<f32>(-h), vec3<f32>(h), upper), lo, hi);
-            let v = tree[octree_leaf(corner).x];
+            let v = tree[leaf_at(corner).x];
             if v >= 0 {
                 continue;
             }
@@ -51,6 +80,7 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             if !probe_valid(probe) {
                 continue;
             }
+            note_sample(1u, 0u, 0u);
             let x = probe_info[probe].xyz;
             let tent = max(vec3<f32>(1.0) - abs(q - x) / max(probe_edge(probe), 2.0 * h), vec3<f32>(0.0));
             let w0 = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
@@ -78,6 +108,7 @@ fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         if !probe_live(probe) || !probe_valid(probe) {
             continue;
         }
+        note_sample(1u, 0u, 0u);
         let x = probe_info[probe].xyz;
         let r = x - q;
         let e = probe_edge(probe) * 0.5;

@@ -14,7 +14,8 @@
 
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_slot, probe_slots, probe_wants_place};
-import octolux::gi::probes::rays::surfel_hit;
+import octolux::gi::probes::rays::{count_ray_work, surfel_hit};
+import octolux::gpu::work::count_work;
 
 @group(0) @binding(1) var<storage, read_write> surfels: array<vec4<f32>>;
 // Per moved box: (lower corner, 0), (upper corner, 0).
@@ -22,6 +23,18 @@ import octolux::gi::probes::rays::surfel_hit;
 // Per probe, the last frame that traced any of its rays again (for the moments' pass). Every
 // invocation that stores writes the same value: a plain store, no read-modify-write.
 @group(0) @binding(8) var<storage, read_write> probe_stamps: array<atomic<u32>>;
+
+// Stamps the probe with this frame (see `probe_stamps`). Counting, it swaps instead of
+// storing and returns 1 for the first of the probe's rays traced this frame, so that each
+// probe traced counts once (quantity 0 of `PLACE_*_WORK` in engine.rs).
+@if(count_work) fn stamp_probe(probe: u32) -> u32 {
+    return u32(atomicExchange(&probe_stamps[probe], P.frame.x) != P.frame.x);
+}
+
+@if(!count_work) fn stamp_probe(probe: u32) -> u32 {
+    atomicStore(&probe_stamps[probe], P.frame.x);
+    return 0u;
+}
 
 // Whether the segment a -> b meets any of the P.limits.z moved boxes.
 fn segment_meets_moved(a: vec3<f32>, b: vec3<f32>) -> bool {
@@ -71,8 +84,11 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
             return;
         }
     }
-    atomicStore(&probe_stamps[probe], P.frame.x);
+    // Work counts: probes traced, rays traced, then the ray structure's work.
+    count_work(0u, stamp_probe(probe));
+    count_work(1u, 1u);
     let hit = surfel_hit(o, d, P.lo.w);
+    count_ray_work(2u);
     let inside = hit.t <= probe_region_exit(probe, d);
     if hit.t < 0.0 || !(inside || probe_keeps_far_hits()) {
         surfels[b] = vec4<f32>(o, 0.0);

@@ -2,7 +2,7 @@
 // triangle, its geometric normal, albedo and emission; exact.
 
 import octolux::gi::probes::probes::{P, SurfelHit};
-import octolux::gi::probes::bvh::{bvh_closest, bvh_hit_normal, BVH_MISS, bvh_tris};
+import octolux::gi::probes::bvh::{bvh_closest, bvh_hit_normal, BVH_MISS, bvh_tris, count_bvh_work};
 
 fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
     let hit = bvh_closest(P.roots.xy, o, d, t_max);
@@ -11,4 +11,10 @@ fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
     }
     let tri = bvh_tris[hit.tri];
     return SurfelHit(hit.t, bvh_hit_normal(hit), bitcast<u32>(tri.p0.w), tri.emission.rgb);
+}
+
+// Adds the rays' work to quantities q and q + 1 of the pass's counts (`PLACE_BVH_WORK` in
+// engine.rs): BVH nodes visited, triangles tested.
+fn count_ray_work(q: u32) {
+    count_bvh_work(q, q + 1u);
 }

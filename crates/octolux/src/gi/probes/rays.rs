@@ -155,6 +155,15 @@ impl Rays {
         }
     }
 
+    /// What the placement counts of its rays' work (`count_ray_work` in place_bvh.wgsl and
+    /// place_voxels.wgsl).
+    pub fn work(&self) -> &'static [&'static str] {
+        match self {
+            Rays::Bvh(_) => &["BVH nodes", "triangles tested"],
+            Rays::Voxels(_) => &["ray cells", "octree nodes"],
+        }
+    }
+
     /// How far a hit may lie outside the bounds of the triangles it stands for: nothing for
     /// the BVH; two voxels for the octree (a conservatively voxelised triangle marks voxels
     /// beyond its bounds, and a voxel hit lies anywhere in its voxel).
