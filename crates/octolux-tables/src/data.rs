@@ -351,3 +351,75 @@ impl GpuRun {
             .map(|r| r.1.as_slice())
     }
 }
+
+/// One technique on one scene of the moving protocol: its GI time and the work of the passes
+/// that redo work when things move.
+#[derive(Clone, Debug)]
+pub struct MovingCell {
+    /// GI total, mean over the measured frames (ms).
+    pub gi_ms: f64,
+    /// The work counts of the first measured frame, summed per quantity over the technique's
+    /// passes (`"triangles drawn"` → n).
+    pub work: Vec<(String, u64)>,
+}
+
+/// The moving protocol: every technique on still scenes and on their everything-moves
+/// counterparts (`scripts/moving-table.sh`).
+#[derive(Debug)]
+pub struct MovingRun {
+    pub provenance: Provenance,
+    /// Scene names, in file order.
+    pub scenes: Vec<String>,
+    /// Per technique (in the first file's order), its cell per scene.
+    pub techniques: Vec<(String, Vec<MovingCell>)>,
+}
+
+impl MovingRun {
+    pub fn load(dir: &Path, shown: &str) -> Result<MovingRun> {
+        let files = bench_files(dir)?;
+        let mut provenance = Provenance {
+            data: shown.to_string(),
+            ..Default::default()
+        };
+        let mut scenes = Vec::new();
+        let mut techniques: Vec<(String, Vec<MovingCell>)> = Vec::new();
+        for (i, (name, doc)) in files.iter().enumerate() {
+            provenance.add(doc);
+            let list = doc["scenes"][0]["techniques"]
+                .as_array()
+                .with_context(|| format!("{name}.json: no techniques"))?;
+            if i == 0 {
+                techniques = list
+                    .iter()
+                    .map(|t| (t["technique"].as_str().unwrap_or("?").to_string(), vec![]))
+                    .collect();
+            }
+            for (technique, cells) in &mut techniques {
+                let t = list
+                    .iter()
+                    .find(|t| t["technique"] == technique.as_str())
+                    .with_context(|| format!("{name}.json: no technique '{technique}'"))?;
+                let gi_ms = number(&t["gi_total"], "mean_ms", name)?;
+                let mut work: Vec<(String, u64)> = Vec::new();
+                let passes = t["passes"].as_array().into_iter().flatten();
+                for pass in passes.filter(|p| p["gi"].as_bool() == Some(true)) {
+                    for w in pass["work"].as_array().into_iter().flatten() {
+                        let quantity = w["quantity"].as_str().unwrap_or("?").to_string();
+                        let count = w["count"].as_u64().unwrap_or(0);
+                        match work.iter_mut().find(|(q, _)| *q == quantity) {
+                            Some((_, n)) => *n += count,
+                            None => work.push((quantity, count)),
+                        }
+                    }
+                }
+                cells.push(MovingCell { gi_ms, work });
+            }
+            scenes.push(name.clone());
+        }
+        Ok(MovingRun {
+            provenance,
+            scenes,
+            techniques,
+        })
+    }
+}

@@ -185,6 +185,20 @@ fn render(marker: &str, root: &Path, prefix: &str) -> Result<String> {
                 .context("'gi-choice' needs default=NAME")?;
             tables::gi_choice(&error, &temporal, &gpu, default)
         }
-        other => bail!("unknown table kind '{other}' (error, temporal, gpu-gi, gi-choice)"),
+        "moving" => {
+            let run = data::MovingRun::load(&path("data")?, &shown("data"))?;
+            let pairs = args
+                .get("pairs")
+                .context("'moving' needs pairs=STILL:MOVING,...")?
+                .split(',')
+                .map(|pair| {
+                    pair.split_once(':')
+                        .map(|(a, b)| (a.to_string(), b.to_string()))
+                        .with_context(|| format!("pair '{pair}' is not STILL:MOVING"))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            tables::moving(&run, &pairs)
+        }
+        other => bail!("unknown table kind '{other}' (error, temporal, gpu-gi, gi-choice, moving)"),
     }
 }

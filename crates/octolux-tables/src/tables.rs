@@ -1,5 +1,5 @@
 //! The Markdown of each kind of table.
-use crate::data::{Error, ErrorRun, GpuRun, TemporalRun};
+use crate::data::{Error, ErrorRun, GpuRun, MovingCell, MovingRun, TemporalRun};
 use anyhow::{Context, Result};
 use std::fmt::Write;
 
@@ -209,6 +209,116 @@ pub fn gpu_gi(run: &GpuRun) -> String {
         );
     }
     s
+}
+
+/// The moving protocol: each technique's GI time on every scene, the worst of them, and per
+/// pair of a still scene and its everything-moves counterpart the time ratio and the work that
+/// grows the most (work counts are exact on every adapter; times are the adapter's).
+pub fn moving(run: &MovingRun, pairs: &[(String, String)]) -> Result<String> {
+    let index = |name: &str| {
+        run.scenes
+            .iter()
+            .position(|s| s == name)
+            .with_context(|| format!("no scene '{name}' in the moving data"))
+    };
+    let pairs: Vec<(usize, usize)> = pairs
+        .iter()
+        .map(|(still, moving)| Ok((index(still)?, index(moving)?)))
+        .collect::<Result<_>>()?;
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", run.provenance.sentence());
+    s.push('\n');
+    let mut header = String::from("| technique |");
+    let mut rule = String::from("| --- |");
+    for scene in &run.scenes {
+        header.push_str(&format!(" {scene} ms |"));
+        rule.push_str(" ---: |");
+    }
+    header.push_str(" worst |");
+    rule.push_str(" --- |");
+    for &(still, moving) in &pairs {
+        header.push_str(&format!(
+            " {} / {} | work that grows most |",
+            run.scenes[moving], run.scenes[still]
+        ));
+        rule.push_str(" ---: | --- |");
+    }
+    let _ = writeln!(s, "{header}");
+    let _ = writeln!(s, "{rule}");
+    for (technique, cells) in &run.techniques {
+        let mut row = format!("| `{technique}` |");
+        for cell in cells {
+            row.push_str(&format!(" {} |", sig3(cell.gi_ms)));
+        }
+        let (worst, _) = cells
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.gi_ms.total_cmp(&b.1.gi_ms))
+            .context("no scenes")?;
+        row.push_str(&format!(" {} |", run.scenes[worst]));
+        for &(still, moving) in &pairs {
+            let ratio = if cells[still].gi_ms > 0.0 {
+                format!("{:.2}", cells[moving].gi_ms / cells[still].gi_ms)
+            } else {
+                "-".into()
+            };
+            row.push_str(&format!(
+                " {ratio} | {} |",
+                growth(&cells[still], &cells[moving])
+            ));
+        }
+        let _ = writeln!(s, "{row}");
+    }
+    Ok(s)
+}
+
+/// The (at most two) work quantities that grow the most from `still` to `moving`, as
+/// "quantity: a → b"; "-" when none grows.
+fn growth(still: &MovingCell, moving: &MovingCell) -> String {
+    let mut grown: Vec<(f64, String)> = moving
+        .work
+        .iter()
+        .filter_map(|(quantity, after)| {
+            let before = still
+                .work
+                .iter()
+                .find(|(q, _)| q == quantity)
+                .map_or(0, |w| w.1);
+            (*after > before).then(|| {
+                let ratio = *after as f64 / before.max(1) as f64;
+                (
+                    ratio,
+                    format!("{quantity}: {} → {}", count(before), count(*after)),
+                )
+            })
+        })
+        .collect();
+    grown.sort_by(|a, b| b.0.total_cmp(&a.0));
+    if grown.is_empty() {
+        return "-".into();
+    }
+    grown
+        .into_iter()
+        .take(2)
+        .map(|(_, text)| text)
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// A count in 4 significant digits with k, M, G (as the bench prints them).
+fn count(n: u64) -> String {
+    let x = n as f64;
+    match n {
+        0..=9_999 => n.to_string(),
+        10_000..=999_999 => format!("{}k", sig4(x / 1e3)),
+        1_000_000..=999_999_999 => format!("{}M", sig4(x / 1e6)),
+        _ => format!("{}G", sig4(x / 1e9)),
+    }
+}
+
+fn sig4(x: f64) -> String {
+    let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 3) as usize;
+    format!("{x:.decimals$}")
 }
 
 /// The table the default technique is chosen from: error against GI off's, wins, GPU time,
