@@ -126,7 +126,7 @@ pub const REGISTRY: [Technique; 9] = [
         name: "probes-grid",
         summary: "probes and surfels on a uniform grid",
         family: Family::Probes { octree: false },
-        validate: |s| s.probes.validate(),
+        validate: |s| s.probes.for_technique(false).map(|_| ()),
         create: |ctx, scene, s, w, h| {
             Ok(Box::new(probes::ProbesGrid::new(
                 ctx, &s.probes, scene, w, h,
@@ -137,7 +137,7 @@ pub const REGISTRY: [Technique; 9] = [
         name: "probes-octree",
         summary: "probes and surfels on an adaptive octree",
         family: Family::Probes { octree: true },
-        validate: |s| s.probes.validate(),
+        validate: |s| s.probes.for_technique(true).map(|_| ()),
         create: |ctx, scene, s, w, h| {
             Ok(Box::new(probes::ProbesOctree::new(
                 ctx, &s.probes, scene, w, h,

@@ -310,8 +310,7 @@ impl ProbesGrid {
         width: u32,
         height: u32,
     ) -> Result<ProbesGrid> {
-        let settings = &settings.resolved(false);
-        settings.validate()?;
+        let settings = &settings.for_technique(false)?;
         let grid = ProbeGrid::over(scene.gi_bounds_at(0.0), settings.grid)?;
         let layout = ProbeLayout {
             lo: grid.lo,

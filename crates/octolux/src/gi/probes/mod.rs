@@ -304,6 +304,23 @@ impl ProbeSettings {
         self.multi_bounce == Some(true)
     }
 
+    /// The settings `probes-grid` (`octree` false) or `probes-octree` runs with, checked: the
+    /// technique's defaults filled in, and for the octree one fixed lattice without a history
+    /// (its slots move between probes; a bad `history` is still an error).
+    pub fn for_technique(&self, octree: bool) -> Result<ProbeSettings> {
+        let resolved = if octree {
+            self.check_history()?;
+            ProbeSettings {
+                history: 0,
+                ..self.resolved(true)
+            }
+        } else {
+            self.resolved(false)
+        };
+        resolved.validate()?;
+        Ok(resolved)
+    }
+
     /// Checks `history`'s range (the octree ignores the value but not a bad one).
     pub(crate) fn check_history(&self) -> Result<()> {
         HISTORY.check(self.history)

@@ -520,13 +520,7 @@ impl ProbesOctree {
         width: u32,
         height: u32,
     ) -> Result<ProbesOctree> {
-        settings.check_history()?;
-        // One fixed lattice: the octree keeps no history (its slots move between probes).
-        let settings = &ProbeSettings {
-            history: 0,
-            ..settings.resolved(true)
-        };
-        settings.validate()?;
+        let settings = &settings.for_technique(true)?;
         let (lo, size) = root_cube(scene.gi_bounds_at(0.0))?;
         let rule = settings.octree_rule();
         let (len, _) = rule.full_capacity();
