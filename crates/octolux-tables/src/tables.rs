@@ -248,14 +248,24 @@ pub fn moving(run: &MovingRun, pairs: &[(String, String)]) -> Result<String> {
     for (technique, cells) in &run.techniques {
         let mut row = format!("| `{technique}` |");
         for cell in cells {
-            row.push_str(&format!(" {} |", sig3(cell.gi_ms)));
+            let ms = if cell.gi_ms >= 100.0 {
+                format!("{:.0}", cell.gi_ms)
+            } else {
+                sig3(cell.gi_ms)
+            };
+            row.push_str(&format!(" {ms} |"));
         }
-        let (worst, _) = cells
+        let (worst, most) = cells
             .iter()
             .enumerate()
             .max_by(|a, b| a.1.gi_ms.total_cmp(&b.1.gi_ms))
             .context("no scenes")?;
-        row.push_str(&format!(" {} |", run.scenes[worst]));
+        let worst = if most.gi_ms > 0.0 {
+            run.scenes[worst].as_str()
+        } else {
+            "-"
+        };
+        row.push_str(&format!(" {worst} |"));
         for &(still, moving) in &pairs {
             let ratio = if cells[still].gi_ms > 0.0 {
                 format!("{:.2}", cells[moving].gi_ms / cells[still].gi_ms)
