@@ -55,6 +55,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "voxel/svo/build",
     "voxel/svo/dynamic",
     "voxel/svo/accumulate",
+    "voxel/svo/pack",
     "voxel/svo/inject",
     "voxel/svo/aniso",
     "voxel/svo/aniso_radiance",

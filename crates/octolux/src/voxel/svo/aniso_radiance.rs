@@ -18,7 +18,8 @@
 
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::svo::{Svo, ARGS_DYN_NODES, OWNER, PARAM_STRIDE};
+use crate::voxel::svo::control::{ARGS_DYN_NODES, PARAM_STRIDE};
+use crate::voxel::svo::{Svo, OWNER};
 use crate::Result;
 use glam::{Vec3, Vec4};
 
@@ -127,7 +128,7 @@ impl SvoAnisoRadiance {
                             }),
                         },
                         storage(1, &svo.child),
-                        storage(2, &svo.brick_index),
+                        storage(2, &svo.brick_plus_one),
                         storage(3, &svo.control),
                         storage(4, &svo.voxel_radiance),
                         storage(5, &buffer),

@@ -43,9 +43,9 @@
 //! the exact lattice ([`crate::voxel::svo::cpu::lattices`]) within the tolerance the tests state.
 
 use crate::gpu::{GpuContext, PassTimer, PassTiming};
-use crate::voxel::svo::{
-    level_params, Dispatch, Svo, SvoBuilder, ARGS_DYN_NODES, BRICK_COUNTER, CONTROL_WORDS, OWNER,
-};
+use crate::voxel::svo::control::{level_params, ARGS_DYN_NODES, BRICK_COUNTER, CONTROL_WORDS};
+use crate::voxel::svo::steps::Dispatch;
+use crate::voxel::svo::{Svo, SvoBuilder, OWNER};
 use crate::voxel::VoxelTriangle;
 use crate::{Error, Result};
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -339,7 +339,7 @@ impl SvoDynamic {
 
 /// Group 2 of the dynamic kernels: parameters, state, lists, sums.
 pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    use crate::voxel::svo::storage;
+    use crate::voxel::svo::pipelines::storage;
     let mut entries = vec![wgpu::BindGroupLayoutEntry {
         binding: 1,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -523,7 +523,7 @@ impl SvoBuilder {
                 &svo.child,
                 &svo.neighbours,
                 &svo.coord,
-                &svo.brick_index,
+                &svo.brick_plus_one,
                 &svo.control,
                 &svo.bricks[0],
                 &svo.bricks[1],
@@ -568,7 +568,7 @@ impl SvoBuilder {
             let from = s * 4;
             encoder.clear_buffer(&svo.child, from, Some((cap - s) * 4));
             encoder.clear_buffer(&svo.neighbours, from * 3, Some((cap - s) * 12));
-            encoder.clear_buffer(&svo.brick_index, from, Some((cap - s) * 4));
+            encoder.clear_buffer(&svo.brick_plus_one, from, Some((cap - s) * 4));
             encoder.clear_buffer(&dynamic.state, from, Some((cap - s) * 4));
             encoder.clear_buffer(&dynamic.sums, 0, None);
         });

@@ -15,6 +15,9 @@ use crate::frame::ShadowLookup;
 use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::voxel::svo::pipelines::group0_with;
+use crate::voxel::svo::steps::{filter_steps, record_steps};
+use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::voxelize::FragmentList;
 use crate::{Error, Result};
 
@@ -246,7 +249,7 @@ impl SvoLight {
                 DYN_NODES + 2 * leaf,
                 0,
                 end - first,
-                Some(crate::voxel::svo::ARGS_DYN_NODES + leaf),
+                Some(crate::voxel::svo::control::ARGS_DYN_NODES + leaf),
             ));
         }
         // One parameter slot per part and injection of this submission (tests record several).
@@ -333,7 +336,7 @@ impl SvoLight {
         let buffers: [(u32, &wgpu::Buffer); 15] = [
             (11, &svo.leaf_sums),
             (12, &svo.coord),
-            (13, &svo.brick_index),
+            (13, &svo.brick_plus_one),
             (18, &svo.voxel_radiance),
             (19, &svo.radiance[0]),
             (20, &svo.radiance[1]),
@@ -375,5 +378,104 @@ impl SvoLight {
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
         });
+    }
+}
+
+/// Work counts of the radiance mip (`gpu/work.rs`): its dispatches, one after another.
+const RADIANCE_MIP_WORK: &[&str] = &["dispatches"];
+
+impl SvoBuilder {
+    /// direct irradiance from the first `light_count` lights of `lights` (the renderer's light
+    /// buffer, `array<Light>` of `frame/lights.wgsl`), with visibility from the shadow maps
+    /// (`shadows`, the renderer's [`crate::frame::ShadowMaps::lookup`]); then the neighbour
+    /// transfer and mip filter upward, level by level. Units: radiance in W/(m^2 sr).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inject(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        shadows: crate::frame::ShadowLookup<'_>,
+        lights: &wgpu::Buffer,
+        light_count: u32,
+    ) -> Result<()> {
+        self.inject_with_bounce(ctx, timer, svo, shadows, lights, light_count, None)
+    }
+
+    /// [`SvoBuilder::inject`] with multiple bounces: the static leaves add the irradiance of
+    /// `bounce` to their direct irradiance and write their geometry into it for the next
+    /// gather ([`crate::voxel::svo::inject::SvoBounce`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inject_with_bounce(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        shadows: crate::frame::ShadowLookup<'_>,
+        lights: &wgpu::Buffer,
+        light_count: u32,
+        bounce: Option<&crate::voxel::svo::inject::SvoBounce>,
+    ) -> Result<()> {
+        let needed = light_count as u64 * crate::frame::LIGHT_BYTES;
+        if lights.size() < needed.max(crate::frame::LIGHT_BYTES) {
+            return Err(Error::InvalidArgument(format!(
+                "octree injection: {light_count} lights need a light buffer of {needed} bytes \
+                 (at least one light's), it has {}",
+                lights.size()
+            )));
+        }
+        if svo.levels.is_empty() {
+            return Ok(());
+        }
+        self.light
+            .inject_leaves(ctx, timer, svo, shadows, lights, light_count, bounce)?;
+        // The transfer and mip kernels bind the build layout: no fragments or triangles;
+        // with facing, the facing pool after it, filtered in the same dispatches.
+        let placeholder = &self.mip_placeholder;
+        let mut buffers = vec![
+            placeholder,
+            placeholder,
+            &svo.child,
+            &svo.neighbours,
+            &svo.coord,
+            &svo.brick_plus_one,
+            &svo.control,
+        ];
+        buffers.extend(&svo.radiance);
+        let (group, pipelines) = match &svo.facing {
+            Some(facing) => {
+                let filter = self.facing_filter(ctx);
+                buffers.extend(facing);
+                let group = group0_with(ctx, &filter.layout0, &svo.level_params, &buffers);
+                (group, &filter.pipelines)
+            }
+            None => (
+                group0_with(ctx, &self.layout0, &svo.level_params, &buffers),
+                &self.pipelines,
+            ),
+        };
+        let args_group = self.args_group(ctx, &svo.args);
+        let depth = svo.levels.len() as u32;
+        let steps = filter_steps(depth, svo.dynamic.is_some(), self.fuse_coarse);
+        // Each dispatch waits for the one before: on a GPU the coarse levels' cost is their
+        // number more than their few nodes.
+        crate::gpu::work::add(
+            ctx,
+            "svo radiance mip",
+            RADIANCE_MIP_WORK,
+            0,
+            steps.len() as u64,
+        )?;
+        record_steps(
+            pipelines,
+            timer,
+            "svo radiance mip",
+            &group,
+            (&args_group, None),
+            &svo.args,
+            0,
+            &steps,
+        );
+        Ok(())
     }
 }
