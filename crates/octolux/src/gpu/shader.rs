@@ -50,6 +50,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "voxel/pairs",
     "voxel/voxelize/overlap",
     "voxel/voxelize/voxelize",
+    "voxel/svo/control",
     "voxel/svo/common",
     "voxel/svo/leaf_sums",
     "voxel/svo/build",

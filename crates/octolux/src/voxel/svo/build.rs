@@ -6,9 +6,7 @@
 //! scratch is built again with twice as much ([`SvoBuilder::build_with_reserve`]).
 
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
-use crate::voxel::svo::control::{
-    level_params, ARGS_SLOTS, BRICK_COUNTER, CONTROL_WORDS, NODE_ARGS,
-};
+use crate::voxel::svo::control::{level_params, SvoControl, ARGS_SLOTS, CONTROL_BYTES, NODE_ARGS};
 use crate::voxel::svo::dynamic::{DynamicReserve, StaticPart, SvoDynamic};
 use crate::voxel::svo::limits::{self, Capacity};
 use crate::voxel::svo::steps::{filter_steps, Dispatch};
@@ -91,7 +89,7 @@ impl SvoBuilder {
     ) -> Result<Option<Svo>> {
         let mut scratch = Scratch::new(ctx);
         let nodes = BuildNodes::new(&mut scratch, capacity);
-        let control = kept_buffer(ctx, "control", CONTROL_WORDS, USAGE);
+        let control = kept_buffer(ctx, "control", CONTROL_BYTES / 4, USAGE);
         let args = kept_buffer(
             ctx,
             "dispatch args",
@@ -152,12 +150,11 @@ impl SvoBuilder {
 
         // 2. Counts: the one read-back of the build. Too few nodes: try again with more;
         //    more than the GPU can bind: fail.
-        let counts: Vec<u32> =
-            bytemuck::cast_slice(&read_buffer(ctx, &control, 0, CONTROL_WORDS * 4)?).to_vec();
-        if counts[1] != 0 {
+        let counts = SvoControl::from_bytes(&read_buffer(ctx, &control, 0, CONTROL_BYTES)?);
+        if counts.node_overflow != 0 {
             return Ok(None);
         }
-        let (node_count, brick_count) = (counts[0], counts[BRICK_COUNTER]);
+        let (node_count, brick_count) = (counts.node_count, counts.brick_count);
         let capacity = Capacity::check(
             ctx,
             grid.resolution,
@@ -165,9 +162,7 @@ impl SvoBuilder {
             reserve,
             pool_bricks,
         )?;
-        let levels: Vec<(u32, u32)> = (0..depth as usize)
-            .map(|d| (counts[2 + 2 * d], counts[3 + 2 * d]))
-            .collect();
+        let levels = counts.level_ranges(depth);
         let leaves = levels.last().copied().unwrap_or((0, 0));
 
         // 3. Bricks: fill the leaf bricks from the fragments, then transfer between
@@ -277,11 +272,8 @@ fn structure_steps(depth: u32, capacity: u32) -> Vec<(&'static str, u32, Dispatc
 /// The control block and dispatch arguments before the structure pass: level 0 is the root
 /// alone, allocated (node 0), in both forms of its argument slot.
 fn start_at_root(ctx: &GpuContext, control: &wgpu::Buffer, args: &wgpu::Buffer) {
-    let mut init = vec![0u32; CONTROL_WORDS as usize];
-    init[0] = 1;
-    init[3] = 1;
     ctx.queue
-        .write_buffer(control, 0, bytemuck::cast_slice(&init));
+        .write_buffer(control, 0, bytemuck::bytes_of(&SvoControl::at_root()));
     for slot in [0, NODE_ARGS as u64] {
         ctx.queue
             .write_buffer(args, slot * 12, bytemuck::cast_slice(&[1u32, 1, 1]));

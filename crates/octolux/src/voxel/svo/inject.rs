@@ -28,17 +28,30 @@ const INJECT_SLOTS: u64 = 4;
 /// fixed point x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
 
-/// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
-/// `svo/dynamic.wgsl`).
-const DYN_NODES: u32 = 64;
-
+/// `InjectParams` of `svo/inject.wgsl`: one injection dispatch (the static leaves or the
+/// dynamic ones).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct InjectParams {
-    origin_voxel: [f32; 4],
-    misc: [u32; 4],
-    part: [u32; 4],
-    range: [u32; 4],
+pub(super) struct InjectParams {
+    pub(super) origin: [f32; 3],
+    pub(super) voxel_size: f32,
+    /// The leaf nodes `[first_leaf, first_leaf + leaf_count)` (static leaves only).
+    pub(super) first_leaf: u32,
+    pub(super) leaf_count: u32,
+    pub(super) lights: u32,
+    pub(super) pool_bricks: u32,
+    pub(super) static_nodes: u32,
+    pub(super) first_static_leaf: u32,
+    /// `voxel_radiance` slot of the first leaf.
+    pub(super) first_slot: u32,
+    pub(super) has_dynamic: u32,
+    /// 1: the leaves are the dynamic nodes of level `leaf_level`, read on the GPU.
+    pub(super) dynamic_leaves: u32,
+    pub(super) leaf_level: u32,
+    /// 1: the dispatch takes part in multiple bounces.
+    pub(super) bounce: u32,
+    /// Capacity of the dynamic leaves' table of last frame's irradiance (0: none).
+    pub(super) bounce_table_capacity: u32,
 }
 
 /// Multiple bounces through the octree's leaves: per `voxel_radiance` slot, the indirect
@@ -245,8 +258,9 @@ impl SvoLight {
         let mut parts = vec![(first, end - first, 0, None)];
         if dynamic.is_some() && depth > 0 {
             let leaf = depth - 1;
+            // The first leaf is read on the GPU from the leaf level's dynamic node range.
             parts.push((
-                DYN_NODES + 2 * leaf,
+                leaf,
                 0,
                 end - first,
                 Some(crate::voxel::svo::control::ARGS_DYN_NODES + leaf),
@@ -274,22 +288,29 @@ impl SvoLight {
         let table = bounce.and_then(SvoBounce::read_table);
         let (keys, values) = table.map_or((placeholder, placeholder), |t| (&t.keys, &t.values));
         for (i, &(node, count, slot, indirect)) in parts.iter().enumerate() {
+            // The dynamic part's `node` is its level, whose range is read on the GPU.
+            let dynamic_leaves = indirect.is_some();
             let params = InjectParams {
-                origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
-                misc: [node, count, light_count, svo.pool_bricks],
-                part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
+                origin: grid.origin.to_array(),
+                voxel_size: grid.voxel_size,
+                first_leaf: if dynamic_leaves { 0 } else { node },
+                leaf_count: count,
+                lights: light_count,
+                pool_bricks: svo.pool_bricks,
+                static_nodes: svo.static_nodes,
+                first_static_leaf: first,
+                first_slot: slot,
+                has_dynamic: dynamic.is_some() as u32,
+                dynamic_leaves: dynamic_leaves as u32,
+                leaf_level: if dynamic_leaves { node } else { 0 },
                 // The static leaves keep their slots from frame to frame; the dynamic ones
                 // find last frame's irradiance in the bounce table.
-                range: [
-                    indirect.is_some() as u32,
-                    node,
-                    (i == 0 && bounce.is_some() || i == 1 && table.is_some()) as u32,
-                    if i == 0 {
-                        0
-                    } else {
-                        table.map_or(0, |t| t.capacity)
-                    },
-                ],
+                bounce: (i == 0 && bounce.is_some() || i == 1 && table.is_some()) as u32,
+                bounce_table_capacity: if i == 0 {
+                    0
+                } else {
+                    table.map_or(0, |t| t.capacity)
+                },
             };
             let at = 2 * injection + i as u64;
             ctx.queue

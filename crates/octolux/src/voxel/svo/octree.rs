@@ -44,8 +44,8 @@ pub struct Svo {
     pub(super) fragment_count: u32,
     /// `array<u32>`: per node, its packed coordinates on its level (10 bits per axis).
     pub(super) coord: wgpu::Buffer,
-    /// Level ranges and counters of the build (`control` in `svo/build.wgsl`), kept for the passes
-    /// that run per level after the build (injection).
+    /// Counters and level ranges (`SvoControl` of `svo/control.wgsl`), kept for the passes
+    /// that run per level after the build (injection) and for the dynamic updates.
     pub(super) control: wgpu::Buffer,
     /// Indirect dispatch sizes per level.
     pub(super) args: wgpu::Buffer,
@@ -179,8 +179,9 @@ impl Svo {
         self.dynamic.is_some()
     }
 
-    /// The build's level ranges and counters (`control` in `svo/build.wgsl`): the dynamic
-    /// leaf range a pass over the dynamic leaves reads.
+    /// The octree's control block, counters and level ranges (`SvoControlValues` of
+    /// `svo/control.wgsl` for a pass that reads it): the dynamic leaf range a pass over the
+    /// dynamic leaves reads.
     pub fn control(&self) -> &wgpu::Buffer {
         &self.control
     }

@@ -10,12 +10,12 @@ use crate::voxel::svo::OWNER;
 /// `PackParams` of `svo/pack.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct PackParams {
+pub(super) struct PackParams {
     /// Texels of all bricks (27 per brick).
-    texels: u32,
+    pub(super) texels: u32,
     /// Bricks per pool buffer.
-    pool_bricks: u32,
-    pad: [u32; 2],
+    pub(super) pool_bricks: u32,
+    pub(super) pad: [u32; 2],
 }
 
 /// The pack kernel.
