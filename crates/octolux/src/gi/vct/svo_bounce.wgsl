@@ -12,12 +12,13 @@
 // instead of by slot.
 
 // x: static leaf voxel slots (the dynamic leaves' slots follow), y: capacity of the dynamic
-// voxels' table, z: the leaf level (its dynamic node range is control[64 + 2z], [65 + 2z]),
+// voxels' table, z: the leaf level (its dynamic nodes: `svo_control.dynamic_levels[z]`),
 // w: the sets of `bounce_due` (`bounce_list.wgsl`; the static voxels only)
 import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::{SurfaceCone, surface_cone};
 import octolux::voxel::svo::sample::svo_info;
+import octolux::voxel::svo::control::SvoControlValues;
 import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
 import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
 import octolux::gi::vct::cone_lanes::{
@@ -34,7 +35,7 @@ struct BounceParams {
 
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
 @group(0) @binding(21) var<storage, read> bounce_geometry: array<u32>;
-@group(0) @binding(23) var<storage, read> svo_control: array<u32>;
+@group(0) @binding(23) var<storage, read> svo_control: SvoControlValues;
 @group(0) @binding(24) var<storage, read_write> table_keys: array<atomic<u32>>;
 @group(0) @binding(25) var<storage, read_write> table_values: array<u32>;
 
@@ -143,8 +144,8 @@ fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
                   @builtin(local_invocation_index) o: u32) {
     count_work(0u, 1u);
     let l = wg.y * nwg.x + wg.x;
-    let leaf = bounce_params.misc.z;
-    if l >= svo_control[65u + 2u * leaf] - svo_control[64u + 2u * leaf] {
+    let leaves = svo_control.dynamic_levels[bounce_params.misc.z];
+    if l >= leaves.end - leaves.first {
         return;
     }
     let i = bounce_params.misc.x + 8u * l + o;

@@ -24,8 +24,9 @@
 
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::voxel::svo::control::PARAM_STRIDE;
 use crate::voxel::svo::sample::{svo_albedo_bindings, svo_bindings, SvoInfo, SVO_ANISO_BINDING};
-use crate::voxel::svo::{Svo, OWNER, PARAM_STRIDE};
+use crate::voxel::svo::{Svo, OWNER};
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};
 
@@ -157,7 +158,7 @@ impl SvoAniso {
                             }),
                         },
                         storage(1, &svo.child),
-                        storage(2, &svo.brick_index),
+                        storage(2, &svo.brick_plus_one),
                         storage(3, &svo.leaf_sums),
                         storage(4, &values.buffer),
                     ],

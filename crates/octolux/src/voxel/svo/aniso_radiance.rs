@@ -18,7 +18,8 @@
 
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::svo::{Svo, ARGS_DYN_NODES, OWNER, PARAM_STRIDE};
+use crate::voxel::svo::control::{ARGS_DYN_NODES, PARAM_STRIDE};
+use crate::voxel::svo::{Svo, OWNER};
 use crate::Result;
 use glam::{Vec3, Vec4};
 
@@ -37,9 +38,18 @@ pub const LEDGER_LABEL: &str = "anisotropic radiance";
 /// Parameters of one level's node range (`AnisoRadianceParams` in `aniso_radiance.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Params {
-    misc: [u32; 4],
-    range: [u32; 4],
+pub(super) struct AnisoRadianceParams {
+    pub(super) level: u32,
+    /// 1 for the level's dynamic nodes (their range read on the GPU), 0 for its static ones.
+    pub(super) dynamic_nodes: u32,
+    /// 1 on the leaf level.
+    pub(super) leaf: u32,
+    /// Static leaf nodes (the dynamic leaves' voxel slots follow theirs).
+    pub(super) static_leaves: u32,
+    /// The level's static nodes `[first, first + count)`.
+    pub(super) first: u32,
+    pub(super) count: u32,
+    pub(super) pad: [u32; 2],
 }
 
 /// The anisotropic radiance of one octree and the kernel that rebuilds it.
@@ -86,22 +96,30 @@ impl SvoAnisoRadiance {
         let mut slots = Vec::new();
         for d in (0..depth).rev() {
             let (start, end) = svo.levels[d];
-            let leaf = (d + 1 == depth) as u32;
-            let misc = [d as u32, 0, leaf, end_leaf - first_leaf];
-            slots.push((misc, [start, end - start, 0, 0], Step::Static(end - start)));
+            let level = AnisoRadianceParams {
+                level: d as u32,
+                dynamic_nodes: 0,
+                leaf: (d + 1 == depth) as u32,
+                static_leaves: end_leaf - first_leaf,
+                first: start,
+                count: end - start,
+                pad: [0; 2],
+            };
+            slots.push((level, Step::Static(end - start)));
             if dynamic {
-                let misc = [d as u32, 1, leaf, end_leaf - first_leaf];
-                slots.push((misc, [0; 4], Step::Dynamic(ARGS_DYN_NODES + d as u32)));
+                let nodes = AnisoRadianceParams {
+                    dynamic_nodes: 1,
+                    first: 0,
+                    count: 0,
+                    ..level
+                };
+                slots.push((nodes, Step::Dynamic(ARGS_DYN_NODES + d as u32)));
             }
         }
         let mut words = vec![0u8; PARAM_STRIDE as usize * slots.len().max(1)];
-        for (i, (misc, range, _)) in slots.iter().enumerate() {
-            let p = Params {
-                misc: *misc,
-                range: *range,
-            };
+        for (i, (p, _)) in slots.iter().enumerate() {
             let at = i * PARAM_STRIDE as usize;
-            words[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
+            words[at..at + size_of::<AnisoRadianceParams>()].copy_from_slice(bytemuck::bytes_of(p));
         }
         let params = ctx.create_buffer_init(
             OWNER,
@@ -113,26 +131,29 @@ impl SvoAnisoRadiance {
         let steps = slots
             .into_iter()
             .enumerate()
-            .map(|(i, (_, _, step))| {
-                let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("svo anisotropic radiance"),
-                    layout: &layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &params,
-                                offset: i as u64 * PARAM_STRIDE,
-                                size: wgpu::BufferSize::new(32),
-                            }),
-                        },
-                        storage(1, &svo.child),
-                        storage(2, &svo.brick_index),
-                        storage(3, &svo.control),
-                        storage(4, &svo.voxel_radiance),
-                        storage(5, &buffer),
-                    ],
-                });
+            .map(|(i, (_, step))| {
+                let group =
+                    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some("svo anisotropic radiance"),
+                        layout: &layout,
+                        entries: &[
+                            wgpu::BindGroupEntry {
+                                binding: 0,
+                                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                    buffer: &params,
+                                    offset: i as u64 * PARAM_STRIDE,
+                                    size: wgpu::BufferSize::new(
+                                        size_of::<AnisoRadianceParams>() as u64
+                                    ),
+                                }),
+                            },
+                            storage(1, &svo.child),
+                            storage(2, &svo.brick_plus_one),
+                            storage(3, &svo.control),
+                            storage(4, &svo.voxel_radiance),
+                            storage(5, &buffer),
+                        ],
+                    });
                 (group, step)
             })
             .collect();

@@ -14,22 +14,29 @@
 // and one seen edge-on at the share of the node it covers.
 
 import octolux::voxel::pairs::pair_along;
+import octolux::voxel::svo::control::SvoControlValues;
 
 struct AnisoRadianceParams {
-    // x: level, y: 1 for the level's dynamic nodes (range from `control`), z: 1 on the leaf
-    // level, w: static leaf nodes (the dynamic leaves' voxel slots follow theirs).
-    misc: vec4<u32>,
-    // x: first static node of the level, y: static nodes on it.
-    range: vec4<u32>,
+    level: u32,
+    // 1 for the level's dynamic nodes (their range from `control`), 0 for its static nodes
+    // [first, first + count).
+    dynamic_nodes: u32,
+    // 1 on the leaf level.
+    leaf: u32,
+    // Static leaf nodes (the dynamic leaves' voxel slots follow theirs).
+    static_leaves: u32,
+    first: u32,
+    count: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
 @group(0) @binding(0) var<storage, read> P: AnisoRadianceParams;
 @group(0) @binding(1) var<storage, read> child: array<u32>;
 @group(0) @binding(2) var<storage, read> brick_index: array<u32>;
-// The octree's control block: [64 + 2d] / [65 + 2d] first / one-past-last dynamic node of
-// level d (`svo/build.wgsl`).
-@group(0) @binding(3) var<storage, read> control: array<u32>;
+// The octree's control block (svo/control.wgsl), for the level's dynamic node range.
+@group(0) @binding(3) var<storage, read> control: SvoControlValues;
 @group(0) @binding(4) var<storage, read> voxel_radiance: array<u32>;
 @group(0) @binding(5) var<storage, read_write> aniso: array<u32>;
 
@@ -52,11 +59,12 @@ fn child_value(b: u32, d: u32) -> vec4<f32> {
 fn build_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    var first = P.range.x;
-    var count = P.range.y;
-    if P.misc.y == 1u {
-        first = control[64u + 2u * P.misc.x];
-        count = control[65u + 2u * P.misc.x] - first;
+    var first = P.first;
+    var count = P.count;
+    if P.dynamic_nodes == 1u {
+        let nodes = control.dynamic_levels[P.level];
+        first = nodes.first;
+        count = nodes.end - first;
     }
     if i >= count {
         return;
@@ -68,9 +76,9 @@ fn build_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     }
     var fine: array<vec4<f32>, 8>;
     var children: array<u32, 8>;
-    let leaf = P.misc.z == 1u;
+    let leaf = P.leaf == 1u;
     if leaf {
-        let slot = 8u * select(i, P.misc.w + i, P.misc.y == 1u);
+        let slot = 8u * select(i, P.static_leaves + i, P.dynamic_nodes == 1u);
         for (var o = 0u; o < 8u; o++) {
             let w = 2u * (slot + o);
             fine[o] = half4(voxel_radiance[w], voxel_radiance[w + 1u]);

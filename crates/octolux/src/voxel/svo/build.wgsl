@@ -6,13 +6,13 @@
 // texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord` is build scratch.
 
 import octolux::voxel::voxelize::overlap::linear_index;
-import octolux::voxel::svo::common::{BRICK_COUNTER, brick_of, bw_index, child, find, flags, fragments, INVALID, L, NEEDED, OCCUPIED, octant_offset, pack3, unpack3};
+import octolux::voxel::svo::control::SvoControl;
+import octolux::voxel::svo::common::{brick_of, bw_index, child, find, flags, fragments, INVALID, L, NEEDED, OCCUPIED, octant_offset, pack3, unpack3};
 
 @group(0) @binding(4) var<storage, read_write> nbr: array<u32>;
 @group(0) @binding(5) var<storage, read_write> coord: array<u32>;
-// [0] next free node, [1] overflow flag, [2 + 2d] / [3 + 2d] first / one-past-last node of level d;
-// words 64.. belong to the dynamic part (svo/dynamic.wgsl), [60] counts bricks.
-@group(0) @binding(7) var<storage, read_write> control: array<atomic<u32>>;
+// Counters and level ranges (svo/control.wgsl).
+@group(0) @binding(7) var<storage, read_write> control: SvoControl;
 @group(0) @binding(8) var<storage, read_write> bricks0: array<u32>;
 @group(0) @binding(9) var<storage, read_write> bricks1: array<u32>;
 @group(0) @binding(10) var<storage, read_write> bricks2: array<u32>;
@@ -34,8 +34,16 @@ fn level_entry(i: u32) -> u32 {
 // Node range [x, y) of level d: its static nodes (range 0) or its dynamic ones (range 1, empty
 // without a dynamic part).
 fn level_range(d: u32, range: u32) -> vec2<u32> {
-    let base = select(2u, 64u, range == 1u) + 2u * d;
-    return vec2<u32>(atomicLoad(&control[base]), atomicLoad(&control[base + 1u]));
+    if range == 1u {
+        return dynamic_level_range(d);
+    }
+    return vec2<u32>(atomicLoad(&control.levels[d].first), atomicLoad(&control.levels[d].end));
+}
+
+// Node range [x, y) of level d's dynamic nodes.
+fn dynamic_level_range(d: u32) -> vec2<u32> {
+    return vec2<u32>(atomicLoad(&control.dynamic_levels[d].first),
+                     atomicLoad(&control.dynamic_levels[d].end));
 }
 
 // Node of this invocation on level L.d (one node per invocation).
@@ -236,9 +244,9 @@ fn subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     if n == INVALID || (atomicLoad(&flags[n]) & NEEDED) == 0u {
         return;
     }
-    let base = atomicAdd(&control[0], 8u);
+    let base = atomicAdd(&control.node_count, 8u);
     if base + 8u > L.capacity {
-        atomicStore(&control[1], 1u);
+        atomicStore(&control.node_overflow, 1u);
         return;
     }
     child[n] = base;
@@ -251,10 +259,10 @@ fn subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
 // Records the node range of level d + 1 and its indirect dispatch size.
 @compute @workgroup_size(1)
 fn finish_level() {
-    let start = atomicLoad(&control[3u + 2u * L.d]);
-    let end = min(atomicLoad(&control[0]), L.capacity);
-    atomicStore(&control[2u + 2u * (L.d + 1u)], start);
-    atomicStore(&control[3u + 2u * (L.d + 1u)], end);
+    let start = atomicLoad(&control.levels[L.d].end);
+    let end = min(atomicLoad(&control.node_count), L.capacity);
+    atomicStore(&control.levels[L.d + 1u].first, start);
+    atomicStore(&control.levels[L.d + 1u].end, end);
     write_args(L.d + 1u, end - start);
 }
 
@@ -268,7 +276,7 @@ fn finish_level() {
 fn mark_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                  @builtin(local_invocation_index) li: u32) {
     let w = linear_index(wg, nwg, li);
-    let nodes = min(atomicLoad(&control[0]), L.capacity);
+    let nodes = min(atomicLoad(&control.node_count), L.capacity);
     if w * 32u >= nodes {
         return;
     }
@@ -288,12 +296,12 @@ fn mark_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
 fn assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                  @builtin(local_invocation_index) li: u32) {
     let n = linear_index(wg, nwg, li);
-    if n >= min(atomicLoad(&control[0]), L.capacity) {
+    if n >= min(atomicLoad(&control.node_count), L.capacity) {
         return;
     }
     var brick = 0u;
     if (atomicLoad(&flags[n]) & NEEDED) != 0u {
-        brick = atomicAdd(&control[BRICK_COUNTER], 1u) + 1u;
+        brick = atomicAdd(&control.brick_count, 1u) + 1u;
     }
     atomicStore(&flags[n], brick);
 }

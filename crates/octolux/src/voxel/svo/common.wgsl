@@ -1,22 +1,9 @@
 // Shared by the octree's modules (`svo/build.wgsl` + `svo/dynamic.wgsl`, `svo/accumulate.wgsl`):
-// the per-level parameters, the bindings they all read (group 0, the layout of `SvoBuilder`)
+// the bindings they all read (group 0, the layout of `SvoBuilder`)
 // and the helpers that walk nodes and address bricks.
 
 import octolux::voxel::voxelize::overlap::Tri;
-
-struct LevelParams {
-    d: u32,
-    depth: u32,
-    fragments: u32,
-    capacity: u32,
-    // Bricks per pool buffer (the pool is split over up to 4 storage bindings).
-    pool_bricks: u32,
-    // Which node range a kernel walks: 0 the level's static nodes; 1 its dynamic nodes
-    // (`level_entry`) or the previous update's dirty list (`dirty_entry`, svo/dynamic.wgsl).
-    range: u32,
-    pad1: u32,
-    pad2: u32,
-}
+import octolux::voxel::svo::control::LevelParams;
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
 @group(0) @binding(0) var<storage, read> L: LevelParams;
@@ -27,7 +14,6 @@ struct LevelParams {
 @group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
 
 const INVALID: u32 = 0xffffffffu;
-const BRICK_COUNTER: u32 = 60u;
 const OCCUPIED: u32 = 1u;
 const NEEDED: u32 = 2u;
 

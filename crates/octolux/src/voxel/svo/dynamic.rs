@@ -42,14 +42,18 @@
 //! 16-bit ones, so they can differ from a full rebuild by a few 8-bit steps; both agree with
 //! the exact lattice ([`crate::voxel::svo::cpu::lattices`]) within the tolerance the tests state.
 
+mod readback;
+pub(super) mod state;
+
+pub use readback::READBACK_SLOTS;
+pub(crate) use state::{bind_group_layout, StaticPart, SvoDynamic};
+
 use crate::gpu::{GpuContext, PassTimer, PassTiming};
-use crate::voxel::svo::{
-    level_params, Dispatch, Svo, SvoBuilder, ARGS_DYN_NODES, BRICK_COUNTER, CONTROL_WORDS, OWNER,
-};
+use crate::voxel::svo::control::{SvoControl, ARGS_DYN_NODES, MAX_LEVELS};
+use crate::voxel::svo::steps::Dispatch;
+use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::VoxelTriangle;
 use crate::{Error, Result};
-use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::Arc;
 
 /// The dynamic update's kernels (`svo/dynamic.wgsl`).
 pub(crate) const ENTRY_POINTS: &[&str] = &[
@@ -70,13 +74,7 @@ pub(crate) const ENTRY_POINTS: &[&str] = &[
     "dyn_mip_gather",
 ];
 
-// Words of `control` and indirect slots, as in `svo/dynamic.wgsl`.
-const DYN_NODES: usize = 64;
-const NEED_RANGE: usize = 104;
-const OCC_COUNT: usize = 124;
-const NEED_COUNT: usize = 125;
-const DYN_OVERFLOW: usize = 126;
-const DYN_FRAGMENTS: usize = 127;
+// Indirect argument slots, as in `svo/dynamic.wgsl`.
 const ARGS_OCC: u32 = 32;
 const ARGS_NEED: u32 = 48;
 const ARGS_ALL_NEEDED: u32 = 63;
@@ -84,17 +82,6 @@ const ARGS_FRAGMENTS: u32 = 64;
 const ARGS_UNLINK: u32 = 65;
 const ARGS_RESET: u32 = 66;
 const ARGS_LAST_NEED: u32 = 67;
-/// Deepest octree the dynamic part handles (1024^3: levels 0..9; ranges of 10 levels fit the
-/// control block).
-const MAX_DEPTH: u32 = 10;
-/// Byte offset of `last` (the previous update's control block) in the parameter block.
-const PARAMS_LAST: u64 = 48;
-/// Bytes of one control block.
-const CONTROL_BYTES: u64 = CONTROL_WORDS * 4;
-/// Staging buffers of the counts readback: an update whose frame finds none free (the GPU is
-/// more than this many updates behind) is not read back; a later one is.
-pub const READBACK_SLOTS: usize = 4;
-
 /// Room kept for the dynamic part after the static nodes and bricks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DynamicReserve {
@@ -165,204 +152,6 @@ pub struct DynamicCounts {
     pub bricks: u32,
     /// Nodes whose bricks it recomputed (its needed nodes and the previous update's).
     pub dirty: u32,
-}
-
-/// Mapping state of a readback slot.
-const FREE: u8 = 0;
-const WAITING: u8 = 1;
-const MAPPED: u8 = 2;
-const FAILED: u8 = 3;
-
-/// One staging buffer of the counts readback: the control block after the update, then the
-/// one it started from.
-struct Readback {
-    buffer: wgpu::Buffer,
-    state: Arc<AtomicU8>,
-    /// The update it holds, and that update's triangle count (for the error message).
-    update: u64,
-    triangles: usize,
-}
-
-/// GPU state of the dynamic part, kept between updates.
-pub(crate) struct SvoDynamic {
-    reserve: DynamicReserve,
-    node_capacity: u32,
-    brick_capacity: u32,
-    /// Per node: dynamic occupied / needed bits and the leaf's slot in `sums`.
-    state: wgpu::Buffer,
-    occupied: wgpu::Buffer,
-    /// Needed lists of this and of the previous update (swapped every update).
-    needed: [wgpu::Buffer; 2],
-    /// Which of `needed` holds the previous update's list.
-    last: usize,
-    /// Per occupied dynamic leaf: fragment sums of its 8 voxels, as `Svo::leaf_sums`.
-    pub(crate) sums: wgpu::Buffer,
-    /// The dynamic fragments of the current update (reserve.fragments x 8 bytes).
-    fragments: wgpu::Buffer,
-    /// `DynParams` of `svo/dynamic.wgsl`: constants, then the previous control block.
-    params: wgpu::Buffer,
-    /// Per-level parameter slots of the dynamic kernels.
-    level_params: wgpu::Buffer,
-    /// The control block at the start of every update (static ranges and counts, empty
-    /// dynamic ranges, zero counters), copied over `control` on the GPU.
-    reset: wgpu::Buffer,
-    readbacks: Vec<Readback>,
-    /// Updates recorded so far.
-    recorded: u64,
-    /// The latest update whose counts `Svo` holds.
-    applied: u64,
-}
-
-/// What [`SvoDynamic::new`] needs of the static part.
-pub(crate) struct StaticPart {
-    pub node_capacity: u32,
-    pub brick_capacity: u32,
-    pub depth: u32,
-    pub pool_bricks: u32,
-    pub first_leaf: u32,
-    /// The build's control block (static level ranges and counts).
-    pub control: Vec<u32>,
-}
-
-impl SvoDynamic {
-    pub(crate) fn new(
-        ctx: &GpuContext,
-        reserve: DynamicReserve,
-        part: StaticPart,
-    ) -> Option<SvoDynamic> {
-        if reserve.nodes == 0 {
-            return None;
-        }
-        let usage = wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_DST
-            | wgpu::BufferUsages::COPY_SRC;
-        let buffer = |label: &str, words: u64| {
-            ctx.create_buffer(
-                OWNER,
-                &wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: (words * 4).max(16),
-                    usage,
-                    mapped_at_creation: false,
-                },
-            )
-        };
-        let (s, b) = (part.control[0], part.control[BRICK_COUNTER]);
-        let mut reset = part.control.clone();
-        reset.resize(CONTROL_WORDS as usize, 0);
-        reset[1] = 0;
-        for w in &mut reset[DYN_NODES..] {
-            *w = 0;
-        }
-        reset[DYN_NODES] = s;
-        reset[DYN_NODES + 1] = s;
-        // Constants, then `last`: the control block as the build left it (its node count is
-        // the static one and its dynamic ranges are empty: nothing to undo).
-        let mut params = vec![
-            s,
-            b,
-            part.node_capacity,
-            part.brick_capacity,
-            reserve.fragments,
-            0,
-            reserve.occupied,
-            reserve.needed,
-            part.first_leaf,
-            1,
-            0,
-            0,
-        ];
-        params.extend_from_slice(&reset);
-        let params = ctx.create_buffer_init(
-            OWNER,
-            "dynamic params",
-            bytemuck::cast_slice(&params),
-            usage,
-        );
-        let reset = ctx.create_buffer_init(
-            OWNER,
-            "dynamic control reset",
-            bytemuck::cast_slice(&reset),
-            wgpu::BufferUsages::COPY_SRC,
-        );
-        let readbacks = (0..READBACK_SLOTS)
-            .map(|k| Readback {
-                buffer: ctx.create_buffer(
-                    OWNER,
-                    &wgpu::BufferDescriptor {
-                        label: Some(&format!("dynamic counts readback {k}")),
-                        size: 2 * CONTROL_BYTES,
-                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                        mapped_at_creation: false,
-                    },
-                ),
-                state: Arc::new(AtomicU8::new(FREE)),
-                update: 0,
-                triangles: 0,
-            })
-            .collect();
-        let sum_words = crate::voxel::svo::inject::LEAF_SUM_WORDS as u64 * 8;
-        Some(SvoDynamic {
-            reserve,
-            node_capacity: part.node_capacity,
-            brick_capacity: part.brick_capacity,
-            state: buffer("dynamic state", part.node_capacity as u64),
-            occupied: buffer("dynamic occupied list", reserve.occupied as u64),
-            needed: [
-                buffer("dynamic needed list 0", reserve.needed as u64),
-                buffer("dynamic needed list 1", reserve.needed as u64),
-            ],
-            last: 1,
-            sums: buffer("dynamic leaf sums", reserve.occupied as u64 * sum_words),
-            fragments: buffer("dynamic fragments", reserve.fragments as u64 * 2),
-            params,
-            level_params: level_params(
-                ctx,
-                "dynamic level params",
-                part.depth,
-                0,
-                part.node_capacity,
-                part.pool_bricks,
-            ),
-            reset,
-            readbacks,
-            recorded: 0,
-            applied: 0,
-        })
-    }
-
-    /// The per-node state buffer (dynamic leaf slots), for injection.
-    pub(crate) fn state(&self) -> &wgpu::Buffer {
-        &self.state
-    }
-}
-
-/// Group 2 of the dynamic kernels: parameters, state, lists, sums.
-pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    use crate::voxel::svo::storage;
-    let mut entries = vec![wgpu::BindGroupLayoutEntry {
-        binding: 1,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            // Read-only storage: "Parameter blocks" in voxel/mod.rs.
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }];
-    entries.extend([
-        storage(2, false),
-        storage(3, false),
-        storage(4, false),
-        storage(5, true),
-        storage(6, false),
-        storage(7, true),
-    ]);
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("svo dynamic"),
-        entries: &entries,
-    })
 }
 
 fn no_dynamic_part() -> Error {
@@ -476,62 +265,121 @@ impl SvoBuilder {
         svo: &mut Svo,
         tris: &[VoxelTriangle],
     ) -> Result<u64> {
-        let depth = svo.levels.len() as u32;
+        let depth = svo.levels.len();
         if svo.dynamic.is_none() {
             return Err(no_dynamic_part());
         }
-        if !(2..=MAX_DEPTH).contains(&depth) {
+        if !(2..=MAX_LEVELS).contains(&depth) {
             return Err(Error::InvalidArgument(format!(
-                "the dynamic part needs an octree of 2 to {MAX_DEPTH} levels, this one has {depth}"
+                "the dynamic part needs an octree of 2 to {MAX_LEVELS} levels, this one has {depth}"
             )));
         }
         let earlier = svo.poll_dynamic(ctx);
-        let Some(dynamic) = svo.dynamic.as_mut() else {
+        let Some(mut dynamic) = svo.dynamic.take() else {
             return Err(no_dynamic_part());
         };
-        let (s, cap) = (svo.static_nodes as u64, dynamic.node_capacity as u64);
-        // The previous update's ranges go to the parameter block, then the counters restart:
-        // nodes and bricks after the static part, empty dynamic ranges and lists.
-        timer.untimed(|encoder| {
-            encoder.copy_buffer_to_buffer(
-                &svo.control,
-                0,
-                &dynamic.params,
-                PARAMS_LAST,
-                Some(CONTROL_BYTES),
-            );
-            encoder.copy_buffer_to_buffer(&dynamic.reset, 0, &svo.control, 0, Some(CONTROL_BYTES));
-        });
+        let recorded = self.record_update(ctx, timer, svo, &mut dynamic, tris);
+        svo.dynamic = Some(dynamic);
+        let update = recorded?;
+        earlier.map(|_| update)
+    }
+
+    /// [`SvoBuilder::record_dynamic`] of an octree with a dynamic part, as its passes.
+    fn record_update(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        dynamic: &mut SvoDynamic,
+        tris: &[VoxelTriangle],
+    ) -> Result<u64> {
+        let depth = svo.levels.len() as u32;
+        // 1. Restart the counters: the previous update's control block goes to the parameter
+        //    block (what the undo reads), the reset block over the control block.
+        dynamic.restart(timer, &svo.control);
+
+        // 2. Voxelize the dynamic triangles, appending to the dynamic fragment list and
+        //    counting into the control block.
         let owner = "svo dynamic";
+        let counter = (std::mem::offset_of!(SvoControl, dynamic_fragments) / 4) as u32;
         let triangles = self.voxelizer.append(
             ctx,
             timer,
             (owner, "svo dynamic voxelize"),
             &svo.grid,
             tris,
-            (&dynamic.fragments, &svo.control, DYN_FRAGMENTS as u32),
+            (&dynamic.fragments, &svo.control, counter),
         )?;
         ctx.ledger.forget(owner, "triangles");
+        let this = 1 - dynamic.last;
+        let group0 = self.dynamic_group0(ctx, svo, dynamic, &triangles);
+        let group2 = self.dynamic_group2(ctx, svo, dynamic, this);
+        let args_group = self.args_group(ctx, &svo.args);
+        let groups = (&args_group, Some(&group2));
+        let record =
+            |timer: &mut PassTimer, name: &str, steps: &[(&'static str, u32, Dispatch)]| {
+                self.record(timer, name, &group0, groups, &svo.args, 0, steps)
+            };
 
-        let (this, last) = (1 - dynamic.last, dynamic.last);
-        let group0 = self.group0(
+        // 3. Undo the previous update: unlink its nodes from the static ones, reset its
+        //    needed nodes' state, then clear the dynamic section.
+        record(timer, "svo dynamic clear", &CLEAR_STEPS);
+        dynamic.clear_section(timer, svo);
+
+        // 4. Structure: flag, subdivide and link as the static build does, for the dynamic
+        //    fragments only, then give the needed nodes without one a brick.
+        record(timer, "svo dynamic structure", &structure_steps(depth));
+
+        // 5. Bricks: sum the dynamic fragments per leaf voxel, then gather the bricks of this
+        //    update's and the previous update's needed nodes, finest level first.
+        record(timer, "svo dynamic bricks", &brick_steps(depth));
+        dynamic.last = this;
+        dynamic.recorded += 1;
+        let update = dynamic.recorded;
+
+        // 6. Queue the counts' read-back, mapped once the frame is submitted.
+        dynamic.queue_readback(timer, &svo.control, update, tris.len());
+        Ok(update)
+    }
+
+    /// Group 0 of the dynamic kernels: the build layout over the octree's buffers, with the
+    /// dynamic fragments and triangles.
+    fn dynamic_group0(
+        &self,
+        ctx: &GpuContext,
+        svo: &Svo,
+        dynamic: &SvoDynamic,
+        triangles: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        self.group0(
             ctx,
             &dynamic.level_params,
             [
                 &dynamic.fragments,
-                &triangles,
+                triangles,
                 &svo.child,
                 &svo.neighbours,
                 &svo.coord,
-                &svo.brick_index,
+                &svo.brick_plus_one,
                 &svo.control,
                 &svo.bricks[0],
                 &svo.bricks[1],
                 &svo.bricks[2],
                 &svo.bricks[3],
             ],
-        );
-        let group1 = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        )
+    }
+
+    /// Group 2 of the dynamic kernels, with needed list `this` written and the other one (the
+    /// previous update's) read.
+    fn dynamic_group2(
+        &self,
+        ctx: &GpuContext,
+        svo: &Svo,
+        dynamic: &SvoDynamic,
+        this: usize,
+    ) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("svo dynamic"),
             layout: &self.dyn_layout,
             entries: &[
@@ -539,7 +387,7 @@ impl SvoBuilder {
                 (2, &dynamic.state),
                 (3, &dynamic.occupied),
                 (4, &dynamic.needed[this]),
-                (5, &dynamic.needed[last]),
+                (5, &dynamic.needed[1 - this]),
                 (6, &dynamic.sums),
                 (7, &svo.leaf_sums),
             ]
@@ -547,239 +395,54 @@ impl SvoBuilder {
                 binding,
                 resource: buffer.as_entire_binding(),
             }),
-        });
-        let args_group = self.args_group(ctx, &svo.args);
-        let groups = (&args_group, Some(&group1));
-        let args = &svo.args;
-        self.record(
-            timer,
-            "svo dynamic clear",
-            &group0,
-            groups,
-            args,
-            0,
-            &[
-                ("dyn_begin", 0, Dispatch::One),
-                ("dyn_unlink", 0, Dispatch::Indirect(ARGS_UNLINK)),
-                ("dyn_reset", 0, Dispatch::Indirect(ARGS_RESET)),
-            ],
-        );
-        timer.untimed(|encoder| {
-            let from = s * 4;
-            encoder.clear_buffer(&svo.child, from, Some((cap - s) * 4));
-            encoder.clear_buffer(&svo.neighbours, from * 3, Some((cap - s) * 12));
-            encoder.clear_buffer(&svo.brick_index, from, Some((cap - s) * 4));
-            encoder.clear_buffer(&dynamic.state, from, Some((cap - s) * 4));
-            encoder.clear_buffer(&dynamic.sums, 0, None);
-        });
-
-        let fragments = Dispatch::Indirect(ARGS_FRAGMENTS);
-        let mut steps = vec![("dyn_finish_fragments", 0, Dispatch::One)];
-        for d in 0..depth {
-            steps.push(("dyn_flag_occupied", d, Dispatch::Indirect(ARGS_FRAGMENTS)));
-            steps.push(("dyn_finish_occupied", d, Dispatch::One));
-            steps.push(("dyn_flag_needed", d, Dispatch::Indirect(ARGS_OCC + d)));
-            steps.push(("dyn_finish_needed", d, Dispatch::One));
-            if d + 1 < depth {
-                steps.push(("dyn_subdivide", d, Dispatch::Indirect(ARGS_NEED + d)));
-                steps.push(("dyn_finish_nodes", d, Dispatch::One));
-                steps.push((
-                    "dyn_link",
-                    d + 1,
-                    Dispatch::Indirect(ARGS_DYN_NODES + d + 1),
-                ));
-            }
-        }
-        steps.push(("dyn_assign_bricks", 0, Dispatch::Indirect(ARGS_ALL_NEEDED)));
-        self.record(
-            timer,
-            "svo dynamic structure",
-            &group0,
-            groups,
-            args,
-            0,
-            &steps,
-        );
-
-        let leaf = depth - 1;
-        let mut steps = vec![("dyn_accumulate", leaf, fragments)];
-        for d in (0..depth).rev() {
-            let entry = if d == leaf {
-                "dyn_leaf_gather"
-            } else {
-                "dyn_mip_gather"
-            };
-            steps.push((entry, d, Dispatch::PerNode(ARGS_NEED + d)));
-            // The previous update's needed nodes (parameter slot depth + d).
-            steps.push((entry, depth + d, Dispatch::PerNode(ARGS_LAST_NEED + d)));
-        }
-        self.record(
-            timer,
-            "svo dynamic bricks",
-            &group0,
-            groups,
-            args,
-            0,
-            &steps,
-        );
-        dynamic.last = this;
-        dynamic.recorded += 1;
-        let update = dynamic.recorded;
-
-        // The counts go to a free staging buffer, mapped once the frame is submitted.
-        if let Some(slot) = dynamic
-            .readbacks
-            .iter_mut()
-            .find(|r| r.state.load(Ordering::Acquire) == FREE)
-        {
-            slot.state.store(WAITING, Ordering::Release);
-            slot.update = update;
-            slot.triangles = tris.len();
-            let state = slot.state.clone();
-            timer.untimed(|encoder| {
-                encoder.copy_buffer_to_buffer(
-                    &svo.control,
-                    0,
-                    &slot.buffer,
-                    0,
-                    Some(CONTROL_BYTES),
-                );
-                encoder.copy_buffer_to_buffer(
-                    &dynamic.params,
-                    PARAMS_LAST,
-                    &slot.buffer,
-                    CONTROL_BYTES,
-                    Some(CONTROL_BYTES),
-                );
-                encoder.map_buffer_on_submit(&slot.buffer, wgpu::MapMode::Read, .., move |r| {
-                    state.store(if r.is_ok() { MAPPED } else { FAILED }, Ordering::Release);
-                });
-            });
-        }
-        earlier.map(|_| update)
+        })
     }
 }
 
-impl Svo {
-    /// Picks up, without blocking, the counts of the dynamic updates the GPU has finished
-    /// since the last poll (`device.poll(PollType::Poll)`, then every mapped readback), and
-    /// sets [`Svo::node_count`], [`Svo::brick_count`], [`Svo::fragment_count`] and
-    /// [`Svo::dynamic_levels`] to the latest of them. Returns that update's counts, `None`
-    /// when no new update has finished (or the octree has no dynamic part).
-    ///
-    /// Latency: an update's counts arrive once the frame it was recorded into has been
-    /// submitted and has run; polled once per frame, that is typically one or two frames
-    /// after it was recorded.
-    ///
-    /// Fails when one of the updates read back ran out of the reserve, naming the update and
-    /// what ran out (the counts are applied all the same).
-    pub fn poll_dynamic(&mut self, ctx: &GpuContext) -> Result<Option<DynamicCounts>> {
-        if self.dynamic.is_none() {
-            return Ok(None);
-        }
-        let _ = ctx.device.poll(wgpu::PollType::Poll);
-        self.take_readbacks()
-    }
+/// The undo of the previous update, sized from its control block.
+const CLEAR_STEPS: [(&str, u32, Dispatch); 3] = [
+    ("dyn_begin", 0, Dispatch::One),
+    ("dyn_unlink", 0, Dispatch::Indirect(ARGS_UNLINK)),
+    ("dyn_reset", 0, Dispatch::Indirect(ARGS_RESET)),
+];
 
-    /// Waits until the GPU has finished all submitted work, then does what
-    /// [`Svo::poll_dynamic`] does: afterwards the octree's counts are those of the latest
-    /// dynamic update submitted. For tests and tools; a renderer polls instead.
-    pub fn sync_dynamic(&mut self, ctx: &GpuContext) -> Result<Option<DynamicCounts>> {
-        if self.dynamic.is_none() {
-            return Ok(None);
+/// The dynamic structure pass: per level, flag the nodes the dynamic fragments occupy and
+/// their 26-neighbourhoods (each sized by the one before), subdivide the needed nodes without
+/// children and link the new nodes of the next level; then the bricks.
+fn structure_steps(depth: u32) -> Vec<(&'static str, u32, Dispatch)> {
+    let mut steps = vec![("dyn_finish_fragments", 0, Dispatch::One)];
+    for d in 0..depth {
+        steps.push(("dyn_flag_occupied", d, Dispatch::Indirect(ARGS_FRAGMENTS)));
+        steps.push(("dyn_finish_occupied", d, Dispatch::One));
+        steps.push(("dyn_flag_needed", d, Dispatch::Indirect(ARGS_OCC + d)));
+        steps.push(("dyn_finish_needed", d, Dispatch::One));
+        if d + 1 < depth {
+            steps.push(("dyn_subdivide", d, Dispatch::Indirect(ARGS_NEED + d)));
+            steps.push(("dyn_finish_nodes", d, Dispatch::One));
+            steps.push((
+                "dyn_link",
+                d + 1,
+                Dispatch::Indirect(ARGS_DYN_NODES + d + 1),
+            ));
         }
-        ctx.wait_idle()?;
-        self.take_readbacks()
     }
+    steps.push(("dyn_assign_bricks", 0, Dispatch::Indirect(ARGS_ALL_NEEDED)));
+    steps
+}
 
-    fn take_readbacks(&mut self) -> Result<Option<DynamicCounts>> {
-        let depth = self.levels.len();
-        let Some(dynamic) = self.dynamic.as_mut() else {
-            return Ok(None);
+/// The dynamic brick pass: the leaf sums, then per level from the leaves up the gather of
+/// this update's needed nodes and of the previous update's (parameter slot depth + d).
+fn brick_steps(depth: u32) -> Vec<(&'static str, u32, Dispatch)> {
+    let leaf = depth - 1;
+    let mut steps = vec![("dyn_accumulate", leaf, Dispatch::Indirect(ARGS_FRAGMENTS))];
+    for d in (0..depth).rev() {
+        let entry = if d == leaf {
+            "dyn_leaf_gather"
+        } else {
+            "dyn_mip_gather"
         };
-        let mut done: Vec<(u64, usize, std::result::Result<Vec<u32>, String>)> = Vec::new();
-        for slot in &mut dynamic.readbacks {
-            let words = match slot.state.load(Ordering::Acquire) {
-                MAPPED => {
-                    let words = slot
-                        .buffer
-                        .get_mapped_range(..)
-                        .map(|bytes| bytemuck::cast_slice::<u8, u32>(&bytes).to_vec())
-                        .map_err(|e| e.to_string());
-                    slot.buffer.unmap();
-                    words
-                }
-                FAILED => Err("mapping the readback failed".to_string()),
-                _ => continue,
-            };
-            slot.state.store(FREE, Ordering::Release);
-            done.push((slot.update, slot.triangles, words));
-        }
-        done.sort_by_key(|d| d.0);
-        let reserve = dynamic.reserve;
-        let mut latest = None;
-        let mut error = None;
-        for (update, triangles, words) in done {
-            let words = match words {
-                Ok(w) => w,
-                Err(e) => {
-                    error.get_or_insert(Error::Gpu(format!(
-                        "reading back the counts of dynamic update {update}: {e}"
-                    )));
-                    continue;
-                }
-            };
-            let (ctl, last) = words.split_at(CONTROL_WORDS as usize);
-            let need = |c: &[u32]| c[NEED_RANGE + 2 * depth - 1].min(reserve.needed);
-            let node_count = ctl[0].min(dynamic.node_capacity);
-            let brick_count = ctl[BRICK_COUNTER].min(dynamic.brick_capacity);
-            let counts = DynamicCounts {
-                update,
-                fragments: ctl[DYN_FRAGMENTS],
-                nodes: node_count - self.static_nodes,
-                bricks: brick_count - self.static_bricks,
-                dirty: ctl[NEED_COUNT].min(reserve.needed) + need(last),
-            };
-            if update > dynamic.applied {
-                dynamic.applied = update;
-                self.node_count = node_count;
-                self.brick_count = brick_count;
-                self.fragment_count = counts.fragments;
-                self.dynamic_levels = (0..depth)
-                    .map(|d| (ctl[DYN_NODES + 2 * d], ctl[DYN_NODES + 2 * d + 1]))
-                    .collect();
-                latest = Some(counts);
-            }
-            let mut exhausted = Vec::new();
-            if ctl[DYN_FRAGMENTS] > reserve.fragments {
-                exhausted.push(format!(
-                    "fragments ({} reserved, {} needed)",
-                    reserve.fragments, ctl[DYN_FRAGMENTS]
-                ));
-            }
-            if ctl[1] != 0 {
-                exhausted.push(format!("nodes ({} reserved)", reserve.nodes));
-            }
-            match ctl[DYN_OVERFLOW] {
-                0 => {}
-                2 => exhausted.push(format!("bricks ({} reserved)", reserve.bricks)),
-                _ => exhausted.push(format!(
-                    "occupied or needed nodes ({} / {} reserved; {} occupied, {} needed)",
-                    reserve.occupied, reserve.needed, ctl[OCC_COUNT], ctl[NEED_COUNT]
-                )),
-            }
-            if !exhausted.is_empty() && error.is_none() {
-                error = Some(Error::InvalidArgument(format!(
-                    "the octree's dynamic reserve is too small for the {triangles} dynamic \
-                     triangles of update {update}: it ran out of {}; build it with a larger \
-                     DynamicReserve",
-                    exhausted.join(" and ")
-                )));
-            }
-        }
-        match error {
-            Some(e) => Err(e),
-            None => Ok(latest),
-        }
+        steps.push((entry, d, Dispatch::PerNode(ARGS_NEED + d)));
+        steps.push((entry, depth + d, Dispatch::PerNode(ARGS_LAST_NEED + d)));
     }
+    steps
 }

@@ -14,20 +14,26 @@
 
 import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index};
 import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
-import octolux::voxel::svo::common::{BRICK_COUNTER, child, find, flags, fragments, INVALID, L, leaf_of_voxel, octant_offset, pack3, tris, unpack3};
-import octolux::voxel::svo::build::{bricks0, bricks1, bricks2, bricks3, control, coord, group_index, group_texels, group_word, nbr, tap_weight, texel_coords, texel_index, write_args};
+import octolux::voxel::svo::control::SvoControlValues;
+import octolux::voxel::svo::common::{child, find, flags, fragments, INVALID, L, leaf_of_voxel, octant_offset, pack3, tris, unpack3};
+import octolux::voxel::svo::build::{bricks0, bricks1, bricks2, bricks3, control, coord, dynamic_level_range, group_index, group_texels, group_word, nbr, tap_weight, texel_coords, texel_index, write_args};
 
 struct DynParams {
-    // x: static nodes S, y: static bricks B, z: node capacity, w: brick capacity
-    sizes: vec4<u32>,
-    // x: fragment-list capacity, y: unused, z: occupied-list capacity, w: needed-list capacity
-    lists: vec4<u32>,
-    // x: first static leaf node, y: whether dyn_sums holds data (1) or not (0)
-    leaves: vec4<u32>,
+    // Nodes and bricks of the static part, S and B (the dynamic ones follow).
+    static_nodes: u32,
+    static_bricks: u32,
+    // Nodes and bricks the pools hold: the static part and the reserve.
+    node_capacity: u32,
+    brick_capacity: u32,
+    // Capacities of the fragment list and of the occupied and needed lists.
+    fragment_capacity: u32,
+    occupied_capacity: u32,
+    needed_capacity: u32,
+    first_static_leaf: u32,
     // The control block as the previous update left it, copied on the GPU before this update
     // resets it (its node count, dynamic node ranges and needed-list ranges): nothing of the
     // previous update passes through the CPU.
-    last: array<u32, 128>,
+    last: SvoControlValues,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -41,16 +47,9 @@ struct DynParams {
 
 const DYN_OCCUPIED: u32 = 1u;
 const DYN_NEEDED: u32 = 2u;
-// Words of `control` (see svo/mod.rs): per-level ranges of the dynamic nodes, the occupied and
-// the needed lists; list counters; overflow of the lists or the brick pool.
-const DYN_NODES: u32 = 64u;
-const OCC_RANGE: u32 = 84u;
-const NEED_RANGE: u32 = 104u;
-const OCC_COUNT: u32 = 124u;
-const NEED_COUNT: u32 = 125u;
-const DYN_OVERFLOW: u32 = 126u;
-// Dynamic fragments appended by the voxelization (may exceed the list's capacity).
-const DYN_FRAGMENTS: u32 = 127u;
+// `control.dynamic_overflow`: what ran out.
+const LIST_OVERFLOW: u32 = 1u;
+const BRICK_OVERFLOW: u32 = 2u;
 // Indirect argument slots (3 words each): static levels 0.., dynamic nodes 16.., occupied
 // list 32.., needed list 48.., all needed nodes 63, fragments 64, the previous update's
 // dynamic nodes 65 and needed list 66, its needed list per level 67...
@@ -64,28 +63,39 @@ const ARGS_RESET: u32 = 66u;
 const ARGS_LAST_NEED: u32 = 67u;
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 
-// Entry `i` of the range [control[base], control[base + 1]), INVALID past its end.
-fn range_entry(wg: vec3<u32>, nwg: vec3<u32>, li: u32, base: u32) -> u32 {
-    let i = atomicLoad(&control[base]) + linear_index(wg, nwg, li);
-    if i >= atomicLoad(&control[base + 1u]) {
+// Entry `i` of the range [r.x, r.y), INVALID past its end.
+fn range_entry(wg: vec3<u32>, nwg: vec3<u32>, li: u32, r: vec2<u32>) -> u32 {
+    let i = r.x + linear_index(wg, nwg, li);
+    if i >= r.y {
         return INVALID;
     }
     return i;
 }
 
+// This update's occupied-list and needed-list entries of level d.
+fn occupied_range(d: u32) -> vec2<u32> {
+    return vec2<u32>(atomicLoad(&control.occupied_ranges[d].first),
+                     atomicLoad(&control.occupied_ranges[d].end));
+}
+
+fn needed_range(d: u32) -> vec2<u32> {
+    return vec2<u32>(atomicLoad(&control.needed_ranges[d].first),
+                     atomicLoad(&control.needed_ranges[d].end));
+}
+
 // Dynamic fragments of this update that the list holds.
 fn fragment_count() -> u32 {
-    return min(atomicLoad(&control[DYN_FRAGMENTS]), D.lists.x);
+    return min(atomicLoad(&control.dynamic_fragments), D.fragment_capacity);
 }
 
 // The previous update's node count (its dynamic nodes are [S, this)).
 fn last_node_count() -> u32 {
-    return max(min(D.last[0], D.sizes.z), D.sizes.x);
+    return max(min(D.last.node_count, D.node_capacity), D.static_nodes);
 }
 
 // The previous update's needed-list length (where its finest level's range ends).
 fn last_need_count() -> u32 {
-    return min(D.last[NEED_RANGE + 2u * L.depth - 1u], D.lists.w);
+    return min(D.last.needed_ranges[L.depth - 1u].end, D.needed_capacity);
 }
 
 // ---- Sizing from the GPU's own counters ------------------------------------------------------
@@ -94,7 +104,7 @@ fn last_need_count() -> u32 {
 // its needed nodes, whose bricks are gathered again) from the control block it left.
 @compute @workgroup_size(1)
 fn dyn_begin() {
-    write_args(ARGS_UNLINK, last_node_count() - D.sizes.x);
+    write_args(ARGS_UNLINK, last_node_count() - D.static_nodes);
     write_args(ARGS_RESET, last_need_count());
     for (var d = 0u; d < L.depth; d++) {
         let r = last_need_range(d);
@@ -110,8 +120,8 @@ fn dyn_finish_fragments() {
 
 // The previous update's needed-list range of level d.
 fn last_need_range(d: u32) -> vec2<u32> {
-    let end = min(D.last[NEED_RANGE + 2u * d + 1u], D.lists.w);
-    return vec2<u32>(min(D.last[NEED_RANGE + 2u * d], end), end);
+    let end = min(D.last.needed_ranges[d].end, D.needed_capacity);
+    return vec2<u32>(min(D.last.needed_ranges[d].first, end), end);
 }
 
 // ---- Clearing the previous update -------------------------------------------------------
@@ -121,7 +131,7 @@ fn last_need_range(d: u32) -> vec2<u32> {
 @compute @workgroup_size(64)
 fn dyn_unlink(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
-    let n = D.sizes.x + linear_index(wg, nwg, li);
+    let n = D.static_nodes + linear_index(wg, nwg, li);
     if n >= last_node_count() {
         return;
     }
@@ -134,7 +144,7 @@ fn dyn_unlink(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         var e = vec3<u32>(0u);
         e[a] = 1u;
         let m = find(c - e, d);
-        if m != INVALID && m < D.sizes.x {
+        if m != INVALID && m < D.static_nodes {
             nbr[3u * m + a] = 0u;
         }
     }
@@ -143,7 +153,7 @@ fn dyn_unlink(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
 // The level of dynamic node n in the previous update.
 fn node_level(n: u32) -> u32 {
     for (var d = 1u; d < L.depth; d++) {
-        if n < D.last[DYN_NODES + 2u * d + 1u] {
+        if n < D.last.dynamic_levels[d].end {
             return d;
         }
     }
@@ -160,13 +170,13 @@ fn dyn_reset(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
         return;
     }
     let n = last_need_list[i];
-    if n >= D.sizes.x {
+    if n >= D.static_nodes {
         return;
     }
-    if child[n] >= D.sizes.x {
+    if child[n] >= D.static_nodes {
         child[n] = 0u;
     }
-    if atomicLoad(&flags[n]) > D.sizes.y {
+    if atomicLoad(&flags[n]) > D.static_bricks {
         atomicStore(&flags[n], 0u);
     }
     atomicStore(&state[n], 0u);
@@ -191,9 +201,9 @@ fn dyn_flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgrou
     if (old & DYN_OCCUPIED) != 0u {
         return;
     }
-    let i = atomicAdd(&control[OCC_COUNT], 1u);
-    if i >= D.lists.z {
-        atomicStore(&control[DYN_OVERFLOW], 1u);
+    let i = atomicAdd(&control.occupied_count, 1u);
+    if i >= D.occupied_capacity {
+        atomicStore(&control.dynamic_overflow, LIST_OVERFLOW);
         return;
     }
     occ_list[i] = n;
@@ -202,27 +212,31 @@ fn dyn_flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgrou
     }
 }
 
-// Closes a list's range for level d (it starts where level d - 1 ended) and sizes its dispatch.
-fn finish_list(range: u32, counter: u32, capacity: u32, slot: u32) {
-    var start = 0u;
-    if L.d > 0u {
-        start = atomicLoad(&control[range + 2u * L.d - 1u]);
-    }
-    let end = min(atomicLoad(&control[counter]), capacity);
-    atomicStore(&control[range + 2u * L.d], start);
-    atomicStore(&control[range + 2u * L.d + 1u], end);
-    write_args(slot + L.d, end - start);
-}
-
+// The occupied and needed lists close their range of level d (it starts where level d - 1's
+// ended, at the list's length then) and size its dispatch.
 @compute @workgroup_size(1)
 fn dyn_finish_occupied() {
-    finish_list(OCC_RANGE, OCC_COUNT, D.lists.z, ARGS_OCC);
+    var start = 0u;
+    if L.d > 0u {
+        start = atomicLoad(&control.occupied_ranges[L.d - 1u].end);
+    }
+    let end = min(atomicLoad(&control.occupied_count), D.occupied_capacity);
+    atomicStore(&control.occupied_ranges[L.d].first, start);
+    atomicStore(&control.occupied_ranges[L.d].end, end);
+    write_args(ARGS_OCC + L.d, end - start);
 }
 
 @compute @workgroup_size(1)
 fn dyn_finish_needed() {
-    finish_list(NEED_RANGE, NEED_COUNT, D.lists.w, ARGS_NEED);
-    write_args(ARGS_ALL_NEEDED, min(atomicLoad(&control[NEED_COUNT]), D.lists.w));
+    var start = 0u;
+    if L.d > 0u {
+        start = atomicLoad(&control.needed_ranges[L.d - 1u].end);
+    }
+    let end = min(atomicLoad(&control.needed_count), D.needed_capacity);
+    atomicStore(&control.needed_ranges[L.d].first, start);
+    atomicStore(&control.needed_ranges[L.d].end, end);
+    write_args(ARGS_NEED + L.d, end - start);
+    write_args(ARGS_ALL_NEEDED, end);
 }
 
 // The 26-neighbourhood of every node the dynamic fragments occupy on level d (all of these
@@ -230,7 +244,7 @@ fn dyn_finish_needed() {
 @compute @workgroup_size(64)
 fn dyn_flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                    @builtin(local_invocation_index) li: u32) {
-    let i = range_entry(wg, nwg, li, OCC_RANGE + 2u * L.d);
+    let i = range_entry(wg, nwg, li, occupied_range(L.d));
     if i == INVALID {
         return;
     }
@@ -249,9 +263,9 @@ fn dyn_flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
         if (old & DYN_NEEDED) != 0u {
             continue;
         }
-        let j = atomicAdd(&control[NEED_COUNT], 1u);
-        if j >= D.lists.w {
-            atomicStore(&control[DYN_OVERFLOW], 1u);
+        let j = atomicAdd(&control.needed_count, 1u);
+        if j >= D.needed_capacity {
+            atomicStore(&control.dynamic_overflow, LIST_OVERFLOW);
             continue;
         }
         need_list[j] = m;
@@ -262,7 +276,7 @@ fn dyn_flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
 @compute @workgroup_size(64)
 fn dyn_subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                  @builtin(local_invocation_index) li: u32) {
-    let i = range_entry(wg, nwg, li, NEED_RANGE + 2u * L.d);
+    let i = range_entry(wg, nwg, li, needed_range(L.d));
     if i == INVALID {
         return;
     }
@@ -270,9 +284,9 @@ fn dyn_subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     if child[n] != 0u {
         return;
     }
-    let base = atomicAdd(&control[0], 8u);
+    let base = atomicAdd(&control.node_count, 8u);
     if base + 8u > L.capacity {
-        atomicStore(&control[1], 1u);
+        atomicStore(&control.node_overflow, 1u);
         return;
     }
     child[n] = base;
@@ -285,10 +299,10 @@ fn dyn_subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
 // Records the dynamic node range of level d + 1 (allocated by `dyn_subdivide` on level d).
 @compute @workgroup_size(1)
 fn dyn_finish_nodes() {
-    let start = atomicLoad(&control[DYN_NODES + 2u * L.d + 1u]);
-    let end = min(atomicLoad(&control[0]), L.capacity);
-    atomicStore(&control[DYN_NODES + 2u * (L.d + 1u)], start);
-    atomicStore(&control[DYN_NODES + 2u * (L.d + 1u) + 1u], end);
+    let start = atomicLoad(&control.dynamic_levels[L.d].end);
+    let end = min(atomicLoad(&control.node_count), L.capacity);
+    atomicStore(&control.dynamic_levels[L.d + 1u].first, start);
+    atomicStore(&control.dynamic_levels[L.d + 1u].end, end);
     write_args(ARGS_DYN_NODES + L.d + 1u, end - start);
 }
 
@@ -297,7 +311,7 @@ fn dyn_finish_nodes() {
 @compute @workgroup_size(64)
 fn dyn_link(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
             @builtin(local_invocation_index) li: u32) {
-    let n = range_entry(wg, nwg, li, DYN_NODES + 2u * L.d);
+    let n = range_entry(wg, nwg, li, dynamic_level_range(L.d));
     if n == INVALID {
         return;
     }
@@ -316,7 +330,7 @@ fn dyn_link(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: 
         nbr[3u * n + a] = link;
         if c[a] > 0u {
             let m = find(c - e, L.d);
-            if m != INVALID && m < D.sizes.x {
+            if m != INVALID && m < D.static_nodes {
                 nbr[3u * m + a] = n;
             }
         }
@@ -328,16 +342,16 @@ fn dyn_link(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: 
 fn dyn_assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                      @builtin(local_invocation_index) li: u32) {
     let i = linear_index(wg, nwg, li);
-    if i >= min(atomicLoad(&control[NEED_COUNT]), D.lists.w) {
+    if i >= min(atomicLoad(&control.needed_count), D.needed_capacity) {
         return;
     }
     let n = need_list[i];
     if atomicLoad(&flags[n]) != 0u {
         return;
     }
-    let b = atomicAdd(&control[BRICK_COUNTER], 1u);
-    if b >= D.sizes.w {
-        atomicStore(&control[DYN_OVERFLOW], 2u);
+    let b = atomicAdd(&control.brick_count, 1u);
+    if b >= D.brick_capacity {
+        atomicStore(&control.dynamic_overflow, BRICK_OVERFLOW);
         return;
     }
     atomicStore(&flags[n], b + 1u);
@@ -386,8 +400,8 @@ fn voxel_albedo(v: vec3<i32>) -> vec4<f32> {
     }
     let o = (u.x & 1u) | ((u.y & 1u) << 1u) | ((u.z & 1u) << 2u);
     var s = vec4<u32>(0u);
-    if n >= D.leaves.x && n < D.sizes.x {
-        let w = leaf_sum_offset(static_sums[n - D.leaves.x], o, D.sizes.x - D.leaves.x);
+    if n >= D.first_static_leaf && n < D.static_nodes {
+        let w = leaf_sum_offset(static_sums[n - D.first_static_leaf], o, D.static_nodes - D.first_static_leaf);
         if w != 0xffffffffu {
             s = vec4<u32>(static_sums[w], static_sums[w + 1u], static_sums[w + 2u], static_sums[w + 3u]);
         }
@@ -421,7 +435,7 @@ fn texel8(b1: u32, t: u32) -> vec4<f32> {
 }
 
 fn store8(b1: u32, t: u32, v: vec4<f32>) {
-    if b1 == 0u || b1 > D.sizes.w {
+    if b1 == 0u || b1 > D.brick_capacity {
         return;
     }
     let b = b1 - 1u;
@@ -473,14 +487,14 @@ fn dirty_entry(i: u32) -> u32 {
             return INVALID;
         }
         let n = last_need_list[r.x + i];
-        if n >= D.sizes.x {
+        if n >= D.static_nodes {
             return INVALID;
         }
         return n;
     }
-    let base = NEED_RANGE + 2u * L.d;
-    let e = atomicLoad(&control[base]) + i;
-    if e >= atomicLoad(&control[base + 1u]) {
+    let r = needed_range(L.d);
+    let e = r.x + i;
+    if e >= r.y {
         return INVALID;
     }
     return need_list[e];

@@ -15,6 +15,9 @@ use crate::frame::ShadowLookup;
 use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
+use crate::voxel::svo::pipelines::group0_with;
+use crate::voxel::svo::steps::{filter_steps, record_steps};
+use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::voxelize::FragmentList;
 use crate::{Error, Result};
 
@@ -25,17 +28,30 @@ const INJECT_SLOTS: u64 = 4;
 /// fixed point x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
 
-/// Word of the octree's control block where the dynamic node ranges start (`DYN_NODES` in
-/// `svo/dynamic.wgsl`).
-const DYN_NODES: u32 = 64;
-
+/// `InjectParams` of `svo/inject.wgsl`: one injection dispatch (the static leaves or the
+/// dynamic ones).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct InjectParams {
-    origin_voxel: [f32; 4],
-    misc: [u32; 4],
-    part: [u32; 4],
-    range: [u32; 4],
+pub(super) struct InjectParams {
+    pub(super) origin: [f32; 3],
+    pub(super) voxel_size: f32,
+    /// The leaf nodes `[first_leaf, first_leaf + leaf_count)` (static leaves only).
+    pub(super) first_leaf: u32,
+    pub(super) leaf_count: u32,
+    pub(super) lights: u32,
+    pub(super) pool_bricks: u32,
+    pub(super) static_nodes: u32,
+    pub(super) first_static_leaf: u32,
+    /// `voxel_radiance` slot of the first leaf.
+    pub(super) first_slot: u32,
+    pub(super) has_dynamic: u32,
+    /// 1: the leaves are the dynamic nodes of level `leaf_level`, read on the GPU.
+    pub(super) dynamic_leaves: u32,
+    pub(super) leaf_level: u32,
+    /// 1: the dispatch takes part in multiple bounces.
+    pub(super) bounce: u32,
+    /// Capacity of the dynamic leaves' table of last frame's irradiance (0: none).
+    pub(super) bounce_table_capacity: u32,
 }
 
 /// Multiple bounces through the octree's leaves: per `voxel_radiance` slot, the indirect
@@ -242,11 +258,12 @@ impl SvoLight {
         let mut parts = vec![(first, end - first, 0, None)];
         if dynamic.is_some() && depth > 0 {
             let leaf = depth - 1;
+            // The first leaf is read on the GPU from the leaf level's dynamic node range.
             parts.push((
-                DYN_NODES + 2 * leaf,
+                leaf,
                 0,
                 end - first,
-                Some(crate::voxel::svo::ARGS_DYN_NODES + leaf),
+                Some(crate::voxel::svo::control::ARGS_DYN_NODES + leaf),
             ));
         }
         // One parameter slot per part and injection of this submission (tests record several).
@@ -271,22 +288,29 @@ impl SvoLight {
         let table = bounce.and_then(SvoBounce::read_table);
         let (keys, values) = table.map_or((placeholder, placeholder), |t| (&t.keys, &t.values));
         for (i, &(node, count, slot, indirect)) in parts.iter().enumerate() {
+            // The dynamic part's `node` is its level, whose range is read on the GPU.
+            let dynamic_leaves = indirect.is_some();
             let params = InjectParams {
-                origin_voxel: grid.origin.extend(grid.voxel_size).to_array(),
-                misc: [node, count, light_count, svo.pool_bricks],
-                part: [svo.static_nodes, first, slot, dynamic.is_some() as u32],
+                origin: grid.origin.to_array(),
+                voxel_size: grid.voxel_size,
+                first_leaf: if dynamic_leaves { 0 } else { node },
+                leaf_count: count,
+                lights: light_count,
+                pool_bricks: svo.pool_bricks,
+                static_nodes: svo.static_nodes,
+                first_static_leaf: first,
+                first_slot: slot,
+                has_dynamic: dynamic.is_some() as u32,
+                dynamic_leaves: dynamic_leaves as u32,
+                leaf_level: if dynamic_leaves { node } else { 0 },
                 // The static leaves keep their slots from frame to frame; the dynamic ones
                 // find last frame's irradiance in the bounce table.
-                range: [
-                    indirect.is_some() as u32,
-                    node,
-                    (i == 0 && bounce.is_some() || i == 1 && table.is_some()) as u32,
-                    if i == 0 {
-                        0
-                    } else {
-                        table.map_or(0, |t| t.capacity)
-                    },
-                ],
+                bounce: (i == 0 && bounce.is_some() || i == 1 && table.is_some()) as u32,
+                bounce_table_capacity: if i == 0 {
+                    0
+                } else {
+                    table.map_or(0, |t| t.capacity)
+                },
             };
             let at = 2 * injection + i as u64;
             ctx.queue
@@ -333,7 +357,7 @@ impl SvoLight {
         let buffers: [(u32, &wgpu::Buffer); 15] = [
             (11, &svo.leaf_sums),
             (12, &svo.coord),
-            (13, &svo.brick_index),
+            (13, &svo.brick_plus_one),
             (18, &svo.voxel_radiance),
             (19, &svo.radiance[0]),
             (20, &svo.radiance[1]),
@@ -375,5 +399,104 @@ impl SvoLight {
             pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
         });
+    }
+}
+
+/// Work counts of the radiance mip (`gpu/work.rs`): its dispatches, one after another.
+const RADIANCE_MIP_WORK: &[&str] = &["dispatches"];
+
+impl SvoBuilder {
+    /// direct irradiance from the first `light_count` lights of `lights` (the renderer's light
+    /// buffer, `array<Light>` of `frame/lights.wgsl`), with visibility from the shadow maps
+    /// (`shadows`, the renderer's [`crate::frame::ShadowMaps::lookup`]); then the neighbour
+    /// transfer and mip filter upward, level by level. Units: radiance in W/(m^2 sr).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inject(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        shadows: crate::frame::ShadowLookup<'_>,
+        lights: &wgpu::Buffer,
+        light_count: u32,
+    ) -> Result<()> {
+        self.inject_with_bounce(ctx, timer, svo, shadows, lights, light_count, None)
+    }
+
+    /// [`SvoBuilder::inject`] with multiple bounces: the static leaves add the irradiance of
+    /// `bounce` to their direct irradiance and write their geometry into it for the next
+    /// gather ([`crate::voxel::svo::inject::SvoBounce`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn inject_with_bounce(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        shadows: crate::frame::ShadowLookup<'_>,
+        lights: &wgpu::Buffer,
+        light_count: u32,
+        bounce: Option<&crate::voxel::svo::inject::SvoBounce>,
+    ) -> Result<()> {
+        let needed = light_count as u64 * crate::frame::LIGHT_BYTES;
+        if lights.size() < needed.max(crate::frame::LIGHT_BYTES) {
+            return Err(Error::InvalidArgument(format!(
+                "octree injection: {light_count} lights need a light buffer of {needed} bytes \
+                 (at least one light's), it has {}",
+                lights.size()
+            )));
+        }
+        if svo.levels.is_empty() {
+            return Ok(());
+        }
+        self.light
+            .inject_leaves(ctx, timer, svo, shadows, lights, light_count, bounce)?;
+        // The transfer and mip kernels bind the build layout: no fragments or triangles;
+        // with facing, the facing pool after it, filtered in the same dispatches.
+        let placeholder = &self.mip_placeholder;
+        let mut buffers = vec![
+            placeholder,
+            placeholder,
+            &svo.child,
+            &svo.neighbours,
+            &svo.coord,
+            &svo.brick_plus_one,
+            &svo.control,
+        ];
+        buffers.extend(&svo.radiance);
+        let (group, pipelines) = match &svo.facing {
+            Some(facing) => {
+                let filter = self.facing_filter(ctx);
+                buffers.extend(facing);
+                let group = group0_with(ctx, &filter.layout0, &svo.level_params, &buffers);
+                (group, &filter.pipelines)
+            }
+            None => (
+                group0_with(ctx, &self.layout0, &svo.level_params, &buffers),
+                &self.pipelines,
+            ),
+        };
+        let args_group = self.args_group(ctx, &svo.args);
+        let depth = svo.levels.len() as u32;
+        let steps = filter_steps(depth, svo.dynamic.is_some(), self.fuse_coarse);
+        // Each dispatch waits for the one before: on a GPU the coarse levels' cost is their
+        // number more than their few nodes.
+        crate::gpu::work::add(
+            ctx,
+            "svo radiance mip",
+            RADIANCE_MIP_WORK,
+            0,
+            steps.len() as u64,
+        )?;
+        record_steps(
+            pipelines,
+            timer,
+            "svo radiance mip",
+            &group,
+            (&args_group, None),
+            &svo.args,
+            0,
+            &steps,
+        );
+        Ok(())
     }
 }

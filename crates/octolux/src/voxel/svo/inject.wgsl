@@ -9,6 +9,7 @@
 
 import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index, Tri};
 import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
+import octolux::voxel::svo::control::SvoControlValues;
 import octolux::voxel::svo::bounce_table::{bounce_table_hash, BOUNCE_TABLE_PROBES};
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
@@ -103,19 +104,32 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
 }
 
 struct InjectParams {
-    // xyz grid origin, w voxel size
-    origin_voxel: vec4<f32>,
-    // x: first leaf node of this dispatch, y: leaf nodes, z: lights, w: bricks per pool buffer
-    misc: vec4<u32>,
-    // x: static nodes, y: first static leaf node, z: `voxel_radiance` slot of this dispatch's
-    // first leaf, w: 1 when the octree has a dynamic part (`dyn_sums`, `dyn_state`)
-    part: vec4<u32>,
-    // x: 1 when this dispatch's leaves are the range [control[y], control[y + 1]) that the
-    // octree's last dynamic update left on the GPU (misc.x and misc.y unused), 0 otherwise;
-    // z: 1 when this dispatch takes part in multiple bounces (`bounce_*` below); w: for the
-    // dynamic leaves, the capacity of the table of last frame's gathered irradiance
-    // (`dyn_bounce_*`; 0: their irradiance comes from `bounce_irradiance` by slot)
-    range: vec4<u32>,
+    // The grid's origin and voxel size.
+    origin: vec3<f32>,
+    voxel_size: f32,
+    // This dispatch's leaf nodes [first_leaf, first_leaf + leaf_count) (unless
+    // `dynamic_leaves`).
+    first_leaf: u32,
+    leaf_count: u32,
+    lights: u32,
+    // Bricks per pool buffer.
+    pool_bricks: u32,
+    static_nodes: u32,
+    first_static_leaf: u32,
+    // `voxel_radiance` slot of this dispatch's first leaf.
+    first_slot: u32,
+    // 1 when the octree has a dynamic part (`dyn_sums`, `dyn_state`).
+    has_dynamic: u32,
+    // 1 when this dispatch's leaves are the dynamic nodes of level `leaf_level` as the
+    // octree's last dynamic update left them on the GPU (`first_leaf` and `leaf_count`
+    // unused), 0 otherwise.
+    dynamic_leaves: u32,
+    leaf_level: u32,
+    // 1 when this dispatch takes part in multiple bounces (`bounce_*` below).
+    bounce: u32,
+    // For the dynamic leaves, the capacity of the table of last frame's gathered irradiance
+    // (`dyn_bounce_*`; 0: their irradiance comes from `bounce_irradiance` by slot).
+    bounce_table_capacity: u32,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -132,8 +146,8 @@ struct InjectParams {
 // dynamic fragments' sums per slot.
 @group(0) @binding(23) var<storage, read> dyn_sums: array<u32>;
 @group(0) @binding(24) var<storage, read> dyn_state: array<u32>;
-// The octree's control block (`svo/build.wgsl`), for the dynamic leaves' range.
-@group(0) @binding(25) var<storage, read> control: array<u32>;
+// The octree's control block (svo/control.wgsl), for the dynamic leaves' range.
+@group(0) @binding(25) var<storage, read> control: SvoControlValues;
 // Multiple bounces (range.z = 1), per `voxel_radiance` slot: the indirect irradiance a cone
 // gather found for the voxel (RGBA16F pairs), added to its direct irradiance, and, for the
 // next gather, the voxel's geometry: its coordinates (10 bits per axis, bit 30 set for an
@@ -157,10 +171,10 @@ struct InjectParams {
 const PI: f32 = 3.14159265358979;
 
 @if(facing) fn facing_store(b: u32, t: u32, v: vec3<f32>) {
-    let w = (b % P.misc.w) * 54u + 2u * t;
+    let w = (b % P.pool_bricks) * 54u + 2u * t;
     let lo = pack2x16float(v.xy);
     let hi = pack2x16float(vec2<f32>(v.z, 0.0));
-    switch b / P.misc.w {
+    switch b / P.pool_bricks {
         case 0u: { facing0[w] = lo; facing0[w + 1u] = hi; }
         case 1u: { facing1[w] = lo; facing1[w + 1u] = hi; }
         case 2u: { facing2[w] = lo; facing2[w + 1u] = hi; }
@@ -185,8 +199,8 @@ fn weight(c: vec3<f32>) -> f32 {
 }
 
 fn pool_store(b: u32, i: u32, v: u32) {
-    let w = (b % P.misc.w) * 54u + i;
-    switch b / P.misc.w {
+    let w = (b % P.pool_bricks) * 54u + i;
+    switch b / P.pool_bricks {
         case 0u: { pool0[w] = v; }
         case 1u: { pool1[w] = v; }
         case 2u: { pool2[w] = v; }
@@ -198,16 +212,16 @@ fn pool_store(b: u32, i: u32, v: u32) {
 // a dynamic part, those of the dynamic fragments.
 fn leaf_voxel_sums(node: u32, o: u32) -> array<u32, 10> {
     var s: array<u32, 10>;
-    if node >= P.part.y && node < P.part.x {
-        let leaves = P.part.x - P.part.y;
-        let w = leaf_sum_offset(leaf_sums[node - P.part.y], o, leaves);
+    if node >= P.first_static_leaf && node < P.static_nodes {
+        let leaves = P.static_nodes - P.first_static_leaf;
+        let w = leaf_sum_offset(leaf_sums[node - P.first_static_leaf], o, leaves);
         if w != 0xffffffffu {
             for (var k = 0u; k < SUM_WORDS; k++) {
                 s[k] = leaf_sums[w + k];
             }
         }
     }
-    if P.part.w != 0u {
+    if P.has_dynamic != 0u {
         let slot = dyn_state[node] >> 2u;
         if slot != 0u {
             let w = ((slot - 1u) * 8u + o) * SUM_WORDS;
@@ -244,7 +258,7 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> VoxelLight {
     let has_normal = dot(n, n) > 0.5;
     var e = e0;
     var facing = n * weight(emission + albedo / PI * e0);
-    for (var k = 0u; k < P.misc.z; k++) {
+    for (var k = 0u; k < P.lights; k++) {
         let light = lights[k];
         let inc = light_incidence(light, p);
         // A voxel without a dominant normal (opposite faces cancelled) is lit as facing the light.
@@ -256,7 +270,7 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> VoxelLight {
             continue;
         }
         // Looked up half a voxel along the normal: the surface may lie anywhere in the voxel.
-        let lift = 0.5 * P.origin_voxel.w;
+        let lift = 0.5 * P.voxel_size;
         let direct = inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, lift);
         e += direct;
         facing += select(inc.to_light, n, has_normal) * weight(albedo / PI * direct);
@@ -266,7 +280,7 @@ fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> VoxelLight {
 
 // Last frame's irradiance of the dynamic voxel `key` (zero where it was not there).
 fn dyn_bounce_lookup(key: u32) -> vec3<f32> {
-    let mask = P.range.w - 1u;
+    let mask = P.bounce_table_capacity - 1u;
     var e = bounce_table_hash(key) & mask;
     for (var i = 0u; i < BOUNCE_TABLE_PROBES; i++) {
         let k = dyn_bounce_keys[e];
@@ -290,11 +304,12 @@ fn octant(o: u32) -> vec3<u32> {
 fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
     let l = linear_index(wg, nwg, li);
-    var first = P.misc.x;
-    var count = P.misc.y;
-    if P.range.x != 0u {
-        first = control[P.range.y];
-        count = control[P.range.y + 1u] - first;
+    var first = P.first_leaf;
+    var count = P.leaf_count;
+    if P.dynamic_leaves != 0u {
+        let leaves = control.dynamic_levels[P.leaf_level];
+        first = leaves.first;
+        count = leaves.end - first;
     }
     if l >= count {
         return;
@@ -306,13 +321,13 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     var facings: array<vec3<f32>, 8>;
     for (var o = 0u; o < 8u; o++) {
         let v = 2u * c + octant(o);
-        let p = P.origin_voxel.xyz + (vec3<f32>(v) + 0.5) * P.origin_voxel.w;
-        let slot = (P.part.z + l) * 8u + o;
+        let p = P.origin + (vec3<f32>(v) + 0.5) * P.voxel_size;
+        let slot = (P.first_slot + l) * 8u + o;
         let sums = leaf_voxel_sums(n, o);
         var e0 = vec3<f32>(0.0);
-        if P.range.z != 0u {
+        if P.bounce != 0u {
             let key = select(0u, v.x | (v.y << 10u) | (v.z << 20u) | (1u << 30u), sums[3] != 0u);
-            if P.range.w == 0u {
+            if P.bounce_table_capacity == 0u {
                 e0 = vec3<f32>(unpack2x16float(bounce_irradiance[2u * slot]),
                                unpack2x16float(bounce_irradiance[2u * slot + 1u]).x);
             } else if key != 0u {

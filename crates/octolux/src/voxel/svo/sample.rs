@@ -51,7 +51,7 @@ pub fn svo_bindings<'a>(
     info: &'a wgpu::Buffer,
     svo: &'a Svo,
 ) -> [(u32, wgpu::BindingResource<'a>); 3] {
-    let buffers = [info, &svo.child, &svo.brick_index];
+    let buffers = [info, &svo.child, &svo.brick_plus_one];
     std::array::from_fn(|i| (SVO_BINDINGS + i as u32, buffers[i].as_entire_binding()))
 }
 
