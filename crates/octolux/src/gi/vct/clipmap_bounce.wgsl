@@ -54,7 +54,7 @@ fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
     let slot = i < bounce_params.misc.x;
     // The slot's voxel in the level's (wrapped) grid, and its level.
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     let m = vec3<u32>(i % r, (i / r) % r, (i / (r * r)) % r);
     let due = bounce_due(m + vec3<u32>(i / (r * r * r), 0u, 0u), bounce_params.misc.w);
     list_or_clear(i, slot, slot && gathers(i), due, li);
@@ -105,7 +105,7 @@ fn bounce_clear(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
     }
     let c = bounce_box.lo.xyz + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
                                                     i / (size.x * size.y)));
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     let ri = i32(r);
     let m = vec3<u32>((c % ri + ri) % ri);
     let slot = bounce_box.size.w + m.x + r * (m.y + r * m.z);

@@ -17,7 +17,7 @@ struct TailParams {
 
 fn tail_source(j: vec3<u32>) -> vec4<f32> {
     if tail_params.misc.x == 1u {
-        let l = clip_info.misc.y - 1u;
+        let l = clip_info.levels - 1u;
         return clip_radiance_voxel(l, clip_info.origins[l].xyz + vec3<i32>(j));
     }
     let n = 2u * tail_params.misc.y;
