@@ -120,6 +120,14 @@ struct Uploaded {
     params: (wgpu::Buffer, u64),
 }
 
+impl Uploaded {
+    /// The [`BoxParams`] of part `i`.
+    fn part_params(&self, i: u64) -> wgpu::BindingResource<'_> {
+        let (params, at) = &self.params;
+        range(params, at + i * PARAM_STRIDE, PARAM_STRIDE)
+    }
+}
+
 /// The scratch buffers kept across updates, in the order of [`Scratch::NAMES`].
 pub(super) struct Scratch {
     kept: [wgpu::Buffer; 3],
@@ -254,7 +262,9 @@ impl Clipmap {
             // 5. Per part: accumulate its voxels' sums, then resolve them into the levels.
             let clock = Instant::now();
             for (i, (part, s)) in parts.iter().zip(&snapped).enumerate() {
-                self.voxelize_part(ctx, timer, i as u64, part, s, &uploaded);
+                let part = (i as u64, part);
+                self.accumulate_part(ctx, timer, part, s, &uploaded);
+                self.resolve_part(ctx, timer, part, &uploaded);
             }
             // 6. Filtered clipmap: coarser levels rebuilt inside the finer levels.
             if self.options.filters() {
@@ -390,77 +400,64 @@ impl Clipmap {
         }
     }
 
-    /// Records part `i`'s two passes, `clipmap L<l> voxelize` over its work items and
-    /// `clipmap L<l> resolve` over its voxels.
-    fn voxelize_part(
+    /// Records the pass `clipmap L<l> voxelize` of part `i`: each of its work items adds the
+    /// albedo, normal and emission of the voxels its piece touches to the sums.
+    fn accumulate_part(
         &self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
-        i: u64,
-        part: &UpdateBox,
+        (i, part): (u64, &UpdateBox),
         snapped: &Snapped,
         uploaded: &Uploaded,
     ) {
         let (p0, i0) = snapped.first;
-        let (params, params_at) = &uploaded.params;
         let (pieces, pieces_at) = &uploaded.pieces;
         let (items, items_at) = &uploaded.items;
-        let params = || range(params, params_at + i * PARAM_STRIDE, PARAM_STRIDE);
-        let count = |n: usize| n.max(1) as u64;
-        let name = format!("clipmap L{}", part.level);
-        let group = bind(
-            ctx,
-            &self.accumulate,
-            &[
-                (0, params()),
-                (1, self.triangles.as_entire_binding()),
-                (
-                    2,
-                    range(
-                        items,
-                        items_at + i0 * ITEM_BYTES,
-                        count(snapped.items.len()) * ITEM_BYTES,
-                    ),
-                ),
-                (3, self.accum.as_entire_binding()),
-                (
-                    8,
-                    range(
-                        pieces,
-                        pieces_at + p0 * PIECE_BYTES,
-                        count(snapped.pieces.len()) * PIECE_BYTES,
-                    ),
-                ),
-            ],
-        );
-        let items = snapped.items.len() as u32;
-        dispatch_1d(
-            timer,
-            &format!("{name} voxelize"),
-            &self.accumulate,
-            &group,
+        // A block of at least one element, as the packing leaves room for.
+        let block = |n: usize, bytes: u64| n.max(1) as u64 * bytes;
+        let items = range(
             items,
+            items_at + i0 * ITEM_BYTES,
+            block(snapped.items.len(), ITEM_BYTES),
         );
-        let group = bind(
-            ctx,
-            &self.resolve,
-            &[
-                (0, params()),
-                (3, self.accum.as_entire_binding()),
-                (4, self.voxels.as_entire_binding()),
-                (5, self.written.as_entire_binding()),
-                (6, self.normals.as_entire_binding()),
-                (7, self.emission.as_entire_binding()),
-            ],
+        let pieces = range(
+            pieces,
+            pieces_at + p0 * PIECE_BYTES,
+            block(snapped.pieces.len(), PIECE_BYTES),
         );
-        let voxels = part.volume() as u32;
-        dispatch_1d(
-            timer,
-            &format!("{name} resolve"),
-            &self.resolve,
-            &group,
-            voxels,
-        );
+        let entries = [
+            (0, uploaded.part_params(i)),
+            (1, self.triangles.as_entire_binding()),
+            (2, items),
+            (3, self.accum.as_entire_binding()),
+            (8, pieces),
+        ];
+        let group = bind(ctx, &self.accumulate, &entries);
+        let name = format!("clipmap L{} voxelize", part.level);
+        let work = snapped.items.len() as u32;
+        dispatch_1d(timer, &name, &self.accumulate, &group, work);
+    }
+
+    /// Records the pass `clipmap L<l> resolve` of part `i`: each voxel's sums become its
+    /// albedo and opacity, normal and emission in its toroidal slot, and the sums are zeroed.
+    fn resolve_part(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        (i, part): (u64, &UpdateBox),
+        uploaded: &Uploaded,
+    ) {
+        let entries = [
+            (0, uploaded.part_params(i)),
+            (3, self.accum.as_entire_binding()),
+            (4, self.voxels.as_entire_binding()),
+            (5, self.written.as_entire_binding()),
+            (6, self.normals.as_entire_binding()),
+            (7, self.emission.as_entire_binding()),
+        ];
+        let group = bind(ctx, &self.resolve, &entries);
+        let name = format!("clipmap L{} resolve", part.level);
+        dispatch_1d(timer, &name, &self.resolve, &group, part.volume() as u32);
     }
 }
 
