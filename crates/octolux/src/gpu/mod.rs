@@ -6,6 +6,8 @@
 
 pub mod alloc;
 mod context;
+#[cfg(test)]
+pub(crate) mod layout;
 mod ledger;
 pub mod pack;
 pub mod pass;

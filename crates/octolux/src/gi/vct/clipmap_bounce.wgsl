@@ -25,16 +25,22 @@ import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
 import octolux::gi::vct::bounce_list::{bounce_due, list_or_clear, listed_slot, store_bounce};
 
-// x: voxel slots (levels * res^3), w: the sets of `bounce_due` (`bounce_list.wgsl`)
+// `BounceParams` in clipmap_gi.rs.
 struct BounceParams {
-    misc: vec4<u32>,
+    // Voxel slots (levels * res^3).
+    slots: u32,
+    // This frame's set of `bounce_due` (`bounce_list.wgsl`).
+    spread: u32,
 }
 
-// A box of one level: lo (world voxel coordinates of the level), size (xyz) and the level's
-// first slot (w).
+// A box of one level (`BounceBox` in clipmap_gi.rs).
 struct BounceBox {
-    lo: vec4<i32>,
-    size: vec4<u32>,
+    // First voxel (world voxel coordinates of the level).
+    lo: vec3<i32>,
+    // Voxels along each axis.
+    size: vec3<u32>,
+    // First slot of the level.
+    first: u32,
 }
 
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
@@ -52,11 +58,11 @@ fn gathers(i: u32) -> bool {
 fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    let slot = i < bounce_params.misc.x;
+    let slot = i < bounce_params.slots;
     // The slot's voxel in the level's (wrapped) grid, and its level.
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     let m = vec3<u32>(i % r, (i / r) % r, (i / (r * r)) % r);
-    let due = bounce_due(m + vec3<u32>(i / (r * r * r), 0u, 0u), bounce_params.misc.w);
+    let due = bounce_due(m + vec3<u32>(i / (r * r * r), 0u, 0u), bounce_params.spread);
     list_or_clear(i, slot, slot && gathers(i), due, li);
 }
 
@@ -99,15 +105,15 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
 fn bounce_clear(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                 @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    let size = bounce_box.size.xyz;
+    let size = bounce_box.size;
     if i >= size.x * size.y * size.z {
         return;
     }
-    let c = bounce_box.lo.xyz + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
+    let c = bounce_box.lo + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
                                                     i / (size.x * size.y)));
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     let ri = i32(r);
     let m = vec3<u32>((c % ri + ri) % ri);
-    let slot = bounce_box.size.w + m.x + r * (m.y + r * m.z);
+    let slot = bounce_box.first + m.x + r * (m.y + r * m.z);
     store_bounce(slot, vec3<f32>(0.0));
 }

@@ -10,6 +10,7 @@
 //! the mean of the 8 voxels below it, and the trace samples them for footprints past the
 //! coarsest voxel (`clipmap_trace.wgsl`), quadrilinear between them.
 
+use crate::gpu::alloc::storage;
 use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::{CLIP_BINDINGS, CLIP_RADIANCE_BINDING};
@@ -27,11 +28,19 @@ pub fn tail_offset(res: u32, k: u32) -> u32 {
     (1..k).map(|i| (res >> i).pow(3)).sum()
 }
 
-/// `TailParams` in clipmap_tail.wgsl.
+/// Parameter block `TailParams` of `clipmap_tail.wgsl`: one tail level.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct TailParams {
-    misc: [u32; 4],
+    /// The level, k (1..=K).
+    level: u32,
+    /// Voxels per side of the level (`res >> k`).
+    side: u32,
+    /// First voxel slot of the level in the tail buffer.
+    first: u32,
+    /// First voxel slot of level k - 1, which level k averages (unused for level 1, which
+    /// averages the coarsest clipmap level).
+    source_first: u32,
 }
 
 /// The tail's buffer and the passes that fill it from the clipmap's injected radiance.
@@ -51,24 +60,14 @@ impl ClipmapTail {
     pub fn new(ctx: &GpuContext, owner: &str, res: u32) -> ClipmapTail {
         let levels = tail_levels(res);
         let voxels = tail_offset(res, levels + 1) as u64;
-        let buffer = ctx.create_buffer(
-            owner,
-            &wgpu::BufferDescriptor {
-                label: Some("clipmap tail"),
-                size: (voxels * 8).max(16),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            },
-        );
+        let buffer = storage(ctx, owner, "clipmap tail", voxels * 8);
         let params: Vec<wgpu::Buffer> = (1..=levels)
             .map(|k| {
                 let p = TailParams {
-                    misc: [
-                        k,
-                        res >> k,
-                        tail_offset(res, k),
-                        if k > 1 { tail_offset(res, k - 1) } else { 0 },
-                    ],
+                    level: k,
+                    side: res >> k,
+                    first: tail_offset(res, k),
+                    source_first: if k > 1 { tail_offset(res, k - 1) } else { 0 },
                 };
                 ctx.create_buffer_init(
                     owner,
@@ -165,6 +164,17 @@ pub fn tail_cpu(res: u32, origin: IVec3, coarsest: impl Fn(IVec3) -> Vec4) -> Ve
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn tail_params_mirror_the_wgsl_block() {
+        assert_mirrors_wgsl!(
+            TailParams,
+            "gi/vct/clipmap_tail",
+            "TailParams",
+            [level, side, first, source_first]
+        );
+    }
     use crate::gpu::pack::f16_to_f32;
     use crate::gpu::{read_buffer, GpuOptions};
     use crate::voxel::clipmap::sample::ClipInfo;

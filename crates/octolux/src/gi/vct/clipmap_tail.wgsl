@@ -7,27 +7,33 @@
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot};
 import octolux::voxel::clipmap::radiance_sample::clip_radiance_voxel;
 
+// `TailParams` in clipmap_tail.rs: one tail level.
 struct TailParams {
-    // x: k, y: res >> k (voxels per side), z: first slot of level k, w: first slot of k - 1
-    misc: vec4<u32>,
+    // k
+    level: u32,
+    // Voxels per side (res >> k).
+    side: u32,
+    // First slot of level k, and of level k - 1 which it averages.
+    first: u32,
+    source_first: u32,
 }
 
 @group(0) @binding(0) var<storage, read> tail_params: TailParams;
 @group(0) @binding(1) var<storage, read_write> tail: array<u32>;
 
 fn tail_source(j: vec3<u32>) -> vec4<f32> {
-    if tail_params.misc.x == 1u {
-        let l = clip_info.misc.y - 1u;
+    if tail_params.level == 1u {
+        let l = clip_info.levels - 1u;
         return clip_radiance_voxel(l, clip_info.origins[l].xyz + vec3<i32>(j));
     }
-    let n = 2u * tail_params.misc.y;
-    let slot = tail_params.misc.w + j.x + n * (j.y + n * j.z);
+    let n = 2u * tail_params.side;
+    let slot = tail_params.source_first + j.x + n * (j.y + n * j.z);
     return vec4<f32>(unpack2x16float(tail[2u * slot]), unpack2x16float(tail[2u * slot + 1u]));
 }
 
 @compute @workgroup_size(4, 4, 4)
 fn build_tail(@builtin(global_invocation_id) id: vec3<u32>) {
-    let n = tail_params.misc.y;
+    let n = tail_params.side;
     if any(id >= vec3<u32>(n)) {
         return;
     }
@@ -37,7 +43,7 @@ fn build_tail(@builtin(global_invocation_id) id: vec3<u32>) {
         sum += tail_source(2u * id + o);
     }
     let mean = sum * 0.125;
-    let slot = tail_params.misc.z + id.x + n * (id.y + n * id.z);
+    let slot = tail_params.first + id.x + n * (id.y + n * id.z);
     tail[2u * slot] = pack2x16float(mean.xy);
     tail[2u * slot + 1u] = pack2x16float(mean.zw);
 }

@@ -17,8 +17,8 @@ import octolux::voxel::clipmap::blend::clip_blend_choice;
 // blotches of its voxels).
 // Isotropic: `dir` is not read.
 fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
-    let last = clip_info.misc.y - 1u;
-    let coarsest = clip_info.voxel.x * f32(1u << last);
+    let last = clip_info.levels - 1u;
+    let coarsest = clip_info.voxel_size * f32(1u << last);
     if footprint <= coarsest {
         return clip_levels_sample(p, footprint);
     }
@@ -41,7 +41,7 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
 fn clip_levels_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     let c = clip_blend_choice(p, footprint);
     let l = u32(c.x);
-    if l >= clip_info.misc.y {
+    if l >= clip_info.levels {
         return vec4<f32>(0.0);
     }
     let a = clip_radiance_level(p, l);
@@ -53,21 +53,21 @@ fn clip_levels_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
 
 // Tail levels: down to 2 voxels per side (resolution a power of two).
 fn clip_tail_levels() -> u32 {
-    return countTrailingZeros(max(clip_info.misc.x, 4u)) - 1u;
+    return countTrailingZeros(max(clip_info.resolution, 4u)) - 1u;
 }
 
 // First slot of tail level k (`clipmap_tail::tail_offset`).
 fn clip_tail_first(k: u32) -> u32 {
     var first = 0u;
     for (var i = 1u; i < k; i++) {
-        let m = clip_info.misc.x >> i;
+        let m = clip_info.resolution >> i;
         first += m * m * m;
     }
     return first;
 }
 
 fn clip_tail_voxel(k: u32, first: u32, j: vec3<i32>) -> vec4<f32> {
-    let n = clip_info.misc.x >> k;
+    let n = clip_info.resolution >> k;
     if any(j < vec3<i32>(0)) || any(j >= vec3<i32>(i32(n))) {
         return vec4<f32>(0.0);
     }
@@ -78,8 +78,8 @@ fn clip_tail_voxel(k: u32, first: u32, j: vec3<i32>) -> vec4<f32> {
 
 // Trilinear sample of tail level k (outside the region: empty).
 fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
-    let last = clip_info.misc.y - 1u;
-    let coarsest = clip_info.voxel.x * f32(1u << last);
+    let last = clip_info.levels - 1u;
+    let coarsest = clip_info.voxel_size * f32(1u << last);
     let origin = vec3<f32>(clip_info.origins[last].xyz);
     let g = (p / coarsest - origin) / f32(1u << k) - 0.5;
     let i0 = vec3<i32>(floor(g));
@@ -98,7 +98,7 @@ fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
 // level's offset, so the start offset grows with it).
 fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32 {
     var voxel = finest;
-    for (var l = 0u; l < clip_info.misc.y; l++) {
+    for (var l = 0u; l < clip_info.levels; l++) {
         if clip_contains(p, l) {
             break;
         }

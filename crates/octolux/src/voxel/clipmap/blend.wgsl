@@ -23,17 +23,17 @@ const CLIP_BLEND_CELLS: f32 = 2.0;
 // Distance (voxels of level l) from p to the border of the region where level l holds p's
 // trilinear neighbourhood (negative outside).
 fn clip_border_distance(p: vec3<f32>, l: u32) -> f32 {
-    let g = p / (clip_info.voxel.x * f32(1u << l)) - 0.5;
+    let g = p / (clip_info.voxel_size * f32(1u << l)) - 0.5;
     let lo = vec3<f32>(clip_info.origins[l].xyz);
-    let hi = lo + vec3<f32>(f32(clip_info.misc.x) - 1.0);
+    let hi = lo + vec3<f32>(f32(clip_info.resolution) - 1.0);
     let d = min(g - lo, hi - g);
     return min(d.x, min(d.y, d.z));
 }
 
 // x: the level to read (levels when none holds p), y: the weight of level x + 1.
 fn clip_blend_choice(p: vec3<f32>, footprint: f32) -> vec2<f32> {
-    let levels = clip_info.misc.y;
-    let lod = clamp(log2(max(footprint / clip_info.voxel.x, 1.0)), 0.0, f32(levels - 1u));
+    let levels = clip_info.levels;
+    let lod = clamp(log2(max(footprint / clip_info.voxel_size, 1.0)), 0.0, f32(levels - 1u));
     var l = u32(floor(lod));
     while l < levels && !clip_contains(p, l) {
         l++;
@@ -56,7 +56,7 @@ fn clip_blend_choice(p: vec3<f32>, footprint: f32) -> vec2<f32> {
 fn clip_sample_blend(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     let c = clip_blend_choice(p, footprint);
     let l = u32(c.x);
-    if l >= clip_info.misc.y {
+    if l >= clip_info.levels {
         return vec4<f32>(0.0);
     }
     let a = clip_sample_level(p, l);
@@ -67,9 +67,9 @@ fn clip_sample_blend(p: vec3<f32>, footprint: f32) -> vec4<f32> {
 }
 
 fn clip_aniso_voxel(l: u32, g: vec3<i32>, d: u32) -> vec4<f32> {
-    let res = i32(clip_info.misc.x);
+    let res = i32(clip_info.resolution);
     let m = vec3<u32>(((g % res) + res) % res);
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     let slot = (l - 1u) * r * r * r + m.x + r * (m.y + r * m.z);
     return unpack4x8unorm(clip_aniso[slot * 6u + d]);
 }
@@ -83,7 +83,7 @@ fn clip_aniso_level(p: vec3<f32>, l: u32, dir: vec3<f32>) -> vec4<f32> {
     let dx = select(1u, 0u, dir.x >= 0.0);
     let dy = select(3u, 2u, dir.y >= 0.0);
     let dz = select(5u, 4u, dir.z >= 0.0);
-    let g = p / (clip_info.voxel.x * f32(1u << l)) - 0.5;
+    let g = p / (clip_info.voxel_size * f32(1u << l)) - 0.5;
     let i0 = vec3<i32>(floor(g));
     let f = g - floor(g);
     var sum = vec4<f32>(0.0);
@@ -101,7 +101,7 @@ fn clip_aniso_level(p: vec3<f32>, l: u32, dir: vec3<f32>) -> vec4<f32> {
 fn clip_sample_aniso(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
     let c = clip_blend_choice(p, footprint);
     let l = u32(c.x);
-    if l >= clip_info.misc.y {
+    if l >= clip_info.levels {
         return vec4<f32>(0.0);
     }
     let a = clip_aniso_level(p, l, dir);

@@ -1,9 +1,9 @@
-// Clipmap level filtering: the voxels of level l = misc.x that lie wholly inside level l - 1
+// Clipmap level filtering: the voxels of level l = F.level that lie wholly inside level l - 1
 // are rebuilt from the 2x2x2 finer voxels instead of being voxelized on their own:
 // premultiplied colour and opacity are the rounded means of the eight (opacity becomes the
 // covered fraction), normals the normalised sum, emission the rounded integer mean of the
 // eight fixed-point values (empty voxels count as zero, so emission is premultiplied by
-// coverage like the colour, `clipmap/emission.wgsl`). With anisotropic voxels (misc.z = 1), each of
+// coverage like the colour, `clipmap/emission.wgsl`). With anisotropic voxels (F.anisotropic = 1), each of
 // the 6 directional values (travel +x, -x, +y, -y, +z, -z) composites the two finer voxels met
 // one after the other along that direction, front to back, and averages the 4 pairs across
 // the other two axes; the finer values are the finer level's directional values, or its
@@ -14,11 +14,16 @@ import octolux::voxel::voxelize::overlap::linear_index;
 import octolux::voxel::clipmap::emission::{emission_decode_fixed, emission_encode};
 import octolux::voxel::pairs::pair_along;
 
-// lo/hi: the box of level l (world-voxel coordinates of level l); misc.y: resolution.
+// One box of one level (`FilterParams` in clipmap/filter.rs).
 struct FilterParams {
-    lo: vec4<i32>,
-    hi: vec4<i32>,
-    misc: vec4<u32>,
+    // The box [lo, hi) in world-voxel coordinates of `level`.
+    lo: vec3<i32>,
+    level: u32,
+    hi: vec3<i32>,
+    // Voxels per axis of a level.
+    resolution: u32,
+    // 1 where the clipmap keeps directional values.
+    anisotropic: u32,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -29,13 +34,13 @@ struct FilterParams {
 @group(0) @binding(4) var<storage, read_write> emission: array<u32>;
 
 fn level_slots() -> u32 {
-    return F.misc.y * F.misc.y * F.misc.y;
+    return F.resolution * F.resolution * F.resolution;
 }
 
 fn slot_in_level(g: vec3<i32>) -> u32 {
-    let res = i32(F.misc.y);
+    let res = i32(F.resolution);
     let m = vec3<u32>(((g % res) + res) % res);
-    return m.x + F.misc.y * (m.y + F.misc.y * m.z);
+    return m.x + F.resolution * (m.y + F.resolution * m.z);
 }
 
 fn unpack_u8(w: u32) -> vec4<u32> {
@@ -52,11 +57,11 @@ fn snorm_part(w: u32, i: u32) -> i32 {
 
 // The cell of the box for invocation i, or false when i is past the box.
 fn box_cell(i: u32, cell: ptr<function, vec3<i32>>) -> bool {
-    let size = vec3<u32>(F.hi.xyz - F.lo.xyz);
-    if any(F.hi.xyz <= F.lo.xyz) || i >= size.x * size.y * size.z {
+    let size = vec3<u32>(F.hi - F.lo);
+    if any(F.hi <= F.lo) || i >= size.x * size.y * size.z {
         return false;
     }
-    *cell = F.lo.xyz + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
+    *cell = F.lo + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
                                            i / (size.x * size.y)));
     return true;
 }
@@ -81,7 +86,7 @@ fn filter_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
     if !box_cell(linear_index(wg, nwg, li), &c) {
         return;
     }
-    let l = F.misc.x;
+    let l = F.level;
     let fl = l - 1u;
     let n = level_slots();
     var fine: array<u32, 8>;
@@ -106,7 +111,7 @@ fn filter_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
     }
     normals[l * n + cs] = packed_normal;
     emission[l * n + cs] = emission_encode((esum + vec3<u32>(4u)) / 8u);
-    if F.misc.z == 0u {
+    if F.anisotropic == 0u {
         return;
     }
     for (var d = 0u; d < 6u; d++) {
@@ -126,7 +131,7 @@ fn replicate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     if !box_cell(linear_index(wg, nwg, li), &c) {
         return;
     }
-    let l = F.misc.x;
+    let l = F.level;
     let n = level_slots();
     let s = slot_in_level(c);
     let v = voxels[l * n + s];

@@ -28,7 +28,7 @@ fn spot_falloff(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
 fn transmittance(p: vec3<f32>, dir: vec3<f32>, dist: f32, voxel: f32) -> f32 {
     var alpha = 0.0;
     var t = 0.0;
-    for (var i = 0u; i < params.misc.y && t < dist && alpha < 0.99; i++) {
+    for (var i = 0u; i < params.max_steps && t < dist && alpha < 0.99; i++) {
         alpha += (1.0 - alpha) * clip_sample(p + t * dir, voxel).a;
         t += 0.5 * voxel;
     }
@@ -39,7 +39,7 @@ fn transmittance(p: vec3<f32>, dir: vec3<f32>, dist: f32, voxel: f32) -> f32 {
 fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
           @builtin(local_invocation_index) li: u32) {
     let i = inject_slot(wg, nwg, li);
-    if i >= params.misc.z {
+    if i >= params.slots {
         return;
     }
     let vox = inject_voxel(i);
@@ -51,7 +51,7 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     let has_normal = vox.has_normal;
     let v = vox.size;
     var e = vec3<f32>(0.0);
-    for (var k = 0u; k < params.misc.x; k++) {
+    for (var k = 0u; k < params.lights; k++) {
         let light = lights[k];
         let kind = light.position_kind.w;
         var to_light: vec3<f32>;

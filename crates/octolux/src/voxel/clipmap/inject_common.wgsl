@@ -7,11 +7,15 @@
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
 import octolux::voxel::clipmap::emission::emission_decode;
 
-// x: lights, y: most march steps per shadow ray (voxel rays only), z: voxel slots
-// (levels * res^3), w: 1 when `bounce` holds indirect irradiance to add (multiple bounces).
-
+// `InjectParams` in clipmap/inject.rs.
 struct InjectParams {
-    misc: vec4<u32>,
+    lights: u32,
+    // Most march steps per shadow ray (voxel rays only).
+    max_steps: u32,
+    // Voxel slots (levels * res^3).
+    slots: u32,
+    // 1 when `bounce` holds indirect irradiance to add (multiple bounces).
+    bounce: u32,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs. The clipmap's parameter
@@ -22,7 +26,7 @@ struct InjectParams {
 // Mean emission per voxel slot (RGB9E5).
 @group(0) @binding(6) var<storage, read> emission: array<u32>;
 // Multiple bounces: indirect irradiance per voxel slot (RGBA16F, 2 words) that the voxels
-// gathered last frame (`gi/vct/clipmap_bounce.wgsl`); a placeholder when params.misc.w is 0.
+// gathered last frame (`gi/vct/clipmap_bounce.wgsl`); a placeholder when params.bounce is 0.
 @group(0) @binding(10) var<storage, read> bounce: array<u32>;
 
 const INJECT_PI: f32 = 3.14159265358979;
@@ -64,7 +68,7 @@ fn inject_voxel(i: u32) -> InjectVoxel {
 // bounces) the indirect irradiance the slot gathered last frame.
 fn inject_store(i: u32, v: InjectVoxel, e: vec3<f32>) {
     var irradiance = e;
-    if params.misc.w != 0u {
+    if params.bounce != 0u {
         irradiance += vec3<f32>(unpack2x16float(bounce[2u * i]),
                                 unpack2x16float(bounce[2u * i + 1u]).x);
     }

@@ -13,7 +13,7 @@ import octolux::voxel::clipmap::inject_common::{inject_slot, inject_store, injec
 fn inject_shadow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                  @builtin(local_invocation_index) li: u32) {
     let i = inject_slot(wg, nwg, li);
-    if i >= params.misc.z {
+    if i >= params.slots {
         return;
     }
     let v = inject_voxel(i);
@@ -21,7 +21,7 @@ fn inject_shadow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     var e = vec3<f32>(0.0);
-    for (var k = 0u; k < params.misc.x; k++) {
+    for (var k = 0u; k < params.lights; k++) {
         let light = lights[k];
         let inc = light_incidence(light, v.p);
         // A voxel without a dominant normal (opposite faces cancelled) is lit as facing the

@@ -24,7 +24,7 @@ fn clip_radiance_level(p: vec3<f32>, l: u32) -> vec4<f32> {
 
 fn clip_radiance_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     let lod = clip_lod(p, footprint);
-    if lod.level >= clip_info.misc.y {
+    if lod.level >= clip_info.levels {
         return vec4<f32>(0.0);
     }
     let a = clip_radiance_level(p, lod.level);

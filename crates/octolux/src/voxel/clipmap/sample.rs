@@ -46,11 +46,14 @@ pub fn clip_bindings<'a>(
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ClipInfo {
-    /// Finest voxel size (x).
-    pub voxel: [f32; 4],
-    /// Resolution, levels.
-    pub misc: [u32; 4],
-    /// First voxel of each level.
+    /// Voxel edge of the finest level.
+    pub voxel_size: f32,
+    /// Voxels per axis of every level.
+    pub resolution: u32,
+    /// Number of levels.
+    pub levels: u32,
+    pub _pad: u32,
+    /// First voxel of each level (xyz; w unused).
     pub origins: [[i32; 4]; 8],
 }
 
@@ -65,8 +68,10 @@ impl ClipInfo {
             }
         }
         ClipInfo {
-            voxel: [settings.voxel_size, 0.0, 0.0, 0.0],
-            misc: [settings.resolution, settings.levels, 0, 0],
+            voxel_size: settings.voxel_size,
+            resolution: settings.resolution,
+            levels: settings.levels,
+            _pad: 0,
             origins: o,
         }
     }
@@ -85,10 +90,12 @@ fn clip_voxel(voxels: &[u32], res: u32, l: u32, g: IVec3) -> Vec4 {
 }
 
 fn clip_contains(info: &ClipInfo, p: Vec3, l: u32) -> bool {
-    let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
+    let g = p / (info.voxel_size * (1u32 << l) as f32) - 0.5;
     let o = info.origins[l as usize];
     let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
-    g.cmpge(lo).all() && g.cmplt(lo + Vec3::splat(info.misc[0] as f32 - 1.0)).all()
+    g.cmpge(lo).all()
+        && g.cmplt(lo + Vec3::splat(info.resolution as f32 - 1.0))
+            .all()
 }
 
 fn clip_sample_level(
@@ -97,7 +104,7 @@ fn clip_sample_level(
     l: u32,
     fetch: &impl Fn(u32, IVec3) -> Vec4,
 ) -> Vec4 {
-    let g = p / (info.voxel[0] * (1u32 << l) as f32) - 0.5;
+    let g = p / (info.voxel_size * (1u32 << l) as f32) - 0.5;
     let i0 = g.floor().as_ivec3();
     let f = g - g.floor();
     trilinear(f, |o| fetch(l, i0 + o.as_ivec3()))
@@ -107,14 +114,14 @@ fn clip_sample_level(
 /// [`super::Clipmap::read_voxels`].
 pub fn clip_sample(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
     clip_sample_with(info, p, footprint, &|l, g| {
-        clip_voxel(voxels, info.misc[0], l, g)
+        clip_voxel(voxels, info.resolution, l, g)
     })
 }
 
 /// CPU twin of `clip_radiance_sample`, over radiance read back with
 /// [`super::Clipmap::read_radiance`].
 pub fn clip_radiance_sample(info: &ClipInfo, radiance: &[Vec4], p: Vec3, footprint: f32) -> Vec4 {
-    let res = info.misc[0];
+    let res = info.resolution;
     clip_sample_with(info, p, footprint, &|l, g| {
         let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
         radiance[(l * res * res * res + m.x + res * (m.y + res * m.z)) as usize]
@@ -127,8 +134,8 @@ fn clip_sample_with(
     footprint: f32,
     fetch: &impl Fn(u32, IVec3) -> Vec4,
 ) -> Vec4 {
-    let levels = info.misc[1];
-    let lod = (footprint / info.voxel[0])
+    let levels = info.levels;
+    let lod = (footprint / info.voxel_size)
         .max(1.0)
         .log2()
         .clamp(0.0, (levels - 1) as f32);
@@ -152,7 +159,7 @@ fn clip_sample_with(
 pub const BLEND_CELLS: f32 = 2.0;
 
 fn level_grid(info: &ClipInfo, p: Vec3, l: u32) -> Vec3 {
-    p / (info.voxel[0] * (1u32 << l) as f32) - 0.5
+    p / (info.voxel_size * (1u32 << l) as f32) - 0.5
 }
 
 /// Whether level `l` holds the trilinear neighbourhood of `p`.
@@ -161,7 +168,8 @@ pub fn contains(info: &ClipInfo, p: Vec3, l: u32) -> bool {
         let g = level_grid(info, p, l);
         let o = info.origins[l as usize];
         let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
-        g.cmplt(lo + Vec3::splat(info.misc[0] as f32 - 1.0)).all()
+        g.cmplt(lo + Vec3::splat(info.resolution as f32 - 1.0))
+            .all()
     }
 }
 
@@ -171,7 +179,7 @@ pub fn border_distance(info: &ClipInfo, p: Vec3, l: u32) -> f32 {
     let g = level_grid(info, p, l);
     let o = info.origins[l as usize];
     let lo = Vec3::new(o[0] as f32, o[1] as f32, o[2] as f32);
-    let hi = lo + Vec3::splat(info.misc[0] as f32 - 1.0);
+    let hi = lo + Vec3::splat(info.resolution as f32 - 1.0);
     let d = (g - lo).min(hi - g);
     d.x.min(d.y.min(d.z))
 }
@@ -179,8 +187,8 @@ pub fn border_distance(info: &ClipInfo, p: Vec3, l: u32) -> f32 {
 /// The level `clip_sample_blend` reads at `p` (None when no level holds `p`) and the weight
 /// of the next coarser level.
 pub fn blend_choice(info: &ClipInfo, p: Vec3, footprint: f32) -> Option<(u32, f32)> {
-    let levels = info.misc[1];
-    let lod = (footprint / info.voxel[0])
+    let levels = info.levels;
+    let lod = (footprint / info.voxel_size)
         .max(1.0)
         .log2()
         .clamp(0.0, (levels - 1) as f32);
@@ -249,7 +257,7 @@ pub fn clip_sample_blend_with(
 
 /// CPU twin of `clip_sample_blend` over voxels read back with [`Clipmap::read_voxels`].
 pub fn clip_sample_blend(info: &ClipInfo, voxels: &[u32], p: Vec3, footprint: f32) -> Vec4 {
-    let res = info.misc[0];
+    let res = info.resolution;
     clip_sample_blend_with(info, p, footprint, |l, g| {
         voxels
             .get((l * res * res * res) as usize + slot(res, g))
@@ -267,7 +275,7 @@ pub fn clip_sample_aniso(
     footprint: f32,
     dir: Vec3,
 ) -> Vec4 {
-    let res = info.misc[0];
+    let res = info.resolution;
     let n = (res * res * res) as usize;
     let a = dir.abs();
     let w = a / (a.x + a.y + a.z).max(1e-20);
@@ -342,4 +350,20 @@ pub fn probe_blend(
         points,
         &dir_words,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn clip_info_mirrors_the_wgsl_block() {
+        assert_mirrors_wgsl!(
+            ClipInfo,
+            "voxel/clipmap/sample",
+            "ClipInfo",
+            [voxel_size, resolution, levels, _pad, origins]
+        );
+    }
 }

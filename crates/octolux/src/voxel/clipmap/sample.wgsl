@@ -6,11 +6,13 @@
 // parameter block (storage, not uniform: "Parameter blocks" in voxel/mod.rs) and the
 // voxels; the radiance and anisotropic samplers add theirs after them.
 
+// `ClipInfo` in voxel/clipmap/sample.rs.
 struct ClipInfo {
-    // x: finest voxel size.
-    voxel: vec4<f32>,
-    // x: resolution, y: levels.
-    misc: vec4<u32>,
+    // Voxel edge of the finest level.
+    voxel_size: f32,
+    // Voxels per axis of every level.
+    resolution: u32,
+    levels: u32,
     // First voxel of each level (world-voxel coordinates of that level).
     origins: array<vec4<i32>, 8>,
 }
@@ -20,23 +22,23 @@ struct ClipInfo {
 
 // Index of the voxel at world-voxel coordinates `g` of level `l` (toroidal addressing).
 fn clip_slot(l: u32, g: vec3<i32>) -> u32 {
-    let res = i32(clip_info.misc.x);
+    let res = i32(clip_info.resolution);
     let m = vec3<u32>(((g % res) + res) % res);
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     return l * r * r * r + m.x + r * (m.y + r * m.z);
 }
 
 // The inverse of `clip_slot`: the centre (xyz, world) and edge (w) of the voxel that slot `i`
 // of the whole array holds now, from its level's origin.
 fn clip_slot_centre(i: u32) -> vec4<f32> {
-    let r = clip_info.misc.x;
+    let r = clip_info.resolution;
     let l = i / (r * r * r);
     let s = i % (r * r * r);
     let m = vec3<i32>(vec3<u32>(s % r, (s / r) % r, s / (r * r)));
     let o = clip_info.origins[l].xyz;
     let ri = i32(r);
     let g = o + ((m - o) % ri + ri) % ri;
-    let size = clip_info.voxel.x * f32(1u << l);
+    let size = clip_info.voxel_size * f32(1u << l);
     return vec4<f32>((vec3<f32>(g) + 0.5) * size, size);
 }
 
@@ -46,9 +48,9 @@ fn clip_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {
 
 // Whether level l holds p's trilinear neighbourhood.
 fn clip_contains(p: vec3<f32>, l: u32) -> bool {
-    let g = p / (clip_info.voxel.x * f32(1u << l)) - 0.5;
+    let g = p / (clip_info.voxel_size * f32(1u << l)) - 0.5;
     let lo = vec3<f32>(clip_info.origins[l].xyz);
-    return all(g >= lo) && all(g < lo + vec3<f32>(f32(clip_info.misc.x) - 1.0));
+    return all(g >= lo) && all(g < lo + vec3<f32>(f32(clip_info.resolution) - 1.0));
 }
 
 // Trilinear cell of level l around p: lower corner and weights.
@@ -58,7 +60,7 @@ struct ClipCell {
 }
 
 fn clip_cell(p: vec3<f32>, l: u32) -> ClipCell {
-    let g = p / (clip_info.voxel.x * f32(1u << l)) - 0.5;
+    let g = p / (clip_info.voxel_size * f32(1u << l)) - 0.5;
     return ClipCell(vec3<i32>(floor(g)), g - floor(g));
 }
 
@@ -80,8 +82,8 @@ struct ClipLod {
 }
 
 fn clip_lod(p: vec3<f32>, footprint: f32) -> ClipLod {
-    let levels = clip_info.misc.y;
-    let lod = clamp(log2(max(footprint / clip_info.voxel.x, 1.0)), 0.0, f32(levels - 1u));
+    let levels = clip_info.levels;
+    let lod = clamp(log2(max(footprint / clip_info.voxel_size, 1.0)), 0.0, f32(levels - 1u));
     var l = u32(floor(lod));
     while l < levels && !clip_contains(p, l) {
         l++;
@@ -105,7 +107,7 @@ fn clip_sample_level(p: vec3<f32>, l: u32) -> vec4<f32> {
 
 fn clip_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
     let lod = clip_lod(p, footprint);
-    if lod.level >= clip_info.misc.y {
+    if lod.level >= clip_info.levels {
         return vec4<f32>(0.0);
     }
     let a = clip_sample_level(p, lod.level);

@@ -4,18 +4,30 @@
 // opacity 255 when any triangle touches the voxel, all zero otherwise), the normalised normal
 // sum, and the mean emission (fixed-point sums divided with rounding, RGB9E5, see
 // `clipmap/emission.wgsl`).
-// misc: x = work items, y = first voxel of the level in `voxels`, z = resolution per axis.
 
-import octolux::voxel::voxelize::overlap::{cell_count, CHUNK, linear_index, nth_offset, Piece, piece_cells, piece_test, piece_touches, Tri, VoxParams};
+import octolux::voxel::voxelize::overlap::{cell_count, CHUNK, linear_index, nth_offset, Piece, piece_cells, piece_test, piece_touches, Tri};
 import octolux::voxel::clipmap::emission::{emission_encode, emission_fixed};
 
-// Scratch words per voxel (ACCUM_WORDS in clipmap/mod.rs): albedo r, g, b sums, fragment count,
+// Scratch words per voxel (ACCUM_WORDS in clipmap/revoxelise.rs): albedo r, g, b sums, fragment count,
 // normal x, y, z sums, emission r, g, b sums as 64 bits (low words, then high words).
 
 const ACCUM_WORDS: u32 = 13u;
 
+// One z slice of an update box (`BoxParams` in clipmap/revoxelise.rs).
+struct BoxParams {
+    // The slice [lo, hi) in world-voxel coordinates of its level.
+    lo: vec3<i32>,
+    // Work items of the slice.
+    items: u32,
+    hi: vec3<i32>,
+    // First voxel slot of the level in `voxels`.
+    level_first: u32,
+    // Voxels per axis of a level.
+    resolution: u32,
+}
+
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
-@group(0) @binding(0) var<storage, read> P: VoxParams;
+@group(0) @binding(0) var<storage, read> P: BoxParams;
 @group(0) @binding(1) var<storage, read> tris: array<Tri>;
 @group(0) @binding(2) var<storage, read> items: array<vec2<u32>>;
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
@@ -64,14 +76,14 @@ fn snorm_byte(w: u32, i: u32) -> i32 {
 }
 
 fn box_size() -> vec3<u32> {
-    return vec3<u32>(P.hi.xyz - P.lo.xyz);
+    return vec3<u32>(P.hi - P.lo);
 }
 
 @compute @workgroup_size(64)
 fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     let w = linear_index(wg, nwg, li);
-    if w >= P.misc.x {
+    if w >= P.items {
         return;
     }
     let piece = pieces[items[w].x];
@@ -135,10 +147,10 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
         value = ((r + half) / count) | (((g + half) / count) << 8u) | (((b + half) / count) << 16u)
             | (255u << 24u);
     }
-    let res = i32(P.misc.z);
-    let cell = P.lo.xyz + vec3<i32>(l);
+    let res = i32(P.resolution);
+    let cell = P.lo + vec3<i32>(l);
     let m = vec3<u32>(((cell % res) + res) % res);
-    let slot = P.misc.y + m.x + P.misc.z * (m.y + P.misc.z * m.z);
+    let slot = P.level_first + m.x + P.resolution * (m.y + P.resolution * m.z);
     voxels[slot] = value;
     var packed_normal = 0u;
     if dot(n, n) > 0.0 {
