@@ -6,8 +6,8 @@
 //! The WGSL side is read with naga, which lays out a struct's members as wgpu does (the
 //! offsets of naga's `TypeInner::Struct` members); the Rust side is
 //! [`std::mem::offset_of!`], gathered by [`assert_mirrors_wgsl!`]. Rust fields whose names
-//! start with `_` are padding and have no WGSL counterpart. Test-only: naga is a dev
-//! dependency.
+//! start with `_` and WGSL members whose names start with `_` or `pad` are padding and have no
+//! counterpart. Test-only: naga is a dev dependency.
 
 /// The members (name, byte offset) and the size of struct `name` in WGSL `source`. Panics
 /// where the source does not parse or has no such struct.
@@ -31,7 +31,9 @@ pub(crate) fn wgsl_struct_layout(source: &str, name: &str) -> (Vec<(String, u32)
 /// Rust field but padding (`_...`) is a WGSL member, and the sizes agree.
 pub(crate) fn assert_mirrors(source: &str, name: &str, size: usize, fields: &[(&str, usize)]) {
     let (members, span) = wgsl_struct_layout(source, name);
-    for (member, offset) in &members {
+    // Padding members on either side (`_pad`, `pad0`) have no counterpart to match.
+    let padding = |m: &str| m.starts_with('_') || m.starts_with("pad");
+    for (member, offset) in members.iter().filter(|(m, _)| !padding(m)) {
         let rust = fields.iter().find(|(f, _)| f == member);
         assert_eq!(
             rust.map(|&(_, o)| o as u32),
@@ -40,7 +42,7 @@ pub(crate) fn assert_mirrors(source: &str, name: &str, size: usize, fields: &[(&
             rust.map(|(_, o)| o)
         );
     }
-    for (field, _) in fields.iter().filter(|(f, _)| !f.starts_with('_')) {
+    for (field, _) in fields.iter().filter(|(f, _)| !padding(f)) {
         assert!(
             members.iter().any(|(m, _)| m == field),
             "{name}.{field}: a Rust field the WGSL struct lacks"

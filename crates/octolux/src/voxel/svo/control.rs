@@ -159,60 +159,17 @@ mod tests {
     use crate::voxel::svo::inject::InjectParams;
     use crate::voxel::svo::pack::PackParams;
 
-    /// The byte offset of every member of the WGSL struct `name` in `source` (padding,
-    /// members named `pad...`, left out) and the struct's size, as naga lays it out.
-    fn wgsl_layout(source: &str, name: &str) -> (Vec<(String, u32)>, u32) {
-        let module = naga::front::wgsl::parse_str(source)
-            .unwrap_or_else(|e| panic!("{}", e.emit_to_string(source)));
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(module.to_ctx()).unwrap();
-        let ty = module
-            .types
-            .iter()
-            .find(|(_, ty)| ty.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("no WGSL struct {name}"))
-            .1;
-        let naga::TypeInner::Struct { members, span } = &ty.inner else {
-            panic!("{name} is not a struct");
-        };
-        let members = members
-            .iter()
-            .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-            .filter(|(n, _)| !n.starts_with("pad"))
-            .collect();
-        (members, *span)
-    }
-
-    /// Asserts that the Rust struct `$rust` lays out the named fields as the WGSL struct
-    /// `$wgsl` of `$source`, that they are all of its members but padding, and that both have
-    /// the same size.
+    /// Asserts that the Rust struct `$rust` mirrors the WGSL struct `$wgsl` of `$source`
+    /// (`crate::gpu::layout::assert_mirrors`), listing every field of `$rust`.
     macro_rules! assert_mirrors {
-        ($rust:ty, $source:expr, $wgsl:expr, [$($field:ident),* $(,)?]) => {{
-            let (wgsl, size) = wgsl_layout($source, $wgsl);
-            let rust: Vec<(String, u32)> = vec![
-                $((stringify!($field).to_string(), std::mem::offset_of!($rust, $field) as u32)),*
-            ];
-            for (field, offset) in &rust {
-                let at = wgsl.iter().find(|(n, _)| n == field).map(|m| m.1);
-                assert_eq!(
-                    at,
-                    Some(*offset),
-                    "{}::{field} is at byte {offset} in Rust, at {at:?} in WGSL {}",
-                    stringify!($rust),
-                    $wgsl
-                );
-            }
-            let named: Vec<&String> = wgsl.iter().map(|m| &m.0).collect();
-            let listed: Vec<&String> = rust.iter().map(|m| &m.0).collect();
-            assert_eq!(named, listed, "members of WGSL {} vs fields of {}", $wgsl, stringify!($rust));
-            assert_eq!(
-                size,
-                std::mem::size_of::<$rust>() as u32,
-                "size of WGSL {} vs {}",
+        ($rust:ty, $source:expr, $wgsl:expr, [$($field:ident),* $(,)?]) => {
+            crate::gpu::layout::assert_mirrors(
+                $source,
                 $wgsl,
-                stringify!($rust)
-            );
-        }};
+                std::mem::size_of::<$rust>(),
+                &[$((stringify!($field), std::mem::offset_of!($rust, $field))),*],
+            )
+        };
     }
 
     #[test]
