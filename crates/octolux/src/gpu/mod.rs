@@ -19,7 +19,7 @@ pub mod work;
 
 pub use context::{AdapterChoice, GpuContext, GpuOptions, ResourceCounts, Timestamps, ADAPTER_ENV};
 pub use ledger::{LedgerEntry, MemoryLedger};
-pub use readback::{read_buffer, read_half_image, read_texture};
+pub use readback::{read_buffer, read_half_image, read_texture, read_words};
 pub use timer::{
     scoped_name, slowest_first, PassTimer, PassTiming, TimingSource, PROFILE_STEPS_ENV,
 };

@@ -25,6 +25,12 @@ pub fn read_buffer(
     Ok(bytes)
 }
 
+/// The whole of `buffer` as 32-bit words (the buffer needs `COPY_SRC`). Blocks.
+pub fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u32>> {
+    let bytes = read_buffer(ctx, buffer, 0, buffer.size())?;
+    Ok(bytemuck::cast_slice(&bytes).to_vec())
+}
+
 /// Reads mip level 0 / layer `layer` of a 2D texture (or the whole of a 3D one) tightly packed,
 /// rows top to bottom. The texture needs `COPY_SRC`. Blocks.
 pub fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture, layer: u32) -> Result<Vec<u8>> {

@@ -10,12 +10,11 @@
 //! so each injection recorded before one takes the next of [`INJECT_SLOTS`] slots.
 
 use super::sample::{ClipInfo, CLIP_BINDINGS};
-use super::volume::read_words;
 use super::{decode_emission, Clipmap};
 use crate::gpu::alloc::{param_slots, storage};
 use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
 use crate::gpu::shader::library_shader;
-use crate::gpu::{GpuContext, PassTimer};
+use crate::gpu::{read_words, GpuContext, PassTimer};
 use crate::scene::{Light, LightKind};
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};

@@ -11,7 +11,7 @@ use super::revoxelise::{Scratch, UpdateStats, ACCUM_BYTES, ACCUM_WORDS};
 use super::{ClipmapOptions, ClipmapSettings, UpdateBox, OWNER};
 use crate::gpu::alloc::storage;
 use crate::gpu::shader::library_shader;
-use crate::gpu::{read_buffer, GpuContext, PassTimer};
+use crate::gpu::{read_buffer, read_words, GpuContext, PassTimer};
 use crate::voxel::voxelize::upload_triangles;
 use crate::voxel::VoxelTriangle;
 use crate::{Error, Result};
@@ -288,10 +288,4 @@ impl Clipmap {
             None => Ok(Vec::new()),
         }
     }
-}
-
-/// The whole of `buffer` as words. Blocks.
-pub(super) fn read_words(ctx: &GpuContext, buffer: &wgpu::Buffer) -> Result<Vec<u32>> {
-    let bytes = read_buffer(ctx, buffer, 0, buffer.size())?;
-    Ok(bytemuck::cast_slice(&bytes).to_vec())
 }

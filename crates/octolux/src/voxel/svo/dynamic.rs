@@ -43,9 +43,10 @@
 //! the exact lattice ([`crate::voxel::svo::cpu::lattices`]) within the tolerance the tests state.
 
 mod readback;
+mod ring;
 pub(super) mod state;
 
-pub use readback::READBACK_SLOTS;
+pub use ring::READBACK_SLOTS;
 pub(crate) use state::{bind_group_layout, StaticPart, SvoDynamic};
 
 use crate::gpu::{GpuContext, PassTimer, PassTiming};

@@ -15,7 +15,7 @@ use crate::frame::ShadowLookup;
 use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
-use crate::voxel::svo::pipelines::group0_with;
+use crate::voxel::svo::bindings::group0_with;
 use crate::voxel::svo::steps::{filter_steps, record_steps};
 use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::voxelize::FragmentList;

@@ -32,12 +32,15 @@
 
 pub mod aniso;
 pub mod aniso_radiance;
+mod bindings;
 mod build;
 mod control;
 pub mod cpu;
 pub mod dynamic;
 pub mod inject;
 mod limits;
+#[cfg(test)]
+mod mirrors;
 mod octree;
 mod pack;
 mod pipelines;

@@ -5,6 +5,7 @@
 //! dispatch arguments, bound only by the kernels that write them) and group 2 (the dynamic
 //! part). The options (`with_*`) choose how octrees are built.
 
+use super::bindings::{group0_with, layout0_with, storage, Groups, Pipelines};
 use crate::gpu::shader::library_shader;
 use crate::gpu::GpuContext;
 use crate::voxel::svo::pack::PackBricks;
@@ -36,21 +37,12 @@ pub struct SvoBuilder {
     pub(super) mip_placeholder: wgpu::Buffer,
 }
 
-/// A read-write (or read-only) storage buffer entry of a compute bind group layout.
-pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    crate::gpu::storage_entry(binding, read_only)
-}
-
 /// The mip and transfer kernels compiled with the feature `facing` (`svo/build.wgsl`): group 0
 /// of the build layout plus the facing pool's four buffers (bindings 12..15).
 pub(super) struct FacingFilter {
     pub(super) layout0: wgpu::BindGroupLayout,
     pub(super) pipelines: Pipelines,
 }
-
-/// Kernels by entry point, with the groups they bind beyond group 0.
-pub(super) type Pipelines =
-    std::collections::HashMap<&'static str, (wgpu::ComputePipeline, Groups)>;
 
 /// The entry points that filter a brick pool up the levels (`filter_steps`).
 const FILTER_ENTRIES: [&str; 5] = [
@@ -60,14 +52,6 @@ const FILTER_ENTRIES: [&str; 5] = [
     "transfer_y",
     "transfer_z",
 ];
-
-/// Which bind groups beyond group 0 a kernel uses: group 1 (the dispatch arguments, which a
-/// kernel dispatched indirectly must not bind) and group 2 (the dynamic part).
-#[derive(Clone, Copy)]
-pub(super) struct Groups {
-    pub(super) args: bool,
-    pub(super) dynamic: bool,
-}
 
 impl SvoBuilder {
     /// Compiles the build kernels.
@@ -267,56 +251,4 @@ impl SvoBuilder {
             FacingFilter { layout0, pipelines }
         })
     }
-}
-
-/// Group 0's layout of the octree kernels: the per-level parameter slots (read-only storage
-/// with a dynamic offset, "Parameter blocks" in voxel/mod.rs), fragments and triangles
-/// (read-only), and read-write storage buffers up to binding `last`.
-fn layout0_with(device: &wgpu::Device, label: &str, last: u32) -> wgpu::BindGroupLayout {
-    let mut entries = vec![wgpu::BindGroupLayoutEntry {
-        binding: 0,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: true,
-            min_binding_size: wgpu::BufferSize::new(32),
-        },
-        count: None,
-    }];
-    entries.push(storage(1, true));
-    entries.push(storage(2, true));
-    entries.extend((3..=last).map(|b| storage(b, false)));
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some(label),
-        entries: &entries,
-    })
-}
-
-/// Group 0 of the octree kernels over `layout`: `params` (per-level slots) and `buffers` at
-/// bindings 1...
-pub(super) fn group0_with(
-    ctx: &GpuContext,
-    layout: &wgpu::BindGroupLayout,
-    params: &wgpu::Buffer,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let mut entries = vec![wgpu::BindGroupEntry {
-        binding: 0,
-        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-            buffer: params,
-            offset: 0,
-            size: wgpu::BufferSize::new(32),
-        }),
-    }];
-    for (i, b) in buffers.iter().enumerate() {
-        entries.push(wgpu::BindGroupEntry {
-            binding: i as u32 + 1,
-            resource: b.as_entire_binding(),
-        });
-    }
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("svo"),
-        layout,
-        entries: &entries,
-    })
 }

@@ -5,8 +5,8 @@
 
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::PassTimer;
+use crate::voxel::svo::bindings::Pipelines;
 use crate::voxel::svo::control::{ARGS_DYN_NODES, NODE_ARGS, PARAM_STRIDE};
-use crate::voxel::svo::pipelines::Pipelines;
 use crate::voxel::svo::SvoBuilder;
 
 /// How many invocations a step runs.

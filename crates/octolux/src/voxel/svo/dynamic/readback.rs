@@ -1,57 +1,18 @@
-//! The counts of the dynamic updates reach the CPU through a ring of [`READBACK_SLOTS`]
+//! The counts of the dynamic updates reach the CPU through a ring of
+//! [`READBACK_SLOTS`](super::ring::READBACK_SLOTS)
 //! staging buffers: each update copies its control block, and the previous update's, into a
 //! free one, mapped when the frame is submitted; [`Svo::poll_dynamic`] picks up what the GPU
 //! has finished without blocking, [`Svo::sync_dynamic`] waits for it. An update that ran out
 //! of its reserve is reported here, naming what ran out.
 
+use super::ring::{FAILED, FREE, MAPPED, WAITING};
 use super::state::{SvoDynamic, PARAMS_LAST};
 use super::{DynamicCounts, DynamicReserve};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::svo::control::{SvoControl, BRICK_OVERFLOW, CONTROL_BYTES};
-use crate::voxel::svo::{Svo, OWNER};
+use crate::voxel::svo::Svo;
 use crate::{Error, Result};
-use std::sync::atomic::{AtomicU8, Ordering};
-use std::sync::Arc;
-
-/// Staging buffers of the counts readback: an update whose frame finds none free (the GPU is
-/// more than this many updates behind) is not read back; a later one is.
-pub const READBACK_SLOTS: usize = 4;
-
-/// Mapping state of a readback slot.
-const FREE: u8 = 0;
-const WAITING: u8 = 1;
-const MAPPED: u8 = 2;
-const FAILED: u8 = 3;
-
-/// One staging buffer of the counts readback: the control block after the update, then the
-/// one it started from.
-pub(super) struct Readback {
-    buffer: wgpu::Buffer,
-    state: Arc<AtomicU8>,
-    /// The update it holds, and that update's triangle count (for the error message).
-    update: u64,
-    triangles: usize,
-}
-
-impl Readback {
-    /// Staging buffer `k` of the ring, free.
-    pub(super) fn new(ctx: &GpuContext, k: usize) -> Readback {
-        Readback {
-            buffer: ctx.create_buffer(
-                OWNER,
-                &wgpu::BufferDescriptor {
-                    label: Some(&format!("dynamic counts readback {k}")),
-                    size: 2 * CONTROL_BYTES,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                },
-            ),
-            state: Arc::new(AtomicU8::new(FREE)),
-            update: 0,
-            triangles: 0,
-        }
-    }
-}
+use std::sync::atomic::Ordering;
 
 impl SvoDynamic {
     /// Records the copy of update `update`'s control block, and of the previous update's, into

@@ -3,7 +3,7 @@
 //! ([`DynParams`]) and the control block every update starts from; and what an update records
 //! around its kernels: the restart of the counters and the clearing of the dynamic section.
 
-use super::readback::{Readback, READBACK_SLOTS};
+use super::ring::{Readback, READBACK_SLOTS};
 use super::DynamicReserve;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::svo::control::{level_params, NodeRange, SvoControl, CONTROL_BYTES, MAX_LEVELS};
@@ -181,7 +181,7 @@ fn reset_control(built: &SvoControl) -> SvoControl {
 
 /// Group 2 of the dynamic kernels: parameters, state, lists, sums.
 pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    use crate::voxel::svo::pipelines::storage;
+    use crate::voxel::svo::bindings::storage;
     let mut entries = vec![wgpu::BindGroupLayoutEntry {
         binding: 1,
         visibility: wgpu::ShaderStages::COMPUTE,
