@@ -92,6 +92,41 @@ fn bench_files(dir: &Path) -> Result<Vec<(String, Value)>> {
         .collect()
 }
 
+/// Scene names, and per technique its cells per scene.
+type PerTechnique<T> = (Vec<String>, Vec<(String, Vec<T>)>);
+
+/// The scene names of bench `files` (in order) and, per technique of the first file (in its
+/// order), `cell` of its entry in every file; the files' provenance is added.
+fn per_technique<T>(
+    files: &[(String, Value)],
+    provenance: &mut Provenance,
+    mut cell: impl FnMut(&Value, &str) -> Result<T>,
+) -> Result<PerTechnique<T>> {
+    let mut scenes = Vec::new();
+    let mut techniques: Vec<(String, Vec<T>)> = Vec::new();
+    for (i, (name, doc)) in files.iter().enumerate() {
+        provenance.add(doc);
+        let list = doc["scenes"][0]["techniques"]
+            .as_array()
+            .with_context(|| format!("{name}.json: no techniques"))?;
+        if i == 0 {
+            techniques = list
+                .iter()
+                .map(|t| (t["technique"].as_str().unwrap_or("?").to_string(), vec![]))
+                .collect();
+        }
+        for (technique, cells) in &mut techniques {
+            let t = list
+                .iter()
+                .find(|t| t["technique"] == technique.as_str())
+                .with_context(|| format!("{name}.json: no technique '{technique}'"))?;
+            cells.push(cell(t, name)?);
+        }
+        scenes.push(name.clone());
+    }
+    Ok((scenes, techniques))
+}
+
 /// FLIP and relMSE of one technique on one scene.
 #[derive(Clone, Copy, Debug)]
 pub struct Error {
@@ -122,34 +157,14 @@ impl ErrorRun {
             data: shown.to_string(),
             ..Default::default()
         };
-        let mut scenes = Vec::new();
-        let mut techniques: Vec<(String, Vec<Error>)> = Vec::new();
+        let (scenes, techniques) = per_technique(&files, &mut provenance, |t, name| {
+            let m = &t["metrics"];
+            Ok(Error {
+                flip: number(m, "flip", name)?,
+                rel_mse: number(m, "rel_mse", name)?,
+            })
+        })?;
         let first = &files[0].1;
-        for (i, (name, doc)) in files.iter().enumerate() {
-            provenance.add(doc);
-            let scene = &doc["scenes"][0];
-            let list = scene["techniques"]
-                .as_array()
-                .with_context(|| format!("{name}.json: no techniques"))?;
-            if i == 0 {
-                techniques = list
-                    .iter()
-                    .map(|t| (t["technique"].as_str().unwrap_or("?").to_string(), vec![]))
-                    .collect();
-            }
-            for (technique, errors) in &mut techniques {
-                let t = list
-                    .iter()
-                    .find(|t| t["technique"] == technique.as_str())
-                    .with_context(|| format!("{name}.json: no technique '{technique}'"))?;
-                let m = &t["metrics"];
-                errors.push(Error {
-                    flip: number(m, "flip", name)?,
-                    rel_mse: number(m, "rel_mse", name)?,
-                });
-            }
-            scenes.push(name.clone());
-        }
         let reference = &first["scenes"][0]["references"][0];
         Ok(ErrorRun {
             provenance,
@@ -381,41 +396,22 @@ impl MovingRun {
             data: shown.to_string(),
             ..Default::default()
         };
-        let mut scenes = Vec::new();
-        let mut techniques: Vec<(String, Vec<MovingCell>)> = Vec::new();
-        for (i, (name, doc)) in files.iter().enumerate() {
-            provenance.add(doc);
-            let list = doc["scenes"][0]["techniques"]
-                .as_array()
-                .with_context(|| format!("{name}.json: no techniques"))?;
-            if i == 0 {
-                techniques = list
-                    .iter()
-                    .map(|t| (t["technique"].as_str().unwrap_or("?").to_string(), vec![]))
-                    .collect();
-            }
-            for (technique, cells) in &mut techniques {
-                let t = list
-                    .iter()
-                    .find(|t| t["technique"] == technique.as_str())
-                    .with_context(|| format!("{name}.json: no technique '{technique}'"))?;
-                let gi_ms = number(&t["gi_total"], "mean_ms", name)?;
-                let mut work: Vec<(String, u64)> = Vec::new();
-                let passes = t["passes"].as_array().into_iter().flatten();
-                for pass in passes.filter(|p| p["gi"].as_bool() == Some(true)) {
-                    for w in pass["work"].as_array().into_iter().flatten() {
-                        let quantity = w["quantity"].as_str().unwrap_or("?").to_string();
-                        let count = w["count"].as_u64().unwrap_or(0);
-                        match work.iter_mut().find(|(q, _)| *q == quantity) {
-                            Some((_, n)) => *n += count,
-                            None => work.push((quantity, count)),
-                        }
+        let (scenes, techniques) = per_technique(&files, &mut provenance, |t, name| {
+            let gi_ms = number(&t["gi_total"], "mean_ms", name)?;
+            let mut work: Vec<(String, u64)> = Vec::new();
+            let passes = t["passes"].as_array().into_iter().flatten();
+            for pass in passes.filter(|p| p["gi"].as_bool() == Some(true)) {
+                for w in pass["work"].as_array().into_iter().flatten() {
+                    let quantity = w["quantity"].as_str().unwrap_or("?").to_string();
+                    let count = w["count"].as_u64().unwrap_or(0);
+                    match work.iter_mut().find(|(q, _)| *q == quantity) {
+                        Some((_, n)) => *n += count,
+                        None => work.push((quantity, count)),
                     }
                 }
-                cells.push(MovingCell { gi_ms, work });
             }
-            scenes.push(name.clone());
-        }
+            Ok(MovingCell { gi_ms, work })
+        })?;
         Ok(MovingRun {
             provenance,
             scenes,

@@ -36,24 +36,7 @@ impl Tri {
     /// p0 + u e1 + v e2.
     #[inline]
     fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<(f32, f32, f32)> {
-        let p = dir.cross(self.e2);
-        let det = self.e1.dot(p);
-        if det.abs() < 1e-12 {
-            return None;
-        }
-        let inv = 1.0 / det;
-        let s = origin - self.p0;
-        let u = s.dot(p) * inv;
-        if !(0.0..=1.0).contains(&u) {
-            return None;
-        }
-        let q = s.cross(self.e1);
-        let v = dir.dot(q) * inv;
-        if v < 0.0 || u + v > 1.0 {
-            return None;
-        }
-        let t = self.e2.dot(q) * inv;
-        (t > 0.0 && t < t_max).then_some((t, u, v))
+        crate::scene::intersect_triangle(self.p0, self.e1, self.e2, origin, dir, t_max)
     }
 
     /// Unit normal of the winding order (e1 x e2).

@@ -111,8 +111,8 @@ impl Rays {
         let mut hit = obvhs::ray::RayHit::none();
         bvh.ray_traverse(ray, &mut hit, |r, id| {
             let [p0, e1, e2, front] = self.tris[id];
-            match intersect(p0, e1, e2, origin, dir, r.tmax) {
-                Some(t) => {
+            match intersect_triangle(p0, e1, e2, origin, dir, r.tmax) {
+                Some((t, _, _)) => {
                     best = Some((t, front));
                     t
                 }
@@ -141,8 +141,18 @@ impl Rays {
     }
 }
 
-/// Möller-Trumbore: the distance to a hit with t in (0, t_max).
-fn intersect(p0: Vec3, e1: Vec3, e2: Vec3, origin: Vec3, dir: Vec3, t_max: f32) -> Option<f32> {
+/// Möller-Trumbore: (t, u, v) of the hit of `origin + t dir` on the triangle `p0 + u e1 + v e2`
+/// with t in (0, t_max). The CPU ray queries (this camera's, the reference path tracer's) share
+/// it.
+#[inline]
+pub(crate) fn intersect_triangle(
+    p0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f32,
+) -> Option<(f32, f32, f32)> {
     let p = dir.cross(e2);
     let det = e1.dot(p);
     if det.abs() < 1e-12 {
@@ -160,7 +170,7 @@ fn intersect(p0: Vec3, e1: Vec3, e2: Vec3, origin: Vec3, dir: Vec3, t_max: f32) 
         return None;
     }
     let t = e2.dot(q) * inv;
-    (t > 0.0 && t < t_max).then_some(t)
+    (t > 0.0 && t < t_max).then_some((t, u, v))
 }
 
 /// `n` directions spread evenly over the sphere (a Fibonacci lattice).

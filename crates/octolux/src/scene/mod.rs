@@ -23,6 +23,7 @@ mod validate;
 
 pub use animation::{Keyframe, Track};
 pub use camera::{Camera, CameraView};
+pub(crate) use framing::intersect_triangle;
 pub use framing::ViewSurvey;
 pub use scenes_dir::scenes_dir;
 pub use sky::{direction_to_uv, uv_to_direction, EnvironmentMap, Sky, SkyRadiance};
