@@ -12,7 +12,11 @@
 #
 # Environment: GI (technique list, default: all), SIZE (default 640x360), SPP (reference
 # samples, default 1024), SCENES (default: scenes/cornell-box.toml), WARMUP (default 40),
-# OCTOLUX_SCENES (where the external models lie, default ../shared/scenes).
+# OCTOLUX_SCENES (where the external models lie, default ../shared/scenes), REFERENCES (the
+# reference cache, default target/reference-cache: `bench --reference-cache`, so a second
+# run renders no reference; the noise file of a scene is kept, not rendered again).
+# The references take minutes to hours on a CPU (bench prints their progress); where SPP
+# cannot reach a tenth of the smallest error judged, the noise file says how far it is.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -24,6 +28,7 @@ spp=${SPP:-1024}
 warmup=${WARMUP:-40}
 scenes=${SCENES:-scenes/cornell-box.toml}
 out=${2:-results/lavapipe/settled-$size}
+references=${REFERENCES:-target/reference-cache}
 export OCTOLUX_SCENES=${OCTOLUX_SCENES:-../shared/scenes}
 mkdir -p "$out"
 
@@ -32,13 +37,19 @@ for scene in $scenes; do
   echo "settled-table: $name" >&2
   "$bin" bench "$scene" --gi "$gi" --width "${size%x*}" --height "${size#*x}" --warmup "$warmup" \
     --frames 1 --spp "$spp" --seed 7 --against unlimited --no-work-counts --no-flicker \
-    --json "$out/$name.json" --out-dir "$out/$name" > "$out/$name.txt"
-  # The reference's own noise: a second render with another seed, compared with the first.
+    --reference-cache "$references" --json "$out/$name.json" --out-dir "$out/$name" \
+    > "$out/$name.txt"
+  # The reference's own noise: a second render with another seed, compared with the first
+  # (once per scene and reference size).
+  if [ -s "$out/$name-noise.txt" ] && grep -q "spp $spp" "$out/$name-noise.txt"; then
+    cargo run -q -p octolux-tables -- sheet "$out/$name" "$out/$name.png" 5
+    continue
+  fi
   "$bin" render "$scene" --gi reference --bounces unlimited --spp "$spp" --seed 8 \
     --width "${size%x*}" --height "${size#*x}" --out "$out/$name/reference-seed8.png" \
     --exr "$out/$name/reference-seed8.exr" > /dev/null
-  "$bin" diff "$out/$name/reference-seed8.exr" "$out/$name/reference-unlimited.exr" \
-    > "$out/$name-noise.txt"
+  { echo "spp $spp"; "$bin" diff "$out/$name/reference-seed8.exr" \
+    "$out/$name/reference-unlimited.exr"; } > "$out/$name-noise.txt"
   rm "$out/$name/reference-seed8.png"
   cargo run -q -p octolux-tables -- sheet "$out/$name" "$out/$name.png" 5
 done

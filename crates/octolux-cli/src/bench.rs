@@ -2,6 +2,7 @@
 //! frames; per scene one table of frame-time statistics (per pass, GI total, whole frame), GPU
 //! memory and, unless `--no-reference`, error against the matching CPU reference.
 
+mod reference_cache;
 mod report;
 mod temporal;
 
@@ -93,6 +94,11 @@ pub struct BenchArgs {
     /// into this folder (with several scenes, into one subfolder per scene).
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
+    /// Keep every reference rendered in this folder and take it from there when the same one
+    /// is asked again (same scene content, frame, size, settings and path tracer), instead
+    /// of rendering it anew.
+    #[arg(long, value_name = "DIR", conflicts_with = "no_reference")]
+    pub reference_cache: Option<PathBuf>,
     /// Reference sampling (the transport is the one each technique claims, or `--against`).
     #[command(flatten, next_help_heading = "Reference path tracer")]
     pub sampling: SamplingArgs,
@@ -632,9 +638,8 @@ fn bench_scene(
                 *bounces,
                 references.is_empty().then_some(settings.spp),
             );
-            let start = Instant::now();
-            let images = reference_frame(scene, last_time, args, &settings, quiet)?;
-            references.push((*bounces, images, start.elapsed().as_secs_f64()));
+            let (images, seconds) = reference_frame(scene, last_time, args, &settings, quiet)?;
+            references.push((*bounces, images, seconds));
         }
         for (result, (name, bounces, image)) in techniques.iter_mut().zip(&images) {
             let Some((_, reference, _)) = references.iter().find(|(b, _, _)| b == bounces) else {
@@ -748,8 +753,9 @@ impl LagReferences<'_> {
                     bail!("--lag needs the reference (it conflicts with --no-reference)");
                 };
                 let settings = settings.clone().with_transport(bounces);
-                let images = reference_frame(&after.scene, after.time, args, &settings, self.quiet)
-                    .with_context(|| format!("reference after '{key}'"))?;
+                let (images, _) =
+                    reference_frame(&after.scene, after.time, args, &settings, self.quiet)
+                        .with_context(|| format!("reference after '{key}'"))?;
                 self.images.push((key, bounces, images.total));
                 self.images.len() - 1
             }
@@ -782,15 +788,37 @@ fn work_counts(
     Ok(work.take(&counting)?)
 }
 
-/// The reference of the frame at `t`, with a progress bar over samples per pixel unless quiet.
+/// The reference of the frame at `t` and the seconds it took to render, with a progress bar
+/// over samples per pixel unless quiet; from `--reference-cache` where it holds it.
 fn reference_frame(
     scene: &Scene,
     t: f32,
     args: &BenchArgs,
     settings: &ReferenceSettings,
     quiet: bool,
-) -> Result<ReferenceImages> {
+) -> Result<(ReferenceImages, f64)> {
     let frame = scene.frame(t, scene.camera_index(&args.camera)?);
+    let size = (args.width, args.height);
+    let cache = args
+        .reference_cache
+        .as_deref()
+        .map(reference_cache::ReferenceCache::new);
+    if let Some(found) = cache
+        .as_ref()
+        .and_then(|c| c.find(scene, &frame, size, settings))
+    {
+        let (folder, images, seconds) = found;
+        if !quiet {
+            eprintln!(
+                "bench: the '{}' reference ({}) from {}",
+                scene.name,
+                settings.bounces,
+                folder.display()
+            );
+        }
+        return Ok((images, seconds));
+    }
+    let start = Instant::now();
     let bar = if quiet {
         ProgressBar::hidden()
     } else {
@@ -812,5 +840,9 @@ fn reference_frame(
     )
     .with_context(|| format!("scene '{}': reference", scene.name))?;
     bar.finish_and_clear();
-    Ok(images)
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(cache) = cache {
+        cache.store(scene, &frame, size, settings, &images, seconds)?;
+    }
+    Ok((images, seconds))
 }

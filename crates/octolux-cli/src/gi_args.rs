@@ -180,7 +180,7 @@ pub struct GiArgs {
     #[arg(long, value_parser = parse_encoding)]
     pub probes_encoding: Option<Encoding>,
     /// Probes: surfels also receive the probes' light, one more bounce per frame (default
-    /// true for probes-grid, false for probes-octree).
+    /// true).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
     /// Probe grid: frames each probe's value is the mean of, its rays turned anew every frame,
@@ -193,7 +193,7 @@ pub struct GiArgs {
     #[arg(long)]
     pub probes_max_depth: Option<u32>,
     /// Probe octree: levels complete down to this depth (always split above it, keep the
-    /// probes down to it), 0..=max depth; 0 is 004's rule (default 2).
+    /// probes down to it), 0..=max depth; 0 is 004's rule (default 3).
     #[arg(long)]
     pub probes_min_depth: Option<u32>,
     /// Probe octree: probe slots, the budget of its buffers; 0 = the full tree of the max depth

@@ -420,7 +420,7 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                     ui.selectable_value(&mut p.rays, RayBackend::Voxels, "voxel octree");
                 });
             changed |= before != (p.surfels, p.lattice, p.encoding, p.visibility, p.rays);
-            let mut bounces = p.multi_bounce.unwrap_or(!octree);
+            let mut bounces = p.multi_bounce.unwrap_or(true);
             if ui.checkbox(&mut bounces, "multiple bounces").changed() {
                 p.multi_bounce = Some(bounces);
                 changed = true;

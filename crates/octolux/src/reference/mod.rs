@@ -67,6 +67,26 @@ use sky::{power_heuristic, SkySampler};
 use std::f32::consts::{FRAC_1_PI, PI};
 use std::time::{Duration, Instant};
 
+/// A hash of the reference renderer's own source (this module's files), for caches of its
+/// images: a change to the path tracer gives another revision, so a cached reference made by
+/// an older one is not taken for a new one. (The scene side, [`Scene::fingerprint`], covers
+/// what is rendered.)
+pub fn code_revision() -> u64 {
+    use std::hash::{DefaultHasher, Hasher};
+    const SOURCES: [&str; 5] = [
+        include_str!("mod.rs"),
+        include_str!("accel.rs"),
+        include_str!("emitters.rs"),
+        include_str!("sampling.rs"),
+        include_str!("sky.rs"),
+    ];
+    let mut h = DefaultHasher::new();
+    for source in SOURCES {
+        h.write(source.as_bytes());
+    }
+    h.finish()
+}
+
 /// Settings of a reference render.
 #[derive(Clone, Debug)]
 pub struct ReferenceSettings {

@@ -11,6 +11,7 @@ mod animation;
 mod camera;
 pub mod cornell;
 pub mod file;
+mod fingerprint;
 mod framing;
 pub mod gltf;
 pub mod mitsuba;

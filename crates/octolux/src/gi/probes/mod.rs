@@ -112,9 +112,10 @@ pub struct ProbeSettings {
     /// the cosine convolution) or `"octahedron"` (`004`'s 8 facet bins).
     pub encoding: Encoding,
     /// Surfels also receive the probes' own indirect light of the previous frame, so light
-    /// bounces once more every frame; unset: each technique's default, on for `probes-grid`
-    /// (its history relights the bounces at once: settled, a fifth of one bounce's error on
-    /// the Cornell box, docs/probes.md) and off for `probes-octree`.
+    /// bounces once more every frame; unset: on for both techniques (`probes-grid`: its
+    /// history relights the bounces at once, settled a fifth of one bounce's error on the
+    /// Cornell box; `probes-octree`: rooms lit only by twice-bounced light need it,
+    /// docs/probes.md).
     pub multi_bounce: Option<bool>,
     /// `probes-grid`: frames a probe's value is the mean of, each frame's rays along the
     /// lattice turned anew (0..=1024; 0: one fixed lattice, recomputed every frame, no
@@ -136,16 +137,18 @@ pub struct ProbeSettings {
     pub max_depth: u32,
     /// `probes-octree`: the tree is complete down to this level whatever the hit fractions:
     /// leaves above it always split, leaves at it or above keep their probes; only the levels
-    /// below it follow the split/free rule. 0..=`max_depth`; 0 is `004`'s rule (default 2:
-    /// 64 probes at least; with `004`'s rule open scenes collapse to one probe and a wall's
-    /// middle loses its probes, docs/probes.md).
+    /// below it follow the split/free rule. 0..=`max_depth`; 0 is `004`'s rule (default 3:
+    /// 512 probes at least; with `004`'s rule open scenes collapse to one probe and a wall's
+    /// middle loses its probes; at 2, the cells of a scene that holds the ground around a
+    /// building are metres wide, and with multiple bounces their probes light its inside
+    /// brighter than GI off is wrong, docs/probes.md).
     pub min_depth: u32,
     /// `probes-octree`: probe slots, the budget of the buffers (default 2048: 16 MiB of
     /// surfels with 128 each; the shipped scenes keep at most 890). 0: the full tree of
     /// `max_depth` (4608 slots at depth 4, 36864 at depth 5). A split that finds no free slot
     /// waits and the leaf keeps its probe; the tree stops refining, the image stays lit. At
     /// least the complete levels down to `min_depth` plus the probes their parents hold while
-    /// they split (72 at `min_depth` 2).
+    /// they split (576 at `min_depth` 3).
     pub max_probes: u32,
     /// `probes-octree`: a leaf splits when at least this share of its probe's surfels land
     /// inside its cube (`004`: 1/2; default 1/4: at 1/2 a room whose height is less than
@@ -187,7 +190,7 @@ impl Default for ProbeSettings {
             normal_bias: 0.2,
             backface_limit: 0.25,
             max_depth: 4,
-            min_depth: 2,
+            min_depth: 3,
             max_probes: 2048,
             split_fraction: 0.25,
             free_fraction: 0.0,
@@ -227,7 +230,7 @@ impl ProbeSettings {
         let default = if octree { OCTREE_SURFELS } else { GRID_SURFELS };
         ProbeSettings {
             surfels: Some(self.surfels.unwrap_or(default)),
-            multi_bounce: Some(self.multi_bounce.unwrap_or(!octree)),
+            multi_bounce: Some(self.multi_bounce.unwrap_or(true)),
             ..self.clone()
         }
     }
@@ -261,7 +264,10 @@ impl ProbeSettings {
         check(
             self.min_depth <= self.max_depth,
             "probes min_depth",
-            "0..=max_depth",
+            &format!(
+                "0..=max_depth ({}; min_depth is {}, 3 unless set)",
+                self.max_depth, self.min_depth
+            ),
         )?;
         let least = self.least_probes();
         check(
