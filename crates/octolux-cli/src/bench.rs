@@ -378,12 +378,19 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         .map(|dir| out_dirs(dir, &names))
         .unwrap_or_default();
 
+    // The adapter's peaks, for the roofline of the counted passes.
+    let peaks = if args.no_work_counts {
+        None
+    } else {
+        let ctx = GpuContext::new(&args.gpu.options())?;
+        Some(octolux::gpu::roofline::measure_peaks(&ctx).context("measuring the adapter's peaks")?)
+    };
     let mut run: Option<BenchReport> = None;
     let mut json_names: Vec<String> = Vec::new();
     for (i, input) in inputs.iter().enumerate() {
         // With several scenes, images go to one subfolder per scene.
         let out = out_dirs.get(i).map(|dir| (dir.as_path(), read.as_slice()));
-        let (adapter, scene_report) = bench_scene(
+        let (adapter, mut scene_report) = bench_scene(
             args,
             input,
             against,
@@ -391,6 +398,9 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             quiet,
             out,
         )?;
+        for technique in &mut scene_report.techniques {
+            report::attach_roofline(&mut technique.passes, peaks.as_ref());
+        }
         let run = run.get_or_insert_with(|| BenchReport {
             version: report::JSON_VERSION,
             provenance: report::Provenance::now(),
@@ -403,6 +413,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             time: args.time,
             camera: args.camera.clone(),
             reference: !args.no_reference,
+            peaks: peaks.clone(),
             scenes: Vec::new(),
         });
         {

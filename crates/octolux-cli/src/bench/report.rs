@@ -1,5 +1,6 @@
 //! The bench report: frame-time statistics, the JSON layout and the printed tables.
 
+use octolux::gpu::roofline::{self, Peaks};
 use octolux::gpu::{GpuContext, PassTiming};
 use octolux::metrics::Metrics;
 use serde::Serialize;
@@ -65,6 +66,43 @@ pub struct PassStats {
     /// What it did in the first measured frame, counted exactly (the same on every adapter):
     /// empty for a pass that counts nothing or with `--no-work-counts`.
     pub work: Vec<PassWork>,
+    /// The bytes and operations its work counts stand for, and the share of the adapter's
+    /// peaks its median time achieves (`octolux::gpu::roofline`); none for a pass without
+    /// costed counts.
+    pub roofline: Option<PassRoofline>,
+}
+
+/// A pass on the roofline: its estimated bytes and operations in one frame, and the share of
+/// the adapter's measured peaks they make in the pass's median time (bytes as the shaders ask
+/// for them, so caches can take it past 1).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PassRoofline {
+    pub bytes: f64,
+    pub ops: f64,
+    pub bandwidth_share: Option<f64>,
+    pub ops_share: Option<f64>,
+}
+
+/// Estimates every pass's bytes and operations from its work counts and sets them against
+/// `peaks` (where measured).
+pub fn attach_roofline(passes: &mut [PassStats], peaks: Option<&Peaks>) {
+    for p in passes {
+        let counts: Vec<(&str, u64)> = p
+            .work
+            .iter()
+            .map(|w| (w.quantity.as_str(), w.count))
+            .collect();
+        let Some(estimate) = roofline::estimate(&p.name, &counts) else {
+            continue;
+        };
+        let shares = peaks.map(|k| k.shares(estimate, p.stats.median_ms * 1e-3));
+        p.roofline = Some(PassRoofline {
+            bytes: estimate.bytes,
+            ops: estimate.ops,
+            bandwidth_share: shares.map(|s| s.0),
+            ops_share: shares.map(|s| s.1),
+        });
+    }
 }
 
 /// One counted quantity of a pass ([`octolux::gpu::work`]).
@@ -359,6 +397,9 @@ pub struct BenchReport {
     pub camera: String,
     /// Whether the reference was rendered and error measured.
     pub reference: bool,
+    /// The adapter's memory bandwidth and arithmetic throughput, measured by a copy and an
+    /// FMA kernel (with the work counts; none with `--no-work-counts`).
+    pub peaks: Option<Peaks>,
     /// Per scene, in command-line order.
     pub scenes: Vec<SceneReport>,
 }
@@ -408,6 +449,7 @@ pub fn frame_stats(
             gi,
             stats: Stats::of(&samples),
             work: Vec::new(),
+            roofline: None,
         })
         .collect();
     (
@@ -440,6 +482,16 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         run.frames
     )?;
     writeln!(out, "adapter: {}", run.adapter.line())?;
+    if let Some(peaks) = &run.peaks {
+        writeln!(
+            out,
+            "peaks: {:.1} GB/s, {:.1} GFLOP/s ({}); [bw %, ops %] after a pass's work: its \
+             estimated bytes and operations over its median time, as shares of them",
+            peaks.bytes_per_s * 1e-9,
+            peaks.ops_per_s * 1e-9,
+            peaks.source
+        )?;
+    }
     let groups = format!(
         "  {:<12} {:^26}  {:^26}  {:^19}  {:^21}  {:^19}",
         "", "GI total ms", "frame ms", "GPU memory MiB", "error vs reference", "flicker"
@@ -527,11 +579,24 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
         writeln!(out, "  {}", t.technique)?;
         for p in &t.passes {
             let label = format!("{} {}", if p.gi { "*" } else { " " }, p.name);
-            let work: Vec<String> = p
+            let mut work: Vec<String> = p
                 .work
                 .iter()
                 .map(|w| format!("{} {}", short_count(w.count), w.quantity))
                 .collect();
+            if let Some(PassRoofline {
+                bandwidth_share: Some(bw),
+                ops_share: Some(ops),
+                ..
+            }) = &p.roofline
+            {
+                let last = work.pop().unwrap_or_default();
+                work.push(format!(
+                    "{last} [{:.1} % bw, {:.1} % ops]",
+                    bw * 100.0,
+                    ops * 100.0
+                ));
+            }
             let line = format!(
                 "    {:<24} {:>9.3} {:>9.3} {:>9.3} {:>9.3}  {}",
                 label,

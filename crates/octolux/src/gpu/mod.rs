@@ -2,7 +2,9 @@
 //! ([`GpuContext`]), per-pass timers ([`PassTimer`]), the memory ledger ([`MemoryLedger`])
 //! every GPU resource is counted in, allocation ([`alloc`]), bind-group and dispatch helpers
 //! ([`pass`]), the CPU decoders of packed GPU values ([`pack`]) and the composition of the
-//! library's WGSL modules ([`shader`]) and the work counters `bench` reads ([`work`]).
+//! library's WGSL modules ([`shader`]), the work counters `bench` reads ([`work`]) and the
+//! roofline that sets their estimated bytes and operations against the adapter's peaks
+//! ([`roofline`]).
 
 pub mod alloc;
 mod context;
@@ -13,6 +15,7 @@ pub mod pack;
 pub mod pass;
 mod readback;
 pub mod requirements;
+pub mod roofline;
 pub mod shader;
 mod timer;
 pub mod work;
