@@ -59,7 +59,7 @@ fn geometry_voxel(i: u32) -> vec3<u32> {
 
 fn bounce_voxel(i: u32) -> BounceVoxel {
     let v = geometry_voxel(i);
-    let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
+    let p = svo_info.origin + (vec3<f32>(v) + 0.5) * svo_info.voxel_size;
     var b: BounceVoxel;
     b.normal = normalize(unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz);
     b.start = surface_cone(p, b.normal);

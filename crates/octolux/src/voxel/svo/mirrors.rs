@@ -7,6 +7,7 @@ use crate::voxel::svo::aniso_radiance::AnisoRadianceParams;
 use crate::voxel::svo::dynamic::state::DynParams;
 use crate::voxel::svo::inject::InjectParams;
 use crate::voxel::svo::pack::PackParams;
+use crate::voxel::svo::sample::SvoInfo;
 
 /// Asserts that the Rust struct `$rust` mirrors the WGSL struct `$wgsl` of `$source`
 /// (`crate::gpu::layout::assert_mirrors`), listing every field of `$rust`.
@@ -76,6 +77,13 @@ fn blocks_mirror_their_wgsl_structs() {
         &aniso,
         "AnisoRadianceParams",
         [level, dynamic_nodes, leaf, static_leaves, first, count]
+    );
+    let sample = compose("voxel/svo/sample", &[], &[]).unwrap();
+    assert_mirrors!(
+        SvoInfo,
+        &sample,
+        "SvoInfo",
+        [origin, voxel_size, depth, resolution, pool_bricks, _pad]
     );
     let inject = compose("voxel/svo/inject", &[("facing", false)], &[]).unwrap();
     assert_mirrors!(
