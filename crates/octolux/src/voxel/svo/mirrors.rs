@@ -3,6 +3,7 @@
 
 use super::control::{LevelParams, NodeRange, SvoControl};
 use crate::gpu::shader::compose;
+use crate::voxel::svo::aniso::AnisoParams;
 use crate::voxel::svo::aniso_radiance::AnisoRadianceParams;
 use crate::voxel::svo::dynamic::state::DynParams;
 use crate::voxel::svo::inject::InjectParams;
@@ -77,6 +78,13 @@ fn blocks_mirror_their_wgsl_structs() {
         &aniso,
         "AnisoRadianceParams",
         [level, dynamic_nodes, leaf, static_leaves, first, count]
+    );
+    let aniso = compose("voxel/svo/aniso", &[], &[]).unwrap();
+    assert_mirrors!(
+        AnisoParams,
+        &aniso,
+        "AnisoParams",
+        [first, count, first_leaf, leaf, static_leaves, _pad]
     );
     let sample = compose("voxel/svo/sample", &[], &[]).unwrap();
     assert_mirrors!(
