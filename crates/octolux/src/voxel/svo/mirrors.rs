@@ -6,7 +6,7 @@ use crate::gpu::shader::compose;
 use crate::voxel::svo::aniso::AnisoParams;
 use crate::voxel::svo::aniso_radiance::AnisoRadianceParams;
 use crate::voxel::svo::dynamic::state::DynParams;
-use crate::voxel::svo::inject::InjectParams;
+use crate::voxel::svo::inject::{AccumulateParams, InjectParams};
 use crate::voxel::svo::pack::PackParams;
 use crate::voxel::svo::sample::SvoInfo;
 
@@ -94,6 +94,12 @@ fn blocks_mirror_their_wgsl_structs() {
         [origin, voxel_size, depth, resolution, pool_bricks, _pad]
     );
     let inject = compose("voxel/svo/inject", &[("facing", false)], &[]).unwrap();
+    assert_mirrors!(
+        AccumulateParams,
+        &inject,
+        "AccumulateParams",
+        [fragments, depth, first_leaf, leaf_count]
+    );
     assert_mirrors!(
         InjectParams,
         &inject,
