@@ -57,15 +57,20 @@ pub(crate) fn assert_mirrors(source: &str, name: &str, size: usize, fields: &[(&
 /// Asserts that `#[repr(C)]` struct `$ty` mirrors WGSL struct `$name` of the library module
 /// `$module` (composed with its imports by [`crate::gpu::shader::compose_alone`]):
 /// `assert_mirrors_wgsl!(ClipInfo, "voxel/clipmap/sample", "ClipInfo", [voxel_size, ...])`,
-/// listing every field of `$ty`.
+/// listing every field of `$ty`. A module whose composition has `@if` flags takes them last:
+/// `assert_mirrors_wgsl!(..., [...], &[("facing", false)])`.
 macro_rules! assert_mirrors_wgsl {
-    ($ty:ty, $module:expr, $name:expr, [$($field:ident),* $(,)?]) => {
+    ($ty:ty, $module:expr, $name:expr, [$($field:ident),* $(,)?], $features:expr) => {
         $crate::gpu::layout::assert_mirrors(
-            &$crate::gpu::shader::compose_alone($module, &[]).unwrap_or_else(|e| panic!("{e}")),
+            &$crate::gpu::shader::compose_alone($module, $features)
+                .unwrap_or_else(|e| panic!("{e}")),
             $name,
             std::mem::size_of::<$ty>(),
             &[$((stringify!($field), std::mem::offset_of!($ty, $field))),*],
         )
+    };
+    ($ty:ty, $module:expr, $name:expr, [$($field:ident),* $(,)?]) => {
+        $crate::gpu::layout::assert_mirrors_wgsl!($ty, $module, $name, [$($field),*], &[])
     };
 }
 pub(crate) use assert_mirrors_wgsl;

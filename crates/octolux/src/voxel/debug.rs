@@ -37,15 +37,38 @@ const CLIP_HEADER: &str = "import octolux::voxel::clipmap::sample::clip_sample;
 fn sample_structure(p: vec3<f32>, footprint: f32) -> vec4<f32> { return clip_sample(p, footprint); }
 ";
 
+/// Parameter block `View` of `debug.wgsl`: what the probe and the ray march read.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct ViewBlock {
     inv_view_proj: [[f32; 4]; 4],
-    eye: [f32; 4],
-    lo: [f32; 4],
-    hi: [f32; 4],
-    misc: [u32; 4],
-    step: [f32; 4],
+    /// The camera's position.
+    eye: [f32; 3],
+    /// The samples' footprint (m).
+    footprint: f32,
+    /// The box the rays march through.
+    lo: [f32; 3],
+    /// The step length (m).
+    step: f32,
+    hi: [f32; 3],
+    /// The most steps one ray takes.
+    max_steps: u32,
+    /// The image's size in pixels.
+    width: u32,
+    height: u32,
+    /// Points to probe.
+    points: u32,
+    _pad: u32,
+}
+
+impl ViewBlock {
+    /// The block with every field zero but the identity transform.
+    fn new() -> ViewBlock {
+        ViewBlock {
+            inv_view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
+            ..bytemuck::Zeroable::zeroed()
+        }
+    }
 }
 
 impl Structure<'_> {
@@ -64,12 +87,7 @@ impl Structure<'_> {
             Structure::Clipmap(_) => CLIP_HEADER,
             Structure::ClipmapRadiance(_) => RADIANCE_HEADER,
         };
-        let text = format!(
-            "{header}
-{}",
-            include_str!("debug.wgsl")
-        );
-        crate::gpu::shader::compose_text("voxel debug", &text, &[], &[])
+        debug_source(header)
     }
 
     fn info(&self, ctx: &GpuContext) -> wgpu::Buffer {
@@ -160,15 +178,14 @@ impl Structure<'_> {
     }
 }
 
-fn view_block(misc: [u32; 4], step: [f32; 4]) -> ViewBlock {
-    ViewBlock {
-        inv_view_proj: glam::Mat4::IDENTITY.to_cols_array_2d(),
-        eye: [0.0; 4],
-        lo: [0.0; 4],
-        hi: [0.0; 4],
-        misc,
-        step,
-    }
+/// The debug kernels (`debug.wgsl`) over the sampler `header` defines.
+fn debug_source(header: &str) -> Result<String> {
+    let text = format!(
+        "{header}
+{}",
+        include_str!("debug.wgsl")
+    );
+    crate::gpu::shader::compose_text("voxel debug", &text, &[], &[])
 }
 
 /// Samples `structure` at `points` (xyz = position, w = footprint) on the GPU. Blocks.
@@ -177,7 +194,10 @@ pub fn probe(ctx: &GpuContext, structure: Structure, points: &[Vec4]) -> Result<
     let n = points.len() as u32;
     let module = ctx.shader("voxel probe", &structure.source()?);
     let pipeline = ctx.compute_pipeline("voxel probe", &module, "probe");
-    let block = view_block([0, 0, n, 0], [0.0; 4]);
+    let block = ViewBlock {
+        points: n,
+        ..ViewBlock::new()
+    };
     let view = ctx.create_buffer_init(
         "voxel debug",
         "view",
@@ -230,15 +250,20 @@ pub fn render_view(
     }
     structure.ready()?;
     let (lo, hi) = structure.bounds();
-    let mut block = view_block(
+    let block = ViewBlock {
+        inv_view_proj: view.inv_view_proj.to_cols_array_2d(),
+        eye: view.position.to_array(),
+        footprint,
+        lo: lo.to_array(),
+        step: 0.5 * footprint,
+        hi: hi.to_array(),
         // lavapipe ends any invocation after 65535 loop iterations; 2048 steps stay far below.
-        [view.width, view.height, 0, 2048],
-        [footprint, 0.5 * footprint, 0.0, 0.0],
-    );
-    block.inv_view_proj = view.inv_view_proj.to_cols_array_2d();
-    block.eye = view.position.extend(1.0).to_array();
-    block.lo = lo.extend(0.0).to_array();
-    block.hi = hi.extend(0.0).to_array();
+        max_steps: 2048,
+        width: view.width,
+        height: view.height,
+        points: 0,
+        _pad: 0,
+    };
     let module = ctx.shader("voxel debug view", &structure.source()?);
     let pipeline = ctx.compute_pipeline("voxel debug view", &module, "raymarch");
     let view_buffer = ctx.create_buffer_init(
@@ -382,4 +407,38 @@ pub fn render_scene(
         })
         .collect();
     Ok((rgb, summary))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn view_block_mirrors_the_wgsl_block() {
+        let fields = [
+            (
+                "inv_view_proj",
+                std::mem::offset_of!(ViewBlock, inv_view_proj),
+            ),
+            ("eye", std::mem::offset_of!(ViewBlock, eye)),
+            ("footprint", std::mem::offset_of!(ViewBlock, footprint)),
+            ("lo", std::mem::offset_of!(ViewBlock, lo)),
+            ("step", std::mem::offset_of!(ViewBlock, step)),
+            ("hi", std::mem::offset_of!(ViewBlock, hi)),
+            ("max_steps", std::mem::offset_of!(ViewBlock, max_steps)),
+            ("width", std::mem::offset_of!(ViewBlock, width)),
+            ("height", std::mem::offset_of!(ViewBlock, height)),
+            ("points", std::mem::offset_of!(ViewBlock, points)),
+            ("_pad", std::mem::offset_of!(ViewBlock, _pad)),
+        ];
+        // The same block whichever structure the kernels sample.
+        for header in [SVO_HEADER, CLIP_HEADER, RADIANCE_HEADER] {
+            crate::gpu::layout::assert_mirrors(
+                &debug_source(header).unwrap(),
+                "View",
+                std::mem::size_of::<ViewBlock>(),
+                &fields,
+            );
+        }
+    }
 }

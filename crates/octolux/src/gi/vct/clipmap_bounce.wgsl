@@ -82,7 +82,7 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let voxel = max(vct_surface_voxel(p, trace.cone.voxel), centre.w);
         var cone = trace.cone;
         cone.voxel = voxel;
-        cone.start = trace.misc.x * voxel;
+        cone.start = trace.apex_offset * voxel;
         let apex = p + nn * cone.start;
         for (var j = 0u; j < CONES_PER_LANE; j++) {
             let k = lane_cone(li, j);

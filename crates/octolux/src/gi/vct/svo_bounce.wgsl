@@ -11,9 +11,6 @@
 // order, so their irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`)
 // instead of by slot.
 
-// x: static leaf voxel slots (the dynamic leaves' slots follow), y: capacity of the dynamic
-// voxels' table, z: the leaf level (its dynamic nodes: `svo_control.dynamic_levels[z]`),
-// w: the sets of `bounce_due` (`bounce_list.wgsl`; the static voxels only)
 import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::{SurfaceCone, surface_cone};
@@ -29,8 +26,16 @@ import octolux::gi::vct::structure::vct_count_structure_work;
 import octolux::gpu::work::count_work;
 import octolux::gi::vct::bounce_list::{bounce_due, list_or_clear, listed_slot, store_bounce};
 
+// `BounceParams` in svo_gi.rs.
 struct BounceParams {
-    misc: vec4<u32>,
+    // Static leaf voxel slots (the dynamic leaves' slots follow).
+    static_slots: u32,
+    // Entries of the dynamic voxels' table (a power of two).
+    table_capacity: u32,
+    // The leaf level (its dynamic nodes: `svo_control.dynamic_levels[leaf_level]`).
+    leaf_level: u32,
+    // This frame's set of `bounce_due` (`bounce_list.wgsl`; the static voxels only).
+    spread: u32,
 }
 
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
@@ -59,7 +64,7 @@ fn geometry_voxel(i: u32) -> vec3<u32> {
 
 fn bounce_voxel(i: u32) -> BounceVoxel {
     let v = geometry_voxel(i);
-    let p = svo_info.origin.xyz + (vec3<f32>(v) + 0.5) * svo_info.origin.w;
+    let p = svo_info.origin + (vec3<f32>(v) + 0.5) * svo_info.voxel_size;
     var b: BounceVoxel;
     b.normal = normalize(unpack4x8snorm(bounce_geometry[2u * i + 1u]).xyz);
     b.start = surface_cone(p, b.normal);
@@ -102,10 +107,10 @@ fn voxel_bounce(i: u32) -> vec3<f32> {
 fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    let slot = i < bounce_params.misc.x;
+    let slot = i < bounce_params.static_slots;
     var due = false;
     if slot {
-        due = bounce_due(geometry_voxel(i), bounce_params.misc.w);
+        due = bounce_due(geometry_voxel(i), bounce_params.spread);
     }
     list_or_clear(i, slot, slot && voxel_gathers(i), due, li);
 }
@@ -144,17 +149,17 @@ fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
                   @builtin(local_invocation_index) o: u32) {
     count_work(0u, 1u);
     let l = wg.y * nwg.x + wg.x;
-    let leaves = svo_control.dynamic_levels[bounce_params.misc.z];
+    let leaves = svo_control.dynamic_levels[bounce_params.leaf_level];
     if l >= leaves.end - leaves.first {
         return;
     }
-    let i = bounce_params.misc.x + 8u * l + o;
+    let i = bounce_params.static_slots + 8u * l + o;
     let key = bounce_geometry[2u * i];
     if key == 0u {
         return;
     }
     let e = voxel_bounce(i);
-    let mask = bounce_params.misc.y - 1u;
+    let mask = bounce_params.table_capacity - 1u;
     var at = bounce_table_hash(key) & mask;
     var probes = 0u;
     // Bounded even if weak exchanges kept failing spuriously.

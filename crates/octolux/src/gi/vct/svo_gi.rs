@@ -61,12 +61,28 @@ struct Bounce {
     list: BounceList,
     /// With animated objects: the dynamic leaf voxels' gather into the bounce table.
     dynamic: Option<wgpu::ComputePipeline>,
+    /// The [`BounceParams`] block, written every frame from `block`.
     params: wgpu::Buffer,
+    block: BounceParams,
     /// The frames one round of the static voxels' gather is spread over (`bounce_frames`).
     bounce_frames: u32,
     /// The static gather's bind group and the dynamic one's per table written (the tables
     /// alternate), kept while their resources are.
     groups: [KeptBindGroup; 3],
+}
+
+/// Parameter block `BounceParams` of `svo_bounce.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct BounceParams {
+    /// Static leaf voxel slots (the dynamic leaves' slots follow).
+    static_slots: u32,
+    /// Entries of the dynamic voxels' table (a power of two).
+    table_capacity: u32,
+    /// The leaf level, whose dynamic nodes the dynamic gather reads.
+    leaf_level: u32,
+    /// This frame's set of static voxels ([`bounce_spread`]).
+    spread: u32,
 }
 
 /// Entries of a dynamic bounce table for a reserve of `nodes`: room for every voxel the
@@ -246,12 +262,17 @@ impl Bounce {
                 capacity: capacity as u32,
             })
         });
-        let leaf = svo.levels().len().saturating_sub(1) as u32;
         let module = tracer.bounce_module(ctx);
+        let block = BounceParams {
+            static_slots: slots,
+            table_capacity: capacity as u32,
+            leaf_level: svo.levels().len().saturating_sub(1) as u32,
+            spread: 0,
+        };
         let params = ctx.create_buffer_init(
             OWNER,
             "bounce params",
-            bytemuck::cast_slice(&[slots, capacity as u32, leaf, 0]),
+            bytemuck::bytes_of(&block),
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
         Ok(Bounce {
@@ -266,6 +287,7 @@ impl Bounce {
             dynamic: dynamic_reserve
                 .map(|_| ctx.compute_pipeline("bounce_dynamic", &module, "bounce_dynamic")),
             params,
+            block,
             bounce_frames,
             groups: Default::default(),
         })
@@ -298,9 +320,9 @@ impl Bounce {
         let mut extra = vec![irradiance.clone()];
         extra.extend(self.list.gather_entries());
         let statics = group(&self.groups[0], &self.pipeline, &extra, "bounce")?;
-        let spread = bounce_spread(self.bounce_frames, self.buffers.frame);
+        self.block.spread = bounce_spread(self.bounce_frames, self.buffers.frame);
         ctx.queue
-            .write_buffer(&self.params, 12, bytemuck::bytes_of(&spread));
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&self.block));
         let list_entries = [
             (20, self.params.as_entire_binding()),
             (21, self.buffers.geometry.as_entire_binding()),
@@ -409,5 +431,22 @@ impl GiTechnique for VctSvo {
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn bounce_params_mirror_the_wgsl_block() {
+        assert_mirrors_wgsl!(
+            BounceParams,
+            "gi/vct/svo_bounce",
+            "BounceParams",
+            [static_slots, table_capacity, leaf_level, spread],
+            &[("anisotropic", false), ("facing", false)]
+        );
     }
 }

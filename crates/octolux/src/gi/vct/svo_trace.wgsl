@@ -27,7 +27,7 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
         }
     }
     let s = svo_radiance_toward(p, footprint, dir);
-    let k = min(max(footprint / svo_info.origin.w, 1.0), 1.0 / max(s.a, 1e-6));
+    let k = min(max(footprint / svo_info.voxel_size, 1.0), 1.0 / max(s.a, 1e-6));
     if !SVO_ANISOTROPIC || lod.below <= 0.0 {
         return s * k;
     }
@@ -58,5 +58,5 @@ fn vct_count_structure_work(q: u32) {
 // box (docs/vct.md), cones that start 1.5 x 4 finest voxels off the surface halve the
 // ceiling's error against 1.5 x 1; so the octree's "surface voxel" is 4 finest voxels.
 fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32 {
-    return 4.0 * svo_info.origin.w;
+    return 4.0 * svo_info.voxel_size;
 }

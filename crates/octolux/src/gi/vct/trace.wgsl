@@ -2,7 +2,7 @@
 // surface's own voxels along the normal), marched through the structure's injected radiance
 // by `march_cone`; irradiance E = pi x the weighted mean of the cones' radiance, in W/m^2, and
 // in alpha the ambient occlusion of the same cones (1 - their weighted mean opacity). With
-// sparse tracing (misc.y = f > 1) the centre pixel of each f x f block is traced, into the
+// sparse tracing (`sparse` = f > 1) the centre pixel of each f x f block is traced, into the
 // block's texel of a reduced image; `upsample.wgsl` fills the full image. A pixel's cones run
 // on several lanes (`cone_lanes.wgsl`).
 // The structure is the module `gi/vct/structure` (`clipmap_trace.wgsl`, `svo_trace.wgsl`), which
@@ -29,16 +29,21 @@ import octolux::gpu::work::count_work;
 @group(0) @binding(5) var<storage, read> trace: TraceParams;
 @group(0) @binding(6) var out_tex: texture_storage_2d<rgba16float, write>;
 
+// `TraceParams` in tracer.rs.
 struct TraceParams {
     cone: ConeParams,
-    // x: apex offset along the normal and first sample, in voxels of the surface's level;
-    // y: sparse factor f (one traced pixel per f x f block); z: the specular cone's full
-    // aperture (radians); w: the specular cone's fixed sample count (0: none)
-    misc: vec4<f32>,
+    // Apex offset along the normal and first sample, in voxels of the surface's level.
+    apex_offset: f32,
+    // Sparse factor f: one traced pixel per f x f block.
+    sparse: u32,
+    // The specular cone's full aperture (radians).
+    specular_aperture: f32,
+    // The specular cone's fixed sample count (0: none).
+    specular_steps: u32,
 }
 
 // The cone parameters at a surface point p: start and smallest footprint from the voxel
-// size there (cones start `misc.x` such voxels off the surface and never sample finer, so
+// size there (cones start `apex_offset` such voxels off the surface and never sample finer, so
 // the surface's own voxels do not occlude them).
 struct SurfaceCone {
     apex: vec3<f32>,
@@ -50,8 +55,8 @@ fn surface_cone(p: vec3<f32>, n: vec3<f32>) -> SurfaceCone {
     var s: SurfaceCone;
     s.cone = trace.cone;
     s.cone.voxel = voxel;
-    s.cone.start = trace.misc.x * voxel;
-    s.apex = p + n * (trace.misc.x * voxel);
+    s.cone.start = trace.apex_offset * voxel;
+    s.apex = p + n * (trace.apex_offset * voxel);
     return s;
 }
 
@@ -61,7 +66,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // One traced pixel per item, its cones spread over the item's lanes (`cone_lanes.wgsl`);
     // items run along the rows of the traced (reduced) image.
     let size = vec2<u32>(cam.size.xy);
-    let f = u32(trace.misc.y);
+    let f = trace.sparse;
     let traced = (size + vec2<u32>(f - 1u)) / f;
     let q = gather_item(wg.y * nwg.x + wg.x, li);
     let id = vec2<u32>(q % traced.x, q / traced.x);
@@ -118,14 +123,14 @@ fn specular(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = world_from_depth(cam, id.xy, depth);
     let n = normalize(textureLoad(normal_tex, id.xy, 0).xyz);
     var s = surface_cone(p, n);
-    s.cone.aperture = trace.misc.z;
+    s.cone.aperture = trace.specular_aperture;
     // Fixed work (`specular_steps`, for timing the structures, `003` §5.3.5): exactly that
     // many samples from the finest voxel on, never stopping at opacity or distance.
-    if trace.misc.w > 0.0 {
+    if trace.specular_steps > 0u {
         s.cone.voxel = trace.cone.voxel;
         s.cone.stop_opacity = 2.0;
         s.cone.max_distance = 3.0e38;
-        s.cone.max_steps = u32(trace.misc.w);
+        s.cone.max_steps = trace.specular_steps;
     }
     let v = normalize(p - cam.position.xyz);
     let l = march_cone(s.apex, reflect(v, n), s.cone);

@@ -77,7 +77,14 @@ impl TraceStructure {
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 struct TraceParams {
     cone: ConeParams,
-    misc: [f32; 4],
+    /// Apex offset along the normal and first sample, in voxels of the surface's level.
+    apex_offset: f32,
+    /// Sparse factor f: one traced pixel per f x f block.
+    sparse: u32,
+    /// The specular cone's full aperture (radians).
+    specular_aperture: f32,
+    /// The specular cone's fixed sample count (0: none).
+    specular_steps: u32,
 }
 
 /// An image of the technique's: texture, view and the pipeline that writes it.
@@ -205,12 +212,10 @@ impl ConeTracer {
         ] {
             let params = TraceParams {
                 cone: cone(cones),
-                misc: [
-                    cones.start,
-                    self.sparse as f32,
-                    settings.specular_aperture(),
-                    settings.specular_steps as f32,
-                ],
+                apex_offset: cones.start,
+                sparse: self.sparse,
+                specular_aperture: settings.specular_aperture(),
+                specular_steps: settings.specular_steps,
             };
             ctx.queue
                 .write_buffer(buffer, 0, bytemuck::bytes_of(&params));
@@ -307,5 +312,42 @@ impl ConeTracer {
     /// The specular cone's radiance, when enabled.
     pub(crate) fn specular(&self) -> Option<(&wgpu::Texture, &wgpu::TextureView)> {
         self.specular.as_ref().map(|s| (&s.texture, &s.view))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    /// The flags of the octree's structure, which `compose_alone` gives the trace.
+    const FLAGS: &[(&str, bool)] = &[("anisotropic", false), ("facing", false)];
+
+    #[test]
+    fn trace_and_cone_params_mirror_the_wgsl_blocks() {
+        assert_mirrors_wgsl!(
+            TraceParams,
+            "gi/vct/trace",
+            "TraceParams",
+            [cone, apex_offset, sparse, specular_aperture, specular_steps],
+            FLAGS
+        );
+        // The cone block it holds.
+        assert_mirrors_wgsl!(
+            ConeParams,
+            "gi/vct/trace",
+            "ConeParams",
+            [
+                aperture,
+                start,
+                step,
+                max_distance,
+                voxel,
+                stop_opacity,
+                max_steps,
+                max_footprint
+            ],
+            FLAGS
+        );
     }
 }

@@ -42,6 +42,22 @@ fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     }
 }
 
+/// Parameters of one level's dispatch (`AnisoParams` in `svo/aniso.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct AnisoParams {
+    /// The level's nodes `[first, first + count)`.
+    pub(super) first: u32,
+    pub(super) count: u32,
+    /// The first leaf node.
+    pub(super) first_leaf: u32,
+    /// 1 on the leaf level.
+    pub(super) leaf: u32,
+    /// Static leaf nodes (the index words at the start of the leaf sums).
+    pub(super) static_leaves: u32,
+    pub(super) _pad: [u32; 3],
+}
+
 /// The anisotropic values of one octree's nodes.
 pub struct SvoAnisoValues {
     /// `array<u32>`: per brick `b` (node with `brick_index = b + 1`), [`ANISO_WORDS`] RGBA8
@@ -122,19 +138,16 @@ impl SvoAniso {
         let first_leaf = svo.levels[depth - 1].0;
         let mut params = vec![0u8; PARAM_STRIDE as usize * depth];
         for (d, &(start, end)) in svo.levels.iter().enumerate() {
-            let leaf_count = svo.static_nodes - first_leaf;
-            let misc = [
-                start,
-                end - start,
+            let level = AnisoParams {
+                first: start,
+                count: end - start,
                 first_leaf,
-                (d + 1 == depth) as u32,
-                leaf_count,
-                0,
-                0,
-                0,
-            ];
+                leaf: (d + 1 == depth) as u32,
+                static_leaves: svo.static_nodes - first_leaf,
+                _pad: [0; 3],
+            };
             let at = d * PARAM_STRIDE as usize;
-            params[at..at + 32].copy_from_slice(bytemuck::cast_slice(&misc));
+            params[at..at + size_of::<AnisoParams>()].copy_from_slice(bytemuck::bytes_of(&level));
         }
         let params_buffer = ctx.create_buffer_init(
             OWNER,
@@ -154,7 +167,7 @@ impl SvoAniso {
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                 buffer: &params_buffer,
                                 offset: d as u64 * PARAM_STRIDE,
-                                size: wgpu::BufferSize::new(32),
+                                size: wgpu::BufferSize::new(size_of::<AnisoParams>() as u64),
                             }),
                         },
                         storage(1, &svo.child),

@@ -13,12 +13,20 @@
 import octolux::voxel::svo::leaf_sums::leaf_sum_offset;
 import octolux::voxel::pairs::pair_along;
 
+// One level's parameters (`AnisoParams` in svo/aniso.rs).
 struct AnisoParams {
-    // x: first node of the level, y: nodes on the level, z: first leaf node, w: 1 on the leaf
-    // level.
-    misc: vec4<u32>,
-    // x: static leaf nodes (the index words at the start of `leaf_sums`, svo/leaf_sums.wgsl)
-    leaves: vec4<u32>,
+    // The level's nodes [first, first + count).
+    first: u32,
+    count: u32,
+    // The first leaf node.
+    first_leaf: u32,
+    // 1 on the leaf level.
+    leaf: u32,
+    // Static leaf nodes (the index words at the start of `leaf_sums`, svo/leaf_sums.wgsl).
+    static_leaves: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -32,7 +40,7 @@ struct AnisoParams {
 // The isotropic value of voxel `octant` (x + 2y + 4z) of leaf node `node`: the rounded
 // integer mean of its fragments' albedo, opacity 1; zero when no fragment touches it.
 fn leaf_voxel(node: u32, octant: u32) -> vec4<f32> {
-    let w = leaf_sum_offset(leaf_sums[node - P.misc.z], octant, P.leaves.x);
+    let w = leaf_sum_offset(leaf_sums[node - P.first_leaf], octant, P.static_leaves);
     if w == 0xffffffffu {
         return vec4<f32>(0.0);
     }
@@ -62,15 +70,15 @@ fn over(front: vec4<u32>, back: vec4<u32>) -> vec4<u32> {
 fn build_level(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                @builtin(local_invocation_index) li: u32) {
     let i = (wg.y * nwg.x + wg.x) * 64u + li;
-    if i >= P.misc.y {
+    if i >= P.count {
         return;
     }
-    let n = P.misc.x + i;
+    let n = P.first + i;
     let b = brick_index[n];
     if b == 0u {
         return;
     }
-    let leaf = P.misc.w == 1u;
+    let leaf = P.leaf == 1u;
     let first = child[n];
     var iso: array<vec4<u32>, 8>;
     if leaf {

@@ -274,9 +274,10 @@ fn structure_steps(depth: u32, capacity: u32) -> Vec<(&'static str, u32, Dispatc
 fn start_at_root(ctx: &GpuContext, control: &wgpu::Buffer, args: &wgpu::Buffer) {
     ctx.queue
         .write_buffer(control, 0, bytemuck::bytes_of(&SvoControl::at_root()));
+    let one = wgpu::util::DispatchIndirectArgs { x: 1, y: 1, z: 1 };
+    let stride = size_of::<wgpu::util::DispatchIndirectArgs>() as u64;
     for slot in [0, NODE_ARGS as u64] {
-        ctx.queue
-            .write_buffer(args, slot * 12, bytemuck::cast_slice(&[1u32, 1, 1]));
+        ctx.queue.write_buffer(args, slot * stride, one.as_bytes());
     }
 }
 

@@ -28,6 +28,20 @@ const INJECT_SLOTS: u64 = 4;
 /// fixed point x1024), normal sums (3, snorm8 as two's complement).
 pub const LEAF_SUM_WORDS: u32 = 10;
 
+/// `AccumulateParams` of `svo/inject.wgsl`: the accumulation of a fragment list into the
+/// static leaves' sums.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub(super) struct AccumulateParams {
+    /// Fragments in the list.
+    pub(super) fragments: u32,
+    /// Levels of the octree.
+    pub(super) depth: u32,
+    /// The static leaf nodes `[first_leaf, first_leaf + leaf_count)`.
+    pub(super) first_leaf: u32,
+    pub(super) leaf_count: u32,
+}
+
 /// `InjectParams` of `svo/inject.wgsl`: one injection dispatch (the static leaves or the
 /// dynamic ones).
 #[repr(C)]
@@ -192,7 +206,12 @@ impl SvoLight {
         let params = ctx.create_buffer_init(
             owner,
             "leaf sum params",
-            bytemuck::cast_slice(&[list.count, depth, leaves.0, leaf_count]),
+            bytemuck::bytes_of(&AccumulateParams {
+                fragments: list.count,
+                depth,
+                first_leaf: leaves.0,
+                leaf_count,
+            }),
             wgpu::BufferUsages::STORAGE,
         );
         let fragments_group = |pipeline: &wgpu::ComputePipeline, sums: &wgpu::Buffer| {

@@ -19,10 +19,17 @@ import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibilit
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
 const EMISSION_SCALE: f32 = 1024.0;
 
-// x: fragments, y: depth, z: first leaf node, w: leaf nodes. `sums` is the leaf sums buffer
-// (svo/leaf_sums.wgsl) or, for `leaf_mask` and `leaf_slots`, its index part + 1 counter word.
+// The accumulation's parameters (`AccumulateParams` in svo/inject.rs). `sums` is the leaf
+// sums buffer (svo/leaf_sums.wgsl) or, for `leaf_mask` and `leaf_slots`, its index part + 1
+// counter word.
 struct AccumulateParams {
-    misc: vec4<u32>,
+    // Fragments in the list.
+    fragments: u32,
+    // Levels of the octree.
+    depth: u32,
+    // The static leaf nodes [first_leaf, first_leaf + leaf_count).
+    first_leaf: u32,
+    leaf_count: u32,
 }
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
@@ -41,7 +48,7 @@ const INVALID_LEAF: u32 = 0xffffffffu;
 
 fn fragment_leaf(f: u32) -> vec2<u32> {
     let v = unpack3(fragments[f].x);
-    let leaf = A.misc.y - 1u;
+    let leaf = A.depth - 1u;
     let c = v >> vec3<u32>(1u);
     var node = 0u;
     for (var l = 0u; l < leaf; l++) {
@@ -52,10 +59,10 @@ fn fragment_leaf(f: u32) -> vec2<u32> {
         let s = leaf - 1u - l;
         node = first + (((c.x >> s) & 1u) | (((c.y >> s) & 1u) << 1u) | (((c.z >> s) & 1u) << 2u));
     }
-    if node < A.misc.z || node >= A.misc.z + A.misc.w {
+    if node < A.first_leaf || node >= A.first_leaf + A.leaf_count {
         return vec2<u32>(INVALID_LEAF);
     }
-    return vec2<u32>(node - A.misc.z, (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u));
+    return vec2<u32>(node - A.first_leaf, (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u));
 }
 
 // Occupancy masks: every fragment marks its voxel in its leaf node's index word.
@@ -63,7 +70,7 @@ fn fragment_leaf(f: u32) -> vec2<u32> {
 fn leaf_mask(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
              @builtin(local_invocation_index) li: u32) {
     let f = linear_index(wg, nwg, li);
-    if f >= A.misc.x {
+    if f >= A.fragments {
         return;
     }
     let at = fragment_leaf(f);
@@ -77,11 +84,11 @@ fn leaf_mask(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
 fn leaf_slots(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     let l = linear_index(wg, nwg, li);
-    if l >= A.misc.w {
+    if l >= A.leaf_count {
         return;
     }
     let mask = atomicLoad(&sums[l]);
-    let first = atomicAdd(&sums[A.misc.w], countOneBits(mask));
+    let first = atomicAdd(&sums[A.leaf_count], countOneBits(mask));
     atomicStore(&sums[l], (first << 8u) | mask);
 }
 
@@ -89,14 +96,14 @@ fn leaf_slots(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
 fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
               @builtin(local_invocation_index) li: u32) {
     let f = linear_index(wg, nwg, li);
-    if f >= A.misc.x {
+    if f >= A.fragments {
         return;
     }
     let at = fragment_leaf(f);
     if at.x == INVALID_LEAF {
         return;
     }
-    let w = leaf_sum_offset(atomicLoad(&sums[at.x]), at.y, A.misc.w);
+    let w = leaf_sum_offset(atomicLoad(&sums[at.x]), at.y, A.leaf_count);
     let terms = fragment_sum_terms(tris[fragments[f].y]);
     for (var k = 0u; k < SUM_WORDS; k++) {
         atomicAdd(&sums[w + k], terms[k]);

@@ -3,10 +3,12 @@
 
 use super::control::{LevelParams, NodeRange, SvoControl};
 use crate::gpu::shader::compose;
+use crate::voxel::svo::aniso::AnisoParams;
 use crate::voxel::svo::aniso_radiance::AnisoRadianceParams;
 use crate::voxel::svo::dynamic::state::DynParams;
-use crate::voxel::svo::inject::InjectParams;
+use crate::voxel::svo::inject::{AccumulateParams, InjectParams};
 use crate::voxel::svo::pack::PackParams;
+use crate::voxel::svo::sample::SvoInfo;
 
 /// Asserts that the Rust struct `$rust` mirrors the WGSL struct `$wgsl` of `$source`
 /// (`crate::gpu::layout::assert_mirrors`), listing every field of `$rust`.
@@ -77,7 +79,27 @@ fn blocks_mirror_their_wgsl_structs() {
         "AnisoRadianceParams",
         [level, dynamic_nodes, leaf, static_leaves, first, count]
     );
+    let aniso = compose("voxel/svo/aniso", &[], &[]).unwrap();
+    assert_mirrors!(
+        AnisoParams,
+        &aniso,
+        "AnisoParams",
+        [first, count, first_leaf, leaf, static_leaves, _pad]
+    );
+    let sample = compose("voxel/svo/sample", &[], &[]).unwrap();
+    assert_mirrors!(
+        SvoInfo,
+        &sample,
+        "SvoInfo",
+        [origin, voxel_size, depth, resolution, pool_bricks, _pad]
+    );
     let inject = compose("voxel/svo/inject", &[("facing", false)], &[]).unwrap();
+    assert_mirrors!(
+        AccumulateParams,
+        &inject,
+        "AccumulateParams",
+        [fragments, depth, first_leaf, leaf_count]
+    );
     assert_mirrors!(
         InjectParams,
         &inject,

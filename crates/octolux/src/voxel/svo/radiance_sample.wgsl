@@ -11,10 +11,10 @@ import octolux::voxel::svo::sample::{SvoCell, svo_corner, svo_info, svo_locate_l
 @group(0) @binding(60) var<storage, read> svo_radiance3: array<u32>;
 
 fn svo_radiance_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
-    let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
+    let w = (brick % svo_info.pool_bricks) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
     var lo = 0u;
     var hi = 0u;
-    switch brick / svo_info.misc.z {
+    switch brick / svo_info.pool_bricks {
         case 0u: { lo = svo_radiance0[w]; hi = svo_radiance0[w + 1u]; }
         case 1u: { lo = svo_radiance1[w]; hi = svo_radiance1[w + 1u]; }
         case 2u: { lo = svo_radiance2[w]; hi = svo_radiance2[w + 1u]; }
@@ -61,10 +61,10 @@ struct SvoRadianceFacing {
 
 // Texel t of brick `brick`: radiance and facing, from one word index and one pool choice.
 fn svo_radiance_facing_texel(brick: u32, t: vec3<u32>) -> SvoRadianceFacing {
-    let w = (brick % svo_info.misc.z) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
+    let w = (brick % svo_info.pool_bricks) * 54u + 2u * (t.x + 3u * t.y + 9u * t.z);
     var r: vec2<u32>;
     var f: vec2<u32>;
-    switch brick / svo_info.misc.z {
+    switch brick / svo_info.pool_bricks {
         case 0u: { r = vec2<u32>(svo_radiance0[w], svo_radiance0[w + 1u]); f = vec2<u32>(svo_facing0[w], svo_facing0[w + 1u]); }
         case 1u: { r = vec2<u32>(svo_radiance1[w], svo_radiance1[w + 1u]); f = vec2<u32>(svo_facing1[w], svo_facing1[w + 1u]); }
         case 2u: { r = vec2<u32>(svo_radiance2[w], svo_radiance2[w + 1u]); f = vec2<u32>(svo_facing2[w], svo_facing2[w + 1u]); }

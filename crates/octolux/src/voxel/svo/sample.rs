@@ -88,13 +88,22 @@ pub fn svo_facing_bindings(svo: &Svo) -> Option<[(u32, wgpu::BindingResource<'_>
     }))
 }
 
+/// Parameter block `SvoInfo` of `voxel/svo/sample.wgsl` (a read-only storage buffer): the
+/// octree's grid and brick pool.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct SvoInfo {
-    /// Grid origin (xyz) and voxel size (w).
-    pub origin: [f32; 4],
-    /// Depth, resolution, bricks per pool buffer, unused.
-    pub misc: [u32; 4],
+    /// The grid's origin (metres).
+    pub origin: [f32; 3],
+    /// The grid's voxel size (metres).
+    pub voxel_size: f32,
+    /// Levels of the octree.
+    pub depth: u32,
+    /// Voxels per axis of the grid.
+    pub resolution: u32,
+    /// Bricks per pool buffer.
+    pub pool_bricks: u32,
+    pub _pad: u32,
 }
 
 impl SvoInfo {
@@ -102,8 +111,12 @@ impl SvoInfo {
     /// buffer ([`super::Svo::pool_bricks`]).
     pub fn new(grid: &VoxelGrid, pool_bricks: u32) -> SvoInfo {
         SvoInfo {
-            origin: grid.origin.extend(grid.voxel_size).to_array(),
-            misc: [grid.depth(), grid.resolution, pool_bricks.max(1), 0],
+            origin: grid.origin.to_array(),
+            voxel_size: grid.voxel_size,
+            depth: grid.depth(),
+            resolution: grid.resolution,
+            pool_bricks: pool_bricks.max(1),
+            _pad: 0,
         }
     }
 }

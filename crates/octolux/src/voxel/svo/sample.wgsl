@@ -8,11 +8,18 @@
 
 import octolux::gpu::work::count_work;
 
+// The octree's description (`SvoInfo` in voxel/svo/sample.rs).
 struct SvoInfo {
-    // xyz: grid origin, w: voxel size.
-    origin: vec4<f32>,
-    // x: depth (levels), y: resolution, z: bricks per pool buffer.
-    misc: vec4<u32>,
+    // The grid's origin and voxel size (metres).
+    origin: vec3<f32>,
+    voxel_size: f32,
+    // Levels of the octree.
+    depth: u32,
+    // Voxels per axis of the grid.
+    resolution: u32,
+    // Bricks per pool buffer.
+    pool_bricks: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(50) var<storage, read> svo_info: SvoInfo;
@@ -24,9 +31,9 @@ struct SvoInfo {
 @group(0) @binding(56) var<storage, read> svo_bricks3: array<u32>;
 
 fn svo_texel(brick: u32, t: vec3<u32>) -> vec4<f32> {
-    let w = (brick % svo_info.misc.z) * 27u + t.x + 3u * t.y + 9u * t.z;
+    let w = (brick % svo_info.pool_bricks) * 27u + t.x + 3u * t.y + 9u * t.z;
     var word = 0u;
-    switch brick / svo_info.misc.z {
+    switch brick / svo_info.pool_bricks {
         case 0u: { word = svo_bricks0[w]; }
         case 1u: { word = svo_bricks1[w]; }
         case 2u: { word = svo_bricks2[w]; }
@@ -84,7 +91,7 @@ struct SvoCells {
 
 fn svo_locate_levels(g: vec3<f32>, d: u32, coarse: bool) -> SvoCells {
     var cells: SvoCells;
-    let depth = svo_info.misc.x;
+    let depth = svo_info.depth;
     let x = g / f32(1u << (depth - 1u - d));
     let size = 1u << d;
     if any(x < vec3<f32>(0.0)) || any(x > vec3<f32>(2.0 * f32(size))) {
@@ -128,9 +135,9 @@ struct SvoLod {
 }
 
 fn svo_lod(p: vec3<f32>, footprint: f32) -> SvoLod {
-    let depth = svo_info.misc.x;
-    let lod = clamp(log2(max(footprint / svo_info.origin.w, 1.0)), 0.0, f32(depth - 1u));
-    return SvoLod(depth - 1u - u32(floor(lod)), lod - floor(lod), (p - svo_info.origin.xyz) / svo_info.origin.w);
+    let depth = svo_info.depth;
+    let lod = clamp(log2(max(footprint / svo_info.voxel_size, 1.0)), 0.0, f32(depth - 1u));
+    return SvoLod(depth - 1u - u32(floor(lod)), lod - floor(lod), (p - svo_info.origin) / svo_info.voxel_size);
 }
 
 // Trilinear albedo/opacity sample of a cell; zero where no node exists.
@@ -192,7 +199,7 @@ struct SvoNodeCell {
 
 fn svo_node_cell(g: vec3<f32>, d: u32) -> SvoNodeCell {
     var cell: SvoNodeCell;
-    let depth = svo_info.misc.x;
+    let depth = svo_info.depth;
     let x = g / f32(1u << (depth - d)) - 0.5;
     if any(x < vec3<f32>(-1.0)) || any(x > vec3<f32>(f32(1u << d))) {
         return cell;
@@ -237,13 +244,13 @@ struct SvoNodeLod {
 }
 
 fn svo_node_lod(p: vec3<f32>, footprint: f32) -> SvoNodeLod {
-    let depth = svo_info.misc.x;
-    let s = log2(max(footprint / svo_info.origin.w, 1.0));
+    let depth = svo_info.depth;
+    let s = log2(max(footprint / svo_info.voxel_size, 1.0));
     let lod = clamp(s - 1.0, 0.0, f32(depth - 1u));
     return SvoNodeLod(
         depth - 1u - u32(floor(lod)),
         lod - floor(lod),
         min(s, 1.0),
-        (p - svo_info.origin.xyz) / svo_info.origin.w,
+        (p - svo_info.origin) / svo_info.voxel_size,
     );
 }

@@ -23,12 +23,26 @@ use crate::{Error, Result};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct VoxParams {
-    /// First voxel of the region (xyz).
-    pub lo: [i32; 4],
-    /// One past the last voxel of the region (xyz).
-    pub hi: [i32; 4],
-    /// Work-item count, then kernel-specific values.
-    pub misc: [u32; 4],
+    /// First voxel of the region.
+    pub lo: [i32; 3],
+    /// Work items (pieces x chunks) of the dispatch.
+    pub items: u32,
+    /// One past the last voxel of the region.
+    pub hi: [i32; 3],
+    /// The appending kernel's counter: the word of its `append` buffer it adds to.
+    pub counter: u32,
+}
+
+impl VoxParams {
+    /// The block for all of `grid`, `items` work items and the append counter `counter`.
+    fn whole_grid(grid: &VoxelGrid, items: u32, counter: u32) -> VoxParams {
+        VoxParams {
+            lo: [0; 3],
+            items,
+            hi: [grid.resolution as i32; 3],
+            counter,
+        }
+    }
 }
 
 /// Uploads triangles in the GPU layout under `owner`.
@@ -118,12 +132,7 @@ impl Voxelizer {
         let n = u32::try_from(tris.len())
             .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
         let (pieces, items, n_items) = snap_grid(grid, tris)?;
-        let res = grid.resolution as i32;
-        let params = VoxParams {
-            lo: [0; 4],
-            hi: [res, res, res, 0],
-            misc: [n_items, 0, 0, 0],
-        };
+        let params = VoxParams::whole_grid(grid, n_items, 0);
         let params_buffer = ctx.create_buffer_init(
             owner,
             "voxelize params",
@@ -237,16 +246,11 @@ impl Voxelizer {
         u32::try_from(tris.len())
             .map_err(|_| Error::InvalidArgument(format!("{} triangles", tris.len())))?;
         let (pieces, items, n_items) = snap_grid(grid, tris)?;
-        let res = grid.resolution as i32;
         let triangles = upload_triangles(ctx, owner, tris);
         if n_items == 0 {
             return Ok(triangles);
         }
-        let params = VoxParams {
-            lo: [0; 4],
-            hi: [res, res, res, 0],
-            misc: [n_items, word, 0, 0],
-        };
+        let params = VoxParams::whole_grid(grid, n_items, word);
         let params_buffer = ctx.create_buffer_init(
             owner,
             "voxelize params",
@@ -309,4 +313,20 @@ fn snap_grid(
     let n_items = u32::try_from(items.len())
         .map_err(|_| Error::InvalidArgument(format!("{} work items", items.len())))?;
     Ok((pieces, items, n_items))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn vox_params_mirror_the_wgsl_block() {
+        assert_mirrors_wgsl!(
+            VoxParams,
+            "voxel/voxelize/overlap",
+            "VoxParams",
+            [lo, items, hi, counter]
+        );
+    }
 }

@@ -28,11 +28,17 @@ fn fragment_sum_terms(tri: Tri) -> array<u32, 10> {
     return t;
 }
 
-// A box of voxels [lo, hi) of a grid; misc.x = work items, misc.y/z/w are kernel specific.
+// A box of voxels [lo, hi) of a grid and the work items over it (`VoxParams` in
+// voxelize/mod.rs).
 struct VoxParams {
-    lo: vec4<i32>,
-    hi: vec4<i32>,
-    misc: vec4<u32>,
+    // First voxel of the box.
+    lo: vec3<i32>,
+    // Work items (pieces x chunks) of the dispatch.
+    items: u32,
+    // One past the last voxel of the box.
+    hi: vec3<i32>,
+    // `append_fragments`: the word of `append` that counts the fragments.
+    counter: u32,
 }
 
 // ---- Exact overlap on the snapping lattice (CPU twin: voxelize/snap.rs) ------------------------------

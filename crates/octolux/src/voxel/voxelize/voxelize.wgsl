@@ -24,11 +24,11 @@ fn pack_cell(c: vec3<i32>) -> u32 {
 fn count_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                    @builtin(local_invocation_index) li: u32) {
     let w = linear_index(wg, nwg, li);
-    if w >= P.misc.x {
+    if w >= P.items {
         return;
     }
     let piece = pieces[items[w].x];
-    let range = piece_cells(piece, P.hi.xyz - P.lo.xyz);
+    let range = piece_cells(piece, P.hi - P.lo);
     let test = piece_test(piece, range[0]);
     var n = 0u;
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
@@ -44,12 +44,12 @@ fn count_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
 fn emit_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                   @builtin(local_invocation_index) li: u32) {
     let w = linear_index(wg, nwg, li);
-    if w >= P.misc.x {
+    if w >= P.items {
         return;
     }
     let piece = pieces[items[w].x];
     let t = u32(piece.a.w);
-    let range = piece_cells(piece, P.hi.xyz - P.lo.xyz);
+    let range = piece_cells(piece, P.hi - P.lo);
     let test = piece_test(piece, range[0]);
     var at = counts[w];
     let total = arrayLength(&fragments);
@@ -65,7 +65,7 @@ fn emit_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
 
 // Appending variant for lists sized by a capacity instead of a count pass (the octree's
 // dynamic part, which must not wait for a count): every work item counts its fragments,
-// reserves a range with one atomic add on `append[P.misc.y]` and writes into it what fits
+// reserves a range with one atomic add on `append[P.counter]` and writes into it what fits
 // in `fragments`. The counter ends at the number of fragments the triangles give, also when
 // the list overflows; the order of the work items' ranges varies from run to run.
 @group(0) @binding(5) var<storage, read_write> append: array<atomic<u32>>;
@@ -74,12 +74,12 @@ fn emit_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
 fn append_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                     @builtin(local_invocation_index) li: u32) {
     let w = linear_index(wg, nwg, li);
-    if w >= P.misc.x {
+    if w >= P.items {
         return;
     }
     let piece = pieces[items[w].x];
     let t = u32(piece.a.w);
-    let range = piece_cells(piece, P.hi.xyz - P.lo.xyz);
+    let range = piece_cells(piece, P.hi - P.lo);
     let test = piece_test(piece, range[0]);
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
     var n = 0u;
@@ -91,7 +91,7 @@ fn append_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroup
     if n == 0u {
         return;
     }
-    var at = atomicAdd(&append[P.misc.y], n);
+    var at = atomicAdd(&append[P.counter], n);
     let total = arrayLength(&fragments);
     for (var i = items[w].y * CHUNK; i < cells && at < total; i++) {
         let l = nth_offset(range, i);
