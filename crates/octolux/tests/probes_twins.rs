@@ -325,7 +325,7 @@ fn probe_integration_and_gather_equal_their_cpu_twins() {
         let dirs: Vec<Vec3> = (0..probes.surfel_count())
             .map(|k| octolux::gi::probes::lattice::direction(lattice, k, probes.surfel_count()).0)
             .collect();
-        // The scene's maximum ray distance (ProbeParams.lo.w): a miss's distance.
+        // The scene's maximum ray distance (ProbeParams.max_distance): a miss's distance.
         let (lo, hi) = scene.bounds_at(0.0);
         let far = (hi - lo).length() * 1.01;
         let mut worst_moment = 0.0f32;

@@ -188,7 +188,7 @@ pub(crate) struct ProbeEngine {
     /// The boxes of the objects that moved since the surfels were placed (two per animated
     /// object at most: old and new bounds), for a placement that keeps the other surfels.
     moved: wgpu::Buffer,
-    /// Per probe, the last frame that traced any of its rays (`P.frame.x`).
+    /// Per probe, the last frame that traced any of its rays (`P.frame`).
     stamps: wgpu::Buffer,
     surfels: wgpu::Buffer,
     radiance: wgpu::Buffer,
@@ -241,26 +241,35 @@ impl ProbeEngine {
         }
         let (lo, hi) = bounds;
         let mut params = ProbeParams {
-            lo: layout.lo.extend((hi - lo).length() * 1.01).to_array(),
-            spacing: layout.spacing.extend(layout.bias).to_array(),
-            dims: layout.dims.extend(settings.surfel_count()).to_array(),
-            misc: [
-                settings.lattice.gpu_kind(),
-                settings.encoding.gpu_kind(),
-                0,
-                settings.bounces_over_frames() as u32,
-            ],
+            lo: layout.lo.to_array(),
+            max_distance: (hi - lo).length() * 1.01,
+            spacing: layout.spacing.to_array(),
+            normal_offset: layout.bias,
+            dims: layout.dims.to_array(),
+            surfels_per_set: settings.surfel_count(),
+            lattice: settings.lattice.gpu_kind(),
+            encoding: settings.encoding.gpu_kind(),
+            light_count: 0,
+            multi_bounce: settings.bounces_over_frames() as u32,
             // The BVH roots are set by `Rays::new`.
-            roots: [0, 0, probes, surfels as u32],
-            limits: [
-                settings.max_back_faces(),
-                settings.visibility.gpu_kind(),
-                0,
-                0,
-            ],
-            vis: [variance_floor(layout.cell), 0.0, 1.0, 1.0],
-            frame: [0; 4],
-            sets: [sets, 0, 0, settings.history],
+            static_root: 0,
+            instance_count: 0,
+            probe_slots: probes,
+            surfel_count: surfels as u32,
+            max_back_faces: settings.max_back_faces(),
+            visibility: settings.visibility.gpu_kind(),
+            moved_boxes: 0,
+            keep_unmoved: 0,
+            variance_floor: variance_floor(layout.cell),
+            moments_keep: 0.0,
+            bounce_scale: 1.0,
+            forgetting: 1.0,
+            frame: 0,
+            set_count: sets,
+            latest_set: 0,
+            latest_placed: 0,
+            max_history: settings.history,
+            _pad: [0; 3],
             rot: rotation_rows([glam::Mat3::IDENTITY; 2]),
         };
         let rays = Rays::new(
@@ -376,8 +385,8 @@ impl ProbeEngine {
         if self.animated {
             self.rays.sync_moving(ctx, frame, timer, &mut self.params)?;
         }
-        self.params.misc[2] = frame.frame.lights.len() as u32;
-        self.params.frame[0] = self.params.frame[0].wrapping_add(1).max(1);
+        self.params.light_count = frame.frame.lights.len() as u32;
+        self.params.frame = self.params.frame.wrapping_add(1).max(1);
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         Ok(())
@@ -413,8 +422,8 @@ impl ProbeEngine {
             )));
         }
         ctx.queue.write_buffer(&self.moved, 0, bytes);
-        self.params.limits[2] = boxes.len() as u32;
-        self.params.limits[3] = u32::from(selective);
+        self.params.moved_boxes = boxes.len() as u32;
+        self.params.keep_unmoved = u32::from(selective);
         Ok(())
     }
 
@@ -430,14 +439,14 @@ impl ProbeEngine {
         rotations: [glam::Mat3; 2],
         moments_keep: f32,
     ) {
-        self.params.sets[1] = sample.unwrap_or(latest);
-        self.params.sets[2] = u32::from(sample.is_some());
+        self.params.latest_set = sample.unwrap_or(latest);
+        self.params.latest_placed = u32::from(sample.is_some());
         self.params.rot = rotation_rows(rotations);
-        self.params.vis[1] = moments_keep;
+        self.params.moments_keep = moments_keep;
     }
 
     fn surfel_groups(&self) -> (u32, u32) {
-        dispatch_size(self.params.roots[3])
+        dispatch_size(self.params.surfel_count)
     }
 
     /// Surfels: rays from the probes the set asks for along their lattices.
@@ -474,7 +483,7 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let size = dispatch_size(self.params.roots[2] * super::moments::MOMENT_TEXELS);
+        let size = dispatch_size(self.params.probe_slots * super::moments::MOMENT_TEXELS);
         let dispatch = set_dispatch(set, 12, size);
         run_dispatch(timer, "moments", &self.moments_build, &groups, dispatch);
     }
@@ -482,12 +491,12 @@ impl ProbeEngine {
     /// The scale of last frame's probe light in this frame's surfel light (call before
     /// [`ProbeEngine::begin_frame`]).
     pub fn set_bounce_scale(&mut self, scale: f32) {
-        self.params.vis[2] = scale;
+        self.params.bounce_scale = scale;
     }
 
     /// How strongly the probes' histories forget in proportion to their change this frame.
     pub fn set_forgetting(&mut self, strength: f32) {
-        self.params.vis[3] = strength;
+        self.params.forgetting = strength;
     }
 
     /// Surfel light: direct light with shadow-map visibility (+ last frame's probes).
@@ -530,7 +539,7 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let dispatch = set_dispatch(set, 24, dispatch_size(self.params.roots[2]));
+        let dispatch = set_dispatch(set, 24, dispatch_size(self.params.probe_slots));
         run_dispatch(timer, "integrate", &self.integrate, &groups, dispatch);
     }
 

@@ -4,12 +4,12 @@
 import octolux::gi::probes::probes::P;
 
 fn probe_coord(probe: u32) -> vec3<u32> {
-    let d = P.dims.xyz;
+    let d = P.dims;
     return vec3<u32>(probe % d.x, (probe / d.x) % d.y, probe / (d.x * d.y));
 }
 
 fn probe_position(c: vec3<u32>) -> vec3<f32> {
-    return P.lo.xyz + (vec3<f32>(c) + 0.5) * P.spacing.xyz;
+    return P.lo + (vec3<f32>(c) + 0.5) * P.spacing;
 }
 
 fn probe_origin(probe: u32) -> vec3<f32> {
@@ -22,7 +22,7 @@ fn probe_live(probe: u32) -> bool {
 
 // The shared passes run over every probe: the k-th is probe k.
 fn probe_slots() -> u32 {
-    return P.roots.z;
+    return P.probe_slots;
 }
 
 fn probe_slot(k: u32) -> u32 {

@@ -28,9 +28,9 @@ import octolux::gpu::work::count_work;
 // the back-face weight for the direction to the probe; probes inside geometry (too many
 // back-face hits) are left out. CPU twin: `grid_irradiance` in grid_gi.rs.
 fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let q = p + n * P.spacing.w;
-    let g = (q - P.lo.xyz) / P.spacing.xyz - 0.5;
-    let hi = vec3<i32>(P.dims.xyz) - 2;
+    let q = p + n * P.normal_offset;
+    let g = (q - P.lo) / P.spacing - 0.5;
+    let hi = vec3<i32>(P.dims) - 2;
     let base = clamp(vec3<i32>(floor(g)), vec3<i32>(0), hi);
     let t = clamp(g - vec3<f32>(base), vec3<f32>(0.0), vec3<f32>(1.0));
     var sum = vec3<f32>(0.0);
@@ -46,7 +46,7 @@ fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let tri = select(vec3<f32>(1.0) - t, t, off == vec3<u32>(1u));
         let x = probe_position(coord);
         let w = tri.x * tri.y * tri.z * probe_facing_weight(x - p, n) * probe_visibility(probe, x, q);
-        sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
+        sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
         total += w;
     }
     return select(vec3<f32>(0.0), sum / total, total > 0.0);

@@ -2,17 +2,17 @@
 // lattice direction, into its encoding, and counts its back-face and total hits and the hits
 // inside its region (the octree's hit count).
 //
-// With two surfel sets (P.sets.x = 2: probes-grid's accumulation over frames, docs/probes.md
-// "Rays that turn every frame") a probe keeps a history: its value is the mean of the samples
-// of the last frames (up to P.sets.w), each sample one turned lattice. The history is first
-// relit: the set placed before is integrated again in this frame's light, and what changed
-// since it was integrated last (its stored raw value, `probe_raw`) is added, so that light
-// that moved, switched or bounced once more reaches the history at once. In a frame where a
-// light or an object changed, the history also forgets in proportion to that change, times
-// P.vis.w (grid_gi.rs, FORGETTING), so the noise of a change fades as new samples come.
-// Then the new set's sample is blended in with weight 1 / (frames + 1); a probe whose
-// history is full and whose light did not change keeps its value (no flicker where nothing
-// that lights it moves, though a light elsewhere does).
+// With two surfel sets (P.set_count = 2: probes-grid's accumulation over frames,
+// docs/probes.md "Rays that turn every frame") a probe keeps a history: its value is the mean
+// of the samples of the last frames (up to P.max_history), each sample one turned lattice.
+// The history is first relit: the set placed before is integrated again in this frame's
+// light, and what changed since it was integrated last (its stored raw value, `probe_raw`) is
+// added, so that light that moved, switched or bounced once more reaches the history at once.
+// In a frame where a light or an object changed, the history also forgets in proportion to
+// that change, times P.forgetting (grid_gi.rs, FORGETTING), so the noise of a change fades
+// as new samples come. Then the new set's sample is blended in with weight 1 / (frames + 1);
+// a probe whose history is full and whose light did not change keeps its value (no flicker
+// where nothing that lights it moves, though a light elsewhere does).
 
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, PROBE_VEC4, SURFEL_VEC4};
 import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots, probe_store_hits};
@@ -65,7 +65,7 @@ fn integrate_set(probe: u32, ray_set: u32, n: u32) -> SetSums {
         back += u32(state > 1.5);
         inside += u32(state > 0.5 && surfels[s * SURFEL_VEC4 + 2u].w >= 0.0);
         let d = probe_ray_dir(ray_set, k, n);
-        probe_encode(P.misc.y, &c, radiance[s].rgb, d.xyz, d.w);
+        probe_encode(P.encoding, &c, radiance[s].rgb, d.xyz, d.w);
     }
     return SetSums(c, back, hits, inside);
 }
@@ -90,21 +90,21 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if !probe_live(probe) {
         return;
     }
-    let n = P.dims.w;
+    let n = P.surfels_per_set;
     let b = probe * PROBE_VEC4;
-    if P.sets.x == 1u {
+    if P.set_count == 1u {
         let r = integrate_set(probe, 0u, n);
         for (var k = 0u; k < 8u; k++) {
             probes[b + k] = vec4<f32>(r.c[k], 0.0);
         }
         probe_store_hits(probe, r.inside);
-        probes[b + 8u] = vec4<f32>(f32(r.back) / f32(n), f32(r.hits) / f32(n), select(0.0, 1.0, r.back <= P.limits.x), 0.0);
+        probes[b + 8u] = vec4<f32>(f32(r.back) / f32(n), f32(r.hits) / f32(n), select(0.0, 1.0, r.back <= P.max_back_faces), 0.0);
         count_integrate_work();
         return;
     }
-    let sampled = P.sets.z != 0u;
+    let sampled = P.latest_placed != 0u;
     // The set placed before this frame's: the other one when a new set was placed.
-    let before = select(P.sets.y, 1u - P.sets.y, sampled);
+    let before = select(P.latest_set, 1u - P.latest_set, sampled);
     let relit = integrate_set(probe, before, n);
     let rb = probe * 8u;
     var history: array<vec3<f32>, 8>;
@@ -119,25 +119,25 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // (back-face share, hit share, valid, frames in the history)
     let state = probes[b + 8u];
     let scale = max(max(level(raw), level(relit.c)), 1e-30);
-    var frames = state.w * max(1.0 - P.vis.w * change / scale, 0.0);
+    var frames = state.w * max(1.0 - P.forgetting * change / scale, 0.0);
     var back = state.x;
     var hits = state.y;
     var latest = relit.c;
     // A full history whose light did not change at all is settled: it keeps its value, and
     // the new sample only becomes the set the next frame relights from.
-    let settled = frames >= f32(P.sets.w) && change == 0.0;
+    let settled = frames >= f32(P.max_history) && change == 0.0;
     if sampled && !settled {
-        let sample = integrate_set(probe, P.sets.y, n);
+        let sample = integrate_set(probe, P.latest_set, n);
         let keep = frames / (frames + 1.0);
         for (var k = 0u; k < 8u; k++) {
             history[k] = mix(sample.c[k], history[k], keep);
         }
         back = mix(f32(sample.back) / f32(n), back, keep);
         hits = mix(f32(sample.hits) / f32(n), hits, keep);
-        frames = min(frames + 1.0, f32(P.sets.w));
+        frames = min(frames + 1.0, f32(P.max_history));
         latest = sample.c;
     } else if sampled {
-        latest = integrate_set(probe, P.sets.y, n).c;
+        latest = integrate_set(probe, P.latest_set, n).c;
     }
     for (var k = 0u; k < 8u; k++) {
         probes[b + k] = vec4<f32>(history[k], 0.0);
@@ -145,7 +145,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     // The back-face share is a mean over frames too: valid while it holds at most the limit's
     // count (+ 0.5: a single sample's share times n is an integer up to rounding).
-    let valid = back * f32(n) <= f32(P.limits.x) + 0.5;
+    let valid = back * f32(n) <= f32(P.max_back_faces) + 0.5;
     probes[b + 8u] = vec4<f32>(back, hits, select(0.0, 1.0, valid), frames);
     count_integrate_work();
 }

@@ -30,7 +30,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         return;
     }
     // Two sets and no new sample this frame: only the latest set is integrated.
-    if P.sets.x > 1u && P.sets.z == 0u && (k % per_probe) / P.dims.w != P.sets.y {
+    if P.set_count > 1u && P.latest_placed == 0u && (k % per_probe) / P.surfels_per_set != P.latest_set {
         return;
     }
     let b = s * SURFEL_VEC4;
@@ -47,7 +47,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // Work counts (`*_LIGHT_WORK` in engine.rs): surfels lit, shadow lookups, then the probe
     // lookups' work (with multiple bounces).
     var shadow_lookups = 0u;
-    for (var i = 0u; i < P.misc.z; i++) {
+    for (var i = 0u; i < P.light_count; i++) {
         let light = lights[i];
         let inc = light_incidence(light, p);
         let cos_theta = dot(n, inc.to_light);
@@ -57,10 +57,10 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         shadow_lookups += 1u;
         e += inc.irradiance * cos_theta * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
     }
-    if P.misc.w != 0u {
+    if P.multi_bounce != 0u {
         // Last frame's bounces scale with the lights that made them: a light that dims or
         // switches off takes its higher bounces with it at once, not over a bounce per frame.
-        e += P.vis.z * probes_irradiance(p, n);
+        e += P.bounce_scale * probes_irradiance(p, n);
     }
     count_work(0u, 1u);
     count_work(1u, shadow_lookups);

@@ -44,7 +44,7 @@ pub enum Visibility {
 }
 
 impl Visibility {
-    /// The WGSL's mode (`P.limits.y`).
+    /// The WGSL's mode (`P.visibility`).
     pub fn gpu_kind(self) -> u32 {
         match self {
             Visibility::None => 0,

@@ -76,18 +76,18 @@ fn moment_sample(probe: u32, d: vec3<f32>) -> vec2<f32> {
 
 // DDGI's Chebyshev visibility of point q from the probe at x: 1 up to the mean distance along
 // x -> q, beyond it (var / (var + (r - mean)^2))^3 with var = max(E[d^2] - E[d]^2, floor)
-// (P.vis.x); 1 when the moments are off (P.limits.y == 0).
+// (P.variance_floor); 1 when the moments are off (P.visibility == 0).
 fn probe_visibility(probe: u32, x: vec3<f32>, q: vec3<f32>) -> f32 {
     let v = q - x;
     let r = length(v);
-    if P.limits.y == 0u || r <= 0.0 {
+    if P.visibility == 0u || r <= 0.0 {
         return 1.0;
     }
     let m = moment_sample(probe, v / r);
     if r <= m.x {
         return 1.0;
     }
-    let variance = max(m.y - m.x * m.x, P.vis.x);
+    let variance = max(m.y - m.x * m.x, P.variance_floor);
     let e = r - m.x;
     let c = variance / (variance + e * e);
     return c * c * c;

@@ -50,21 +50,21 @@ fn free_probe_at(k: u32) -> u32 {
     return 4u + k;
 }
 fn free_cluster_at(k: u32) -> u32 {
-    return 4u + O.sizes.y + k;
+    return 4u + O.probe_slots + k;
 }
 fn no_split_at(i: u32) -> u32 {
-    return 4u + O.sizes.y + O.sizes.z + i;
+    return 4u + O.probe_slots + O.clusters + i;
 }
 fn request_at(i: u32) -> u32 {
-    return no_split_at(i) + O.sizes.x;
+    return no_split_at(i) + O.tree_words;
 }
 fn freed_at(i: u32) -> u32 {
-    return no_split_at(i) + 2u * O.sizes.x;
+    return no_split_at(i) + 2u * O.tree_words;
 }
 
 fn push(offset: u32, node: u32, code: u32) {
-    let k = (O.frame.x + offset) % 3u;
-    atomicMax(&ring[k * O.sizes.x + node], code);
+    let k = (O.ring_origin + offset) % 3u;
+    atomicMax(&ring[k * O.tree_words + node], code);
 }
 
 fn parent_of(i: u32) -> u32 {
@@ -126,11 +126,11 @@ fn demand(i: u32) -> vec2<u32> {
 
 @compute @workgroup_size(256)
 fn memory_update(@builtin(local_invocation_index) t: u32) {
-    let len = O.sizes.x;
+    let len = O.tree_words;
     let per = (len + THREADS - 1u) / THREADS;
     let start = min(t * per, len);
     let end = min(start + per, len);
-    let seg = O.frame.x * len;
+    let seg = O.ring_origin * len;
     if t == 0u {
         atomicStore(&used_clusters, 0u);
         atomicStore(&used_probes, 0u);
@@ -285,7 +285,7 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
 // Lists the live probe slots in increasing order (each thread a run of consecutive slots)
 // and sets the shared passes' dispatches from their count.
 fn list_live_probes(t: u32) {
-    let capacity = O.sizes.y;
+    let capacity = O.probe_slots;
     let per = (capacity + THREADS - 1u) / THREADS;
     let start = min(t * per, capacity);
     let end = min(start + per, capacity);
@@ -306,8 +306,8 @@ fn list_live_probes(t: u32) {
         live[0] = count;
         // Work counts: the live probes the shared passes run over.
         count_work(1u, count);
-        set_args(0u, count * O.shape.x);
-        set_args(3u, count * O.shape.y);
+        set_args(0u, count * O.surfels_per_probe);
+        set_args(3u, count * O.moment_texels);
         set_args(6u, count);
     }
 }
@@ -327,10 +327,10 @@ fn set_args(at: u32, n: u32) {
 fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
     // At most 37449 nodes (depth 5): one row of workgroups.
     let i = id.x;
-    if i >= O.sizes.x {
+    if i >= O.tree_words {
         return;
     }
-    let at = ((O.frame.x + 1u) % 3u) * O.sizes.x + i;
+    let at = ((O.ring_origin + 1u) % 3u) * O.tree_words + i;
     var code = atomicLoad(&ring[at]);
     if code == 0u {
         return;
@@ -344,8 +344,8 @@ fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let c = octree_cube(i);
     let hi = c.lo + vec3<f32>(c.size);
-    var tests = O.frame.y;
-    for (var k = 0u; k < O.frame.y; k++) {
+    var tests = O.moved_boxes;
+    for (var k = 0u; k < O.moved_boxes; k++) {
         if all(c.lo <= boxes[2u * k + 1u].xyz) && all(boxes[2u * k].xyz <= hi) {
             tests = k + 1u;
             state[no_split_at(i)] = 0u;
@@ -373,7 +373,7 @@ fn light_select(@builtin(global_invocation_id) id: vec3<u32>) {
 fn light_decide(@builtin(global_invocation_id) id: vec3<u32>) {
     // At most 37449 nodes (depth 5): one row of workgroups.
     let i = id.x;
-    if i >= O.sizes.x || state[request_at(i)] == 0u {
+    if i >= O.tree_words || state[request_at(i)] == 0u {
         return;
     }
     // Work counts (`DECIDE_WORK` in octree_gi.rs): leaves decided.
@@ -383,19 +383,19 @@ fn light_decide(@builtin(global_invocation_id) id: vec3<u32>) {
     place_flags[p] = 0u;
     let h = hits[p];
     let depth = u32(probe_info[p].w);
-    // `OctreeRule::decide`: levels above the minimum depth (modes.w) always split, leaves
+    // `OctreeRule::decide`: levels above the minimum depth (O.min_depth) always split, leaves
     // down to it keep their probes.
-    let min_depth = O.modes.w;
-    let may_split = depth < O.sizes.w && state[no_split_at(i)] == 0u;
+    let min_depth = O.min_depth;
+    let may_split = depth < O.max_depth && state[no_split_at(i)] == 0u;
     let kept = min_depth > 0u && depth <= min_depth;
     if may_split && depth < min_depth {
         push(2u, i, M3);
         if i != 0u {
             push(2u, parent_of(i), M0);
         }
-    } else if h < O.frame.z && !kept {
+    } else if h < O.free_below && !kept {
         push(2u, i, M2);
-    } else if may_split && h >= O.frame.w {
+    } else if may_split && h >= O.split_from {
         push(2u, i, M3);
         if i != 0u {
             push(2u, parent_of(i), M0);

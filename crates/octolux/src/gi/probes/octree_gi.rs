@@ -30,15 +30,43 @@ const OWNER: &str = "probes-octree";
 /// Words before the free lists in the state buffer (tops of the two free lists, 2 spare).
 const STATE_HEAD: usize = 4;
 
-/// `OctreeParams` in octree_tree.wgsl.
+/// `OctreeParams` in octree_params.wgsl (the same fields at the same offsets; tested).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct OctreeParams {
-    root: [f32; 4],
-    sizes: [u32; 4],
-    frame: [u32; 4],
-    modes: [u32; 4],
-    shape: [u32; 4],
+    /// Lower corner of the root cube.
+    root_lo: [f32; 3],
+    /// Edge of the root cube.
+    root_size: f32,
+    /// Words in the tree buffer.
+    tree_words: u32,
+    /// Probe slots.
+    probe_slots: u32,
+    /// Clusters.
+    clusters: u32,
+    /// Deepest level.
+    max_depth: u32,
+    /// Ring origin of this frame.
+    ring_origin: u32,
+    /// Moved boxes.
+    moved_boxes: u32,
+    /// Hits below which a probe is freed.
+    free_below: u32,
+    /// Hits from which a leaf splits.
+    split_from: u32,
+    /// 1: surfels beyond the probe's cube are kept (lit, not counted).
+    keep_outside: u32,
+    /// Gather 0 through the octree, 1 over all probes.
+    gather_all: u32,
+    /// 1: place every live probe this frame.
+    place_all: u32,
+    /// Levels complete down to this depth ([`OctreeRule::min_depth`]).
+    min_depth: u32,
+    /// Surfels per probe.
+    surfels_per_probe: u32,
+    /// Moment-map texels per probe (the shared passes' invocations per listed probe).
+    moment_texels: u32,
+    _pad: [u32; 2],
 }
 
 /// What the memory update counts (octree.wgsl): tree nodes it sweeps (every pass over the
@@ -122,11 +150,23 @@ impl GpuOctree {
         let (ring, origin) = cpu.ring_codes();
         let info = cpu.probe_info();
         let params = OctreeParams {
-            root: lo.extend(size).to_array(),
-            sizes: [len as u32, capacity, clusters as u32, rule.max_depth],
-            frame: [0, 0, rule.free_below(), rule.split_from()],
-            modes: [0, 0, 0, rule.min_depth],
-            shape: [rule.surfels, super::moments::MOMENT_TEXELS, 0, 0],
+            root_lo: lo.to_array(),
+            root_size: size,
+            tree_words: len as u32,
+            probe_slots: capacity,
+            clusters: clusters as u32,
+            max_depth: rule.max_depth,
+            ring_origin: 0,
+            moved_boxes: 0,
+            free_below: rule.free_below(),
+            split_from: rule.split_from(),
+            keep_outside: 0,
+            gather_all: 0,
+            place_all: 0,
+            min_depth: rule.min_depth,
+            surfels_per_probe: rule.surfels,
+            moment_texels: super::moments::MOMENT_TEXELS,
+            _pad: [0; 2],
         };
         let source = library_shader_with(
             "gi/probes/octree",
@@ -189,7 +229,7 @@ impl GpuOctree {
 
     /// Probe slots.
     pub fn capacity(&self) -> u32 {
-        self.params.sizes[1]
+        self.params.probe_slots
     }
 
     /// The buffers a test reads back: the tree, the probe info, the state (free-list tops,
@@ -209,7 +249,8 @@ impl GpuOctree {
         &self.hits
     }
 
-    /// Uploads this frame's parameters: the ring origin, the moved boxes, the modes.
+    /// Uploads this frame's parameters: the ring origin, the moved boxes, the modes
+    /// (`keep_outside`, `gather_all`, `place_all` of `OctreeParams`).
     pub fn begin_frame(
         &mut self,
         ctx: &GpuContext,
@@ -228,9 +269,12 @@ impl GpuOctree {
             ctx.queue
                 .write_buffer(&self.boxes, 0, bytemuck::cast_slice(&boxes));
         }
-        self.params.frame[0] = self.origin;
-        self.params.frame[1] = moved.len() as u32;
-        self.params.modes = [modes[0], modes[1], modes[2], self.rule.min_depth];
+        self.params.ring_origin = self.origin;
+        self.params.moved_boxes = moved.len() as u32;
+        let [keep_outside, gather_all, place_all] = modes;
+        self.params.keep_outside = keep_outside;
+        self.params.gather_all = gather_all;
+        self.params.place_all = place_all;
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         Ok(())
@@ -267,12 +311,12 @@ impl GpuOctree {
         pass: usize,
     ) -> Option<(u32, wgpu::BindingResource<'a>)> {
         let (work, region) = ctx.work().zip(self.work[pass])?;
-        work.add(region, 0, self.params.sizes[0] as u64);
+        work.add(region, 0, self.params.tree_words as u64);
         Some(work.entry(region))
     }
 
     fn node_groups(&self) -> (u32, u32) {
-        (self.params.sizes[0].div_ceil(64), 1)
+        (self.params.tree_words.div_ceil(64), 1)
     }
 
     /// The light update's first half: moved geometry, L1 leaves ask for surfels.
@@ -700,5 +744,39 @@ impl GiTechnique for ProbesOctree {
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn octree_params_mirror_the_wgsl() {
+        assert_mirrors_wgsl!(
+            OctreeParams,
+            "gi/probes/octree_params",
+            "OctreeParams",
+            [
+                root_lo,
+                root_size,
+                tree_words,
+                probe_slots,
+                clusters,
+                max_depth,
+                ring_origin,
+                moved_boxes,
+                free_below,
+                split_from,
+                keep_outside,
+                gather_all,
+                place_all,
+                min_depth,
+                surfels_per_probe,
+                moment_texels,
+                _pad,
+            ]
+        );
     }
 }

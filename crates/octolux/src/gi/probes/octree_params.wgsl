@@ -2,18 +2,38 @@
 // machine and the probe set (octree_tree_write.wgsl, octree_tree_read.wgsl).
 
 struct OctreeParams {
-    // xyz: lower corner of the root cube; w: its edge
-    root: vec4<f32>,
-    // x: words in the tree buffer, y: probe slots, z: clusters, w: deepest level
-    sizes: vec4<u32>,
-    // x: ring origin of this frame, y: moved boxes, z: hits below which a probe is freed,
-    // w: hits from which a leaf splits
-    frame: vec4<u32>,
-    // x: 1 = surfels beyond the probe's cube are kept (lit, not counted), y: gather 0 through
-    // the octree, 1 over all probes, z: 1 = place every live probe this frame, w: levels
-    // complete down to this depth (`OctreeRule::min_depth`)
-    modes: vec4<u32>,
-    // x: surfels per probe, y: moment-map texels per probe (the shared passes' invocations
-    // per listed probe)
-    shape: vec4<u32>,
+    // Lower corner of the root cube
+    root_lo: vec3<f32>,
+    // Edge of the root cube
+    root_size: f32,
+    // Words in the tree buffer
+    tree_words: u32,
+    // Probe slots
+    probe_slots: u32,
+    // Clusters
+    clusters: u32,
+    // Deepest level
+    max_depth: u32,
+    // Ring origin of this frame
+    ring_origin: u32,
+    // Moved boxes
+    moved_boxes: u32,
+    // Hits below which a probe is freed
+    free_below: u32,
+    // Hits from which a leaf splits
+    split_from: u32,
+    // 1 = surfels beyond the probe's cube are kept (lit, not counted)
+    keep_outside: u32,
+    // Gather 0 through the octree, 1 over all probes
+    gather_all: u32,
+    // 1 = place every live probe this frame
+    place_all: u32,
+    // Levels complete down to this depth (`OctreeRule::min_depth`)
+    min_depth: u32,
+    // Surfels per probe
+    surfels_per_probe: u32,
+    // Moment-map texels per probe (the shared passes' invocations per listed probe)
+    moment_texels: u32,
+    _pad0: u32,
+    _pad1: u32,
 };

@@ -47,14 +47,14 @@ fn leaf_at(q: vec3<f32>) -> vec2<u32> {
 const VISIBLE_SHARE: f32 = 0.1;
 
 fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let lo = O.root.xyz;
-    let hi = lo + vec3<f32>(O.root.w);
-    let q = p + n * P.spacing.w;
+    let lo = O.root_lo;
+    let hi = lo + vec3<f32>(O.root_size);
+    let q = p + n * P.normal_offset;
     let leaf = leaf_at(clamp(q, lo, hi));
-    var h = ldexp(O.root.w, -i32(leaf.y)) * 0.5;
+    var h = ldexp(O.root_size, -i32(leaf.y)) * 0.5;
     var sum = vec3<f32>(0.0);
     var total = 0.0;
-    for (var level = 0u; level <= O.sizes.w + 1u; level++) {
+    for (var level = 0u; level <= O.max_depth + 1u; level++) {
         var seen: array<u32, 8>;
         var count = 0u;
         var open = 0.0;
@@ -85,7 +85,7 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             let tent = max(vec3<f32>(1.0) - abs(q - x) / max(probe_edge(probe), 2.0 * h), vec3<f32>(0.0));
             let w0 = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
             let w = w0 * probe_visibility(probe, x, q);
-            sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
+            sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
             total += w;
             open += w0;
         }
@@ -101,10 +101,10 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 // r the distance from q to the probe (004 attenuates by distance and by the probe's volume
 // and clamps inside its cube); normalised by the weights' sum.
 fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let q = p + n * P.spacing.w;
+    let q = p + n * P.normal_offset;
     var sum = vec3<f32>(0.0);
     var total = 0.0;
-    for (var probe = 0u; probe < P.roots.z; probe++) {
+    for (var probe = 0u; probe < P.probe_slots; probe++) {
         if !probe_live(probe) || !probe_valid(probe) {
             continue;
         }
@@ -113,14 +113,14 @@ fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let r = x - q;
         let e = probe_edge(probe) * 0.5;
         let w = probe_facing_weight(x - p, n) * probe_visibility(probe, x, q) * ldexp(1.0, -3 * i32(probe_info[probe].w)) / max(dot(r, r), e * e);
-        sum += w * probe_irradiance(P.misc.y, probe_coeffs(probe), n);
+        sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
         total += w;
     }
     return select(vec3<f32>(0.0), sum / total, total > 0.0);
 }
 
 fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    if O.modes.y != 0u {
+    if O.gather_all != 0u {
         return all_probes_irradiance(p, n);
     }
     return octree_irradiance(p, n);

@@ -30,12 +30,12 @@ fn probe_live(probe: u32) -> bool {
 }
 
 fn probe_wants_place(probe: u32) -> bool {
-    return probe_live(probe) && (place_flags[probe] != 0u || O.modes.z != 0u);
+    return probe_live(probe) && (place_flags[probe] != 0u || O.place_all != 0u);
 }
 
 // Edge of the probe's leaf cube.
 fn probe_edge(probe: u32) -> f32 {
-    return ldexp(O.root.w, -i32(probe_info[probe].w));
+    return ldexp(O.root_size, -i32(probe_info[probe].w));
 }
 
 // Distance from the probe (its cube's centre) along unit d to its cube's boundary.
@@ -45,7 +45,7 @@ fn probe_region_exit(probe: u32, d: vec3<f32>) -> f32 {
 }
 
 fn probe_keeps_far_hits() -> bool {
-    return O.modes.x != 0u;
+    return O.keep_outside != 0u;
 }
 
 fn probe_store_hits(probe: u32, inside: u32) {

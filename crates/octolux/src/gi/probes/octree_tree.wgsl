@@ -28,8 +28,8 @@ fn octree_cube(i: u32) -> Cube {
         depth += 1u;
         node = u32(~tree[m]);
     }
-    var lo = O.root.xyz;
-    var size = O.root.w;
+    var lo = O.root_lo;
+    var size = O.root_size;
     for (var k = depth; k > 0u; k--) {
         let s = slots[k - 1u];
         let half = size * 0.5;
@@ -43,9 +43,9 @@ fn octree_cube(i: u32) -> Cube {
 // `OctreeView::leaf`.
 fn octree_leaf(q: vec3<f32>) -> vec2<u32> {
     var node = 0u;
-    var lo = O.root.xyz;
-    var size = O.root.w;
-    for (var d = 0u; d <= O.sizes.w; d++) {
+    var lo = O.root_lo;
+    var size = O.root_size;
+    for (var d = 0u; d <= O.max_depth; d++) {
         let v = tree[node];
         if v <= 0 {
             return vec2<u32>(node, d);
@@ -56,5 +56,5 @@ fn octree_leaf(q: vec3<f32>) -> vec2<u32> {
         size = half;
         node = u32(v) + 1u + select(0u, 1u, upper.x) + select(0u, 2u, upper.y) + select(0u, 4u, upper.z);
     }
-    return vec2<u32>(node, O.sizes.w);
+    return vec2<u32>(node, O.max_depth);
 }

@@ -5,10 +5,10 @@
 // `surfel_hit` and its bindings.
 // Only probes the probe set asks for are placed; a hit beyond the probe's region (the
 // octree's cube) is marked by a negative distance, or is a miss where the set keeps no far
-// hits. With P.limits.w set (surfels placed by an earlier frame, objects moved since), a
+// hits. With P.keep_unmoved set (surfels placed by an earlier frame, objects moved since), a
 // surfel whose ray, from the probe to its hit (or to the ray's end for a miss), crosses none
 // of the moved objects' old and new boxes keeps its hit: only the rays that may have changed
-// are traced again. With two surfel sets (P.sets.x, probes-grid's accumulation) the set
+// are traced again. With two surfel sets (P.set_count, probes-grid's accumulation) the set
 // placed this frame is traced whole along its turned lattice, and the other set keeps its
 // surfels but where objects moved.
 
@@ -28,19 +28,19 @@ import octolux::gpu::work::count_work;
 // storing and returns 1 for the first of the probe's rays traced this frame, so that each
 // probe traced counts once (quantity 0 of `PLACE_*_WORK` in engine.rs).
 @if(count_work) fn stamp_probe(probe: u32) -> u32 {
-    return u32(atomicExchange(&probe_stamps[probe], P.frame.x) != P.frame.x);
+    return u32(atomicExchange(&probe_stamps[probe], P.frame) != P.frame);
 }
 
 @if(!count_work) fn stamp_probe(probe: u32) -> u32 {
-    atomicStore(&probe_stamps[probe], P.frame.x);
+    atomicStore(&probe_stamps[probe], P.frame);
     return 0u;
 }
 
-// Whether the segment a -> b meets any of the P.limits.z moved boxes.
+// Whether the segment a -> b meets any of the P.moved_boxes moved boxes.
 fn segment_meets_moved(a: vec3<f32>, b: vec3<f32>) -> bool {
     let d = b - a;
     let inv = 1.0 / select(d, vec3<f32>(1e-30), d == vec3<f32>(0.0));
-    for (var i = 0u; i < P.limits.z; i++) {
+    for (var i = 0u; i < P.moved_boxes; i++) {
         let t0 = (moved_boxes[2u * i].xyz - a) * inv;
         let t1 = (moved_boxes[2u * i + 1u].xyz - a) * inv;
         let near = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
@@ -58,7 +58,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // Invocation k: surfel k % per of the set's (k / per)-th probe; per probe, set j holds
     // surfels j n .. j n + n - 1.
     let k = linear_index(wg, nwg, li);
-    let n = P.dims.w;
+    let n = P.surfels_per_set;
     let per = probe_surfels();
     if k >= probe_slots() * per {
         return;
@@ -69,17 +69,17 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if !probe_wants_place(probe) {
         return;
     }
-    let fresh = P.sets.z != 0u && ray_set == P.sets.y;
+    let fresh = P.latest_placed != 0u && ray_set == P.latest_set;
     // Two sets, nothing moved: the older set keeps its surfels.
-    if !fresh && P.sets.x > 1u && P.limits.w == 0u {
+    if !fresh && P.set_count > 1u && P.keep_unmoved == 0u {
         return;
     }
     let d = probe_ray_dir(ray_set, k % n, n).xyz;
     let o = probe_origin(probe);
     let b = s * SURFEL_VEC4;
-    if !fresh && P.limits.w != 0u {
+    if !fresh && P.keep_unmoved != 0u {
         let old = surfels[b];
-        let end = select(old.xyz, o + d * P.lo.w, old.w == 0.0);
+        let end = select(old.xyz, o + d * P.max_distance, old.w == 0.0);
         if !segment_meets_moved(o, end) {
             return;
         }
@@ -87,7 +87,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // Work counts: probes traced, rays traced, then the ray structure's work.
     count_work(0u, stamp_probe(probe));
     count_work(1u, 1u);
-    let hit = surfel_hit(o, d, P.lo.w);
+    let hit = surfel_hit(o, d, P.max_distance);
     count_ray_work(2u);
     let inside = hit.t <= probe_region_exit(probe, d);
     if hit.t < 0.0 || !(inside || probe_keeps_far_hits()) {

@@ -5,7 +5,7 @@ import octolux::gi::probes::probes::{P, SurfelHit};
 import octolux::gi::probes::bvh::{bvh_closest, bvh_hit_normal, BVH_MISS, bvh_tris, count_bvh_work};
 
 fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
-    let hit = bvh_closest(P.roots.xy, o, d, t_max);
+    let hit = bvh_closest(vec2<u32>(P.static_root, P.instance_count), o, d, t_max);
     if hit.tri == BVH_MISS {
         return SurfelHit(-1.0, vec3<f32>(0.0), 0u, vec3<f32>(0.0));
     }

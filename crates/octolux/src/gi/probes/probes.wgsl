@@ -6,32 +6,66 @@
 import octolux::gi::probes::lattice::lattice_dir;
 
 struct ProbeParams {
-    // xyz: lower corner of the scene's box; w: max ray distance
-    lo: vec4<f32>,
-    // xyz: grid probe spacing per axis; w: gather offset along the normal (m)
-    spacing: vec4<f32>,
-    // xyz: grid probes per axis; w: surfels per probe and set (rays of one lattice)
-    dims: vec4<u32>,
-    // x: lattice kind, y: encoding kind, z: light count, w: 1 = surfels get probe light
-    misc: vec4<u32>,
-    // x: static BVH root (0xffffffff none), y: animated objects (BVH instances), z: probe
-    // slots, w: surfel count
-    roots: vec4<u32>,
-    // x: most back-face hits of a probe still gathered; y: visibility (0 none, 1 moments);
-    // z: moved boxes; w: 1 = placement keeps the surfels whose rays cross no moved box
-    limits: vec4<u32>,
-    // x: variance floor of the depth moments (m^2); y: weight of the depth maps' history;
-    // z: scale of last frame's probe light in the surfels' (the lights' power now over then,
-    // at most 1); w: forgetting strength
-    vis: vec4<f32>,
-    // x: this frame's number (1, 2, ...), which placement stamps on the probes it re-traces
-    frame: vec4<u32>,
+    // Lower corner of the scene's box (of the probe grid's lattice)
+    lo: vec3<f32>,
+    // Longest surfel ray (m): a miss's distance
+    max_distance: f32,
+    // Grid probe spacing per axis
+    spacing: vec3<f32>,
+    // Gather offset along the normal (m)
+    normal_offset: f32,
+    // Grid probes per axis
+    dims: vec3<u32>,
+    // Surfels per probe and set (rays of one lattice)
+    surfels_per_set: u32,
+    // Lattice kind (`Lattice::gpu_kind`)
+    lattice: u32,
+    // Encoding kind (`Encoding::gpu_kind`)
+    encoding: u32,
+    // Lights this frame
+    light_count: u32,
+    // 1 = surfels get probe light
+    multi_bounce: u32,
+    // Static BVH root (0xffffffff none)
+    static_root: u32,
+    // Animated objects (BVH instances)
+    instance_count: u32,
+    // Probe slots
+    probe_slots: u32,
+    // Surfels over all probes and sets
+    surfel_count: u32,
+    // Most back-face hits of a probe still gathered
+    max_back_faces: u32,
+    // Visibility (0 none, 1 moments)
+    visibility: u32,
+    // Moved boxes
+    moved_boxes: u32,
+    // 1 = placement keeps the surfels whose rays cross no moved box
+    keep_unmoved: u32,
+    // Variance floor of the depth moments (m^2)
+    variance_floor: f32,
+    // Weight of the depth maps' history
+    moments_keep: f32,
+    // Scale of last frame's probe light in the surfels' (the lights' power now over then, at
+    // most 1)
+    bounce_scale: f32,
+    // Forgetting strength
+    forgetting: f32,
+    // This frame's number (1, 2, ...), which placement stamps on the probes it re-traces
+    frame: u32,
     // Surfel sets (probes-grid's accumulation over frames, docs/probes.md "Rays that turn
-    // every frame"): x: sets per probe (1: one fixed lattice, no history; 2: the lattice turned
-    // anew each frame into one set, the other set the previous frame's), y: the set placed
-    // most recently, z: 1 = set y was placed this frame (a new sample), w: most frames a
-    // probe's history holds
-    sets: vec4<u32>,
+    // every frame"): sets per probe (1: one fixed lattice, no history; 2: the lattice turned
+    // anew each frame into one set, the other set the previous frame's)
+    set_count: u32,
+    // The set placed most recently
+    latest_set: u32,
+    // 1 = set `latest_set` was placed this frame (a new sample)
+    latest_placed: u32,
+    // Most frames a probe's history holds
+    max_history: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
     // Rows of the rotation that turns each set's lattice (w unused): set 0's, then set 1's.
     // Made on the CPU (`lattice::frame_rotation`): the GPU only multiplies.
     rot: array<vec4<f32>, 6>,
@@ -58,14 +92,14 @@ const SURFEL_VEC4: u32 = 3u;
 
 // Surfels per probe over all its sets.
 fn probe_surfels() -> u32 {
-    return P.dims.w * P.sets.x;
+    return P.surfels_per_set * P.set_count;
 }
 
 // Direction k of n of surfel set `ray_set` and its solid angle: the lattice turned by the set's
 // rotation (the identity on the first frame, so that a single frame sees the plain lattice:
 // 1 x + 0 y + 0 z is exact on every adapter).
 fn probe_ray_dir(ray_set: u32, k: u32, n: u32) -> vec4<f32> {
-    let d = lattice_dir(P.misc.x, k, n);
+    let d = lattice_dir(P.lattice, k, n);
     let r = 3u * min(ray_set, 1u);
     return vec4<f32>(dot(P.rot[r].xyz, d.xyz), dot(P.rot[r + 1u].xyz, d.xyz), dot(P.rot[r + 2u].xyz, d.xyz), d.w);
 }

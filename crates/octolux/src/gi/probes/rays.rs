@@ -85,8 +85,8 @@ impl Rays {
         scene: &crate::scene::Scene,
         params: &mut ProbeParams,
     ) -> Result<Rays> {
-        params.roots[0] = NO_ROOT;
-        params.roots[1] = 0;
+        params.static_root = NO_ROOT;
+        params.instance_count = 0;
         match backend {
             RayBackend::Bvh => {
                 let bvh = SceneBvh::build(scene);
@@ -97,7 +97,7 @@ impl Rays {
                     Ok(buffer)
                 };
                 if !bvh.still.nodes.is_empty() {
-                    params.roots[0] = 0;
+                    params.static_root = 0;
                 }
                 let instances = bvh.instances(scene, &scene.frame(0.0, 0), &roots)?;
                 let instances = if instances.is_empty() {
@@ -201,7 +201,7 @@ impl Rays {
                 let instances = b.bvh.instances(frame.scene, frame.frame, &b.roots)?;
                 ctx.queue
                     .write_buffer(&b.instances, 0, bytemuck::cast_slice(&instances));
-                params.roots[1] = instances.len() as u32;
+                params.instance_count = instances.len() as u32;
             }
         }
         Ok(())
