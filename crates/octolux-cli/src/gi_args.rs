@@ -183,7 +183,7 @@ pub struct GiArgs {
     /// true).
     #[arg(long)]
     pub probes_multi_bounce: Option<bool>,
-    /// Probe grid: frames each probe's value is the mean of, its rays turned anew every frame,
+    /// Probes: frames each probe's value is the mean of, its rays turned anew every frame,
     /// 0..=1024 (0: one fixed lattice, no history; default 32).
     #[arg(long)]
     pub probes_history: Option<u32>,

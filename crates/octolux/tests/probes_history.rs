@@ -22,10 +22,14 @@ fn ctx() -> GpuContext {
 }
 
 fn renderer(scene: &Scene, size: u32, probes: ProbeSettings) -> Renderer {
+    renderer_for("probes-grid", scene, size, probes)
+}
+
+fn renderer_for(gi: &str, scene: &Scene, size: u32, probes: ProbeSettings) -> Renderer {
     let settings = RenderSettings {
         width: size,
         height: size,
-        gi: "probes-grid".into(),
+        gi: gi.into(),
         gi_settings: GiSettings {
             probes,
             ..GiSettings::default()
@@ -343,6 +347,26 @@ fn a_wall_lit_evenly_is_as_smooth_as_the_reference() {
     // lattice, each probe's 64 rays the same every frame, fails the same bound: its blotches
     // are the probes' frozen noise. Measured on lavapipe: fixed 0.250, history 16 0.175
     // (4: 0.188, 32: 0.174), reference 0.185.
+    // 12 probes per axis: 0.46 m apart, about 6 pixels on the ceiling at this size.
+    let probes = ProbeSettings {
+        grid: [12; 3],
+        ..Default::default()
+    };
+    check_ceiling_smooth("probes-grid", probes, 16);
+}
+
+#[test]
+fn the_octree_s_ceiling_is_as_smooth_as_the_reference() {
+    // The same for `probes-octree` (its defaults: the ceiling's cells at depth 4, 0.35 m):
+    // with one fixed lattice of 128 rays its probes' frozen noise shows as cell-sized
+    // patches; with the rays turned every frame and a history they go.
+    check_ceiling_smooth("probes-octree", ProbeSettings::default(), 32);
+}
+
+/// The ceiling's block variation of `gi` with `probes`, with one fixed lattice and with a
+/// history of `history` frames (settled, one bounce), against the one-bounce reference's:
+/// the fixed lattice must fail the bound and the history pass it.
+fn check_ceiling_smooth(gi: &str, probes: ProbeSettings, history: u32) {
     const SIZE: u32 = 96;
     let scene = octolux::scene::cornell::scene();
     let reference = octolux::reference::render(
@@ -361,18 +385,17 @@ fn a_wall_lit_evenly_is_as_smooth_as_the_reference() {
     .unwrap()
     .indirect_irradiance;
     let mut variation = Vec::new();
-    for history in [0, 16] {
-        // 12 probes per axis: 0.46 m apart, about 6 pixels on the ceiling at this size.
+    for history in [0, history] {
         // One bounce, as the reference.
         let probes = ProbeSettings {
-            grid: [12; 3],
             history,
             multi_bounce: Some(false),
-            ..Default::default()
+            ..probes.clone()
         };
-        let mut r = renderer(&scene, SIZE, probes);
+        let mut r = renderer_for(gi, &scene, SIZE, probes);
         r.set_output(Output::IndirectIrradiance);
-        for _ in 0..=r.technique().settle_frames() {
+        // The octree grows over its first frames: at least 8 before it is judged.
+        for _ in 0..=r.technique().settle_frames().max(8) {
             r.render(&scene, 0.0).unwrap();
         }
         let g = r.read_gbuffer().unwrap();
@@ -389,9 +412,15 @@ fn a_wall_lit_evenly_is_as_smooth_as_the_reference() {
             block_variation(&reference, &ceiling, 5),
         ));
     }
-    println!("ceiling block variation (history, probes, reference): {variation:?}");
+    println!("{gi} ceiling block variation (history, probes, reference): {variation:?}");
     let (_, fixed, bound) = variation[0];
     let (_, settled, _) = variation[1];
-    assert!(fixed > bound, "the fixed lattice passes: {variation:?}");
-    assert!(settled <= bound, "blotches with a history: {variation:?}");
+    assert!(
+        fixed > bound,
+        "{gi}: the fixed lattice passes: {variation:?}"
+    );
+    assert!(
+        settled <= bound,
+        "{gi}: blotches with a history: {variation:?}"
+    );
 }

@@ -337,16 +337,16 @@ fn settings_widgets(ui: &mut Ui, technique: &str, s: &mut GiSettings) -> bool {
                 Encoding, Lattice, OctreeGather, RayBackend, SurfelRange, Visibility,
             };
             let p = &mut s.probes;
+            changed |= drag(
+                ui,
+                "history (frames, 0: fixed rays)",
+                &mut p.history,
+                probes::HISTORY.range(),
+            );
             if !octree {
                 let mut side = p.grid[0];
                 changed |= drag(ui, "probes per axis", &mut side, probes::GRID.range());
                 p.grid = [side; 3];
-                changed |= drag(
-                    ui,
-                    "history (frames, 0: fixed rays)",
-                    &mut p.history,
-                    probes::HISTORY.range(),
-                );
             } else {
                 changed |= drag(ui, "max depth", &mut p.max_depth, probes::MAX_DEPTH.range());
                 changed |= drag(

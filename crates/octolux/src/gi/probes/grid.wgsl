@@ -33,6 +33,12 @@ fn probe_wants_place(probe: u32) -> bool {
     return true;
 }
 
+// Whether the probe starts its history afresh this frame: never on the grid, whose probes
+// stay where they are.
+fn probe_restarts(probe: u32) -> bool {
+    return false;
+}
+
 // Distance from the probe along unit d to the end of its region, and whether hits beyond it
 // are kept as surfels: the grid's probes see the whole scene.
 fn probe_region_exit(probe: u32, d: vec3<f32>) -> f32 {

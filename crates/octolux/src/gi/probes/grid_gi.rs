@@ -3,10 +3,9 @@
 //! and interpolated per pixel (see the module documentation of [`super`] and docs/probes.md).
 
 use super::encoding::COEFFS;
-use super::engine::{
-    facing_weight, moved_boxes, ProbeEngine, ProbeLayout, ProbeSetModules, PROBE_VEC4,
-};
-use super::lattice::{direction, frame_rotation};
+use super::engine::{facing_weight, ProbeEngine, ProbeLayout, ProbeSetModules, PROBE_VEC4};
+use super::history::{Changes, FrameChanges, RayPlan};
+use super::lattice::direction;
 use super::moments::MomentMaps;
 use super::ProbeSettings;
 use crate::gi::{GiFrame, GiTechnique};
@@ -235,70 +234,10 @@ pub struct ProbesGrid {
     grid: ProbeGrid,
     passes: ProbeEngine,
     placed: bool,
-    /// Object transforms of the previous frame (None before the first).
-    last_transforms: Option<Vec<glam::Mat4>>,
-    /// The lights of the previous frame, as they light the surfels.
-    last_lights: Option<Vec<LightState>>,
-    /// The lights' power in the previous frame ([`light_power`]).
-    last_power: Option<f32>,
-    /// With a history: frames since the lights or an object last changed.
-    quiet: u32,
-    /// Samples placed so far (the index of the next lattice rotation).
-    samples: u32,
-    /// The surfel set placed most recently, and each set's rotation.
-    latest: u32,
-    rotations: [Mat3; 2],
-    /// Whether the last frame placed a new sample.
-    sampled: bool,
-    /// Samples in the depth maps' history since an object last moved.
-    moment_samples: u32,
-}
-
-/// Samples the depth maps average over: they see only geometry, which a new sample changes
-/// far less than the light, so they stop after these until an object moves (each costs
-/// n x 64 kernel terms per probe, the dearest pass of a sample).
-const MOMENT_SAMPLES: u32 = 8;
-
-/// What of a light changes what the surfels receive.
-type LightState = (crate::scene::LightKind, Vec3, f32, Vec3, Vec3);
-
-/// The power `light` sends into a box of `extent` (luminance-weighted W; for a directional
-/// light, its irradiance times the box's area across the light). Last frame's bounces, which
-/// the surfels receive with multiple bounces, scale with it.
-fn light_power(light: &crate::scene::Light, extent: Vec3) -> f32 {
-    use crate::scene::LightKind;
-    use std::f32::consts::PI;
-    let luminance = light.color.dot(Vec3::new(0.2126, 0.7152, 0.0722)) * light.intensity.max(0.0);
-    match light.kind {
-        LightKind::Point => 4.0 * PI * luminance,
-        LightKind::Spot {
-            inner_angle,
-            outer_angle,
-        } => 2.0 * PI * (1.0 - (0.5 * (inner_angle + outer_angle)).cos()) * luminance,
-        LightKind::Directional => {
-            let d = light.direction.abs();
-            let e = extent;
-            luminance * (d.x * e.y * e.z + d.y * e.x * e.z + d.z * e.x * e.y)
-        }
-    }
-}
-
-/// How much of last frame's bounced light this frame's lights still make: their power over
-/// last frame's, at most 1 (exact when every light dims alike or all switch off; where one of
-/// several changes, the bounces catch up over the next frames as before).
-fn bounce_scale(before: f32, now: f32) -> f32 {
-    if before > 0.0 {
-        (now / before).min(1.0)
-    } else {
-        1.0
-    }
-}
-
-fn light_states(lights: &[crate::scene::Light]) -> Vec<LightState> {
-    lights
-        .iter()
-        .map(|l| (l.kind, l.color, l.intensity, l.position, l.direction))
-        .collect()
+    /// What changed from frame to frame.
+    changes: FrameChanges,
+    /// The rays of each frame (with a history).
+    rays: RayPlan,
 }
 
 impl ProbesGrid {
@@ -331,15 +270,8 @@ impl ProbesGrid {
             grid,
             passes,
             placed: false,
-            last_transforms: None,
-            last_lights: None,
-            last_power: None,
-            quiet: 0,
-            samples: 0,
-            latest: 0,
-            rotations: [Mat3::IDENTITY; 2],
-            sampled: false,
-            moment_samples: 0,
+            changes: FrameChanges::default(),
+            rays: RayPlan::default(),
         })
     }
 
@@ -388,42 +320,7 @@ impl ProbesGrid {
     /// The rays of the last frame: the surfel set placed most recently, whether the last
     /// frame placed it (a new sample), and each set's lattice rotation.
     pub fn frame_rays(&self) -> (u32, bool, [Mat3; 2]) {
-        (self.latest, self.sampled, self.rotations)
-    }
-
-    /// With a history, what this frame does: a new sample while the lights or objects
-    /// changed in the last `history` frames, each along the lattice turned anew.
-    fn plan_rays(&mut self, changed: bool, moved: bool) {
-        let history = self.passes.settings.history;
-        if history == 0 {
-            return;
-        }
-        self.quiet = if changed {
-            0
-        } else {
-            self.quiet.saturating_add(1)
-        };
-        // After a change, every probe's history fills up again before the rays stop.
-        self.sampled = self.quiet <= history;
-        let mut keep = 0.0;
-        if self.sampled {
-            self.latest = if self.samples == 0 {
-                0
-            } else {
-                1 - self.latest
-            };
-            self.rotations[self.latest as usize] = frame_rotation(self.samples);
-            self.samples = self.samples.wrapping_add(1);
-            self.moment_samples = if moved { 1 } else { self.moment_samples + 1 };
-            let kept = (self.moment_samples - 1) as f32;
-            keep = kept / (kept + 1.0);
-        }
-        self.passes.set_rays(
-            self.sampled.then_some(self.latest),
-            self.latest,
-            self.rotations,
-            keep,
-        );
+        (self.rays.latest, self.rays.sampled, self.rays.rotations)
     }
 }
 
@@ -433,34 +330,20 @@ impl GiTechnique for ProbesGrid {
     }
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
-        let now = &frame.frame.object_transforms;
-        let moved = match &self.last_transforms {
-            Some(before) => moved_boxes(frame.scene, before, now),
-            None => Vec::new(),
-        };
-        self.last_transforms = Some(now.clone());
-        let lights = light_states(&frame.frame.lights);
-        let changed = !moved.is_empty() || self.last_lights.as_ref() != Some(&lights);
-        self.last_lights = Some(lights);
         let extent = self.grid.spacing * self.grid.dims.as_vec3();
-        let power: f32 = frame
-            .frame
-            .lights
-            .iter()
-            .map(|l| light_power(l, extent))
-            .sum();
-        let scale = self
-            .last_power
-            .map_or(1.0, |before| bounce_scale(before, power));
-        self.last_power = Some(power);
-        self.passes.set_bounce_scale(scale);
+        let Changes {
+            moved,
+            changed,
+            bounce_scale,
+        } = self.changes.observe(frame, extent);
+        self.passes.set_bounce_scale(bounce_scale);
         self.passes
             .set_forgetting(if changed { FORGETTING } else { 0.0 });
-        self.plan_rays(changed, !moved.is_empty());
+        self.rays.plan(&mut self.passes, changed, !moved.is_empty());
         // Surfels are placed once, then again where an object moved: only the rays that cross
         // its old or new bounds. With a history, a new set along the turned lattice every
         // frame until the light has been still for `history` frames.
-        let place = !self.placed || !moved.is_empty() || self.sampled;
+        let place = !self.placed || !moved.is_empty() || self.rays.sampled;
         if place {
             let selective = self.placed && !moved.is_empty();
             self.passes
@@ -472,7 +355,7 @@ impl GiTechnique for ProbesGrid {
         if place {
             self.passes.place(ctx, timer, None);
             let history = self.passes.settings.history > 0;
-            if !history || self.moment_samples <= MOMENT_SAMPLES {
+            if !history || self.rays.moments_due() {
                 self.passes.build_moments(ctx, timer, None);
             }
             self.placed = true;

@@ -12,10 +12,11 @@
 // that change, times P.forgetting (grid_gi.rs, FORGETTING), so the noise of a change fades
 // as new samples come. Then the new set's sample is blended in with weight 1 / (frames + 1);
 // a probe whose history is full and whose light did not change keeps its value (no flicker
-// where nothing that lights it moves, though a light elsewhere does).
+// where nothing that lights it moves, though a light elsewhere does). A probe that restarts
+// (the octree's new probes, `probe_restarts`) takes its latest set's sample alone.
 
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, PROBE_VEC4, SURFEL_VEC4};
-import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots, probe_store_hits};
+import octolux::gi::probes::set::{probe_live, probe_restarts, probe_slot, probe_slots, probe_store_hits};
 import octolux::gi::probes::encoding::probe_encode;
 import octolux::gpu::work::count_work;
 
@@ -102,11 +103,25 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         count_integrate_work();
         return;
     }
+    let rb = probe * 8u;
+    if probe_restarts(probe) {
+        // A new history (the octree's new probe, or one its slot held before): the latest
+        // set's sample alone, which also gives the octree its hit count.
+        let sample = integrate_set(probe, P.latest_set, n);
+        for (var k = 0u; k < 8u; k++) {
+            probes[b + k] = vec4<f32>(sample.c[k], 0.0);
+            probe_raw[rb + k] = vec4<f32>(sample.c[k], 0.0);
+        }
+        probe_store_hits(probe, sample.inside);
+        let valid = sample.back <= P.max_back_faces;
+        probes[b + 8u] = vec4<f32>(f32(sample.back) / f32(n), f32(sample.hits) / f32(n), select(0.0, 1.0, valid), 1.0);
+        count_integrate_work();
+        return;
+    }
     let sampled = P.latest_placed != 0u;
     // The set placed before this frame's: the other one when a new set was placed.
     let before = select(P.latest_set, 1u - P.latest_set, sampled);
     let relit = integrate_set(probe, before, n);
-    let rb = probe * 8u;
     var history: array<vec3<f32>, 8>;
     var raw: array<vec3<f32>, 8>;
     var change = 0.0;

@@ -8,7 +8,7 @@
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 import octolux::frame::common::PI;
 import octolux::gi::probes::probes::{linear_index, P, probe_surfels, SURFEL_VEC4};
-import octolux::gi::probes::set::{probe_live, probe_slot, probe_slots};
+import octolux::gi::probes::set::{probe_live, probe_restarts, probe_slot, probe_slots};
 import octolux::gi::probes::set_sample::{count_sample_work, probes_irradiance};
 import octolux::gpu::work::count_work;
 
@@ -29,8 +29,10 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if !probe_live(probe) {
         return;
     }
-    // Two sets and no new sample this frame: only the latest set is integrated.
-    if P.set_count > 1u && P.latest_placed == 0u && (k % per_probe) / P.surfels_per_set != P.latest_set {
+    // Two sets and no new sample this frame: only the latest set is integrated (both for a
+    // probe that restarts its history).
+    let latest_only = P.set_count > 1u && P.latest_placed == 0u && !probe_restarts(probe);
+    if latest_only && (k % per_probe) / P.surfels_per_set != P.latest_set {
         return;
     }
     let b = s * SURFEL_VEC4;

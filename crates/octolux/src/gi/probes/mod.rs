@@ -27,6 +27,7 @@ pub mod debug;
 pub mod encoding;
 mod engine;
 mod grid_gi;
+mod history;
 pub mod lattice;
 pub mod moments;
 pub mod octree;
@@ -117,12 +118,12 @@ pub struct ProbeSettings {
     /// Cornell box; `probes-octree`: rooms lit only by twice-bounced light need it,
     /// docs/probes.md).
     pub multi_bounce: Option<bool>,
-    /// `probes-grid`: frames a probe's value is the mean of, each frame's rays along the
-    /// lattice turned anew (0..=1024; 0: one fixed lattice, recomputed every frame, no
-    /// history; default 32). Light that changes reaches the history at once and makes it
-    /// forget in proportion (docs/probes.md, "Rays that turn every frame"); held still for
-    /// this many frames, the probes stop tracing and keep their value. `probes-octree` keeps
-    /// one fixed lattice.
+    /// Frames a probe's value is the mean of, each frame's rays along the lattice turned anew
+    /// (0..=1024; 0: one fixed lattice, recomputed every frame, no history; default 32).
+    /// Light that changes reaches the history at once and makes it forget in proportion
+    /// (docs/probes.md, "Rays that turn every frame"); held still for this many frames, the
+    /// probes stop tracing and keep their value. `probes-octree`'s new probes (and those
+    /// whose cubes moving geometry crossed) start their histories afresh.
     pub history: u32,
     /// Offset of the gather point along the surface normal, in probe spacings (default 0.2):
     /// keeps a wall's own probes from seeing the wall edge-on.
@@ -235,7 +236,8 @@ impl ProbeSettings {
         }
     }
 
-    /// Checks every value's range.
+    /// Checks every value's range ([`ProbeSettings::for_technique`] also checks the grid's
+    /// surfel count).
     pub fn validate(&self) -> Result<()> {
         check(
             self.grid.iter().all(|&n| GRID.contains(n)),
@@ -294,6 +296,12 @@ impl ProbeSettings {
             "probes voxel_resolution",
             "a power of two in 16..=1024",
         )?;
+        Ok(())
+    }
+
+    /// Checks the grid's surfel count (the octree's buffers are checked against the
+    /// adapter's binding limit when made).
+    fn check_grid_surfels(&self) -> Result<()> {
         let count = self.grid.iter().map(|&n| n as u64).product::<u64>()
             * self.surfel_count() as u64
             * self.surfel_sets() as u64;
@@ -310,24 +318,18 @@ impl ProbeSettings {
         self.multi_bounce == Some(true)
     }
 
-    /// The settings `probes-grid` (`octree` false) or `probes-octree` runs with, checked: the
-    /// technique's defaults filled in, and for the octree one fixed lattice without a history
-    /// (its slots move between probes; a bad `history` is still an error).
+    /// The settings `probes-grid` (`octree` false) or `probes-octree` runs with, checked, the
+    /// technique's defaults filled in.
     pub fn for_technique(&self, octree: bool) -> Result<ProbeSettings> {
-        let resolved = if octree {
-            self.check_history()?;
-            ProbeSettings {
-                history: 0,
-                ..self.resolved(true)
-            }
-        } else {
-            self.resolved(false)
-        };
+        let resolved = self.resolved(octree);
         resolved.validate()?;
+        if !octree {
+            resolved.check_grid_surfels()?;
+        }
         Ok(resolved)
     }
 
-    /// Checks `history`'s range (the octree ignores the value but not a bad one).
+    /// Checks `history`'s range.
     pub(crate) fn check_history(&self) -> Result<()> {
         HISTORY.check(self.history)
     }

@@ -11,7 +11,7 @@
 
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
 import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
-import octolux::gi::probes::set::{probe_slot, probe_slots, probe_wants_place};
+import octolux::gi::probes::set::{probe_restarts, probe_slot, probe_slots, probe_wants_place};
 import octolux::gpu::work::count_work;
 
 @group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
@@ -35,6 +35,13 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if !accumulate && P.keep_unmoved != 0u && probe_stamps[probe] != P.frame {
         return;
     }
+    // A probe that restarts its history makes its maps afresh; the others keep theirs once
+    // the maps' history is full (P.moments_keep 1: probes-octree, which runs this pass every
+    // frame for the probes it restarts).
+    let restarts = probe_restarts(probe);
+    if accumulate && P.moments_keep >= 1.0 && !restarts {
+        return;
+    }
     let t = moment_texel_dir(id % MOMENT_TEXELS);
     let n = P.surfels_per_set;
     // Work counts (`MOMENTS_WORK` in engine.rs): texels made, kernel terms (surfels read).
@@ -53,5 +60,5 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     let far = vec2<f32>(P.max_distance, P.max_distance * P.max_distance);
     let m = select(far, sum / total, total > 0.0);
-    moments_out[id] = select(m, mix(m, moments_out[id], P.moments_keep), accumulate);
+    moments_out[id] = select(m, mix(m, moments_out[id], P.moments_keep), accumulate && !restarts);
 }

@@ -10,9 +10,11 @@
 
 use super::encoding::COEFFS;
 use super::engine::{
-    buf, facing_weight, module, moved_boxes, run_pass, ProbeEngine, ProbeLayout, ProbeSetModules,
-    SetPass, PROBE_VEC4,
+    buf, facing_weight, module, run_pass, ProbeEngine, ProbeLayout, ProbeSetModules, SetPass,
+    PROBE_VEC4,
 };
+use super::grid_gi::FORGETTING;
+use super::history::{Changes, FrameChanges, RayPlan};
 use super::moments::MomentMaps;
 use super::octree::{OctreeRule, ProbeOctree};
 use super::params::storage;
@@ -24,7 +26,7 @@ use crate::gpu::work::WorkRegion;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::Scene;
 use crate::{Error, Result};
-use glam::{Mat4, UVec3, Vec3};
+use glam::{UVec3, Vec3};
 
 const OWNER: &str = "probes-octree";
 /// Words before the free lists in the state buffer (tops of the two free lists, 2 spare).
@@ -62,7 +64,8 @@ struct OctreeParams {
     place_all: u32,
     /// Levels complete down to this depth ([`OctreeRule::min_depth`]).
     min_depth: u32,
-    /// Surfels per probe.
+    /// Surfels per probe (of both sets with a history): the place and light passes'
+    /// invocations per listed probe.
     surfels_per_probe: u32,
     /// Moment-map texels per probe (the shared passes' invocations per listed probe).
     moment_texels: u32,
@@ -541,8 +544,10 @@ pub struct ProbesOctree {
     octree: GpuOctree,
     root: (Vec3, f32),
     bias: f32,
-    /// Object transforms of the previous frame (None before the first).
-    last_transforms: Option<Vec<Mat4>>,
+    /// What changed from frame to frame.
+    changes: FrameChanges,
+    /// The rays of each frame (with a history).
+    rays: RayPlan,
     /// Bind group 1 of place, light, integrate, gather and the moments.
     groups: [wgpu::BindGroup; 5],
     /// Boxes of the objects that moved in the last frame.
@@ -568,7 +573,10 @@ impl ProbesOctree {
         let (lo, size) = root_cube(scene.gi_bounds_at(0.0))?;
         let rule = settings.octree_rule();
         let (len, _) = rule.full_capacity();
-        let octree = GpuOctree::with_room(ctx, rule, lo, size, len, settings.octree_probe_slots())?;
+        let mut octree =
+            GpuOctree::with_room(ctx, rule, lo, size, len, settings.octree_probe_slots())?;
+        // The shared passes run over every surfel of both sets with a history.
+        octree.params.surfels_per_probe = settings.surfel_count() * settings.surfel_sets();
         let bias = settings.normal_bias * size * 2f32.powi(-(rule.max_depth as i32));
         let layout = ProbeLayout {
             lo,
@@ -586,14 +594,14 @@ impl ProbesOctree {
         };
         let passes = ProbeEngine::new(ctx, OWNER, settings, scene, (width, height), &layout, &set)?;
         // Bind group 1 of each shared pass: params, tree, probe info, place flags, hits, live
-        // probes.
+        // probes (the place flags also say which probes restart their histories).
         let groups = [
             octree.set_group(ctx, &passes.place, [true, false, true, true, false, true]),
-            octree.set_group(ctx, &passes.light, [true, true, true, false, false, true]),
+            octree.set_group(ctx, &passes.light, [true, true, true, true, false, true]),
             octree.set_group(
                 ctx,
                 &passes.integrate,
-                [false, false, true, false, true, true],
+                [false, false, true, true, true, true],
             ),
             octree.set_group(ctx, &passes.gather, [true, true, true, false, false, false]),
             octree.set_group(
@@ -607,7 +615,8 @@ impl ProbesOctree {
             octree,
             root: (lo, size),
             bias,
-            last_transforms: None,
+            changes: FrameChanges::default(),
+            rays: RayPlan::default(),
             groups,
             moved: Vec::new(),
         })
@@ -685,18 +694,24 @@ impl GiTechnique for ProbesOctree {
     }
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
+        let Changes {
+            moved,
+            changed,
+            bounce_scale,
+        } = self.changes.observe(frame, Vec3::splat(self.root.1));
+        self.moved = moved;
+        self.passes.set_bounce_scale(bounce_scale);
+        self.passes
+            .set_forgetting(if changed { FORGETTING } else { 0.0 });
+        self.rays
+            .plan(&mut self.passes, changed, !self.moved.is_empty());
         self.passes.begin_frame(ctx, frame, timer)?;
-        let now = &frame.frame.object_transforms;
-        self.moved = match &self.last_transforms {
-            Some(before) => moved_boxes(frame.scene, before, now),
-            None => Vec::new(),
-        };
-        self.last_transforms = Some(now.clone());
         let settings = &self.passes.settings;
         let scene_range = settings.surfel_range == SurfelRange::Scene;
         // Surfels beyond the cube see objects the moved-leaf test does not reach: while
-        // anything moves, every probe re-places them.
-        let place_all = scene_range && !self.moved.is_empty();
+        // anything moves, every probe re-places them; with a history, every probe places a
+        // new sample while the light changed in the last `history` frames.
+        let place_all = (scene_range && !self.moved.is_empty()) || self.rays.sampled;
         let modes = [
             scene_range as u32,
             (settings.gather == OctreeGather::All) as u32,
@@ -744,6 +759,11 @@ impl GiTechnique for ProbesOctree {
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
         Some(self)
+    }
+
+    fn settle_frames(&self) -> u32 {
+        // Every probe's history full; the next frame stops tracing.
+        self.passes.settings.history
     }
 }
 

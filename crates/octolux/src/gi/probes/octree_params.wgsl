@@ -30,7 +30,8 @@ struct OctreeParams {
     place_all: u32,
     // Levels complete down to this depth (`OctreeRule::min_depth`)
     min_depth: u32,
-    // Surfels per probe
+    // Surfels per probe (of both sets with a history): the place and light passes' invocations
+    // per listed probe
     surfels_per_probe: u32,
     // Moment-map texels per probe (the shared passes' invocations per listed probe)
     moment_texels: u32,

@@ -33,6 +33,14 @@ fn probe_wants_place(probe: u32) -> bool {
     return probe_live(probe) && (place_flags[probe] != 0u || O.place_all != 0u);
 }
 
+// Whether the probe starts its history afresh this frame: the state machine asked for its
+// surfels (a new probe, or one whose cube moving geometry crossed), until `light_decide`
+// clears the flag at the end of the frame's probe passes. Its slot may have held another
+// probe, so both its surfel sets are traced and its history and depth maps made anew.
+fn probe_restarts(probe: u32) -> bool {
+    return place_flags[probe] != 0u;
+}
+
 // Edge of the probe's leaf cube.
 fn probe_edge(probe: u32) -> f32 {
     return ldexp(O.root_size, -i32(probe_info[probe].w));

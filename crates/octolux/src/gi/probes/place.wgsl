@@ -10,10 +10,10 @@
 // of the moved objects' old and new boxes keeps its hit: only the rays that may have changed
 // are traced again. With two surfel sets (P.set_count, probes-grid's accumulation) the set
 // placed this frame is traced whole along its turned lattice, and the other set keeps its
-// surfels but where objects moved.
+// surfels but where objects moved (both are traced for a probe that restarts its history).
 
 import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
-import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_slot, probe_slots, probe_wants_place};
+import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_restarts, probe_slot, probe_slots, probe_wants_place};
 import octolux::gi::probes::rays::{count_ray_work, surfel_hit};
 import octolux::gpu::work::count_work;
 
@@ -69,7 +69,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if !probe_wants_place(probe) {
         return;
     }
-    let fresh = P.latest_placed != 0u && ray_set == P.latest_set;
+    // A probe that restarts its history (the octree's new ones) traces both sets.
+    let fresh = (P.latest_placed != 0u && ray_set == P.latest_set) || probe_restarts(probe);
     // Two sets, nothing moved: the older set keeps its surfels.
     if !fresh && P.set_count > 1u && P.keep_unmoved == 0u {
         return;
