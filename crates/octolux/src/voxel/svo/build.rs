@@ -81,58 +81,49 @@ impl SvoBuilder {
         ctx: &GpuContext,
         grid: &VoxelGrid,
         list: &FragmentList,
-        (depth, capacity, pool_bricks): (u32, u32, u32),
+        sizes: (u32, u32, u32),
         reserve: DynamicReserve,
         timings: &mut Vec<PassTiming>,
     ) -> Result<Option<Svo>> {
         let mut scratch = Scratch::new(ctx);
-        let attempt = self.attempt(ctx, &mut scratch, list, (depth, capacity, pool_bricks));
+        let attempt = self.attempt(ctx, &mut scratch, list, sizes);
         let mut timer = PassTimer::new(ctx);
 
         // 1. Structure: flag the occupied nodes and their 26-neighbourhoods, subdivide and
         //    link level by level, then mark the occupied nodes and give needed ones a brick.
-        self.record_structure(ctx, &mut timer, &attempt, (depth, capacity));
+        self.record_structure(ctx, &mut timer, &attempt);
         timings.extend(timer.finish_frame()?);
 
         // 2. Counts: the one read-back of the build. Too few nodes: try again with more;
         //    more than the GPU can bind: fail.
-        let Some((counts, capacity)) = check_counts(ctx, grid, &attempt, reserve, pool_bricks)?
-        else {
+        let Some((counts, capacity)) = check_counts(ctx, grid, &attempt, reserve)? else {
             return Ok(None);
         };
-        let leaves = counts.level_ranges(depth).last().copied().unwrap_or((0, 0));
 
         // 3. Bricks: fill the leaf bricks from the fragments, then transfer between
         //    neighbours and mip up the levels, in RGBA16F.
-        let wide = scratch.pools(
-            "brick pool (build, RGBA16F)",
-            counts.brick_count,
-            pool_bricks,
-        );
-        self.record_bricks(ctx, &mut timer, &attempt, (&wide, depth));
+        let wide = self.record_bricks(ctx, &mut timer, &mut scratch, &attempt, &counts);
 
         // 4. Pack the bricks into the finished RGBA8 pool (with the reserve's room).
-        let bricks = pools(ctx, "brick pool", BRICK_WORDS, capacity.bricks, pool_bricks);
-        let wide_and_narrow = (wide.as_slice(), bricks.as_slice());
-        self.pack.record(
-            ctx,
-            &mut timer,
-            wide_and_narrow,
-            counts.brick_count,
-            pool_bricks,
-        );
+        let bricks = self.pack_bricks(ctx, &mut timer, &attempt, &wide, (&counts, &capacity));
 
         // 5. Sum the leaf voxels' fragments (albedo, emission, normal) for injection.
-        let (leaf_sums, sum_timings) =
-            self.light
-                .accumulate(ctx, &mut timer, list, &attempt.nodes.child, depth, leaves)?;
+        let leaves = counts.level_ranges(attempt.depth).last().copied();
+        let child = &attempt.nodes.child;
+        let (leaf_sums, sum_timings) = self.light.accumulate(
+            ctx,
+            &mut timer,
+            list,
+            child,
+            attempt.depth,
+            leaves.unwrap_or((0, 0)),
+        )?;
         timings.extend(sum_timings);
 
         // 6. Keep the node arrays at their exact size (plus the dynamic reserve, zeroed) and
         //    release the scratch.
-        let kept = attempt
-            .nodes
-            .keep(ctx, &mut timer, counts.node_count, capacity.nodes);
+        let nodes = (counts.node_count, capacity.nodes);
+        let kept = attempt.nodes.keep(ctx, &mut timer, nodes.0, nodes.1);
         timings.extend(timer.finish_frame()?);
         scratch.release();
 
@@ -144,17 +135,12 @@ impl SvoBuilder {
             bricks,
             leaf_sums,
         };
-        Ok(Some(self.octree(
-            ctx,
-            grid,
-            attempt,
-            built,
-            (reserve, pool_bricks),
-        )))
+        Ok(Some(self.octree(ctx, grid, attempt, built, reserve)))
     }
 
-    /// The buffers of one attempt: its scratch node arrays, and the control block, dispatch
-    /// arguments (the root's written) and per-level parameters the octree keeps.
+    /// The buffers of one attempt of `(depth, capacity, pool_bricks)`: its scratch node
+    /// arrays, and the control block, dispatch arguments (the root's written) and per-level
+    /// parameters the octree keeps.
     fn attempt<'a>(
         &self,
         ctx: &GpuContext,
@@ -178,6 +164,9 @@ impl SvoBuilder {
         let args_group = self.args_group(ctx, &args);
         Attempt {
             list,
+            depth,
+            capacity,
+            pool_bricks,
             nodes,
             control,
             args,
@@ -217,17 +206,11 @@ impl SvoBuilder {
     /// binding holds the occupied-node bits `mark_occupied` writes (a binding of its own would
     /// take the dynamic update's kernels past the 20 storage buffers per stage octolux asks
     /// of a device).
-    fn record_structure(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut PassTimer,
-        a: &Attempt,
-        (depth, capacity): (u32, u32),
-    ) {
+    fn record_structure(&self, ctx: &GpuContext, timer: &mut PassTimer, a: &Attempt) {
         let n = &a.nodes;
         let pools = [&n.occupied, &n.placeholder, &n.placeholder, &n.placeholder];
         let structure = self.attempt_group(ctx, a, pools);
-        let steps = structure_steps(depth, capacity);
+        let steps = structure_steps(a.depth, a.capacity);
         let groups = (&a.args_group, None);
         let count = a.list.count;
         self.record(
@@ -241,22 +224,26 @@ impl SvoBuilder {
         );
     }
 
-    /// Records the brick pass into the RGBA16F pool `wide`: the leaf bricks accumulated and
-    /// filled from the fragments, then filtered up the levels ([`filter_steps`]).
+    /// Records the brick pass into a scratch RGBA16F pool for the `counts`' bricks, which it
+    /// returns: the leaf bricks accumulated and filled from the fragments, then filtered up
+    /// the levels ([`filter_steps`]).
     fn record_bricks(
         &self,
         ctx: &GpuContext,
         timer: &mut PassTimer,
+        scratch: &mut Scratch,
         a: &Attempt,
-        (wide, depth): (&[wgpu::Buffer], u32),
-    ) {
+        counts: &SvoControl,
+    ) -> Vec<wgpu::Buffer> {
+        let label = "brick pool (build, RGBA16F)";
+        let wide = scratch.pools(label, counts.brick_count, a.pool_bricks);
         let filling = self.attempt_group(ctx, a, [&wide[0], &wide[1], &wide[2], &wide[3]]);
-        let leaf = depth - 1;
+        let leaf = a.depth - 1;
         let mut steps = vec![
             ("leaf_accumulate", leaf, Dispatch::Fragments),
             ("leaf_fill", leaf, Dispatch::PerNode(leaf)),
         ];
-        steps.extend(filter_steps(depth, false, self.fuse_coarse));
+        steps.extend(filter_steps(a.depth, false, self.fuse_coarse));
         let groups = (&a.args_group, None);
         let count = a.list.count;
         self.record(
@@ -268,6 +255,35 @@ impl SvoBuilder {
             count,
             &steps,
         );
+        wide
+    }
+
+    /// Records the packing of the RGBA16F pool `wide` into the finished RGBA8 pool, made for
+    /// the octree's brick capacity, which it returns.
+    fn pack_bricks(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        a: &Attempt,
+        wide: &[wgpu::Buffer],
+        (counts, capacity): (&SvoControl, &Capacity),
+    ) -> Vec<wgpu::Buffer> {
+        let bricks = pools(
+            ctx,
+            "brick pool",
+            BRICK_WORDS,
+            capacity.bricks,
+            a.pool_bricks,
+        );
+        let wide_and_narrow = (wide, bricks.as_slice());
+        self.pack.record(
+            ctx,
+            timer,
+            wide_and_narrow,
+            counts.brick_count,
+            a.pool_bricks,
+        );
+        bricks
     }
 
     /// The octree of a finished attempt, with empty radiance (and facing) pools and, with a
@@ -278,7 +294,7 @@ impl SvoBuilder {
         grid: &VoxelGrid,
         attempt: Attempt,
         built: Built,
-        (reserve, pool_bricks): (DynamicReserve, u32),
+        reserve: DynamicReserve,
     ) -> Svo {
         let Built {
             counts,
@@ -287,7 +303,7 @@ impl SvoBuilder {
             bricks,
             leaf_sums,
         } = built;
-        let depth = grid.depth();
+        let (depth, pool_bricks) = (attempt.depth, attempt.pool_bricks);
         let levels = counts.level_ranges(depth);
         let leaves = levels.last().copied().unwrap_or((0, 0));
         let pool = |label: &str, words: u32| pools(ctx, label, words, capacity.bricks, pool_bricks);
@@ -337,6 +353,10 @@ impl SvoBuilder {
 /// The buffers one build attempt records its passes over.
 struct Attempt<'a> {
     list: &'a FragmentList,
+    /// Levels, node capacity of the scratch, bricks per pool buffer.
+    depth: u32,
+    capacity: u32,
+    pool_bricks: u32,
     /// Scratch node arrays, sized for the attempt's node capacity.
     nodes: BuildNodes,
     /// The control block, dispatch arguments and per-level parameters the octree keeps.
@@ -375,14 +395,13 @@ fn check_counts(
     grid: &VoxelGrid,
     attempt: &Attempt,
     reserve: DynamicReserve,
-    pool_bricks: u32,
 ) -> Result<Option<(SvoControl, Capacity)>> {
     let counts = SvoControl::from_bytes(&read_buffer(ctx, &attempt.control, 0, CONTROL_BYTES)?);
     if counts.node_overflow != 0 {
         return Ok(None);
     }
     let sizes = (counts.node_count, counts.brick_count);
-    let capacity = Capacity::check(ctx, grid.resolution, sizes, reserve, pool_bricks)?;
+    let capacity = Capacity::check(ctx, grid.resolution, sizes, reserve, attempt.pool_bricks)?;
     Ok(Some((counts, capacity)))
 }
 
