@@ -192,7 +192,7 @@ impl SvoBuilder {
                 &n.child,
                 &n.neighbours,
                 &n.coord,
-                &n.flags,
+                &n.brick_plus_one,
                 &a.control,
                 pools[0],
                 pools[1],

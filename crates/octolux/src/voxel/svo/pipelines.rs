@@ -205,8 +205,8 @@ impl SvoBuilder {
     }
 
     /// Group 0 of the octree kernels: `params` (per-level slots) and the 11 storage buffers
-    /// of `svo/build.wgsl` (fragments, triangles, child, neighbours, coordinates, flags / brick
-    /// index, control, the 4 brick pool buffers).
+    /// of `svo/build.wgsl` (fragments, triangles, child, neighbours, coordinates, brick index
+    /// + 1 (the flags during the structure pass), control, the 4 brick pool buffers).
     pub(super) fn group0(
         &self,
         ctx: &GpuContext,

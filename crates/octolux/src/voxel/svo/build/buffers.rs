@@ -95,9 +95,10 @@ pub(super) struct BuildNodes {
     pub(super) neighbours: wgpu::Buffer,
     /// Packed coordinates per node on its level.
     pub(super) coord: wgpu::Buffer,
-    /// Per node its occupied / needed flags, which `assign_bricks` turns into its brick
-    /// index + 1.
-    pub(super) flags: wgpu::Buffer,
+    /// Per node its brick index + 1 (0 = no brick), as [`Svo`]'s `brick_plus_one`; during
+    /// the structure pass it holds the node's occupied / needed flags instead, which
+    /// `assign_bricks` turns into the brick index + 1.
+    pub(super) brick_plus_one: wgpu::Buffer,
     /// A bit per node: its cell holds a voxel ([`Svo`]'s `static_occupied`).
     pub(super) occupied: wgpu::Buffer,
     /// Stands in for the brick pool buffers in the structure pass.
@@ -120,7 +121,7 @@ impl BuildNodes {
             child: scratch.buffer("child (build)", cap),
             neighbours: scratch.buffer("neighbours (build)", cap * 3),
             coord: scratch.buffer("coordinates (build)", cap),
-            flags: scratch.buffer("flags (build)", cap),
+            brick_plus_one: scratch.buffer("brick index (build)", cap),
             occupied: scratch.buffer("occupied nodes (build)", cap.div_ceil(32)),
             placeholder: scratch.buffer("placeholder", 4),
         }
@@ -147,7 +148,7 @@ impl BuildNodes {
         KeptNodes {
             child: copy("child", &self.child, n, cap),
             neighbours: copy("neighbours", &self.neighbours, n * 3, cap * 3),
-            brick_plus_one: copy("brick index", &self.flags, n, cap),
+            brick_plus_one: copy("brick index", &self.brick_plus_one, n, cap),
             coord: copy("coordinates", &self.coord, n, cap),
             static_occupied: copy(
                 "occupied nodes",
