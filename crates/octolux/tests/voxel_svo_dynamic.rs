@@ -191,12 +191,14 @@ fn dynamic_updates_equal_rebuilds() {
     let (static_nodes, static_bricks) = (svo.node_count(), svo.brick_count());
     check(&svo.read_back(&ctx).unwrap(), &grid, &statics, "static");
     // A block resting on the floor (sharing voxels with it and with the slanted triangle),
-    // moved away, moved into the wall, removed, and back.
+    // moved away, moved into the wall, removed, back, and left there (an update of the same
+    // triangles keeps the previous update's fragments).
     let positions = [
         Some(Vec3::new(0.35, 0.08, 0.35)),
         Some(Vec3::new(0.6, 0.5, 0.2)),
         Some(Vec3::new(0.12, 0.55, 0.85)),
         None,
+        Some(Vec3::new(0.35, 0.08, 0.35)),
         Some(Vec3::new(0.35, 0.08, 0.35)),
     ];
     for (step, at) in positions.iter().enumerate() {

@@ -1,13 +1,14 @@
 // Sparse voxel octree, built level by level. Level d has 2^d nodes per axis; the finest level
 // (depth - 1) holds nodes of 2x2x2 voxels. Nodes are struct-of-arrays: `child` (index of the
 // first of 8 contiguous children, 0 = none; the root is never a child) and `nbr` (+x, +y, +z
-// neighbour on the same level, 0 = none). After the structure phase `flags` holds each node's
-// brick index + 1 (0 = no brick: only needed nodes get one). A brick is 27 corner-sampled RGBA
-// texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord` is build scratch.
+// neighbour on the same level, 0 = none). After the structure phase `brick_plus_one` holds
+// each node's brick index + 1 (0 = no brick: only needed nodes get one). A brick is 27
+// corner-sampled RGBA texels (premultiplied albedo, opacity) as f16 pairs, 54 words. `coord`
+// is build scratch.
 
 import octolux::voxel::voxelize::overlap::linear_index;
 import octolux::voxel::svo::control::SvoControl;
-import octolux::voxel::svo::common::{brick_of, bw_index, child, find, flags, fragments, INVALID, L, NEEDED, OCCUPIED, octant_offset, pack3, unpack3};
+import octolux::voxel::svo::common::{brick_of, bw_index, child, find, brick_plus_one, fragments, INVALID, L, NEEDED, OCCUPIED, octant_offset, pack3, unpack3};
 
 @group(0) @binding(4) var<storage, read_write> nbr: array<u32>;
 @group(0) @binding(5) var<storage, read_write> coord: array<u32>;
@@ -193,8 +194,8 @@ fn flag_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     let n = find(v >> vec3<u32>(L.depth - L.d), L.d);
     // Read first: on the coarse levels thousands of fragments share a node, and an atomic
     // read-modify-write each would serialise them on its word.
-    if n != INVALID && (atomicLoad(&flags[n]) & OCCUPIED) == 0u {
-        atomicOr(&flags[n], OCCUPIED);
+    if n != INVALID && (atomicLoad(&brick_plus_one[n]) & OCCUPIED) == 0u {
+        atomicOr(&brick_plus_one[n], OCCUPIED);
     }
 }
 
@@ -221,7 +222,7 @@ fn flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
         }
         nbr[3u * n + a] = link;
     }
-    if (atomicLoad(&flags[n]) & OCCUPIED) == 0u {
+    if (atomicLoad(&brick_plus_one[n]) & OCCUPIED) == 0u {
         return;
     }
     for (var k = 0u; k < 27u; k++) {
@@ -231,8 +232,8 @@ fn flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
             continue;
         }
         let m = find(vec3<u32>(cc), L.d);
-        if m != INVALID && (atomicLoad(&flags[m]) & NEEDED) == 0u {
-            atomicOr(&flags[m], NEEDED);
+        if m != INVALID && (atomicLoad(&brick_plus_one[m]) & NEEDED) == 0u {
+            atomicOr(&brick_plus_one[m], NEEDED);
         }
     }
 }
@@ -241,7 +242,7 @@ fn flag_needed(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nw
 fn subdivide(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
              @builtin(local_invocation_index) li: u32) {
     let n = level_node(wg, nwg, li);
-    if n == INVALID || (atomicLoad(&flags[n]) & NEEDED) == 0u {
+    if n == INVALID || (atomicLoad(&brick_plus_one[n]) & NEEDED) == 0u {
         return;
     }
     let base = atomicAdd(&control.node_count, 8u);
@@ -283,7 +284,7 @@ fn mark_occupied(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     var bits = 0u;
     for (var i = 0u; i < 32u; i++) {
         let n = w * 32u + i;
-        if n < nodes && (atomicLoad(&flags[n]) & OCCUPIED) != 0u {
+        if n < nodes && (atomicLoad(&brick_plus_one[n]) & OCCUPIED) != 0u {
             bits |= 1u << i;
         }
     }
@@ -300,10 +301,10 @@ fn assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     var brick = 0u;
-    if (atomicLoad(&flags[n]) & NEEDED) != 0u {
+    if (atomicLoad(&brick_plus_one[n]) & NEEDED) != 0u {
         brick = atomicAdd(&control.brick_count, 1u) + 1u;
     }
-    atomicStore(&flags[n], brick);
+    atomicStore(&brick_plus_one[n], brick);
 }
 
 // Leaf bricks: texel (i, j, k) sits on a voxel corner and holds this node's share of the box

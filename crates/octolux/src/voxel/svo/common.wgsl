@@ -10,8 +10,10 @@ import octolux::voxel::svo::control::LevelParams;
 @group(0) @binding(1) var<storage, read> fragments: array<vec2<u32>>;
 @group(0) @binding(2) var<storage, read> tris: array<Tri>;
 @group(0) @binding(3) var<storage, read_write> child: array<u32>;
-// After the structure phase: each node's brick index + 1 (0 = no brick).
-@group(0) @binding(6) var<storage, read_write> flags: array<atomic<u32>>;
+// Each node's brick index + 1 (0 = no brick). During the static build's structure phase it
+// holds the node's OCCUPIED / NEEDED flags instead, which `assign_bricks` turns into the
+// brick index + 1.
+@group(0) @binding(6) var<storage, read_write> brick_plus_one: array<atomic<u32>>;
 
 const INVALID: u32 = 0xffffffffu;
 const OCCUPIED: u32 = 1u;
@@ -46,7 +48,7 @@ fn find(c: vec3<u32>, d: u32) -> u32 {
 
 // Brick of a node (after assign_bricks), INVALID when it has none.
 fn brick_of(node: u32) -> u32 {
-    return atomicLoad(&flags[node]) - 1u;
+    return atomicLoad(&brick_plus_one[node]) - 1u;
 }
 
 // Word i (0..53) of brick b: pool b / pool_bricks, slot b % pool_bricks.

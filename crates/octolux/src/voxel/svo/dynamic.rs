@@ -300,22 +300,12 @@ impl SvoBuilder {
         dynamic.restart(timer, &svo.control);
 
         // 2. Voxelize the dynamic triangles, appending to the dynamic fragment list and
-        //    counting into the control block.
-        let owner = "svo dynamic";
-        let counter = (std::mem::offset_of!(SvoControl, dynamic_fragments) / 4) as u32;
-        let triangles = self.voxelizer.append(
-            ctx,
-            timer,
-            (owner, "svo dynamic voxelize"),
-            &svo.grid,
-            tris,
-            (&dynamic.fragments, &svo.control, counter),
-        )?;
-        ctx.ledger.forget(owner, "triangles");
+        //    counting into the control block (unless they are the previous update's).
+        let triangles = self.voxelize_dynamic(ctx, timer, svo, dynamic, tris)?;
         let this = 1 - dynamic.last;
         let group0 = self.dynamic_group0(ctx, svo, dynamic, &triangles);
         let group2 = self.dynamic_group2(ctx, svo, dynamic, this);
-        let args_group = self.args_group(ctx, &svo.args);
+        let args_group = self.dynamic_args_group(ctx, svo, dynamic);
         let groups = (&args_group, Some(&group2));
         let record =
             |timer: &mut PassTimer, name: &str, steps: &[(&'static str, u32, Dispatch)]| {
@@ -343,8 +333,49 @@ impl SvoBuilder {
         Ok(update)
     }
 
+    /// Records the voxelization of `tris` into the dynamic fragment list and returns their
+    /// upload. The triangles are world-space (a moving object's change every frame), and the
+    /// CPU snaps them to the grid before uploading them with their pieces and work items, so
+    /// triangles that differ from the previous update's are uploaded and voxelized again; the
+    /// same triangles (an object at rest, a frame of the same time) keep the previous
+    /// update's upload and fragments, and only their count is restored.
+    fn voxelize_dynamic(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        svo: &Svo,
+        dynamic: &mut SvoDynamic,
+        tris: &[VoxelTriangle],
+    ) -> Result<wgpu::Buffer> {
+        if let Some((last, triangles)) = &dynamic.triangles {
+            if last.as_slice() == tris {
+                dynamic.keep_fragments(timer, &svo.control);
+                return Ok(triangles.clone());
+            }
+        }
+        dynamic.triangles = None;
+        let owner = "svo dynamic";
+        let counter = (std::mem::offset_of!(SvoControl, dynamic_fragments) / 4) as u32;
+        let triangles = self.voxelizer.append(
+            ctx,
+            timer,
+            (owner, "svo dynamic voxelize"),
+            &svo.grid,
+            tris,
+            (&dynamic.fragments, &svo.control, counter),
+        )?;
+        ctx.ledger.forget(owner, "triangles");
+        dynamic.triangles = Some((tris.to_vec(), triangles.clone()));
+        Ok(triangles)
+    }
+
+    /// A dynamic kernel (whose layout holds groups 0, 1 and 2) for the kept bind groups.
+    fn dynamic_pipeline(&self) -> &wgpu::ComputePipeline {
+        &self.pipelines["dyn_begin"].0
+    }
+
     /// Group 0 of the dynamic kernels: the build layout over the octree's buffers, with the
-    /// dynamic fragments and triangles.
+    /// dynamic fragments and triangles; kept while the triangles' upload is.
     fn dynamic_group0(
         &self,
         ctx: &GpuContext,
@@ -352,27 +383,48 @@ impl SvoBuilder {
         dynamic: &SvoDynamic,
         triangles: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
-        self.group0(
-            ctx,
-            &dynamic.level_params,
-            [
-                &dynamic.fragments,
-                triangles,
-                &svo.child,
-                &svo.neighbours,
-                &svo.coord,
-                &svo.brick_plus_one,
-                &svo.control,
-                &svo.bricks[0],
-                &svo.bricks[1],
-                &svo.bricks[2],
-                &svo.bricks[3],
-            ],
-        )
+        let params = wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &dynamic.level_params,
+            offset: 0,
+            size: wgpu::BufferSize::new(32),
+        });
+        let buffers = [
+            &dynamic.fragments,
+            triangles,
+            &svo.child,
+            &svo.neighbours,
+            &svo.coord,
+            &svo.brick_plus_one,
+            &svo.control,
+            &svo.bricks[0],
+            &svo.bricks[1],
+            &svo.bricks[2],
+            &svo.bricks[3],
+        ];
+        let entries: Vec<(u32, wgpu::BindingResource)> = std::iter::once((0, params))
+            .chain((1..).zip(buffers.map(|b| b.as_entire_binding())))
+            .collect();
+        let pipeline = self.dynamic_pipeline();
+        dynamic.groups.group0.get(ctx, "svo", pipeline, &entries)
+    }
+
+    /// Group 1 of the dynamic kernels (the dispatch arguments), kept.
+    fn dynamic_args_group(
+        &self,
+        ctx: &GpuContext,
+        svo: &Svo,
+        dynamic: &SvoDynamic,
+    ) -> wgpu::BindGroup {
+        let entries = [(0, svo.args.as_entire_binding())];
+        let pipeline = self.dynamic_pipeline();
+        dynamic
+            .groups
+            .args
+            .get_at(ctx, "svo args", pipeline, 1, &entries)
     }
 
     /// Group 2 of the dynamic kernels, with needed list `this` written and the other one (the
-    /// previous update's) read.
+    /// previous update's) read; one kept per `this`.
     fn dynamic_group2(
         &self,
         ctx: &GpuContext,
@@ -380,23 +432,18 @@ impl SvoBuilder {
         dynamic: &SvoDynamic,
         this: usize,
     ) -> wgpu::BindGroup {
-        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("svo dynamic"),
-            layout: &self.dyn_layout,
-            entries: &[
-                (1, &dynamic.params),
-                (2, &dynamic.state),
-                (3, &dynamic.occupied),
-                (4, &dynamic.needed[this]),
-                (5, &dynamic.needed[1 - this]),
-                (6, &dynamic.sums),
-                (7, &svo.leaf_sums),
-            ]
-            .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            }),
-        })
+        let entries = [
+            (1, &dynamic.params),
+            (2, &dynamic.state),
+            (3, &dynamic.occupied),
+            (4, &dynamic.needed[this]),
+            (5, &dynamic.needed[1 - this]),
+            (6, &dynamic.sums),
+            (7, &svo.leaf_sums),
+        ]
+        .map(|(binding, buffer)| (binding, buffer.as_entire_binding()));
+        let pipeline = self.dynamic_pipeline();
+        dynamic.groups.group2[this].get_at(ctx, "svo dynamic", pipeline, 2, &entries)
     }
 }
 

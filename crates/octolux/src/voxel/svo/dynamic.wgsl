@@ -15,7 +15,7 @@
 import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index};
 import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
 import octolux::voxel::svo::control::SvoControlValues;
-import octolux::voxel::svo::common::{child, find, flags, fragments, INVALID, L, leaf_of_voxel, octant_offset, pack3, tris, unpack3};
+import octolux::voxel::svo::common::{child, find, brick_plus_one, fragments, INVALID, L, leaf_of_voxel, octant_offset, pack3, tris, unpack3};
 import octolux::voxel::svo::build::{bricks0, bricks1, bricks2, bricks3, control, coord, dynamic_level_range, group_index, group_texels, group_word, nbr, tap_weight, texel_coords, texel_index, write_args};
 
 struct DynParams {
@@ -176,8 +176,8 @@ fn dyn_reset(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     if child[n] >= D.static_nodes {
         child[n] = 0u;
     }
-    if atomicLoad(&flags[n]) > D.static_bricks {
-        atomicStore(&flags[n], 0u);
+    if atomicLoad(&brick_plus_one[n]) > D.static_bricks {
+        atomicStore(&brick_plus_one[n], 0u);
     }
     atomicStore(&state[n], 0u);
 }
@@ -346,7 +346,7 @@ fn dyn_assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgrou
         return;
     }
     let n = need_list[i];
-    if atomicLoad(&flags[n]) != 0u {
+    if atomicLoad(&brick_plus_one[n]) != 0u {
         return;
     }
     let b = atomicAdd(&control.brick_count, 1u);
@@ -354,7 +354,7 @@ fn dyn_assign_bricks(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgrou
         atomicStore(&control.dynamic_overflow, BRICK_OVERFLOW);
         return;
     }
-    atomicStore(&flags[n], b + 1u);
+    atomicStore(&brick_plus_one[n], b + 1u);
 }
 
 // ---- Leaf sums and bricks -------------------------------------------------------------------
@@ -450,7 +450,7 @@ fn store8(b1: u32, t: u32, v: vec4<f32>) {
 }
 
 // Bricks (+ 1) of the 3x3x3 nodes around c on level d (index x + 3y + 9z, c at 13).
-// Entry k of the 3x3x3 block of level-d nodes around node c: the node's flags (brick + 1),
+// Entry k of the 3x3x3 block of level-d nodes around node c: the node's brick index + 1,
 // 0 where there is no node.
 fn block_entry(c: vec3<u32>, d: u32, k: u32) -> u32 {
     let size = i32(1u << d);
@@ -458,7 +458,7 @@ fn block_entry(c: vec3<u32>, d: u32, k: u32) -> u32 {
     if all(cc >= vec3<i32>(0)) && all(cc < vec3<i32>(size)) {
         let m = find(vec3<u32>(cc), d);
         if m != INVALID {
-            return atomicLoad(&flags[m]);
+            return atomicLoad(&brick_plus_one[m]);
         }
     }
     return 0u;
@@ -506,7 +506,7 @@ fn dirty_group_coord(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {
     if li == 0u {
         let n = dirty_entry(group_index(wg, nwg));
         group_word = INVALID;
-        if n != INVALID && atomicLoad(&flags[n]) != 0u {
+        if n != INVALID && atomicLoad(&brick_plus_one[n]) != 0u {
             group_word = coord[n];
         }
     }
@@ -563,14 +563,14 @@ fn dyn_mip_gather(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
     let fine_size = i32(1u << fine);
     // Finer nodes 2c - 1 .. 2c + 2 on every axis.
     let q = 2 * vec3<i32>(c) - vec3<i32>(1) + vec3<i32>(i32(li % 4u), i32((li / 4u) % 4u), i32(li / 16u));
-    var flags_of_fine = 0u;
+    var fine_brick_plus_one = 0u;
     if all(q >= vec3<i32>(0)) && all(q < vec3<i32>(fine_size)) {
         let m = find(vec3<u32>(q), fine);
         if m != INVALID {
-            flags_of_fine = atomicLoad(&flags[m]);
+            fine_brick_plus_one = atomicLoad(&brick_plus_one[m]);
         }
     }
-    group_fine[li] = flags_of_fine;
+    group_fine[li] = fine_brick_plus_one;
     if li < 27u {
         group_block[li] = block_entry(c, L.d, li);
     }

@@ -17,8 +17,6 @@ pub struct SvoBuilder {
     pub(super) voxelizer: Voxelizer,
     pub(super) layout0: wgpu::BindGroupLayout,
     layout1: wgpu::BindGroupLayout,
-    /// Group 2 of the dynamic update's kernels (`svo/dynamic.wgsl`).
-    pub(super) dyn_layout: wgpu::BindGroupLayout,
     /// Kernels by entry point, with the groups they bind beyond group 0.
     pub(super) pipelines: Pipelines,
     /// Converts the finished RGBA16F build pool to RGBA8.
@@ -163,7 +161,6 @@ impl SvoBuilder {
             voxelizer: Voxelizer::new(ctx),
             layout0,
             layout1,
-            dyn_layout,
             pipelines,
         }
     }
@@ -205,8 +202,8 @@ impl SvoBuilder {
     }
 
     /// Group 0 of the octree kernels: `params` (per-level slots) and the 11 storage buffers
-    /// of `svo/build.wgsl` (fragments, triangles, child, neighbours, coordinates, flags / brick
-    /// index, control, the 4 brick pool buffers).
+    /// of `svo/build.wgsl` (fragments, triangles, child, neighbours, coordinates, brick index
+    /// + 1 (the flags during the structure pass), control, the 4 brick pool buffers).
     pub(super) fn group0(
         &self,
         ctx: &GpuContext,

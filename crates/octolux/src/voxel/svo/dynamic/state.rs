@@ -5,9 +5,11 @@
 
 use super::ring::{Readback, READBACK_SLOTS};
 use super::DynamicReserve;
+use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::svo::control::{level_params, NodeRange, SvoControl, CONTROL_BYTES, MAX_LEVELS};
 use crate::voxel::svo::{Svo, OWNER};
+use crate::voxel::VoxelTriangle;
 
 /// Byte offset of `last` (the previous update's control block) in the parameter block.
 pub(super) const PARAMS_LAST: u64 = std::mem::offset_of!(DynParams, last) as u64;
@@ -60,6 +62,20 @@ pub(crate) struct SvoDynamic {
     pub(in crate::voxel::svo) recorded: u64,
     /// The latest update whose counts `Svo` holds.
     pub(in crate::voxel::svo) applied: u64,
+    /// The triangles the latest update voxelized and their upload, which the fragment list
+    /// still holds the fragments of: an update of the same triangles keeps both.
+    pub(in crate::voxel::svo) triangles: Option<(Vec<VoxelTriangle>, wgpu::Buffer)>,
+    /// The update's bind groups, kept while the buffers they bind are.
+    pub(in crate::voxel::svo) groups: DynamicGroups,
+}
+
+/// The bind groups of the dynamic kernels: group 0 (made again when the triangles are
+/// uploaded again), group 1 and group 2 per needed list written.
+#[derive(Default)]
+pub(crate) struct DynamicGroups {
+    pub(in crate::voxel::svo) group0: KeptBindGroup,
+    pub(in crate::voxel::svo) args: KeptBindGroup,
+    pub(in crate::voxel::svo) group2: [KeptBindGroup; 2],
 }
 
 /// What [`SvoDynamic::new`] needs of the static part.
@@ -146,6 +162,8 @@ impl SvoDynamic {
             readbacks,
             recorded: 0,
             applied: 0,
+            triangles: None,
+            groups: DynamicGroups::default(),
         })
     }
 
@@ -220,6 +238,22 @@ impl SvoDynamic {
                 Some(CONTROL_BYTES),
             );
             encoder.copy_buffer_to_buffer(&self.reset, 0, control, 0, Some(CONTROL_BYTES));
+        });
+    }
+
+    /// Records, for an update of the previous update's triangles, the restoring of its
+    /// fragment count into the control block (after [`SvoDynamic::restart`]): the fragment
+    /// list still holds its fragments, so they need no new voxelization.
+    pub(super) fn keep_fragments(&self, timer: &mut PassTimer, control: &wgpu::Buffer) {
+        let count = std::mem::offset_of!(SvoControl, dynamic_fragments) as u64;
+        timer.untimed(|encoder| {
+            encoder.copy_buffer_to_buffer(
+                &self.params,
+                PARAMS_LAST + count,
+                control,
+                count,
+                Some(4),
+            );
         });
     }
 
