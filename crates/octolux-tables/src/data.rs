@@ -145,8 +145,8 @@ pub struct ErrorRun {
     pub width: u64,
     pub height: u64,
     pub warmup: u64,
-    /// Reference samples per pixel and transport.
-    pub spp: u64,
+    /// Reference samples per pixel per scene (in scene order), and the transport.
+    pub spp: Vec<u64>,
     pub against: String,
 }
 
@@ -173,7 +173,11 @@ impl ErrorRun {
             width: first["width"].as_u64().unwrap_or(0),
             height: first["height"].as_u64().unwrap_or(0),
             warmup: first["warmup"].as_u64().unwrap_or(0),
-            spp: reference["spp"].as_u64().unwrap_or(0),
+            spp: files
+                .iter()
+                .flat_map(|(_, f)| f["scenes"].as_array().cloned().unwrap_or_default())
+                .map(|scene| scene["references"][0]["spp"].as_u64().unwrap_or(0))
+                .collect(),
             against: reference["bounces"].as_str().unwrap_or("?").to_string(),
         })
     }

@@ -37,10 +37,23 @@ pub fn fractions(errors: &[Error], off: &[Error]) -> (f64, f64, usize, usize) {
 pub fn error(run: &ErrorRun) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "{}", run.provenance.sentence());
+    // One sample count, or each scene's where they differ.
+    let spp = match run.spp.split_first() {
+        Some((first, rest)) if rest.iter().all(|n| n == first) => format!("{first} spp"),
+        _ => {
+            let each: Vec<String> = run
+                .scenes
+                .iter()
+                .zip(&run.spp)
+                .map(|(scene, n)| format!("{n} ({scene})"))
+                .collect();
+            format!("{} spp", each.join(", "))
+        }
+    };
     let _ = writeln!(
         s,
-        "*{}x{}, {} warm-up frames and 1 measured, against the `{}` reference at {} spp. FLIP / relMSE; `*`: beats GI off (`none`) on both.*",
-        run.width, run.height, run.warmup, run.against, run.spp
+        "*{}x{}, {} warm-up frames and 1 measured, against the `{}` reference at {spp}. FLIP / relMSE; `*`: beats GI off (`none`) on both.*",
+        run.width, run.height, run.warmup, run.against
     );
     s.push('\n');
     let _ = writeln!(
