@@ -6,7 +6,7 @@ mod common;
 use common::context;
 use glam::Vec3;
 use octolux::gi::probes::octree::{OctreeProbe, OctreeRule, ProbeOctree};
-use octolux::gi::probes::octree_gi::GpuOctree;
+use octolux::gi::probes::octree_gi::GpuProbeOctree;
 use octolux::gpu::{read_buffer, GpuContext, PassTimer};
 
 fn read<T: bytemuck::Pod>(ctx: &GpuContext, b: &wgpu::Buffer) -> Vec<T> {
@@ -14,7 +14,7 @@ fn read<T: bytemuck::Pod>(ctx: &GpuContext, b: &wgpu::Buffer) -> Vec<T> {
 }
 
 /// Compares every buffer of `gpu` with `cpu`; returns the probe count.
-fn assert_same(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: &str) -> usize {
+fn assert_same(ctx: &GpuContext, gpu: &GpuProbeOctree, cpu: &ProbeOctree, what: &str) -> usize {
     let [tree, info, state, ring] = gpu.buffers();
     let len = cpu.nodes.len();
     let tree: Vec<i32> = read(ctx, tree);
@@ -54,7 +54,7 @@ fn assert_same(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: &str)
 
 /// The live probes the memory update listed for the shared passes: the CPU tree's allocated
 /// slots in increasing order, and dispatches that cover them.
-fn assert_live_list(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: &str) {
+fn assert_live_list(ctx: &GpuContext, gpu: &GpuProbeOctree, cpu: &ProbeOctree, what: &str) {
     let live: Vec<u32> = read(ctx, gpu.live_buffer());
     let want: Vec<u32> = (0..gpu.capacity())
         .filter(|&p| cpu.probe(p).is_some())
@@ -79,7 +79,7 @@ fn assert_live_list(ctx: &GpuContext, gpu: &GpuOctree, cpu: &ProbeOctree, what: 
 /// set from `hits` for its live probes, then the decision.
 fn frame(
     ctx: &GpuContext,
-    gpu: &mut GpuOctree,
+    gpu: &mut GpuProbeOctree,
     cpu: &mut ProbeOctree,
     moved: &[(Vec3, Vec3)],
     hits: &dyn Fn(&OctreeProbe) -> u32,
@@ -156,7 +156,7 @@ fn gpu_octree_equals_the_cpu_octree_on_scripted_hit_counts() {
         };
         let (len, capacity) = room.unwrap_or(rule.full_capacity());
         let (lo, size) = (Vec3::new(-1.0, -0.5, -2.0), 4.0);
-        let mut gpu = GpuOctree::with_room(&ctx, rule, lo, size, len, capacity).unwrap();
+        let mut gpu = GpuProbeOctree::with_room(&ctx, rule, lo, size, len, capacity).unwrap();
         let mut cpu = ProbeOctree::new(len, capacity, lo, size, rule);
         let mut counts = Vec::new();
         for f in 0..40u32 {
@@ -253,7 +253,7 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
 fn octree_gather_equals_its_cpu_twin() {
     // `probes-octree` on the Cornell box after 8 frames (the tree has grown), both gathers
     // with depth-moment visibility and the octree gather without: every pixel's indirect
-    // irradiance equals the CPU twin's (`OctreeView::irradiance`) from the GPU's tree, probes
+    // irradiance equals the CPU twin's (`ProbeOctreeView::irradiance`) from the GPU's tree, probes
     // and moment maps at the pixel's position and normal.
     //
     // Tolerance: the output is f16 (2^-11 relative) of a sum the CPU forms in the same

@@ -335,7 +335,7 @@ impl GiEngine {
         let frame = lit.frame().ok_or_else(not_prepared)?;
         let gi_frame = GiFrame {
             scene: &self.scene,
-            frame,
+            instant: frame,
             view,
             gbuffer: surfaces,
             camera_uniform: &self.camera_uniform,

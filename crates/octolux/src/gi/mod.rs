@@ -26,8 +26,9 @@ use crate::{Error, Result};
 pub struct GiFrame<'a> {
     /// The scene (static data).
     pub scene: &'a Scene,
-    /// The scene evaluated at this frame's time.
-    pub frame: &'a SceneFrame,
+    /// The scene at this frame's instant: object transforms, lights and camera evaluated at
+    /// its time.
+    pub instant: &'a SceneFrame,
     /// The camera matrices for the output size.
     pub view: &'a CameraView,
     /// What the techniques read of this frame's G-buffer: depth and world normal.
@@ -42,9 +43,9 @@ pub struct GiFrame<'a> {
     /// Per shadow layer: view-projection and texel footprint, in layer order.
     pub shadow_layers: &'a [LayerView],
     /// The lights as `render/direct.wgsl` reads them (`array<Light>`), one per light of
-    /// `frame.lights`.
+    /// `instant.lights`.
     pub lights: &'a wgpu::Buffer,
-    /// How many of `frame.lights`, at its end, are the directional lights that stand in for
+    /// How many of `instant.lights`, at its end, are the directional lights that stand in for
     /// the sky ([`crate::frame::sky_lights`]).
     pub sky_lights: usize,
 }

@@ -1,7 +1,7 @@
 //! The LPV kernels run on their own on given data (no scene, no renderer), for tests that
 //! compare them with the CPU reference in [`super::sh`] and for measurements.
 
-use super::octree::{Octree, OctreeBuffers};
+use super::octree::{LpvOctree, OctreeBuffers};
 use super::propagate::{Propagate, Volumes};
 use super::sh::{Cell, Sh};
 use super::{layouts, GpuGrid, FLAG_INJECT, FLAG_OCCLUSION};
@@ -160,7 +160,7 @@ pub fn octree(
     ctx.queue
         .write_buffer(&v.gv, 0, bytemuck::cast_slice(&floats));
     let b = OctreeBuffers::new(ctx, OWNER, n, cells);
-    let o = Octree::new(ctx, &b, &v);
+    let o = LpvOctree::new(ctx, &b, &v);
     let mut timer = PassTimer::new(ctx);
     o.record_downsample(&mut timer, &v);
     o.record_index(&mut timer);

@@ -286,7 +286,7 @@ struct Passes {
     rsm: rsm::RsmPass,
     inject: inject::Inject,
     propagate: propagate::Propagate,
-    octree: Option<octree::Octree>,
+    octree: Option<octree::LpvOctree>,
     lookup: lookup::Lookup,
 }
 
@@ -374,7 +374,7 @@ impl LpvGi {
             Some([lo, hi]) => (Vec3::from(lo), Vec3::from(hi)),
             None => self
                 .trimmed_bounds
-                .unwrap_or_else(|| frame.scene.bounds_at(frame.frame.time)),
+                .unwrap_or_else(|| frame.scene.bounds_at(frame.instant.time)),
         };
         let placements: Vec<(Vec3, f32)> = match self.variant {
             Variant::Uniform | Variant::Octree => {
@@ -474,7 +474,7 @@ impl LpvGi {
         let octree = self
             .octree
             .as_ref()
-            .map(|b| octree::Octree::new(ctx, b, &self.volumes));
+            .map(|b| octree::LpvOctree::new(ctx, b, &self.volumes));
         let (volume, lookup_grids) = match &self.octree {
             Some(o) => (&o.merged, &self.lookup_grids),
             None => (&self.volumes.acc, &self.grids),
@@ -589,7 +589,7 @@ impl GiTechnique for LpvGi {
         let name = self.variant.name();
         let placed = self.place(frame);
         let layers = rsm::rsm_layers(
-            &frame.frame.lights,
+            &frame.instant.lights,
             frame.sky_lights,
             frame.shadow_layers,
             self.rsm.size,

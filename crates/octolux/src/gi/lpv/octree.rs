@@ -79,8 +79,8 @@ pub fn source() -> String {
     library_shader("gi/lpv/octree", &[])
 }
 
-/// Octree pipelines and per-level bind groups.
-pub struct Octree {
+/// The octree LPV's pipelines and per-level bind groups.
+pub struct LpvOctree {
     n: u32,
     levels: u32,
     downsample: wgpu::ComputePipeline,
@@ -93,9 +93,9 @@ pub struct Octree {
     merge_group: wgpu::BindGroup,
 }
 
-impl Octree {
+impl LpvOctree {
     /// Builds the pipelines over `b` and the shared volumes.
-    pub fn new(ctx: &GpuContext, b: &OctreeBuffers, v: &Volumes) -> Octree {
+    pub fn new(ctx: &GpuContext, b: &OctreeBuffers, v: &Volumes) -> LpvOctree {
         let module = ctx.shader("olpv", &source());
         let downsample = ctx.compute_pipeline("olpv downsample", &module, "downsample");
         let occupancy = ctx.compute_pipeline("olpv occupancy", &module, "occupancy");
@@ -123,7 +123,7 @@ impl Octree {
                 (6, b.merged.as_entire_binding()),
             ],
         );
-        Octree {
+        LpvOctree {
             n: b.n,
             levels: b.levels,
             downsample,

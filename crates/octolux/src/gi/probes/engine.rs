@@ -8,7 +8,7 @@
 //! `gi/probes/rays`; the technique says which modules those are ([`ProbeSetModules`]).
 
 use super::moments::{variance_floor, Visibility, MOMENT_BYTES};
-use super::params::{rotation_rows, storage, ProbeParams};
+use super::params::{probe_storage, rotation_rows, ProbeParams};
 use super::rays::Rays;
 use super::ProbeSettings;
 use crate::frame::light_bindings;
@@ -130,7 +130,7 @@ pub(crate) enum Dispatch<'a> {
     /// This many (x, y), known on the CPU.
     Groups((u32, u32)),
     /// Read from an indirect-dispatch buffer at this byte offset, written on the GPU (the
-    /// octree's live probes, `GpuOctree::live_args`).
+    /// octree's live probes, `GpuProbeOctree::live_args`).
     Indirect(&'a wgpu::Buffer, u64),
 }
 
@@ -158,7 +158,7 @@ fn run_dispatch(
 }
 
 /// A probe set's bind group 1 for a shared pass and, where the set lists its probes on the
-/// GPU, the indirect-dispatch buffer (`GpuOctree::live_args`: place and light at byte 0,
+/// GPU, the indirect-dispatch buffer (`GpuProbeOctree::live_args`: place and light at byte 0,
 /// the moments at 12, the integration at 24). `None`: the pass runs over every probe slot.
 #[derive(Clone, Copy)]
 pub(crate) struct SetPass<'a> {
@@ -280,7 +280,7 @@ impl ProbeEngine {
             scene,
             &mut params,
         )?;
-        let params_buffer = storage(
+        let params_buffer = probe_storage(
             ctx,
             owner,
             "params",
@@ -306,17 +306,17 @@ impl ProbeEngine {
             params,
             params_buffer,
             animated,
-            surfels: storage(ctx, owner, "surfels", surfels * SURFEL_VEC4 * 16)?,
-            radiance: storage(ctx, owner, "surfel radiance", surfels * 16)?,
-            probes: storage(ctx, owner, "probes", probes as u64 * PROBE_VEC4 * 16)?,
-            raw: storage(
+            surfels: probe_storage(ctx, owner, "surfels", surfels * SURFEL_VEC4 * 16)?,
+            radiance: probe_storage(ctx, owner, "surfel radiance", surfels * 16)?,
+            probes: probe_storage(ctx, owner, "probes", probes as u64 * PROBE_VEC4 * 16)?,
+            raw: probe_storage(
                 ctx,
                 owner,
                 "probe samples",
                 if sets > 1 { probes as u64 * 8 * 16 } else { 16 },
             )?,
             // Without visibility the gather never reads the maps: a placeholder binding.
-            moments: storage(
+            moments: probe_storage(
                 ctx,
                 owner,
                 "probe depth moments",
@@ -326,8 +326,8 @@ impl ProbeEngine {
                 },
             )?,
             rays,
-            moved: storage(ctx, owner, "moved boxes", animated_objects as u64 * 2 * 32)?,
-            stamps: storage(ctx, owner, "probe stamps", probes as u64 * 4)?,
+            moved: probe_storage(ctx, owner, "moved boxes", animated_objects as u64 * 2 * 32)?,
+            stamps: probe_storage(ctx, owner, "probe stamps", probes as u64 * 4)?,
             place: pipeline("place", "gi/probes/place"),
             moments_build: pipeline("moments", "gi/probes/moments_build"),
             light: pipeline("light", "gi/probes/light"),
@@ -385,7 +385,7 @@ impl ProbeEngine {
         if self.animated {
             self.rays.sync_moving(ctx, frame, timer, &mut self.params)?;
         }
-        self.params.light_count = frame.frame.lights.len() as u32;
+        self.params.light_count = frame.instant.lights.len() as u32;
         self.params.frame = self.params.frame.wrapping_add(1).max(1);
         ctx.queue
             .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));

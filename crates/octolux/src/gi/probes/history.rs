@@ -71,14 +71,14 @@ impl FrameChanges {
     /// What changed since the last frame observed; `extent` is the probes' box (for the
     /// power of directional lights).
     pub fn observe(&mut self, frame: &GiFrame, extent: Vec3) -> Changes {
-        let now = &frame.frame.object_transforms;
+        let now = &frame.instant.object_transforms;
         let moved = match &self.transforms {
             Some(before) => moved_boxes(frame.scene, before, now),
             None => Vec::new(),
         };
         self.transforms = Some(now.clone());
         let lights: Vec<LightState> = frame
-            .frame
+            .instant
             .lights
             .iter()
             .map(|l| (l.kind, l.color, l.intensity, l.position, l.direction))
@@ -86,7 +86,7 @@ impl FrameChanges {
         let changed = !moved.is_empty() || self.lights.as_ref() != Some(&lights);
         self.lights = Some(lights);
         let power: f32 = frame
-            .frame
+            .instant
             .lights
             .iter()
             .map(|l| light_power(l, extent))

@@ -43,7 +43,7 @@ pub use grid_gi::{
 };
 pub use lattice::Lattice;
 pub use moments::Visibility;
-pub use octree_gi::{OctreeView, ProbesOctree};
+pub use octree_gi::{ProbeOctreeView, ProbesOctree};
 pub use rays::RayBackend;
 
 use crate::gi::bounds::{require as check, Bounds};

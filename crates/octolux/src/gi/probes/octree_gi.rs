@@ -6,7 +6,7 @@
 //! Leaves whose cubes meet the old or new bounds of a moving object are re-placed (L1) or ask
 //! for a probe (M1). Placement, surfel light, integration and the gather are the shared probe
 //! passes over the octree's probe set (octree_set.wgsl, octree_sample.wgsl); a pixel reads the
-//! probes of the few leaves around it ([`OctreeView::irradiance`] is the CPU twin).
+//! probes of the few leaves around it ([`ProbeOctreeView::irradiance`] is the CPU twin).
 
 use super::encoding::COEFFS;
 use super::engine::{
@@ -17,7 +17,7 @@ use super::grid_gi::FORGETTING;
 use super::history::{Changes, FrameChanges, RayPlan};
 use super::moments::MomentMaps;
 use super::octree::{OctreeRule, ProbeOctree};
-use super::params::storage;
+use super::params::probe_storage;
 use super::{OctreeGather, ProbeSettings, SurfelRange};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::KeptBindGroup;
@@ -82,7 +82,7 @@ const SELECT_WORK: &[&str] = &["nodes", "queued nodes", "box tests", "placements
 const DECIDE_WORK: &[&str] = &["nodes", "leaves decided"];
 
 /// The probe octree in GPU buffers and the passes of its state machine.
-pub struct GpuOctree {
+pub struct GpuProbeOctree {
     rule: OctreeRule,
     params: OctreeParams,
     params_buffer: wgpu::Buffer,
@@ -111,21 +111,21 @@ pub struct GpuOctree {
 
 /// Creates a storage buffer holding `data` under `owner`.
 fn init(ctx: &GpuContext, label: &str, data: &[u8]) -> Result<wgpu::Buffer> {
-    let b = storage(ctx, OWNER, label, data.len() as u64)?;
+    let b = probe_storage(ctx, OWNER, label, data.len() as u64)?;
     ctx.queue.write_buffer(&b, 0, data);
     Ok(b)
 }
 
-impl GpuOctree {
+impl GpuProbeOctree {
     /// An octree over the cube at `lo` of edge `size` with room for the full tree of
     /// `rule.max_depth` levels, its levels above `rule.min_depth` built (as
     /// [`ProbeOctree::new`] with [`OctreeRule::full_capacity`]).
-    pub fn new(ctx: &GpuContext, rule: OctreeRule, lo: Vec3, size: f32) -> Result<GpuOctree> {
+    pub fn new(ctx: &GpuContext, rule: OctreeRule, lo: Vec3, size: f32) -> Result<GpuProbeOctree> {
         let (len, capacity) = rule.full_capacity();
         Self::with_room(ctx, rule, lo, size, len, capacity)
     }
 
-    /// [`GpuOctree::new`] with a tree buffer of `len` words and `capacity` probe slots (a tree
+    /// [`GpuProbeOctree::new`] with a tree buffer of `len` words and `capacity` probe slots (a tree
     /// smaller than the full one, to exercise allocation failures and reuse).
     pub fn with_room(
         ctx: &GpuContext,
@@ -134,7 +134,7 @@ impl GpuOctree {
         size: f32,
         len: usize,
         capacity: u32,
-    ) -> Result<GpuOctree> {
+    ) -> Result<GpuProbeOctree> {
         // The CPU specification builds the levels above `min_depth`; the GPU starts from its
         // state, word for word.
         let cpu = ProbeOctree::new(len, capacity, lo, size, rule);
@@ -192,7 +192,7 @@ impl GpuOctree {
                 *slot = Some(counter.region(&format!("{OWNER} {pass}"), quantities)?);
             }
         }
-        Ok(GpuOctree {
+        Ok(GpuProbeOctree {
             rule,
             params,
             params_buffer: init(ctx, "octree params", bytemuck::bytes_of(&params))?,
@@ -261,7 +261,7 @@ impl GpuOctree {
         modes: [u32; 3],
     ) -> Result<()> {
         if moved.len() > self.box_room {
-            self.boxes = storage(ctx, OWNER, "octree moved boxes", moved.len() as u64 * 32)?;
+            self.boxes = probe_storage(ctx, OWNER, "octree moved boxes", moved.len() as u64 * 32)?;
             self.box_room = moved.len();
         }
         let boxes: Vec<[f32; 4]> = moved
@@ -405,7 +405,7 @@ const VISIBLE_SHARE: f32 = 0.1;
 
 /// The octree as the gather reads it, on the CPU: the CPU twin of octree_sample.wgsl over
 /// buffers read back from the GPU.
-pub struct OctreeView<'a> {
+pub struct ProbeOctreeView<'a> {
     /// Lower corner of the root cube.
     pub lo: Vec3,
     /// Edge of the root cube.
@@ -422,7 +422,7 @@ pub struct OctreeView<'a> {
     pub moments: Option<MomentMaps<'a>>,
 }
 
-impl OctreeView<'_> {
+impl ProbeOctreeView<'_> {
     /// The leaf holding `q` (inside the root cube) and its depth: `octree_leaf`.
     pub fn leaf(&self, q: Vec3) -> (u32, u32) {
         let (mut node, mut lo, mut size) = (0u32, self.lo, self.size);
@@ -541,7 +541,7 @@ pub fn root_cube(bounds: (Vec3, Vec3)) -> Result<(Vec3, f32)> {
 /// Probe + surfel GI on `004`'s adaptive octree.
 pub struct ProbesOctree {
     passes: ProbeEngine,
-    octree: GpuOctree,
+    octree: GpuProbeOctree,
     root: (Vec3, f32),
     bias: f32,
     /// What changed from frame to frame.
@@ -574,7 +574,7 @@ impl ProbesOctree {
         let rule = settings.octree_rule();
         let (len, _) = rule.full_capacity();
         let mut octree =
-            GpuOctree::with_room(ctx, rule, lo, size, len, settings.octree_probe_slots())?;
+            GpuProbeOctree::with_room(ctx, rule, lo, size, len, settings.octree_probe_slots())?;
         // The shared passes run over every surfel of both sets with a history.
         octree.params.surfels_per_probe = settings.surfel_count() * settings.surfel_sets();
         let bias = settings.normal_bias * size * 2f32.powi(-(rule.max_depth as i32));
@@ -633,7 +633,7 @@ impl ProbesOctree {
     }
 
     /// The GPU octree.
-    pub fn octree(&self) -> &GpuOctree {
+    pub fn octree(&self) -> &GpuProbeOctree {
         &self.octree
     }
 
@@ -671,9 +671,9 @@ impl ProbesOctree {
         nodes: &'a [i32],
         info: &'a [[f32; 4]],
         moments: Option<&'a [[f32; 2]]>,
-    ) -> OctreeView<'a> {
+    ) -> ProbeOctreeView<'a> {
         let cell = self.root.1 * 2f32.powi(-(self.octree.rule.max_depth as i32));
-        OctreeView {
+        ProbeOctreeView {
             lo: self.root.0,
             size: self.root.1,
             max_depth: self.octree.rule.max_depth,

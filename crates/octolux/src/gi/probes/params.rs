@@ -76,7 +76,7 @@ pub(crate) fn rotation_rows(sets: [glam::Mat3; 2]) -> [[f32; 4]; 6] {
 
 /// A storage buffer of `bytes` for the probes, with a clear error when it exceeds the adapter's
 /// storage-binding limit.
-pub(crate) fn storage(
+pub(crate) fn probe_storage(
     ctx: &GpuContext,
     owner: &str,
     label: &str,

@@ -13,7 +13,7 @@
 //! docs/probes.md compares the two on the same scenes.
 
 use super::bvh::{GpuInstance, SceneBvh};
-use super::params::{storage, ProbeParams};
+use super::params::{probe_storage, ProbeParams};
 use crate::gi::GiFrame;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
@@ -92,7 +92,7 @@ impl Rays {
                 let bvh = SceneBvh::build(scene);
                 let (nodes, tris, roots) = bvh.flatten();
                 let upload = |label: &str, bytes: &[u8]| -> Result<wgpu::Buffer> {
-                    let buffer = storage(ctx, owner, label, bytes.len() as u64)?;
+                    let buffer = probe_storage(ctx, owner, label, bytes.len() as u64)?;
                     ctx.queue.write_buffer(&buffer, 0, bytes);
                     Ok(buffer)
                 };
@@ -194,11 +194,11 @@ impl Rays {
     ) -> Result<()> {
         match self {
             Rays::Voxels(v) => {
-                let moving = objects_triangles(frame.scene, frame.frame, true);
+                let moving = objects_triangles(frame.scene, frame.instant, true);
                 v.builder.record_dynamic(ctx, timer, &mut v.svo, &moving)?;
             }
             Rays::Bvh(b) => {
-                let instances = b.bvh.instances(frame.scene, frame.frame, &b.roots)?;
+                let instances = b.bvh.instances(frame.scene, frame.instant, &b.roots)?;
                 ctx.queue
                     .write_buffer(&b.instances, 0, bytemuck::cast_slice(&instances));
                 params.instance_count = instances.len() as u32;

@@ -98,7 +98,7 @@ impl ClipmapVoxels {
         };
         let mut clipmap = Clipmap::with_owner(ctx, clip, options, OWNER)?;
         clipmap.set_bounce(bounce.cloned())?;
-        let (still, moving) = scene_triangles_split(frame.scene, frame.frame);
+        let (still, moving) = scene_triangles_split(frame.scene, frame.instant);
         let mut all: Vec<VoxelTriangle> = still;
         let dynamic_from = all.len();
         all.extend(moving);
@@ -113,7 +113,7 @@ impl ClipmapVoxels {
     /// are revoxelised at the next follow); nothing for a static scene.
     fn move_objects(&mut self, ctx: &GpuContext, frame: &GiFrame) -> Result<()> {
         if frame.scene.objects.iter().any(|o| o.animation.is_some()) {
-            let moving = objects_triangles(frame.scene, frame.frame, true);
+            let moving = objects_triangles(frame.scene, frame.instant, true);
             self.clipmap
                 .replace_triangles(ctx, self.dynamic_from, &moving)?;
         }
@@ -412,12 +412,15 @@ impl GiTechnique for VctClipmap {
                 ctx,
                 timer,
                 frame.lights,
-                frame.frame.lights.len() as u32,
+                frame.instant.lights.len() as u32,
                 frame.shadows.lookup(),
             )?,
-            ClipmapInjection::VoxelRays => {
-                clipmap.inject(ctx, timer, &frame.frame.lights, self.settings.inject_steps)?
-            }
+            ClipmapInjection::VoxelRays => clipmap.inject(
+                ctx,
+                timer,
+                &frame.instant.lights,
+                self.settings.inject_steps,
+            )?,
         }
         let clipmap = &voxels.clipmap;
         let radiance = clipmap

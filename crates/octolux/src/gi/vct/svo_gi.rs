@@ -375,7 +375,7 @@ impl GiTechnique for VctSvo {
         // 1. Voxels: the animated objects' voxels replace the dynamic part (no readback: its
         //    sizes stay on the GPU).
         if self.animated {
-            let moving = objects_triangles(frame.scene, frame.frame, true);
+            let moving = objects_triangles(frame.scene, frame.instant, true);
             self.builder
                 .record_dynamic(ctx, timer, &mut self.svo, &moving)?;
         }
@@ -387,7 +387,7 @@ impl GiTechnique for VctSvo {
             &self.svo,
             frame.shadows.lookup(),
             frame.lights,
-            frame.frame.lights.len() as u32,
+            frame.instant.lights.len() as u32,
             self.bounce.as_ref().map(|b| &b.buffers),
         )?;
         // 3. With `anisotropic`: the radiance per travel direction, composited up the levels.

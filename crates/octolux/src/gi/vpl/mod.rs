@@ -499,7 +499,7 @@ impl GiTechnique for VplGi {
             self.passes = Some(self.build(ctx, frame)?);
         }
         if self.animated {
-            let moving = objects_triangles(frame.scene, frame.frame, true);
+            let moving = objects_triangles(frame.scene, frame.instant, true);
             self.builder
                 .record_dynamic(ctx, timer, &mut self.svo, &moving)?;
         }
@@ -507,7 +507,7 @@ impl GiTechnique for VplGi {
             return Ok(());
         };
         let layers: Vec<RsmLayer> = rsm::rsm_layers(
-            &frame.frame.lights,
+            &frame.instant.lights,
             frame.sky_lights,
             frame.shadow_layers,
             self.rsm.size,

@@ -22,7 +22,7 @@
 //! Sampling: the WGSL module `voxel/svo/sample_aniso` (`svo_sample_aniso(p, footprint, dir)`), CPU twin
 //! [`crate::voxel::svo::sample::svo_sample_aniso`]. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso`].
 
-use crate::gpu::pass::dispatch_size;
+use crate::gpu::pass::{buffer_entry, dispatch_size};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::svo::control::PARAM_STRIDE;
 use crate::voxel::svo::sample::{svo_albedo_bindings, svo_bindings, SvoInfo, SVO_ANISO_BINDING};
@@ -34,13 +34,6 @@ use glam::{Vec3, Vec4};
 pub const ANISO_WORDS: u32 = 6;
 /// Ledger label of the values buffer (owner [`OWNER`]).
 pub const LEDGER_LABEL: &str = "anisotropic values";
-
-fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
 
 /// Parameters of one level's dispatch (`AnisoParams` in `svo/aniso.wgsl`).
 #[repr(C)]
@@ -170,10 +163,10 @@ impl SvoAniso {
                                 size: wgpu::BufferSize::new(size_of::<AnisoParams>() as u64),
                             }),
                         },
-                        storage(1, &svo.child),
-                        storage(2, &svo.brick_plus_one),
-                        storage(3, &svo.leaf_sums),
-                        storage(4, &values.buffer),
+                        buffer_entry(1, &svo.child),
+                        buffer_entry(2, &svo.brick_plus_one),
+                        buffer_entry(3, &svo.leaf_sums),
+                        buffer_entry(4, &values.buffer),
                     ],
                 })
             })

@@ -16,19 +16,12 @@
 //! capacity (48 bytes; the dynamic reserve's bricks included). Sampling:
 //! the WGSL module `voxel/svo/radiance_sample_aniso`. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso_radiance`].
 
-use crate::gpu::pass::dispatch_size;
+use crate::gpu::pass::{buffer_entry, dispatch_size};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
 use crate::voxel::svo::control::{ARGS_DYN_NODES, PARAM_STRIDE};
 use crate::voxel::svo::{Svo, OWNER};
 use crate::Result;
 use glam::{Vec3, Vec4};
-
-fn storage(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
 
 /// Words per brick: one RGBA16F value (two words) per direction.
 pub const ANISO_RADIANCE_WORDS: u32 = 12;
@@ -147,11 +140,11 @@ impl SvoAnisoRadiance {
                                     ),
                                 }),
                             },
-                            storage(1, &svo.child),
-                            storage(2, &svo.brick_plus_one),
-                            storage(3, &svo.control),
-                            storage(4, &svo.voxel_radiance),
-                            storage(5, &buffer),
+                            buffer_entry(1, &svo.child),
+                            buffer_entry(2, &svo.brick_plus_one),
+                            buffer_entry(3, &svo.control),
+                            buffer_entry(4, &svo.voxel_radiance),
+                            buffer_entry(5, &buffer),
                         ],
                     });
                 (group, step)

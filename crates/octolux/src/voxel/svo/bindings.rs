@@ -1,13 +1,8 @@
-//! What the octree's kernels bind: storage entries, group 0 (the per-level parameter slots and
+//! What the octree's kernels bind: group 0 (the per-level parameter slots and
 //! the buffers) and the table of kernels with the groups each binds beyond it. Shared by the
 //! build, injection and the dynamic part.
 
-use crate::gpu::GpuContext;
-
-/// A read-write (or read-only) storage buffer entry of a compute bind group layout.
-pub(super) fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    crate::gpu::storage_entry(binding, read_only)
-}
+use crate::gpu::{storage_entry, GpuContext};
 
 /// Which bind groups beyond group 0 a kernel uses: group 1 (the dispatch arguments, which a
 /// kernel dispatched indirectly must not bind) and group 2 (the dynamic part).
@@ -35,9 +30,9 @@ pub(super) fn layout0_with(device: &wgpu::Device, label: &str, last: u32) -> wgp
         },
         count: None,
     }];
-    entries.push(storage(1, true));
-    entries.push(storage(2, true));
-    entries.extend((3..=last).map(|b| storage(b, false)));
+    entries.push(storage_entry(1, true));
+    entries.push(storage_entry(2, true));
+    entries.extend((3..=last).map(|b| storage_entry(b, false)));
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
         entries: &entries,

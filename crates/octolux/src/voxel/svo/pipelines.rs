@@ -5,8 +5,9 @@
 //! dispatch arguments, bound only by the kernels that write them) and group 2 (the dynamic
 //! part). The options (`with_*`) choose how octrees are built.
 
-use super::bindings::{group0_with, layout0_with, storage, Groups, Pipelines};
+use super::bindings::{group0_with, layout0_with, Groups, Pipelines};
 use crate::gpu::shader::library_shader;
+use crate::gpu::storage_entry;
 use crate::gpu::GpuContext;
 use crate::voxel::svo::pack::PackBricks;
 use crate::voxel::svo::OWNER;
@@ -58,7 +59,7 @@ impl SvoBuilder {
         let layout0 = layout0_with(device, "svo", 11);
         let layout1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("svo args"),
-            entries: &[storage(0, false)],
+            entries: &[storage_entry(0, false)],
         });
         let dyn_layout = crate::voxel::svo::dynamic::bind_group_layout(device);
         // The build and the dynamic update: `dynamic` imports `build`, so it holds both.

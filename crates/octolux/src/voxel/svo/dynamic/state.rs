@@ -199,7 +199,7 @@ fn reset_control(built: &SvoControl) -> SvoControl {
 
 /// Group 2 of the dynamic kernels: parameters, state, lists, sums.
 pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    use crate::voxel::svo::bindings::storage;
+    use crate::gpu::storage_entry;
     let mut entries = vec![wgpu::BindGroupLayoutEntry {
         binding: 1,
         visibility: wgpu::ShaderStages::COMPUTE,
@@ -212,12 +212,12 @@ pub(crate) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
         count: None,
     }];
     entries.extend([
-        storage(2, false),
-        storage(3, false),
-        storage(4, false),
-        storage(5, true),
-        storage(6, false),
-        storage(7, true),
+        storage_entry(2, false),
+        storage_entry(3, false),
+        storage_entry(4, false),
+        storage_entry(5, true),
+        storage_entry(6, false),
+        storage_entry(7, true),
     ]);
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("svo dynamic"),
