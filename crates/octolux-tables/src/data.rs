@@ -79,7 +79,8 @@ fn bench_files(dir: &Path) -> Result<Vec<(String, Value)>> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "json"))
         .collect();
-    paths.sort();
+    // Numbers in names in numeric order (`640x360` before `1280x720`), the rest as text.
+    paths.sort_by_key(|p| natural_key(&p.file_name().unwrap_or_default().to_string_lossy()));
     if paths.is_empty() {
         bail!("no .json files in {}", dir.display());
     }
@@ -90,6 +91,27 @@ fn bench_files(dir: &Path) -> Result<Vec<(String, Value)>> {
             Ok((name, read_json(&p)?))
         })
         .collect()
+}
+
+/// A sort key of `name` that orders its runs of digits by their value.
+fn natural_key(name: &str) -> Vec<(String, u64)> {
+    let mut key = Vec::new();
+    let mut text = String::new();
+    let mut chars = name.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c.is_ascii_digit() {
+            let mut n = c.to_digit(10).unwrap_or(0) as u64;
+            while let Some(d) = chars.peek().and_then(|d| d.to_digit(10)) {
+                n = n.saturating_mul(10).saturating_add(d as u64);
+                chars.next();
+            }
+            key.push((std::mem::take(&mut text), n));
+        } else {
+            text.push(c);
+        }
+    }
+    key.push((text, u64::MAX));
+    key
 }
 
 /// Scene names, and per technique its cells per scene.
@@ -421,5 +443,32 @@ impl MovingRun {
             scenes,
             techniques,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::natural_key;
+
+    #[test]
+    fn numbers_sort_by_value_and_names_as_text() {
+        let mut names = vec![
+            "1280x720",
+            "320x180",
+            "640x360",
+            "cornell-box",
+            "cornell-animated",
+        ];
+        names.sort_by_key(|n| natural_key(n));
+        assert_eq!(
+            names,
+            [
+                "320x180",
+                "640x360",
+                "1280x720",
+                "cornell-animated",
+                "cornell-box"
+            ]
+        );
     }
 }
