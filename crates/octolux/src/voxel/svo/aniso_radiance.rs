@@ -18,7 +18,7 @@
 
 use crate::gpu::pass::{buffer_entry, dispatch_size};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::svo::control::{ARGS_DYN_NODES, PARAM_STRIDE};
+use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES, PARAM_STRIDE};
 use crate::voxel::svo::{Svo, OWNER};
 use crate::Result;
 use glam::{Vec3, Vec4};
@@ -176,7 +176,7 @@ impl SvoAnisoRadiance {
                         pass.dispatch_workgroups(x, y, 1);
                     }
                     Step::Dynamic(slot) => {
-                        pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
+                        pass.dispatch_workgroups_indirect(&svo.args, args_offset(slot));
                     }
                 }
             }

@@ -18,8 +18,14 @@ import octolux::voxel::svo::common::{brick_of, bw_index, child, find, brick_plus
 @group(0) @binding(9) var<storage, read_write> bricks1: array<u32>;
 @group(0) @binding(10) var<storage, read_write> bricks2: array<u32>;
 @group(0) @binding(11) var<storage, read_write> bricks3: array<u32>;
-// Indirect dispatch arguments, 3 words per level (bound only by finish_level).
-@group(1) @binding(0) var<storage, read_write> args: array<u32>;
+// Indirect dispatch arguments, one per slot (bound only by finish_level): workgroups along
+// x, y and z, as `wgpu::util::DispatchIndirectArgs`.
+struct DispatchArgs {
+    x: u32,
+    y: u32,
+    z: u32,
+};
+@group(1) @binding(0) var<storage, read_write> args: array<DispatchArgs>;
 
 // Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
 // ones), INVALID past the range's end.
@@ -63,15 +69,14 @@ fn group_index(wg: vec3<u32>, nwg: vec3<u32>) -> u32 {
 // latency chain of hundreds of dependent reads on a GPU).
 const NODE_ARGS: u32 = 96u;
 
+// Workgroups covering `n` (one row of at most 65535, then more rows).
+fn covering(n: u32) -> DispatchArgs {
+    return DispatchArgs(min(n, 65535u), (n + 65534u) / 65535u, 1u);
+}
+
 fn write_args(slot: u32, count: u32) {
-    let groups = (count + 63u) / 64u;
-    args[3u * slot] = min(groups, 65535u);
-    args[3u * slot + 1u] = (groups + 65534u) / 65535u;
-    args[3u * slot + 2u] = 1u;
-    let wide = 3u * (slot + NODE_ARGS);
-    args[wide] = min(count, 65535u);
-    args[wide + 1u] = (count + 65534u) / 65535u;
-    args[wide + 2u] = 1u;
+    args[slot] = covering((count + 63u) / 64u);
+    args[slot + NODE_ARGS] = covering(count);
 }
 
 // Shared by the kernels that give a workgroup one node: the node's brick (or other word)

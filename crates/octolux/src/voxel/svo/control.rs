@@ -98,7 +98,13 @@ impl SvoControl {
     }
 }
 
-/// Indirect dispatch slots (3 words each): static levels, dynamic levels, dynamic lists and
+/// Byte offset of indirect dispatch slot `slot` in the arguments buffer (`DispatchArgs` in
+/// `svo/build.wgsl`, wgpu's `DispatchIndirectArgs`).
+pub(crate) fn args_offset(slot: u32) -> u64 {
+    slot as u64 * std::mem::size_of::<wgpu::util::DispatchIndirectArgs>() as u64
+}
+
+/// Indirect dispatch slots (`DispatchArgs` each): static levels, dynamic levels, dynamic lists and
 /// the dynamic update's own sizes (`svo/dynamic.wgsl`); each slot again from `NODE_ARGS` on,
 /// sized for one workgroup per entry.
 pub(crate) const ARGS_SLOTS: u64 = 2 * NODE_ARGS as u64;

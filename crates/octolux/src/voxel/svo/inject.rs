@@ -16,6 +16,7 @@ use crate::gpu::pass::{bind_buffers, dispatch_1d, SLOT};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_buffer, GpuContext, PassTimer, PassTiming};
 use crate::voxel::svo::bindings::group0_with;
+use crate::voxel::svo::control::args_offset;
 use crate::voxel::svo::steps::{filter_steps, record_steps};
 use crate::voxel::svo::{Svo, SvoBuilder};
 use crate::voxel::voxelize::FragmentList;
@@ -416,7 +417,7 @@ impl SvoLight {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups_indirect(&svo.args, slot as u64 * 12);
+            pass.dispatch_workgroups_indirect(&svo.args, args_offset(slot));
         });
     }
 }

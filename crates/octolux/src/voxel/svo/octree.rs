@@ -5,7 +5,7 @@
 
 use crate::gpu::pack::{unpack_half4, unpack_unorm8};
 use crate::gpu::{read_buffer, GpuContext};
-use crate::voxel::svo::control::{ARGS_DYN_NODES, NODE_ARGS};
+use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES, NODE_ARGS};
 use crate::voxel::svo::{BRICK_WORDS, BUILD_BRICK_WORDS, NODE_BYTES};
 use crate::voxel::VoxelGrid;
 use crate::Result;
@@ -191,7 +191,7 @@ impl Svo {
     pub fn dynamic_leaf_dispatch(&self) -> (&wgpu::Buffer, u64) {
         let leaf = self.levels.len().saturating_sub(1) as u32;
         let slot = ARGS_DYN_NODES + leaf + NODE_ARGS;
-        (&self.args, slot as u64 * 12)
+        (&self.args, args_offset(slot))
     }
 
     /// Bytes the octree keeps on the GPU (nodes + bricks).

@@ -6,7 +6,7 @@
 use crate::gpu::pass::dispatch_size;
 use crate::gpu::PassTimer;
 use crate::voxel::svo::bindings::Pipelines;
-use crate::voxel::svo::control::{ARGS_DYN_NODES, NODE_ARGS, PARAM_STRIDE};
+use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES, NODE_ARGS, PARAM_STRIDE};
 use crate::voxel::svo::SvoBuilder;
 
 /// How many invocations a step runs.
@@ -122,10 +122,10 @@ pub(super) fn record_steps(
                 pass.dispatch_workgroups(x, y, 1);
             }
             Dispatch::Indirect(slot) => {
-                pass.dispatch_workgroups_indirect(args, *slot as u64 * 12);
+                pass.dispatch_workgroups_indirect(args, args_offset(*slot));
             }
             Dispatch::PerNode(slot) => {
-                pass.dispatch_workgroups_indirect(args, (*slot + NODE_ARGS) as u64 * 12);
+                pass.dispatch_workgroups_indirect(args, args_offset(*slot + NODE_ARGS));
             }
             Dispatch::One => {
                 pass.dispatch_workgroups(1, 1, 1);
