@@ -106,8 +106,9 @@ fn settled_radiance(technique: &str, max_frames: u32) -> (f32, u32) {
 /// Measured (lavapipe, 32 x 32, defaults; docs/vct.md and docs/probes.md "Closed-box energy"):
 /// vct-svo 1.822 with the radiance's facing, its default (1.970 without; one bounce on its
 /// first frame: 1.487, the exact one-bounce value is 1.5),
-/// vct-clipmap 1.089, probes-grid 1.123, probes-octree 1.435 (with its history and bounces), against 2.0: the structures of
-/// the last three lose light per bounce in a small closed room, none gains. The bounds: not
+/// vct-clipmap 1.089, probes-grid 1.123, probes-octree 1.435 (with its history and bounces),
+/// against 2.0: the structures of the last three lose light per bounce in a small closed
+/// room, none gains. The bounds: not
 /// above the exact value (2 % for the techniques' rounding and half-float storage; a loop gain
 /// of one or more grows without bound), and some bounce light (at least 5 % above the emission
 /// alone); `vct-svo`, whose voxels gather as its pixels do, within 10 % of the exact value
