@@ -13,11 +13,12 @@ use crate::voxel::svo::control::{level_params, SvoControl, ARGS_SLOTS, CONTROL_B
 use crate::voxel::svo::dynamic::{DynamicReserve, StaticPart, SvoDynamic};
 use crate::voxel::svo::limits::{self, Capacity};
 use crate::voxel::svo::steps::{filter_steps, Dispatch};
+use crate::voxel::svo::word_buffer;
 use crate::voxel::svo::{Svo, SvoBuilder, BRICK_WORDS, BUILD_BRICK_WORDS, OWNER};
 use crate::voxel::voxelize::FragmentList;
 use crate::voxel::{VoxelGrid, VoxelTriangle};
 use crate::{Error, Result};
-use buffers::{kept_buffer, pools, BuildNodes, KeptNodes, Scratch, USAGE};
+use buffers::{pools, BuildNodes, KeptNodes, Scratch, USAGE};
 
 impl SvoBuilder {
     /// Voxelizes `tris` into `grid` and builds the octree. Returns the octree and the pass
@@ -149,9 +150,9 @@ impl SvoBuilder {
         (depth, capacity, pool_bricks): (u32, u32, u32),
     ) -> Attempt<'a> {
         let nodes = BuildNodes::new(scratch, capacity);
-        let control = kept_buffer(ctx, "control", CONTROL_BYTES / 4, USAGE);
+        let control = word_buffer(ctx, "control", CONTROL_BYTES / 4, USAGE);
         let indirect = USAGE | wgpu::BufferUsages::INDIRECT;
-        let args = kept_buffer(ctx, "dispatch args", 3 * ARGS_SLOTS, indirect);
+        let args = word_buffer(ctx, "dispatch args", 3 * ARGS_SLOTS, indirect);
         start_at_root(ctx, &control, &args);
         let params = level_params(
             ctx,
@@ -330,7 +331,7 @@ impl SvoBuilder {
             radiance: pool("radiance pool", BUILD_BRICK_WORDS),
             facing: self.facing.then(|| pool("facing pool", BUILD_BRICK_WORDS)),
             // RGBA16F: two words per voxel.
-            voxel_radiance: kept_buffer(ctx, "voxel radiance", leaf_voxels * 2, USAGE),
+            voxel_radiance: word_buffer(ctx, "voxel radiance", leaf_voxels * 2, USAGE),
             static_nodes: node_count,
             static_bricks: brick_count,
             dynamic_levels: Vec::new(),

@@ -53,6 +53,25 @@ pub use pipelines::SvoBuilder;
 
 /// Ledger owner of the octree's buffers.
 pub const OWNER: &str = "svo";
+
+/// A buffer of the octree of `words` 32-bit words (at least 16 bytes), under [`OWNER`]: the
+/// build's kept buffers and the dynamic part's.
+pub(crate) fn word_buffer(
+    ctx: &crate::gpu::GpuContext,
+    label: &str,
+    words: u64,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    ctx.create_buffer(
+        OWNER,
+        &wgpu::BufferDescriptor {
+            label: Some(label),
+            size: (words * 4).max(16),
+            usage,
+            mapped_at_creation: false,
+        },
+    )
+}
 /// Words per brick while building (27 texels x RGBA16F).
 pub const BUILD_BRICK_WORDS: u32 = 54;
 /// Words per brick of the finished pool (27 texels x RGBA8).

@@ -3,30 +3,12 @@
 //! keeps ([`KeptNodes`]), and the kept buffers and brick pools the octree is made of.
 
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::svo::{BUILD_BRICK_WORDS, OWNER, POOLS};
+use crate::voxel::svo::{word_buffer, BUILD_BRICK_WORDS, OWNER, POOLS};
 
 /// Usage of every buffer the build makes: bound as storage, copied and read back.
 pub(super) const USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::COPY_DST);
-
-/// A buffer of `words` words (at least 16 bytes) that outlives the build.
-pub(super) fn kept_buffer(
-    ctx: &GpuContext,
-    label: &str,
-    words: u64,
-    usage: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    ctx.create_buffer(
-        OWNER,
-        &wgpu::BufferDescriptor {
-            label: Some(label),
-            size: (words * 4).max(16),
-            usage,
-            mapped_at_creation: false,
-        },
-    )
-}
 
 /// A brick pool of `bricks` bricks of `words` words, split over [`POOLS`] buffers of
 /// `pool_bricks`: buffer k holds bricks `[k * pool_bricks, (k + 1) * pool_bricks)` (unused
@@ -43,7 +25,7 @@ pub(super) fn pools(
             let here = (bricks as u64)
                 .saturating_sub(k * pool_bricks as u64)
                 .min(pool_bricks as u64);
-            kept_buffer(ctx, &format!("{label} {k}"), here * words as u64, USAGE)
+            word_buffer(ctx, &format!("{label} {k}"), here * words as u64, USAGE)
         })
         .collect()
 }
@@ -65,7 +47,7 @@ impl<'a> Scratch<'a> {
 
     pub(super) fn buffer(&mut self, label: &str, words: u64) -> wgpu::Buffer {
         self.labels.push(label.to_string());
-        kept_buffer(self.ctx, label, words, USAGE)
+        word_buffer(self.ctx, label, words, USAGE)
     }
 
     /// An RGBA16F brick pool of `bricks` (as [`pools`]).
@@ -138,7 +120,7 @@ impl BuildNodes {
         capacity: u32,
     ) -> KeptNodes {
         let mut copy = |label: &str, from: &wgpu::Buffer, words: u64, capacity_words: u64| {
-            let buffer = kept_buffer(ctx, label, capacity_words, USAGE);
+            let buffer = word_buffer(ctx, label, capacity_words, USAGE);
             timer.untimed(|encoder| {
                 encoder.copy_buffer_to_buffer(from, 0, &buffer, 0, Some(words * 4))
             });

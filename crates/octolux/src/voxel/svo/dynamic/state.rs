@@ -8,7 +8,7 @@ use super::DynamicReserve;
 use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::svo::control::{level_params, NodeRange, SvoControl, CONTROL_BYTES, MAX_LEVELS};
-use crate::voxel::svo::{Svo, OWNER};
+use crate::voxel::svo::{word_buffer, Svo, OWNER};
 use crate::voxel::VoxelTriangle;
 
 /// Byte offset of `last` (the previous update's control block) in the parameter block.
@@ -101,17 +101,7 @@ impl SvoDynamic {
         let usage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_DST
             | wgpu::BufferUsages::COPY_SRC;
-        let buffer = |label: &str, words: u64| {
-            ctx.create_buffer(
-                OWNER,
-                &wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: (words * 4).max(16),
-                    usage,
-                    mapped_at_creation: false,
-                },
-            )
-        };
+        let buffer = |label: &str, words: u64| word_buffer(ctx, label, words, usage);
         let reset = reset_control(&part.control);
         // `last`: the control block as the build left it (its node count is the static one and
         // its dynamic ranges are empty: nothing to undo).
