@@ -36,8 +36,11 @@ fn renders_the_default_scene_with_stats() {
     let dir = tmp.path();
     let png = dir.join("cornell.png");
     let exr = dir.join("cornell.exr");
+    // The default technique without its warm-up frames: what is checked is the report.
     let output = octolux(&[
         "render",
+        "--warmup",
+        "0",
         "--width",
         "64",
         "--height",
@@ -81,6 +84,8 @@ fn animated_frames_are_numbered() {
     let out = dir.join("f.png");
     let output = octolux(&[
         "render",
+        "--gi",
+        "none",
         "--width",
         "16",
         "--height",
@@ -128,7 +133,8 @@ fn cameras_are_chosen_by_index_or_name_and_others_are_errors() {
     );
     for camera in ["0", "front"] {
         let output = octolux(&[
-            "render", scene, "--camera", camera, "--width", "8", "--height", "8", "--out", out,
+            "render", scene, "--camera", camera, "--gi", "none", "--width", "8", "--height", "8",
+            "--out", out,
         ]);
         assert!(output.status.success(), "--camera {camera}: {output:?}");
     }
@@ -153,6 +159,8 @@ fn exposure_flag_replaces_the_scene_exposure() {
         let out = dir.join(format!("e{ev}.png"));
         let output = octolux(&[
             "render",
+            "--gi",
+            "none",
             "--exposure",
             ev,
             "--width",
@@ -385,8 +393,9 @@ fn diff_prints_metrics_as_a_table_and_json() {
     assert!(stdout.contains("worst 1 % of pixels 100.0 %"), "{stdout}");
 }
 
-/// Writes `files` into a fresh folder and renders the first one at a tiny size: the output, the
-/// image's path and the folder, which is removed when dropped.
+/// Writes `files` into a fresh folder and renders the first one at a tiny size without GI (the
+/// loaders are the subject): the output, the image's path and the folder, which is removed when
+/// dropped.
 fn render_files(name: &str, files: &[(&str, &str)]) -> (Output, PathBuf, TempDir) {
     let tmp = temp_dir(name);
     let dir = tmp.path();
@@ -398,6 +407,8 @@ fn render_files(name: &str, files: &[(&str, &str)]) -> (Output, PathBuf, TempDir
     let output = octolux(&[
         "render",
         scene.to_str().unwrap(),
+        "--gi",
+        "none",
         "--width",
         "16",
         "--height",
@@ -511,6 +522,8 @@ fn frame_n_of_an_animation_matches_its_time() {
         let mut args = vec![
             "render",
             scene,
+            "--gi",
+            "none",
             "--width",
             "32",
             "--height",
@@ -540,6 +553,8 @@ fn voxel_debug_view_renders_and_rejects_bad_input() {
     let out = dir.join("voxels.png");
     let output = octolux(&[
         "render",
+        "--gi",
+        "none",
         "--view",
         "voxels",
         "--voxel-res",

@@ -220,12 +220,15 @@ fn gpu_octree_equals_the_cpu_octree_on_the_animated_cornell_box() {
     );
     let scene = octolux::scene::Scene::load(path).unwrap();
     // Depth 3, complete down to depth 2 only, and `004`'s split and free rule, so that
-    // probes are freed as well as allocated.
+    // probes are freed as well as allocated. The tree is the subject: one fixed lattice and one
+    // bounce (the probes' values do not steer it) keep the frames cheap.
     let probes = octolux::gi::probes::ProbeSettings {
         max_depth: 3,
         min_depth: 2,
         split_fraction: 0.5,
         free_fraction: 0.25,
+        history: 0,
+        multi_bounce: Some(false),
         ..Default::default()
     };
     let mut r = octree_renderer(&ctx, &scene, &probes, 24);
@@ -270,9 +273,13 @@ fn octree_gather_equals_its_cpu_twin() {
         (octolux::gi::probes::OctreeGather::All, Visibility::Moments),
         (octolux::gi::probes::OctreeGather::Octree, Visibility::None),
     ] {
+        // The gathers are the subject: whatever the probes hold, both sides read the same;
+        // one fixed lattice and one bounce keep the frames cheap.
         let probes = octolux::gi::probes::ProbeSettings {
             gather,
             visibility,
+            history: 0,
+            multi_bounce: Some(false),
             ..Default::default()
         };
         let mut r = octree_renderer(&ctx, &scene, &probes, 40);
