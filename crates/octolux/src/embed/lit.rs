@@ -151,38 +151,27 @@ impl LitScene {
     ) -> GpuLight {
         let slot = self.shadows.slots.get(i);
         let first = slot.and_then(|s| layers.get(s.first_layer as usize));
-        let (kind, cos_inner, cos_outer) = match light.kind {
-            LightKind::Point => (0.0, 1.0, -1.0),
-            LightKind::Spot {
-                inner_angle,
-                outer_angle,
-            } => (1.0, inner_angle.cos(), outer_angle.cos()),
-            LightKind::Directional => (2.0, 1.0, -1.0),
+        let shadow = shadow::shadow_params(slot, first);
+        let mut gpu = GpuLight {
+            direction: light.direction.normalize_or(Vec3::NEG_Y).to_array(),
+            shadow_view: shadow.view,
+            shadow_texel: shadow.texel,
+            shadow_orthographic: shadow.orthographic,
+            sky_layer_plus_one: shadow.sky_layer_plus_one,
+            ..GpuLight::unshadowed(light)
         };
-        // Sky lights: x the tangent of the angular radius, y the shadow view's depth range, z
-        // the largest soft-shadow filter radius in texels (lights.wgsl).
-        let position = match i.checked_sub(first_sky) {
-            Some(k) => Vec3::new(
-                match self.soft_sky_shadows {
-                    true => self.sky_spread.get(k).copied().unwrap_or(0.0),
-                    false => 0.0,
-                },
-                first.map_or(0.0, |v| v.depth_range),
-                shadow::sky_tile_margin(self.shadows.size / shadow::SKY_TILES).saturating_sub(2)
-                    as f32,
-            ),
-            None => light.position,
-        };
-        GpuLight {
-            position_kind: position.extend(kind).to_array(),
-            direction_cos_inner: light
-                .direction
-                .normalize_or(Vec3::NEG_Y)
-                .extend(cos_inner)
-                .to_array(),
-            radiant_cos_outer: light.radiant().extend(cos_outer).to_array(),
-            shadow: shadow::shadow_params(slot, first).to_array(),
+        // A sky light: its soft shadows' spread, the shadow view's depth range and the largest
+        // filter radius in texels (lights.wgsl's `sky_visibility`).
+        if let Some(k) = i.checked_sub(first_sky) {
+            gpu.sky_spread = match self.soft_sky_shadows {
+                true => self.sky_spread.get(k).copied().unwrap_or(0.0),
+                false => 0.0,
+            };
+            gpu.sky_depth_range = first.map_or(0.0, |v| v.depth_range);
+            gpu.sky_margin = shadow::sky_tile_margin(self.shadows.size / shadow::SKY_TILES)
+                .saturating_sub(2) as f32;
         }
+        gpu
     }
 
     /// Draws the shadow maps of the prepared frame; the sky's maps depend on the geometry only

@@ -103,8 +103,8 @@ pub struct GiEngine {
     technique: Option<Box<dyn GiTechnique>>,
     input: Option<input::InputPass>,
     camera_uniform: wgpu::Buffer,
-    /// Exposure scale and output mode for octolux's own compose (`Camera.params`).
-    pub(crate) display: [f32; 2],
+    /// Exposure scale and output mode for octolux's own compose.
+    pub(crate) display: Display,
     timer: PassTimer,
     last_view: Option<CameraView>,
 }
@@ -156,7 +156,7 @@ impl GiEngine {
             technique: None,
             input: None,
             camera_uniform,
-            display: [1.0, 0.0],
+            display: Display::default(),
             timer: PassTimer::new(ctx),
             last_view: None,
         })
@@ -309,14 +309,14 @@ impl GiEngine {
         let camera = CameraUniform {
             view_proj: view.view_proj.to_cols_array_2d(),
             inv_view_proj: view.inv_view_proj.to_cols_array_2d(),
-            position: view.position.extend(1.0).to_array(),
-            size: [w, h, 1.0 / w, 1.0 / h],
-            params: [
-                self.display[0],
-                lit.light_count() as f32,
-                t,
-                self.display[1],
-            ],
+            position: view.position.to_array(),
+            _pad: 0,
+            size: [w, h],
+            inv_size: [1.0 / w, 1.0 / h],
+            exposure: self.display.exposure,
+            light_count: lit.light_count() as u32,
+            time: t,
+            output: self.display.output,
         };
         self.ctx
             .queue
@@ -463,4 +463,23 @@ fn check_technique(name: &str) -> Result<()> {
 
 fn not_prepared() -> Error {
     Error::Gpu("internal: the GI frame was not prepared".into())
+}
+
+/// How octolux's own compose shows a frame (`Camera.exposure` and `Camera.output` of
+/// `frame/common.wgsl`); an embedding renderer composes itself and leaves the defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Display {
+    /// Exposure scale 2^ev.
+    pub exposure: f32,
+    /// [`crate::render::Output`] as a number.
+    pub output: u32,
+}
+
+impl Default for Display {
+    fn default() -> Display {
+        Display {
+            exposure: 1.0,
+            output: 0,
+        }
+    }
 }

@@ -23,8 +23,8 @@ fn fs_gbuffer(in: VertexOut) -> GBufferOut {
     var out: GBufferOut;
     out.albedo = vec4<f32>(color.rgb, 1.0);
     out.normal = vec4<f32>(n, 1.0);
-    let emits = front || material.params.y > 0.5;
-    out.emission = vec4<f32>(select(vec3<f32>(0.0), material.emission.rgb, emits), 1.0);
+    let emits = front || material.two_sided_emission == 1u;
+    out.emission = vec4<f32>(select(vec3<f32>(0.0), material.emission, emits), 1.0);
     return out;
 }
 

@@ -9,14 +9,76 @@ use bytemuck::{Pod, Zeroable};
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable, Default)]
 pub struct GpuLight {
-    /// xyz position (sky lights: spread, depth range, filter margin), w kind.
-    pub position_kind: [f32; 4],
-    /// xyz direction, w cosine of the inner cone angle.
-    pub direction_cos_inner: [f32; 4],
-    /// rgb radiant intensity or irradiance, w cosine of the outer cone angle.
-    pub radiant_cos_outer: [f32; 4],
-    /// Shadow lookup: first layer (-1 none), texel footprint, orthographic flag, sky layer + 1.
-    pub shadow: [f32; 4],
+    /// Position (point and spot lights).
+    pub position: [f32; 3],
+    /// [`LIGHT_POINT`], [`LIGHT_SPOT`] or [`LIGHT_DIRECTIONAL`].
+    pub kind: u32,
+    /// Unit direction of travel (spot and directional lights).
+    pub direction: [f32; 3],
+    /// Cosine of a spot cone's inner half-angle (1 for other lights).
+    pub cos_inner: f32,
+    /// Radiant intensity, W/sr (point, spot), or irradiance, W/m^2 (directional).
+    pub radiant: [f32; 3],
+    /// Cosine of a spot cone's outer half-angle (-1 for other lights).
+    pub cos_outer: f32,
+    /// The light's first shadow view (its lookup matrix; a point light's six follow it), -1
+    /// for none.
+    pub shadow_view: i32,
+    /// World size of a shadow texel: per metre of distance (perspective views) or absolute
+    /// (orthographic ones).
+    pub shadow_texel: f32,
+    /// 1 when the light's shadow views are orthographic.
+    pub shadow_orthographic: u32,
+    /// Sky lights (`frame/sky.rs`): 1 + the shadow-map layer that holds their tile; 0 for
+    /// every other light.
+    pub sky_layer_plus_one: u32,
+    /// Sky lights: tangent of the angular radius of the sky region the light stands for
+    /// (0: hard shadows).
+    pub sky_spread: f32,
+    /// Sky lights: depth range of the shadow view (world distance = depth x range).
+    pub sky_depth_range: f32,
+    /// Sky lights: the largest soft-shadow filter radius, texels (the tile's free margin).
+    pub sky_margin: f32,
+    /// Padding to the WGSL struct's 16-byte alignment.
+    pub _pad: u32,
+}
+
+impl GpuLight {
+    /// `light` without shadow maps (`shadow_view` -1): what a pass that finds visibility its
+    /// own way reads.
+    pub fn unshadowed(light: &Light) -> GpuLight {
+        let (kind, cos_inner, cos_outer) = light_kind_and_cone(light.kind);
+        GpuLight {
+            position: light.position.to_array(),
+            kind,
+            direction: light.direction.to_array(),
+            cos_inner,
+            radiant: light.radiant().to_array(),
+            cos_outer,
+            shadow_view: -1,
+            ..Default::default()
+        }
+    }
+}
+
+/// [`GpuLight::kind`] of a point light.
+pub const LIGHT_POINT: u32 = 0;
+/// [`GpuLight::kind`] of a spot light.
+pub const LIGHT_SPOT: u32 = 1;
+/// [`GpuLight::kind`] of a directional light.
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+
+/// The [`GpuLight::kind`] of `kind` with its cone's cosines (inner, outer); 1 and -1 for
+/// lights without a cone.
+pub fn light_kind_and_cone(kind: LightKind) -> (u32, f32, f32) {
+    match kind {
+        LightKind::Point => (LIGHT_POINT, 1.0, -1.0),
+        LightKind::Spot {
+            inner_angle,
+            outer_angle,
+        } => (LIGHT_SPOT, inner_angle.cos(), outer_angle.cos()),
+        LightKind::Directional => (LIGHT_DIRECTIONAL, 1.0, -1.0),
+    }
 }
 
 /// The first binding of the lights and shadow maps in group 0 of every shader that imports
@@ -86,4 +148,35 @@ pub fn shadow_layer_count(lights: &[Light]) -> u32 {
         .iter()
         .map(|l| if l.kind == LightKind::Point { 6 } else { 1 })
         .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn gpu_light_mirrors_the_wgsl_light() {
+        assert_mirrors_wgsl!(
+            GpuLight,
+            "frame/lights",
+            "Light",
+            [
+                position,
+                kind,
+                direction,
+                cos_inner,
+                radiant,
+                cos_outer,
+                shadow_view,
+                shadow_texel,
+                shadow_orthographic,
+                sky_layer_plus_one,
+                sky_spread,
+                sky_depth_range,
+                sky_margin,
+                _pad
+            ]
+        );
+    }
 }

@@ -5,19 +5,41 @@
 // shader that imports them (`frame::light_bindings` binds them in Rust): group 0 from
 // binding 40 on, above every pass's own.
 
+// `GpuLight` in frame/lights.rs.
 struct Light {
-    // xyz position, w: kind (0 point, 1 spot, 2 directional)
-    position_kind: vec4<f32>,
-    // xyz unit direction of travel, w: cos(inner cone half-angle)
-    direction_cos_inner: vec4<f32>,
-    // rgb radiant intensity (W/sr) or irradiance (W/m^2), w: cos(outer half-angle)
-    radiant_cos_outer: vec4<f32>,
-    // x: first shadow view, its matrix (negative = no shadow), y: world size of a shadow texel
-    // per metre of distance (perspective) or absolute (orthographic), z: 1 if orthographic,
-    // w: for the directional lights that stand in for the sky (`frame/sky.rs`), 1 + the
-    // texture layer that holds their tile, else 0
-    shadow: vec4<f32>,
+    // Point and spot lights.
+    position: vec3<f32>,
+    // LIGHT_POINT, LIGHT_SPOT or LIGHT_DIRECTIONAL.
+    kind: u32,
+    // Unit direction of travel (spot and directional lights).
+    direction: vec3<f32>,
+    // Cosine of a spot cone's inner half-angle (1 for other lights).
+    cos_inner: f32,
+    // Radiant intensity, W/sr (point, spot), or irradiance, W/m^2 (directional).
+    radiant: vec3<f32>,
+    // Cosine of a spot cone's outer half-angle (-1 for other lights).
+    cos_outer: f32,
+    // First shadow view (its lookup matrix; a point light's six follow), -1 for none.
+    shadow_view: i32,
+    // World size of a shadow texel per metre of distance (perspective) or absolute
+    // (orthographic).
+    shadow_texel: f32,
+    // 1 when the shadow views are orthographic.
+    shadow_orthographic: u32,
+    // Sky lights (frame/sky.rs): 1 + the texture layer that holds their tile, else 0.
+    sky_layer_plus_one: u32,
+    // Sky lights: tangent of the angular radius of the region they stand for (0: hard).
+    sky_spread: f32,
+    // Sky lights: the shadow view's depth range (world distance = depth x range).
+    sky_depth_range: f32,
+    // Sky lights: the largest soft-shadow filter radius, texels (the tile's free margin).
+    sky_margin: f32,
+    _pad: u32,
 };
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPOT: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
 
 @group(0) @binding(40) var<storage, read> lights: array<Light>;
 @group(0) @binding(41) var<storage, read> shadow_matrices: array<mat4x4<f32>>;
@@ -55,18 +77,18 @@ struct Incidence {
 fn light_incidence(light: Light, p: vec3<f32>) -> Incidence {
     var out: Incidence;
     out.dist = 1.0;
-    if light.position_kind.w > 1.5 {
-        out.to_light = -light.direction_cos_inner.xyz;
-        out.irradiance = light.radiant_cos_outer.rgb;
+    if light.kind == LIGHT_DIRECTIONAL {
+        out.to_light = -light.direction;
+        out.irradiance = light.radiant;
         return out;
     }
-    let d = light.position_kind.xyz - p;
+    let d = light.position - p;
     let r2 = max(dot(d, d), 1e-8);
     out.dist = sqrt(r2);
     out.to_light = d / out.dist;
-    out.irradiance = light.radiant_cos_outer.rgb / r2;
-    if light.position_kind.w > 0.5 {
-        out.irradiance *= spot_attenuation(dot(light.direction_cos_inner.xyz, -out.to_light), light.direction_cos_inner.w, light.radiant_cos_outer.w);
+    out.irradiance = light.radiant / r2;
+    if light.kind == LIGHT_SPOT {
+        out.irradiance *= spot_attenuation(dot(light.direction, -out.to_light), light.cos_inner, light.cos_outer);
     }
     return out;
 }
@@ -79,19 +101,19 @@ fn vogel_disk(i: u32, count: u32) -> vec2<f32> {
 }
 
 // Soft visibility of a sky light (percentage-closer soft shadows): the light stands for a
-// region of the sky of angular radius atan(position_kind.x), so a receiver d metres behind
+// region of the sky of angular radius atan(sky_spread), so a receiver d metres behind
 // its occluder sees a penumbra of radius d x tan. The blockers' mean depth within the largest
 // possible penumbra gives d; 16 filtered comparisons over that radius give the visible
-// fraction. Depths are linear (orthographic): world distance = depth x range (position_kind.y).
-// Radii are capped at the tile's free margin (position_kind.z texels). Every tap compares
+// fraction. Depths are linear (orthographic): world distance = depth x range (sky_depth_range).
+// Radii are capped at the tile's free margin (sky_margin texels). Every tap compares
 // against the receiver's own plane at that tap (receiver-plane depth bias), or wide filters
 // would find the receiver itself in front of it under grazing light.
 fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f32>, depth: f32) -> f32 {
     let size = vec2<f32>(textureDimensions(shadow_maps));
-    let tan_a = light.position_kind.x;
-    let range = light.position_kind.y;
-    let cap = light.position_kind.z;
-    let texel_world = light.shadow.y;
+    let tan_a = light.sky_spread;
+    let range = light.sky_depth_range;
+    let cap = light.sky_margin;
+    let texel_world = light.shadow_texel;
     // Depth change of the receiver's tangent plane per texel in x and y: the tangent t with
     // given clip x, y steps and t.n = 0 (Cramer's rule on the rows of the affine matrix).
     let m = shadow_matrices[view];
@@ -136,16 +158,17 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
 // footprint), looked up `lift` metres plus ~1.5 shadow texels along the normal; the texel-scaled
 // normal offset removes acne without the light leaking of large constant biases.
 fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32, lift: f32) -> f32 {
-    if light.shadow.x < 0.0 {
+    if light.shadow_view < 0 {
         return 1.0;
     }
-    var view = u32(light.shadow.x);
-    if light.position_kind.w < 0.5 {
-        view += cube_face(p - light.position_kind.xyz);
+    var view = u32(light.shadow_view);
+    if light.kind == LIGHT_POINT {
+        view += cube_face(p - light.position);
     }
     // A sky light's map is a tile of a shared layer; its matrix maps into the tile.
-    let layer = select(view, u32(light.shadow.w - 1.0), light.shadow.w > 0.5);
-    let texel_world = select(light.shadow.y * dist, light.shadow.y, light.shadow.z > 0.5);
+    let sky = light.sky_layer_plus_one > 0u;
+    let layer = select(view, light.sky_layer_plus_one - 1u, sky);
+    let texel_world = select(light.shadow_texel * dist, light.shadow_texel, light.shadow_orthographic == 1u);
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
     let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * texel_world * 0.5;
     let clip = shadow_matrices[view] * vec4<f32>(offset_p, 1.0);
@@ -154,7 +177,7 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
         return 1.0;
     }
-    if light.shadow.w > 0.5 && light.position_kind.x > 0.0 {
+    if sky && light.sky_spread > 0.0 {
         return sky_visibility(light, view, layer, n, uv, ndc.z);
     }
     let texel = 1.0 / vec2<f32>(textureDimensions(shadow_maps));

@@ -8,13 +8,20 @@ struct View {
 };
 @group(0) @binding(0) var<uniform> view: View;
 
+// `MaterialUniform` in frame/scene_gpu.rs.
 struct Material {
-    // rgb linear albedo factor, a: alpha cutoff (negative = opaque)
-    base_color: vec4<f32>,
-    // rgb emitted radiance, w: 1 if the base colour texture is used
-    emission: vec4<f32>,
-    // x: opacity (multiplies the texture's alpha), y: 1 if the back face emits too
-    params: vec4<f32>,
+    // Linear albedo factor.
+    base_color: vec3<f32>,
+    // Alpha cutoff of a masked material; negative: opaque.
+    alpha_cutoff: f32,
+    // Emitted radiance, W/(m^2 sr).
+    emission: vec3<f32>,
+    // 1 if the base colour texture is used.
+    textured: u32,
+    // Multiplies the texture's alpha.
+    opacity: f32,
+    // 1 if the back face emits too.
+    two_sided_emission: u32,
 };
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var base_texture: texture_2d<f32>;
@@ -46,14 +53,14 @@ fn vs(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>, @locatio
 
 fn base_color(uv: vec2<f32>) -> vec4<f32> {
     let texel = textureSample(base_texture, base_sampler, uv);
-    let factor = vec4<f32>(material.base_color.rgb, material.params.x);
-    return select(factor, factor * texel, material.emission.w > 0.5);
+    let factor = vec4<f32>(material.base_color, material.opacity);
+    return select(factor, factor * texel, material.textured == 1u);
 }
 
 // The base colour at `uv`, with the alpha test of masked materials (fragment shaders only).
 fn masked_base_color(uv: vec2<f32>) -> vec4<f32> {
     let color = base_color(uv);
-    if material.base_color.a >= 0.0 && color.a < material.base_color.a {
+    if material.alpha_cutoff >= 0.0 && color.a < material.alpha_cutoff {
         discard;
     }
     return color;

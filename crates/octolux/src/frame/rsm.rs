@@ -17,19 +17,40 @@ pub const POSITION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Floa
 /// targets fit the 32 bytes per sample every adapter allows.
 pub const HALF_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
-/// `RsmLayer` of `rsm.wgsl`.
+/// `RsmLayer` of `rsm.wgsl`: one RSM layer's light and view.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct RsmLayer {
-    /// xyz light position, w kind (0 point, 1 spot, 2 directional).
-    pub position_kind: [f32; 4],
-    /// xyz layer axis, w tan(half fov) or texel area across the beam.
-    pub axis_tan: [f32; 4],
-    /// rgb radiant intensity or irradiance, w cube face or -1.
-    pub radiant_face: [f32; 4],
-    /// cos inner, cos outer, RSM side, the shadow view the layer is drawn through.
-    pub cone: [f32; 4],
+    /// Light position (point and spot lights).
+    pub position: [f32; 3],
+    /// [`crate::frame::LIGHT_POINT`], `LIGHT_SPOT` or `LIGHT_DIRECTIONAL`.
+    pub kind: u32,
+    /// Unit axis of the layer: the spot axis, the cube face's axis, the sun's direction of
+    /// travel.
+    pub axis: [f32; 3],
+    /// Perspective layers: tangent of the half field of view.
+    pub tan_half_fov: f32,
+    /// Radiant intensity, W/sr, or irradiance, W/m^2 (directional lights).
+    pub radiant: [f32; 3],
+    /// The cube face of a point light's layer (+x, -x, +y, -y, +z, -z), -1 for other lights.
+    pub face: i32,
+    /// Cosine of a spot cone's inner half-angle (1 for other lights).
+    pub cos_inner: f32,
+    /// Cosine of a spot cone's outer half-angle (-1 for other lights).
+    pub cos_outer: f32,
+    /// RSM side in texels.
+    pub side: u32,
+    /// The shadow view the layer is drawn through.
+    pub view: u32,
+    /// Orthographic layers: a texel's area across the beam, m^2.
+    pub texel_area: f32,
+    /// Padding to the WGSL struct's 16-byte alignment.
+    pub _pad: [u32; 3],
 }
+
+/// Bytes of one [`RsmLayer`] (each in a uniform slot of [`SLOT`] bytes).
+const LAYER_BYTES: usize = std::mem::size_of::<RsmLayer>();
+const _: () = assert!(LAYER_BYTES <= SLOT as usize);
 
 /// The RSM textures (arrays with one layer per shadow layer).
 pub struct RsmTargets {
@@ -219,7 +240,7 @@ impl RsmPass {
 
     /// The shadow view layer `i` is drawn through.
     fn view_of(layers: &[RsmLayer], i: usize) -> usize {
-        layers.get(i).map_or(i, |l| l.cone[3] as usize)
+        layers.get(i).map_or(i, |l| l.view as usize)
     }
 
     /// Uploads the per-layer light parameters of this frame.
@@ -227,7 +248,7 @@ impl RsmPass {
         let mut data = vec![0u8; targets.layers as usize * SLOT as usize];
         for (i, l) in layers.iter().enumerate().take(targets.layers as usize) {
             let start = i * SLOT as usize;
-            data[start..start + 64].copy_from_slice(bytemuck::bytes_of(l));
+            data[start..start + LAYER_BYTES].copy_from_slice(bytemuck::bytes_of(l));
         }
         if !data.is_empty() {
             ctx.queue.write_buffer(&targets.uniforms, 0, &data);
@@ -235,7 +256,7 @@ impl RsmPass {
     }
 
     /// Rasterises every layer whose inputs changed since it was last drawn through its shadow
-    /// view (`layers[i].cone[3]`), as the pass `name` (its work counts: [`RSM_WORK`]); no
+    /// view (`layers[i].view`), as the pass `name` (its work counts: [`RSM_WORK`]); no
     /// pass when none did.
     pub(crate) fn record(
         &self,
@@ -355,7 +376,7 @@ pub fn rsm_layer_count(lights: &[crate::scene::Light], sky_lights: usize, sky_rs
 /// Per-layer light parameters for RSMs of side `rsm_size` rendered with the shadow views'
 /// matrices: every light's views except the sky's, of which only [`sky_subset`] is drawn,
 /// with the flux scaled so that the chosen ones carry the whole sky's (an unbiased choice of
-/// an equal-share sample). `cone.w` holds the shadow view each layer is drawn through.
+/// an equal-share sample). `view` holds the shadow view each layer is drawn through.
 pub fn rsm_layers(
     lights: &[Light],
     sky_lights: usize,
@@ -388,32 +409,33 @@ pub fn rsm_layers(
         let Some(view) = shadow_layers.get(first_view) else {
             break;
         };
-        let view_slot = first_view as f32;
+        let view_slot = first_view as u32;
         // The frustum's full width at unit distance (perspective) or in metres (orthographic).
         let width = view.extent;
+        let (kind, cos_inner, cos_outer) = crate::frame::light_kind_and_cone(light.kind);
+        let layer = RsmLayer {
+            position: light.position.to_array(),
+            kind,
+            axis: dir.to_array(),
+            radiant: radiant.to_array(),
+            face: -1,
+            cos_inner,
+            cos_outer,
+            side: rsm_size,
+            view: view_slot,
+            ..Default::default()
+        };
         match light.kind {
             LightKind::Directional => {
                 let side = width / rsm_size as f32;
                 out.push(RsmLayer {
-                    position_kind: light.position.extend(2.0).to_array(),
-                    axis_tan: dir.extend(side * side).to_array(),
-                    radiant_face: radiant.extend(-1.0).to_array(),
-                    cone: [1.0, -1.0, rsm_size as f32, view_slot],
+                    texel_area: side * side,
+                    ..layer
                 });
             }
-            LightKind::Spot {
-                inner_angle,
-                outer_angle,
-            } => out.push(RsmLayer {
-                position_kind: light.position.extend(1.0).to_array(),
-                axis_tan: dir.extend(width * 0.5).to_array(),
-                radiant_face: radiant.extend(-1.0).to_array(),
-                cone: [
-                    inner_angle.cos(),
-                    outer_angle.cos(),
-                    rsm_size as f32,
-                    view_slot,
-                ],
+            LightKind::Spot { .. } => out.push(RsmLayer {
+                tan_half_fov: width * 0.5,
+                ..layer
             }),
             LightKind::Point => {
                 for (face, axis) in FACE_AXES.iter().enumerate() {
@@ -422,10 +444,11 @@ pub fn rsm_layers(
                         .map_or(width, |v| v.extent)
                         * 0.5;
                     out.push(RsmLayer {
-                        position_kind: light.position.extend(0.0).to_array(),
-                        axis_tan: axis.extend(tan).to_array(),
-                        radiant_face: radiant.extend(face as f32).to_array(),
-                        cone: [1.0, -1.0, rsm_size as f32, view_slot + face as f32],
+                        axis: axis.to_array(),
+                        tan_half_fov: tan,
+                        face: face as i32,
+                        view: view_slot + face as u32,
+                        ..layer
                     });
                 }
             }
@@ -442,13 +465,12 @@ pub fn reflected_flux_bound(layers: &[RsmLayer]) -> f32 {
     layers
         .iter()
         .map(|l| {
-            let radiant = l.radiant_face[0]
-                .max(l.radiant_face[1])
-                .max(l.radiant_face[2]);
-            let measure = if l.position_kind[3] > 1.5 {
-                l.axis_tan[3] * l.cone[2] * l.cone[2]
+            let radiant = l.radiant[0].max(l.radiant[1]).max(l.radiant[2]);
+            let side = l.side as f32;
+            let measure = if l.kind == crate::frame::LIGHT_DIRECTIONAL {
+                l.texel_area * side * side
             } else {
-                4.0 * l.axis_tan[3] * l.axis_tan[3]
+                4.0 * l.tan_half_fov * l.tan_half_fov
             };
             4.0 * radiant.max(0.0) * measure
         })
@@ -503,6 +525,29 @@ impl RsmImage {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rsm_layer_mirrors_the_wgsl_block() {
+        crate::gpu::layout::assert_mirrors_wgsl!(
+            RsmLayer,
+            "frame/rsm",
+            "RsmLayer",
+            [
+                position,
+                kind,
+                axis,
+                tan_half_fov,
+                radiant,
+                face,
+                cos_inner,
+                cos_outer,
+                side,
+                view,
+                texel_area,
+                _pad
+            ]
+        );
+    }
 
     #[test]
     fn sky_subset_spreads_evenly_and_keeps_small_skies_whole() {

@@ -10,16 +10,28 @@
 
 import octolux::frame::raster::{VertexOut, masked_base_color};
 
+// `RsmLayer` in frame/rsm.rs: one layer's light and view.
 struct RsmLayer {
-    // xyz light position, w: kind (0 point, 1 spot, 2 directional)
-    position_kind: vec4<f32>,
-    // xyz: unit axis of the layer (spot axis, cube face, sun direction of travel),
-    // w: tan(half fov) (perspective) or texel area across the beam (orthographic)
-    axis_tan: vec4<f32>,
-    // rgb: radiant intensity (W/sr) or irradiance (W/m^2), w: cube face (point lights) or -1
-    radiant_face: vec4<f32>,
-    // x: cos inner, y: cos outer (spot), z: RSM side in texels
-    cone: vec4<f32>,
+    // Light position (point and spot lights).
+    position: vec3<f32>,
+    // 0 point, 1 spot, 2 directional (frame/lights.rs, `LIGHT_POINT` ...).
+    kind: u32,
+    // Unit axis of the layer (spot axis, cube face, sun direction of travel).
+    axis: vec3<f32>,
+    // Perspective layers: tan(half fov).
+    tan_half_fov: f32,
+    // Radiant intensity (W/sr) or irradiance (W/m^2).
+    radiant: vec3<f32>,
+    // Cube face of a point light's layer, -1 for other lights.
+    face: i32,
+    cos_inner: f32,
+    cos_outer: f32,
+    // RSM side in texels.
+    side: u32,
+    // The shadow view the layer is drawn through.
+    view: u32,
+    // Orthographic layers: a texel's area across the beam (m^2).
+    texel_area: f32,
 };
 @group(3) @binding(0) var<uniform> layer: RsmLayer;
 
@@ -29,15 +41,15 @@ struct RsmOut {
     @location(2) flux: vec4<f32>,
 };
 
-fn face_of(d: vec3<f32>) -> f32 {
+fn face_of(d: vec3<f32>) -> i32 {
     let a = abs(d);
     if a.x >= a.y && a.x >= a.z {
-        return select(1.0, 0.0, d.x > 0.0);
+        return select(1, 0, d.x > 0.0);
     }
     if a.y >= a.z {
-        return select(3.0, 2.0, d.y > 0.0);
+        return select(3, 2, d.y > 0.0);
     }
-    return select(5.0, 4.0, d.z > 0.0);
+    return select(5, 4, d.z > 0.0);
 }
 
 // Written without branches on the layer uniform: Mesa's lavapipe specialises (and recompiles,
@@ -46,23 +58,22 @@ fn face_of(d: vec3<f32>) -> f32 {
 @fragment
 fn fs_rsm(in: VertexOut) -> RsmOut {
     let color = masked_base_color(in.uv);
-    let kind = layer.position_kind.w;
-    let axis = layer.axis_tan.xyz;
-    let perspective = kind < 1.5;
-    let spot = perspective & (kind > 0.5);
-    let d = in.world - layer.position_kind.xyz;
+    let axis = layer.axis;
+    let perspective = layer.kind != 2u;
+    let spot = layer.kind == 1u;
+    let d = in.world - layer.position;
     let r2 = max(dot(d, d), 1e-12);
     let w = d * inverseSqrt(r2);
     let to_light = select(-axis, -w, perspective);
     // Perspective layers: solid angle of the texel; orthographic: its area across the beam.
     let cos_axis = max(dot(w, axis), 1e-4);
-    let texel = 2.0 * layer.axis_tan.w / layer.cone.z;
-    let measure = select(layer.axis_tan.w, texel * texel * cos_axis * cos_axis * cos_axis, perspective);
-    let x = clamp((dot(w, axis) - layer.cone.y) / max(layer.cone.x - layer.cone.y, 1e-6), 0.0, 1.0);
-    let radiant = layer.radiant_face.rgb * select(1.0, x * x * (3.0 - 2.0 * x), spot);
+    let texel = 2.0 * layer.tan_half_fov / f32(layer.side);
+    let measure = select(layer.texel_area, texel * texel * cos_axis * cos_axis * cos_axis, perspective);
+    let x = clamp((dot(w, axis) - layer.cos_outer) / max(layer.cos_inner - layer.cos_outer, 1e-6), 0.0, 1.0);
+    let radiant = layer.radiant * select(1.0, x * x * (3.0 - 2.0 * x), spot);
     // Cube faces overlap slightly (widened shadow frusta): each direction belongs to
     // exactly one face, so no flux is counted twice.
-    let other_face = perspective & (layer.radiant_face.w >= 0.0) & (face_of(w) != layer.radiant_face.w);
+    let other_face = perspective & (layer.face >= 0) & (face_of(w) != layer.face);
     var n = normalize(in.normal);
     if dot(n, to_light) < 0.0 {
         n = -n;

@@ -31,9 +31,19 @@ pub(crate) const VERTEX_LAYOUT: wgpu::VertexBufferLayout<'static> = wgpu::Vertex
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct MaterialUniform {
-    base_color: [f32; 4],
-    emission: [f32; 4],
-    params: [f32; 4],
+    /// Linear albedo factor.
+    base_color: [f32; 3],
+    /// Alpha cutoff of a masked material; negative: opaque.
+    alpha_cutoff: f32,
+    /// Emitted radiance, W/(m^2 sr).
+    emission: [f32; 3],
+    /// 1 if the base colour texture is used.
+    textured: u32,
+    /// Multiplies the texture's alpha.
+    opacity: f32,
+    /// 1 if the back face emits too.
+    two_sided_emission: u32,
+    _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -224,17 +234,13 @@ impl SceneGpu {
                     AlphaMode::Mask(c) => c,
                 };
                 let uniform = MaterialUniform {
-                    base_color: m.base_color.extend(cutoff).to_array(),
-                    emission: m
-                        .emission
-                        .extend(if texture.is_some() { 1.0 } else { 0.0 })
-                        .to_array(),
-                    params: [
-                        m.opacity,
-                        if m.emission_two_sided { 1.0 } else { 0.0 },
-                        0.0,
-                        0.0,
-                    ],
+                    base_color: m.base_color.to_array(),
+                    alpha_cutoff: cutoff,
+                    emission: m.emission.to_array(),
+                    textured: texture.is_some() as u32,
+                    opacity: m.opacity,
+                    two_sided_emission: m.emission_two_sided as u32,
+                    _pad: [0; 2],
                 };
                 let buffer = ctx.create_buffer_init(
                     OWNER,
@@ -340,7 +346,8 @@ impl SceneGpu {
                 normal_matrix: m.inverse().transpose().to_cols_array_2d(),
             };
             let start = i * UNIFORM_STRIDE as usize;
-            data[start..start + 128].copy_from_slice(bytemuck::bytes_of(&u));
+            data[start..start + std::mem::size_of::<ObjectUniform>()]
+                .copy_from_slice(bytemuck::bytes_of(&u));
         }
         if !data.is_empty() {
             queue.write_buffer(&self.objects, 0, &data);
@@ -357,7 +364,8 @@ impl SceneGpu {
                 position: position.to_array(),
             };
             let start = i * UNIFORM_STRIDE as usize;
-            data[start..start + 80].copy_from_slice(bytemuck::bytes_of(&u));
+            data[start..start + std::mem::size_of::<ViewUniform>()]
+                .copy_from_slice(bytemuck::bytes_of(&u));
         }
         queue.write_buffer(&self.views, 0, &data);
     }
@@ -555,6 +563,24 @@ fn upload_rgba8(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn material_uniform_mirrors_the_wgsl_block() {
+        crate::gpu::layout::assert_mirrors_wgsl!(
+            MaterialUniform,
+            "frame/raster",
+            "Material",
+            [
+                base_color,
+                alpha_cutoff,
+                emission,
+                textured,
+                opacity,
+                two_sided_emission,
+                _pad
+            ]
+        );
+    }
 
     #[test]
     fn downsample_averages_in_linear_light() {

@@ -12,7 +12,7 @@ use super::scene_gpu::{raster_pipeline, SceneGpu};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::{Light, LightKind};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 
 const OWNER: &str = "shadow-maps";
 
@@ -474,16 +474,33 @@ fn near_far(eye: Vec3, centre: Vec3, radius: f32) -> (f32, f32) {
 
 /// The light's shadow parameters as the lighting shader wants them (see `lights.wgsl`): first
 /// view, texel size, orthographic flag, and 1 + the texture layer for a sky light (else 0).
-pub(crate) fn shadow_params(slot: Option<&ShadowSlot>, first: Option<&LayerView>) -> Vec4 {
+pub(crate) fn shadow_params(slot: Option<&ShadowSlot>, first: Option<&LayerView>) -> ShadowParams {
     match (slot, first) {
-        (Some(s), Some(v)) => Vec4::new(
-            s.first_layer as f32,
-            v.texel,
-            if v.orthographic { 1.0 } else { 0.0 },
-            v.sky_layer.map_or(0.0, |l| l as f32 + 1.0),
-        ),
-        _ => Vec4::new(-1.0, 0.0, 0.0, 0.0),
+        (Some(s), Some(v)) => ShadowParams {
+            view: s.first_layer as i32,
+            texel: v.texel,
+            orthographic: v.orthographic as u32,
+            sky_layer_plus_one: v.sky_layer.map_or(0, |l| l + 1),
+        },
+        _ => ShadowParams {
+            view: -1,
+            ..Default::default()
+        },
     }
+}
+
+/// A light's shadow lookup as [`crate::frame::GpuLight`] holds it (its `shadow_*` and
+/// `sky_layer_plus_one` fields).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct ShadowParams {
+    /// First shadow view, -1 for none.
+    pub view: i32,
+    /// World size of a texel (per metre for perspective views).
+    pub texel: f32,
+    /// 1 for orthographic views.
+    pub orthographic: u32,
+    /// 1 + the layer holding a sky light's tile, 0 for other lights.
+    pub sky_layer_plus_one: u32,
 }
 
 #[cfg(test)]
@@ -504,7 +521,7 @@ mod tests {
                     i * side + (x + 1.0) * 0.5 * side,
                     j * side + (1.0 - y) * 0.5 * side,
                 );
-                let clip = tile_matrix(tile) * Vec4::new(x, y, 0.5, 1.0);
+                let clip = tile_matrix(tile) * glam::Vec4::new(x, y, 0.5, 1.0);
                 let uv = glam::Vec2::new(clip.x * 0.5 + 0.5, 0.5 - clip.y * 0.5) * size;
                 assert!(
                     (uv - viewport).length() < 1e-3,

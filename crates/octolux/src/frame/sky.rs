@@ -322,15 +322,29 @@ pub fn sh_irradiance(coefficients: &[Vec3; 9], n: Vec3) -> Vec3 {
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct SkyParams {
-    /// Irradiance coefficients (rgb).
+    /// Irradiance coefficients (rgb; the fourth unused).
     sh: [[f32; 4]; 9],
-    /// Rows of the world-to-map rotation (xyz).
+    /// Rows of the world-to-map rotation (xyz; the fourth unused).
     to_map: [[f32; 4]; 3],
-    /// rgb: constant radiance (x intensity), w: 0 no sky, 1 constant, 2 map.
-    color_kind: [f32; 4],
-    /// Map width, height, intensity, unused.
-    map_size: [f32; 4],
+    /// A constant sky's radiance (x intensity).
+    constant: [f32; 3],
+    /// [`SKY_NONE`], [`SKY_CONSTANT`] or [`SKY_MAP`].
+    kind: u32,
+    /// The map's texels per row.
+    map_width: u32,
+    /// The map's rows.
+    map_height: u32,
+    /// Scale of the map's texels.
+    intensity: f32,
+    _pad: u32,
 }
+
+/// [`SkyParams::kind`] without a sky.
+const SKY_NONE: u32 = 0;
+/// [`SkyParams::kind`] of a constant sky.
+const SKY_CONSTANT: u32 = 1;
+/// [`SkyParams::kind`] of an environment map.
+const SKY_MAP: u32 = 2;
 
 /// The sky's GPU data: parameters and the map (linear RGB texels in a storage buffer, so
 /// 32-bit values need no filterable float format; the shader filters like the CPU does).
@@ -341,7 +355,10 @@ pub(crate) struct SkyGpu {
 
 impl SkyGpu {
     pub fn new(ctx: &GpuContext, sky: Option<&Sky>) -> SkyGpu {
-        let mut params = SkyParams::zeroed();
+        let mut params = SkyParams {
+            kind: SKY_NONE,
+            ..SkyParams::zeroed()
+        };
         let mut texels: Vec<[f32; 4]> = vec![[0.0; 4]];
         if let Some(sky) = sky {
             for (dst, c) in params.sh.iter_mut().zip(sh_irradiance_coefficients(sky)) {
@@ -355,7 +372,8 @@ impl SkyGpu {
             ];
             match &sky.radiance {
                 SkyRadiance::Constant(c) => {
-                    params.color_kind = (*c * sky.intensity).extend(1.0).to_array();
+                    params.constant = (*c * sky.intensity).to_array();
+                    params.kind = SKY_CONSTANT;
                 }
                 SkyRadiance::Map(map) => {
                     let (w, h, pixels) = fit_map(
@@ -363,8 +381,10 @@ impl SkyGpu {
                         map.image.height as usize,
                         map.image.pixels.clone(),
                     );
-                    params.color_kind = [0.0, 0.0, 0.0, 2.0];
-                    params.map_size = [w as f32, h as f32, sky.intensity, 0.0];
+                    params.kind = SKY_MAP;
+                    params.map_width = w as u32;
+                    params.map_height = h as u32;
+                    params.intensity = sky.intensity;
                     texels = pixels.iter().map(|p| p.extend(0.0).to_array()).collect();
                 }
             }
@@ -397,6 +417,16 @@ fn fit_map(mut w: usize, mut h: usize, mut pixels: Vec<Vec3>) -> (usize, usize, 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sky_params_mirror_the_wgsl_block() {
+        crate::gpu::layout::assert_mirrors_wgsl!(
+            SkyParams,
+            "render/direct",
+            "SkyParams",
+            [sh, to_map, constant, kind, map_width, map_height, intensity, _pad]
+        );
+    }
     use crate::image_io::HdrImage;
     use crate::scene::EnvironmentMap;
 

@@ -108,6 +108,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "gi/probes/integrate",
     "gi/probes/gather",
     "gi/probes/moments_build",
+    "gi/vpl/vpl",
     "gi/vpl/generate",
     "gi/vpl/shade",
     "gi/vpl/bounce",

@@ -35,11 +35,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let direct = textureLoad(direct_tex, px, 0).rgb;
     let albedo = textureLoad(albedo_tex, px, 0).rgb;
     let indirect = textureLoad(indirect_tex, px, 0);
-    // cam.params.w picks what is shown (render::Output): 0 the frame, 1 direct light only,
+    // cam.output picks what is shown (render::Output): 0 the frame, 1 direct light only,
     // 2 the indirect irradiance as the radiance a white Lambertian surface would reflect,
     // 3 the ambient occlusion in the indirect image's alpha (shown as is, no exposure),
     // 4 the specular image.
-    let output = u32(cam.params.w);
+    let output = cam.output;
     var radiance = direct + albedo / PI * indirect.rgb;
     if output == 1u {
         radiance = direct;
@@ -54,5 +54,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         radiance = textureLoad(specular_tex, min(px, textureDimensions(specular_tex) - vec2<u32>(1u)), 0).rgb;
     }
     textureStore(out_hdr, px, vec4<f32>(radiance, 1.0));
-    textureStore(out_ldr, px, vec4<f32>(linear_to_srgb(filmic(radiance * cam.params.x)), 1.0));
+    textureStore(out_ldr, px, vec4<f32>(linear_to_srgb(filmic(radiance * cam.exposure)), 1.0));
 }

@@ -15,22 +15,32 @@ import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibilit
 @group(0) @binding(4) var depth_tex: texture_depth_2d;
 @group(0) @binding(9) var out_direct: texture_storage_2d<rgba16float, write>;
 
+// `SkyParams` in frame/sky.rs.
 struct SkyParams {
-    // irradiance coefficients (rgb) of the nine band 0-2 basis functions
+    // Irradiance coefficients (rgb; w unused) of the nine band 0-2 basis functions.
     sh: array<vec4<f32>, 9>,
-    // rows of the world-to-map rotation
+    // Rows of the world-to-map rotation (xyz; w unused).
     to_map: array<vec4<f32>, 3>,
-    // rgb: constant radiance, w: 0 no sky, 1 constant, 2 map
-    color_kind: vec4<f32>,
-    // map width, height, intensity
-    map_size: vec4<f32>,
+    // A constant sky's radiance (x intensity).
+    constant: vec3<f32>,
+    // SKY_NONE, SKY_CONSTANT or SKY_MAP.
+    kind: u32,
+    // The map's texels per row and rows.
+    map_width: u32,
+    map_height: u32,
+    // Scale of the map's texels.
+    intensity: f32,
+    _pad: u32,
 };
+
+const SKY_NONE: u32 = 0u;
+const SKY_CONSTANT: u32 = 1u;
 @group(0) @binding(10) var<storage, read> sky: SkyParams;
 @group(0) @binding(11) var<storage, read> sky_map: array<vec4<f32>>;
 
 fn sky_texel(x: i32, y: i32) -> vec3<f32> {
-    let w = i32(sky.map_size.x);
-    let h = i32(sky.map_size.y);
+    let w = i32(sky.map_width);
+    let h = i32(sky.map_height);
     let tx = ((x % w) + w) % w;
     let ty = clamp(y, 0, h - 1);
     return sky_map[ty * w + tx].rgb;
@@ -38,18 +48,18 @@ fn sky_texel(x: i32, y: i32) -> vec3<f32> {
 
 // Radiance arriving from world direction `d`: bilinear in the map like `Sky::radiance`.
 fn sky_radiance(d: vec3<f32>) -> vec3<f32> {
-    if sky.color_kind.w < 0.5 {
+    if sky.kind == SKY_NONE {
         return vec3<f32>(0.0);
     }
-    if sky.color_kind.w < 1.5 {
-        return sky.color_kind.rgb;
+    if sky.kind == SKY_CONSTANT {
+        return sky.constant;
     }
     let local = vec3<f32>(dot(sky.to_map[0].xyz, d), dot(sky.to_map[1].xyz, d), dot(sky.to_map[2].xyz, d));
     var u = atan2(local.x, -local.z) / (2.0 * PI);
     u = u - floor(u);
     let v = acos(clamp(local.y, -1.0, 1.0)) / PI;
-    let x = u * sky.map_size.x - 0.5;
-    let y = v * sky.map_size.y - 0.5;
+    let x = u * f32(sky.map_width) - 0.5;
+    let y = v * f32(sky.map_height) - 0.5;
     let x0 = floor(x);
     let y0 = floor(y);
     let f = vec2<f32>(x - x0, y - y0);
@@ -57,7 +67,7 @@ fn sky_radiance(d: vec3<f32>) -> vec3<f32> {
     let iy = i32(y0);
     let top = mix(sky_texel(ix, iy), sky_texel(ix + 1, iy), f.x);
     let bottom = mix(sky_texel(ix, iy + 1), sky_texel(ix + 1, iy + 1), f.x);
-    return mix(top, bottom, f.y) * sky.map_size.z;
+    return mix(top, bottom, f.y) * sky.intensity;
 }
 
 // Unshadowed sky irradiance for unit normal `n` (`sh_irradiance` on the CPU).
@@ -98,7 +108,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // The sky's directional lights, unshadowed and shadowed.
     var sky_all = vec3<f32>(0.0);
     var sky_seen = vec3<f32>(0.0);
-    let count = u32(cam.params.y);
+    let count = cam.light_count;
     for (var i = 0u; i < count; i++) {
         let light = lights[i];
         let inc = light_incidence(light, p);
@@ -108,7 +118,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let e = inc.irradiance * cos_theta;
         let seen = e * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
-        if light.shadow.w > 0.5 {
+        if light.sky_layer_plus_one > 0u {
             sky_all += e;
             sky_seen += seen;
         } else {

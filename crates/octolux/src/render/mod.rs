@@ -277,7 +277,10 @@ impl Renderer {
     fn record(&mut self, scene: &Scene, t: f32) -> Result<()> {
         let (w, h) = (self.settings.width, self.settings.height);
         let view = scene.camera_at(t, self.settings.camera).view(w, h);
-        self.engine.display = [scene.exposure.exp2(), self.output as u32 as f32];
+        self.engine.display = crate::embed::Display {
+            exposure: scene.exposure.exp2(),
+            output: self.output as u32,
+        };
         self.engine.follow(scene);
         self.engine.prepare(t, view)?;
         let (gbuffer, direct) = (&self.gbuffer, &self.direct);

@@ -130,19 +130,21 @@ pub struct VoxelTriangle {
     pub emission: Vec3,
 }
 
-/// GPU layout of [`VoxelTriangle`] (16 words): positions in `xyz`, and in the `w`s the packed
-/// albedo (RGBA8), normal (snorm8x3) and emission red; `extra` holds emission green and blue.
+/// GPU layout of [`VoxelTriangle`] (`Tri` in `voxelize/overlap.wgsl`): the surface data the
+/// voxel kernels add to the voxels a triangle covers. Its position reaches them as the
+/// snapped pieces of [`voxelize::snap`], never as floats.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuTriangle {
-    /// Vertex 0 and packed albedo bits.
-    pub p0: [f32; 4],
-    /// Vertex 1 and packed normal bits.
-    pub p1: [f32; 4],
-    /// Vertex 2 and emission red.
-    pub p2: [f32; 4],
-    /// Emission green, blue, unused, unused.
-    pub extra: [f32; 4],
+    /// Emitted radiance, W/(m^2 sr).
+    pub emission: [f32; 3],
+    /// Linear albedo x 255 as RGBA8, red in the low byte, alpha 255
+    /// ([`VoxelTriangle::albedo_bits`]).
+    pub albedo: u32,
+    /// Unit geometric normal x 127 as three snorm8 bytes, x in the low byte.
+    pub normal: u32,
+    /// Padding to the WGSL struct's 16-byte alignment.
+    pub _pad: [u32; 3],
 }
 
 impl VoxelTriangle {
@@ -157,15 +159,14 @@ impl VoxelTriangle {
     /// The GPU layout.
     pub fn to_gpu(&self) -> GpuTriangle {
         let n = self.normal.clamp(Vec3::splat(-1.0), Vec3::splat(1.0)) * 127.0;
-        let normal_bits = (n.x.round() as i32 as u32 & 255)
+        let normal = (n.x.round() as i32 as u32 & 255)
             | (n.y.round() as i32 as u32 & 255) << 8
             | (n.z.round() as i32 as u32 & 255) << 16;
-        let [a, b, c] = self.positions;
         GpuTriangle {
-            p0: [a.x, a.y, a.z, f32::from_bits(self.albedo_bits())],
-            p1: [b.x, b.y, b.z, f32::from_bits(normal_bits)],
-            p2: [c.x, c.y, c.z, self.emission.x],
-            extra: [self.emission.y, self.emission.z, 0.0, 0.0],
+            emission: self.emission.to_array(),
+            albedo: self.albedo_bits(),
+            normal,
+            _pad: [0; 3],
         }
     }
 }

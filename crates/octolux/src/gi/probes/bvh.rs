@@ -4,7 +4,7 @@
 //!
 //! Layout ([`GpuNode`], two `vec4` per node): bounds, and in the `w`s either (right child, 0)
 //! for an inner node, whose left child is the next node, or (first triangle, count) for a leaf.
-//! Triangles ([`GpuTri`], four `vec4`) are stored in leaf order as the Möller-Trumbore test
+//! Triangles ([`GpuTri`], 64 bytes) are stored in leaf order as the Möller-Trumbore test
 //! wants them: a vertex and two edges, with the packed RGBA8 albedo in the first `w` (the
 //! per-triangle albedo of [`crate::voxel::scene_triangles`]) and the emission in the last.
 //!
@@ -34,25 +34,34 @@ pub struct GpuNode {
     /// Lower corner.
     pub min: [f32; 3],
     /// Inner node: index of the right child; leaf: first triangle.
-    pub a: u32,
+    pub right_or_first: u32,
     /// Upper corner.
     pub max: [f32; 3],
     /// 0 for an inner node, else the leaf's triangle count.
-    pub b: u32,
+    pub tri_count: u32,
 }
 
-/// One triangle as the shader reads it.
+/// One triangle as the shader reads it (`BvhTri` in `bvh.wgsl`), laid out for the
+/// Möller-Trumbore test: a vertex and the two edges from it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuTri {
-    /// Vertex 0, and the packed RGBA8 albedo in `w`.
-    pub p0: [f32; 4],
+    /// Vertex 0.
+    pub p0: [f32; 3],
+    /// Linear albedo x 255 as RGBA8, red in the low byte.
+    pub albedo: u32,
     /// Edge vertex 1 - vertex 0.
-    pub e1: [f32; 4],
+    pub e1: [f32; 3],
+    /// Padding (WGSL aligns a `vec3<f32>` to 16 bytes).
+    pub _pad1: u32,
     /// Edge vertex 2 - vertex 0.
-    pub e2: [f32; 4],
+    pub e2: [f32; 3],
+    /// Padding.
+    pub _pad2: u32,
     /// Emitted radiance (W/(m^2 sr)).
-    pub emission: [f32; 4],
+    pub emission: [f32; 3],
+    /// Padding to the struct's 16-byte alignment.
+    pub _pad3: u32,
 }
 
 /// A triangle prepared for intersection.
@@ -110,15 +119,17 @@ impl BvhTri {
 
     /// The GPU layout.
     pub fn to_gpu(&self) -> GpuTri {
-        let bits = self.albedo[0] as u32
+        let albedo = self.albedo[0] as u32
             | (self.albedo[1] as u32) << 8
             | (self.albedo[2] as u32) << 16
             | 255 << 24;
         GpuTri {
-            p0: self.p0.extend(f32::from_bits(bits)).to_array(),
-            e1: self.e1.extend(0.0).to_array(),
-            e2: self.e2.extend(0.0).to_array(),
-            emission: self.emission.extend(0.0).to_array(),
+            p0: self.p0.to_array(),
+            albedo,
+            e1: self.e1.to_array(),
+            e2: self.e2.to_array(),
+            emission: self.emission.to_array(),
+            ..Default::default()
         }
     }
 }
@@ -184,9 +195,9 @@ impl Builder<'_> {
         let index = self.nodes.len();
         self.nodes.push(GpuNode {
             min: (lo - pad).to_array(),
-            a: start as u32,
+            right_or_first: start as u32,
             max: (hi + pad).to_array(),
-            b: (end - start) as u32,
+            tri_count: (end - start) as u32,
         });
         let count = end - start;
         if count <= 1 || depth >= MAX_DEPTH {
@@ -198,8 +209,8 @@ impl Builder<'_> {
         };
         self.build(start, mid, depth + 1);
         let right = self.build(mid, end, depth + 1);
-        self.nodes[index].a = right as u32;
-        self.nodes[index].b = 0;
+        self.nodes[index].right_or_first = right as u32;
+        self.nodes[index].tri_count = 0;
         index
     }
 
@@ -326,12 +337,15 @@ impl Bvh {
             .nodes
             .iter()
             .map(|n| {
-                let a = if n.b == 0 {
-                    n.a + node_base
+                let right_or_first = if n.tri_count == 0 {
+                    n.right_or_first + node_base
                 } else {
-                    n.a + tri_base
+                    n.right_or_first + tri_base
                 };
-                GpuNode { a, ..*n }
+                GpuNode {
+                    right_or_first,
+                    ..*n
+                }
             })
             .collect();
         (nodes, self.tris.iter().map(BvhTri::to_gpu).collect())
@@ -362,15 +376,15 @@ impl Bvh {
                 continue;
             }
             *nodes += 1;
-            if node.b > 0 {
-                let first = node.a as usize;
-                match leaf(first..first + node.b as usize, t_max) {
+            if node.tri_count > 0 {
+                let first = node.right_or_first as usize;
+                match leaf(first..first + node.tri_count as usize, t_max) {
                     Some(t) => t_max = t,
                     None => return,
                 }
                 continue;
             }
-            let (left, right) = (index + 1, node.a);
+            let (left, right) = (index + 1, node.right_or_first);
             let tl = slab(&self.nodes[left as usize], o, inv, t_max);
             let tr = slab(&self.nodes[right as usize], o, inv, t_max);
             // Push the farther child first so the nearer one is popped next.
@@ -639,6 +653,23 @@ impl SceneBvh {
 mod tests {
     use super::*;
 
+    #[test]
+    fn nodes_and_triangles_mirror_the_wgsl_records() {
+        use crate::gpu::layout::assert_mirrors_wgsl;
+        assert_mirrors_wgsl!(
+            GpuNode,
+            "gi/probes/bvh",
+            "BvhNode",
+            [min, right_or_first, max, tri_count]
+        );
+        assert_mirrors_wgsl!(
+            GpuTri,
+            "gi/probes/bvh",
+            "BvhTri",
+            [p0, albedo, e1, _pad1, e2, _pad2, emission, _pad3]
+        );
+    }
+
     fn tri(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> VoxelTriangle {
         VoxelTriangle {
             positions: [a.into(), b.into(), c.into()],
@@ -667,7 +698,7 @@ mod tests {
         let bvh = Bvh::build(&tris);
         assert_eq!(bvh.tris.len(), 500);
         // Every triangle reached exactly once by the leaves.
-        let leaf_total: u32 = bvh.nodes.iter().map(|n| n.b).sum();
+        let leaf_total: u32 = bvh.nodes.iter().map(|n| n.tri_count).sum();
         assert_eq!(leaf_total, 500);
         let mut hits = 0;
         for _ in 0..2000 {

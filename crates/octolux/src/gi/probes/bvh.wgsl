@@ -1,27 +1,33 @@
 // BVH traversal (gi/probes/bvh.rs, whose `Bvh::closest`, `Bvh::occluded` and
 // `SceneBvh::closest` are the CPU twins, step for step). Its bindings (group 0, 2 to 4) are
 // the nodes, triangles and instances (`gi/probes/bvh.rs`, `BVH_BINDINGS`).
-// Nodes: inner (b == 0): left child = this + 1, right child = a; leaf: triangles a .. a + b.
+// Nodes: inner (tri_count == 0): left child = this + 1, right child = right_or_first; leaf:
+// triangles right_or_first .. right_or_first + tri_count.
 // A two-level BVH: the static objects' BVH in world space, and one BVH per animated object
 // in its model space, traversed with the ray moved into that space by the object's
 // world-to-object transform of this frame (`bvh_instances`).
 
 import octolux::gpu::work::count_work;
 
+// `GpuNode` in bvh.rs.
 struct BvhNode {
     min: vec3<f32>,
-    a: u32,
+    // Inner node: the right child; leaf: the first triangle.
+    right_or_first: u32,
     max: vec3<f32>,
-    b: u32,
+    // 0 for an inner node, else the leaf's triangle count.
+    tri_count: u32,
 };
 
+// `GpuTri` in bvh.rs: vertex 0 and the edges from it (Möller-Trumbore).
 struct BvhTri {
-    // xyz vertex 0, w: packed RGBA8 albedo
-    p0: vec4<f32>,
-    e1: vec4<f32>,
-    e2: vec4<f32>,
-    // rgb emitted radiance
-    emission: vec4<f32>,
+    p0: vec3<f32>,
+    // Linear albedo x 255 as RGBA8, red in the low byte.
+    albedo: u32,
+    e1: vec3<f32>,
+    e2: vec3<f32>,
+    // Emitted radiance, W/(m^2 sr).
+    emission: vec3<f32>,
 };
 
 struct BvhHit {
@@ -94,15 +100,15 @@ fn bvh_slab(i: u32, o: vec3<f32>, inv: vec3<f32>, t_max: f32) -> f32 {
 // Möller-Trumbore as in the reference: (t, u, v, 1) for a hit with t in (0, t_max), else w = 0.
 fn bvh_intersect(i: u32, o: vec3<f32>, d: vec3<f32>, t_max: f32) -> vec4<f32> {
     let tri = bvh_tris[i];
-    let e1 = tri.e1.xyz;
-    let e2 = tri.e2.xyz;
+    let e1 = tri.e1;
+    let e2 = tri.e2;
     let p = cross(d, e2);
     let det = dot(e1, p);
     if abs(det) < 1e-12 {
         return vec4<f32>(0.0);
     }
     let inv = 1.0 / det;
-    let s = o - tri.p0.xyz;
+    let s = o - tri.p0;
     let u = dot(s, p) * inv;
     if u < 0.0 || u > 1.0 {
         return vec4<f32>(0.0);
@@ -137,8 +143,8 @@ fn bvh_trace(root: u32, o: vec3<f32>, d: vec3<f32>, t_max_in: f32, any_hit: bool
         }
         note_bvh(1u, 0u);
         let node = bvh_nodes[index];
-        if node.b > 0u {
-            for (var i = node.a; i < node.a + node.b; i++) {
+        if node.tri_count > 0u {
+            for (var i = node.right_or_first; i < node.right_or_first + node.tri_count; i++) {
                 note_bvh(0u, 1u);
                 let h = bvh_intersect(i, o, d, best.t);
                 if h.w > 0.0 {
@@ -151,7 +157,7 @@ fn bvh_trace(root: u32, o: vec3<f32>, d: vec3<f32>, t_max_in: f32, any_hit: bool
             continue;
         }
         let left = index + 1u;
-        let right = node.a;
+        let right = node.right_or_first;
         let tl = bvh_slab(left, o, inv, best.t);
         let tr = bvh_slab(right, o, inv, best.t);
         // Farther child first, so the nearer one is popped next.
@@ -225,11 +231,11 @@ fn bvh_hit_normal(hit: BvhHit) -> vec3<f32> {
 
 // Unit albedo (linear) of triangle `i`.
 fn bvh_albedo(i: u32) -> vec3<f32> {
-    return unpack4x8unorm(bitcast<u32>(bvh_tris[i].p0.w)).rgb;
+    return unpack4x8unorm(bvh_tris[i].albedo).rgb;
 }
 
 // Unit geometric normal (the winding's) of triangle `i`.
 fn bvh_normal(i: u32) -> vec3<f32> {
     let t = bvh_tris[i];
-    return normalize(cross(t.e1.xyz, t.e2.xyz));
+    return normalize(cross(t.e1, t.e2));
 }

@@ -10,7 +10,7 @@ fn surfel_hit(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> SurfelHit {
         return SurfelHit(-1.0, vec3<f32>(0.0), 0u, vec3<f32>(0.0));
     }
     let tri = bvh_tris[hit.tri];
-    return SurfelHit(hit.t, bvh_hit_normal(hit), bitcast<u32>(tri.p0.w), tri.emission.rgb);
+    return SurfelHit(hit.t, bvh_hit_normal(hit), tri.albedo, tri.emission);
 }
 
 // Adds the rays' work to quantities q and q + 1 of the pass's counts (`PLACE_BVH_WORK` in

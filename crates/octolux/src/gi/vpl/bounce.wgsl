@@ -8,6 +8,7 @@
 // Rays that leave the grid, or hit a voxel without fragments, give a zero VPL.
 
 import octolux::voxel::svo::walk::{svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+import octolux::gi::vpl::vpl::Vpl;
 
 struct BounceParams {
     // VPLs per generation, first VPL of the source generation.
@@ -17,11 +18,6 @@ struct BounceParams {
     pad1: u32,
 };
 
-struct Vpl {
-    position: vec4<f32>,
-    normal: vec4<f32>,
-    flux: vec4<f32>,
-};
 
 @group(0) @binding(5) var<storage, read_write> vpls: array<Vpl>;
 @group(0) @binding(6) var<storage, read> bp: BounceParams;
@@ -34,17 +30,19 @@ fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let src = vpls[bp.source + i];
     var out: Vpl;
-    out.position = vec4<f32>(0.0);
-    out.normal = vec4<f32>(0.0);
-    out.flux = vec4<f32>(0.0);
+    out.position = vec3<f32>(0.0);
+    out.area = 0.0;
+    out.normal = vec3<f32>(0.0);
+    out.flux = vec3<f32>(0.0);
+    out.mean_flux = 0.0;
     let dst = bp.source + bp.count + i;
-    if src.flux.w <= 0.0 {
+    if src.mean_flux <= 0.0 {
         vpls[dst] = out;
         return;
     }
     // Cosine-distributed direction from the R2 low-discrepancy sequence (per generation).
     let r = fract(vec2<f32>(0.7548776662, 0.5698402910) * f32(i + bp.source) + 0.5);
-    let n = src.normal.xyz;
+    let n = src.normal;
     let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9));
     let u = normalize(cross(t, n));
     let w = cross(n, u);
@@ -54,7 +52,7 @@ fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
     // The ray to the grid's boundary (the grid keeps a voxel of margin around the scene).
     let lo = vo.origin;
     let hi = vo.origin + vec3<f32>(f32(1u << vo.depth) * vo.voxel);
-    let p = src.position.xyz;
+    let p = src.position;
     let safe = select(vec3<f32>(-1e-12), vec3<f32>(1e-12), dir >= vec3<f32>(0.0));
     let exits = (select(lo, hi, dir >= vec3<f32>(0.0)) - p) / (dir + safe);
     let ray_len = max(min(exits.x, min(exits.y, exits.z)) - 0.5 * vo.voxel, 0.0);
@@ -81,11 +79,13 @@ fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
     if dot(nv, nv) < 0.5 {
         nv = -dir;
     }
-    let flux = src.flux.rgb * albedo;
+    let flux = src.flux * albedo;
     // Area 0: the shading bounds a bounce VPL by the clamp alone (what patch of surface a
     // hit stands for is not known).
-    out.position = vec4<f32>(vo.origin + (vec3<f32>(hit.xyz) + 0.5) * vo.voxel, 0.0);
-    out.normal = vec4<f32>(nv, 0.0);
-    out.flux = vec4<f32>(flux, (flux.r + flux.g + flux.b) / 3.0);
+    out.position = vo.origin + (vec3<f32>(hit.xyz) + 0.5) * vo.voxel;
+    out.area = 0.0;
+    out.normal = nv;
+    out.flux = flux;
+    out.mean_flux = (flux.r + flux.g + flux.b) / 3.0;
     vpls[dst] = out;
 }

@@ -7,8 +7,6 @@ use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-/// Bytes of one VPL (`Vpl` in `generate.wgsl`).
-pub const VPL_BYTES: u64 = 48;
 /// Bytes between the per-level slots of the level index.
 const SLOT: u64 = 256;
 
@@ -54,15 +52,39 @@ pub struct Vpl {
     pub area: f32,
 }
 
+/// One VPL as the GPU stores it (`Vpl` in `vpl.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuVpl {
+    /// World position.
+    pub position: [f32; 3],
+    /// The surface area it stands for, m^2 ([`Vpl::area`]).
+    pub area: f32,
+    /// Unit normal.
+    pub normal: [f32; 3],
+    /// Padding (WGSL aligns a `vec3<f32>` to 16 bytes).
+    pub _pad: u32,
+    /// Flux, W.
+    pub flux: [f32; 3],
+    /// Mean of the flux's channels.
+    pub mean_flux: f32,
+}
+
+/// Bytes of one VPL in the VPL buffer.
+pub const VPL_BYTES: u64 = std::mem::size_of::<GpuVpl>() as u64;
+
 /// Decodes the VPL buffer's bytes.
 pub fn decode(bytes: &[u8]) -> Vec<Vpl> {
-    bytemuck::cast_slice::<u8, [f32; 12]>(bytes)
-        .iter()
-        .map(|w| Vpl {
-            position: Vec3::new(w[0], w[1], w[2]),
-            normal: Vec3::new(w[4], w[5], w[6]),
-            flux: Vec3::new(w[8], w[9], w[10]),
-            area: w[3],
+    bytes
+        .chunks_exact(VPL_BYTES as usize)
+        .map(|b| {
+            let v: GpuVpl = bytemuck::pod_read_unaligned(b);
+            Vpl {
+                position: v.position.into(),
+                normal: v.normal.into(),
+                flux: v.flux.into(),
+                area: v.area,
+            }
         })
         .collect()
 }
@@ -316,4 +338,19 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_vpl_mirrors_the_wgsl_record() {
+        crate::gpu::layout::assert_mirrors_wgsl!(
+            GpuVpl,
+            "gi/vpl/vpl",
+            "Vpl",
+            [position, area, normal, _pad, flux, mean_flux]
+        );
+    }
 }

@@ -18,6 +18,7 @@
 // may fuse into a multiply-add), sums in a fixed order, and u x W from two multiplications (no
 // division, whose precision WGSL leaves to the adapter) clamped before the first subtraction.
 
+import octolux::gi::vpl::vpl::Vpl;
 
 struct GenParams {
     // RSM side (a power of two), layers, pyramid levels above the base, VPL count.
@@ -31,14 +32,6 @@ struct GenParams {
     inv_twice_count: f32,
 };
 
-struct Vpl {
-    // xyz position, w the surface area it stands for (m^2)
-    position: vec4<f32>,
-    // xyz unit normal (facing the light), w unused
-    normal: vec4<f32>,
-    // rgb flux (W), w mean flux
-    flux: vec4<f32>,
-};
 
 @group(0) @binding(0) var<storage, read> gp: GenParams;
 @group(0) @binding(1) var rsm_position: texture_2d_array<f32>;
@@ -102,9 +95,11 @@ fn sample_vpls(@builtin(global_invocation_id) id: vec3<u32>) {
         total += pyramid[top + l];
     }
     var out: Vpl;
-    out.position = vec4<f32>(0.0);
-    out.normal = vec4<f32>(0.0);
-    out.flux = vec4<f32>(0.0);
+    out.position = vec3<f32>(0.0);
+    out.area = 0.0;
+    out.normal = vec3<f32>(0.0);
+    out.flux = vec3<f32>(0.0);
+    out.mean_flux = 0.0;
     if total <= 0.0 {
         vpls[i] = out;
         return;
@@ -169,8 +164,10 @@ fn sample_vpls(@builtin(global_invocation_id) id: vec3<u32>) {
     // frame/rsm.wgsl) over the probability of drawing it times N, as its flux; the VPLs' areas
     // sum to the area the RSMs see, as their fluxes to its flux. `shade.wgsl` bounds the
     // VPL's geometry term by it (a disk of that area, not a point).
-    out.position = vec4<f32>(p.xyz, max(p.w, 0.0) * max(n.w, 0.0) * scale);
-    out.normal = vec4<f32>(normalize(n.xyz), 0.0);
-    out.flux = vec4<f32>(phi * scale, w * scale / 3.0);
+    out.position = p.xyz;
+    out.area = max(p.w, 0.0) * max(n.w, 0.0) * scale;
+    out.normal = normalize(n.xyz);
+    out.flux = phi * scale;
+    out.mean_flux = w * scale / 3.0;
     vpls[i] = out;
 }

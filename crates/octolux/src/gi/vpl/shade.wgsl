@@ -34,6 +34,7 @@ import octolux::voxel::svo::walk::{count_walk_work, svo_occluded, vpl_fixed_poin
 import octolux::gpu::work::count_work;
 import octolux::frame::common::{Camera, PI, world_from_depth};
 import octolux::frame::sparse::block_pixel;
+import octolux::gi::vpl::vpl::Vpl;
 
 
 struct ShadeParams {
@@ -85,11 +86,6 @@ const CHUNK: u32 = 8u;
 // 1 / pi: a disk of area A has radius^2 A / pi.
 const DISK_SCALE: f32 = 0.31830988;
 
-struct Vpl {
-    position: vec4<f32>,
-    normal: vec4<f32>,
-    flux: vec4<f32>,
-};
 
 // Eq. 2-4: the geometry term of a VPL at `pv` (normal `nv`) for a receiver at `p` (normal `n`).
 fn vpl_g(p: vec3<f32>, n: vec3<f32>, pv: vec3<f32>, nv: vec3<f32>, area: f32) -> f32 {
@@ -182,8 +178,8 @@ fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
             n = normalize(textureLoad(normal_tex, px, 0).xyz);
             pairs = 1u;
             v = vpls[j];
-            g = vpl_g(p, n, v.position.xyz, v.normal.xyz, v.position.w);
-            let mean = scale * v.flux.w * g;
+            g = vpl_g(p, n, v.position, v.normal, v.area);
+            let mean = scale * v.mean_flux * g;
             if g > 0.0 && mean > sp.cull {
                 c = mean;
             }
@@ -203,8 +199,8 @@ fn shade(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) 
         if weight == 1.0 || roulette_number(at, j) * weight < 1.0 {
             rays = 1u;
             let a = vpl_fixed_point(p, n);
-            if !svo_occluded(a, vpl_fixed_point(v.position.xyz, v.normal.xyz)) {
-                e = scale * v.flux.rgb * g * weight;
+            if !svo_occluded(a, vpl_fixed_point(v.position, v.normal)) {
+                e = scale * v.flux * g * weight;
             }
         }
     }

@@ -11,21 +11,23 @@
 
 use super::sample::{ClipInfo, CLIP_BINDINGS};
 use super::{decode_emission, Clipmap};
+use crate::frame::GpuLight;
 use crate::gpu::alloc::{param_slots, storage};
 use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
 use crate::gpu::shader::library_shader;
 use crate::gpu::{read_words, GpuContext, PassTimer};
-use crate::scene::{Light, LightKind};
+use crate::scene::Light;
 use crate::{Error, Result};
 use glam::{Vec3, Vec4};
 
 /// Light injections recorded before one submission (each writes its parameters to its own
 /// slot).
 const INJECT_SLOTS: u64 = 4;
-/// Lights per step of the light buffer's slots (16 x 48 bytes keeps offsets 256-byte aligned).
+/// Lights per step of the light buffer's slots (16 x 80 bytes keeps offsets 256-byte aligned).
 const INJECT_LIGHT_ALIGN: u64 = 16;
-/// Bytes of one [`InjectLight`].
-const INJECT_LIGHT_BYTES: u64 = std::mem::size_of::<InjectLight>() as u64;
+const _: () = assert!((INJECT_LIGHT_ALIGN * INJECT_LIGHT_BYTES).is_multiple_of(256));
+/// Bytes of one light ([`GpuLight`], unshadowed: the march finds the visibility).
+const INJECT_LIGHT_BYTES: u64 = crate::frame::LIGHT_BYTES;
 
 /// Parameter block `InjectParams` of `inject_common.wgsl`.
 #[repr(C)]
@@ -39,36 +41,6 @@ pub(super) struct InjectParams {
     pub slots: u32,
     /// 1 when the bounce buffer holds indirect irradiance to add (multiple bounces).
     pub bounce: u32,
-}
-
-/// One light of the voxel-ray injection, `InjectLight` of `inject.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-pub(super) struct InjectLight {
-    /// Position (xyz), kind (w: 0 point, 1 spot, 2 directional).
-    pub position_kind: [f32; 4],
-    /// Unit direction of travel (xyz), cosine of the inner half-angle (w).
-    pub direction_cos_inner: [f32; 4],
-    /// Radiant intensity (W/sr) or irradiance (W/m^2) (rgb), cosine of the outer half-angle.
-    pub radiant_cos_outer: [f32; 4],
-}
-
-impl InjectLight {
-    fn new(l: &Light) -> InjectLight {
-        let (kind, inner, outer) = match l.kind {
-            LightKind::Point => (0.0, 1.0, -1.0),
-            LightKind::Spot {
-                inner_angle,
-                outer_angle,
-            } => (1.0, inner_angle.cos(), outer_angle.cos()),
-            LightKind::Directional => (2.0, 1.0, -1.0),
-        };
-        InjectLight {
-            position_kind: l.position.extend(kind).to_array(),
-            direction_cos_inner: l.direction.extend(inner).to_array(),
-            radiant_cos_outer: l.radiant().extend(outer).to_array(),
-        }
-    }
 }
 
 /// The two injections: voxel shadow rays and shadow maps.
@@ -186,7 +158,7 @@ impl Clipmap {
         lights: &[Light],
         max_steps: u32,
     ) -> Result<()> {
-        let mut gpu: Vec<InjectLight> = lights.iter().map(InjectLight::new).collect();
+        let mut gpu: Vec<GpuLight> = lights.iter().map(GpuLight::unshadowed).collect();
         let count = gpu.len() as u32;
         // A binding is never empty.
         if gpu.is_empty() {
@@ -330,12 +302,6 @@ mod tests {
             "voxel/clipmap/inject_common",
             "InjectParams",
             [lights, max_steps, slots, bounce]
-        );
-        assert_mirrors_wgsl!(
-            InjectLight,
-            "voxel/clipmap/inject",
-            "InjectLight",
-            [position_kind, direction_cos_inner, radiant_cos_outer]
         );
     }
 }

@@ -4,18 +4,11 @@
 
 import octolux::voxel::clipmap::inject_common::{inject_slot, inject_store, inject_voxel, params};
 import octolux::voxel::clipmap::sample::clip_sample;
-
-struct InjectLight {
-    // xyz position, w: kind (0 point, 1 spot, 2 directional)
-    position_kind: vec4<f32>,
-    // xyz unit direction of travel, w: cos(inner half-angle)
-    direction_cos_inner: vec4<f32>,
-    // rgb radiant intensity (W/sr) or irradiance (W/m^2), w: cos(outer half-angle)
-    radiant_cos_outer: vec4<f32>,
-}
+// The renderer's light record; its own bindings (from 40) stay out of this pass's layout.
+import octolux::frame::lights::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT};
 
 // Storage, not uniform: see "Parameter blocks" in voxel/mod.rs.
-@group(0) @binding(3) var<storage, read> lights: array<InjectLight>;
+@group(0) @binding(3) var<storage, read> inject_lights: array<Light>;
 
 fn spot_falloff(cos_angle: f32, cos_inner: f32, cos_outer: f32) -> f32 {
     let x = clamp((cos_angle - cos_outer) / max(cos_inner - cos_outer, 1e-6), 0.0, 1.0);
@@ -52,23 +45,21 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     let v = vox.size;
     var e = vec3<f32>(0.0);
     for (var k = 0u; k < params.lights; k++) {
-        let light = lights[k];
-        let kind = light.position_kind.w;
+        let light = inject_lights[k];
         var to_light: vec3<f32>;
         var el: vec3<f32>;
         var dist = 1.0e4;
-        if kind > 1.5 {
-            to_light = -light.direction_cos_inner.xyz;
-            el = light.radiant_cos_outer.rgb;
+        if light.kind == LIGHT_DIRECTIONAL {
+            to_light = -light.direction;
+            el = light.radiant;
         } else {
-            let d = light.position_kind.xyz - p;
+            let d = light.position - p;
             let r2 = max(dot(d, d), 1e-8);
             dist = sqrt(r2);
             to_light = d / dist;
-            el = light.radiant_cos_outer.rgb / r2;
-            if kind > 0.5 {
-                el *= spot_falloff(dot(light.direction_cos_inner.xyz, -to_light),
-                                   light.direction_cos_inner.w, light.radiant_cos_outer.w);
+            el = light.radiant / r2;
+            if light.kind == LIGHT_SPOT {
+                el *= spot_falloff(dot(light.direction, -to_light), light.cos_inner, light.cos_outer);
             }
         }
         var cos_theta = 1.0;

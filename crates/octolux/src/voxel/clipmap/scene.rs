@@ -15,9 +15,9 @@ use glam::Vec3;
 const TRIANGLE_BYTES: u64 = std::mem::size_of::<crate::voxel::GpuTriangle>() as u64;
 
 impl Clipmap {
-    /// Makes `tris` the clipmap's scene: uploads them once into a GPU buffer that stays
-    /// resident (ledger: `clipmap / triangles`, 64 bytes per triangle) and indexes their bounds
-    /// on the CPU ([`crate::voxel::clipmap::index`]), so that an update snaps and uploads only the
+    /// Makes `tris` the clipmap's scene: uploads their surface data once into a GPU buffer
+    /// that stays resident (ledger: `clipmap / triangles`, 32 bytes per triangle; positions
+    /// reach the GPU only as snapped pieces) and indexes their bounds on the CPU ([`crate::voxel::clipmap::index`]), so that an update snaps and uploads only the
     /// triangles near the boxes it revoxelises. Voxels already built are left as they are
     /// until revoxelised; pending boxes of [`Clipmap::replace_triangles`] are dropped.
     pub fn set_scene(&mut self, ctx: &GpuContext, tris: &[VoxelTriangle]) {

@@ -87,12 +87,12 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     let piece = pieces[items[w].x];
-    let tri = tris[u32(piece.a.w)];
+    let tri = tris[piece.triangle];
     let size = box_size();
     let range = piece_cells(piece, vec3<i32>(size));
     let test = piece_test(piece, range[0]);
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
-    let albedo = bitcast<u32>(tri.p0.w);
+    let albedo = tri.albedo;
     for (var i = items[w].y * CHUNK; i < cells; i++) {
         let off = nth_offset(range, i);
         if piece_touches(test, off) {
@@ -103,13 +103,13 @@ fn accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg
             atomicAdd(&accum[k + 2u], (albedo >> 16u) & 255u);
             atomicAdd(&accum[k + 3u], 1u);
             // Signed normal sums: two's-complement addition wraps the same way as unsigned.
-            let nb = bitcast<u32>(tri.p1.w);
+            let nb = tri.normal;
             atomicAdd(&accum[k + 4u], bitcast<u32>(snorm_byte(nb, 0u)));
             atomicAdd(&accum[k + 5u], bitcast<u32>(snorm_byte(nb, 1u)));
             atomicAdd(&accum[k + 6u], bitcast<u32>(snorm_byte(nb, 2u)));
-            add64(k + 7u, k + 10u, emission_fixed(tri.p2.w));
-            add64(k + 8u, k + 11u, emission_fixed(tri.extra.x));
-            add64(k + 9u, k + 12u, emission_fixed(tri.extra.y));
+            add64(k + 7u, k + 10u, emission_fixed(tri.emission.r));
+            add64(k + 8u, k + 11u, emission_fixed(tri.emission.g));
+            add64(k + 9u, k + 12u, emission_fixed(tri.emission.b));
         }
     }
 }

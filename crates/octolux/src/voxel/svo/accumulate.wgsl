@@ -41,7 +41,7 @@ fn leaf_accumulate(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let o = (v.x & 1u) | ((v.y & 1u) << 1u) | ((v.z & 1u) << 2u);
-    let albedo = bitcast<u32>(tris[frag.y].p0.w);
+    let albedo = tris[frag.y].albedo;
     let w = o * 4u;
     bw_add(b, w, albedo & 255u);
     bw_add(b, w + 1u, (albedo >> 8u) & 255u);

@@ -329,4 +329,22 @@ mod tests {
             [lo, items, hi, counter]
         );
     }
+
+    #[test]
+    fn triangles_and_pieces_mirror_the_wgsl_records() {
+        use crate::voxel::voxelize::snap::GpuPiece;
+        use crate::voxel::GpuTriangle;
+        assert_mirrors_wgsl!(
+            GpuTriangle,
+            "voxel/voxelize/overlap",
+            "Tri",
+            [emission, albedo, normal]
+        );
+        assert_mirrors_wgsl!(
+            GpuPiece,
+            "voxel/voxelize/overlap",
+            "Piece",
+            [a, triangle, b, c]
+        );
+    }
 }

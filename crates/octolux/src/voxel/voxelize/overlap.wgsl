@@ -2,11 +2,15 @@
 // integer triangle/box overlap test on the snapping lattice (separating axis theorem, closed
 // dilated boxes: touching counts).
 
+// One triangle's surface data (`GpuTriangle` in voxel/mod.rs); its position reaches the kernels
+// as the pieces it is snapped into (`Piece` below).
 struct Tri {
-    p0: vec4<f32>,
-    p1: vec4<f32>,
-    p2: vec4<f32>,
-    extra: vec4<f32>,
+    // Emitted radiance, W/(m^2 sr).
+    emission: vec3<f32>,
+    // Linear albedo x 255 as RGBA8, red in the low byte.
+    albedo: u32,
+    // Unit geometric normal x 127 as three snorm8 bytes, x in the low byte.
+    normal: u32,
 }
 
 // What one fragment of `tri` adds to its leaf voxel's sums (the octree's 10 words per voxel):
@@ -14,13 +18,13 @@ struct Tri {
 // normal x, y, z (snorm8 as two's complement). Integer sums do not depend on their order.
 fn fragment_sum_terms(tri: Tri) -> array<u32, 10> {
     var t: array<u32, 10>;
-    let albedo = bitcast<u32>(tri.p0.w);
+    let albedo = tri.albedo;
     t[0] = albedo & 255u;
     t[1] = (albedo >> 8u) & 255u;
     t[2] = (albedo >> 16u) & 255u;
     t[3] = 1u;
-    let e = clamp(vec3<f32>(tri.p2.w, tri.extra.x, tri.extra.y), vec3<f32>(0.0), vec3<f32>(65504.0));
-    let nb = bitcast<u32>(tri.p1.w);
+    let e = clamp(tri.emission, vec3<f32>(0.0), vec3<f32>(65504.0));
+    let nb = tri.normal;
     for (var k = 0u; k < 3u; k++) {
         t[4u + k] = u32(round(e[k] * 1024.0));
         t[7u + k] = bitcast<u32>(i32(((nb >> (8u * k)) & 255u) << 24u) >> 24u);
@@ -50,12 +54,14 @@ struct VoxParams {
 // adapter and the CPU mark exactly the same voxels. A voxel's box is dilated by DILATE steps on
 // every side, which covers the snapping error: conservative for the original triangle.
 
-// A snapped triangle or piece of one: vertices in lattice steps relative to the corner of the
-// box's first voxel; a.w = the triangle's index.
+// A snapped triangle or piece of one (`GpuPiece` in voxelize/snap.rs): vertices in lattice steps
+// relative to the corner of the box's first voxel.
 struct Piece {
-    a: vec4<i32>,
-    b: vec4<i32>,
-    c: vec4<i32>,
+    a: vec3<i32>,
+    // Index of the triangle the piece belongs to (into `Tri`s).
+    triangle: u32,
+    b: vec3<i32>,
+    c: vec3<i32>,
 }
 
 const SNAP: i32 = 64;
@@ -91,8 +97,8 @@ fn dot_i(a: vec3<i32>, b: vec3<i32>) -> i32 {
 // Voxels [first, last] (inclusive, relative to the box's first voxel) whose dilated boxes the
 // piece's bounding box touches, clipped to [0, size); empty when last < first on some axis.
 fn piece_cells(p: Piece, size: vec3<i32>) -> array<vec3<i32>, 2> {
-    let mn = min(min(p.a.xyz, p.b.xyz), p.c.xyz);
-    let mx = max(max(p.a.xyz, p.b.xyz), p.c.xyz);
+    let mn = min(min(p.a, p.b), p.c);
+    let mx = max(max(p.a, p.b), p.c);
     let first = max(ceil_snap3(mn - vec3<i32>(SNAP + DILATE)), vec3<i32>(0));
     let last = min(floor_snap3(mx + vec3<i32>(DILATE)), size - vec3<i32>(1));
     return array<vec3<i32>, 2>(first, last);
@@ -133,9 +139,9 @@ fn edge_range(e: vec3<i32>, v0: vec3<i32>, v1: vec3<i32>, v2: vec3<i32>) -> arra
 
 fn piece_test(p: Piece, first: vec3<i32>) -> PieceTest {
     let o = first * SNAP;
-    let v0 = p.a.xyz - o;
-    let v1 = p.b.xyz - o;
-    let v2 = p.c.xyz - o;
+    let v0 = p.a - o;
+    let v1 = p.b - o;
+    let v2 = p.c - o;
     var s: PieceTest;
     s.e0 = v1 - v0;
     s.e1 = v2 - v1;

@@ -57,17 +57,22 @@ pub struct Piece {
     pub triangle: u32,
 }
 
-/// GPU layout of a [`Piece`] (`Piece` in `voxelize/overlap.wgsl`): the vertices in `xyz`, the
-/// triangle index in `a[3]`.
+/// GPU layout of a [`Piece`] (`Piece` in `voxelize/overlap.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct GpuPiece {
-    /// Vertex 0 and the triangle index.
-    pub a: [i32; 4],
+    /// Vertex 0.
+    pub a: [i32; 3],
+    /// Index of the triangle the piece belongs to.
+    pub triangle: u32,
     /// Vertex 1.
-    pub b: [i32; 4],
+    pub b: [i32; 3],
+    /// Padding (WGSL aligns a `vec3<i32>` to 16 bytes).
+    pub _pad_b: u32,
     /// Vertex 2.
-    pub c: [i32; 4],
+    pub c: [i32; 3],
+    /// Padding to the struct's 16-byte alignment.
+    pub _pad_c: u32,
 }
 
 impl Piece {
@@ -75,9 +80,12 @@ impl Piece {
     pub fn to_gpu(&self) -> GpuPiece {
         let [a, b, c] = self.q;
         GpuPiece {
-            a: [a.x, a.y, a.z, self.triangle as i32],
-            b: b.extend(0).to_array(),
-            c: c.extend(0).to_array(),
+            a: a.to_array(),
+            triangle: self.triangle,
+            b: b.to_array(),
+            _pad_b: 0,
+            c: c.to_array(),
+            _pad_c: 0,
         }
     }
 }

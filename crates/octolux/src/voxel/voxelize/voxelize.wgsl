@@ -48,7 +48,7 @@ fn emit_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
         return;
     }
     let piece = pieces[items[w].x];
-    let t = u32(piece.a.w);
+    let t = piece.triangle;
     let range = piece_cells(piece, P.hi - P.lo);
     let test = piece_test(piece, range[0]);
     var at = counts[w];
@@ -78,7 +78,7 @@ fn append_fragments(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroup
         return;
     }
     let piece = pieces[items[w].x];
-    let t = u32(piece.a.w);
+    let t = piece.triangle;
     let range = piece_cells(piece, P.hi - P.lo);
     let test = piece_test(piece, range[0]);
     let cells = min(cell_count(range), (items[w].y + 1u) * CHUNK);
