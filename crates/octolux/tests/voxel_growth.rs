@@ -9,7 +9,7 @@
 mod growth;
 use glam::{Mat4, Vec3};
 use growth::snapshot;
-use octolux::frame::{LayerView, ShadowLookupBuffers};
+use octolux::frame::{GpuLight, LayerView, ShadowLookupBuffers};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::scene::{Light, LightKind};
 use octolux::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
@@ -120,24 +120,9 @@ fn moving(f: usize) -> Vec<VoxelTriangle> {
     cube(at, at + Vec3::new(0.17, 0.13, 0.11), [40, 90, 250])
 }
 
-/// A spot light (shadow layer 0) and a sun (layer 1) as the renderer uploads them
-/// (`Light` in `render/lights.wgsl`), the spot moving with the frame.
-fn gpu_lights(f: usize) -> [f32; 32] {
-    let a = TAU * phase(f);
-    let p = Vec3::new(0.5 + 0.1 * a.cos(), 1.2, 0.5 + 0.1 * a.sin());
-    let (cos_inner, cos_outer) = (0.5f32.cos(), 0.7f32.cos());
-    let sun = Vec3::new(0.2, -1.0, 0.3).normalize();
-    [
-        p.x, p.y, p.z, 1.0, 0.0, -1.0, 0.0, cos_inner, 2.0, 2.0, 2.0, cos_outer, 0.0, 0.004, 0.0,
-        0.0, 0.0, 0.0, 0.0, 2.0, sun.x, sun.y, sun.z, 1.0, 0.5, 0.5, 0.5, -1.0, 1.0, 0.003, 1.0,
-        0.0,
-    ]
-}
-
-/// The same lights for the clipmap's injection.
+/// A spot light and a sun, the spot moving with the frame.
 fn scene_lights(f: usize) -> Vec<Light> {
-    let g = gpu_lights(f);
-    let v = |i: usize| Vec3::new(g[i], g[i + 1], g[i + 2]);
+    let a = TAU * phase(f);
     vec![
         Light {
             name: "spot".into(),
@@ -147,7 +132,7 @@ fn scene_lights(f: usize) -> Vec<Light> {
             },
             color: Vec3::ONE,
             intensity: 2.0,
-            position: v(0),
+            position: Vec3::new(0.5 + 0.1 * a.cos(), 1.2, 0.5 + 0.1 * a.sin()),
             direction: Vec3::NEG_Y,
             animation: None,
         },
@@ -157,8 +142,29 @@ fn scene_lights(f: usize) -> Vec<Light> {
             color: Vec3::ONE,
             intensity: 0.5,
             position: Vec3::ZERO,
-            direction: v(20),
+            direction: Vec3::new(0.2, -1.0, 0.3).normalize(),
             animation: None,
+        },
+    ]
+}
+
+/// The same lights as the renderer uploads them for the octree's injection: the spot through
+/// shadow layer 0 (perspective), the sun through layer 1 (orthographic).
+fn gpu_lights(f: usize) -> Vec<GpuLight> {
+    let [spot, sun] = &scene_lights(f)[..] else {
+        unreachable!("two lights")
+    };
+    vec![
+        GpuLight {
+            shadow_view: 0,
+            shadow_texel: 0.004,
+            ..GpuLight::unshadowed(spot)
+        },
+        GpuLight {
+            shadow_view: 1,
+            shadow_texel: 0.003,
+            shadow_orthographic: 1,
+            ..GpuLight::unshadowed(sun)
         },
     ]
 }

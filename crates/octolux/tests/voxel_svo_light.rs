@@ -9,7 +9,7 @@ mod common;
 
 use common::context;
 use glam::{IVec3, Mat4, Vec3, Vec4};
-use octolux::frame::{LayerView, ShadowLookupBuffers};
+use octolux::frame::{GpuLight, LayerView, ShadowLookupBuffers};
 use octolux::gpu::{GpuContext, PassTimer};
 use octolux::render::{RenderSettings, Renderer};
 use octolux::scene::{Camera, Light, LightKind, Material, Mesh, Object, Scene};
@@ -233,29 +233,13 @@ fn point_light_shadows(
     let light = &scene.lights[0];
     let layers = point_layers(light.position, scene.bounds_at(0.0), size);
     let texel = layers[0].texel;
-    let radiant = light.radiant();
-    let lights = storage_init(
-        ctx,
-        "lights",
-        &[
-            light.position.x,
-            light.position.y,
-            light.position.z,
-            0.0,
-            0.0,
-            -1.0,
-            0.0,
-            1.0,
-            radiant.x,
-            radiant.y,
-            radiant.z,
-            -1.0,
-            0.0,
-            texel,
-            0.0,
-            0.0,
-        ],
-    );
+    // The point light with its shadow views from 0 (perspective), as the renderer uploads it.
+    let gpu = GpuLight {
+        shadow_view: 0,
+        shadow_texel: texel,
+        ..GpuLight::unshadowed(light)
+    };
+    let lights = storage_init(ctx, "lights", bytemuck::cast_slice(&[gpu]));
     (renderer, layers, lights)
 }
 
@@ -381,7 +365,11 @@ fn inject_nothing(ctx: &GpuContext, builder: &SvoBuilder, svo: &Svo) {
         usage: wgpu::TextureUsages::TEXTURE_BINDING,
         view_formats: &[],
     });
-    let lights = storage_init(&ctx, "no lights", &[0.0; 16]);
+    let lights = storage_init(
+        &ctx,
+        "no lights",
+        bytemuck::cast_slice(&[GpuLight::default()]),
+    );
     let mut timer = PassTimer::new(&ctx);
     let shadows = ShadowLookupBuffers::new(&ctx, "test", &shadows, &[]);
     builder
