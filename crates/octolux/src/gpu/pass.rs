@@ -94,6 +94,12 @@ pub fn dispatch_size(n: u32) -> (u32, u32) {
     }
 }
 
+/// Byte offset of element `slot` of an array of indirect dispatch arguments (`DispatchArgs`
+/// of `gpu/dispatch.wgsl`, wgpu's `DispatchIndirectArgs`).
+pub fn indirect_offset(slot: u32) -> u64 {
+    slot as u64 * std::mem::size_of::<wgpu::util::DispatchIndirectArgs>() as u64
+}
+
 /// Records one compute dispatch of `workgroups` (x, y, z) with `group` at group 0 as the named
 /// pass `name`.
 pub fn dispatch_groups(

@@ -31,6 +31,7 @@ macro_rules! modules {
 /// The modules of the library's shaders.
 pub const MODULES: &[(&str, &str)] = modules![
     "gpu/work",
+    "gpu/dispatch",
     "gpu/roofline",
     "frame/common",
     "frame/lights",

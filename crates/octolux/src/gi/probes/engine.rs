@@ -157,20 +157,31 @@ fn run_dispatch(
     });
 }
 
+/// Slots of a listed set's indirect-dispatch arguments (`GpuProbeOctree::live_args`, written by
+/// `set_args` in `octree.wgsl` under the same names): place and light run over the live
+/// probes' surfels, the moments over their texels, the integration over the probes.
+pub(crate) const LIVE_SURFELS: u32 = 0;
+/// See [`LIVE_SURFELS`].
+pub(crate) const LIVE_MOMENT_TEXELS: u32 = 1;
+/// See [`LIVE_SURFELS`].
+pub(crate) const LIVE_PROBES: u32 = 2;
+/// Slots of [`LIVE_SURFELS`]...
+pub(crate) const LIVE_SLOTS: u32 = 3;
+
 /// A probe set's bind group 1 for a shared pass and, where the set lists its probes on the
-/// GPU, the indirect-dispatch buffer (`GpuProbeOctree::live_args`: place and light at byte 0,
-/// the moments at 12, the integration at 24). `None`: the pass runs over every probe slot.
+/// GPU, the indirect-dispatch buffer (`GpuProbeOctree::live_args`, slots [`LIVE_SURFELS`]...).
+/// `None`: the pass runs over every probe slot.
 #[derive(Clone, Copy)]
 pub(crate) struct SetPass<'a> {
     pub group: &'a wgpu::BindGroup,
     pub listed: Option<&'a wgpu::Buffer>,
 }
 
-/// The dispatch of a pass over the set: listed (byte `offset` of the set's arguments) or
-/// `all` workgroups.
-fn set_dispatch<'a>(set: Option<SetPass<'a>>, offset: u64, all: (u32, u32)) -> Dispatch<'a> {
+/// The dispatch of a pass over the set: listed (slot `slot` of the set's arguments) or `all`
+/// workgroups.
+fn set_dispatch<'a>(set: Option<SetPass<'a>>, slot: u32, all: (u32, u32)) -> Dispatch<'a> {
     match set.and_then(|s| s.listed) {
-        Some(args) => Dispatch::Indirect(args, offset),
+        Some(args) => Dispatch::Indirect(args, crate::gpu::pass::indirect_offset(slot)),
         None => Dispatch::Groups(all),
     }
 }
@@ -463,7 +474,7 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let dispatch = set_dispatch(set, 0, self.surfel_groups());
+        let dispatch = set_dispatch(set, LIVE_SURFELS, self.surfel_groups());
         run_dispatch(timer, "place", &self.place, &groups, dispatch);
     }
 
@@ -484,7 +495,7 @@ impl ProbeEngine {
             .chain(set.map(|s| s.group))
             .collect();
         let size = dispatch_size(self.params.probe_slots * super::moments::MOMENT_TEXELS);
-        let dispatch = set_dispatch(set, 12, size);
+        let dispatch = set_dispatch(set, LIVE_MOMENT_TEXELS, size);
         run_dispatch(timer, "moments", &self.moments_build, &groups, dispatch);
     }
 
@@ -520,7 +531,7 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let dispatch = set_dispatch(set, 0, self.surfel_groups());
+        let dispatch = set_dispatch(set, LIVE_SURFELS, self.surfel_groups());
         run_dispatch(timer, "light", &self.light, &groups, dispatch);
         Ok(())
     }
@@ -539,7 +550,7 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let dispatch = set_dispatch(set, 24, dispatch_size(self.params.probe_slots));
+        let dispatch = set_dispatch(set, LIVE_PROBES, dispatch_size(self.params.probe_slots));
         run_dispatch(timer, "integrate", &self.integrate, &groups, dispatch);
     }
 

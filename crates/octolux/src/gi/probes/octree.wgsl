@@ -8,6 +8,7 @@
 import octolux::gi::probes::octree_tree::{octree_cube, octree_meta};
 import octolux::gi::probes::tree_bindings::{O, tree};
 import octolux::gpu::work::count_work;
+import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 
 // The parameters and the tree (bindings 0, 1) are octree_tree_write.wgsl's.
 // Per probe slot: position and depth, or (0, 0, 0, -1) when free.
@@ -27,7 +28,11 @@ import octolux::gpu::work::count_work;
 @group(0) @binding(8) var<storage, read_write> live: array<u32>;
 // Their indirect dispatches, workgroups of 64 (x, y, z each): one invocation per surfel
 // (place, light), per moment texel, per probe (integrate). `GpuOctree::live_args`.
-@group(0) @binding(9) var<storage, read_write> live_args: array<u32, 9>;
+@group(0) @binding(9) var<storage, read_write> live_args: array<DispatchArgs, 3>;
+// Slots of `live_args` (`LIVE_SURFELS`... in gi/probes/octree_gi.rs).
+const LIVE_SURFELS: u32 = 0u;
+const LIVE_MOMENT_TEXELS: u32 = 1u;
+const LIVE_PROBES: u32 = 2u;
 
 // State codes (`State::code`); a push keeps the higher code.
 const L3: u32 = 1u;
@@ -306,19 +311,15 @@ fn list_live_probes(t: u32) {
         live[0] = count;
         // Work counts: the live probes the shared passes run over.
         count_work(1u, count);
-        set_args(0u, count * O.surfels_per_probe);
-        set_args(3u, count * O.moment_texels);
-        set_args(6u, count);
+        set_args(LIVE_SURFELS, count * O.surfels_per_probe);
+        set_args(LIVE_MOMENT_TEXELS, count * O.moment_texels);
+        set_args(LIVE_PROBES, count);
     }
 }
 
-// Workgroups of 64 for n invocations at `live_args[at..at + 3]`, in rows of at most 65535
-// (`gpu::pass::dispatch_size`).
-fn set_args(at: u32, n: u32) {
-    let groups = max((n + 63u) / 64u, 1u);
-    live_args[at] = min(groups, 65535u);
-    live_args[at + 1u] = (groups + 65534u) / 65535u;
-    live_args[at + 2u] = 1u;
+// Workgroups of 64 for n invocations (at least one) in `live_args[slot]`.
+fn set_args(slot: u32, n: u32) {
+    live_args[slot] = dispatch_covering(max((n + 63u) / 64u, 1u));
 }
 
 // The moved-geometry test and the L states that need no hit count; L1 leaves with a probe

@@ -209,7 +209,7 @@ impl GpuProbeOctree {
                 OWNER,
                 &wgpu::BufferDescriptor {
                     label: Some("octree live dispatch"),
-                    size: 36,
+                    size: crate::gpu::pass::indirect_offset(super::engine::LIVE_SLOTS),
                     usage: wgpu::BufferUsages::STORAGE
                         | wgpu::BufferUsages::INDIRECT
                         | wgpu::BufferUsages::COPY_SRC,

@@ -3,7 +3,8 @@
 // (voxel/svo/walk.wgsl, whose bindings it reads), and the surfel of the first occupied voxel
 // it meets. CPU twin: `rays::voxel_surfel`.
 
-import octolux::voxel::svo::walk::{SVO_EMISSION_SCALE, svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+import octolux::voxel::svo::walk::{svo_first_hit, svo_voxel_sums, vo, vpl_fixed_point};
+import octolux::voxel::svo::leaf_sums::LEAF_EMISSION_SCALE;
 
 // The ray o + t d, t in [0, t_max], clipped to the octree's grid: (t_in, t_out), empty when
 // t_in > t_out.
@@ -49,17 +50,17 @@ fn voxel_closest(o: vec3<f32>, d: vec3<f32>, ray: VoxelRay) -> VoxelHit {
         return hit;
     }
     let s = svo_voxel_sums(v.xyz);
-    if s[3] == 0u {
+    if s.count == 0u {
         return hit;
     }
     hit.voxel = v.xyz;
     // The mean albedo x255 rounded in integers, so that every adapter packs the same bits.
-    let count = s[3];
-    let albedo = (vec3<u32>(s[0], s[1], s[2]) + vec3<u32>(count / 2u)) / count;
+    let count = s.count;
+    let albedo = (s.albedo + vec3<u32>(count / 2u)) / count;
     hit.albedo = albedo.r | (albedo.g << 8u) | (albedo.b << 16u) | (255u << 24u);
     let c = f32(count);
-    hit.emission = vec3<f32>(f32(s[4]), f32(s[5]), f32(s[6])) / (c * SVO_EMISSION_SCALE);
-    let ns = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
+    hit.emission = vec3<f32>(s.emission) / (c * LEAF_EMISSION_SCALE);
+    let ns = vec3<f32>(s.normal);
     // Opposite faces in one voxel cancel: no normal (as the octree's injection decides).
     if dot(ns, ns) > 0.01 * c * c * 127.0 * 127.0 {
         hit.normal = normalize(ns);

@@ -11,12 +11,13 @@
 // Every slot's bounce irradiance (RGB as half floats in two words), written by the gathers.
 
 import octolux::gi::vct::cone_set::CONE_LANES;
+import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 @group(0) @binding(22) var<storage, read_write> bounce_irradiance: array<u32>;
 @group(0) @binding(27) var<storage, read_write> listed_slots: array<u32>;
 // Cleared before the list is made.
 @group(0) @binding(28) var<storage, read_write> listed_count: atomic<u32>;
 // The gather's indirect dispatch: x, y, z workgroups of 64 lanes.
-@group(0) @binding(29) var<storage, read_write> gather_args: array<u32, 3>;
+@group(0) @binding(29) var<storage, read_write> gather_args: DispatchArgs;
 
 var<workgroup> listed_here: atomic<u32>;
 var<workgroup> list_base: u32;
@@ -77,7 +78,5 @@ fn listed_slot(k: u32) -> u32 {
 @compute @workgroup_size(1)
 fn bounce_args() {
     let groups = (atomicLoad(&listed_count) * CONE_LANES + 63u) / 64u;
-    gather_args[0] = min(groups, 65535u);
-    gather_args[1] = (groups + 65534u) / 65535u;
-    gather_args[2] = 1u;
+    gather_args = dispatch_covering(groups);
 }

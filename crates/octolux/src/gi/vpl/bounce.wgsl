@@ -66,12 +66,12 @@ fn bounce(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let s = svo_voxel_sums(hit.xyz);
-    if s[3] == 0u {
+    if s.count == 0u {
         vpls[dst] = out;
         return;
     }
-    let albedo = vec3<f32>(f32(s[0]), f32(s[1]), f32(s[2])) / (255.0 * f32(s[3]));
-    let ns = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
+    let albedo = vec3<f32>(s.albedo) / (255.0 * f32(s.count));
+    let ns = vec3<f32>(s.normal);
     var nv = ns / max(length(ns), 1e-6);
     if dot(nv, dir) > 0.0 {
         nv = -nv;

@@ -8,6 +8,7 @@
 
 import octolux::voxel::voxelize::overlap::linear_index;
 import octolux::voxel::svo::control::SvoControl;
+import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 import octolux::voxel::svo::common::{brick_of, bw_index, child, find, brick_plus_one, fragments, INVALID, L, NEEDED, OCCUPIED, octant_offset, pack3, unpack3};
 
 @group(0) @binding(4) var<storage, read_write> nbr: array<u32>;
@@ -18,13 +19,7 @@ import octolux::voxel::svo::common::{brick_of, bw_index, child, find, brick_plus
 @group(0) @binding(9) var<storage, read_write> bricks1: array<u32>;
 @group(0) @binding(10) var<storage, read_write> bricks2: array<u32>;
 @group(0) @binding(11) var<storage, read_write> bricks3: array<u32>;
-// Indirect dispatch arguments, one per slot (bound only by finish_level): workgroups along
-// x, y and z, as `wgpu::util::DispatchIndirectArgs`.
-struct DispatchArgs {
-    x: u32,
-    y: u32,
-    z: u32,
-};
+// Indirect dispatch arguments, one per slot (bound only by finish_level).
 @group(1) @binding(0) var<storage, read_write> args: array<DispatchArgs>;
 
 // Entry i of level L.d's node range (its static nodes or, with L.range == 1, its dynamic
@@ -69,14 +64,9 @@ fn group_index(wg: vec3<u32>, nwg: vec3<u32>) -> u32 {
 // latency chain of hundreds of dependent reads on a GPU).
 const NODE_ARGS: u32 = 96u;
 
-// Workgroups covering `n` (one row of at most 65535, then more rows).
-fn covering(n: u32) -> DispatchArgs {
-    return DispatchArgs(min(n, 65535u), (n + 65534u) / 65535u, 1u);
-}
-
 fn write_args(slot: u32, count: u32) {
-    args[slot] = covering((count + 63u) / 64u);
-    args[slot + NODE_ARGS] = covering(count);
+    args[slot] = dispatch_covering((count + 63u) / 64u);
+    args[slot + NODE_ARGS] = dispatch_covering(count);
 }
 
 // Shared by the kernels that give a workgroup one node: the node's brick (or other word)

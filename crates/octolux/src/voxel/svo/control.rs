@@ -98,10 +98,10 @@ impl SvoControl {
     }
 }
 
-/// Byte offset of indirect dispatch slot `slot` in the arguments buffer (`DispatchArgs` in
-/// `svo/build.wgsl`, wgpu's `DispatchIndirectArgs`).
+/// Byte offset of indirect dispatch slot `slot` in the arguments buffer (`args` of
+/// `svo/build.wgsl`).
 pub(crate) fn args_offset(slot: u32) -> u64 {
-    slot as u64 * std::mem::size_of::<wgpu::util::DispatchIndirectArgs>() as u64
+    crate::gpu::pass::indirect_offset(slot)
 }
 
 /// Indirect dispatch slots (`DispatchArgs` each): static levels, dynamic levels, dynamic lists and

@@ -399,6 +399,7 @@ fn voxel_albedo(v: vec3<i32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let o = (u.x & 1u) | ((u.y & 1u) << 1u) | ((u.z & 1u) << 2u);
+    // The sums' first four words (svo/leaf_sums.wgsl): albedo x255 and the fragment count.
     var s = vec4<u32>(0u);
     if n >= D.first_static_leaf && n < D.static_nodes {
         let w = leaf_sum_offset(static_sums[n - D.first_static_leaf], o, D.static_nodes - D.first_static_leaf);
@@ -412,10 +413,11 @@ fn voxel_albedo(v: vec3<i32>) -> vec4<f32> {
         s += vec4<u32>(atomicLoad(&dyn_sums[w]), atomicLoad(&dyn_sums[w + 1u]),
                        atomicLoad(&dyn_sums[w + 2u]), atomicLoad(&dyn_sums[w + 3u]));
     }
-    if s.w == 0u {
+    let count = s.w;
+    if count == 0u {
         return vec4<f32>(0.0);
     }
-    let c = f32(s.w);
+    let c = f32(count);
     return vec4<f32>(f32(s.x) / c / 255.0, f32(s.y) / c / 255.0, f32(s.z) / c / 255.0, 1.0);
 }
 

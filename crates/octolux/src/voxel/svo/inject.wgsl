@@ -8,16 +8,13 @@
 // `svo/build.wgsl` then filter the pool upward.
 
 import octolux::voxel::voxelize::overlap::{fragment_sum_terms, linear_index, Tri};
-import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_SUM_WORDS};
+import octolux::voxel::svo::leaf_sums::{leaf_sum_offset, LEAF_EMISSION_SCALE, LEAF_SUM_WORDS, voxel_sums, VoxelSums};
 import octolux::voxel::svo::control::SvoControlValues;
 import octolux::voxel::svo::bounce_table::{bounce_table_hash, BOUNCE_TABLE_PROBES};
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 
-// Per occupied leaf voxel (svo/leaf_sums.wgsl): albedo r, g, b x255 sums, fragment count,
-// emission r, g, b sums x EMISSION_SCALE, normal x, y, z sums (snorm8, two's complement).
-
+// Per occupied leaf voxel: its fragments' sums (svo/leaf_sums.wgsl, `VoxelSums`).
 const SUM_WORDS: u32 = LEAF_SUM_WORDS;
-const EMISSION_SCALE: f32 = 1024.0;
 
 // The accumulation's parameters (`AccumulateParams` in svo/inject.rs). `sums` is the leaf
 // sums buffer (svo/leaf_sums.wgsl) or, for `leaf_mask` and `leaf_slots`, its index part + 1
@@ -217,7 +214,7 @@ fn pool_store(b: u32, i: u32, v: u32) {
 
 // The fragment sums of octant `o` of leaf node `node`: its static sums plus, in an octree with
 // a dynamic part, those of the dynamic fragments.
-fn leaf_voxel_sums(node: u32, o: u32) -> array<u32, 10> {
+fn leaf_voxel_sums(node: u32, o: u32) -> VoxelSums {
     var s: array<u32, 10>;
     if node >= P.first_static_leaf && node < P.static_nodes {
         let leaves = P.static_nodes - P.first_static_leaf;
@@ -237,15 +234,15 @@ fn leaf_voxel_sums(node: u32, o: u32) -> array<u32, 10> {
             }
         }
     }
-    return s;
+    return voxel_sums(s);
 }
 
 // The unit mean normal of the leaf voxel with fragment sums `s`, zero where its fragments'
 // normals cancel (opposite faces in one voxel) or it is empty.
-fn voxel_normal(s: array<u32, 10>) -> vec3<f32> {
-    let c = f32(s[3]);
-    let n = vec3<f32>(f32(bitcast<i32>(s[7])), f32(bitcast<i32>(s[8])), f32(bitcast<i32>(s[9])));
-    if s[3] == 0u || dot(n, n) <= 0.01 * c * c * 127.0 * 127.0 {
+fn voxel_normal(s: VoxelSums) -> vec3<f32> {
+    let c = f32(s.count);
+    let n = vec3<f32>(s.normal);
+    if s.count == 0u || dot(n, n) <= 0.01 * c * c * 127.0 * 127.0 {
         return vec3<f32>(0.0);
     }
     return normalize(n);
@@ -253,14 +250,14 @@ fn voxel_normal(s: array<u32, 10>) -> vec3<f32> {
 
 // Outgoing radiance and opacity at `p` of the leaf voxel with fragment sums `s`, which also
 // receives the irradiance `e0` (multiple bounces), and the direction it leaves in.
-fn voxel_value(s: array<u32, 10>, p: vec3<f32>, e0: vec3<f32>) -> VoxelLight {
-    let count = s[3];
+fn voxel_value(s: VoxelSums, p: vec3<f32>, e0: vec3<f32>) -> VoxelLight {
+    let count = s.count;
     if count == 0u {
         return VoxelLight(vec4<f32>(0.0), vec3<f32>(0.0));
     }
     let c = f32(count);
-    let albedo = vec3<f32>(f32(s[0]), f32(s[1]), f32(s[2])) / c / 255.0;
-    let emission = vec3<f32>(f32(s[4]), f32(s[5]), f32(s[6])) / c / EMISSION_SCALE;
+    let albedo = vec3<f32>(s.albedo) / c / 255.0;
+    let emission = vec3<f32>(s.emission) / c / LEAF_EMISSION_SCALE;
     let n = voxel_normal(s);
     let has_normal = dot(n, n) > 0.5;
     var e = e0;
@@ -333,7 +330,7 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
         let sums = leaf_voxel_sums(n, o);
         var e0 = vec3<f32>(0.0);
         if P.bounce != 0u {
-            let key = select(0u, v.x | (v.y << 10u) | (v.z << 20u) | (1u << 30u), sums[3] != 0u);
+            let key = select(0u, v.x | (v.y << 10u) | (v.z << 20u) | (1u << 30u), sums.count != 0u);
             if P.bounce_table_capacity == 0u {
                 e0 = vec3<f32>(unpack2x16float(bounce_irradiance[2u * slot]),
                                unpack2x16float(bounce_irradiance[2u * slot + 1u]).x);

@@ -22,6 +22,7 @@
 // is the one holding the point just after the exit time, found exactly (no t-epsilon).
 
 import octolux::gpu::work::count_work;
+import octolux::voxel::svo::leaf_sums::{LEAF_SUM_WORDS, voxel_sums, VoxelSums};
 
 struct SvoWalk {
     // World position of the grid's corner, voxel edge (m).
@@ -206,20 +207,16 @@ fn svo_first_hit(a: vec3<i32>, b: vec3<i32>) -> vec4<i32> {
     return none;
 }
 
-// Words of fragment sums per leaf voxel (`LEAF_SUM_WORDS`): albedo x255 (0..2), fragment
-// count (3), emission x1024 (4..6), snorm8 normals (7..9, two's complement).
-const SVO_SUM_WORDS: u32 = 10u;
-const SVO_EMISSION_SCALE: f32 = 1024.0;
-
-// The fragment sums of voxel v, static and dynamic (zero where v is empty).
-fn svo_voxel_sums(v: vec3<i32>) -> array<u32, 10> {
+// The fragment sums of voxel v (svo/leaf_sums.wgsl), static and dynamic (zero where v is
+// empty).
+fn svo_voxel_sums(v: vec3<i32>) -> VoxelSums {
     var s = array<u32, 10>();
     var node = 0u;
     var k = vo.depth;
     while k > 1u {
         let c = svo_child[node];
         if c == 0u {
-            return s;
+            return voxel_sums(s);
         }
         k -= 1u;
         let o = (v >> vec3<u32>(k)) & vec3<i32>(1);
@@ -232,8 +229,8 @@ fn svo_voxel_sums(v: vec3<i32>) -> array<u32, 10> {
         let mask = entry & 255u;
         if (mask & (1u << o)) != 0u {
             let slot = (entry >> 8u) + countOneBits(mask & ((1u << o) - 1u));
-            let at = vo.leaf_count + slot * SVO_SUM_WORDS;
-            for (var i = 0u; i < SVO_SUM_WORDS; i++) {
+            let at = vo.leaf_count + slot * LEAF_SUM_WORDS;
+            for (var i = 0u; i < LEAF_SUM_WORDS; i++) {
                 s[i] += svo_leaf[at + i];
             }
         }
@@ -241,11 +238,11 @@ fn svo_voxel_sums(v: vec3<i32>) -> array<u32, 10> {
     if vo.dynamic != 0u {
         let slot = svo_state[node] >> 2u;
         if slot != 0u {
-            let at = ((slot - 1u) * 8u + o) * SVO_SUM_WORDS;
-            for (var i = 0u; i < SVO_SUM_WORDS; i++) {
+            let at = ((slot - 1u) * 8u + o) * LEAF_SUM_WORDS;
+            for (var i = 0u; i < LEAF_SUM_WORDS; i++) {
                 s[i] += svo_dyn_sums[at + i];
             }
         }
     }
-    return s;
+    return voxel_sums(s);
 }

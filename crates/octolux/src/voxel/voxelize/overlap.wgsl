@@ -2,6 +2,8 @@
 // integer triangle/box overlap test on the snapping lattice (separating axis theorem, closed
 // dilated boxes: touching counts).
 
+import octolux::voxel::svo::leaf_sums::{LEAF_EMISSION_SCALE, voxel_sum_words, VoxelSums};
+
 // One triangle's surface data (`GpuTriangle` in voxel/mod.rs); its position reaches the kernels
 // as the pieces it is snapped into (`Piece` below).
 struct Tri {
@@ -13,23 +15,18 @@ struct Tri {
     normal: u32,
 }
 
-// What one fragment of `tri` adds to its leaf voxel's sums (the octree's 10 words per voxel):
-// albedo r, g, b (x255), 1 (the count), emission r, g, b (fixed point x1024, W/(m^2 sr)),
-// normal x, y, z (snorm8 as two's complement). Integer sums do not depend on their order.
+// What one fragment of `tri` adds to its leaf voxel's sums (svo/leaf_sums.wgsl): its albedo
+// x255, a count of one, its emission in fixed point and its normal as snorm8.
 fn fragment_sum_terms(tri: Tri) -> array<u32, 10> {
-    var t: array<u32, 10>;
     let albedo = tri.albedo;
-    t[0] = albedo & 255u;
-    t[1] = (albedo >> 8u) & 255u;
-    t[2] = (albedo >> 16u) & 255u;
-    t[3] = 1u;
     let e = clamp(tri.emission, vec3<f32>(0.0), vec3<f32>(65504.0));
-    let nb = tri.normal;
-    for (var k = 0u; k < 3u; k++) {
-        t[4u + k] = u32(round(e[k] * 1024.0));
-        t[7u + k] = bitcast<u32>(i32(((nb >> (8u * k)) & 255u) << 24u) >> 24u);
-    }
-    return t;
+    let nb = vec3<u32>(tri.normal, tri.normal >> 8u, tri.normal >> 16u) & vec3<u32>(255u);
+    return voxel_sum_words(VoxelSums(
+        vec3<u32>(albedo, albedo >> 8u, albedo >> 16u) & vec3<u32>(255u),
+        1u,
+        vec3<u32>(round(e * LEAF_EMISSION_SCALE)),
+        bitcast<vec3<i32>>(nb << vec3<u32>(24u)) >> vec3<u32>(24u),
+    ));
 }
 
 // A box of voxels [lo, hi) of a grid and the work items over it (`VoxParams` in
