@@ -9,7 +9,7 @@
 //! draws on the CPU, so it cannot disturb what it shows.
 
 use super::encoding::COEFFS;
-use super::engine::{PROBE_VEC4, SURFEL_VEC4};
+use super::engine::{GpuSurfel, PROBE_VEC4};
 use super::{Encoding, ProbesGrid, ProbesOctree};
 use crate::gi::GiTechnique;
 use crate::gpu::{read_buffer, GpuContext};
@@ -136,19 +136,19 @@ fn probe_mark(probes: &[Vec4], slot: usize, position: Vec3, radius: f32) -> Prob
 
 /// Front-face surfels of the live probe slots (`live[slot]`).
 fn surfel_marks(
-    geometry: &[Vec4],
+    surfels: &[GpuSurfel],
     radiance: &[Vec4],
     per_probe: usize,
     live: &[bool],
 ) -> Vec<SurfelMark> {
-    let count = radiance.len().min(geometry.len() / SURFEL_VEC4 as usize);
+    let count = radiance.len().min(surfels.len());
     (0..count)
         .filter(|&s| live.get(s / per_probe).copied().unwrap_or(false))
         .filter_map(|s| {
-            let g = geometry[s * SURFEL_VEC4 as usize];
+            let g = surfels[s];
             // State 1: a front-face hit (0: miss, 2: back face).
-            (g.w > 0.5 && g.w < 1.5).then(|| SurfelMark {
-                position: g.xyz(),
+            (g.state == 1.0).then(|| SurfelMark {
+                position: g.position.into(),
                 radiance: radiance[s].xyz(),
             })
         })
@@ -163,8 +163,12 @@ fn read_surfels(
     settings: &super::ProbeSettings,
     live: &[bool],
 ) -> Result<Vec<SurfelMark>> {
+    let surfels: Vec<GpuSurfel> = read_all(ctx, geometry)?
+        .chunks_exact(std::mem::size_of::<GpuSurfel>())
+        .map(bytemuck::pod_read_unaligned)
+        .collect();
     Ok(surfel_marks(
-        &vec4s(&read_all(ctx, geometry)?),
+        &surfels,
         &vec4s(&read_all(ctx, radiance)?),
         (settings.surfel_count() * settings.surfel_sets()) as usize,
         live,

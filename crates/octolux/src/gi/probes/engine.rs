@@ -24,8 +24,26 @@ use glam::{Mat4, UVec3, Vec3};
 /// `vec4`s per probe in the probe buffer (`PROBE_VEC4` in probes.wgsl): the encoding's 8
 /// coefficients, then the probe's state.
 pub const PROBE_VEC4: u64 = 9;
-/// `vec4`s per surfel in the surfel buffer (`SURFEL_VEC4` in probes.wgsl).
-pub const SURFEL_VEC4: u64 = 3;
+/// `vec4`s per surfel in the surfel buffer ([`GpuSurfel`], `SURFEL_VEC4` in probes.wgsl).
+pub const SURFEL_VEC4: u64 = (std::mem::size_of::<GpuSurfel>() / 16) as u64;
+
+/// One surfel as the probe passes store it (`Surfel` in probes.wgsl): where a probe's ray hit.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuSurfel {
+    /// Hit point.
+    pub position: [f32; 3],
+    /// 0 miss, 1 front face, 2 back face (a float, as the CPU twins read it).
+    pub state: f32,
+    /// Unit normal, towards the probe.
+    pub normal: [f32; 3],
+    /// Linear albedo x 255 as RGBA8.
+    pub albedo: u32,
+    /// Emitted radiance, W/(m^2 sr).
+    pub emission: [f32; 3],
+    /// Hit distance; negative: the hit lies beyond the probe's cube.
+    pub distance: f32,
+}
 
 /// A probe set's WGSL modules: the one every pass imports as `gi/probes/set` (positions,
 /// liveness, placement), the one the passes that read probes import as

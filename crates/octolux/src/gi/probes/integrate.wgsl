@@ -15,12 +15,12 @@
 // where nothing that lights it moves, though a light elsewhere does). A probe that restarts
 // (the octree's new probes, `probe_restarts`) takes its latest set's sample alone.
 
-import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, PROBE_VEC4, SURFEL_VEC4};
+import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, PROBE_VEC4, Surfel};
 import octolux::gi::probes::set::{probe_live, probe_restarts, probe_slot, probe_slots, probe_store_hits};
 import octolux::gi::probes::encoding::probe_encode;
 import octolux::gpu::work::count_work;
 
-@group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> surfels: array<Surfel>;
 @group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
 @group(0) @binding(3) var<storage, read_write> probes: array<vec4<f32>>;
 // Per probe, 8 vec4s: the coefficients of the set placed most recently as last integrated
@@ -61,10 +61,11 @@ fn integrate_set(probe: u32, ray_set: u32, n: u32) -> SetSums {
     note_surfels(n);
     for (var k = 0u; k < n; k++) {
         let s = first + k;
-        let state = surfels[s * SURFEL_VEC4].w;
+        let surfel = surfels[s];
+        let state = surfel.state;
         hits += u32(state > 0.5);
         back += u32(state > 1.5);
-        inside += u32(state > 0.5 && surfels[s * SURFEL_VEC4 + 2u].w >= 0.0);
+        inside += u32(state > 0.5 && surfel.distance >= 0.0);
         let d = probe_ray_dir(ray_set, k, n);
         probe_encode(P.encoding, &c, radiance[s].rgb, d.xyz, d.w);
     }

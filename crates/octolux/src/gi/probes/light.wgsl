@@ -7,12 +7,12 @@
 
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
 import octolux::frame::common::PI;
-import octolux::gi::probes::probes::{linear_index, P, probe_surfels, SURFEL_VEC4};
+import octolux::gi::probes::probes::{linear_index, P, probe_surfels, Surfel, SURFEL_FRONT};
 import octolux::gi::probes::set::{probe_live, probe_restarts, probe_slot, probe_slots};
 import octolux::gi::probes::set_sample::{count_sample_work, probes_irradiance};
 import octolux::gpu::work::count_work;
 
-@group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> surfels: array<Surfel>;
 @group(0) @binding(2) var<storage, read_write> radiance: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
@@ -35,16 +35,15 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     if latest_only && (k % per_probe) / P.surfels_per_set != P.latest_set {
         return;
     }
-    let b = s * SURFEL_VEC4;
-    let s0 = surfels[b];
-    if s0.w < 0.5 || s0.w > 1.5 {
+    let surfel = surfels[s];
+    // Only front faces are lit.
+    if surfel.state != SURFEL_FRONT {
         radiance[s] = vec4<f32>(0.0);
         return;
     }
-    let s1 = surfels[b + 1u];
-    let p = s0.xyz;
-    let n = s1.xyz;
-    let albedo = unpack4x8unorm(bitcast<u32>(s1.w)).rgb;
+    let p = surfel.position;
+    let n = surfel.normal;
+    let albedo = unpack4x8unorm(surfel.albedo).rgb;
     var e = vec3<f32>(0.0);
     // Work counts (`*_LIGHT_WORK` in engine.rs): surfels lit, shadow lookups, then the probe
     // lookups' work (with multiple bounces).
@@ -67,5 +66,5 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     count_work(0u, 1u);
     count_work(1u, shadow_lookups);
     count_sample_work(2u);
-    radiance[s] = vec4<f32>(surfels[b + 2u].rgb + albedo / PI * e, 0.0);
+    radiance[s] = vec4<f32>(surfel.emission + albedo / PI * e, 0.0);
 }

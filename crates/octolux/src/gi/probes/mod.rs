@@ -36,7 +36,7 @@ mod params;
 pub mod rays;
 
 pub use encoding::Encoding;
-pub use engine::{PROBE_VEC4, SURFEL_VEC4};
+pub use engine::{GpuSurfel, PROBE_VEC4, SURFEL_VEC4};
 pub use grid_gi::{
     grid_irradiance, integrate_probe, integrate_probe_history, ProbeGrid, ProbeHistory, ProbesGrid,
     SurfelSet, FORGETTING,

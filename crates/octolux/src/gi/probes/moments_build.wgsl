@@ -9,12 +9,12 @@
 // turned lattice, and blended into the maps of the frames before with weight
 // 1 - P.moments_keep (P.moments_keep is 0 on the first frame and after an object moved).
 
-import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
+import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, Surfel};
 import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
 import octolux::gi::probes::set::{probe_restarts, probe_slot, probe_slots, probe_wants_place};
 import octolux::gpu::work::count_work;
 
-@group(0) @binding(1) var<storage, read> surfels: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> surfels: array<Surfel>;
 @group(0) @binding(2) var<storage, read_write> moments_out: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read> probe_stamps: array<u32>;
 
@@ -52,8 +52,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     var sum = vec2<f32>(0.0);
     var total = 0.0;
     for (var k = 0u; k < n; k++) {
-        let s = (first + k) * SURFEL_VEC4;
-        let dist = select(P.max_distance, abs(surfels[s + 2u].w), surfels[s].w > 0.5);
+        let surfel = surfels[first + k];
+        let dist = select(P.max_distance, abs(surfel.distance), surfel.state > 0.5);
         let w = moment_kernel(t, probe_ray_dir(ray_set, k, n).xyz);
         sum += w * vec2<f32>(dist, dist * dist);
         total += w;

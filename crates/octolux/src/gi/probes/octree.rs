@@ -193,8 +193,8 @@ pub struct OctreeProbe {
 }
 
 impl OctreeProbe {
-    /// The probe's record in the GPU's probe-info buffer: position and depth, or
-    /// `(0, 0, 0, -1)` for a free slot.
+    /// The probe's record in the GPU's probe-info buffer (`ProbeInfo` of `octree_params.wgsl`):
+    /// position and depth, or `(0, 0, 0, -1)` for a free slot.
     pub fn gpu_info(probe: Option<&OctreeProbe>) -> [f32; 4] {
         probe.map_or([0.0, 0.0, 0.0, -1.0], |p| {
             p.position.extend(p.depth as f32).to_array()

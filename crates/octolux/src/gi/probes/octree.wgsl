@@ -8,11 +8,12 @@
 import octolux::gi::probes::octree_tree::{octree_cube, octree_meta};
 import octolux::gi::probes::tree_bindings::{O, tree};
 import octolux::gpu::work::count_work;
+import octolux::gi::probes::octree_params::{FREE_INFO, ProbeInfo};
 import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 
 // The parameters and the tree (bindings 0, 1) are octree_tree_write.wgsl's.
 // Per probe slot: position and depth, or (0, 0, 0, -1) when free.
-@group(0) @binding(2) var<storage, read_write> probe_info: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> probe_info: array<ProbeInfo>;
 // Per probe slot: 1 = place its surfels this frame.
 @group(0) @binding(3) var<storage, read_write> place_flags: array<u32>;
 // Per probe slot: surfels inside its cube.
@@ -45,7 +46,6 @@ const M2: u32 = 7u;
 const M1: u32 = 8u;
 const M0: u32 = 9u;
 
-const FREE_INFO: vec4<f32> = vec4<f32>(0.0, 0.0, 0.0, -1.0);
 // `freed` marks: a probe slot p is p + 1, a cluster has this bit set.
 const FREED_CLUSTER: u32 = 0x80000000u;
 const THREADS: u32 = 256u;
@@ -78,7 +78,7 @@ fn parent_of(i: u32) -> u32 {
 
 fn set_probe(node: u32, p: u32) {
     let c = octree_cube(node);
-    probe_info[p] = vec4<f32>(c.lo + vec3<f32>(c.size * 0.5), f32(c.depth));
+    probe_info[p] = ProbeInfo(c.lo + vec3<f32>(c.size * 0.5), f32(c.depth));
     tree[node] = ~i32(p);
 }
 
@@ -296,12 +296,12 @@ fn list_live_probes(t: u32) {
     let end = min(start + per, capacity);
     var mine = 0u;
     for (var p = start; p < end; p++) {
-        mine += u32(probe_info[p].w >= 0.0);
+        mine += u32(probe_info[p].depth >= 0.0);
     }
     let scanned = exclusive_scan(t, vec2<u32>(mine, 0u));
     var at = scanned.x;
     for (var p = start; p < end; p++) {
-        if probe_info[p].w >= 0.0 {
+        if probe_info[p].depth >= 0.0 {
             live[1u + at] = p;
             at += 1u;
         }
@@ -383,7 +383,7 @@ fn light_decide(@builtin(global_invocation_id) id: vec3<u32>) {
     let p = u32(~tree[i]);
     place_flags[p] = 0u;
     let h = hits[p];
-    let depth = u32(probe_info[p].w);
+    let depth = u32(probe_info[p].depth);
     // `OctreeRule::decide`: levels above the minimum depth (O.min_depth) always split, leaves
     // down to it keep their probes.
     let min_depth = O.min_depth;

@@ -38,3 +38,12 @@ struct OctreeParams {
     _pad0: u32,
     _pad1: u32,
 };
+
+// A probe slot's record in `probe_info` (`OctreeProbe::gpu_info` in octree.rs).
+struct ProbeInfo {
+    // Centre of the probe's cube.
+    position: vec3<f32>,
+    // Its depth in the octree; negative: the slot is free.
+    depth: f32,
+};
+const FREE_INFO: ProbeInfo = ProbeInfo(vec3<f32>(0.0), -1.0);

@@ -81,7 +81,7 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
                 continue;
             }
             note_sample(1u, 0u, 0u);
-            let x = probe_info[probe].xyz;
+            let x = probe_info[probe].position;
             let tent = max(vec3<f32>(1.0) - abs(q - x) / max(probe_edge(probe), 2.0 * h), vec3<f32>(0.0));
             let w0 = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
             let w = w0 * probe_visibility(probe, x, q);
@@ -109,10 +109,10 @@ fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             continue;
         }
         note_sample(1u, 0u, 0u);
-        let x = probe_info[probe].xyz;
+        let x = probe_info[probe].position;
         let r = x - q;
         let e = probe_edge(probe) * 0.5;
-        let w = probe_facing_weight(x - p, n) * probe_visibility(probe, x, q) * ldexp(1.0, -3 * i32(probe_info[probe].w)) / max(dot(r, r), e * e);
+        let w = probe_facing_weight(x - p, n) * probe_visibility(probe, x, q) * ldexp(1.0, -3 * i32(probe_info[probe].depth)) / max(dot(r, r), e * e);
         sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
         total += w;
     }

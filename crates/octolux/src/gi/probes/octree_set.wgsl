@@ -4,8 +4,9 @@
 // `gi/probes/set`, with octree_tree_read.wgsl as the tree's bindings.
 
 import octolux::gi::probes::tree_bindings::O;
+import octolux::gi::probes::octree_params::ProbeInfo;
 
-@group(1) @binding(2) var<storage, read> probe_info: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> probe_info: array<ProbeInfo>;
 @group(1) @binding(3) var<storage, read> place_flags: array<u32>;
 @group(1) @binding(4) var<storage, read_write> hits: array<u32>;
 // The live probes (octree.wgsl's `live`): count, then slots.
@@ -22,11 +23,11 @@ fn probe_slot(k: u32) -> u32 {
 }
 
 fn probe_origin(probe: u32) -> vec3<f32> {
-    return probe_info[probe].xyz;
+    return probe_info[probe].position;
 }
 
 fn probe_live(probe: u32) -> bool {
-    return probe_info[probe].w >= 0.0;
+    return probe_info[probe].depth >= 0.0;
 }
 
 fn probe_wants_place(probe: u32) -> bool {
@@ -43,7 +44,7 @@ fn probe_restarts(probe: u32) -> bool {
 
 // Edge of the probe's leaf cube.
 fn probe_edge(probe: u32) -> f32 {
-    return ldexp(O.root_size, -i32(probe_info[probe].w));
+    return ldexp(O.root_size, -i32(probe_info[probe].depth));
 }
 
 // Distance from the probe (its cube's centre) along unit d to its cube's boundary.

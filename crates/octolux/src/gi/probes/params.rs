@@ -91,6 +91,18 @@ mod tests {
     use crate::gpu::layout::assert_mirrors_wgsl;
 
     #[test]
+    fn surfels_mirror_the_wgsl() {
+        use crate::gi::probes::GpuSurfel;
+        assert_mirrors_wgsl!(
+            GpuSurfel,
+            "gi/probes/probes",
+            "Surfel",
+            [position, state, normal, albedo, emission, distance]
+        );
+        assert_eq!(std::mem::size_of::<GpuSurfel>() % 16, 0);
+    }
+
+    #[test]
     fn probe_params_mirror_the_wgsl() {
         assert_mirrors_wgsl!(
             ProbeParams,

@@ -12,12 +12,12 @@
 // placed this frame is traced whole along its turned lattice, and the other set keeps its
 // surfels but where objects moved (both are traced for a probe that restarts its history).
 
-import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, SURFEL_VEC4};
+import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, Surfel, SURFEL_BACK, SURFEL_FRONT, SURFEL_MISS};
 import octolux::gi::probes::set::{probe_keeps_far_hits, probe_origin, probe_region_exit, probe_restarts, probe_slot, probe_slots, probe_wants_place};
 import octolux::gi::probes::rays::{count_ray_work, surfel_hit};
 import octolux::gpu::work::count_work;
 
-@group(0) @binding(1) var<storage, read_write> surfels: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> surfels: array<Surfel>;
 // Per moved box: (lower corner, 0), (upper corner, 0).
 @group(0) @binding(7) var<storage, read> moved_boxes: array<vec4<f32>>;
 // Per probe, the last frame that traced any of its rays again (for the moments' pass). Every
@@ -77,10 +77,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     let d = probe_ray_dir(ray_set, k % n, n).xyz;
     let o = probe_origin(probe);
-    let b = s * SURFEL_VEC4;
     if !fresh && P.keep_unmoved != 0u {
-        let old = surfels[b];
-        let end = select(old.xyz, o + d * P.max_distance, old.w == 0.0);
+        let old = surfels[s];
+        let end = select(old.position, o + d * P.max_distance, old.state == SURFEL_MISS);
         if !segment_meets_moved(o, end) {
             return;
         }
@@ -92,14 +91,12 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     count_ray_work(2u);
     let inside = hit.t <= probe_region_exit(probe, d);
     if hit.t < 0.0 || !(inside || probe_keeps_far_hits()) {
-        surfels[b] = vec4<f32>(o, 0.0);
-        surfels[b + 1u] = vec4<f32>(0.0);
-        surfels[b + 2u] = vec4<f32>(0.0);
+        surfels[s] = Surfel(o, SURFEL_MISS, vec3<f32>(0.0), 0u, vec3<f32>(0.0), 0.0);
         return;
     }
     let geo = select(-d, hit.normal, dot(hit.normal, hit.normal) > 0.5);
     let front = dot(geo, d) < 0.0;
-    surfels[b] = vec4<f32>(o + d * hit.t, select(2.0, 1.0, front));
-    surfels[b + 1u] = vec4<f32>(select(-geo, geo, front), bitcast<f32>(hit.albedo));
-    surfels[b + 2u] = vec4<f32>(hit.emission, select(-hit.t, hit.t, inside));
+    surfels[s] = Surfel(o + d * hit.t, select(SURFEL_BACK, SURFEL_FRONT, front),
+                        select(-geo, geo, front), hit.albedo, hit.emission,
+                        select(-hit.t, hit.t, inside));
 }

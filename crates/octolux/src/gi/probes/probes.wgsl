@@ -86,8 +86,25 @@ struct SurfelHit {
 
 // Words (vec4) per probe: 8 encoding coefficients, then (back-face share, hit share, valid, 0).
 const PROBE_VEC4: u32 = 9u;
-// vec4s per surfel: (position, state 0 miss / 1 front / 2 back), (normal towards the probe,
-// albedo bits), (emission, hit distance; negative: the hit lies beyond the probe's cube).
+// One surfel: where a probe's ray hit (`GpuSurfel` in engine.rs; 3 vec4s, `SURFEL_VEC4`).
+struct Surfel {
+    position: vec3<f32>,
+    // SURFEL_MISS, SURFEL_FRONT or SURFEL_BACK (the face the ray hit). A float, as the CPU
+    // twins (`integrate_probe`) read it.
+    state: f32,
+    // Unit normal, towards the probe.
+    normal: vec3<f32>,
+    // Linear albedo x 255 as RGBA8.
+    albedo: u32,
+    // Emitted radiance, W/(m^2 sr).
+    emission: vec3<f32>,
+    // Hit distance; negative: the hit lies beyond the probe's cube.
+    distance: f32,
+};
+const SURFEL_MISS: f32 = 0.0;
+const SURFEL_FRONT: f32 = 1.0;
+const SURFEL_BACK: f32 = 2.0;
+// vec4s per surfel, for the buffer's size.
 const SURFEL_VEC4: u32 = 3u;
 
 // Surfels per probe over all its sets.
