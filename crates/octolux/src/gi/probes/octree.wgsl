@@ -8,7 +8,7 @@
 import octolux::gi::probes::octree_tree::{octree_cube, octree_meta};
 import octolux::gi::probes::tree_bindings::{O, tree};
 import octolux::gpu::work::count_work;
-import octolux::gi::probes::octree_params::{FREE_INFO, ProbeInfo};
+import octolux::gi::probes::octree_params::{FREE_INFO, LIVE_COUNT, LIVE_FIRST, ProbeInfo};
 import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 
 // The parameters and the tree (bindings 0, 1) are octree_tree_write.wgsl's.
@@ -51,14 +51,19 @@ const FREED_CLUSTER: u32 = 0x80000000u;
 const THREADS: u32 = 256u;
 
 // Layout of `state` (`GpuOctree::state_words`).
+// The state buffer's head (`STATE_*` in octree_gi.rs): the free lists' tops, then 2 spare
+// words.
+const STATE_PROBE_TOP: u32 = 0u;
+const STATE_CLUSTER_TOP: u32 = 1u;
+const STATE_HEAD: u32 = 4u;
 fn free_probe_at(k: u32) -> u32 {
-    return 4u + k;
+    return STATE_HEAD + k;
 }
 fn free_cluster_at(k: u32) -> u32 {
-    return 4u + O.probe_slots + k;
+    return STATE_HEAD + O.probe_slots + k;
 }
 fn no_split_at(i: u32) -> u32 {
-    return 4u + O.probe_slots + O.clusters + i;
+    return STATE_HEAD + O.probe_slots + O.clusters + i;
 }
 fn request_at(i: u32) -> u32 {
     return no_split_at(i) + O.tree_words;
@@ -213,8 +218,8 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
         state[request_at(i)] = r;
         mine += demand(i);
     }
-    let probe_top = state[0];
-    let cluster_top = state[1];
+    let probe_top = state[STATE_PROBE_TOP];
+    let cluster_top = state[STATE_CLUSTER_TOP];
     let available = vec2<u32>(cluster_top, probe_top);
     var before = exclusive_scan(t, mine).xy;
     for (var i = start; i < end; i++) {
@@ -278,8 +283,8 @@ fn memory_update(@builtin(local_invocation_index) t: u32) {
         atomicStore(&ring[seg + i], 0u);
     }
     if t == 0u {
-        state[0] = probes_left + scanned.w;
-        state[1] = clusters_left + scanned.z;
+        state[STATE_PROBE_TOP] = probes_left + scanned.w;
+        state[STATE_CLUSTER_TOP] = clusters_left + scanned.z;
     }
     storageBarrier();
     workgroupBarrier();
@@ -302,13 +307,13 @@ fn list_live_probes(t: u32) {
     var at = scanned.x;
     for (var p = start; p < end; p++) {
         if probe_info[p].depth >= 0.0 {
-            live[1u + at] = p;
+            live[LIVE_FIRST + at] = p;
             at += 1u;
         }
     }
     if t == 0u {
         let count = scanned.z;
-        live[0] = count;
+        live[LIVE_COUNT] = count;
         // Work counts: the live probes the shared passes run over.
         count_work(1u, count);
         set_args(LIVE_SURFELS, count * O.surfels_per_probe);

@@ -29,8 +29,13 @@ use crate::{Error, Result};
 use glam::{UVec3, Vec3};
 
 const OWNER: &str = "probes-octree";
-/// Words before the free lists in the state buffer (tops of the two free lists, 2 spare).
+/// Words before the free lists in the state buffer (`STATE_HEAD` in octree.wgsl): the tops of
+/// the two free lists ([`STATE_PROBE_TOP`], [`STATE_CLUSTER_TOP`]), 2 spare.
 const STATE_HEAD: usize = 4;
+/// The state word holding the probes' free-list top (`STATE_PROBE_TOP` in octree.wgsl).
+const STATE_PROBE_TOP: usize = 0;
+/// The state word holding the clusters' free-list top (`STATE_CLUSTER_TOP` in octree.wgsl).
+const STATE_CLUSTER_TOP: usize = 1;
 
 /// `OctreeParams` in octree_params.wgsl (the same fields at the same offsets; tested).
 #[repr(C)]
@@ -141,8 +146,8 @@ impl GpuProbeOctree {
         let clusters = (len - 1) / 9;
         let (free_probes, free_clusters) = cpu.free_lists();
         let mut state = vec![0u32; STATE_HEAD + capacity as usize + clusters + 3 * len];
-        state[0] = free_probes.len() as u32;
-        state[1] = free_clusters.len() as u32;
+        state[STATE_PROBE_TOP] = free_probes.len() as u32;
+        state[STATE_CLUSTER_TOP] = free_clusters.len() as u32;
         state[STATE_HEAD..STATE_HEAD + free_probes.len()].copy_from_slice(free_probes);
         let c0 = STATE_HEAD + capacity as usize;
         state[c0..c0 + free_clusters.len()].copy_from_slice(free_clusters);

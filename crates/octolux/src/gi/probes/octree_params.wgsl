@@ -39,6 +39,10 @@ struct OctreeParams {
     _pad1: u32,
 };
 
+// The live probes' list (octree.wgsl's `live`): its count, then the slots from LIVE_FIRST.
+const LIVE_COUNT: u32 = 0u;
+const LIVE_FIRST: u32 = 1u;
+
 // A probe slot's record in `probe_info` (`OctreeProbe::gpu_info` in octree.rs).
 struct ProbeInfo {
     // Centre of the probe's cube.

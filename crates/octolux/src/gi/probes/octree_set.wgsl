@@ -4,7 +4,7 @@
 // `gi/probes/set`, with octree_tree_read.wgsl as the tree's bindings.
 
 import octolux::gi::probes::tree_bindings::O;
-import octolux::gi::probes::octree_params::ProbeInfo;
+import octolux::gi::probes::octree_params::{LIVE_COUNT, LIVE_FIRST, ProbeInfo};
 
 @group(1) @binding(2) var<storage, read> probe_info: array<ProbeInfo>;
 @group(1) @binding(3) var<storage, read> place_flags: array<u32>;
@@ -15,11 +15,11 @@ import octolux::gi::probes::octree_params::ProbeInfo;
 // The shared passes run over the live probes: `probe_slots()` of them, the k-th in slot
 // `probe_slot(k)`.
 fn probe_slots() -> u32 {
-    return live[0];
+    return live[LIVE_COUNT];
 }
 
 fn probe_slot(k: u32) -> u32 {
-    return live[1u + k];
+    return live[LIVE_FIRST + k];
 }
 
 fn probe_origin(probe: u32) -> vec3<f32> {

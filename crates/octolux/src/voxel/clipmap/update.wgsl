@@ -32,7 +32,7 @@ struct BoxParams {
 @group(0) @binding(2) var<storage, read> items: array<vec2<u32>>;
 @group(0) @binding(3) var<storage, read_write> accum: array<atomic<u32>>;
 @group(0) @binding(4) var<storage, read_write> voxels: array<u32>;
-@group(0) @binding(5) var<storage, read_write> written: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> written: atomic<u32>;
 // Per voxel: averaged unit normal, snorm8 x3 (same slots as `voxels`).
 @group(0) @binding(6) var<storage, read_write> normals: array<u32>;
 // Per voxel: mean emission, RGB9E5 (same slots as `voxels`).
@@ -119,9 +119,22 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
            @builtin(local_invocation_index) li: u32) {
     let i = linear_index(wg, nwg, li);
     let size = box_size();
-    if i >= size.x * size.y * size.z {
-        return;
+    if i < size.x * size.y * size.z {
+        resolve_voxel(i, size);
+        atomicAdd(&workgroup_written, 1u);
     }
+    // One add to the global counter per workgroup: every voxel adding to one word would make
+    // the GPU's lanes wait on each other for a statistic.
+    workgroupBarrier();
+    if li == 0u {
+        atomicAdd(&written, atomicLoad(&workgroup_written));
+    }
+}
+
+var<workgroup> workgroup_written: atomic<u32>;
+
+// Voxel `i` of the box of `size` from its accumulated sums, which it clears.
+fn resolve_voxel(i: u32, size: vec3<u32>) {
     let l = vec3<u32>(i % size.x, (i / size.x) % size.y, i / (size.x * size.y));
     let k = ACCUM_WORDS * i;
     let count = atomicExchange(&accum[k + 3u], 0u);
@@ -158,5 +171,4 @@ fn resolve(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: v
     }
     normals[slot] = packed_normal;
     emission[slot] = emitted;
-    atomicAdd(&written[0], 1u);
 }
