@@ -3,7 +3,7 @@
 //! injection needs for the VPL's physical flux and the surfel's area (see `rsm.wgsl`).
 
 use super::shadow::LayerView;
-use crate::frame::scene_gpu::{raster_pipeline, SceneGpu, UNIFORM_STRIDE};
+use crate::frame::scene_gpu::{raster_pipeline, SceneGpu};
 use crate::gpu::pass::SLOT;
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
@@ -319,7 +319,7 @@ impl RsmPass {
                 });
                 pass.set_pipeline(&self.pipeline);
                 let view = Self::view_of(layers, i);
-                let view_offset = ((view as u64 + 1) * UNIFORM_STRIDE) as u32;
+                let view_offset = ((view as u64 + 1) * SLOT) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
                 pass.set_bind_group(3, &self.group, &[(i as u64 * SLOT) as u32]);
                 triangles += scene_gpu.draw(&mut pass, view + 1);

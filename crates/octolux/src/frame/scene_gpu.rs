@@ -3,6 +3,7 @@
 //! every shadow-map layer.
 
 use super::culling::{bounds_of, clusters, outside, visible_ranges, Cluster};
+use crate::gpu::pass::SLOT;
 use crate::gpu::GpuContext;
 use crate::scene::{AlphaMode, Scene};
 use crate::{Error, Result};
@@ -10,8 +11,6 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3, Vec4};
 
 const OWNER: &str = "scene";
-/// Uniform-buffer dynamic offsets must be multiples of this on every adapter we target.
-pub(crate) const UNIFORM_STRIDE: u64 = 256;
 
 /// Interleaved vertex layout: position, normal, uv.
 #[repr(C)]
@@ -275,7 +274,7 @@ impl SceneGpu {
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("object transforms"),
-                size: object_count * UNIFORM_STRIDE,
+                size: object_count * SLOT,
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
@@ -285,7 +284,7 @@ impl SceneGpu {
             OWNER,
             &wgpu::BufferDescriptor {
                 label: Some("view uniforms"),
-                size: view_capacity as u64 * UNIFORM_STRIDE,
+                size: view_capacity as u64 * SLOT,
                 usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             },
@@ -339,13 +338,13 @@ impl SceneGpu {
     /// Uploads this frame's object transforms.
     pub(crate) fn update_objects(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
         self.transforms = transforms.to_vec();
-        let mut data = vec![0u8; transforms.len() * UNIFORM_STRIDE as usize];
+        let mut data = vec![0u8; transforms.len() * SLOT as usize];
         for (i, m) in transforms.iter().enumerate() {
             let u = ObjectUniform {
                 model: m.to_cols_array_2d(),
                 normal_matrix: m.inverse().transpose().to_cols_array_2d(),
             };
-            let start = i * UNIFORM_STRIDE as usize;
+            let start = i * SLOT as usize;
             data[start..start + std::mem::size_of::<ObjectUniform>()]
                 .copy_from_slice(bytemuck::bytes_of(&u));
         }
@@ -357,13 +356,13 @@ impl SceneGpu {
     /// Uploads view uniforms (index 0 = camera, then shadow layers).
     pub(crate) fn update_views(&mut self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
         self.view_projs = views.iter().map(|v| v.0).collect();
-        let mut data = vec![0u8; views.len() * UNIFORM_STRIDE as usize];
+        let mut data = vec![0u8; views.len() * SLOT as usize];
         for (i, (view_proj, position)) in views.iter().enumerate() {
             let u = ViewUniform {
                 view_proj: view_proj.to_cols_array_2d(),
                 position: position.to_array(),
             };
-            let start = i * UNIFORM_STRIDE as usize;
+            let start = i * SLOT as usize;
             data[start..start + std::mem::size_of::<ViewUniform>()]
                 .copy_from_slice(bytemuck::bytes_of(&u));
         }
@@ -393,7 +392,7 @@ impl SceneGpu {
                     continue;
                 }
                 if !object_bound {
-                    let offset = (o as u64 * UNIFORM_STRIDE) as u32;
+                    let offset = (o as u64 * SLOT) as u32;
                     pass.set_bind_group(2, &self.object_group, &[offset]);
                     object_bound = true;
                 }

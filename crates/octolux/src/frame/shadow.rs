@@ -9,6 +9,7 @@
 //! lights cost a few layers. Their lookup matrices map into the tile.
 
 use super::scene_gpu::{raster_pipeline, SceneGpu};
+use crate::gpu::pass::SLOT;
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::scene::{Light, LightKind};
@@ -446,7 +447,7 @@ pub const SHADOW_WORK: &[&str] = &["layers", "triangles drawn"];
 
 /// Draws the scene through view `view` (uniform slot `view + 1`); returns the triangles drawn.
 fn draw_view<'a>(pass: &mut wgpu::RenderPass<'a>, scene_gpu: &'a SceneGpu, view: u32) -> u64 {
-    let offset = ((view as u64 + 1) * super::scene_gpu::UNIFORM_STRIDE) as u32;
+    let offset = ((view as u64 + 1) * SLOT) as u32;
     pass.set_bind_group(0, &scene_gpu.view_group, &[offset]);
     scene_gpu.draw(pass, view as usize + 1)
 }

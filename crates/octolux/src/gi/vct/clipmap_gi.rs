@@ -14,6 +14,7 @@ use super::tracer::{ConeTracer, TraceStructure};
 use super::{ClipmapInjection, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::alloc::storage;
+use crate::gpu::pass::SLOT;
 use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::{
@@ -133,7 +134,7 @@ struct ClipmapBounce {
     clear: wgpu::ComputePipeline,
     /// The [`BounceParams`] block, written every frame.
     params: wgpu::Buffer,
-    /// The boxes a frame clears, one [`BounceBox`] per [`BOX_STRIDE`] (grown when a frame
+    /// The boxes a frame clears, one [`BounceBox`] per [`SLOT`] (grown when a frame
     /// has more than it holds), and the clear's bind group per box and the gather's, kept
     /// while their resources are.
     boxes: wgpu::Buffer,
@@ -183,12 +184,9 @@ impl BounceBox {
 /// Boxes the clear's box buffer holds at first.
 const BOX_ROOM: u64 = 16;
 
-/// Stride of the boxes in the per-frame box buffer (a storage binding offset alignment).
-const BOX_STRIDE: u64 = 256;
-
 /// The clear's box buffer for `boxes` boxes.
 fn box_buffer(ctx: &GpuContext, boxes: u64) -> wgpu::Buffer {
-    storage(ctx, OWNER, "bounce boxes", boxes * BOX_STRIDE)
+    storage(ctx, OWNER, "bounce boxes", boxes * SLOT)
 }
 
 impl ClipmapBounce {
@@ -232,10 +230,10 @@ impl ClipmapBounce {
         if boxes.is_empty() {
             return;
         }
-        let mut bytes = vec![0u8; boxes.len() * BOX_STRIDE as usize];
+        let mut bytes = vec![0u8; boxes.len() * SLOT as usize];
         for (k, ub) in boxes.iter().enumerate() {
             let block = BounceBox::new(ub, clipmap.settings.resolution);
-            let at = k * BOX_STRIDE as usize;
+            let at = k * SLOT as usize;
             bytes[at..at + std::mem::size_of::<BounceBox>()]
                 .copy_from_slice(bytemuck::bytes_of(&block));
         }
@@ -253,7 +251,7 @@ impl ClipmapBounce {
                     23,
                     wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                         buffer: &self.boxes,
-                        offset: k as u64 * BOX_STRIDE,
+                        offset: k as u64 * SLOT,
                         size: wgpu::BufferSize::new(std::mem::size_of::<BounceBox>() as u64),
                     }),
                 ),

@@ -3,12 +3,10 @@
 //! physical flux. [`sample_cpu`] is the CPU twin.
 
 use crate::frame::rsm::{RsmImage, RsmTargets};
+use crate::gpu::pass::SLOT;
 use crate::gpu::{GpuContext, PassTimer};
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-
-/// Bytes between the per-level slots of the level index.
-const SLOT: u64 = 256;
 
 /// `GenParams` of `generate.wgsl`.
 #[repr(C)]

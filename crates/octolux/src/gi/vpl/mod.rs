@@ -25,6 +25,7 @@ use crate::frame::rsm::{self, RsmLayer, RsmPass, RsmTargets};
 use crate::frame::sparse::SparseImage;
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::pass::dispatch_groups;
+use crate::gpu::pass::SLOT;
 use crate::gpu::shader::library_shader;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::objects_triangles;
@@ -274,8 +275,6 @@ const SHADE_WORK: &[&str] = &[
 /// VPLs of a subset summed together before their sum is added to the pixel's (`CHUNK` in
 /// `shade.wgsl`).
 const CHUNK: u32 = 8;
-/// Bytes between the dispatches' chunk index slots.
-const SLOT: u64 = 256;
 
 /// VPLs in each pixel's subset (the last subsets may hold one fewer).
 fn subset_size(settings: &VplSettings) -> u32 {

@@ -12,6 +12,7 @@
 
 use super::{Clipmap, UpdateBox};
 use crate::gpu::alloc::storage;
+use crate::gpu::pass::SLOT;
 use crate::gpu::pass::{bind, dispatch_1d};
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::voxelize::snap::{snap_triangle, GpuPiece, Piece, SnapRegion};
@@ -34,9 +35,6 @@ pub const SCRATCH_KEEP: u64 = 4 << 20;
 /// Initial size of each kept scratch buffer, allocated with the clipmap so that the usual
 /// per-frame updates (a camera step, a moving object) never change the memory ledger.
 const SCRATCH_START: u64 = 64 << 10;
-/// Bytes between the parameter blocks of an update's boxes (storage binding offsets stay 256
-/// bytes apart, the largest `min_storage_buffer_offset_alignment` wgpu allows).
-const PARAM_STRIDE: u64 = 256;
 /// Pieces (48 bytes) per 768-byte alignment step of a box's block of pieces.
 const PIECE_ALIGN: u64 = 16;
 /// Work items (8 bytes) per 256-byte alignment step of a box's block of work items.
@@ -105,7 +103,7 @@ struct Snapped {
 
 /// Every slice's data packed for upload, one block per slice at offsets a storage binding
 /// accepts ([`Snapped::first`]): pieces, work items, and a [`BoxParams`] every
-/// [`PARAM_STRIDE`] bytes.
+/// [`SLOT`] bytes.
 struct Packed {
     pieces: Vec<GpuPiece>,
     items: Vec<[u32; 2]>,
@@ -124,7 +122,7 @@ impl Uploaded {
     /// The [`BoxParams`] of part `i`.
     fn part_params(&self, i: u64) -> wgpu::BindingResource<'_> {
         let (params, at) = &self.params;
-        range(params, at + i * PARAM_STRIDE, PARAM_STRIDE)
+        range(params, at + i * SLOT, SLOT)
     }
 }
 
@@ -344,7 +342,7 @@ impl Clipmap {
         let mut packed = Packed {
             pieces: vec![GpuPiece::zeroed(); n_pieces as usize],
             items: vec![[0u32; 2]; n_items as usize],
-            params: vec![0u8; parts.len() * PARAM_STRIDE as usize],
+            params: vec![0u8; parts.len() * SLOT as usize],
         };
         for (i, (part, s)) in parts.iter().zip(snapped.iter()).enumerate() {
             let (p0, i0) = (s.first.0 as usize, s.first.1 as usize);
@@ -360,7 +358,7 @@ impl Clipmap {
                 resolution: self.settings.resolution,
                 _pad: [0; 3],
             };
-            let at = i * PARAM_STRIDE as usize;
+            let at = i * SLOT as usize;
             packed.params[at..at + std::mem::size_of::<BoxParams>()]
                 .copy_from_slice(bytemuck::bytes_of(&params));
             stats.parts += 1;

@@ -22,9 +22,9 @@
 //! Sampling: the WGSL module `voxel/svo/sample_aniso` (`svo_sample_aniso(p, footprint, dir)`), CPU twin
 //! [`crate::voxel::svo::sample::svo_sample_aniso`]. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso`].
 
+use crate::gpu::pass::SLOT;
 use crate::gpu::pass::{buffer_entry, dispatch_size};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::svo::control::PARAM_STRIDE;
 use crate::voxel::svo::sample::{svo_albedo_bindings, svo_bindings, SvoInfo, SVO_ANISO_BINDING};
 use crate::voxel::svo::{Svo, OWNER};
 use crate::{Error, Result};
@@ -129,7 +129,7 @@ impl SvoAniso {
             return Ok(values);
         }
         let first_leaf = svo.levels[depth - 1].0;
-        let mut params = vec![0u8; PARAM_STRIDE as usize * depth];
+        let mut params = vec![0u8; SLOT as usize * depth];
         for (d, &(start, end)) in svo.levels.iter().enumerate() {
             let level = AnisoParams {
                 first: start,
@@ -139,7 +139,7 @@ impl SvoAniso {
                 static_leaves: svo.static_nodes - first_leaf,
                 _pad: [0; 3],
             };
-            let at = d * PARAM_STRIDE as usize;
+            let at = d * SLOT as usize;
             params[at..at + size_of::<AnisoParams>()].copy_from_slice(bytemuck::bytes_of(&level));
         }
         let params_buffer = ctx.create_buffer_init(
@@ -159,7 +159,7 @@ impl SvoAniso {
                             binding: 0,
                             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                 buffer: &params_buffer,
-                                offset: d as u64 * PARAM_STRIDE,
+                                offset: d as u64 * SLOT,
                                 size: wgpu::BufferSize::new(size_of::<AnisoParams>() as u64),
                             }),
                         },

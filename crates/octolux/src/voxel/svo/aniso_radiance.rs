@@ -16,9 +16,10 @@
 //! capacity (48 bytes; the dynamic reserve's bricks included). Sampling:
 //! the WGSL module `voxel/svo/radiance_sample_aniso`. CPU twin of the values: [`crate::voxel::svo::cpu::svo_aniso_radiance`].
 
+use crate::gpu::pass::SLOT;
 use crate::gpu::pass::{buffer_entry, dispatch_size};
 use crate::gpu::{read_buffer, GpuContext, PassTimer};
-use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES, PARAM_STRIDE};
+use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES};
 use crate::voxel::svo::{Svo, OWNER};
 use crate::Result;
 use glam::{Vec3, Vec4};
@@ -109,9 +110,9 @@ impl SvoAnisoRadiance {
                 slots.push((nodes, Step::Dynamic(ARGS_DYN_NODES + d as u32)));
             }
         }
-        let mut words = vec![0u8; PARAM_STRIDE as usize * slots.len().max(1)];
+        let mut words = vec![0u8; SLOT as usize * slots.len().max(1)];
         for (i, (p, _)) in slots.iter().enumerate() {
-            let at = i * PARAM_STRIDE as usize;
+            let at = i * SLOT as usize;
             words[at..at + size_of::<AnisoRadianceParams>()].copy_from_slice(bytemuck::bytes_of(p));
         }
         let params = ctx.create_buffer_init(
@@ -134,7 +135,7 @@ impl SvoAnisoRadiance {
                                 binding: 0,
                                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
                                     buffer: &params,
-                                    offset: i as u64 * PARAM_STRIDE,
+                                    offset: i as u64 * SLOT,
                                     size: wgpu::BufferSize::new(
                                         size_of::<AnisoRadianceParams>() as u64
                                     ),

@@ -5,13 +5,11 @@
 //! every dynamic update), the per-level parameter slots ([`LevelParams`]), and the indirect
 //! dispatch argument slots the `finish` kernels write.
 
+use crate::gpu::pass::SLOT;
 use crate::gpu::GpuContext;
 use crate::voxel::svo::OWNER;
 use bytemuck::Zeroable;
 
-/// Bytes between parameter slots bound at offsets (a multiple of any adapter's
-/// `min_storage_buffer_offset_alignment`).
-pub(crate) const PARAM_STRIDE: u64 = 256;
 /// Levels of the deepest octree ([`crate::voxel::MAX_RESOLUTION`]^3 voxels; `MAX_LEVELS` in
 /// `svo/control.wgsl`).
 pub(crate) const MAX_LEVELS: usize = crate::voxel::MAX_RESOLUTION.trailing_zeros() as usize;
@@ -129,7 +127,7 @@ pub(crate) struct LevelParams {
     pub pad: [u32; 2],
 }
 
-/// Read-only storage buffer of one [`LevelParams`] per slot ([`PARAM_STRIDE`] bytes apart):
+/// Read-only storage buffer of one [`LevelParams`] per slot ([`SLOT`] bytes apart):
 /// slot `d` walks level `d`'s static nodes, slot `depth + d` its dynamic ones.
 pub(crate) fn level_params(
     ctx: &GpuContext,
@@ -139,7 +137,7 @@ pub(crate) fn level_params(
     capacity: u32,
     pool_bricks: u32,
 ) -> wgpu::Buffer {
-    let mut params = vec![0u8; PARAM_STRIDE as usize * 2 * depth as usize];
+    let mut params = vec![0u8; SLOT as usize * 2 * depth as usize];
     for slot in 0..2 * depth {
         let p = LevelParams {
             d: slot % depth,
@@ -150,7 +148,7 @@ pub(crate) fn level_params(
             range: slot / depth,
             pad: [0; 2],
         };
-        let at = slot as usize * PARAM_STRIDE as usize;
+        let at = slot as usize * SLOT as usize;
         params[at..at + 32].copy_from_slice(bytemuck::bytes_of(&p));
     }
     ctx.create_buffer_init(OWNER, label, &params, wgpu::BufferUsages::STORAGE)

@@ -4,9 +4,10 @@
 //! pool up the levels (the build's bricks and the injected radiance alike).
 
 use crate::gpu::pass::dispatch_size;
+use crate::gpu::pass::SLOT;
 use crate::gpu::PassTimer;
 use crate::voxel::svo::bindings::Pipelines;
-use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES, NODE_ARGS, PARAM_STRIDE};
+use crate::voxel::svo::control::{args_offset, ARGS_DYN_NODES, NODE_ARGS};
 use crate::voxel::svo::SvoBuilder;
 
 /// How many invocations a step runs.
@@ -105,7 +106,7 @@ pub(super) fn record_steps(
         });
         let (pipeline, groups) = &pipelines[entry];
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[*d * PARAM_STRIDE as u32]);
+        pass.set_bind_group(0, group, &[*d * SLOT as u32]);
         if groups.args {
             pass.set_bind_group(1, args_group, &[]);
         }
