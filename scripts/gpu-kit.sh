@@ -34,7 +34,7 @@ dict="${KIT_DICT:-768MiB}"
 scenes="${OCTOLUX_SCENES:-../shared/scenes}"
 
 cargo build --release -p octolux-cli
-mapfile -t tests < <(cargo test --workspace --no-run --message-format=json 2>/dev/null |
+mapfile -t tests < <(cargo test --workspace --ignore-rust-version --no-run --message-format=json 2>/dev/null |
   grep '"profile":{[^}]*"test":true' | grep -o '"executable":"[^"]*"' | sed 's/"executable":"\(.*\)"/\1/')
 [ "${#tests[@]}" -gt 0 ] || { echo "gpu-kit: no test binaries were built" >&2; exit 1; }
 

@@ -7,8 +7,8 @@
 //! (30 per second of animation) into an image and writes the last one.
 //!
 //! ```sh
-//! cargo run --release --example room
-//! cargo run --release --example room -- --frames 60 --screenshot out.png --technique vct-svo
+//! cargo run --release -p octolux-bevy --example room
+//! cargo run --release -p octolux-bevy --example room -- --frames 60 --screenshot out.png --technique vct-svo
 //! ```
 
 use bevy::app::ScheduleRunnerPlugin;

@@ -1,8 +1,8 @@
 //! Rooms the techniques were not tuned on (`scenes/meeting-room.toml`, `stone-church.toml`,
 //! `living-room.toml`, built of boxes by `scripts/make-rooms.py`): a closed room full of
 //! small furniture lit by downlights, a stone nave lit by the sun through its windows, a
-//! furnished room lit through one window. In each, the default technique, `probes-octree`
-//! and `vct-svo` must end closer to the unlimited reference than GI off (relMSE of the
+//! furnished room lit through one window. In each, the default technique (but in the meeting
+//! room, below), `probes-octree` and `vct-svo` must end closer to the unlimited reference than GI off (relMSE of the
 //! settled frame; the fourth frame's is printed beside it), and light every pixel that the
 //! reference's indirect light reaches clearly.
 //!
@@ -77,7 +77,7 @@ fn render(ctx: &GpuContext, scene: &Scene, gi: &str) -> (HdrImage, HdrImage, Hdr
     (early, frame, r.read_hdr().unwrap())
 }
 
-fn check_room(name: &str) {
+fn check_room(name: &str, techniques: &[&str]) {
     let ctx = GpuContext::shared(&GpuOptions::default()).unwrap();
     let scene = scene(name);
     let reference = reference(&scene);
@@ -95,7 +95,7 @@ fn check_room(name: &str) {
     );
     let mut report = vec![format!("{name}: GI off relMSE {off_error:.4}")];
     let mut failures = Vec::new();
-    for gi in TECHNIQUES {
+    for &gi in techniques {
         let (early, frame, indirect) = render(&ctx, &scene, gi);
         let error = rel_mse(&frame, &reference.total, None).unwrap();
         let early_error = rel_mse(&early, &reference.total, None).unwrap();
@@ -128,17 +128,21 @@ fn check_room(name: &str) {
     );
 }
 
+/// The meeting room judges the two techniques that lost there; the default, 17 times closer
+/// than GI off in it (relMSE 0.0036 against 0.0608) and judged in the other two rooms, would
+/// cost this suite more than the rest of the room (its 32-frame history tracing 280k triangles
+/// on lavapipe: 43 s).
 #[test]
 fn meeting_room() {
-    check_room("meeting-room");
+    check_room("meeting-room", &TECHNIQUES[1..]);
 }
 
 #[test]
 fn stone_church() {
-    check_room("stone-church");
+    check_room("stone-church", &TECHNIQUES);
 }
 
 #[test]
 fn living_room() {
-    check_room("living-room");
+    check_room("living-room", &TECHNIQUES);
 }
