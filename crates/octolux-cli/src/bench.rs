@@ -60,6 +60,16 @@ pub struct BenchArgs {
     /// Frames measured: per pass, GI total and whole frame, their mean, median and worst.
     #[arg(long, default_value_t = 20)]
     pub frames: u32,
+    /// Warm every technique up to its settled picture: at least `--warmup` frames, and for a
+    /// technique that converges over frames (probe histories, the cone tracers' bounces) as
+    /// many as `octolux render` waits for it. The warm-up is held still at `--time`; measured
+    /// frames of an animated scene then advance from there.
+    #[arg(long)]
+    pub settle: bool,
+    /// Also judge the image of frame N (1 = the first frame rendered) against the reference:
+    /// the early picture beside the settled one (JSON `early`). N at most the frames rendered.
+    #[arg(long, value_name = "N", conflicts_with = "no_reference")]
+    pub early: Option<u32>,
     /// Skip the work counts (per pass, what it did: cone samples, octree nodes, shadow-ray
     /// steps...), which take warm-up + 1 more frames per technique with a counting renderer.
     #[arg(long)]
@@ -265,6 +275,15 @@ fn validate(args: &BenchArgs) -> Result<()> {
     if args.warmup > MAX_FRAMES {
         bail!("--warmup {}: expected 0..={MAX_FRAMES}", args.warmup);
     }
+    if let Some(n) = args
+        .early
+        .filter(|&n| n == 0 || n > args.warmup + args.frames)
+    {
+        bail!(
+            "--early {n}: expected a frame rendered, 1..={} (--warmup + --frames)",
+            args.warmup + args.frames
+        );
+    }
     crate::outputs::check_fps(args.fps)?;
     if !args.time.is_finite() {
         bail!("--time {}: must be a finite number of seconds", args.time);
@@ -408,6 +427,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             width: args.width,
             height: args.height,
             warmup: args.warmup,
+            settle: args.settle,
             frames: args.frames,
             fps: args.fps,
             time: args.time,
@@ -496,15 +516,20 @@ fn bench_scene(
     let out_dir = out.map(|(dir, _)| dir);
     let scene = &input.scene;
     let animated = scene.is_animated();
-    let total_frames = args.warmup + args.frames;
-    let frame_time = |i: u32| {
+    // Scene time of frame i of a technique whose warm-up is held still for `held` frames
+    // (`--settle`: its own warm-up; otherwise none, the warm-up already moves).
+    let frame_time = |i: u32, held: u32| {
         if animated {
-            args.time + i as f32 / args.fps
+            args.time + i.saturating_sub(held) as f32 / args.fps
         } else {
             args.time
         }
     };
-    let last_time = frame_time(total_frames - 1);
+    let total_frames = args.warmup + args.frames;
+    let last_time = match args.settle {
+        true => frame_time(args.frames - 1, 0),
+        false => frame_time(total_frames - 1, 0),
+    };
     let bar = if quiet {
         ProgressBar::hidden()
     } else {
@@ -516,6 +541,8 @@ fn bench_scene(
     let mut adapter = None;
     let mut techniques = Vec::new();
     let mut images: Vec<(String, Transport, HdrImage)> = Vec::new();
+    // `--early`: each technique's image of that frame, with its frame and scene time.
+    let mut earlies: Vec<(String, Transport, u32, f32, HdrImage)> = Vec::new();
     let mut lag_references = LagReferences {
         settings: reference_settings,
         quiet,
@@ -536,20 +563,31 @@ fn bench_scene(
         };
         let mut renderer = Renderer::new(&ctx, scene, settings.clone())
             .with_context(|| format!("scene '{}': setting up '{name}'", scene.name))?;
+        let warmup = match args.settle {
+            true => args.warmup.max(renderer.technique().settle_frames()),
+            false => args.warmup,
+        };
+        let held = if args.settle { warmup } else { 0 };
+        let time_of = |i: u32| frame_time(i, held);
+        bar.inc_length(u64::from(warmup - args.warmup));
         let mut frames = Vec::with_capacity(args.frames as usize);
         let mut wall_ms = Vec::with_capacity(args.frames as usize);
         let mut after_warmup = None;
-        for i in 0..total_frames {
-            if i == args.warmup {
+        let mut early_image = None;
+        for i in 0..warmup + args.frames {
+            if i == warmup {
                 after_warmup = ctx.resource_counts();
             }
             let start = Instant::now();
             let timings = renderer
-                .render(scene, frame_time(i))
+                .render(scene, time_of(i))
                 .with_context(|| format!("scene '{}': rendering '{name}'", scene.name))?;
-            if i >= args.warmup {
+            if i >= warmup {
                 wall_ms.push(start.elapsed().as_secs_f64() * 1e3);
                 frames.push(timings);
+            }
+            if args.early == Some(i + 1) {
+                early_image = Some((i + 1, time_of(i), renderer.read_hdr()?));
             }
             bar.inc(1);
         }
@@ -599,7 +637,9 @@ fn bench_scene(
                 })
                 .collect(),
             objects,
+            warmup,
             metrics: None,
+            early: None,
             flicker: None,
             motion_flicker: None,
             lag: Vec::new(),
@@ -624,11 +664,15 @@ fn bench_scene(
             }
             images.push((name.clone(), bounces, image));
         }
+        if let Some((frame, time, image)) = early_image {
+            earlies.push((name.clone(), bounces, frame, time, image));
+        }
         if !args.no_work_counts {
             drop(renderer);
-            let work = work_counts(&ctx, scene, &settings, args.warmup, &frame_time).with_context(
-                || format!("scene '{}': counting the work of '{name}'", scene.name),
-            )?;
+            let work =
+                work_counts(&ctx, scene, &settings, warmup, &time_of).with_context(|| {
+                    format!("scene '{}': counting the work of '{name}'", scene.name)
+                })?;
             if let Some(report) = techniques.last_mut() {
                 report::attach_work(&mut report.passes, name, work);
             }
@@ -658,6 +702,29 @@ fn bench_scene(
             };
             result.metrics = Some(metrics::compare(image, &reference.total, None)?);
         }
+        for (name, bounces, frame, time, image) in &earlies {
+            // An animated scene's early frame shows another time than the reference: judged
+            // against a reference of its own.
+            let early_reference;
+            let reference = match (
+                animated && *time != last_time,
+                references.iter().find(|(b, _, _)| b == bounces),
+            ) {
+                (false, Some((_, reference, _))) => &reference.total,
+                _ => {
+                    let settings = settings.clone().with_transport(*bounces);
+                    early_reference = reference_frame(scene, *time, args, &settings, quiet)?.0;
+                    &early_reference.total
+                }
+            };
+            let Some(result) = techniques.iter_mut().find(|t| t.technique == *name) else {
+                bail!("internal error: no report for '{name}'");
+            };
+            result.early = Some(report::EarlyReport {
+                frame: *frame,
+                metrics: metrics::compare(image, reference, None)?,
+            });
+        }
     }
     if let Some((dir, read)) = out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -686,7 +753,7 @@ fn bench_scene(
             file: input.file.as_ref().map(|p| p.display().to_string()),
             triangles: scene.triangle_count(),
             animated,
-            first_time: frame_time(0),
+            first_time: frame_time(0, 0),
             last_time,
             techniques,
             references: references

@@ -567,3 +567,56 @@ fn bad_lag_events_are_errors() {
         "{stderr}"
     );
 }
+
+/// `--settle` warms each technique up to its settled picture (`probes-grid` with a 5-frame
+/// history: 5 frames; the others `--warmup`), `--early N` judges frame N beside it: the same
+/// error for GI off, which computes every frame afresh, another for the probes, whose history
+/// was not full at frame 2. On an animated scene the warm-up is held still, so every
+/// technique's measured frames show the same scene times.
+#[test]
+fn settled_and_early_frames_are_judged_per_technique() {
+    let cornell = scene("cornell-box.toml");
+    let crossing = scene("cornell-crossing.toml");
+    let mut args = vec!["bench", &cornell, &crossing, "--gi", "none,lpv,probes-grid"];
+    args.extend(["--spp", "4", "--warmup", "1", "--frames", "2", "--settle"]);
+    args.extend(["--early", "2", "--probes-history", "5", "--no-work-counts"]);
+    args.extend(["--no-flicker", "--json", "-"]);
+    args.extend(SMALL);
+    let output = octolux(&args);
+    assert_succeeds(&output);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("settled picture: probes-grid 5 frames"),
+        "{stderr}"
+    );
+    let report: Value = serde_json::from_slice(&output.stdout).expect("JSON on stdout");
+    assert_eq!(report["settle"], true);
+    for scene in report["scenes"].as_array().unwrap() {
+        let techniques = scene["techniques"].as_array().unwrap();
+        for t in techniques {
+            let technique = t["technique"].as_str().unwrap();
+            let warmup = if technique == "probes-grid" { 5 } else { 1 };
+            assert_eq!(t["warmup"], warmup, "{t}");
+            assert_eq!(t["early"]["frame"], 2, "{t}");
+            let early = f(&t["early"]["metrics"], "rel_mse");
+            let measured = f(&t["metrics"], "rel_mse");
+            assert!(early.is_finite() && measured.is_finite(), "{t}");
+            if scene["animated"] == false && technique == "none" {
+                assert_eq!(early, measured, "{t}");
+            }
+            if technique == "probes-grid" {
+                assert_ne!(early, measured, "{t}");
+            }
+        }
+        if scene["animated"] == true {
+            // Measured frames at 0 and 1/30 s, whatever each technique's warm-up.
+            assert!((f(scene, "last_time") - 1.0 / 30.0).abs() < 1e-6, "{scene}");
+        }
+    }
+    for early in ["0", "4"] {
+        let output = octolux(&[
+            "bench", "--gi", "none", "--warmup", "1", "--frames", "2", "--early", early,
+        ]);
+        assert_fails_with(&output, &[&format!("--early {early}"), "1..=3"]);
+    }
+}

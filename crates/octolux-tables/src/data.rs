@@ -167,20 +167,44 @@ pub struct ErrorRun {
     pub width: u64,
     pub height: u64,
     pub warmup: u64,
+    /// Whether each technique was warmed up to its settled picture (`bench --settle`), and
+    /// then the techniques that took more frames than `warmup`, with their count.
+    pub settle: bool,
+    pub own_warmups: Vec<(String, u64)>,
+    /// The frame judged when the table is of the early frames (`bench --early`).
+    pub early_frame: Option<u64>,
     /// Reference samples per pixel per scene (in scene order), and the transport.
     pub spp: Vec<u64>,
     pub against: String,
 }
 
 impl ErrorRun {
-    pub fn load(dir: &Path, shown: &str) -> Result<ErrorRun> {
+    /// The run in `dir`; with `early`, the error of each technique's early frame (`bench
+    /// --early`) instead of the measured one's.
+    pub fn load(dir: &Path, shown: &str, early: bool) -> Result<ErrorRun> {
         let files = bench_files(dir)?;
         let mut provenance = Provenance {
             data: shown.to_string(),
             ..Default::default()
         };
+        let mut early_frame = None;
         let (scenes, techniques) = per_technique(&files, &mut provenance, |t, name| {
-            let m = &t["metrics"];
+            let m = match early {
+                true => {
+                    let e = &t["early"];
+                    let frame = e["frame"].as_u64().with_context(|| {
+                        format!(
+                            "{name}.json: '{}' has no early frame (bench --early)",
+                            t["technique"]
+                        )
+                    })?;
+                    if *early_frame.get_or_insert(frame) != frame {
+                        bail!("{name}.json: early frame {frame}, others {early_frame:?}");
+                    }
+                    &e["metrics"]
+                }
+                false => &t["metrics"],
+            };
             Ok(Error {
                 flip: number(m, "flip", name)?,
                 rel_mse: number(m, "rel_mse", name)?,
@@ -188,13 +212,26 @@ impl ErrorRun {
         })?;
         let first = &files[0].1;
         let reference = &first["scenes"][0]["references"][0];
+        let warmup = first["warmup"].as_u64().unwrap_or(0);
+        let own_warmups = first["scenes"][0]["techniques"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .filter_map(|t| {
+                let frames = t["warmup"].as_u64().filter(|&w| w != warmup)?;
+                Some((t["technique"].as_str().unwrap_or("?").to_string(), frames))
+            })
+            .collect();
         Ok(ErrorRun {
             provenance,
             scenes,
             techniques,
             width: first["width"].as_u64().unwrap_or(0),
             height: first["height"].as_u64().unwrap_or(0),
-            warmup: first["warmup"].as_u64().unwrap_or(0),
+            warmup,
+            settle: first["settle"].as_bool().unwrap_or(false),
+            own_warmups,
+            early_frame,
             spp: files
                 .iter()
                 .flat_map(|(_, f)| f["scenes"].as_array().cloned().unwrap_or_default())

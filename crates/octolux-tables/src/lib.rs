@@ -165,7 +165,12 @@ fn render(marker: &str, root: &Path, prefix: &str) -> Result<String> {
     let shown = |key: &str| format!("{prefix}{}", args.get(key).copied().unwrap_or_default());
     match kind {
         "error" => {
-            let run = data::ErrorRun::load(&path("data")?, &shown("data"))?;
+            let early = match args.get("frame").copied() {
+                None | Some("measured") => false,
+                Some("early") => true,
+                Some(other) => bail!("'error': frame={other}: expected 'measured' or 'early'"),
+            };
+            let run = data::ErrorRun::load(&path("data")?, &shown("data"), early)?;
             Ok(tables::error(&run))
         }
         "temporal" => {
@@ -177,7 +182,7 @@ fn render(marker: &str, root: &Path, prefix: &str) -> Result<String> {
             Ok(tables::gpu_gi(&run))
         }
         "gi-choice" => {
-            let error = data::ErrorRun::load(&path("error")?, &shown("error"))?;
+            let error = data::ErrorRun::load(&path("error")?, &shown("error"), false)?;
             let temporal = data::TemporalRun::load(&path("temporal")?, &shown("temporal"))?;
             let gpu = data::GpuRun::load(&path("gpu")?, &shown("gpu"))?;
             let default = args

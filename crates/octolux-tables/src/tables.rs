@@ -50,10 +50,29 @@ pub fn error(run: &ErrorRun) -> String {
             format!("{} spp", each.join(", "))
         }
     };
+    let frames = match (run.early_frame, run.settle) {
+        (Some(frame), _) => format!("frame {frame} (early: the techniques have not settled)"),
+        (None, true) => {
+            let own: Vec<String> = run
+                .own_warmups
+                .iter()
+                .map(|(t, n)| format!("`{t}` {n}"))
+                .collect();
+            match own.is_empty() {
+                true => format!("{} warm-up frames and 1 measured", run.warmup),
+                false => format!(
+                    "each technique settled ({} warm-up frames, {} for those converging over frames) and 1 measured",
+                    run.warmup,
+                    own.join(", ")
+                ),
+            }
+        }
+        (None, false) => format!("{} warm-up frames and 1 measured", run.warmup),
+    };
     let _ = writeln!(
         s,
-        "*{}x{}, {} warm-up frames and 1 measured, against the `{}` reference at {spp}. FLIP / relMSE; `*`: beats GI off (`none`) on both.*",
-        run.width, run.height, run.warmup, run.against
+        "*{}x{}, {frames}, against the `{}` reference at {spp}. FLIP / relMSE; `*`: beats GI off (`none`) on both.*",
+        run.width, run.height, run.against
     );
     s.push('\n');
     let _ = writeln!(

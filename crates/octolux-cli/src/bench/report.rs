@@ -203,8 +203,14 @@ pub struct TechniqueReport {
     /// wgpu's count of live objects after the warm-up frames and after the measured ones
     /// (equal unless something leaks per frame); `null` where wgpu keeps no count.
     pub objects: Option<[octolux::gpu::ResourceCounts; 2]>,
+    /// Frames rendered before the measured ones: `--warmup`, or with `--settle` at least the
+    /// technique's own settling frames.
+    pub warmup: u32,
     /// Error of the last measured frame against the reference; `null` with `--no-reference`.
     pub metrics: Option<Metrics>,
+    /// Error of the early frame (`--early`) against the reference of its time; `null`
+    /// without it.
+    pub early: Option<EarlyReport>,
     /// Flicker with nothing moving: the mean relative change of the indirect irradiance from
     /// one frame to the next with the scene held still after the measured frames
     /// (`bench/temporal.rs`); `null` with `--no-flicker`.
@@ -216,6 +222,15 @@ pub struct TechniqueReport {
     pub motion_flicker: Option<f64>,
     /// Lag after each `--lag` event, in their order.
     pub lag: Vec<LagReport>,
+}
+
+/// The error of an early frame (`--early N`), beside the measured one's.
+#[derive(Clone, Debug, Serialize)]
+pub struct EarlyReport {
+    /// The frame judged, counted from 1 (the technique's first frame).
+    pub frame: u32,
+    /// Its error against the reference of its scene time.
+    pub metrics: Metrics,
 }
 
 /// A technique's response to one `--lag` event.
@@ -385,8 +400,10 @@ pub struct BenchReport {
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Frames rendered before measuring.
+    /// Frames rendered before measuring (`--warmup`; each technique's own in its report).
     pub warmup: u32,
+    /// Whether each technique was warmed up to its settled picture (`--settle`).
+    pub settle: bool,
     /// Frames measured.
     pub frames: u32,
     /// Frames per second of scene time (animated scenes).
@@ -537,6 +554,31 @@ pub fn print_scene(out: &mut dyn Write, run: &BenchReport, scene: &SceneReport) 
             t.motion_flicker.map_or("-".to_string(), |f| format!("{f:.2e}")),
             t.reference.as_deref().unwrap_or("-")
         )?;
+    }
+    if run.settle {
+        let own: Vec<String> = scene
+            .techniques
+            .iter()
+            .filter(|t| t.warmup != run.warmup)
+            .map(|t| format!("{} {}", t.technique, t.warmup))
+            .collect();
+        if !own.is_empty() {
+            writeln!(
+                out,
+                "  warmed up to their settled picture: {} frames (the others {})",
+                own.join(", "),
+                run.warmup
+            )?;
+        }
+    }
+    for t in &scene.techniques {
+        if let Some(early) = &t.early {
+            writeln!(
+                out,
+                "  early frame {} of {:<12} FLIP {:.4}  relMSE {:.4e}",
+                early.frame, t.technique, early.metrics.flip, early.metrics.rel_mse
+            )?;
+        }
     }
     let events = scene.techniques.first().map_or(0, |t| t.lag.len());
     for i in 0..events {

@@ -7,7 +7,7 @@
 //! makes with its scene ([`ClipmapVoxels::new`]): its voxel size follows from the camera's
 //! distance to the scene's bounds, which only a frame knows. From then on it exists.
 
-use super::bounce_list::{bounce_spread, BounceList};
+use super::bounce_list::{bounce_settle_frames, bounce_spread, BounceList};
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
@@ -457,6 +457,13 @@ impl GiTechnique for VctClipmap {
 
     fn reference_transport(&self) -> crate::transport::Transport {
         super::cone_transport(self.bounce.is_some())
+    }
+
+    fn settle_frames(&self) -> u32 {
+        // The bounces converge over frames; one pass of light is all without them.
+        self.bounce
+            .as_ref()
+            .map_or(0, |b| bounce_settle_frames(b.sets))
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

@@ -5,7 +5,7 @@
 //! filtered up the levels (and, with `anisotropic`, composited per direction), the voxels
 //! gather the next bounce, and every traced pixel gathers through the diffuse cones.
 
-use super::bounce_list::{bounce_spread, BounceList};
+use super::bounce_list::{bounce_settle_frames, bounce_spread, BounceList};
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
 use super::{VctSettings, VctStructure};
@@ -427,6 +427,13 @@ impl GiTechnique for VctSvo {
 
     fn other_ledger_owners(&self) -> &[&'static str] {
         &[crate::voxel::svo::OWNER]
+    }
+
+    fn settle_frames(&self) -> u32 {
+        // The bounces converge over frames; one pass of light is all without them.
+        self.bounce
+            .as_ref()
+            .map_or(0, |b| bounce_settle_frames(b.bounce_frames))
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {
