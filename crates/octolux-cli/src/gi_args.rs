@@ -23,6 +23,11 @@ pub struct GiArgs {
     /// LPV family: RSM texels per VPL side, one VPL per stride^2 block (default 4).
     #[arg(long)]
     pub rsm_stride: Option<u32>,
+    /// LPV family: the RSM layers of a light that moved since the last frame at half the
+    /// side and half the stride, the same VPLs from a quarter of the texels; a still light's
+    /// keep the whole (default true).
+    #[arg(long)]
+    pub rsm_moving_half: Option<bool>,
     /// LPV family: damping against light leaks at lookup, 0 = off (default 0).
     #[arg(long)]
     pub lpv_damping: Option<f32>,
@@ -257,6 +262,7 @@ impl GiArgs {
         set(&mut lpv.iterations, self.lpv_iterations);
         set(&mut lpv.rsm_size, self.rsm_size);
         set(&mut lpv.rsm_stride, self.rsm_stride);
+        set(&mut lpv.rsm_moving_half, self.rsm_moving_half);
         set(&mut lpv.damping, self.lpv_damping);
         set(&mut lpv.directional, self.lpv_directional);
         set(&mut lpv.gain, self.lpv_gain);

@@ -577,9 +577,10 @@ fn floor_scene(a: f32, light: octolux::scene::Light) -> octolux::scene::Scene {
 #[test]
 fn injected_vpl_flux_is_the_reflected_flux_for_every_light_type() {
     // Reflected flux off a Lambertian floor in closed form (`floor_flux`).
-    // RSM 128^2 with 4x4 blocks: only the floor's outline (about a texel wide) is
-    // approximated, so the sums must agree within 1% (measured: 0.3% point, 0.01% spot,
-    // 0.03% directional).
+    // RSM 256^2 with 4x4 blocks: only the floor's outline (about a texel wide) and the point
+    // light's face seams are approximated, so the sums must agree within 1% (measured: 0.05%
+    // point, 0.01% spot, 0.01% directional); moving, at 128^2 with 2x2 blocks: 0.3% point,
+    // 0.01% spot, 0.03% directional (at 64^2 the point light's seams cost 2.3%).
     let ctx = context();
     let a = floor_flux::A;
     let cases = floor_flux::cases();
@@ -587,9 +588,9 @@ fn injected_vpl_flux_is_the_reflected_flux_for_every_light_type() {
         let scene = floor_scene(a, light);
         let mut s = lpv_settings("lpv", 16, 16);
         s.gi_settings.lpv.iterations = 0;
-        s.gi_settings.lpv.rsm_size = 128;
+        s.gi_settings.lpv.rsm_size = 256;
         s.gi_settings.lpv.rsm_stride = 4;
-        let mut r = Renderer::new(&ctx, &scene, s).unwrap();
+        let mut r = Renderer::new(&ctx, &scene, s.clone()).unwrap();
         r.render(&scene, 0.0).unwrap();
         let lpv = lpv_of(&r);
         let flux = sh::total_flux(&lpv.read_accumulated(&ctx).unwrap());
@@ -600,6 +601,35 @@ fn injected_vpl_flux_is_the_reflected_flux_for_every_light_type() {
         for f in flux {
             let rel = (f as f32 - expected).abs() / expected;
             assert!(rel < 0.01, "{name}: injected {f} W, expected {expected} W");
+        }
+        // The light moving (by 0.1 mm, which changes the flux by about 1e-4): its layers are
+        // drawn at half the side, its outline twice as coarse: the same 1 %.
+        let mut moving = scene.clone();
+        let nudge = |time: f32, x: f32| Keyframe {
+            time,
+            translation: Vec3::new(x, 0.0, 0.0),
+            rotation: Quat::IDENTITY,
+        };
+        moving.lights[0].animation = Track::new(vec![nudge(0.0, 0.0), nudge(1.0, 1e-4)], false);
+        let mut r = Renderer::new(&ctx, &moving, s).unwrap();
+        r.render(&moving, 0.0).unwrap();
+        r.render(&moving, 1.0).unwrap();
+        let lpv = lpv_of(&r);
+        let half = lpv.last_grids().unwrap().half_layers;
+        let layers = lpv.read_rsm(&ctx).unwrap().len();
+        assert_eq!(
+            half[0],
+            (1 << layers) - 1,
+            "{name}: the moved light's layers at half"
+        );
+        let flux = sh::total_flux(&lpv.read_accumulated(&ctx).unwrap());
+        println!("{name}, moving: injected {:.5} W", flux[0]);
+        for f in flux {
+            let rel = (f as f32 - expected).abs() / expected;
+            assert!(
+                rel < 0.01,
+                "{name} moving: injected {f} W, expected {expected} W"
+            );
         }
     }
 }
@@ -1155,9 +1185,19 @@ fn injection_equals_the_cpu_twin_for_every_variant() {
     // footprint from differences of neighbouring pixels' world positions, which cancels about
     // three of f32's seven digits: 1e-3. Terms whose cell decision lies within 1e-3 cells of a
     // boundary may land in a neighbour on another adapter: their magnitude is allowed on top.
+    // The point light and the sun move (the second frame): their seven layers are drawn at
+    // half the side and read with half the stride, the spot's whole.
     use octolux::gi::lpv::inject_cpu::{self, CameraInput, GBufferInput};
     let ctx = context();
-    let scene = cornell_three_lights();
+    let mut scene = cornell_three_lights();
+    let nudge = |time: f32, x: f32| Keyframe {
+        time,
+        translation: Vec3::new(x, 0.0, 0.0),
+        rotation: Quat::IDENTITY,
+    };
+    for light in &mut scene.lights[1..] {
+        light.animation = Track::new(vec![nudge(0.0, 0.0), nudge(1.0, 0.02)], false);
+    }
     for (w, h) in [(40, 40), (600, 200)] {
         for technique in ["lpv", "clpv", "olpv"] {
             let mut s = lpv_settings(technique, w, h);
@@ -1167,8 +1207,13 @@ fn injection_equals_the_cpu_twin_for_every_variant() {
             s.gi_settings.lpv.rsm_stride = 4;
             let mut r = Renderer::new(&ctx, &scene, s).unwrap();
             r.render(&scene, 0.0).unwrap();
+            r.render(&scene, 0.5).unwrap();
             let lpv = lpv_of(&r);
             let grids = *lpv.last_grids().unwrap();
+            assert_eq!(
+                grids.half_layers[0], 0b1111_1110,
+                "point and sun moved, not the spot"
+            );
             let gpu_light = lpv.read_accumulated(&ctx).unwrap();
             let gpu_gv = lpv.read_geometry(&ctx).unwrap();
             let rsm = lpv.read_rsm(&ctx).unwrap();
@@ -1460,6 +1505,8 @@ fn rsms_are_drawn_again_only_when_something_they_see_moves() {
     };
     scene.lights[0].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.2)], false);
     assert!(has_rsm(&r.render(&scene, 0.5).unwrap()), "moved light");
+    // At rest again, its layer is drawn once more at the whole side (it moved at half).
+    assert!(has_rsm(&r.render(&scene, 0.5).unwrap()), "light at rest");
     assert!(
         !has_rsm(&r.render(&scene, 0.5).unwrap()),
         "light at rest again"
@@ -1508,16 +1555,23 @@ fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
         translation: Vec3::new(x, 0.0, 0.0),
         rotation: Quat::IDENTITY,
     };
-    let layers_drawn = |r: &mut Renderer, scene: &octolux::scene::Scene, t: f32| {
+    // Layers and texels drawn in a frame.
+    let drawn = |r: &mut Renderer, scene: &octolux::scene::Scene, t: f32| {
         // Counts of other renderers on this context are dropped first.
         ctx.work().unwrap().take(&ctx).unwrap();
         r.render(scene, t).unwrap();
         let counts = ctx.work().unwrap().take(&ctx).unwrap();
-        counts
-            .iter()
-            .find(|c| c.pass == "lpv rsm" && c.quantity == "layers")
-            .map_or(0, |c| c.count)
+        let count = |quantity: &str| {
+            counts
+                .iter()
+                .find(|c| c.pass == "lpv rsm" && c.quantity == quantity)
+                .map_or(0, |c| c.count)
+        };
+        (count("layers"), count("texels"))
     };
+    let layers_drawn =
+        |r: &mut Renderer, scene: &octolux::scene::Scene, t: f32| drawn(r, scene, t).0;
+    let side = lpv_settings("lpv", 32, 32).gi_settings.lpv.rsm_size as u64;
     let fresh_image = |scene: &octolux::scene::Scene, t: f32| {
         let mut fresh = Renderer::new(&ctx, scene, lpv_settings("lpv", 32, 32)).unwrap();
         fresh.render(scene, t).unwrap();
@@ -1529,10 +1583,14 @@ fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
     assert_eq!(layers_drawn(&mut r, &scene, 0.0), 2, "first frame");
     assert_eq!(layers_drawn(&mut r, &scene, 0.0), 0, "static frame");
     assert_eq!(
-        layers_drawn(&mut r, &scene, 0.5),
-        1,
-        "the narrow spot moved"
+        drawn(&mut r, &scene, 0.5),
+        (1, side * side / 4),
+        "the narrow spot moved: its layer at half the side"
     );
+    assert_ne!(r.read_hdr().unwrap().pixels, fresh_image(&scene, 0.5));
+    // At rest: drawn once more at the whole side, then kept; the image a fresh renderer draws.
+    assert_eq!(drawn(&mut r, &scene, 0.5), (1, side * side), "at rest");
+    assert_eq!(layers_drawn(&mut r, &scene, 0.5), 0, "kept");
     assert_eq!(r.read_hdr().unwrap().pixels, fresh_image(&scene, 0.5));
 
     scene.lights[1].animation = None;

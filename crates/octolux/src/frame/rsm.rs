@@ -48,6 +48,38 @@ pub struct RsmLayer {
     pub _pad: [u32; 3],
 }
 
+impl RsmLayer {
+    /// The layer drawn `side` texels on a side (into the corner of larger targets): an
+    /// orthographic layer's texels cover the same beam, so each is larger.
+    pub fn at_side(self, side: u32) -> RsmLayer {
+        let side = side.max(1);
+        let scale = self.side as f32 / side as f32;
+        RsmLayer {
+            side,
+            texel_area: self.texel_area * scale * scale,
+            ..self
+        }
+    }
+}
+
+/// What moves a layer's light, byte for byte: its parameters (the light's position,
+/// direction, power, cone; not its side) and the view matrix it is drawn through; not the
+/// objects it sees.
+pub fn light_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8> {
+    let layer = layers.get(i).copied().unwrap_or_default();
+    let unsized_layer = RsmLayer {
+        side: 0,
+        texel_area: 0.0,
+        ..layer
+    };
+    let mut key: Vec<u8> = bytemuck::bytes_of(&unsized_layer).to_vec();
+    let m = scene_gpu
+        .view_proj(RsmPass::view_of(layers, i) + 1)
+        .unwrap_or_default();
+    key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
+    key
+}
+
 /// Bytes of one [`RsmLayer`] (each in a uniform slot of [`SLOT`] bytes).
 const LAYER_BYTES: usize = std::mem::size_of::<RsmLayer>();
 const _: () = assert!(LAYER_BYTES <= SLOT as usize);
@@ -318,6 +350,10 @@ impl RsmPass {
                     multiview_mask: None,
                 });
                 pass.set_pipeline(&self.pipeline);
+                // A layer smaller than the targets fills their corner (the injection reads
+                // that much of it).
+                let side = layer_side(layers, i, targets.size);
+                pass.set_viewport(0.0, 0.0, side as f32, side as f32, 0.0, 1.0);
                 let view = Self::view_of(layers, i);
                 let view_offset = ((view as u64 + 1) * SLOT) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
@@ -326,7 +362,10 @@ impl RsmPass {
             }
         });
         let drawn_layers = stale.len() as u64;
-        let texels = drawn_layers * targets.size as u64 * targets.size as u64;
+        let texels = stale
+            .iter()
+            .map(|&i| u64::from(layer_side(layers, i, targets.size)).pow(2))
+            .sum();
         for (quantity, count) in [drawn_layers, triangles, texels].into_iter().enumerate() {
             crate::gpu::work::add(ctx, name, RSM_WORK, quantity, count)?;
         }
@@ -335,6 +374,11 @@ impl RsmPass {
         }
         Ok(())
     }
+}
+
+/// The side in texels of layer `i`: its own, within the targets' `size`.
+fn layer_side(layers: &[RsmLayer], i: usize, size: u32) -> u32 {
+    layers.get(i).map_or(size, |l| l.side.clamp(1, size))
 }
 
 /// What an RSM pass counts: layers rendered (those whose inputs changed), triangles drawn into

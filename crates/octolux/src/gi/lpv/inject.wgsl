@@ -186,11 +186,25 @@ fn inject_vpl(pos: vec3<f32>, n: vec3<f32>, flux: vec3<f32>) {
 // lit texel are merged into a VPL at their flux-weighted centre carrying their summed flux;
 // texels farther away (across a depth discontinuity: a block edge over the floor) become VPLs
 // of their own, so no VPL floats between surfaces and no flux is lost.
+// Whether RSM layer `layer` is drawn at half the targets' side (a point or spot light's).
+fn half_layer(layer: u32) -> bool {
+    let word = grids.half_layers[layer / 128u][(layer / 32u) % 4u];
+    return layer < 256u && ((word >> (layer % 32u)) & 1u) != 0u;
+}
+
+// The texels of layer `layer` that hold its RSM: the corner it was drawn into.
+fn layer_size(layer: u32) -> vec2<u32> {
+    let size = textureDimensions(rsm_flux);
+    return select(size, size / 2u, half_layer(layer));
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(rsm_flux);
-    let stride = max(grids.stride, 1u);
-    let blocks = (size + stride - 1u) / stride;
+    let full = textureDimensions(rsm_flux);
+    let size = layer_size(id.z);
+    // A half layer with half the stride: the same blocks, each a quarter of the texels.
+    let stride = select(max(grids.stride, 1u), max(grids.stride / 2u, 1u), half_layer(id.z));
+    let blocks = (full + max(grids.stride, 1u) - 1u) / max(grids.stride, 1u);
     if id.x >= blocks.x || id.y >= blocks.y {
         return;
     }
@@ -240,7 +254,7 @@ fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
 
 @compute @workgroup_size(8, 8, 1)
 fn inject_gv_rsm(@builtin(global_invocation_id) id: vec3<u32>) {
-    let size = textureDimensions(rsm_flux);
+    let size = layer_size(id.z);
     if id.x >= size.x || id.y >= size.y {
         return;
     }

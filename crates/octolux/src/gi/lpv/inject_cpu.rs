@@ -213,11 +213,18 @@ pub fn inject(
         .filter(|g| g.flags & super::FLAG_INJECT != 0)
         .map(|g| g.cell)
         .fold(1e30f32, f32::min);
-    let stride = grids.stride.max(1);
-    for image in rsm {
-        let size = image.size;
+    for (layer, image) in rsm.iter().enumerate() {
+        // A point or spot light's layer drawn at half the side is read with half the stride:
+        // the same blocks (`half_layer` in inject.wgsl).
+        let half = layer < 256 && grids.half_layers[layer / 32] >> (layer % 32) & 1 != 0;
+        let full_stride = grids.stride.max(1);
+        let (size, stride) = match half {
+            true => (image.size / 2, (full_stride / 2).max(1)),
+            false => (image.size, full_stride),
+        };
+        let row = image.size;
         let texel = |x: u32, y: u32| {
-            let i = (y * size + x) as usize;
+            let i = (y * row + x) as usize;
             let (pm, nn, f) = (image.position[i], image.normal[i], image.flux[i]);
             let flux = Vec3::new(f[0], f[1], f[2]) * pm[3];
             (
@@ -228,7 +235,7 @@ pub fn inject(
                 pm[3] * nn[3],
             )
         };
-        let blocks = size.div_ceil(stride);
+        let blocks = image.size.div_ceil(full_stride);
         for by in 0..blocks {
             for bx in 0..blocks {
                 let mut reference = None;

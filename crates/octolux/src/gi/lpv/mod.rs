@@ -47,6 +47,11 @@ pub struct LpvSettings {
     pub rsm_size: u32,
     /// RSM texels per VPL side: one VPL per `rsm_stride`^2 block (default 4, as in 000).
     pub rsm_stride: u32,
+    /// The RSM layers of a light that moved since the last frame at half `rsm_size`, read
+    /// with half `rsm_stride`: the same VPLs from a quarter of the texels, in the frames
+    /// where the layer must be drawn anew anyway; a still light's layers keep the whole side,
+    /// drawn once (default true; needs an even `rsm_stride`; docs/lpv.md, "The RSM's side").
+    pub rsm_moving_half: bool,
     /// Damping of leaks at lookup (001 §3.3.1), 0 = off (default 0).
     pub damping: f32,
     /// Share 0..=1 of the flux crossing a cell face that propagation re-emits as a beam along
@@ -75,6 +80,7 @@ impl Default for LpvSettings {
             iterations: 32,
             rsm_size: 512,
             rsm_stride: 4,
+            rsm_moving_half: true,
             damping: 0.0,
             directional: 1.0,
             gain: 1.0,
@@ -220,6 +226,9 @@ pub struct GpuGrids {
     pub blend: f32,
     /// Fixed-point scale of the injected light sums ([`inject::light_scale`]).
     pub light_scale: f32,
+    /// Bit i (word i / 32, bit i % 32): RSM layer i is drawn at half the side, read with half
+    /// the stride ([`LpvSettings::rsm_moving_half`]; [`half_layer_mask`]).
+    pub half_layers: [u32; 8],
     /// The grids, `count` of them in use.
     pub grids: [GpuGrid; MAX_GRIDS],
 }
@@ -277,6 +286,8 @@ pub struct LpvGi {
     passes: Option<Passes>,
     /// The grids of the last frame.
     last_grids: Option<GpuGrids>,
+    /// Per RSM layer, what moved its light in the last frame ([`rsm::light_key`]).
+    light_keys: Vec<Vec<u8>>,
     /// Bounds to fit the volumes to where far outliers make the scene's own bounds useless
     /// (`Scene::gi_bounds_over_animation`); None: the scene's bounds of the frame.
     trimmed_bounds: Option<(Vec3, Vec3)>,
@@ -361,6 +372,7 @@ impl LpvGi {
             output: lookup::Output::new(ctx, owner, width, height),
             passes: None,
             last_grids: None,
+            light_keys: Vec::new(),
             trimmed_bounds: (scene.gi_bounds_at(0.0) != scene.bounds_at(0.0))
                 .then(|| scene.gi_bounds_over_animation()),
             layouts,
@@ -418,6 +430,7 @@ impl LpvGi {
             damping: self.settings.damping,
             blend: 2.0,
             light_scale,
+            half_layers: [0; 8],
             grids: [GpuGrid::default(); MAX_GRIDS],
         };
         let finest = grids.iter().map(|g| g.cell).fold(f32::INFINITY, f32::min);
@@ -426,6 +439,36 @@ impl LpvGi {
             dst.set_surfel_stride(finest);
         }
         g
+    }
+
+    /// `layers` with those whose light moved since the last frame (its parameters or view:
+    /// [`rsm::light_key`]) at half the side, with `rsm_moving_half`, an even stride and at
+    /// most [`MAX_HALF_LAYERS`] layers (the mask's bits); remembers this frame's lights.
+    fn halve_moving_lights(
+        &mut self,
+        frame: &GiFrame,
+        layers: Vec<rsm::RsmLayer>,
+    ) -> Vec<rsm::RsmLayer> {
+        let s = &self.settings;
+        let keys: Vec<Vec<u8>> = (0..layers.len())
+            .map(|i| rsm::light_key(frame.scene_gpu, &layers, i))
+            .collect();
+        let last = std::mem::replace(&mut self.light_keys, keys);
+        let halve = s.rsm_moving_half
+            && s.rsm_stride.is_multiple_of(2)
+            && self.rsm.size.is_multiple_of(2)
+            && self.rsm.layers <= MAX_HALF_LAYERS;
+        if !halve {
+            return layers;
+        }
+        layers
+            .into_iter()
+            .enumerate()
+            .map(|(i, l)| match last.get(i) {
+                Some(key) if *key != self.light_keys[i] => l.at_side(self.rsm.size / 2),
+                _ => l,
+            })
+            .collect()
     }
 
     /// Reads the accumulation buffer of the last frame, all grids one after another (with 0
@@ -580,6 +623,21 @@ pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
     }
 }
 
+/// RSM layers [`GpuGrids::half_layers`] can mark.
+pub const MAX_HALF_LAYERS: u32 = 256;
+
+/// [`GpuGrids::half_layers`] of `layers` in targets of side `size`: the layers drawn at half
+/// of it.
+pub fn half_layer_mask(layers: &[rsm::RsmLayer], size: u32) -> [u32; 8] {
+    let mut mask = [0u32; 8];
+    for (i, l) in layers.iter().enumerate().take(MAX_HALF_LAYERS as usize) {
+        if l.side < size {
+            mask[i / 32] |= 1 << (i % 32);
+        }
+    }
+    mask
+}
+
 impl GiTechnique for LpvGi {
     fn name(&self) -> &str {
         self.variant.name()
@@ -595,7 +653,9 @@ impl GiTechnique for LpvGi {
             self.rsm.size,
             self.settings.sky_rsms,
         );
-        let grids = self.gpu_grids(&placed, inject::light_scale(&layers));
+        let layers = self.halve_moving_lights(frame, layers);
+        let mut grids = self.gpu_grids(&placed, inject::light_scale(&layers));
+        grids.half_layers = half_layer_mask(&layers, self.rsm.size);
         self.last_grids = Some(grids);
         ctx.queue
             .write_buffer(&self.grids, 0, bytemuck::bytes_of(&grids));

@@ -41,6 +41,8 @@ struct Grids {
     blend: f32,
     // fixed-point scale of the injected light sums (a power of two chosen per frame)
     light_scale: f32,
+    // bit i: RSM layer i is drawn at half the side, read with half the stride
+    half_layers: array<vec4<u32>, 2>,
     grids: array<Grid, 8>,
 };
 
