@@ -23,9 +23,9 @@ pub struct GiArgs {
     /// LPV family: RSM texels per VPL side, one VPL per stride^2 block (default 4).
     #[arg(long)]
     pub rsm_stride: Option<u32>,
-    /// LPV family: the RSM layers of a light that moved since the last frame at half the
-    /// side and half the stride, the same VPLs from a quarter of the texels; a still light's
-    /// keep the whole (default true).
+    /// LPV family: the RSM layers whose light or objects moved since the last frame at half
+    /// the side and half the stride, the same VPLs from a quarter of the texels; those that
+    /// hold still keep the whole (default true).
     #[arg(long)]
     pub rsm_moving_half: Option<bool>,
     /// LPV family: damping against light leaks at lookup, 0 = off (default 0).

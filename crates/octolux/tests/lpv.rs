@@ -1523,7 +1523,8 @@ fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
     // Two spots: the box's own, which sees everything, and a narrow one aimed at the floor's
     // corner farthest from the short block. Moving the narrow spot draws its layer alone;
     // moving the short block draws the big spot's layer alone (the block is outside the narrow
-    // spot's view); the kept layers give the image a fresh renderer draws.
+    // spot's view). A layer whose content moves is drawn at half the side, and at the whole
+    // once it rests; the kept layers give the image a fresh renderer draws.
     let ctx = context().with_work_counter();
     let mut scene = octolux::scene::cornell::scene();
     let short = scene
@@ -1597,6 +1598,11 @@ fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
     scene.objects[short].animation = Track::new(vec![key(0.0, 0.0), key(1.0, 0.01)], false);
     let mut r = Renderer::new(&ctx, &scene, lpv_settings("lpv", 32, 32)).unwrap();
     assert_eq!(layers_drawn(&mut r, &scene, 0.0), 2, "first frame");
-    assert_eq!(layers_drawn(&mut r, &scene, 0.5), 1, "the block moved");
+    assert_eq!(
+        drawn(&mut r, &scene, 0.5),
+        (1, side * side / 4),
+        "the block moved: the big spot's layer at half the side"
+    );
+    assert_eq!(drawn(&mut r, &scene, 0.5), (1, side * side), "at rest");
     assert_eq!(r.read_hdr().unwrap().pixels, fresh_image(&scene, 0.5));
 }

@@ -62,10 +62,12 @@ impl RsmLayer {
     }
 }
 
-/// What moves a layer's light, byte for byte: its parameters (the light's position,
-/// direction, power, cone; not its side) and the view matrix it is drawn through; not the
-/// objects it sees.
-pub fn light_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8> {
+/// What a layer's RSM shows, byte for byte, whatever its side: the layer's light parameters
+/// (position, direction, power, cone), the view matrix it is drawn through and the transforms
+/// of the objects in that view (meshes, materials and textures do not change). An object that
+/// enters or leaves the view changes the list; one that moves outside it changes nothing.
+pub fn content_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8> {
+    let view = RsmPass::view_of(layers, i) + 1;
     let layer = layers.get(i).copied().unwrap_or_default();
     let unsized_layer = RsmLayer {
         side: 0,
@@ -73,10 +75,14 @@ pub fn light_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8>
         ..layer
     };
     let mut key: Vec<u8> = bytemuck::bytes_of(&unsized_layer).to_vec();
-    let m = scene_gpu
-        .view_proj(RsmPass::view_of(layers, i) + 1)
-        .unwrap_or_default();
+    let m = scene_gpu.view_proj(view).unwrap_or_default();
     key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
+    let transforms = scene_gpu.transforms();
+    for o in scene_gpu.objects_in_view(view) {
+        key.extend_from_slice(&(o as u32).to_le_bytes());
+        let m = transforms.get(o).copied().unwrap_or_default();
+        key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
+    }
     key
 }
 
@@ -251,22 +257,13 @@ impl RsmPass {
         }
     }
 
-    /// What a layer's RSM depends on this frame, byte for byte: the layer's parameters, the
-    /// view matrix it is drawn through and the transforms of the objects in that view (meshes,
-    /// materials and textures do not change). An object that enters or leaves the view changes
-    /// the list; one that moves outside it changes nothing.
+    /// What a layer's RSM depends on this frame, byte for byte: what it shows
+    /// ([`content_key`]) and the side it is drawn at.
     fn layer_inputs(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8> {
-        let view = Self::view_of(layers, i) + 1;
+        let mut key = content_key(scene_gpu, layers, i);
         let layer = layers.get(i).copied().unwrap_or_default();
-        let mut key: Vec<u8> = bytemuck::bytes_of(&layer).to_vec();
-        let m = scene_gpu.view_proj(view).unwrap_or_default();
-        key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
-        let transforms = scene_gpu.transforms();
-        for o in scene_gpu.objects_in_view(view) {
-            key.extend_from_slice(&(o as u32).to_le_bytes());
-            let m = transforms.get(o).copied().unwrap_or_default();
-            key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
-        }
+        key.extend_from_slice(&layer.side.to_le_bytes());
+        key.extend_from_slice(&layer.texel_area.to_le_bytes());
         key
     }
 

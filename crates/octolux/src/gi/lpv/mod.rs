@@ -47,10 +47,11 @@ pub struct LpvSettings {
     pub rsm_size: u32,
     /// RSM texels per VPL side: one VPL per `rsm_stride`^2 block (default 4, as in 000).
     pub rsm_stride: u32,
-    /// The RSM layers of a light that moved since the last frame at half `rsm_size`, read
-    /// with half `rsm_stride`: the same VPLs from a quarter of the texels, in the frames
-    /// where the layer must be drawn anew anyway; a still light's layers keep the whole side,
-    /// drawn once (default true; needs an even `rsm_stride`; docs/lpv.md, "The RSM's side").
+    /// The RSM layers whose content moved since the last frame (their light, or an object
+    /// they see) at half `rsm_size`, read with half `rsm_stride`: the same VPLs from a quarter
+    /// of the texels, in the frames where the layer must be drawn anew anyway; a layer whose
+    /// content holds still keeps the whole side, drawn once (default true; needs an even
+    /// `rsm_stride`; docs/lpv.md, "The RSM's side").
     pub rsm_moving_half: bool,
     /// Damping of leaks at lookup (001 §3.3.1), 0 = off (default 0).
     pub damping: f32,
@@ -286,8 +287,8 @@ pub struct LpvGi {
     passes: Option<Passes>,
     /// The grids of the last frame.
     last_grids: Option<GpuGrids>,
-    /// Per RSM layer, what moved its light in the last frame ([`rsm::light_key`]).
-    light_keys: Vec<Vec<u8>>,
+    /// Per RSM layer, what it showed in the last frame ([`rsm::content_key`]).
+    content_keys: Vec<Vec<u8>>,
     /// Bounds to fit the volumes to where far outliers make the scene's own bounds useless
     /// (`Scene::gi_bounds_over_animation`); None: the scene's bounds of the frame.
     trimmed_bounds: Option<(Vec3, Vec3)>,
@@ -372,7 +373,7 @@ impl LpvGi {
             output: lookup::Output::new(ctx, owner, width, height),
             passes: None,
             last_grids: None,
-            light_keys: Vec::new(),
+            content_keys: Vec::new(),
             trimmed_bounds: (scene.gi_bounds_at(0.0) != scene.bounds_at(0.0))
                 .then(|| scene.gi_bounds_over_animation()),
             layouts,
@@ -441,9 +442,10 @@ impl LpvGi {
         g
     }
 
-    /// `layers` with those whose light moved since the last frame (its parameters or view:
-    /// [`rsm::light_key`]) at half the side, with `rsm_moving_half`, an even stride and at
-    /// most [`MAX_HALF_LAYERS`] layers (the mask's bits); remembers this frame's lights.
+    /// `layers` with those whose content moved since the last frame (their light, its view
+    /// or an object they see: [`rsm::content_key`]) at half the side, with `rsm_moving_half`,
+    /// an even stride and at most [`MAX_HALF_LAYERS`] layers (the mask's bits); remembers
+    /// this frame's contents.
     fn halve_moving_lights(
         &mut self,
         frame: &GiFrame,
@@ -451,9 +453,9 @@ impl LpvGi {
     ) -> Vec<rsm::RsmLayer> {
         let s = &self.settings;
         let keys: Vec<Vec<u8>> = (0..layers.len())
-            .map(|i| rsm::light_key(frame.scene_gpu, &layers, i))
+            .map(|i| rsm::content_key(frame.scene_gpu, &layers, i))
             .collect();
-        let last = std::mem::replace(&mut self.light_keys, keys);
+        let last = std::mem::replace(&mut self.content_keys, keys);
         let halve = s.rsm_moving_half
             && s.rsm_stride.is_multiple_of(2)
             && self.rsm.size.is_multiple_of(2)
@@ -465,7 +467,7 @@ impl LpvGi {
             .into_iter()
             .enumerate()
             .map(|(i, l)| match last.get(i) {
-                Some(key) if *key != self.light_keys[i] => l.at_side(self.rsm.size / 2),
+                Some(key) if *key != self.content_keys[i] => l.at_side(self.rsm.size / 2),
                 _ => l,
             })
             .collect()
