@@ -176,6 +176,9 @@ pub struct ErrorRun {
     /// Reference samples per pixel per scene (in scene order), and the transport.
     pub spp: Vec<u64>,
     pub against: String,
+    /// Per scene, the error between its reference and one of another seed, where the data
+    /// has `<scene>-noise.txt` (`scripts/settled-table.sh`; `octolux diff`'s output).
+    pub noise: Vec<Option<Error>>,
 }
 
 impl ErrorRun {
@@ -224,7 +227,6 @@ impl ErrorRun {
             .collect();
         Ok(ErrorRun {
             provenance,
-            scenes,
             techniques,
             width: first["width"].as_u64().unwrap_or(0),
             height: first["height"].as_u64().unwrap_or(0),
@@ -238,6 +240,11 @@ impl ErrorRun {
                 .map(|scene| scene["references"][0]["spp"].as_u64().unwrap_or(0))
                 .collect(),
             against: reference["bounces"].as_str().unwrap_or("?").to_string(),
+            noise: scenes
+                .iter()
+                .map(|scene| read_noise(&dir.join(format!("{scene}-noise.txt"))))
+                .collect::<Result<_>>()?,
+            scenes,
         })
     }
 
@@ -253,6 +260,25 @@ impl ErrorRun {
             .find(|(t, _)| t == technique)
             .map(|(_, e)| e.as_slice())
     }
+}
+
+/// FLIP and relMSE from `octolux diff`'s table in `path` (None if there is no such file).
+fn read_noise(path: &Path) -> Result<Option<Error>> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Ok(None);
+    };
+    let value = |metric: &str| -> Result<f64> {
+        text.lines()
+            .find_map(|l| {
+                let mut words = l.split_whitespace();
+                (words.next() == Some(metric)).then(|| words.next()?.parse().ok())?
+            })
+            .with_context(|| format!("{}: no '{metric}' line", path.display()))
+    };
+    Ok(Some(Error {
+        flip: value("FLIP")?,
+        rel_mse: value("relMSE")?,
+    }))
 }
 
 fn number(v: &Value, key: &str, file: &str) -> Result<f64> {

@@ -101,6 +101,20 @@ pub fn error(run: &ErrorRun) -> String {
             let _ = writeln!(s, " {wins} / {n} |");
         }
     }
+    if run.noise.iter().any(Option::is_some) {
+        // Two references of different seeds against each other: each one's own noise is
+        // about half of it (relMSE).
+        let _ = write!(s, "| reference noise (seed 7 against 8) |");
+        for noise in &run.noise {
+            match noise {
+                Some(e) => {
+                    let _ = write!(s, " {:.3} / {:.4} |", e.flip, e.rel_mse);
+                }
+                None => s.push_str(" - |"),
+            }
+        }
+        s.push_str(" - |\n");
+    }
     let n_scenes = off.iter().filter(|&&o| beatable(o)).count();
     let _ = write!(
         s,

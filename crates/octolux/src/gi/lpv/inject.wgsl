@@ -182,14 +182,12 @@ fn inject_vpl(pos: vec3<f32>, n: vec3<f32>, flux: vec3<f32>) {
     }
 }
 
-// One VPL per stride x stride block: the texels within one (finest) cell of the block's first
-// lit texel are merged into a VPL at their flux-weighted centre carrying their summed flux;
-// texels farther away (across a depth discontinuity: a block edge over the floor) become VPLs
-// of their own, so no VPL floats between surfaces and no flux is lost.
-// Whether RSM layer `layer` is drawn at half the targets' side (a point or spot light's).
+// Whether RSM layer `layer` is drawn at half the targets' side (what it shows moved since
+// the last frame; `half_layer_mask` on the CPU, at most 256 layers).
 fn half_layer(layer: u32) -> bool {
-    let word = grids.half_layers[layer / 128u][(layer / 32u) % 4u];
-    return layer < 256u && ((word >> (layer % 32u)) & 1u) != 0u;
+    let l = min(layer, 255u);
+    let word = grids.half_layers[l / 128u][(l / 32u) % 4u];
+    return layer < 256u && ((word >> (l % 32u)) & 1u) != 0u;
 }
 
 // The texels of layer `layer` that hold its RSM: the corner it was drawn into.
@@ -198,6 +196,10 @@ fn layer_size(layer: u32) -> vec2<u32> {
     return select(size, size / 2u, half_layer(layer));
 }
 
+// One VPL per stride x stride block: the texels within one (finest) cell of the block's first
+// lit texel are merged into a VPL at their flux-weighted centre carrying their summed flux;
+// texels farther away (across a depth discontinuity: a block edge over the floor) become VPLs
+// of their own, so no VPL floats between surfaces and no flux is lost.
 @compute @workgroup_size(8, 8, 1)
 fn inject_light(@builtin(global_invocation_id) id: vec3<u32>) {
     let full = textureDimensions(rsm_flux);

@@ -214,7 +214,7 @@ pub fn inject(
         .map(|g| g.cell)
         .fold(1e30f32, f32::min);
     for (layer, image) in rsm.iter().enumerate() {
-        // A point or spot light's layer drawn at half the side is read with half the stride:
+        // A layer drawn at half the side (what it shows moved) is read with half the stride:
         // the same blocks (`half_layer` in inject.wgsl).
         let half = layer < 256 && grids.half_layers[layer / 32] >> (layer % 32) & 1 != 0;
         let full_stride = grids.stride.max(1);

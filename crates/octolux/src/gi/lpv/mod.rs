@@ -446,7 +446,7 @@ impl LpvGi {
     /// or an object they see: [`rsm::content_key`]) at half the side, with `rsm_moving_half`,
     /// an even stride and at most [`MAX_HALF_LAYERS`] layers (the mask's bits); remembers
     /// this frame's contents.
-    fn halve_moving_lights(
+    fn halve_moving_layers(
         &mut self,
         frame: &GiFrame,
         layers: Vec<rsm::RsmLayer>,
@@ -655,7 +655,7 @@ impl GiTechnique for LpvGi {
             self.rsm.size,
             self.settings.sky_rsms,
         );
-        let layers = self.halve_moving_lights(frame, layers);
+        let layers = self.halve_moving_layers(frame, layers);
         let mut grids = self.gpu_grids(&placed, inject::light_scale(&layers));
         grids.half_layers = half_layer_mask(&layers, self.rsm.size);
         self.last_grids = Some(grids);
