@@ -145,6 +145,20 @@ pub fn regenerate(text: &str, root: &Path, prefix: &str) -> Result<(String, Vec<
     Ok((out, kinds))
 }
 
+/// The marker's `pairs=STILL:MOVING,...`: scenes of the moving protocol, each still one with
+/// its everything-moves counterpart.
+fn pairs(args: &BTreeMap<&str, &str>, kind: &str) -> Result<Vec<(String, String)>> {
+    args.get("pairs")
+        .with_context(|| format!("'{kind}' needs pairs=STILL:MOVING,..."))?
+        .split(',')
+        .map(|pair| {
+            pair.split_once(':')
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .with_context(|| format!("pair '{pair}' is not STILL:MOVING"))
+        })
+        .collect()
+}
+
 /// The Markdown of one marker's table, ending in a newline.
 fn render(marker: &str, root: &Path, prefix: &str) -> Result<String> {
     let mut words = marker.split_whitespace();
@@ -188,21 +202,20 @@ fn render(marker: &str, root: &Path, prefix: &str) -> Result<String> {
             let default = args
                 .get("default")
                 .context("'gi-choice' needs default=NAME")?;
-            tables::gi_choice(&error, &temporal, &gpu, default)
+            // The moving protocol's column, where the marker names its data.
+            let moving = match args.get("moving") {
+                Some(_) => Some((
+                    data::MovingRun::load(&path("moving")?, &shown("moving"))?,
+                    pairs(&args, kind)?,
+                )),
+                None => None,
+            };
+            let moving = moving.as_ref().map(|(run, p)| (run, p.as_slice()));
+            tables::gi_choice(&error, &temporal, &gpu, moving, default)
         }
         "moving" => {
             let run = data::MovingRun::load(&path("data")?, &shown("data"))?;
-            let pairs = args
-                .get("pairs")
-                .context("'moving' needs pairs=STILL:MOVING,...")?
-                .split(',')
-                .map(|pair| {
-                    pair.split_once(':')
-                        .map(|(a, b)| (a.to_string(), b.to_string()))
-                        .with_context(|| format!("pair '{pair}' is not STILL:MOVING"))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            tables::moving(&run, &pairs)
+            tables::moving(&run, &pairs(&args, kind)?)
         }
         other => bail!("unknown table kind '{other}' (error, temporal, gpu-gi, gi-choice, moving)"),
     }

@@ -261,16 +261,7 @@ pub fn gpu_gi(run: &GpuRun) -> String {
 /// pair of a still scene and its everything-moves counterpart the time ratio and the work that
 /// grows the most (work counts are exact on every adapter; times are the adapter's).
 pub fn moving(run: &MovingRun, pairs: &[(String, String)]) -> Result<String> {
-    let index = |name: &str| {
-        run.scenes
-            .iter()
-            .position(|s| s == name)
-            .with_context(|| format!("no scene '{name}' in the moving data"))
-    };
-    let pairs: Vec<(usize, usize)> = pairs
-        .iter()
-        .map(|(still, moving)| Ok((index(still)?, index(moving)?)))
-        .collect::<Result<_>>()?;
+    let pairs = pair_indices(run, pairs)?;
     let mut s = String::new();
     let _ = writeln!(s, "{}", run.provenance.sentence());
     s.push('\n');
@@ -328,6 +319,40 @@ pub fn moving(run: &MovingRun, pairs: &[(String, String)]) -> Result<String> {
     Ok(s)
 }
 
+/// The scene indices of each (still, moving) pair of names.
+fn pair_indices(run: &MovingRun, pairs: &[(String, String)]) -> Result<Vec<(usize, usize)>> {
+    let index = |name: &str| {
+        run.scenes
+            .iter()
+            .position(|s| s == name)
+            .with_context(|| format!("no scene '{name}' in the moving data"))
+    };
+    pairs
+        .iter()
+        .map(|(still, moving)| Ok((index(still)?, index(moving)?)))
+        .collect()
+}
+
+/// A technique's largest GI time ratio of an everything-moves scene over its still one, and
+/// that moving scene's name; None where it has no GI time on every still scene.
+fn worst_moving_ratio(
+    run: &MovingRun,
+    pairs: &[(usize, usize)],
+    technique: &str,
+) -> Option<(f64, String)> {
+    let (_, cells) = run.techniques.iter().find(|(t, _)| t == technique)?;
+    pairs
+        .iter()
+        .filter(|&&(still, _)| cells[still].gi_ms > 0.0)
+        .map(|&(still, moving)| {
+            (
+                cells[moving].gi_ms / cells[still].gi_ms,
+                run.scenes[moving].clone(),
+            )
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
 /// The (at most two) work quantities that grow the most from `still` to `moving`, as
 /// "quantity: a → b"; "-" when none grows.
 fn growth(still: &MovingCell, moving: &MovingCell) -> String {
@@ -383,9 +408,14 @@ pub fn gi_choice(
     error: &ErrorRun,
     temporal: &TemporalRun,
     gpu: &GpuRun,
+    moving: Option<(&MovingRun, &[(String, String)])>,
     default: &str,
 ) -> Result<String> {
     let off = error.off()?;
+    let moving = match moving {
+        Some((run, pairs)) => Some((run, pair_indices(run, pairs)?)),
+        None => None,
+    };
     let mut rows = Vec::new();
     for (technique, errors) in error.techniques.iter().filter(|(t, _)| t != "none") {
         let (flip, rel, wins, n) = fractions(errors, off);
@@ -406,22 +436,28 @@ pub fn gi_choice(
         } else {
             format!("`{technique}`")
         };
-        rows.push((
-            technique == default,
-            rel,
-            format!(
-                "| {name} | {flip:.2} / {rel:.2} | {beats} | {ms} | {lag} | {} / {} / {} |",
-                sci1(t.still_flicker),
-                sci1(t.far_light),
-                sci1(t.camera_flight)
-            ),
+        let mut row = format!("| {name} | {flip:.2} / {rel:.2} | {beats} | {ms} |");
+        if let Some((run, pairs)) = &moving {
+            let worst = worst_moving_ratio(run, pairs, technique)
+                .map_or("-".to_string(), |(r, scene)| format!("{r:.2} ({scene})"));
+            row.push_str(&format!(" {worst} |"));
+        }
+        row.push_str(&format!(
+            " {lag} | {} / {} / {} |",
+            sci1(t.still_flicker),
+            sci1(t.far_light),
+            sci1(t.camera_flight)
         ));
+        rows.push((technique == default, rel, row));
     }
     rows.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
     let mut s = String::new();
     let _ = writeln!(s, "{}", error.provenance.sentence());
     let _ = writeln!(s, "{}", temporal.provenance.sentence());
     let _ = writeln!(s, "{}", gpu.provenance.sentence());
+    if let Some((run, _)) = &moving {
+        let _ = writeln!(s, "{}", run.provenance.sentence());
+    }
     s.push('\n');
     let adapter = gpu
         .provenance
@@ -430,8 +466,24 @@ pub fn gi_choice(
         .next()
         .map_or("GPU", |a| a.as_str());
     let short = adapter.split(" (").next().unwrap_or(adapter);
-    let _ = writeln!(s, "| technique | error, fraction of GI off's (FLIP / relMSE) | beats GI off | GI ms, {short}, 1920x1080 | lag (frames) | flicker: still / far light / camera flight |");
-    let _ = writeln!(s, "| --- | --- | --- | --- | --- | --- |");
+    let (moving_header, moving_rule) = match &moving {
+        Some((run, _)) => {
+            let adapter = run
+                .provenance
+                .adapters
+                .iter()
+                .next()
+                .map_or("", |a| a.as_str());
+            let short = adapter.split(" (").next().unwrap_or(adapter);
+            (
+                format!(" everything moving: GI time / still's, worst ({short}) |"),
+                " --- |",
+            )
+        }
+        None => (String::new(), ""),
+    };
+    let _ = writeln!(s, "| technique | error, fraction of GI off's (FLIP / relMSE) | beats GI off | GI ms, {short}, 1920x1080 |{moving_header} lag (frames) | flicker: still / far light / camera flight |");
+    let _ = writeln!(s, "| --- | --- | --- | --- |{moving_rule} --- | --- |");
     for (_, _, row) in rows {
         let _ = writeln!(s, "{row}");
     }
@@ -441,6 +493,45 @@ pub fn gi_choice(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_worst_moving_ratio_is_the_largest_over_the_pairs() {
+        let cell = |gi_ms| MovingCell {
+            gi_ms,
+            work: Vec::new(),
+        };
+        let run = MovingRun {
+            provenance: Default::default(),
+            scenes: ["box", "box-moves", "hall", "hall-moves"]
+                .map(String::from)
+                .to_vec(),
+            techniques: vec![
+                (
+                    "a".into(),
+                    vec![cell(2.0), cell(3.0), cell(4.0), cell(10.0)],
+                ),
+                ("b".into(), vec![cell(2.0), cell(6.0), cell(4.0), cell(4.0)]),
+                ("none".into(), vec![cell(0.0); 4]),
+            ],
+        };
+        let pairs = pair_indices(
+            &run,
+            &[("box", "box-moves"), ("hall", "hall-moves")].map(|(a, b)| (a.into(), b.into())),
+        )
+        .unwrap();
+        assert_eq!(pairs, [(0, 1), (2, 3)]);
+        assert_eq!(
+            worst_moving_ratio(&run, &pairs, "a"),
+            Some((2.5, "hall-moves".into()))
+        );
+        assert_eq!(
+            worst_moving_ratio(&run, &pairs, "b"),
+            Some((3.0, "box-moves".into()))
+        );
+        assert_eq!(worst_moving_ratio(&run, &pairs, "none"), None);
+        assert_eq!(worst_moving_ratio(&run, &pairs, "c"), None);
+        assert!(pair_indices(&run, &[("box".into(), "nowhere".into())]).is_err());
+    }
 
     #[test]
     fn three_significant_digits_as_c_does() {
