@@ -1,5 +1,5 @@
 //! The Markdown of each kind of table.
-use crate::data::{Error, ErrorRun, GpuRun, MovingCell, MovingRun, TemporalRun};
+use crate::data::{Error, ErrorRun, GpuRun, MovingCell, MovingRun, Provenance, TemporalRun};
 use anyhow::{Context, Result};
 use std::fmt::Write;
 
@@ -319,6 +319,17 @@ pub fn moving(run: &MovingRun, pairs: &[(String, String)]) -> Result<String> {
     Ok(s)
 }
 
+/// The adapter of the data's first file without its details ("NVIDIA H200", "llvmpipe"), or
+/// `none` where it names none.
+fn short_adapter<'a>(provenance: &'a Provenance, none: &'a str) -> &'a str {
+    let adapter = provenance
+        .adapters
+        .iter()
+        .next()
+        .map_or(none, |a| a.as_str());
+    adapter.split(" (").next().unwrap_or(adapter)
+}
+
 /// The scene indices of each (still, moving) pair of names.
 fn pair_indices(run: &MovingRun, pairs: &[(String, String)]) -> Result<Vec<(usize, usize)>> {
     let index = |name: &str| {
@@ -459,27 +470,15 @@ pub fn gi_choice(
         let _ = writeln!(s, "{}", run.provenance.sentence());
     }
     s.push('\n');
-    let adapter = gpu
-        .provenance
-        .adapters
-        .iter()
-        .next()
-        .map_or("GPU", |a| a.as_str());
-    let short = adapter.split(" (").next().unwrap_or(adapter);
+    let short = short_adapter(&gpu.provenance, "GPU");
     let (moving_header, moving_rule) = match &moving {
-        Some((run, _)) => {
-            let adapter = run
-                .provenance
-                .adapters
-                .iter()
-                .next()
-                .map_or("", |a| a.as_str());
-            let short = adapter.split(" (").next().unwrap_or(adapter);
-            (
-                format!(" everything moving: GI time / still's, worst ({short}) |"),
-                " --- |",
-            )
-        }
+        Some((run, _)) => (
+            format!(
+                " everything moving: GI time / still's, worst ({}) |",
+                short_adapter(&run.provenance, "")
+            ),
+            " --- |",
+        ),
         None => (String::new(), ""),
     };
     let _ = writeln!(s, "| technique | error, fraction of GI off's (FLIP / relMSE) | beats GI off | GI ms, {short}, 1920x1080 |{moving_header} lag (frames) | flicker: still / far light / camera flight |");
