@@ -1606,3 +1606,59 @@ fn each_rsm_layer_is_drawn_again_only_when_something_it_sees_moves() {
     assert_eq!(drawn(&mut r, &scene, 0.5), (1, side * side), "at rest");
     assert_eq!(r.read_hdr().unwrap().pixels, fresh_image(&scene, 0.5));
 }
+
+#[test]
+fn a_layer_at_half_the_side_is_cleared_over_its_corner() {
+    // A layer drawn at half the side keeps its targets' contents outside its corner and clears
+    // the corner itself with a triangle (a load-op clear would cover the whole layer). Two
+    // renderers whose point light comes from different places to the same one draw the same
+    // corners, bit for bit, whatever the whole-side drawing before left there: texels the
+    // light does not reach are zero again, and no stale depth hides a surface.
+    let ctx = context();
+    let key = |time: f32, x: f32| Keyframe {
+        time,
+        translation: Vec3::new(x, 0.0, 0.0),
+        rotation: Quat::IDENTITY,
+    };
+    let rsm_after = |from: f32| {
+        let mut scene = cornell_three_lights();
+        scene.lights[1].animation = Track::new(vec![key(0.0, from), key(0.5, 0.01)], false);
+        let mut r = Renderer::new(&ctx, &scene, lpv_settings("lpv", 24, 24)).unwrap();
+        r.render(&scene, 0.0).unwrap();
+        r.render(&scene, 0.5).unwrap();
+        let lpv = lpv_of(&r);
+        (
+            lpv.last_grids().unwrap().half_layers[0],
+            lpv.read_rsm(&ctx).unwrap(),
+        )
+    };
+    let (half, near) = rsm_after(0.0);
+    let (half_far, far) = rsm_after(-0.15);
+    assert_eq!(
+        half, 0b0111_1110,
+        "the point light's six faces at half the side"
+    );
+    assert_eq!(half_far, half);
+    let (mut uncovered, mut stale_differs) = (0, false);
+    for layer in (1..7).filter(|l| half & (1 << l) != 0) {
+        let (a, b) = (&near[layer], &far[layer]);
+        let n = a.size as usize;
+        for y in 0..n {
+            for x in 0..n {
+                let t = y * n + x;
+                let texel = |img: &octolux::frame::rsm::RsmImage| {
+                    [img.position[t], img.normal[t], img.flux[t]].map(|v| v.map(f32::to_bits))
+                };
+                if x < n / 2 && y < n / 2 {
+                    assert_eq!(texel(a), texel(b), "layer {layer} texel ({x}, {y})");
+                    uncovered += usize::from(a.position[t][3] == 0.0);
+                } else {
+                    stale_differs |= texel(a) != texel(b);
+                }
+            }
+        }
+    }
+    // Otherwise the comparison could not see a texel left uncleared.
+    assert!(uncovered > 0, "some corner texels see no surface");
+    assert!(stale_differs, "the whole-side drawings before differ");
+}

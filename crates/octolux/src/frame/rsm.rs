@@ -182,6 +182,8 @@ impl RsmTargets {
 /// The RSM rasterisation pipeline, and what the targets hold.
 pub struct RsmPass {
     pipeline: wgpu::RenderPipeline,
+    /// Clears the viewport of a layer drawn at less than the targets' side (`fs_clear`).
+    clear: wgpu::RenderPipeline,
     group: wgpu::BindGroup,
     /// Per layer, everything its last rendering depended on (its parameters, its view
     /// matrix, the transforms of the objects in its view), byte for byte: a layer with the
@@ -225,19 +227,21 @@ impl RsmPass {
                 write_mask: wgpu::ColorWrites::ALL,
             })
         };
+        let targets_state = [
+            target(POSITION_FORMAT),
+            target(HALF_FORMAT),
+            target(HALF_FORMAT),
+        ];
         let pipeline = raster_pipeline(
             device,
             "rsm",
             &layout,
             &module,
             "fs_rsm",
-            &[
-                target(POSITION_FORMAT),
-                target(HALF_FORMAT),
-                target(HALF_FORMAT),
-            ],
+            &targets_state,
             Default::default(),
         );
+        let clear = clear_pipeline(device, &module, &targets_state);
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("rsm layer"),
             layout: &layer_layout,
@@ -252,6 +256,7 @@ impl RsmPass {
         });
         RsmPass {
             pipeline,
+            clear,
             group,
             drawn: std::sync::Mutex::new(Vec::new()),
         }
@@ -320,24 +325,36 @@ impl RsmPass {
         timer.pass(name, |encoder, stamps| {
             for (k, &i) in stale.iter().enumerate() {
                 let views = &targets.layer_views[i];
-                let clear = |view| {
+                // A layer smaller than the targets fills their corner (the injection reads
+                // that much of it), cleared by a triangle over that corner alone.
+                let side = layer_side(layers, i, targets.size);
+                let whole = side == targets.size;
+                let color = |view| {
                     Some(wgpu::RenderPassColorAttachment {
                         view,
                         depth_slice: None,
                         resolve_target: None,
                         ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            load: if whole {
+                                wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT)
+                            } else {
+                                wgpu::LoadOp::Load
+                            },
                             store: wgpu::StoreOp::Store,
                         },
                     })
                 };
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("rsm layer"),
-                    color_attachments: &[clear(&views[0]), clear(&views[1]), clear(&views[2])],
+                    color_attachments: &[color(&views[0]), color(&views[1]), color(&views[2])],
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                         view: &views[3],
                         depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(1.0),
+                            load: if whole {
+                                wgpu::LoadOp::Clear(1.0)
+                            } else {
+                                wgpu::LoadOp::Load
+                            },
                             store: wgpu::StoreOp::Store,
                         }),
                         stencil_ops: None,
@@ -346,11 +363,12 @@ impl RsmPass {
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
-                pass.set_pipeline(&self.pipeline);
-                // A layer smaller than the targets fills their corner (the injection reads
-                // that much of it).
-                let side = layer_side(layers, i, targets.size);
                 pass.set_viewport(0.0, 0.0, side as f32, side as f32, 0.0, 1.0);
+                if !whole {
+                    pass.set_pipeline(&self.clear);
+                    pass.draw(0..3, 0..1);
+                }
+                pass.set_pipeline(&self.pipeline);
                 let view = Self::view_of(layers, i);
                 let view_offset = ((view as u64 + 1) * SLOT) as u32;
                 pass.set_bind_group(0, &scene_gpu.view_group, &[view_offset]);
@@ -379,8 +397,50 @@ fn layer_side(layers: &[RsmLayer], i: usize, size: u32) -> u32 {
 }
 
 /// What an RSM pass counts: layers rendered (those whose inputs changed), triangles drawn into
-/// them (those of clusters in each layer's view, `frame/culling.rs`), texels written.
+/// them (those of clusters in each layer's view, `frame/culling.rs`), texels written (each
+/// cleared first: a layer at half the side clears a quarter of its targets' layer).
 pub const RSM_WORK: &[&str] = &["layers", "triangles drawn", "texels"];
+
+/// The pipeline of the clearing triangle (`vs_clear`, `fs_clear` in `frame/rsm.wgsl`): every
+/// target zero and depth 1 over the viewport, whatever was there.
+fn clear_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    targets: &[Option<wgpu::ColorTargetState>],
+) -> wgpu::RenderPipeline {
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("rsm clear"),
+        bind_group_layouts: &[],
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("rsm clear"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_clear"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: wgpu::TextureFormat::Depth32Float,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Always),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_clear"),
+            compilation_options: Default::default(),
+            targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
 
 /// Cube-face axes in the order of the shadow layers of a point light (+x, -x, +y, -y, +z, -z).
 const FACE_AXES: [Vec3; 6] = [

@@ -85,3 +85,19 @@ fn fs_rsm(in: VertexOut) -> RsmOut {
     out.flux = select(vec4<f32>(color.rgb * radiant, 0.0), vec4<f32>(0.0), other_face);
     return out;
 }
+
+// The clear of a layer drawn at less than the targets' side. A load-op clear covers the whole
+// layer, four times the texels of a half-side layer, and on a GPU whose rasteriser is its
+// narrow part (an H200) the clear cost as much as the drawing: so such a layer keeps its
+// contents and this triangle, over the viewport only, writes what the clear would (zero in
+// every target, depth 1) before the scene is drawn.
+@vertex
+fn vs_clear(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let corner = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(corner * 2.0 - 1.0, 1.0, 1.0);
+}
+
+@fragment
+fn fs_clear() -> RsmOut {
+    return RsmOut(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+}
