@@ -6,10 +6,9 @@
 // octree converges to multi-bounce radiance. `bounce_list` lists the static slots whose voxel
 // gathers and zeroes the others' bounce, `bounce_args` (`bounce_list.wgsl`) sizes the gather,
 // and `bounce` gathers the listed voxels, their cones spread over lanes
-// (`cone_lanes.wgsl`). The dynamic part's voxels (`bounce_dynamic`, one lane per voxel, its
-// cones in turn) gather the same way; their leaves are rebuilt every frame in another
-// order, so their irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`)
-// instead of by slot.
+// (`cone_lanes.wgsl`). The dynamic part's voxels (`bounce_dynamic`, a workgroup per leaf
+// node) gather the same way; their leaves are rebuilt every frame in another order, so their
+// irradiance goes into a table keyed by voxel (`svo/bounce_table.wgsl`) instead of by slot.
 
 import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
@@ -17,9 +16,9 @@ import octolux::gi::vct::trace::{SurfaceCone, surface_cone};
 import octolux::voxel::svo::sample::svo_info;
 import octolux::voxel::svo::control::SvoControlValues;
 import octolux::voxel::svo::bounce_table::{BOUNCE_TABLE_PROBES, bounce_table_hash};
-import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
+import octolux::gi::vct::cone_set::{CONE_LANES, CONES_PER_LANE, DIFFUSE_CONES};
 import octolux::gi::vct::cone_lanes::{
-    first_lane, gather_item, keep_cone, lane_cone, sum_item_cones,
+    GATHER_ITEMS, first_lane, gather_item, keep_cone, lane_cone, sum_item_cones,
 };
 import octolux::gi::vct::cone::count_cone_work;
 import octolux::gi::vct::structure::vct_count_structure_work;
@@ -88,20 +87,6 @@ fn count_bounce_work(i: u32, first: bool) {
     vct_count_structure_work(4u);
 }
 
-// Indirect irradiance at the voxel of geometry slot `i` (zero where it does not gather), its
-// cones one after another (the dynamic part's gather).
-fn voxel_bounce(i: u32) -> vec3<f32> {
-    var e = vec3<f32>(0.0);
-    if voxel_gathers(i) {
-        let b = bounce_voxel(i);
-        for (var k = 0u; k < DIFFUSE_CONES; k++) {
-            e += bounce_cone(b, k);
-        }
-    }
-    count_bounce_work(i, true);
-    return 3.14159265 * e;
-}
-
 // Lists the static slots whose voxel gathers (`bounce_list.wgsl`) and zeroes the others'.
 @compute @workgroup_size(64)
 fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
@@ -141,24 +126,53 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
 }
 
 // One workgroup per dynamic leaf node (the range the octree's last dynamic update left on
-// the GPU), one invocation per voxel: each occupied voxel gathers and enters the table
-// (cleared before). Keys are distinct (one slot per voxel), so an insert competes only with
-// the few keys that hash near it.
-@compute @workgroup_size(8)
+// the GPU): its 8 voxel slots gathered as the static voxels are, their cones spread over the
+// lanes (`cone_lanes.wgsl`), in rounds of GATHER_ITEMS voxels; each occupied voxel enters the
+// table (cleared before). One lane per voxel marching its cones in turn, in workgroups of 8,
+// left three quarters of a GPU's SIMD lanes idle and each lane a long chain: on an H200 it
+// took 1.7 ms for a third of the static bounce's cones, which take 0.6 ms. Keys are distinct
+// (one slot per voxel), so an insert competes only with the few keys that hash near it.
+const DYNAMIC_ROUNDS: u32 = (8u + GATHER_ITEMS - 1u) / GATHER_ITEMS;
+
+@compute @workgroup_size(64)
 fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                  @builtin(local_invocation_index) o: u32) {
+                  @builtin(local_invocation_index) li: u32) {
     count_work(0u, 1u);
     let l = wg.y * nwg.x + wg.x;
     let leaves = svo_control.dynamic_levels[bounce_params.leaf_level];
-    if l >= leaves.end - leaves.first {
-        return;
+    // No lane leaves early: the rounds hold barriers.
+    let live = l < leaves.end - leaves.first;
+    for (var round = 0u; round < DYNAMIC_ROUNDS; round++) {
+        let o = round * GATHER_ITEMS + li / CONE_LANES;
+        let i = bounce_params.static_slots + 8u * l + o;
+        let present = live && o < 8u && bounce_geometry[2u * i] != 0u;
+        let gathers = present && voxel_gathers(i);
+        if gathers {
+            let b = bounce_voxel(i);
+            for (var j = 0u; j < CONES_PER_LANE; j++) {
+                let k = lane_cone(li, j);
+                if k < DIFFUSE_CONES {
+                    keep_cone(li, k, vec4<f32>(bounce_cone(b, k), 0.0));
+                }
+            }
+        }
+        let e = sum_item_cones(li);
+        if present && first_lane(li) {
+            if gathers {
+                count_work(1u, 1u);
+            }
+            // A voxel that does not gather enters with no light.
+            table_insert(bounce_geometry[2u * i], select(vec3<f32>(0.0), 3.14159265 * e.rgb, gathers));
+        }
+        // The next round's cones overwrite the results this one summed.
+        workgroupBarrier();
     }
-    let i = bounce_params.static_slots + 8u * l + o;
-    let key = bounce_geometry[2u * i];
-    if key == 0u {
-        return;
-    }
-    let e = voxel_bounce(i);
+    count_cone_work(2u, 3u);
+    vct_count_structure_work(4u);
+}
+
+// Enters irradiance `e` under voxel key `key` (nonzero) in the dynamic voxels' table.
+fn table_insert(key: u32, e: vec3<f32>) {
     let mask = bounce_params.table_capacity - 1u;
     var at = bounce_table_hash(key) & mask;
     var probes = 0u;
