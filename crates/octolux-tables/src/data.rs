@@ -465,6 +465,18 @@ pub struct MovingCell {
     /// The work counts of the first measured frame, summed per quantity over the technique's
     /// passes (`"triangles drawn"` → n).
     pub work: Vec<(String, u64)>,
+    /// The technique's own passes, in the bench's order.
+    pub passes: Vec<PassCell>,
+}
+
+/// One of a technique's own passes: its median time and, where its work has a cost per unit
+/// (`octolux::gpu::roofline`), its estimated bytes and its shares of the adapter's peaks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassCell {
+    pub name: String,
+    pub median_ms: f64,
+    /// Bytes asked per frame, share of the peak bandwidth, share of the peak operations.
+    pub roofline: Option<(f64, f64, f64)>,
 }
 
 /// The moving protocol: every technique on still scenes and on their everything-moves
@@ -489,7 +501,17 @@ impl MovingRun {
             let gi_ms = number(&t["gi_total"], "mean_ms", name)?;
             let mut work: Vec<(String, u64)> = Vec::new();
             let passes = t["passes"].as_array().into_iter().flatten();
+            let mut own = Vec::new();
             for pass in passes.filter(|p| p["gi"].as_bool() == Some(true)) {
+                let r = &pass["roofline"];
+                own.push(PassCell {
+                    name: pass["name"].as_str().unwrap_or("?").to_string(),
+                    median_ms: number(pass, "median_ms", name)?,
+                    roofline: r["bytes"].as_f64().map(|bytes| {
+                        let share = |key: &str| r[key].as_f64().unwrap_or(0.0);
+                        (bytes, share("bandwidth_share"), share("ops_share"))
+                    }),
+                });
                 for w in pass["work"].as_array().into_iter().flatten() {
                     let quantity = w["quantity"].as_str().unwrap_or("?").to_string();
                     let count = w["count"].as_u64().unwrap_or(0);
@@ -499,7 +521,11 @@ impl MovingRun {
                     }
                 }
             }
-            Ok(MovingCell { gi_ms, work })
+            Ok(MovingCell {
+                gi_ms,
+                work,
+                passes: own,
+            })
         })?;
         Ok(MovingRun {
             provenance,

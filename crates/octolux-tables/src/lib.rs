@@ -217,6 +217,18 @@ fn render(marker: &str, root: &Path, prefix: &str) -> Result<String> {
             let run = data::MovingRun::load(&path("data")?, &shown("data"))?;
             tables::moving(&run, &pairs(&args, kind)?)
         }
-        other => bail!("unknown table kind '{other}' (error, temporal, gpu-gi, gi-choice, moving)"),
+        "roofline" => {
+            let run = data::MovingRun::load(&path("data")?, &shown("data"))?;
+            let top = match args.get("top") {
+                Some(n) => n
+                    .parse()
+                    .with_context(|| format!("'roofline': top={n} is not a count"))?,
+                None => 2,
+            };
+            tables::roofline(&run, top)
+        }
+        other => bail!(
+            "unknown table kind '{other}' (error, temporal, gpu-gi, gi-choice, moving, roofline)"
+        ),
     }
 }

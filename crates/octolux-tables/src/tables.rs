@@ -1,5 +1,7 @@
 //! The Markdown of each kind of table.
-use crate::data::{Error, ErrorRun, GpuRun, MovingCell, MovingRun, Provenance, TemporalRun};
+use crate::data::{
+    Error, ErrorRun, GpuRun, MovingCell, MovingRun, PassCell, Provenance, TemporalRun,
+};
 use anyhow::{Context, Result};
 use std::fmt::Write;
 
@@ -319,6 +321,58 @@ pub fn moving(run: &MovingRun, pairs: &[(String, String)]) -> Result<String> {
     Ok(s)
 }
 
+/// Per technique and scene, its `top` most expensive passes (median time) with the bytes its
+/// work asks for and its shares of the adapter's peak bandwidth and operations (`-` for a
+/// pass without an estimate: rasterised, or without counts): the `roofline` table.
+pub fn roofline(run: &MovingRun, top: usize) -> Result<String> {
+    let mut s = String::new();
+    let _ = writeln!(s, "{}", run.provenance.sentence());
+    s.push('\n');
+    let _ = writeln!(
+        s,
+        "| technique | scene | pass | median ms | bytes asked per frame | bandwidth | operations |"
+    );
+    let _ = writeln!(s, "| --- | --- | --- | ---: | ---: | ---: | ---: |");
+    for (technique, cells) in &run.techniques {
+        let mut first = true;
+        for (scene, cell) in run.scenes.iter().zip(cells) {
+            let mut passes: Vec<&PassCell> = cell.passes.iter().collect();
+            passes.sort_by(|a, b| b.median_ms.total_cmp(&a.median_ms));
+            for pass in passes.into_iter().take(top) {
+                let name = pass
+                    .name
+                    .strip_prefix(technique.as_str())
+                    .unwrap_or(&pass.name)
+                    .trim();
+                let (bytes, bw, ops) = match pass.roofline {
+                    Some((bytes, bw, ops)) => (
+                        if bytes >= 1e9 {
+                            format!("{} GB", sig3(bytes / 1e9))
+                        } else {
+                            format!("{} MB", sig3(bytes / 1e6))
+                        },
+                        format!("{:.1} %", 100.0 * bw),
+                        format!("{:.1} %", 100.0 * ops),
+                    ),
+                    None => ("-".into(), "-".into(), "-".into()),
+                };
+                let shown = if first {
+                    format!("`{technique}`")
+                } else {
+                    String::new()
+                };
+                first = false;
+                let _ = writeln!(
+                    s,
+                    "| {shown} | {scene} | {name} | {} | {bytes} | {bw} | {ops} |",
+                    sig3(pass.median_ms)
+                );
+            }
+        }
+    }
+    Ok(s)
+}
+
 /// The adapter of the data's first file without its details ("NVIDIA H200", "llvmpipe"), or
 /// `none` where it names none.
 fn short_adapter<'a>(provenance: &'a Provenance, none: &'a str) -> &'a str {
@@ -498,6 +552,7 @@ mod tests {
         let cell = |gi_ms| MovingCell {
             gi_ms,
             work: Vec::new(),
+            passes: Vec::new(),
         };
         let run = MovingRun {
             provenance: Default::default(),
@@ -530,6 +585,44 @@ mod tests {
         assert_eq!(worst_moving_ratio(&run, &pairs, "none"), None);
         assert_eq!(worst_moving_ratio(&run, &pairs, "c"), None);
         assert!(pair_indices(&run, &[("box".into(), "nowhere".into())]).is_err());
+    }
+
+    #[test]
+    fn the_roofline_table_lists_each_techniques_most_expensive_passes() {
+        let pass = |name: &str, median_ms, roofline| PassCell {
+            name: name.into(),
+            median_ms,
+            roofline,
+        };
+        let cell = |passes| MovingCell {
+            gi_ms: 1.0,
+            work: Vec::new(),
+            passes,
+        };
+        let run = MovingRun {
+            provenance: Default::default(),
+            scenes: vec!["box".into()],
+            techniques: vec![(
+                "vpl".into(),
+                vec![cell(vec![
+                    pass("vpl rsm", 0.6, None),
+                    pass("vpl merge", 0.02, Some((1e5, 0.5, 0.1))),
+                    pass("vpl shade", 1.07, Some((2.5e8, 0.04, 0.006))),
+                ])],
+            )],
+        };
+        let table = roofline(&run, 2).unwrap();
+        let rows: Vec<&str> = table
+            .lines()
+            .filter(|l| l.starts_with("| `") || l.starts_with("|  |"))
+            .collect();
+        assert_eq!(
+            rows,
+            [
+                "| `vpl` | box | shade | 1.07 | 250 MB | 4.0 % | 0.6 % |",
+                "|  | box | rsm | 0.6 | - | - | - |",
+            ]
+        );
     }
 
     #[test]
