@@ -17,7 +17,8 @@
 # would split the stream into blocks that do not share a dictionary) and 8.3 GiB of memory
 # (xz's figure for these settings; 769 MiB to unpack). `run.sh` runs whatever parts are present (a part already unpacked by an
 # earlier run on the same machine is kept), steps chosen by STEPS (default "bench tests";
-# add "voxel" for the voxel structures' tables):
+# add "voxel" for the voxel structures' tables, "steps" for every step of the octree's
+# multi-step passes timed as a pass of its own):
 #   BENCH_ARGS="--width 320 --height 180 --warmup 1 --frames 3"   a quick try
 #   BENCH_SCENES="scenes/cornell-box.toml ..."                     other scenes
 #   BENCH_GI=vpl,vct-svo                                             other techniques
@@ -126,6 +127,15 @@ if [[ "$steps" == *" tests "* ]]; then
     ls "$unpacked/$(basename "$part" .tar.xz)"/*
   done | xargs -P "${TEST_JOBS:-4}" -I{} bash -c 'run_test {}' | tee "$results/tests.txt"
   failed=$(grep -c '^== .*: exit [1-9]' "$results/tests.txt")
+fi
+if [[ "$steps" == *" steps "* ]]; then
+  # The octree's build, dynamic update and radiance mip step by step (OCTOLUX_PROFILE_STEPS:
+  # each dispatch its own timed pass), on the Cornell box held still and moving.
+  (cd "$root" && OCTOLUX_PROFILE_STEPS=1 "$bin" bench scenes/cornell-box.toml \
+    scenes/cornell-everything-moves.toml --gi vct-svo,vpl --no-reference \
+    --width 1920 --height 1080 --warmup 3 --frames 5) >"$results/steps.txt" 2>&1
+  echo "== steps: exit $?"
+  grep -F ': ' "$results/steps.txt" | grep -F 'svo' | head -120
 fi
 if [[ "$steps" == *" voxel "* ]]; then
   # The voxel structures' measuring tests, with their tables (docs/voxels.md).
