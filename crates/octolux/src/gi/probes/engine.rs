@@ -183,6 +183,11 @@ pub(crate) const LIVE_SURFELS: u32 = 0;
 pub(crate) const LIVE_MOMENT_TEXELS: u32 = 1;
 /// See [`LIVE_SURFELS`].
 pub(crate) const LIVE_PROBES: u32 = 2;
+
+/// Invocations per probe of the integration, which sum its surfels side by side
+/// (`INTEGRATE_LANES` in `octree_params.wgsl`, which `integrate.wgsl` and the octree's
+/// dispatch arguments read).
+const INTEGRATE_LANES: u32 = 8;
 /// Slots of [`LIVE_SURFELS`]...
 pub(crate) const LIVE_SLOTS: u32 = 3;
 
@@ -568,7 +573,8 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let dispatch = set_dispatch(set, LIVE_PROBES, dispatch_size(self.params.probe_slots));
+        let lanes = self.params.probe_slots * INTEGRATE_LANES;
+        let dispatch = set_dispatch(set, LIVE_PROBES, dispatch_size(lanes));
         run_dispatch(timer, "integrate", &self.integrate, &groups, dispatch);
     }
 

@@ -1,6 +1,9 @@
 // Probe integration: each probe sums its surfels' radiance, each over the solid angle of its
 // lattice direction, into its encoding, and counts its back-face and total hits and the hits
-// inside its region (the octree's hit count).
+// inside its region (the octree's hit count). A probe's surfels are summed by INTEGRATE_LANES
+// lanes side by side, whose partial sums its first lane adds: one lane per probe running
+// through all its surfels left a GPU nearly idle (the octree's 1387 probes of 226 surfels:
+// 22 workgroups on an H200's 132 multiprocessors, each lane a chain of 226 loads).
 //
 // With two surfel sets (P.set_count = 2: probes-grid's accumulation over frames,
 // docs/probes.md "Rays that turn every frame") a probe keeps a history: its value is the mean
@@ -19,6 +22,7 @@ import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfe
 import octolux::gi::probes::set::{probe_live, probe_restarts, probe_slot, probe_slots, probe_store_hits};
 import octolux::gi::probes::encoding::probe_encode;
 import octolux::gpu::work::count_work;
+import octolux::gi::probes::octree_params::INTEGRATE_LANES;
 
 @group(0) @binding(1) var<storage, read> surfels: array<Surfel>;
 @group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
@@ -37,12 +41,15 @@ import octolux::gpu::work::count_work;
 
 @if(!count_work) fn note_surfels(n: u32) {}
 
-@if(count_work) fn count_integrate_work() {
-    count_work(0u, 1u);
+// A lane's counts: the probe (counted by its first lane) and the surfels the lane read.
+@if(count_work) fn count_integrate_work(first: bool) {
+    if first {
+        count_work(0u, 1u);
+    }
     count_work(1u, surfels_read);
 }
 
-@if(!count_work) fn count_integrate_work() {}
+@if(!count_work) fn count_integrate_work(first: bool) {}
 
 // One set's sums: coefficients and hit counts.
 struct SetSums {
@@ -52,24 +59,53 @@ struct SetSums {
     inside: u32,
 };
 
-fn integrate_set(probe: u32, ray_set: u32, n: u32) -> SetSums {
+// Each lane's partial sums of the set being integrated.
+var<workgroup> partial_c: array<array<vec3<f32>, 8>, 64>;
+// (back-face hits, hits, hits inside) per lane.
+var<workgroup> partial_n: array<vec3<u32>, 64>;
+
+// The sums of surfel set `ray_set` of `probe`: lane j of the probe's INTEGRATE_LANES sums
+// surfels j, j + INTEGRATE_LANES, ... in order, then its first lane adds the partial sums in
+// lane order and gets the result (the other lanes zeros). Every lane of the workgroup calls
+// it, in uniform control flow (it holds barriers); a lane with nothing to sum passes
+// `summing` false.
+fn integrate_set(probe: u32, ray_set: u32, n: u32, li: u32, summing: bool) -> SetSums {
     var c: array<vec3<f32>, 8>;
     var back = 0u;
     var hits = 0u;
     var inside = 0u;
-    let first = probe * probe_surfels() + ray_set * n;
-    note_surfels(n);
-    for (var k = 0u; k < n; k++) {
-        let s = first + k;
-        let surfel = surfels[s];
-        let state = surfel.state;
-        hits += u32(state > 0.5);
-        back += u32(state > 1.5);
-        inside += u32(state > 0.5 && surfel.distance >= 0.0);
-        let d = probe_ray_dir(ray_set, k, n);
-        probe_encode(P.encoding, &c, radiance[s].rgb, d.xyz, d.w);
+    let lane = li % INTEGRATE_LANES;
+    if summing {
+        let first = probe * probe_surfels() + ray_set * n;
+        for (var k = lane; k < n; k += INTEGRATE_LANES) {
+            let s = first + k;
+            let surfel = surfels[s];
+            let state = surfel.state;
+            hits += u32(state > 0.5);
+            back += u32(state > 1.5);
+            inside += u32(state > 0.5 && surfel.distance >= 0.0);
+            let d = probe_ray_dir(ray_set, k, n);
+            probe_encode(P.encoding, &c, radiance[s].rgb, d.xyz, d.w);
+            note_surfels(1u);
+        }
     }
-    return SetSums(c, back, hits, inside);
+    partial_c[li] = c;
+    partial_n[li] = vec3<u32>(back, hits, inside);
+    workgroupBarrier();
+    var sums: SetSums;
+    if lane == 0u {
+        for (var l = li; l < li + INTEGRATE_LANES; l++) {
+            for (var q = 0u; q < 8u; q++) {
+                sums.c[q] += partial_c[l][q];
+            }
+            sums.back += partial_n[l].x;
+            sums.hits += partial_n[l].y;
+            sums.inside += partial_n[l].z;
+        }
+    }
+    // Read before the next set's partial sums overwrite them.
+    workgroupBarrier();
+    return sums;
 }
 
 // Sum of the absolute values of every coefficient's channels.
@@ -84,31 +120,55 @@ fn level(c: array<vec3<f32>, 8>) -> f32 {
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    let k = linear_index(wg, nwg, li);
-    if k >= probe_slots() {
-        return;
-    }
-    let probe = probe_slot(k);
-    if !probe_live(probe) {
-        return;
+    // INTEGRATE_LANES invocations per probe; no lane leaves before the sums (barriers).
+    let k = linear_index(wg, nwg, li) / INTEGRATE_LANES;
+    let first_lane = li % INTEGRATE_LANES == 0u;
+    var probe = 0u;
+    var has_probe = k < probe_slots();
+    if has_probe {
+        probe = probe_slot(k);
+        has_probe = probe_live(probe);
     }
     let n = P.surfels_per_set;
     let b = probe * PROBE_VEC4;
     if P.set_count == 1u {
-        let r = integrate_set(probe, 0u, n);
+        let r = integrate_set(probe, 0u, n, li, has_probe);
+        if !has_probe {
+            return;
+        }
+        count_integrate_work(first_lane);
+        if !first_lane {
+            return;
+        }
         for (var k = 0u; k < 8u; k++) {
             probes[b + k] = vec4<f32>(r.c[k], 0.0);
         }
         probe_store_hits(probe, r.inside);
         probes[b + 8u] = vec4<f32>(f32(r.back) / f32(n), f32(r.hits) / f32(n), select(0.0, 1.0, r.back <= P.max_back_faces), 0.0);
-        count_integrate_work();
+        return;
+    }
+    let sampled = P.latest_placed != 0u;
+    // The set placed before this frame's: the other one when a new set was placed.
+    let before = select(P.latest_set, 1u - P.latest_set, sampled);
+    // A probe that restarts needs only the latest set (the one before when none was placed).
+    let restarts = has_probe && probe_restarts(probe);
+    let relit = integrate_set(probe, before, n, li, has_probe && !(restarts && sampled));
+    var newest = relit;
+    if sampled {
+        newest = integrate_set(probe, P.latest_set, n, li, has_probe);
+    }
+    if !has_probe {
+        return;
+    }
+    count_integrate_work(first_lane);
+    if !first_lane {
         return;
     }
     let rb = probe * 8u;
-    if probe_restarts(probe) {
+    if restarts {
         // A new history (the octree's new probe, or one its slot held before): the latest
         // set's sample alone, which also gives the octree its hit count.
-        let sample = integrate_set(probe, P.latest_set, n);
+        let sample = newest;
         for (var k = 0u; k < 8u; k++) {
             probes[b + k] = vec4<f32>(sample.c[k], 0.0);
             probe_raw[rb + k] = vec4<f32>(sample.c[k], 0.0);
@@ -116,13 +176,8 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         probe_store_hits(probe, sample.inside);
         let valid = sample.back <= P.max_back_faces;
         probes[b + 8u] = vec4<f32>(f32(sample.back) / f32(n), f32(sample.hits) / f32(n), select(0.0, 1.0, valid), 1.0);
-        count_integrate_work();
         return;
     }
-    let sampled = P.latest_placed != 0u;
-    // The set placed before this frame's: the other one when a new set was placed.
-    let before = select(P.latest_set, 1u - P.latest_set, sampled);
-    let relit = integrate_set(probe, before, n);
     var history: array<vec3<f32>, 8>;
     var raw: array<vec3<f32>, 8>;
     var change = 0.0;
@@ -143,7 +198,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // the new sample only becomes the set the next frame relights from.
     let settled = frames >= f32(P.max_history) && change == 0.0;
     if sampled && !settled {
-        let sample = integrate_set(probe, P.latest_set, n);
+        let sample = newest;
         let keep = frames / (frames + 1.0);
         for (var k = 0u; k < 8u; k++) {
             history[k] = mix(sample.c[k], history[k], keep);
@@ -153,7 +208,7 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         frames = min(frames + 1.0, f32(P.max_history));
         latest = sample.c;
     } else if sampled {
-        latest = integrate_set(probe, P.latest_set, n).c;
+        latest = newest.c;
     }
     for (var k = 0u; k < 8u; k++) {
         probes[b + k] = vec4<f32>(history[k], 0.0);
@@ -163,5 +218,4 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     // count (+ 0.5: a single sample's share times n is an integer up to rounding).
     let valid = back * f32(n) <= f32(P.max_back_faces) + 0.5;
     probes[b + 8u] = vec4<f32>(back, hits, select(0.0, 1.0, valid), frames);
-    count_integrate_work();
 }

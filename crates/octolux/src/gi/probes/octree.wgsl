@@ -8,7 +8,7 @@
 import octolux::gi::probes::octree_tree::{octree_cube, octree_meta};
 import octolux::gi::probes::tree_bindings::{O, tree};
 import octolux::gpu::work::count_work;
-import octolux::gi::probes::octree_params::{FREE_INFO, LIVE_COUNT, LIVE_FIRST, ProbeInfo};
+import octolux::gi::probes::octree_params::{FREE_INFO, INTEGRATE_LANES, LIVE_COUNT, LIVE_FIRST, ProbeInfo};
 import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 
 // The parameters and the tree (bindings 0, 1) are octree_tree_write.wgsl's.
@@ -318,7 +318,7 @@ fn list_live_probes(t: u32) {
         count_work(1u, count);
         set_args(LIVE_SURFELS, count * O.surfels_per_probe);
         set_args(LIVE_MOMENT_TEXELS, count * O.moment_texels);
-        set_args(LIVE_PROBES, count);
+        set_args(LIVE_PROBES, count * INTEGRATE_LANES);
     }
 }
 

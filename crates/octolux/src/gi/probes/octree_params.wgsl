@@ -40,6 +40,10 @@ struct OctreeParams {
 };
 
 // The live probes' list (octree.wgsl's `live`): its count, then the slots from LIVE_FIRST.
+// Lanes that integrate one probe's surfels side by side (`integrate.wgsl`; `INTEGRATE_LANES`
+// in engine.rs): the integration launches this many invocations per probe.
+const INTEGRATE_LANES: u32 = 8u;
+
 const LIVE_COUNT: u32 = 0u;
 const LIVE_FIRST: u32 = 1u;
 
