@@ -789,7 +789,7 @@ fn bricks_by_node(svo: &Svo, cpu_svo: &SvoCpu, radiance: &[[Vec4; 27]]) -> (Node
 #[test]
 fn fused_coarse_levels_equal_the_per_level_dispatches_bit_for_bit() {
     use octolux::voxel::svo::dynamic::DynamicReserve;
-    // Counting work: the radiance mip reports its dispatches.
+    // Counting work: the radiance mip reports its dispatches and its static part's texels.
     let ctx = context().with_work_counter();
     // 64^3: levels 0-2 are fused, 3 and 4 filtered one by one, 5 holds the leaves.
     let grid = VoxelGrid::new(Vec3::ZERO, 1.0 / 64.0, 64).unwrap();
@@ -806,14 +806,30 @@ fn fused_coarse_levels_equal_the_per_level_dispatches_bit_for_bit() {
             builder.update_dynamic(&ctx, &mut svo, dynamic).unwrap();
             ctx.work().unwrap().take(&ctx).unwrap();
             inject_nothing(&ctx, &builder, &svo);
-            let dispatches = ctx
-                .work()
-                .unwrap()
-                .take(&ctx)
-                .unwrap()
-                .into_iter()
-                .find(|c| c.pass == "svo radiance mip" && c.quantity == "dispatches")
-                .map(|c| c.count);
+            let counts = ctx.work().unwrap().take(&ctx).unwrap();
+            let count = |quantity: &str| {
+                counts
+                    .iter()
+                    .find(|c| c.pass == "svo radiance mip" && c.quantity == quantity)
+                    .map(|c| c.count)
+            };
+            let dispatches = count("dispatches");
+            // The static part's work: 27 texels filtered per node above the leaves, a face
+            // transfer per node and axis, whether the coarse levels are fused or not.
+            let nodes: Vec<u64> = svo
+                .levels()
+                .iter()
+                .map(|&(a, b)| u64::from(b - a))
+                .collect();
+            let leaf = nodes.len() - 1;
+            assert_eq!(
+                count("static texels filtered"),
+                Some(27 * nodes[..leaf].iter().sum::<u64>())
+            );
+            assert_eq!(
+                count("static face transfers"),
+                Some(3 * nodes.iter().sum::<u64>())
+            );
             let albedo = svo.read_back(&ctx).unwrap();
             let radiance = svo.read_radiance(&ctx).unwrap();
             (svo, albedo, radiance, dispatches)

@@ -9,7 +9,8 @@
 //! says the pass waits on something else (dependent loads, atomics, occupancy, a few long
 //! threads), which docs/performance.md names per pass. The costs per unit are counted from
 //! the WGSL (the loads and stores of one unit, its arithmetic to the nearest few operations);
-//! passes without counts, and the rasterised ones, get no estimate.
+//! passes without counts get no estimate, nor do the rasterised ones but the reflective shadow
+//! maps.
 
 use super::pass::dispatch_size;
 use super::{GpuContext, PassTimer};
@@ -92,6 +93,20 @@ pub const UNIT_COSTS: &[UnitCost] = &[
     cost(" inject", "VPL injections", 0.0, 40.0),
     cost(" inject", "surfel injections", 0.0, 40.0),
     cost("", "atomic adds", 8.0, 1.0),
+    // The octree's radiance mip: a filtered texel's share of its node's staging (the 8
+    // children's 216 rgba16f texels for 27 texels: 64 B) and its write (8 B), 27 taps of a
+    // multiply-add and a weight (~140); a face transfer reads and writes 9 texels in each of
+    // two bricks (288 B) and adds them (~40). Transfers to a missing neighbour read less: an
+    // upper bound.
+    cost(" radiance mip", "static texels filtered", 72.0, 140.0),
+    cost(" radiance mip", "static face transfers", 288.0, 40.0),
+    // Reflective shadow maps (rasterised): a texel cleared and then written in its three
+    // targets and depth (rgba32f + 2 rgba16f + depth32: 36 B each time, the depth test's read
+    // besides), its fragment's flux and measure (~60); a triangle's 3 vertices (32 B each)
+    // transformed (~100). A rasteriser's limits are its own, so a low share here says no more
+    // than that the memory is not what bounds the pass.
+    cost(" rsm", "texels", 76.0, 60.0),
+    cost(" rsm", "triangles drawn", 96.0, 100.0),
 ];
 
 /// A pass's estimated bytes and operations in one frame.

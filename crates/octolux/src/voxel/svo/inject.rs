@@ -422,8 +422,16 @@ impl SvoLight {
     }
 }
 
-/// Work counts of the radiance mip (`gpu/work.rs`): its dispatches, one after another.
-const RADIANCE_MIP_WORK: &[&str] = &["dispatches"];
+/// Work counts of the radiance mip (`gpu/work.rs`): its dispatches, one after another; the
+/// static part's texels filtered from their children (27 per node above the leaves) and its
+/// neighbour transfers (one per node and axis, a face of 9 texels where the neighbour
+/// exists), each twice with the facing pool. The dynamic part's nodes are known only on the
+/// GPU and are not counted.
+const RADIANCE_MIP_WORK: &[&str] = &[
+    "dispatches",
+    "static texels filtered",
+    "static face transfers",
+];
 
 impl SvoBuilder {
     /// direct irradiance from the first `light_count` lights of `lights` (the renderer's light
@@ -500,13 +508,17 @@ impl SvoBuilder {
         let steps = filter_steps(depth, svo.dynamic.is_some(), self.fuse_coarse);
         // Each dispatch waits for the one before: on a GPU the coarse levels' cost is their
         // number more than their few nodes.
-        crate::gpu::work::add(
-            ctx,
-            "svo radiance mip",
-            RADIANCE_MIP_WORK,
-            0,
+        let pools = if svo.facing.is_some() { 2 } else { 1 };
+        let nodes = |d: usize| svo.levels.get(d).map_or(0, |&(a, b)| u64::from(b - a));
+        let leaf = svo.levels.len() - 1;
+        let counts = [
             steps.len() as u64,
-        )?;
+            (0..leaf).map(nodes).sum::<u64>() * 27 * pools,
+            (0..=leaf).map(nodes).sum::<u64>() * 3 * pools,
+        ];
+        for (quantity, n) in counts.into_iter().enumerate() {
+            crate::gpu::work::add(ctx, "svo radiance mip", RADIANCE_MIP_WORK, quantity, n)?;
+        }
         record_steps(
             pipelines,
             timer,
