@@ -510,6 +510,13 @@ fn lpv_propagation_counts_cells_times_iterations_on_every_grid() {
         assert_eq!(count(&counts, &pass, "steps"), steps, "{gi}");
         assert_eq!(count(&counts, &pass, "lanes"), lanes, "{gi}");
         assert_eq!(count(&counts, &pass, "cell updates"), cells, "{gi}");
+        // The lookup reads the volume at every pixel.
+        let lookup = format!("{gi} lookup");
+        assert_eq!(
+            count(&counts, &lookup, "pixels"),
+            (SIZE * SIZE) as u64,
+            "{gi}"
+        );
     }
 }
 

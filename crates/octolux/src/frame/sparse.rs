@@ -70,7 +70,7 @@ impl SparseImage {
 
     /// Records the reconstruction of every pixel of `out` (the full-size image, a storage
     /// texture of `Rgba16Float`) as the pass `name`, from the reduced image and the G-buffer
-    /// seen through the camera uniform `camera`.
+    /// seen through the camera uniform `camera` (its work count: the pixels).
     pub fn record(
         &self,
         ctx: &GpuContext,
@@ -79,7 +79,7 @@ impl SparseImage {
         camera: &wgpu::Buffer,
         gbuffer: GiSurfaces<'_>,
         out: &wgpu::TextureView,
-    ) {
+    ) -> crate::Result<()> {
         let tex = wgpu::BindingResource::TextureView;
         let entries = [
             (0, camera.as_entire_binding()),
@@ -91,6 +91,8 @@ impl SparseImage {
         ];
         let group = self.group.get(ctx, name, &self.pipeline, &entries);
         let (w, h) = (gbuffer.width, gbuffer.height);
+        crate::gpu::work::add(ctx, name, &["pixels"], 0, u64::from(w) * u64::from(h))?;
         dispatch_2d(timer, name, &self.pipeline, &group, w, h);
+        Ok(())
     }
 }

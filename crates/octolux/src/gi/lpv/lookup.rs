@@ -58,9 +58,16 @@ impl Lookup {
         Lookup { pipeline, group }
     }
 
-    /// Records the lookup over every pixel.
-    pub(crate) fn record(&self, timer: &mut PassTimer, name: &str, output: &Output) {
+    /// Records the lookup over every pixel (its work count: the pixels).
+    pub(crate) fn record(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut PassTimer,
+        name: &str,
+        output: &Output,
+    ) -> crate::Result<()> {
         let (w, h) = (output.texture.width(), output.texture.height());
+        crate::gpu::work::add(ctx, name, &["pixels"], 0, u64::from(w) * u64::from(h))?;
         timer.pass(name, |encoder, stamps| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some(name),
@@ -70,5 +77,6 @@ impl Lookup {
             pass.set_bind_group(0, &self.group, &[]);
             pass.dispatch_workgroups(groups(w, 8), groups(h, 8), 1);
         });
+        Ok(())
     }
 }

@@ -710,7 +710,7 @@ impl GiTechnique for LpvGi {
             octree.record_merge(timer);
         }
         p.lookup
-            .record(timer, &format!("{name} lookup"), &self.output);
+            .record(ctx, timer, &format!("{name} lookup"), &self.output)?;
         Ok(())
     }
 

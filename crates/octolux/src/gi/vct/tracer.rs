@@ -261,7 +261,7 @@ impl ConeTracer {
                 frame.camera_uniform,
                 frame.gbuffer,
                 &self.view,
-            );
+            )?;
         }
         // 3. The optional specular cone, every pixel.
         if let Some(spec) = &self.specular {

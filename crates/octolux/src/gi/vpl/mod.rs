@@ -566,7 +566,7 @@ impl GiTechnique for VplGi {
                 frame.camera_uniform,
                 frame.gbuffer,
                 &self.view,
-            );
+            )?;
         }
         Ok(())
     }
