@@ -87,6 +87,18 @@ fn count_bounce_work(i: u32, first: bool) {
     vct_count_structure_work(4u);
 }
 
+// Marches lane `li`'s cones of the voxel of geometry slot `i` and keeps their weighted
+// results for `sum_item_cones` (the static and the dynamic gathers alike).
+fn keep_voxel_cones(i: u32, li: u32) {
+    let b = bounce_voxel(i);
+    for (var j = 0u; j < CONES_PER_LANE; j++) {
+        let k = lane_cone(li, j);
+        if k < DIFFUSE_CONES {
+            keep_cone(li, k, vec4<f32>(bounce_cone(b, k), 0.0));
+        }
+    }
+}
+
 // Lists the static slots whose voxel gathers (`bounce_list.wgsl`) and zeroes the others'.
 @compute @workgroup_size(64)
 fn bounce_list(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
@@ -108,13 +120,7 @@ fn bounce(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     let i = listed_slot(gather_item(wg.y * nwg.x + wg.x, li));
     // Listed voxels gather (`bounce_list`).
     if i != 0xffffffffu {
-        let b = bounce_voxel(i);
-        for (var j = 0u; j < CONES_PER_LANE; j++) {
-            let k = lane_cone(li, j);
-            if k < DIFFUSE_CONES {
-                keep_cone(li, k, vec4<f32>(bounce_cone(b, k), 0.0));
-            }
-        }
+        keep_voxel_cones(i, li);
     }
     let e = sum_item_cones(li);
     if i != 0xffffffffu {
@@ -148,13 +154,7 @@ fn bounce_dynamic(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups)
         let present = live && o < 8u && bounce_geometry[2u * i] != 0u;
         let gathers = present && voxel_gathers(i);
         if gathers {
-            let b = bounce_voxel(i);
-            for (var j = 0u; j < CONES_PER_LANE; j++) {
-                let k = lane_cone(li, j);
-                if k < DIFFUSE_CONES {
-                    keep_cone(li, k, vec4<f32>(bounce_cone(b, k), 0.0));
-                }
-            }
+            keep_voxel_cones(i, li);
         }
         let e = sum_item_cones(li);
         if present && first_lane(li) {
