@@ -5,9 +5,9 @@
 
 use octolux::image_io::HdrImage;
 use octolux::metrics::{self, MetricOptions};
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
 use tempfile::TempDir;
 
 /// A fresh, empty scratch folder named after `name`, removed when the returned guard drops.
@@ -51,23 +51,20 @@ impl XServer {
                 child: None,
             };
         }
-        // A display number no other server (or parallel test run) holds.
-        let n = (90 + std::process::id() % 400..600)
-            .find(|n| {
-                !Path::new(&format!("/tmp/.X{n}-lock")).exists()
-                    && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists()
-            })
-            .expect("a free X display number");
-        let child = Command::new("Xvfb")
+        // Xvfb picks a free display number itself and writes it to `-displayfd` once it accepts
+        // connections: choosing one here could race a test beside it (two servers on one
+        // number, the second dying and the first taken away when its test ends).
+        let mut child = Command::new("Xvfb")
             .args([
-                &format!(":{n}"),
+                "-displayfd",
+                "1",
                 "-screen",
                 "0",
                 "1280x800x24",
                 "-nolisten",
                 "tcp",
             ])
-            .stdout(Stdio::null())
+            .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
             .unwrap_or_else(|e| {
@@ -76,12 +73,15 @@ impl XServer {
                      (e.g. `apt-get install xvfb`) to run the viewer tests"
                 )
             });
-        let socket = format!("/tmp/.X11-unix/X{n}");
-        let deadline = Instant::now() + Duration::from_secs(20);
-        while !Path::new(&socket).exists() {
-            assert!(Instant::now() < deadline, "Xvfb :{n} did not start");
-            std::thread::sleep(Duration::from_millis(50));
-        }
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("Xvfb's stdout");
+        BufReader::new(stdout)
+            .read_line(&mut line)
+            .expect("read Xvfb's display number");
+        let n: u32 = line
+            .trim()
+            .parse()
+            .unwrap_or_else(|_| panic!("Xvfb did not start (it wrote {line:?})"));
         XServer {
             display: format!(":{n}"),
             child: Some(child),

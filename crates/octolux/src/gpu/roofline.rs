@@ -49,10 +49,13 @@ pub const UNIT_COSTS: &[UnitCost] = &[
     // vertices (36 B) and its index (12 B), Moller-Trumbore (two crosses, four dots).
     cost("", "BVH nodes", 32.0, 24.0),
     cost("", "triangles tested", 48.0, 40.0),
-    // Depth moments: a texel written (2 f32); a kernel term reads a surfel's direction and
-    // distance (16 B) and weighs it (dot, a 32nd power by squarings, two FMAs).
-    cost(" moments", "texels", 8.0, 4.0),
-    cost(" moments", "kernel terms", 16.0, 12.0),
+    // Depth moments: a texel read and written (2 f32 each: the blend with the maps before)
+    // and, per round of 64 surfels, its lane's surfel fetched (state and distance, 8 B) and its
+    // direction made (~20); a kernel term reads a
+    // direction and distance from workgroup memory (no device bytes) and weighs it (dot, a
+    // 32nd power by squarings, two FMAs).
+    cost(" moments", "texels", 24.0, 24.0),
+    cost(" moments", "kernel terms", 0.0, 12.0),
     // Surfel light: a surfel's 3 vec4 read, its radiance written; a shadow lookup 4 PCF taps
     // of 4 B and the light's incidence.
     cost(" light", "surfels", 64.0, 20.0),

@@ -28,6 +28,8 @@ use glam::{Vec2, Vec3};
 pub const MOMENT_RES: u32 = 8;
 /// Texels per probe.
 pub const MOMENT_TEXELS: u32 = MOMENT_RES * MOMENT_RES;
+// `moments_build.wgsl` makes one probe's map per 64-lane workgroup, a texel per lane.
+const _: () = assert!(MOMENT_TEXELS == 64);
 /// Bytes of one probe's map (two `f32` per texel).
 pub const MOMENT_BYTES: u64 = MOMENT_TEXELS as u64 * 8;
 /// The variance floor's standard deviation, in probe spacings.

@@ -1,4 +1,4 @@
-// Depth moments (moments.wgsl): one invocation per probe and texel of its map, over the
+// Depth moments (moments.wgsl): one workgroup per probe, a lane per texel of its map, over the
 // probes the set has just placed (with a placement that keeps unchanged surfels,
 // P.keep_unmoved, only those with a ray traced again this frame, stamped by the placement).
 // Each texel holds the kernel-weighted mean distance and mean squared distance of the probe's
@@ -9,7 +9,7 @@
 // turned lattice, and blended into the maps of the frames before with weight
 // 1 - P.moments_keep (P.moments_keep is 0 on the first frame and after an object moved).
 
-import octolux::gi::probes::probes::{linear_index, P, probe_ray_dir, probe_surfels, Surfel};
+import octolux::gi::probes::probes::{P, probe_ray_dir, probe_surfels, Surfel};
 import octolux::gi::probes::moments::{moment_kernel, moment_texel_dir, MOMENT_TEXELS};
 import octolux::gi::probes::set::{probe_restarts, probe_slot, probe_slots, probe_wants_place};
 import octolux::gpu::work::count_work;
@@ -18,31 +18,30 @@ import octolux::gpu::work::count_work;
 @group(0) @binding(2) var<storage, read_write> moments_out: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read> probe_stamps: array<u32>;
 
+// A workgroup is one probe's map (MOMENT_TEXELS = 64 texels, one per lane), and every texel
+// reads every surfel of the set: each lane fetches one surfel and makes its lattice direction
+// once per round of 64, into these, and all 64 texels read them from here (instead of each lane
+// reading all the surfels and making all their directions itself).
+var<workgroup> round_dirs: array<vec4<f32>, 64>;
+// Whether the workgroup's probe makes its map this frame (lane 0's decision, read back as a
+// uniform value so that every lane reaches the barriers or none does).
+var<workgroup> group_makes: u32;
+
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    // Invocation k: texel k % MOMENT_TEXELS of the set's (k / MOMENT_TEXELS)-th probe.
-    let k = linear_index(wg, nwg, li);
-    if k >= probe_slots() * MOMENT_TEXELS {
-        return;
-    }
-    let probe = probe_slot(k / MOMENT_TEXELS);
-    let id = probe * MOMENT_TEXELS + k % MOMENT_TEXELS;
-    if !probe_wants_place(probe) {
-        return;
-    }
+    // Workgroup w: the set's w-th probe; lane li: texel li of its map.
+    let w = wg.y * nwg.x + wg.x;
     let accumulate = P.set_count > 1u;
-    if !accumulate && P.keep_unmoved != 0u && probe_stamps[probe] != P.frame {
+    if li == 0u {
+        group_makes = u32(probe_makes_map(w, accumulate));
+    }
+    if workgroupUniformLoad(&group_makes) == 0u {
         return;
     }
-    // A probe that restarts its history makes its maps afresh; the others keep theirs once
-    // the maps' history is full (P.moments_keep 1: probes-octree, which runs this pass every
-    // frame for the probes it restarts).
+    let probe = probe_slot(w);
     let restarts = probe_restarts(probe);
-    if accumulate && P.moments_keep >= 1.0 && !restarts {
-        return;
-    }
-    let t = moment_texel_dir(id % MOMENT_TEXELS);
+    let t = moment_texel_dir(li);
     let n = P.surfels_per_set;
     // Work counts (`MOMENTS_WORK` in engine.rs): texels made, kernel terms (surfels read).
     count_work(0u, 1u);
@@ -51,14 +50,44 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     let first = probe * probe_surfels() + ray_set * n;
     var sum = vec2<f32>(0.0);
     var total = 0.0;
-    for (var k = 0u; k < n; k++) {
-        let surfel = surfels[first + k];
-        let dist = select(P.max_distance, abs(surfel.distance), surfel.state > 0.5);
-        let w = moment_kernel(t, probe_ray_dir(ray_set, k, n).xyz);
-        sum += w * vec2<f32>(dist, dist * dist);
-        total += w;
+    // The surfels in rounds of 64, in order, so each texel sums them as one lane alone would.
+    for (var base = 0u; base < n; base += 64u) {
+        let k = base + li;
+        if k < n {
+            let surfel = surfels[first + k];
+            let dist = select(P.max_distance, abs(surfel.distance), surfel.state > 0.5);
+            round_dirs[li] = vec4<f32>(probe_ray_dir(ray_set, k, n).xyz, dist);
+        }
+        workgroupBarrier();
+        let count = min(n - base, 64u);
+        for (var j = 0u; j < count; j++) {
+            let ray = round_dirs[j];
+            let wt = moment_kernel(t, ray.xyz);
+            sum += wt * vec2<f32>(ray.w, ray.w * ray.w);
+            total += wt;
+        }
+        workgroupBarrier();
     }
     let far = vec2<f32>(P.max_distance, P.max_distance * P.max_distance);
     let m = select(far, sum / total, total > 0.0);
+    let id = probe * MOMENT_TEXELS + li;
     moments_out[id] = select(m, mix(m, moments_out[id], P.moments_keep), accumulate && !restarts);
+}
+
+// Whether the set's w-th probe makes its map this frame.
+fn probe_makes_map(w: u32, accumulate: bool) -> bool {
+    if w >= probe_slots() {
+        return false;
+    }
+    let probe = probe_slot(w);
+    if !probe_wants_place(probe) {
+        return false;
+    }
+    if !accumulate && P.keep_unmoved != 0u && probe_stamps[probe] != P.frame {
+        return false;
+    }
+    // A probe that restarts its history makes its maps afresh; the others keep theirs once
+    // the maps' history is full (P.moments_keep 1: probes-octree, which runs this pass every
+    // frame for the probes it restarts).
+    return !(accumulate && P.moments_keep >= 1.0 && !probe_restarts(probe));
 }
