@@ -542,3 +542,60 @@ fn counting_does_not_change_the_images() {
         counted.work().unwrap().take(&counted).unwrap();
     }
 }
+
+#[test]
+fn shadow_layers_are_drawn_again_only_where_their_content_moved() {
+    // A point light (six layers) over the Cornell box whose short block slides along the floor
+    // (inside the box: the scene bounds, to which the views are fitted, stay the same):
+    // the first frame draws every layer, a frame with nothing moved none, a frame where the
+    // block moved only the faces that see it (not the ceiling's), and a frame where the light
+    // moved all six. Each running renderer's picture equals a fresh renderer's at that time.
+    use octolux::scene::{Keyframe, Light, Track};
+    let ctx = context().with_work_counter();
+    let mut scene = octolux::scene::cornell::geometry();
+    scene.cameras = vec![octolux::scene::cornell::camera()];
+    let centre = octolux::scene::cornell::room_centre();
+    scene.lights = vec![Light::point(centre + Vec3::Y * 0.2, Vec3::ONE, 0.5)];
+    let slide = |to: Vec3| {
+        Track::new(
+            [(0.0, Vec3::ZERO), (1.0, to)]
+                .into_iter()
+                .map(|(time, translation)| Keyframe {
+                    time,
+                    translation,
+                    rotation: glam::Quat::IDENTITY,
+                })
+                .collect(),
+            false,
+        )
+    };
+    let block = scene.objects.iter_mut().find(|o| o.name == "short-block");
+    block.unwrap().animation = slide(Vec3::new(0.1, 0.0, 0.0));
+    let settings = RenderSettings {
+        width: 24,
+        height: 24,
+        shadow_map_size: 64,
+        gi: "none".into(),
+        ..RenderSettings::default()
+    };
+    let mut running = Renderer::new(&ctx, &scene, settings.clone()).unwrap();
+    let mut layers_drawn = |scene: &Scene, t: f32| {
+        ctx.work().unwrap().take(&ctx).unwrap();
+        running.render(scene, t).unwrap();
+        let counts = ctx.work().unwrap().take(&ctx).unwrap();
+        let image = running.read_direct().unwrap();
+        let mut fresh = Renderer::new(&ctx, scene, settings.clone()).unwrap();
+        fresh.render(scene, t).unwrap();
+        assert_eq!(image, fresh.read_direct().unwrap(), "t = {t}");
+        count(&counts, "shadow maps", "layers")
+    };
+    assert_eq!(layers_drawn(&scene, 0.0), 6);
+    assert_eq!(layers_drawn(&scene, 0.0), 0, "nothing moved");
+    let moved = layers_drawn(&scene, 1.0);
+    assert!(
+        (1..6).contains(&moved),
+        "the block moved: {moved} layers drawn"
+    );
+    scene.lights[0].animation = slide(Vec3::new(0.05, 0.0, 0.0));
+    assert_eq!(layers_drawn(&scene, 0.5), 6, "the light moved");
+}

@@ -25,10 +25,6 @@ pub(crate) struct LitScene {
     pub sky_lights: Vec<Light>,
     /// Per sky light, the tangent of its angular radius (how soft its shadows are).
     sky_spread: Vec<f32>,
-    /// Whether the sky lights' shadow maps are drawn and still valid (no object moves).
-    sky_shadows_valid: bool,
-    /// Whether every object stands still (then the sky's maps are drawn once).
-    all_static: bool,
     /// Soft shadows for the sky lights (octolux's own direct light; see `RenderSettings`).
     pub soft_sky_shadows: bool,
     frame: Option<SceneFrame>,
@@ -86,8 +82,6 @@ impl LitScene {
             lights,
             sky_lights,
             sky_spread,
-            sky_shadows_valid: false,
-            all_static: !scene.objects.iter().any(|o| o.animation.is_some()),
             soft_sky_shadows: false,
             frame: None,
             layers: Vec::new(),
@@ -174,12 +168,9 @@ impl LitScene {
         gpu
     }
 
-    /// Draws the shadow maps of the prepared frame; the sky's maps depend on the geometry only
-    /// and are drawn once while no object moves.
+    /// Draws the shadow maps of the prepared frame: the layers whose light or objects moved
+    /// since they were last drawn.
     pub fn render_shadows(&mut self, timer: &mut PassTimer) -> Result<()> {
-        let with_sky = !self.sky_shadows_valid;
-        self.shadows.render(timer, &self.scene_gpu, with_sky)?;
-        self.sky_shadows_valid = self.all_static;
-        Ok(())
+        self.shadows.render(timer, &self.scene_gpu)
     }
 }

@@ -63,9 +63,8 @@ impl RsmLayer {
 }
 
 /// What a layer's RSM shows, byte for byte, whatever its side: the layer's light parameters
-/// (position, direction, power, cone), the view matrix it is drawn through and the transforms
-/// of the objects in that view (meshes, materials and textures do not change). An object that
-/// enters or leaves the view changes the list; one that moves outside it changes nothing.
+/// (position, direction, power, cone) and what its shadow view shows
+/// ([`SceneGpu::view_content`]: the view's matrix, the objects in it and their transforms).
 pub fn content_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u8> {
     let view = RsmPass::view_of(layers, i) + 1;
     let layer = layers.get(i).copied().unwrap_or_default();
@@ -75,14 +74,7 @@ pub fn content_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u
         ..layer
     };
     let mut key: Vec<u8> = bytemuck::bytes_of(&unsized_layer).to_vec();
-    let m = scene_gpu.view_proj(view).unwrap_or_default();
-    key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
-    let transforms = scene_gpu.transforms();
-    for o in scene_gpu.objects_in_view(view) {
-        key.extend_from_slice(&(o as u32).to_le_bytes());
-        let m = transforms.get(o).copied().unwrap_or_default();
-        key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
-    }
+    key.extend(scene_gpu.view_content(view));
     key
 }
 

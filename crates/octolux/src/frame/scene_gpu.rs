@@ -308,11 +308,6 @@ impl SceneGpu {
         })
     }
 
-    /// This frame's object transforms, as uploaded.
-    pub(crate) fn transforms(&self) -> &[Mat4] {
-        &self.transforms
-    }
-
     /// The objects [`SceneGpu::draw`] would draw any triangle of through view uniform `view`
     /// this frame (every object where the view has no matrix).
     pub(crate) fn objects_in_view(&self, view: usize) -> Vec<usize> {
@@ -328,6 +323,21 @@ impl SceneGpu {
                     .any(|&m| !outside(clip, self.meshes[m].bounds))
             })
             .collect()
+    }
+
+    /// What a rasterisation through view uniform `view` shows this frame, byte for byte: the
+    /// view's matrix and the objects in it ([`SceneGpu::objects_in_view`]) with their
+    /// transforms (meshes, materials and textures do not change). An object that enters or
+    /// leaves the view changes it; one that moves outside the view does not.
+    pub(crate) fn view_content(&self, view: usize) -> Vec<u8> {
+        let m = self.view_proj(view).unwrap_or_default();
+        let mut key = bytemuck::bytes_of(&m.to_cols_array()).to_vec();
+        for o in self.objects_in_view(view) {
+            key.extend_from_slice(&(o as u32).to_le_bytes());
+            let m = self.transforms.get(o).copied().unwrap_or_default();
+            key.extend_from_slice(bytemuck::bytes_of(&m.to_cols_array()));
+        }
+        key
     }
 
     /// The view-projection of view uniform `view` this frame (0 = the camera).

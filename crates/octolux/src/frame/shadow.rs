@@ -74,6 +74,9 @@ pub struct ShadowMaps {
     matrices: wgpu::Buffer,
     pipeline: wgpu::RenderPipeline,
     pub(crate) sampler: wgpu::Sampler,
+    /// Per texture layer, what it showed when last drawn ([`ShadowMaps::layer_content`]): a
+    /// layer whose lights and objects hold still is not drawn again.
+    drawn: Vec<Vec<u8>>,
 }
 
 /// What a compute pass binds to look up shadow maps with `lights.wgsl`: the views' lookup
@@ -275,6 +278,7 @@ impl ShadowMaps {
             matrices,
             pipeline,
             sampler,
+            drawn: Vec::new(),
         }
     }
 
@@ -374,6 +378,20 @@ impl ShadowMaps {
         views
     }
 
+    /// What texture layer `layer` shows: its view's content, or a sky layer's tiles' views'.
+    fn layer_content(&self, scene_gpu: &SceneGpu, layer: u32) -> Vec<u8> {
+        if layer < self.punctual_views {
+            return scene_gpu.view_content(layer as usize + 1);
+        }
+        let tiles = self.slots.iter().filter_map(|slot| match slot.tile {
+            Some((tile_layer, _)) if tile_layer == layer => Some(slot.first_layer),
+            _ => None,
+        });
+        tiles
+            .flat_map(|view| scene_gpu.view_content(view as usize + 1))
+            .collect()
+    }
+
     /// Pixel rectangle (x, y, side) of sky tile `tile` in its layer.
     fn tile_rect(&self, tile: u32) -> (f32, f32, f32) {
         let side = (self.size / SKY_TILES) as f32;
@@ -381,45 +399,54 @@ impl ShadowMaps {
         (i as f32 * side, j as f32 * side, side)
     }
 
-    /// Renders every view, or with `with_sky = false` only the punctual lights' (the sky
-    /// lights never move, so their maps stay valid while no object moves). View uniforms 1..
-    /// must hold the views' raster matrices. Counts layers and triangles drawn
-    /// ([`SHADOW_WORK`]).
+    /// Renders the layers whose content changed since they were last drawn: a punctual light's
+    /// layer when its view or an object in it moved, a sky layer when one of its tiles' views
+    /// did ([`SceneGpu::view_content`]). View uniforms 1.. must hold the views' raster
+    /// matrices. Counts layers and triangles drawn ([`SHADOW_WORK`]); a frame that draws none
+    /// still has the pass, empty.
     pub(crate) fn render(
-        &self,
+        &mut self,
         timer: &mut PassTimer,
         scene_gpu: &SceneGpu,
-        with_sky: bool,
     ) -> crate::Result<()> {
-        let layers = if with_sky {
-            self.layer_count
-        } else {
-            self.punctual_views
-        };
-        if layers == 0 {
+        if self.layer_count == 0 {
             return Ok(());
         }
+        let shown: Vec<Vec<u8>> = (0..self.layer_count)
+            .map(|layer| self.layer_content(scene_gpu, layer))
+            .collect();
+        let stale: Vec<u32> = (0..self.layer_count)
+            .filter(|&l| self.drawn.get(l as usize) != shown.get(l as usize))
+            .collect();
         let mut triangles = 0;
         timer.pass("shadow maps", |encoder, stamps| {
-            let n = layers as usize;
-            for (layer, target) in self.layer_views.iter().take(n).enumerate() {
+            if stale.is_empty() {
+                // Nothing to draw: an empty pass keeps the pass (and its time, about 0) in
+                // every frame's timings.
+                encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("shadow maps (none stale)"),
+                    timestamp_writes: stamps.compute(),
+                });
+                return;
+            }
+            let n = stale.len();
+            for (k, &layer) in stale.iter().enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("shadow layer"),
                     color_attachments: &[],
                     depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: target,
+                        view: &self.layer_views[layer as usize],
                         depth_ops: Some(wgpu::Operations {
                             load: wgpu::LoadOp::Clear(1.0),
                             store: wgpu::StoreOp::Store,
                         }),
                         stencil_ops: None,
                     }),
-                    timestamp_writes: stamps.render_part(layer == 0, layer + 1 == n),
+                    timestamp_writes: stamps.render_part(k == 0, k + 1 == n),
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
                 pass.set_pipeline(&self.pipeline);
-                let layer = layer as u32;
                 if layer < self.punctual_views {
                     triangles += draw_view(&mut pass, scene_gpu, layer);
                     continue;
@@ -435,8 +462,9 @@ impl ShadowMaps {
                 }
             }
         });
+        self.drawn = shown;
         let ctx = timer.context();
-        crate::gpu::work::add(ctx, "shadow maps", SHADOW_WORK, 0, layers as u64)?;
+        crate::gpu::work::add(ctx, "shadow maps", SHADOW_WORK, 0, stale.len() as u64)?;
         crate::gpu::work::add(ctx, "shadow maps", SHADOW_WORK, 1, triangles)
     }
 }
