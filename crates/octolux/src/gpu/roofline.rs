@@ -60,9 +60,10 @@ pub const UNIT_COSTS: &[UnitCost] = &[
     // of 4 B and the light's incidence.
     cost(" light", "surfels", 64.0, 20.0),
     cost("", "shadow lookups", 16.0, 30.0),
-    // A probe read by a lookup: 8 coefficient vec4s and its state (144 B), 2 moment texels
-    // (16 B); SH L1 irradiance (24), the tent and facing weights and Chebyshev's test (~45).
-    cost("", "probes read", 160.0, 70.0),
+    // A probe read by a lookup: the default SH L1's 4 coefficient vec4s and its state (80 B;
+    // the 8-bin encoding reads 64 B more), 2 moment texels (16 B); SH L1 irradiance (24), the
+    // tent and facing weights and Chebyshev's test (~45).
+    cost("", "probes read", 96.0, 70.0),
     // Integration: a surfel's radiance and state (32 B) projected on SH L1 (24); a probe's
     // coefficients, state and latest sample written (9 + 8 vec4s).
     cost(" integrate", "surfels", 32.0, 24.0),

@@ -2,9 +2,8 @@
 
 import octolux::gi::probes::probes::{P, probe_facing_weight};
 import octolux::gi::probes::set::probe_position;
-import octolux::gi::probes::probe_values::{probe_coeffs, probe_valid};
+import octolux::gi::probes::probe_values::{probe_irradiance_at, probe_valid};
 import octolux::gi::probes::moments::probe_visibility;
-import octolux::gi::probes::encoding::probe_irradiance;
 import octolux::gpu::work::count_work;
 
 // Work of the lookups of one invocation (`gpu/work.wgsl`): probes read (valid, weighed),
@@ -46,7 +45,7 @@ fn probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let tri = select(vec3<f32>(1.0) - t, t, off == vec3<u32>(1u));
         let x = probe_position(coord);
         let w = tri.x * tri.y * tri.z * probe_facing_weight(x - p, n) * probe_visibility(probe, x, q);
-        sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
+        sum += w * probe_irradiance_at(probe, n);
         total += w;
     }
     return select(vec3<f32>(0.0), sum / total, total > 0.0);

@@ -5,9 +5,8 @@ import octolux::gi::probes::probes::{P, probe_facing_weight};
 import octolux::gi::probes::octree_tree::octree_leaf;
 import octolux::gi::probes::tree_bindings::{O, tree};
 import octolux::gi::probes::set::{probe_edge, probe_info, probe_live};
-import octolux::gi::probes::probe_values::{probe_coeffs, probe_valid};
+import octolux::gi::probes::probe_values::{probe_irradiance_at, probe_valid};
 import octolux::gi::probes::moments::probe_visibility;
-import octolux::gi::probes::encoding::probe_irradiance;
 import octolux::gpu::work::count_work;
 
 // Work of the lookups of one invocation (`gpu/work.wgsl`): probes read (valid, weighed),
@@ -85,7 +84,7 @@ fn octree_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
             let tent = max(vec3<f32>(1.0) - abs(q - x) / max(probe_edge(probe), 2.0 * h), vec3<f32>(0.0));
             let w0 = tent.x * tent.y * tent.z * probe_facing_weight(x - p, n);
             let w = w0 * probe_visibility(probe, x, q);
-            sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
+            sum += w * probe_irradiance_at(probe, n);
             total += w;
             open += w0;
         }
@@ -113,7 +112,7 @@ fn all_probes_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
         let r = x - q;
         let e = probe_edge(probe) * 0.5;
         let w = probe_facing_weight(x - p, n) * probe_visibility(probe, x, q) * ldexp(1.0, -3 * i32(probe_info[probe].depth)) / max(dot(r, r), e * e);
-        sum += w * probe_irradiance(P.encoding, probe_coeffs(probe), n);
+        sum += w * probe_irradiance_at(probe, n);
         total += w;
     }
     return select(vec3<f32>(0.0), sum / total, total > 0.0);
