@@ -23,9 +23,9 @@ pub struct GiArgs {
     /// LPV family: RSM texels per VPL side, one VPL per stride^2 block (default 4).
     #[arg(long)]
     pub rsm_stride: Option<u32>,
-    /// LPV family: the RSM layers whose light or objects moved since the last frame at half
-    /// the side and half the stride, the same VPLs from a quarter of the texels; those that
-    /// hold still keep the whole (default true).
+    /// LPV family and `vpl`: the RSM layers whose light or objects moved since the last frame
+    /// at half the side (the LPVs with half the stride: the same VPLs from a quarter of the
+    /// texels); those that hold still keep the whole (default true).
     #[arg(long)]
     pub rsm_moving_half: Option<bool>,
     /// LPV family: damping against light leaks at lookup, 0 = off (default 0).
@@ -312,6 +312,7 @@ impl GiArgs {
         set(&mut vpl.filter, self.vpl_filter);
         set(&mut vpl.sparse, self.vpl_sparse);
         set(&mut vpl.bounces, self.vpl_bounces);
+        set(&mut vpl.rsm_moving_half, self.rsm_moving_half);
         let probes = &mut settings.probes;
         set(&mut probes.grid, self.probes_grid.map(|n| [n; 3]));
         set(&mut probes.surfels, self.probes_surfels.map(Some));

@@ -78,6 +78,58 @@ pub fn content_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u
     key
 }
 
+/// What each RSM layer showed in the last frame ([`content_key`]), to draw the layers whose
+/// content moved at half the side: the frames that must draw a layer anew draw a quarter of
+/// its texels, and a layer that holds still keeps the whole side (drawn once more at the
+/// whole side when it comes to rest).
+#[derive(Default)]
+pub(crate) struct MovingLayers {
+    keys: Vec<Vec<u8>>,
+}
+
+impl MovingLayers {
+    /// `layers` with those whose content changed since the last call at half of `size` (when
+    /// `enabled`); remembers this frame's contents either way.
+    pub(crate) fn halve(
+        &mut self,
+        scene_gpu: &SceneGpu,
+        layers: Vec<RsmLayer>,
+        size: u32,
+        enabled: bool,
+    ) -> Vec<RsmLayer> {
+        let keys: Vec<Vec<u8>> = (0..layers.len())
+            .map(|i| content_key(scene_gpu, &layers, i))
+            .collect();
+        let last = std::mem::replace(&mut self.keys, keys);
+        if !enabled {
+            return layers;
+        }
+        layers
+            .into_iter()
+            .enumerate()
+            .map(|(i, l)| match last.get(i) {
+                Some(key) if *key != self.keys[i] => l.at_side(size / 2),
+                _ => l,
+            })
+            .collect()
+    }
+}
+
+/// RSM layers [`half_layer_mask`] can mark.
+pub const MAX_HALF_LAYERS: u32 = 256;
+
+/// Per layer of `layers` in targets of side `size`, a bit set where the layer is drawn at half
+/// of it (the injection's and the VPL generation's `half_layers`).
+pub fn half_layer_mask(layers: &[RsmLayer], size: u32) -> [u32; 8] {
+    let mut mask = [0u32; 8];
+    for (i, l) in layers.iter().enumerate().take(MAX_HALF_LAYERS as usize) {
+        if l.side < size {
+            mask[i / 32] |= 1 << (i % 32);
+        }
+    }
+    mask
+}
+
 /// Bytes of one [`RsmLayer`] (each in a uniform slot of [`SLOT`] bytes).
 const LAYER_BYTES: usize = std::mem::size_of::<RsmLayer>();
 const _: () = assert!(LAYER_BYTES <= SLOT as usize);

@@ -287,8 +287,8 @@ pub struct LpvGi {
     passes: Option<Passes>,
     /// The grids of the last frame.
     last_grids: Option<GpuGrids>,
-    /// Per RSM layer, what it showed in the last frame ([`rsm::content_key`]).
-    content_keys: Vec<Vec<u8>>,
+    /// What each RSM layer showed in the last frame, to draw those that moved at half the side.
+    moving: rsm::MovingLayers,
     /// Bounds to fit the volumes to where far outliers make the scene's own bounds useless
     /// (`Scene::gi_bounds_over_animation`); None: the scene's bounds of the frame.
     trimmed_bounds: Option<(Vec3, Vec3)>,
@@ -373,7 +373,7 @@ impl LpvGi {
             output: lookup::Output::new(ctx, owner, width, height),
             passes: None,
             last_grids: None,
-            content_keys: Vec::new(),
+            moving: rsm::MovingLayers::default(),
             trimmed_bounds: (scene.gi_bounds_at(0.0) != scene.bounds_at(0.0))
                 .then(|| scene.gi_bounds_over_animation()),
             layouts,
@@ -442,35 +442,21 @@ impl LpvGi {
         g
     }
 
-    /// `layers` with those whose content moved since the last frame (their light, its view
-    /// or an object they see: [`rsm::content_key`]) at half the side, with `rsm_moving_half`,
-    /// an even stride and at most [`MAX_HALF_LAYERS`] layers (the mask's bits); remembers
-    /// this frame's contents.
+    /// `layers` with those whose content moved since the last frame at half the side
+    /// ([`rsm::MovingLayers`]), with `rsm_moving_half`, an even stride and at most
+    /// [`MAX_HALF_LAYERS`] layers (the mask's bits).
     fn halve_moving_layers(
         &mut self,
         frame: &GiFrame,
         layers: Vec<rsm::RsmLayer>,
     ) -> Vec<rsm::RsmLayer> {
         let s = &self.settings;
-        let keys: Vec<Vec<u8>> = (0..layers.len())
-            .map(|i| rsm::content_key(frame.scene_gpu, &layers, i))
-            .collect();
-        let last = std::mem::replace(&mut self.content_keys, keys);
-        let halve = s.rsm_moving_half
+        let enabled = s.rsm_moving_half
             && s.rsm_stride.is_multiple_of(2)
             && self.rsm.size.is_multiple_of(2)
             && self.rsm.layers <= MAX_HALF_LAYERS;
-        if !halve {
-            return layers;
-        }
-        layers
-            .into_iter()
-            .enumerate()
-            .map(|(i, l)| match last.get(i) {
-                Some(key) if *key != self.content_keys[i] => l.at_side(self.rsm.size / 2),
-                _ => l,
-            })
-            .collect()
+        self.moving
+            .halve(frame.scene_gpu, layers, self.rsm.size, enabled)
     }
 
     /// Reads the accumulation buffer of the last frame, all grids one after another (with 0
@@ -625,20 +611,7 @@ pub fn validate(variant: Variant, settings: &super::GiSettings) -> Result<()> {
     }
 }
 
-/// RSM layers [`GpuGrids::half_layers`] can mark.
-pub const MAX_HALF_LAYERS: u32 = 256;
-
-/// [`GpuGrids::half_layers`] of `layers` in targets of side `size`: the layers drawn at half
-/// of it.
-pub fn half_layer_mask(layers: &[rsm::RsmLayer], size: u32) -> [u32; 8] {
-    let mut mask = [0u32; 8];
-    for (i, l) in layers.iter().enumerate().take(MAX_HALF_LAYERS as usize) {
-        if l.side < size {
-            mask[i / 32] |= 1 << (i % 32);
-        }
-    }
-    mask
-}
+pub use rsm::{half_layer_mask, MAX_HALF_LAYERS};
 
 impl GiTechnique for LpvGi {
     fn name(&self) -> &str {

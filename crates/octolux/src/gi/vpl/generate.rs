@@ -19,6 +19,8 @@ struct GenParams {
     offsets: [u32; 16],
     inv_twice_count: f32,
     _pad: [u32; 3],
+    /// A bit per layer drawn at half the side ([`crate::frame::rsm::half_layer_mask`]).
+    half_layers: [u32; 8],
 }
 
 /// First word of every pyramid level and the total words, for `layers` RSMs of side `size`.
@@ -96,6 +98,7 @@ pub struct Generate {
     size: u32,
     layers: u32,
     count: u32,
+    params: wgpu::Buffer,
     /// The VPLs (`array<Vpl>`), `count` of them.
     pub vpls: wgpu::Buffer,
 }
@@ -126,6 +129,7 @@ impl Generate {
             offsets,
             inv_twice_count: inv_twice(count),
             _pad: [0; 3],
+            half_layers: [0; 8],
         };
         let usage = wgpu::BufferUsages::STORAGE;
         let params =
@@ -193,8 +197,18 @@ impl Generate {
             size,
             layers: rsm.layers,
             count,
+            params,
             vpls,
         }
+    }
+
+    /// Uploads which layers this frame draws at half the side
+    /// ([`crate::frame::rsm::half_layer_mask`]): their
+    /// texels outside the drawn corner weigh nothing.
+    pub fn set_half_layers(&self, ctx: &GpuContext, mask: [u32; 8]) {
+        let at = std::mem::offset_of!(GenParams, half_layers) as u64;
+        ctx.queue
+            .write_buffer(&self.params, at, bytemuck::cast_slice(&mask));
     }
 
     /// Records the pyramid and the sampling as the pass `name`.
@@ -227,8 +241,9 @@ fn inv_twice(count: u32) -> f32 {
 }
 
 /// CPU twin of `generate.wgsl`: `count` VPLs drawn from the RSM images (all of one side, a
-/// power of two), with the same pyramid sums and the same descent.
-pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
+/// power of two; `half[l]`: layer l was drawn at half of it, in its corner), with the same
+/// pyramid sums and the same descent.
+pub fn sample_cpu(images: &[RsmImage], half: &[bool], count: u32) -> Vec<Vpl> {
     let Some(size) = images.first().map(|i| i.size) else {
         return vec![
             Vpl {
@@ -247,6 +262,10 @@ pub fn sample_cpu(images: &[RsmImage], count: u32) -> Vec<Vpl> {
     };
     // `texel_weight` of generate.wgsl, operation for operation.
     let weight = |l: usize, i: usize| {
+        let (x, y) = (i as u32 % size, i as u32 / size);
+        if half.get(l) == Some(&true) && (x >= size / 2 || y >= size / 2) {
+            return 0.0;
+        }
         let f = Vec3::from_slice(&images[l].flux[i][..3]).max(Vec3::ZERO);
         (f.x + f.y + f.z) * images[l].position[i][3].max(0.0)
     };

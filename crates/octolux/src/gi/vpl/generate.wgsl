@@ -30,6 +30,9 @@ struct GenParams {
     offsets: array<vec4<u32>, 4>,
     // 1 / (2 count), rounded once on the CPU: VPL i's point is (2i + 1) x this.
     inv_twice_count: f32,
+    // A bit per layer drawn at half the side, in its corner (frame/rsm.rs `half_layer_mask`):
+    // the rest of such a layer holds what an earlier frame drew there.
+    half_layers: array<vec4<u32>, 2>,
 };
 
 
@@ -52,9 +55,20 @@ fn texel_flux(x: u32, y: u32, layer: u32) -> vec3<f32> {
     return max(f.rgb, vec3<f32>(0.0)) * max(p.w, 0.0);
 }
 
+// Whether layer `layer` is drawn at half the side this frame (at most 256 layers are marked).
+fn half_layer(layer: u32) -> bool {
+    let l = min(layer, 255u);
+    let word = gp.half_layers[l / 128u][(l / 32u) % 4u];
+    return layer < 256u && ((word >> (l % 32u)) & 1u) != 0u;
+}
+
 // The texel's sampling weight, 3x its mean flux: the channels' sum times the texel measure
-// (additions, then one multiplication: the same bits on every adapter).
+// (additions, then one multiplication: the same bits on every adapter); 0 outside the corner
+// a half-side layer is drawn in.
 fn texel_weight(x: u32, y: u32, layer: u32) -> f32 {
+    if half_layer(layer) && max(x, y) >= gp.size / 2u {
+        return 0.0;
+    }
     let p = textureLoad(rsm_position, vec2<u32>(x, y), layer, 0);
     let f = max(textureLoad(rsm_flux, vec2<u32>(x, y), layer, 0).rgb, vec3<f32>(0.0));
     return (f.r + f.g + f.b) * max(p.w, 0.0);

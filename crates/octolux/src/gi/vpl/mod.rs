@@ -87,6 +87,10 @@ pub struct VplSettings {
     pub bounces: u32,
     /// Sky lights that get an RSM (default 8), as `[settings.lpv] sky_rsms`.
     pub sky_rsms: u32,
+    /// The RSM layers whose light or objects moved since the last frame drawn at half the side
+    /// (a quarter of the texels, in exactly the frames that draw a layer anew), as
+    /// `[settings.lpv] rsm_moving_half`; those that hold still keep the whole (default true).
+    pub rsm_moving_half: bool,
 }
 
 impl Default for VplSettings {
@@ -106,6 +110,7 @@ impl Default for VplSettings {
             plane_tol: 0.02,
             bounces: 1,
             sky_rsms: 8,
+            rsm_moving_half: true,
         }
     }
 }
@@ -250,6 +255,10 @@ pub struct VplGi {
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     passes: Option<Passes>,
+    /// What each RSM layer showed in the last frame, to draw those that moved at half the side.
+    moving: rsm::MovingLayers,
+    /// The layers the last frame drew at half the side.
+    half_layers: [u32; 8],
 }
 
 struct Passes {
@@ -368,6 +377,8 @@ impl VplGi {
             texture,
             view,
             passes: None,
+            moving: rsm::MovingLayers::default(),
+            half_layers: [0; 8],
         })
     }
 
@@ -393,6 +404,14 @@ impl VplGi {
             (self.settings.count * self.settings.bounces) as u64 * generate::VPL_BYTES,
         )?;
         Ok(generate::decode(&bytes))
+    }
+
+    /// Per RSM layer, whether the last frame drew it at half the side (in the corner of its
+    /// targets; the rest holds an earlier frame's texels).
+    pub fn half_layers(&self) -> Vec<bool> {
+        (0..self.rsm.layers)
+            .map(|l| l < 256 && self.half_layers[l as usize / 32] & (1 << (l % 32)) != 0)
+            .collect()
     }
 
     /// The reflective shadow maps of the last frame, one image per layer.
@@ -514,6 +533,14 @@ impl GiTechnique for VplGi {
             self.rsm.size,
             self.settings.sky_rsms,
         );
+        let halve = self.settings.rsm_moving_half
+            && self.rsm.size >= 2
+            && self.rsm.layers <= rsm::MAX_HALF_LAYERS;
+        let layers = self
+            .moving
+            .halve(frame.scene_gpu, layers, self.rsm.size, halve);
+        self.half_layers = rsm::half_layer_mask(&layers, self.rsm.size);
+        p.generate.set_half_layers(ctx, self.half_layers);
         p.rsm.update(ctx, &self.rsm, &layers);
         p.rsm
             .record(ctx, timer, frame.scene_gpu, &self.rsm, &layers, "vpl rsm")?;
