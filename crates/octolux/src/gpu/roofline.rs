@@ -279,7 +279,7 @@ mod tests {
             ],
         )
         .unwrap();
-        assert_eq!(e.bytes, 10.0 * 64.0 + 4.0 * 16.0 + 2.0 * 160.0);
+        assert_eq!(e.bytes, 10.0 * 64.0 + 4.0 * 16.0 + 2.0 * 96.0);
         assert_eq!(e.ops, 10.0 * 20.0 + 4.0 * 30.0 + 2.0 * 70.0);
         // The same quantity costs what its pass does with it.
         let integrate = estimate("probes-grid integrate", &[("surfels", 1)]).unwrap();
