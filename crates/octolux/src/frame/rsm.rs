@@ -74,7 +74,7 @@ pub fn content_key(scene_gpu: &SceneGpu, layers: &[RsmLayer], i: usize) -> Vec<u
         ..layer
     };
     let mut key: Vec<u8> = bytemuck::bytes_of(&unsized_layer).to_vec();
-    key.extend(scene_gpu.view_content(view));
+    key.extend_from_slice(&scene_gpu.view_content(view));
     key
 }
 

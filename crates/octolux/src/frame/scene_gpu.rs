@@ -150,6 +150,9 @@ pub struct SceneGpu {
     /// This frame's object transforms and view matrices, as uploaded (for culling).
     transforms: Vec<Mat4>,
     view_projs: Vec<Mat4>,
+    /// Per view uniform, [`SceneGpu::view_content`] of this frame, made when first asked (the
+    /// shadow maps, the RSMs' redraw and their side all ask for the same views' contents).
+    view_contents: Vec<std::sync::OnceLock<Vec<u8>>>,
 }
 
 impl SceneGpu {
@@ -305,6 +308,7 @@ impl SceneGpu {
             view_group,
             transforms: Vec::new(),
             view_projs: Vec::new(),
+            view_contents: Vec::new(),
         })
     }
 
@@ -329,7 +333,15 @@ impl SceneGpu {
     /// view's matrix and the objects in it ([`SceneGpu::objects_in_view`]) with their
     /// transforms (meshes, materials and textures do not change). An object that enters or
     /// leaves the view changes it; one that moves outside the view does not.
-    pub(crate) fn view_content(&self, view: usize) -> Vec<u8> {
+    pub(crate) fn view_content(&self, view: usize) -> std::borrow::Cow<'_, [u8]> {
+        match self.view_contents.get(view) {
+            Some(cell) => cell.get_or_init(|| self.make_view_content(view)).into(),
+            // A view without a uniform (no matrix: every object) is not kept.
+            None => self.make_view_content(view).into(),
+        }
+    }
+
+    fn make_view_content(&self, view: usize) -> Vec<u8> {
         let m = self.view_proj(view).unwrap_or_default();
         let mut key = bytemuck::bytes_of(&m.to_cols_array()).to_vec();
         for o in self.objects_in_view(view) {
@@ -348,6 +360,7 @@ impl SceneGpu {
     /// Uploads this frame's object transforms.
     pub(crate) fn update_objects(&mut self, queue: &wgpu::Queue, transforms: &[Mat4]) {
         self.transforms = transforms.to_vec();
+        self.view_contents.iter_mut().for_each(|c| drop(c.take()));
         let mut data = vec![0u8; transforms.len() * SLOT as usize];
         for (i, m) in transforms.iter().enumerate() {
             let u = ObjectUniform {
@@ -366,6 +379,7 @@ impl SceneGpu {
     /// Uploads view uniforms (index 0 = camera, then shadow layers).
     pub(crate) fn update_views(&mut self, queue: &wgpu::Queue, views: &[(Mat4, Vec4)]) {
         self.view_projs = views.iter().map(|v| v.0).collect();
+        self.view_contents = views.iter().map(|_| std::sync::OnceLock::new()).collect();
         let mut data = vec![0u8; views.len() * SLOT as usize];
         for (i, (view_proj, position)) in views.iter().enumerate() {
             let u = ViewUniform {

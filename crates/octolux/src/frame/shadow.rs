@@ -381,14 +381,14 @@ impl ShadowMaps {
     /// What texture layer `layer` shows: its view's content, or a sky layer's tiles' views'.
     fn layer_content(&self, scene_gpu: &SceneGpu, layer: u32) -> Vec<u8> {
         if layer < self.punctual_views {
-            return scene_gpu.view_content(layer as usize + 1);
+            return scene_gpu.view_content(layer as usize + 1).into_owned();
         }
         let tiles = self.slots.iter().filter_map(|slot| match slot.tile {
             Some((tile_layer, _)) if tile_layer == layer => Some(slot.first_layer),
             _ => None,
         });
         tiles
-            .flat_map(|view| scene_gpu.view_content(view as usize + 1))
+            .flat_map(|view| scene_gpu.view_content(view as usize + 1).into_owned())
             .collect()
     }
 
