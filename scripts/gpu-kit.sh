@@ -23,7 +23,7 @@
 #   BENCH_SCENES="scenes/cornell-box.toml ..."                     other scenes
 #   BENCH_GI=vpl,vct-svo                                             other techniques
 #   TEST_JOBS=4       test binaries run at once (each with the default thread count)
-#   TEST_TIMEOUT=180  seconds per test binary
+#   TEST_TIMEOUT=480  seconds per test binary (the library's integration tests are one)
 #   LOADER_DEBS=DIR   .deb packages of the Vulkan loader to unpack first on a machine without one
 #
 # The test binaries find the repository's `scenes/` through the path the repository had when
@@ -114,7 +114,7 @@ if [[ "$steps" == *" tests "* ]]; then
     t="$1"
     log="$results/test-$(basename "$t").log"
     # A hung binary must not take the others' time: TEST_TIMEOUT seconds each.
-    (cd "$root/crates/octolux" && timeout "${TEST_TIMEOUT:-180}" "$t") >"$log" 2>&1
+    (cd "$root/crates/octolux" && timeout "${TEST_TIMEOUT:-480}" "$t") >"$log" 2>&1
     rc=$?
     echo "== $(basename "$t"): exit $rc; $(grep -E "^test result" "$log" | tail -1)"
     grep -E "panicked|FAILED" "$log" | head -5
@@ -139,11 +139,11 @@ if [[ "$steps" == *" steps "* ]]; then
 fi
 if [[ "$steps" == *" voxel "* ]]; then
   # The voxel structures' measuring tests, with their tables (docs/voxels.md).
-  for spec in "voxel measure" "voxel_svo_dynamic measure" "voxel_clipmap_perf sponza" "voxel_svo_aniso measure"; do
-    set -- $spec
-    b="$(ls "$unpacked"/tests*/"$1"-* | head -1)"
-    echo "== $1 $2" | tee -a "$results/voxel-perf.txt"
-    (cd "$root/crates/octolux" && VOXEL_TABLE=full timeout 300 "$b" "$2" --nocapture) 2>&1 |
+  # They are modules of the library's integration-test binary.
+  b="$(ls "$unpacked"/tests*/integration-* | head -1)"
+  for filter in voxel::measure voxel_svo_dynamic::measure voxel_clipmap_perf::sponza voxel_svo_aniso::measure; do
+    echo "== $filter" | tee -a "$results/voxel-perf.txt"
+    (cd "$root/crates/octolux" && VOXEL_TABLE=full timeout 300 "$b" "$filter" --nocapture) 2>&1 |
       grep -v '^\[' | tee -a "$results/voxel-perf.txt"
   done
 fi

@@ -1,9 +1,7 @@
 //! Bad command lines and outputs: each is a clear error (exit status 1, no panic) found before
 //! any rendering starts, and no input file is ever overwritten.
 
-mod common;
-
-use common::{octolux, temp_dir};
+use crate::common::{octolux, temp_dir};
 use octolux::image_io::HdrImage;
 use std::path::Path;
 use std::time::Instant;

@@ -2,9 +2,7 @@
 //! `[settings.lpv]` table: valid values render, invalid ones are clear errors (exit code 1, an
 //! `error:` line naming the setting or the file, no panic).
 
-mod common;
-
-use common::{assert_fails_with, assert_succeeds, render_small as render, temp_dir};
+use crate::common::{assert_fails_with, assert_succeeds, render_small as render, temp_dir};
 use std::path::{Path, PathBuf};
 
 /// The MiB the `--stats` memory table lists for `owner`.

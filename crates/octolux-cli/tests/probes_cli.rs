@@ -1,7 +1,7 @@
 //! End-to-end tests of the probe octree's and ray flags of `octolux render`: valid values render,
 //! invalid ones are clear errors (an `error:` line naming the setting, no panic).
 
-mod common;
+use crate::common;
 
 use std::process::Output;
 

@@ -7,9 +7,8 @@
 //! which binary `cargo run` picks in this workspace (cargo's rule, applied to
 //! `cargo metadata`: the one `default-run` of the default members, else the one binary), and
 //! that binary run with ARGS, from a fresh folder, writing what the README says.
-mod common;
 
-use common::{assert_succeeds, temp_dir};
+use crate::common::{assert_succeeds, temp_dir};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -1,7 +1,7 @@
 //! The cone tracers' flags on the command line: `--vct-anisotropic` and `--vct-facing` render
 //! both ways, and a value that is not a boolean is a usage error naming the flag.
 
-mod common;
+use crate::common;
 
 #[test]
 fn the_anisotropic_flag_renders_and_a_bad_value_is_refused() {

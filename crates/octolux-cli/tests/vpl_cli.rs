@@ -2,7 +2,7 @@
 //! `[settings.vpl]` table: valid values render, invalid ones are clear errors (exit code 1, an
 //! `error:` line naming the setting, no panic).
 
-mod common;
+use crate::common;
 
 use std::process::Output;
 

@@ -4,7 +4,7 @@
 //! and normal convention to the same surfaces. (The example renderer's tests compare whole
 //! images against octolux's own renderer.)
 
-mod common;
+use crate::common;
 
 use glam::{Mat4, Vec3};
 use octolux::embed::*;

@@ -5,7 +5,7 @@
 //! growing; one that loses light per bounce stays below it. Every technique that computes
 //! multiple bounces is run until its image stops changing.
 
-mod common;
+use crate::common;
 
 use glam::{Mat4, Vec3};
 use octolux::render::{RenderSettings, Renderer};

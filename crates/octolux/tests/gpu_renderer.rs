@@ -2,9 +2,7 @@
 //! (lavapipe in CI): G-buffer contents, direct lighting against the analytic irradiance, shadows
 //! of every light type, the GPU tone map against the CPU one, timers and the memory ledger.
 
-mod common;
-
-use common::context;
+use crate::common::context;
 use glam::{Mat4, Vec2, Vec3};
 use octolux::gpu::{GpuContext, GpuOptions, Timestamps, TimingSource};
 use octolux::image_io::tone_map_to_srgb8;

@@ -3,10 +3,8 @@
 //! (colour bleeding, plausibility), animation (no per-frame allocation, light follows), and
 //! printed measurements (octree error per iteration, pass-time ratios).
 
-mod common;
-
-use common::{context, Rng};
-mod floor_flux;
+use crate::common::{context, Rng};
+use crate::floor_flux;
 
 use glam::{Quat, Vec3};
 use octolux::gi::lpv::{kernels, sh};

@@ -1,9 +1,7 @@
 //! The GPU octree against its CPU specification: the same frames from the same hit counts
 //! give the same buffers word for word (tree, probe records, free lists, marks, ring).
 
-mod common;
-
-use common::context;
+use crate::common::context;
 use glam::Vec3;
 use octolux::gi::probes::octree::{OctreeProbe, OctreeRule, ProbeOctree};
 use octolux::gi::probes::octree_gi::GpuProbeOctree;

@@ -1,9 +1,7 @@
 //! GPU twins of the probe kernels: lattice directions and BVH traversal on the GPU against the
 //! CPU code in `lattice.rs` and `bvh.rs`, and the BVH against the reference's ray queries.
 
-mod common;
-
-use common::context;
+use crate::common::context;
 use octolux::gi::probes::bvh::{BvhHit, SceneBvh, SceneHit};
 use octolux::gi::probes::lattice::{direction, Lattice};
 use octolux::gpu::{read_buffer, GpuContext};

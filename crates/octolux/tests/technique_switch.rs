@@ -1,9 +1,7 @@
 //! Run-time technique switches (`Renderer::set_technique`) and the renderer's outputs
 //! (`Renderer::set_output`), on the built-in Cornell box.
 
-mod common;
-
-use common::context;
+use crate::common::context;
 use glam::Vec3;
 use octolux::gi::GiSettings;
 use octolux::render::{Output, RenderSettings, Renderer};

@@ -13,7 +13,7 @@
 //! and no accumulated opacity within 1e-3 of `stop_opacity`, so both sides take the same
 //! samples.
 
-mod lit_floor;
+use crate::lit_floor;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use octolux::gi::vct::gather::diffuse_cone_dir;

@@ -3,10 +3,8 @@
 //! (structure, neighbour links, brick borders, mipmaps), the clipmap (incremental update equals
 //! a rebuild) and the common sampling interface.
 
-mod common;
-
-use common::{context, tri, Rng};
-mod lit_floor;
+use crate::common::{context, tri, Rng};
+use crate::lit_floor;
 use glam::Vec3;
 use octolux::gpu::GpuContext;
 use octolux::voxel::voxelize::{read_fragments, Voxelizer};
@@ -643,8 +641,8 @@ fn gpu_sampling_matches_cpu_twins() {
 
 /// Memory and build time of the octree and the matching clipmap, printed as the table in
 /// `docs/voxels.md`. By default the Cornell box at 64^3 (fast); for the documented table run
-/// `VOXEL_TABLE=full cargo test --release --test voxel measure -- --nocapture` (64^3..512^3,
-/// Crytek Sponza too). Every row holds the octree below a third of the thesis's figure
+/// `VOXEL_TABLE=full cargo test --release -p octolux --test integration voxel::measure --
+/// --nocapture` (64^3..512^3, Crytek Sponza too). Every row holds the octree below a third of the thesis's figure
 /// (Fig. 43: 11.3 / 58.4 / 287 / 1320 MB at 64^3..512^3).
 #[test]
 fn measure_memory_and_build_time() {

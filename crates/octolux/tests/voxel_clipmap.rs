@@ -1,9 +1,7 @@
 //! Clipmap level filtering, blending between levels by distance and anisotropic voxels, on
 //! whatever adapter is present, against their CPU twins.
 
-mod common;
-
-use common::{context, tri, Rng};
+use crate::common::{context, tri, Rng};
 use glam::{IVec3, Vec3, Vec4};
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::clipmap::sample::ClipInfo;

@@ -2,9 +2,9 @@
 //! one finest voxel per frame along the diagonal (so level 0 exposes a slab on each axis every
 //! frame and level `l` every `2^l` frames): the CPU time of each update split into finding and
 //! snapping triangles, uploads and recording, and the GPU pass times. Printed as the table in
-//! `docs/voxels.md` (clipmap section); run
-//! `cargo test --release --test voxel_clipmap_perf -- --nocapture`. The incrementally updated
-//! clipmap must equal one built from scratch at the final position.
+//! `docs/voxels.md` (clipmap section); run `cargo test --release -p octolux --test integration
+//! voxel_clipmap_perf -- --nocapture`. The incrementally updated clipmap must equal one built
+//! from scratch at the final position.
 //!
 //! Skipped (with a message) when the shared scenes folder is absent.
 

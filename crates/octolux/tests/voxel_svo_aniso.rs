@@ -3,9 +3,7 @@
 //! seen from both sides, GPU directional samples against the CPU twin, the memory recorded in
 //! the ledger, and the memory and pass time on the Cornell box.
 
-mod common;
-
-use common::{context, tri, Rng};
+use crate::common::{context, tri, Rng};
 use glam::{Vec3, Vec4};
 use octolux::gpu::{GpuContext, PassTimer};
 use octolux::voxel::svo::aniso::{SvoAniso, SvoAnisoValues, LEDGER_LABEL};

@@ -4,9 +4,7 @@
 //! faces identical, every texel the exact CPU lattice within a stated tolerance; and the
 //! update must not voxelize the static geometry again.
 
-mod common;
-
-use common::{context, tri};
+use crate::common::{context, tri};
 use glam::Vec3;
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::svo::dynamic::DynamicReserve;
@@ -395,7 +393,7 @@ fn an_exhausted_reserve_is_reported_after_the_frame() {
 
 /// Time of a dynamic update against a full rebuild of the same frame (figures for
 /// docs/voxels.md; the assertion is only that both give the same octree size).
-/// `VOXEL_TABLE=full cargo test --release -p octolux --test voxel_svo_dynamic measure --
+/// `VOXEL_TABLE=full cargo test --release -p octolux --test integration voxel_svo_dynamic::measure --
 /// --nocapture` prints the whole table; by default one small row runs.
 #[test]
 fn measure_update_against_rebuild() {

@@ -5,9 +5,7 @@
 //! (`SvoBuilder::with_facing`) against its CPU twin, on a wall thinner than a voxel and in a
 //! dynamic part, and its sampler against the CPU sampler.
 
-mod common;
-
-use common::context;
+use crate::common::context;
 use glam::{IVec3, Mat4, Vec3, Vec4};
 use octolux::frame::{GpuLight, LayerView, ShadowLookupBuffers};
 use octolux::gpu::{GpuContext, PassTimer};

@@ -2,10 +2,8 @@
 //! flux against closed forms, the shading of one VPL against the closed-form geometry term,
 //! and the Cornell box against the one-bounce reference. Bad settings are clear errors.
 
-mod common;
-
-use common::context;
-mod floor_flux;
+use crate::common::context;
+use crate::floor_flux;
 
 use glam::{IVec3, Vec3};
 use octolux::gi::vpl::generate::{sample_cpu, Vpl};

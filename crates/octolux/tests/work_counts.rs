@@ -3,9 +3,9 @@
 //! techniques' passes (the BVH walk's against its CPU twin) and of the LPV propagation; and
 //! counted renderers drawing the same images as plain ones.
 
-mod common;
+use crate::common;
 
-use common::context;
+use crate::common::context;
 use glam::{UVec3, Vec3};
 use octolux::gi::lpv::{ClpvSettings, LpvSettings, OlpvSettings};
 use octolux::gi::probes::bvh::{BvhWork, SceneBvh};
