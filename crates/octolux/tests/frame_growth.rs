@@ -71,6 +71,9 @@ fn small_settings() -> GiSettings {
     s.olpv.size = 16;
     s.olpv.iterations = 4;
     s.probes.grid = [8; 3];
+    // `probes-octree`: at most 512 leaves instead of 4096 (it took half of this test's time).
+    s.probes.max_depth = 3;
+    s.probes.min_depth = 2;
     s.vpl.count = 64;
     s.vpl.resolution = 32;
     s.vpl.rsm_size = 64;

@@ -1,10 +1,10 @@
 //! Rooms the techniques were not tuned on (`scenes/meeting-room.toml`, `stone-church.toml`,
 //! `living-room.toml`, built of boxes by `scripts/make-rooms.py`): a closed room full of
 //! small furniture lit by downlights, a stone nave lit by the sun through its windows, a
-//! furnished room lit through one window. In each, the default technique (but in the meeting
-//! room, below), `probes-octree` and `vct-svo` must end closer to the unlimited reference than GI off (relMSE of the
-//! settled frame; the fourth frame's is printed beside it), and light every pixel that the
-//! reference's indirect light reaches clearly.
+//! furnished room lit through one window. In each, `probes-octree` and `vct-svo` (and in the
+//! church the default technique, below) must end closer to the unlimited reference than GI off
+//! (relMSE of the settled frame; the fourth frame's is printed beside it), and light every
+//! pixel that the reference's indirect light reaches clearly.
 //!
 //! What this caught: `vct-svo` read the sunlit outside of the church and the living room
 //! (roof, outer walls, the ground) through their walls with its coarse cones, many times
@@ -129,20 +129,22 @@ fn check_room(name: &str, techniques: &[&str]) {
 }
 
 /// The meeting room judges the two techniques that lost there; the default, 17 times closer
-/// than GI off in it (relMSE 0.0036 against 0.0608) and judged in the other two rooms, would
-/// cost this suite more than the rest of the room (its 32-frame history tracing 280k triangles
-/// on lavapipe: 43 s).
+/// than GI off in it (relMSE 0.0036 against 0.0608), would cost this suite more than the rest
+/// of the room (its 32-frame history tracing 280k triangles on lavapipe: 43 s).
 #[test]
 fn meeting_room() {
     check_room("meeting-room", &TECHNIQUES[1..]);
 }
 
+/// The default is judged here, where it gains least on GI off (relMSE 0.085 against 0.187).
 #[test]
 fn stone_church() {
     check_room("stone-church", &TECHNIQUES);
 }
 
+/// As the meeting room: the default, 25 times closer than GI off here (relMSE 0.0078 against
+/// 0.1996) and judged in the church, costs more than the two techniques that lost here.
 #[test]
 fn living_room() {
-    check_room("living-room", &TECHNIQUES);
+    check_room("living-room", &TECHNIQUES[1..]);
 }
