@@ -100,6 +100,25 @@ fn vogel_disk(i: u32, count: u32) -> vec2<f32> {
     return r * vec2<f32>(cos(theta), sin(theta));
 }
 
+// Depth change of the receiver's tangent plane per shadow texel in x and y, for an orthographic
+// (affine) view: the tangent t with given clip x, y steps and t.n = 0 (Cramer's rule on the
+// rows of the matrix). Clamped, so that a plane seen edge-on does not push its taps away.
+fn receiver_slope(view: u32, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
+    let m = shadow_matrices[view];
+    let r0 = vec3<f32>(m[0].x, m[1].x, m[2].x);
+    let r1 = vec3<f32>(m[0].y, m[1].y, m[2].y);
+    let r2 = vec3<f32>(m[0].z, m[1].z, m[2].z);
+    let c0 = cross(r1, n);
+    let c1 = cross(n, r0);
+    let det = dot(r0, c0);
+    if abs(det) <= 1e-8 {
+        return vec2<f32>(0.0);
+    }
+    // uv = clip / 2 + 1/2 with v flipped: one texel is 2 / size in clip x and -2 / size in y.
+    let slope = vec2<f32>(dot(r2, c0), -dot(r2, c1)) / det * (2.0 / size);
+    return clamp(slope, vec2<f32>(-0.01), vec2<f32>(0.01));
+}
+
 // Soft visibility of a sky light (percentage-closer soft shadows): the light stands for a
 // region of the sky of angular radius atan(sky_spread), so a receiver d metres behind
 // its occluder sees a penumbra of radius d x tan. The blockers' mean depth within the largest
@@ -114,21 +133,7 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
     let range = light.sky_depth_range;
     let cap = light.sky_margin;
     let texel_world = light.shadow_texel;
-    // Depth change of the receiver's tangent plane per texel in x and y: the tangent t with
-    // given clip x, y steps and t.n = 0 (Cramer's rule on the rows of the affine matrix).
-    let m = shadow_matrices[view];
-    let r0 = vec3<f32>(m[0].x, m[1].x, m[2].x);
-    let r1 = vec3<f32>(m[0].y, m[1].y, m[2].y);
-    let r2 = vec3<f32>(m[0].z, m[1].z, m[2].z);
-    let c0 = cross(r1, n);
-    let c1 = cross(n, r0);
-    let det = dot(r0, c0);
-    var slope = vec2<f32>(0.0);
-    if abs(det) > 1e-8 {
-        // uv = clip / 2 + 1/2 with v flipped: one texel is 2 / size in clip x and -2 / size in y.
-        slope = vec2<f32>(dot(r2, c0), -dot(r2, c1)) / det * (2.0 / size);
-        slope = clamp(slope, vec2<f32>(-0.01), vec2<f32>(0.01));
-    }
+    let slope = receiver_slope(view, n, size);
     let search = clamp(tan_a * depth * range / texel_world, 1.0, cap);
     var blockers = 0.0;
     var blocker_gap = 0.0;
@@ -156,7 +161,12 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
 
 // Fraction of the light reaching `p` (normal `n`): 3x3 bilinear comparison taps (a 4x4-texel
 // footprint), looked up `lift` metres plus ~1.5 shadow texels along the normal; the texel-scaled
-// normal offset removes acne without the light leaking of large constant biases.
+// normal offset removes acne without the light leaking of large constant biases. Orthographic
+// views (directional and sky lights) compare each tap against the receiver's plane at that tap
+// and do not shift the lookup towards the light: where two single-sided walls meet, the shift
+// and the flat comparison let the light the neighbouring wall blocks through along the edge
+// (the bright outline of a sky-lit box's inner edges; `tests/sky.rs`). Perspective views keep
+// the half-texel shift (their receiver plane is not affine in the texel offset).
 fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32, lift: f32) -> f32 {
     if light.shadow_view < 0 {
         return 1.0;
@@ -170,7 +180,11 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     let layer = select(view, light.sky_layer_plus_one - 1u, sky);
     let texel_world = select(light.shadow_texel * dist, light.shadow_texel, light.shadow_orthographic == 1u);
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
-    let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * texel_world * 0.5;
+    var toward = texel_world * 0.5;
+    if light.shadow_orthographic == 1u {
+        toward = 0.0;
+    }
+    let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * toward;
     let clip = shadow_matrices[view] * vec4<f32>(offset_p, 1.0);
     let ndc = clip.xyz / clip.w;
     let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
@@ -180,11 +194,16 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     if sky && light.sky_spread > 0.0 {
         return sky_visibility(light, view, layer, n, uv, ndc.z);
     }
-    let texel = 1.0 / vec2<f32>(textureDimensions(shadow_maps));
+    let size = vec2<f32>(textureDimensions(shadow_maps));
+    var slope = vec2<f32>(0.0);
+    if light.shadow_orthographic == 1u {
+        slope = receiver_slope(view, n, size);
+    }
     var sum = 0.0;
     for (var y = -1; y <= 1; y++) {
         for (var x = -1; x <= 1; x++) {
-            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + vec2<f32>(f32(x), f32(y)) * texel, layer, ndc.z);
+            let o = vec2<f32>(f32(x), f32(y));
+            sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o / size, layer, ndc.z + dot(slope, o));
         }
     }
     return sum / 9.0;
