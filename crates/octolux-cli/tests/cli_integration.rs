@@ -1,5 +1,5 @@
-//! The command line's integration tests, one module per subject, built as one binary (one link
-//! instead of one per file, one test queue for every core). Each runs the `octolux` binary.
+//! The command line's integration tests, one module per subject, built as one binary (one crate
+//! to compile and link instead of one per file). Each runs the `octolux` binary.
 
 mod common;
 

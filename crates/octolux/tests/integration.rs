@@ -1,5 +1,5 @@
-//! The library's integration tests, one module per subject, built as one binary: one link
-//! instead of one per file, and one test queue that keeps every core busy to the end. The
+//! The library's integration tests, one module per subject, built as one binary: one crate to
+//! compile and link instead of one per file. The
 //! tests that measure the process itself (its allocations, its memory from frame to frame) or
 //! bound a load's time stay binaries of their own (`Cargo.toml`).
 

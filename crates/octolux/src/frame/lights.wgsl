@@ -101,10 +101,9 @@ fn vogel_disk(i: u32, count: u32) -> vec2<f32> {
 }
 
 // Depth change of the receiver's tangent plane per shadow texel in x and y, for an orthographic
-// (affine) view: the tangent t with given clip x, y steps and t.n = 0 (Cramer's rule on the
+// (affine) view matrix `m`: the tangent t with given clip x, y steps and t.n = 0 (Cramer's rule on the
 // rows of the matrix). Clamped, so that a plane seen edge-on does not push its taps away.
-fn receiver_slope(view: u32, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
-    let m = shadow_matrices[view];
+fn receiver_slope(m: mat4x4<f32>, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
     let r0 = vec3<f32>(m[0].x, m[1].x, m[2].x);
     let r1 = vec3<f32>(m[0].y, m[1].y, m[2].y);
     let r2 = vec3<f32>(m[0].z, m[1].z, m[2].z);
@@ -133,7 +132,7 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
     let range = light.sky_depth_range;
     let cap = light.sky_margin;
     let texel_world = light.shadow_texel;
-    let slope = receiver_slope(view, n, size);
+    let slope = receiver_slope(shadow_matrices[view], n, size);
     let search = clamp(tan_a * depth * range / texel_world, 1.0, cap);
     var blockers = 0.0;
     var blocker_gap = 0.0;
@@ -180,12 +179,10 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     let layer = select(view, light.sky_layer_plus_one - 1u, sky);
     let texel_world = select(light.shadow_texel * dist, light.shadow_texel, light.shadow_orthographic == 1u);
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
-    var toward = texel_world * 0.5;
-    if light.shadow_orthographic == 1u {
-        toward = 0.0;
-    }
+    let toward = select(texel_world * 0.5, 0.0, light.shadow_orthographic == 1u);
     let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * toward;
-    let clip = shadow_matrices[view] * vec4<f32>(offset_p, 1.0);
+    let m = shadow_matrices[view];
+    let clip = m * vec4<f32>(offset_p, 1.0);
     let ndc = clip.xyz / clip.w;
     let uv = vec2<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5);
     if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
@@ -197,7 +194,7 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     let size = vec2<f32>(textureDimensions(shadow_maps));
     var slope = vec2<f32>(0.0);
     if light.shadow_orthographic == 1u {
-        slope = receiver_slope(view, n, size);
+        slope = receiver_slope(m, n, size);
     }
     var sum = 0.0;
     for (var y = -1; y <= 1; y++) {
