@@ -487,11 +487,13 @@ fn sky_maps_load_from_exr_and_hdr() {
 /// should have shadowed) until directional shadows compared every filter tap against the
 /// receiver's plane and stopped shifting the lookup towards the light: relMSE 0.0427 and 0.0510
 /// before, 0.0368 and 0.0382 after (lavapipe; the reference's seed is fixed). The bounds sit
-/// between the two.
+/// between the two. Drawing the directional views without a depth bias and leaving out the
+/// filter texels that see past the receiver's plane (`lights.wgsl`) took them to 0.0258 and
+/// 0.0244; the bounds sit between those and the former values.
 #[test]
 fn sky_lit_boxes_have_no_bright_outline_at_their_edges() {
     let ctx = GpuContext::shared(&GpuOptions::default()).unwrap();
-    for (name, bound) in [("cornell-sky", 0.040), ("cornell-afternoon", 0.044)] {
+    for (name, bound) in [("cornell-sky", 0.031), ("cornell-afternoon", 0.031)] {
         let path = format!("{}/../../scenes/{name}.toml", env!("CARGO_MANIFEST_DIR"));
         let scene = Scene::load(&path).unwrap();
         let (w, h) = (96, 54);

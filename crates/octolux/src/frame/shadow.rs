@@ -72,7 +72,10 @@ pub struct ShadowMaps {
     layer_views: Vec<wgpu::TextureView>,
     /// Per view, the lookup matrix (`mat4x4<f32>`, view order), uploaded every frame.
     matrices: wgpu::Buffer,
-    pipeline: wgpu::RenderPipeline,
+    perspective_pipeline: wgpu::RenderPipeline,
+    orthographic_pipeline: wgpu::RenderPipeline,
+    /// Per texture layer, whether its views are orthographic (drawn without a depth bias).
+    orthographic_layers: Vec<bool>,
     pub(crate) sampler: wgpu::Sampler,
     /// Per texture layer, what it showed when last drawn ([`ShadowMaps::layer_content`]): a
     /// layer whose lights and objects hold still is not drawn again.
@@ -244,21 +247,31 @@ impl ShadowMaps {
             .collect();
         let module = ctx.shader("shadow", &library_shader("frame/gbuffer", &[]));
         let layout = scene_gpu.layouts.pipeline_layout(&ctx.device);
-        // Slope-scaled bias against acne on surfaces at grazing angles to the light.
-        let bias = wgpu::DepthBiasState {
+        // Perspective views (point and spot lights) draw with a slope-scaled bias against acne
+        // on surfaces at grazing angles to the light. Orthographic views (directional and sky
+        // lights) draw without one: their lookups compare against the receiver's plane, which
+        // needs none, and the bias pushed a wall seen nearly edge-on behind the surface that
+        // meets it, so the light it blocks came through along the inner edge (`lights.wgsl`).
+        let biased = wgpu::DepthBiasState {
             constant: 2,
             slope_scale: 1.5,
             clamp: 0.0,
         };
-        let pipeline = raster_pipeline(
-            &ctx.device,
-            "shadow",
-            &layout,
-            &module,
-            "fs_shadow",
-            &[],
-            bias,
-        );
+        let pipeline = |label, bias| {
+            raster_pipeline(&ctx.device, label, &layout, &module, "fs_shadow", &[], bias)
+        };
+        let perspective_pipeline = pipeline("shadow (perspective)", biased);
+        let orthographic_pipeline =
+            pipeline("shadow (orthographic)", wgpu::DepthBiasState::default());
+        // A punctual light's layers are its views; the sky layers hold directional tiles.
+        let orthographic_layers = (0..layer_count)
+            .map(|layer| {
+                layer >= punctual_views
+                    || lights[..punctual].iter().zip(&slots).any(|(light, slot)| {
+                        slot.first_layer == layer && light.kind == LightKind::Directional
+                    })
+            })
+            .collect();
         let sampler = comparison_sampler(ctx);
         let matrices = ctx.create_buffer_init(
             OWNER,
@@ -276,7 +289,9 @@ impl ShadowMaps {
             array_view,
             layer_views,
             matrices,
-            pipeline,
+            perspective_pipeline,
+            orthographic_pipeline,
+            orthographic_layers,
             sampler,
             drawn: Vec::new(),
         }
@@ -446,7 +461,11 @@ impl ShadowMaps {
                     occlusion_query_set: None,
                     multiview_mask: None,
                 });
-                pass.set_pipeline(&self.pipeline);
+                pass.set_pipeline(if self.orthographic_layers[layer as usize] {
+                    &self.orthographic_pipeline
+                } else {
+                    &self.perspective_pipeline
+                });
                 if layer < self.punctual_views {
                     triangles += draw_view(&mut pass, scene_gpu, layer);
                     continue;
