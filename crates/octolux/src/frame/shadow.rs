@@ -57,7 +57,8 @@ pub(crate) fn sky_tile_margin(side: u32) -> u32 {
 /// Tiles per side of a sky layer.
 pub(crate) const SKY_TILES: u32 = 4;
 
-/// The shadow-map array and its rasterisation pipeline.
+/// The shadow-map array and its rasterisation pipelines (perspective views biased, orthographic
+/// views not).
 pub struct ShadowMaps {
     pub(crate) slots: Vec<ShadowSlot>,
     /// Views (matrices): one per spot, directional or sky light, six per point light.
