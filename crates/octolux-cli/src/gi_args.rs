@@ -72,7 +72,7 @@ pub struct GiArgs {
     pub vct_cones: Option<u32>,
     /// Cone tracing: full aperture of the diffuse cones in degrees; for both techniques and
     /// both gathers (default: each technique's own: vct-svo 18 per pixel, vct-clipmap 36, with
-    /// one bounce 60; 36 for the voxels' bounce gather).
+    /// one bounce 60; for the voxels' bounce gather vct-svo 18, vct-clipmap 36).
     #[arg(long)]
     pub vct_aperture: Option<f32>,
     /// Cone tracing: step as a fraction of the cone's footprint (default 0.5).

@@ -87,12 +87,21 @@ impl VctStructure {
     }
 
     /// The structure's own cones for the voxels' bounce gather (`multi_bounce`), used where
-    /// the settings give none: 16 cones of 36 degrees started 2 voxels out for both. The
-    /// bounce gathers at every voxel, so its cost grows with the cone count far faster than
-    /// the pixels' (2.8x the octree's bounce pass from 16 to 32 cones), and the light it
-    /// feeds back is smooth.
+    /// the settings give none: 16 cones started 2 voxels out for both, of 18 degrees on the
+    /// octree and 36 on the clipmap. The bounce gathers at every voxel, so its cost grows with
+    /// the cone count far faster than the pixels' (2.8x the octree's bounce pass from 16 to 32
+    /// cones), and the light it feeds back is smooth. On the octree the 36-degree cones'
+    /// coarse samples reach across a wall as thin as its voxels sooner, and the voxels behind
+    /// it light each other with what leaks, frame after frame (docs/vct.md, "A thin wall lets
+    /// light through"); 18-degree cones take about 1.8x the samples.
     pub fn default_bounce_cones(self) -> DiffuseCones {
-        Self::BOUNCE_CONES
+        match self {
+            VctStructure::Octree => DiffuseCones {
+                aperture: 18.0,
+                ..Self::BOUNCE_CONES
+            },
+            VctStructure::Clipmap => Self::BOUNCE_CONES,
+        }
     }
 
     const BOUNCE_CONES: DiffuseCones = DiffuseCones {
@@ -126,7 +135,8 @@ pub struct VctSettings {
     pub cones: Option<u32>,
     /// Full aperture of the diffuse cones in degrees. Default `None`: the technique's own
     /// (`vct-svo` 18 per pixel; `vct-clipmap` 36, with `multi_bounce = false` 60, the six
-    /// cones' ring, 60 degrees apart, touches; 36 per voxel for the bounce gather).
+    /// cones' ring, 60 degrees apart, touches; for the bounce gather 18 per voxel on the
+    /// octree, 36 on the clipmap).
     pub aperture: Option<f32>,
     /// Step along a cone as a fraction of its footprint (default 0.5).
     pub step: f32,
@@ -397,6 +407,9 @@ mod tests {
         assert_eq!(VctStructure::Clipmap.default_cones(false).cones, 6);
         assert_eq!(VctStructure::Octree.default_cones(false).cones, 64);
         assert_eq!(VctStructure::Octree.default_bounce_cones().cones, 16);
+        // The octree's voxels gather with narrower cones than the clipmap's.
+        assert_eq!(VctStructure::Octree.default_bounce_cones().aperture, 18.0);
+        assert_eq!(VctStructure::Clipmap.default_bounce_cones().aperture, 36.0);
         // A value given applies to both structures; the others stay each one's own.
         let s = parse("cones = 8\nstart = 3.0\nmulti_bounce = false\n").unwrap();
         s.validate().unwrap();
