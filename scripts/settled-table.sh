@@ -20,6 +20,10 @@
 # (the tables tool, default `cargo run -q -p octolux-tables --`).
 # The references take minutes to hours on a CPU (bench prints their progress); where SPP
 # cannot reach a tenth of the smallest error judged, the noise file says how far it is.
+# A technique changed since the table was made can be measured again alone: the bench command
+# below with `--gi none,<it>`, its JSON and text kept as OUT_DIR/reruns/<scene>.json and .txt,
+# which the tables merge into the scene's file (its techniques replace the scene file's; its
+# GI off must be the same). Its images go into OUT_DIR/<scene>/ for the sheet command.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -35,6 +35,10 @@ impl Provenance {
                 self.command = Some(words.join(" "));
             }
         }
+        // The re-runs merged into the document ([`apply_reruns`]).
+        for rerun in doc[RERUNS_KEY].as_array().into_iter().flatten() {
+            self.add(rerun);
+        }
     }
 
     /// One sentence: the data, the commit(s), the date(s), the adapter(s).
@@ -90,7 +94,95 @@ fn bench_files(dir: &Path) -> Result<Vec<(String, Value)>> {
             let name = p.file_stem().unwrap().to_string_lossy().to_string();
             Ok((name, read_json(&p)?))
         })
-        .collect()
+        .collect::<Result<Vec<_>>>()
+        .and_then(|mut files| {
+            apply_reruns(&dir.join("reruns"), &mut files)?;
+            Ok(files)
+        })
+}
+
+/// Where a document keeps the provenance of the re-runs merged into it.
+const RERUNS_KEY: &str = "merged_reruns";
+
+/// Merges the re-runs in `dir` (`<scene>.json`, `bench` JSON of some techniques on a scene of
+/// `files`, made with the same protocol), if the folder exists: each technique a re-run holds
+/// replaces that technique's entry in its scene's document, whose provenance then lists the
+/// re-run's too, so that a technique changed since the table was made can be measured again
+/// without re-running every other technique. GI off (`none`) is the exception: a re-run may
+/// hold it only to show that GI off is what it was (FLIP within 5e-4 and relMSE within 0.1 %),
+/// since every technique is judged against it; a re-run whose GI off differs, whose protocol
+/// (size, warm-up, settling, early frame, reference) differs, or whose scene has no document,
+/// is an error.
+fn apply_reruns(dir: &Path, files: &mut [(String, Value)]) -> Result<()> {
+    if !dir.is_dir() {
+        return Ok(());
+    }
+    for (name, rerun) in bench_files(dir)? {
+        let at = files
+            .iter()
+            .position(|(n, _)| *n == name)
+            .with_context(|| format!("reruns/{name}.json: no {name}.json to merge it into"))?;
+        let doc = &mut files[at].1;
+        let same = |v: &Value, w: &Value| v == w;
+        for key in ["width", "height", "warmup", "settle"] {
+            if !same(&rerun[key], &doc[key]) {
+                bail!(
+                    "reruns/{name}.json: '{key}' is {}, {name}.json's {}",
+                    rerun[key],
+                    doc[key]
+                );
+            }
+        }
+        let reference = |d: &Value| {
+            let r = &d["scenes"][0]["references"][0];
+            (r["spp"].clone(), r["bounces"].clone(), r["seed"].clone())
+        };
+        if reference(&rerun) != reference(doc) {
+            bail!("reruns/{name}.json: another reference than {name}.json's");
+        }
+        let entries = rerun["scenes"][0]["techniques"]
+            .as_array()
+            .with_context(|| format!("reruns/{name}.json: no techniques"))?
+            .clone();
+        let list = doc["scenes"][0]["techniques"]
+            .as_array_mut()
+            .with_context(|| format!("{name}.json: no techniques"))?;
+        for entry in entries {
+            let technique = entry["technique"].as_str().unwrap_or("?").to_string();
+            let slot = list
+                .iter_mut()
+                .find(|t| t["technique"] == technique.as_str())
+                .with_context(|| {
+                    format!("reruns/{name}.json: '{technique}' is not in {name}.json")
+                })?;
+            if entry["early"]["frame"] != slot["early"]["frame"] {
+                bail!("reruns/{name}.json: '{technique}' has another early frame");
+            }
+            if technique == "none" {
+                let m = |t: &Value, key: &str| t["metrics"][key].as_f64().unwrap_or(f64::NAN);
+                let (flip, rel) = (m(&entry, "flip"), m(&entry, "rel_mse"));
+                let (flip0, rel0) = (m(slot, "flip"), m(slot, "rel_mse"));
+                if !((flip - flip0).abs() <= 5e-4 && (rel - rel0).abs() <= 1e-3 * rel0.abs()) {
+                    bail!(
+                        "reruns/{name}.json: GI off is {flip} / {rel}, {name}.json's {flip0} / \
+                         {rel0}: the build changed what every technique is judged against; \
+                         re-run the whole scene"
+                    );
+                }
+                continue;
+            }
+            *slot = entry;
+        }
+        let provenance = serde_json::json!({
+            "provenance": rerun["provenance"],
+            "adapter": rerun["adapter"],
+        });
+        match doc[RERUNS_KEY].as_array_mut() {
+            Some(list) => list.push(provenance),
+            None => doc[RERUNS_KEY] = Value::Array(vec![provenance]),
+        }
+    }
+    Ok(())
 }
 
 /// A sort key of `name` that orders its runs of digits by their value.
@@ -537,7 +629,71 @@ impl MovingRun {
 
 #[cfg(test)]
 mod tests {
-    use super::natural_key;
+    use super::{natural_key, ErrorRun};
+    use serde_json::{json, Value};
+
+    /// A bench document of one scene: `techniques` as (name, FLIP, relMSE), made by `commit`.
+    fn doc(commit: &str, width: u32, techniques: &[(&str, f64, f64)]) -> Value {
+        let entries: Vec<Value> = techniques
+            .iter()
+            .map(|&(t, flip, rel)| {
+                json!({"technique": t, "metrics": {"flip": flip, "rel_mse": rel},
+                       "early": {"frame": 4, "metrics": {"flip": flip, "rel_mse": rel}}})
+            })
+            .collect();
+        json!({
+            "provenance": {"commit": commit, "date": "2026-11-30T00:00:00Z"},
+            "adapter": {"name": "test adapter"},
+            "width": width, "height": 4, "warmup": 3, "settle": true,
+            "scenes": [{"techniques": entries,
+                        "references": [{"spp": 512, "bounces": "unlimited", "seed": 7}]}],
+        })
+    }
+
+    fn write(dir: &std::path::Path, name: &str, v: &Value) {
+        std::fs::create_dir_all(dir).unwrap();
+        std::fs::write(dir.join(format!("{name}.json")), v.to_string()).unwrap();
+    }
+
+    #[test]
+    fn a_rerun_replaces_its_techniques_and_adds_its_build() {
+        let dir = tempfile::tempdir().unwrap();
+        let main = [("none", 0.5, 0.2), ("a", 0.3, 0.1), ("b", 0.2, 0.05)];
+        write(dir.path(), "room", &doc("1111111111aa", 8, &main));
+        write(dir.path(), "box", &doc("1111111111aa", 8, &main));
+        let reruns = dir.path().join("reruns");
+        // GI off as it was (within rounding), `a` measured again.
+        let rerun = [("none", 0.5002, 0.2001), ("a", 0.25, 0.08)];
+        write(&reruns, "room", &doc("2222222222bb", 8, &rerun));
+        let run = ErrorRun::load(dir.path(), "data", false).unwrap();
+        let a = run.of("a").unwrap();
+        assert_eq!(run.scenes, ["box", "room"]);
+        assert_eq!((a[0].flip, a[1].flip), (0.3, 0.25));
+        assert_eq!(run.of("b").unwrap()[1].flip, 0.2);
+        assert_eq!(
+            run.off().unwrap()[1].flip,
+            0.5,
+            "GI off is the scene file's"
+        );
+        let commits: Vec<&String> = run.provenance.commits.iter().collect();
+        assert_eq!(commits, ["1111111111", "2222222222"]);
+
+        // What a re-run may not change: GI off, the protocol, a scene with no document.
+        for (name, bad, what) in [
+            ("room", doc("3", 8, &[("none", 0.51, 0.2)]), "GI off"),
+            ("room", doc("3", 16, &[("a", 0.1, 0.1)]), "'width'"),
+            ("room", doc("3", 8, &[("c", 0.1, 0.1)]), "'c' is not in"),
+            ("hall", doc("3", 8, &[("a", 0.1, 0.1)]), "no hall.json"),
+        ] {
+            std::fs::remove_dir_all(&reruns).unwrap();
+            write(&reruns, name, &bad);
+            let e = format!(
+                "{:#}",
+                ErrorRun::load(dir.path(), "data", false).unwrap_err()
+            );
+            assert!(e.contains(what), "{e}");
+        }
+    }
 
     #[test]
     fn numbers_sort_by_value_and_names_as_text() {
