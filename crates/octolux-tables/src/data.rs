@@ -123,9 +123,8 @@ fn apply_reruns(dir: &Path, files: &mut [(String, Value)]) -> Result<()> {
             .position(|(n, _)| *n == name)
             .with_context(|| format!("reruns/{name}.json: no {name}.json to merge it into"))?;
         let doc = &mut files[at].1;
-        let same = |v: &Value, w: &Value| v == w;
         for key in ["width", "height", "warmup", "settle"] {
-            if !same(&rerun[key], &doc[key]) {
+            if rerun[key] != doc[key] {
                 bail!(
                     "reruns/{name}.json: '{key}' is {}, {name}.json's {}",
                     rerun[key],

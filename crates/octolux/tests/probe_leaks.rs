@@ -197,16 +197,25 @@ fn one_bounce(facing: bool) -> octolux::gi::vct::VctSettings {
     }
 }
 
-#[test]
-fn radiance_facing_stops_the_cones_seeing_through_a_thin_wall() {
+/// The dark and the lit room's mean irradiance of `vct-svo` with settings `a` and then `b`,
+/// each rendered one frame or settled (`render_vct`).
+fn vct_rooms(
+    a: (octolux::gi::vct::VctSettings, bool),
+    b: (octolux::gi::vct::VctSettings, bool),
+) -> ((f32, f32), (f32, f32)) {
     let ctx = GpuContext::shared(&GpuOptions::default())
         .expect("a GPU adapter (install mesa-vulkan-drivers)");
     let scene = scene();
-    let (plain, rooms_plain) = render_vct(&ctx, &scene, one_bounce(false), false);
-    let (facing, rooms_facing) = render_vct(&ctx, &scene, one_bounce(true), false);
-    assert_eq!(rooms_plain, rooms_facing);
-    let (dark_plain, lit_plain) = means(&plain, &rooms_plain);
-    let (dark, lit) = means(&facing, &rooms_facing);
+    let (ea, rooms_a) = render_vct(&ctx, &scene, a.0, a.1);
+    let (eb, rooms_b) = render_vct(&ctx, &scene, b.0, b.1);
+    assert_eq!(rooms_a, rooms_b);
+    (means(&ea, &rooms_a), means(&eb, &rooms_b))
+}
+
+#[test]
+fn radiance_facing_stops_the_cones_seeing_through_a_thin_wall() {
+    let ((dark_plain, lit_plain), (dark, lit)) =
+        vct_rooms((one_bounce(false), false), (one_bounce(true), false));
     println!(
         "vct-svo: dark room {dark_plain:.3e} -> {dark:.3e} W/m^2 with facing, lit room \
          {lit_plain:.3e} -> {lit:.3e}"
@@ -232,14 +241,8 @@ fn radiance_facing_stops_the_cones_seeing_through_a_thin_wall() {
 /// 1.85 times the one-bounce share, the bound (docs/vct.md, "A thin wall lets light through").
 #[test]
 fn vct_svo_bounces_do_not_feed_the_leak() {
-    let ctx = GpuContext::shared(&GpuOptions::default())
-        .expect("a GPU adapter (install mesa-vulkan-drivers)");
-    let scene = scene();
-    let (one, rooms_one) = render_vct(&ctx, &scene, one_bounce(true), false);
-    let (multi, rooms_multi) = render_vct(&ctx, &scene, Default::default(), true);
-    assert_eq!(rooms_one, rooms_multi);
-    let (dark_one, lit_one) = means(&one, &rooms_one);
-    let (dark, lit) = means(&multi, &rooms_multi);
+    let ((dark_one, lit_one), (dark, lit)) =
+        vct_rooms((one_bounce(true), false), (Default::default(), true));
     let (share_one, share) = (dark_one / lit_one, dark / lit);
     println!(
         "vct-svo: dark room {dark_one:.3e} -> {dark:.3e} W/m^2 with multiple bounces (settled), lit \
