@@ -113,9 +113,9 @@ pub struct GiArgs {
     /// docs/vct.md, "Anisotropic radiance in the bounce only").
     #[arg(long)]
     pub vct_anisotropic_bounce: Option<bool>,
-    /// vct-svo: keep the direction the octree's radiance leaves in, so a cone does not see the
-    /// light on the far face of a thin wall, nor the sunlit outside of a building from inside
-    /// (default true; docs/vct.md, "The radiance's facing").
+    /// Cone tracing: keep the direction the voxels' radiance leaves in (octree or clipmap), so
+    /// a cone does not see the light on the far face of a thin wall, nor the sunlit outside of
+    /// a building from inside (default true; docs/vct.md, "The radiance's facing").
     #[arg(long)]
     pub vct_facing: Option<bool>,
     /// Cone tracing: multiple bounces through the voxels (octree or clipmap), converging over

@@ -182,7 +182,7 @@ fn filtered_levels_equal_cpu_twin_and_incremental_equals_rebuild() {
     assert_eq!(bytes, 2 * 16 * 16 * 16 * 24);
     let plain = Clipmap::new(&ctx, SETTINGS).unwrap();
     assert_eq!(
-        clipmap.bytes() - plain.bytes() - radiance.len() as u64 * 8,
+        clipmap.bytes() - plain.bytes() - radiance.len() as u64 * 12,
         bytes
     );
     assert!(plain.aniso.is_none() && plain.read_aniso(&ctx).unwrap().is_empty());
@@ -460,7 +460,8 @@ fn emission_is_injected_as_the_mean_of_the_voxel_fragments() {
         .entries()
         .iter()
         .any(|e| e.owner == "clipmap" && e.name == "emission" && e.bytes == slots * 4));
-    assert_eq!(clipmap.bytes(), slots * (12 + 8));
+    // Voxels, normals and emission 12 bytes per slot, radiance and facing 12 more.
+    assert_eq!(clipmap.bytes(), slots * (12 + 12));
 }
 
 /// Moving objects through the clipmap's own scene: `replace_triangles` uploads only the
@@ -695,4 +696,257 @@ fn bounce_irradiance_is_added_to_the_injected_radiance() {
     // A buffer smaller than the clipmap's slots is refused.
     let small = ctx.create_buffer_init("test", "small", &[0u8; 64], wgpu::BufferUsages::STORAGE);
     assert!(clipmap.set_bounce(Some(small)).is_err());
+}
+
+/// A wall thinner than a voxel (two opposite quads 4 mm apart, inside one column of level 0's
+/// voxels) standing on a floor, and a point light on the wall's +x side: what
+/// `thin_wall_clipmap` voxelises and lights.
+fn thin_wall() -> (Vec<VoxelTriangle>, octolux::scene::Light) {
+    let mut tris = crate::lit_floor::floor();
+    let white = [230, 230, 230];
+    for (x, facing_plus_x) in [(0.514f32, false), (0.518, true)] {
+        let (a, b) = (Vec3::new(x, 0.31, 0.3), Vec3::new(x, 0.7, 0.3));
+        let (c, d) = (Vec3::new(x, 0.7, 0.7), Vec3::new(x, 0.31, 0.7));
+        let (quad_a, quad_b) = if facing_plus_x {
+            ([a, b, c], [a, c, d])
+        } else {
+            ([a, c, b], [a, d, c])
+        };
+        tris.push(tri(quad_a[0], quad_a[1], quad_a[2], white));
+        tris.push(tri(quad_b[0], quad_b[1], quad_b[2], white));
+    }
+    let mut light = crate::lit_floor::light();
+    light.position = Vec3::new(0.85, 0.5, 0.5);
+    (tris, light)
+}
+
+/// The clipmap of `crate::lit_floor` (2 levels of 32^3) holding [`thin_wall`], lit by its
+/// light through voxel shadow rays.
+fn thin_wall_clipmap(ctx: &GpuContext) -> (Clipmap, Vec3) {
+    let (tris, light) = thin_wall();
+    let mut clipmap = Clipmap::new(ctx, crate::lit_floor::SETTINGS).unwrap();
+    let mut timer = PassTimer::new(ctx);
+    clipmap
+        .update(ctx, &mut timer, &tris, Vec3::splat(0.5))
+        .unwrap();
+    clipmap
+        .inject(ctx, &mut timer, std::slice::from_ref(&light), 512)
+        .unwrap();
+    timer.finish_frame().unwrap();
+    (clipmap, light.position)
+}
+
+/// Every occupied slot's facing equals the CPU twin `injected_facing`: the floor's voxels face
+/// along their normal, the thin wall's (whose faces' normals cancel) towards the light. The
+/// GPU packs the facing it computes in f32 into snorm8: 1 / 127 bounds the difference (the
+/// rounding of one store, and of a component on a rounding boundary either way).
+#[test]
+fn injected_facing_points_where_the_radiance_leaves() {
+    use octolux::voxel::clipmap::{injected_facing, unpack_facing};
+    let ctx = context();
+    let (clipmap, light) = thin_wall_clipmap(&ctx);
+    let s = clipmap.settings;
+    let res = s.resolution as i32;
+    let voxels = clipmap.read_voxels(&ctx).unwrap();
+    let normals = clipmap.read_normals(&ctx).unwrap();
+    let emission = clipmap.read_emission(&ctx).unwrap();
+    let radiance = clipmap.read_radiance(&ctx).unwrap();
+    let facing = clipmap.read_facing(&ctx).unwrap();
+    assert_eq!(facing.len(), voxels.len());
+    let (mut with_normal, mut without, mut worst) = (0, 0, 0.0f32);
+    for (l, origin) in origins(&clipmap).into_iter().enumerate() {
+        let size = s.voxel_size * (1 << l) as f32;
+        for z in 0..res {
+            for y in 0..res {
+                for x in 0..res {
+                    let g = origin + IVec3::new(x, y, z);
+                    let m = g.rem_euclid(IVec3::splat(res));
+                    let i =
+                        l * (res * res * res) as usize + (m.x + res * (m.y + res * m.z)) as usize;
+                    if voxels[i] >> 24 == 0 || radiance[i].truncate().element_sum() <= 0.0 {
+                        continue;
+                    }
+                    let to_light = (light - (g.as_vec3() + 0.5) * size).normalize();
+                    // One light: the facing does not depend on how much of it arrives.
+                    let lit = [(to_light, Vec3::ONE)];
+                    let out = octolux::voxel::clipmap::injected_radiance(
+                        voxels[i],
+                        emission[i],
+                        Vec3::ONE,
+                    );
+                    let want = injected_facing(voxels[i], normals[i], &lit, out);
+                    worst = worst.max((facing[i] - want).abs().max_element());
+                    if unpack_facing(normals[i]).length_squared() > 0.01 {
+                        with_normal += 1;
+                    } else {
+                        without += 1;
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "lit voxels with a normal {with_normal}, without {without}; facing differs from the \
+         CPU twin by {worst:.2e}"
+    );
+    assert!(
+        with_normal > 300 && without > 100,
+        "{with_normal}, {without}"
+    );
+    assert!(
+        worst <= 1.0 / 127.0,
+        "the facing differs from the CPU twin by {worst}"
+    );
+}
+
+/// The radiance and facing samples of the trace's sampler (`clip_radiance_facing_level`)
+/// equal the CPU twin, and what they say a cone sees of the thin wall: from its lit side all
+/// its light, from its far side next to none (`facing_toward`).
+#[test]
+fn facing_samples_equal_the_cpu_twin_and_hide_a_thin_walls_far_face() {
+    use octolux::voxel::clipmap::sample::{
+        clip_radiance_facing_level, CLIP_BINDINGS, CLIP_RADIANCE_BINDING,
+    };
+    use octolux::voxel::facing::facing_toward;
+    let ctx = context();
+    let (clipmap, _) = thin_wall_clipmap(&ctx);
+    let radiance = clipmap.read_radiance(&ctx).unwrap();
+    let facing = clipmap.read_facing(&ctx).unwrap();
+    let info = ClipInfo::new(&clipmap.settings, &clipmap.origins);
+    let kernel = "import octolux::voxel::clipmap::radiance_sample::clip_radiance_facing_level;
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&points) {
+        return;
+    }
+    let q = points[id.x];
+    let s = clip_radiance_facing_level(q.xyz, u32(q.w));
+    out[2u * id.x] = s.radiance;
+    out[2u * id.x + 1u] = vec4<f32>(s.facing, 0.0);
+}
+";
+    // Points around the wall (x = 0.516) and over the floor, on both levels.
+    let mut rng = Rng(77);
+    let points: Vec<Vec4> = (0..400)
+        .map(|i| {
+            let p = rng.vec(0.0, 1.0);
+            Vec3::new(0.4 + 0.25 * p.x, 0.28 + 0.45 * p.y, 0.25 + 0.5 * p.z).extend((i % 2) as f32)
+        })
+        .collect();
+    let info_buffer = ctx.create_buffer_init(
+        "test",
+        "clip info",
+        bytemuck::bytes_of(&info),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let bindings = vec![
+        (CLIP_BINDINGS, info_buffer.as_entire_binding()),
+        (
+            CLIP_RADIANCE_BINDING,
+            clipmap.radiance.as_ref().unwrap().as_entire_binding(),
+        ),
+    ];
+    let gpu = crate::common::run_probe(&ctx, kernel, bindings, &points, 2);
+    let (mut worst, mut lit) = (0.0f32, 0);
+    for (q, g) in points.iter().zip(gpu.chunks_exact(2)) {
+        let (r, f) =
+            clip_radiance_facing_level(&info, &radiance, &facing, q.truncate(), q.w as u32);
+        let scale = r.abs().max_element().max(f.abs().max_element()).max(1.0);
+        worst = worst.max(
+            (r - g[0])
+                .abs()
+                .max_element()
+                .max((f - g[1].truncate()).abs().max_element())
+                / scale,
+        );
+        lit += (r.truncate().element_sum() > 1e-3) as u32;
+    }
+    println!("facing samples: {lit} of 400 lit; GPU and CPU differ by {worst:.2e}");
+    assert!(lit > 100, "only {lit} samples lit");
+    // f32 sums of the same f16 and snorm8 values in the same order.
+    assert!(worst < 1e-4, "GPU and CPU samples differ by {worst}");
+    // The wall's voxels on level 0, at their centres (x = 16.5 voxels): seen from the far
+    // side by a cone travelling +x, from the lit side by one travelling -x.
+    let v = clipmap.settings.voxel_size;
+    let (mut far_side, mut near_side, mut samples) = (0.0f32, 1.0f32, 0);
+    for y in 12..21 {
+        for z in 12..20 {
+            let p = Vec3::new(16.5, y as f32 + 0.5, z as f32 + 0.5) * v;
+            let (r, f) = clip_radiance_facing_level(&info, &radiance, &facing, p, 0);
+            if r.truncate().element_sum() <= 1e-3 {
+                continue;
+            }
+            samples += 1;
+            far_side = far_side.max(facing_toward(r, f, Vec3::X));
+            near_side = near_side.min(facing_toward(r, f, Vec3::NEG_X));
+        }
+    }
+    println!("wall samples {samples}: far side sees at most {far_side:.3}, lit side at least {near_side:.3}");
+    assert!(samples >= 40, "only {samples} lit wall samples");
+    assert!(
+        far_side < 0.1,
+        "the far side sees {far_side} of the wall's light"
+    );
+    assert!(
+        near_side > 0.99,
+        "the lit side sees only {near_side} of the wall's light"
+    );
+}
+
+/// `clip_thicken` (a coarse level's occupied fraction read as a medium's opacity) on the GPU
+/// equals its CPU twin for opacities 0 to 1 and 0 to 6 levels above the surfaces' level, within
+/// 1e-5 of the opacity (WGSL's `pow` is exp2(y log2 x), whose error the adapter bounds, against
+/// Rust's `powf`); and a plane (occupied fraction 2^-k, k levels up) keeps between 1 - 1/e and
+/// 3/4 of its opacity, where the filtered level alone kept 2^-k.
+#[test]
+fn thickened_coarse_samples_equal_the_cpu_twin() {
+    use octolux::voxel::clipmap::sample::clip_thicken;
+    let ctx = context();
+    let kernel =
+        "import octolux::voxel::clipmap::radiance_sample::{ClipRadianceFacing, clip_thicken};
+@compute @workgroup_size(64)
+fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x / 2u;
+    if i >= arrayLength(&points) / 2u || id.x % 2u != 0u {
+        return;
+    }
+    let f = points[2u * i + 1u];
+    let s = clip_thicken(ClipRadianceFacing(points[2u * i], f.xyz), u32(f.w) + 3u, 3u);
+    out[2u * i] = s.radiance;
+    out[2u * i + 1u] = vec4<f32>(s.facing, 0.0);
+}
+";
+    let mut points = Vec::new();
+    for levels in 0..=6u32 {
+        for step in 0..=40 {
+            let a = step as f32 / 40.0;
+            points.push(Vec4::new(0.3 * a, 0.5 * a, 0.2 * a, a));
+            points.push(Vec4::new(0.1 * a, -0.2 * a, 0.4 * a, levels as f32));
+        }
+    }
+    let gpu = crate::common::run_probe(&ctx, kernel, Vec::new(), &points, 1);
+    let mut worst = 0.0f32;
+    for (q, g) in points.chunks_exact(2).zip(gpu.chunks_exact(2)) {
+        let (r, f) = clip_thicken(q[0], q[1].truncate(), q[1].w as u32);
+        let scale = r.abs().max_element().max(1.0);
+        worst = worst
+            .max((r - g[0]).abs().max_element() / scale)
+            .max((f - g[1].truncate()).abs().max_element() / scale);
+        // Never thinner than the stored sample, never past opaque; the colour keeps its ratio.
+        assert!(r.w >= q[0].w - 1e-6 && r.w <= 1.0 + 1e-6, "{q:?} -> {r}");
+        if q[0].w > 0.0 {
+            assert!((r.x / r.w - 0.3).abs() < 1e-5, "{q:?} -> {r}");
+        }
+    }
+    println!("clip_thicken: GPU and CPU differ by {worst:.2e}");
+    assert!(worst < 1e-5, "GPU and CPU differ by {worst}");
+    for k in 1..=6u32 {
+        let plane = 0.5f32.powi(k as i32);
+        let (r, _) = clip_thicken(Vec4::new(0.0, 0.0, 0.0, plane), Vec3::ZERO, k);
+        assert!(
+            r.w >= 1.0 - (-1.0f32).exp() - 1e-6 && r.w <= 0.75 + 1e-6,
+            "a plane {k} levels up: {}",
+            r.w
+        );
+    }
 }

@@ -5,7 +5,7 @@
 //! (`SvoBuilder::with_facing`) against its CPU twin, on a wall thinner than a voxel and in a
 //! dynamic part, and its sampler against the CPU sampler.
 
-use crate::common::context;
+use crate::common::{context, run_probe};
 use glam::{IVec3, Mat4, Vec3, Vec4};
 use octolux::frame::{GpuLight, LayerView, ShadowLookupBuffers};
 use octolux::gpu::{GpuContext, PassTimer};
@@ -470,60 +470,6 @@ fn check_emission_facing(ctx: &GpuContext, grid: &VoxelGrid, tris: &[VoxelTriang
     assert!(error < 4e-3, "facing lattice error {error}");
 }
 
-/// Runs `kernel` (a WGSL module with an entry point `probe` reading `points` at binding 0 and
-/// writing `outputs` vec4 per point at binding 1) over `points` with `bindings` (the
-/// library's sampler entries) and returns its output.
-fn run_probe(
-    ctx: &GpuContext,
-    kernel: &str,
-    bindings: Vec<(u32, wgpu::BindingResource<'_>)>,
-    points: &[Vec4],
-    outputs: usize,
-) -> Vec<Vec4> {
-    let source = octolux::gpu::shader::compose_text("probe", kernel, &[], &[]).unwrap();
-    let module = ctx.shader("probe", &source);
-    let pipeline = ctx.compute_pipeline("probe", &module, "probe");
-    let input = ctx.create_buffer_init(
-        "test",
-        "points",
-        bytemuck::cast_slice(points),
-        wgpu::BufferUsages::STORAGE,
-    );
-    let size = (points.len() * outputs) as u64 * 16;
-    let out = ctx.create_buffer(
-        "test",
-        &wgpu::BufferDescriptor {
-            label: Some("samples"),
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        },
-    );
-    let entries: Vec<wgpu::BindGroupEntry> = bindings
-        .into_iter()
-        .chain([(0, input.as_entire_binding()), (1, out.as_entire_binding())])
-        .map(|(binding, resource)| wgpu::BindGroupEntry { binding, resource })
-        .collect();
-    let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries,
-    });
-    let mut timer = PassTimer::new(ctx);
-    timer.pass("probe", |encoder, stamps| {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("probe"),
-            timestamp_writes: stamps.compute(),
-        });
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
-    });
-    timer.finish_frame().unwrap();
-    let bytes = octolux::gpu::read_buffer(ctx, &out, 0, size).unwrap();
-    bytemuck::cast_slice(&bytes).to_vec()
-}
-
 fn svo_info_buffer(ctx: &GpuContext, grid: &VoxelGrid, svo: &Svo) -> wgpu::Buffer {
     use octolux::voxel::svo::sample::SvoInfo;
     ctx.create_buffer_init(
@@ -544,8 +490,6 @@ fn gpu_radiance_samples_equal_the_cpu_twin() {
     // The sampler's own bindings (`voxel/svo/sample.wgsl`, `radiance_sample.wgsl`) are bound
     // by the library's entries; the kernel adds its points and output.
     let kernel = "import octolux::voxel::svo::radiance_sample::svo_radiance_sample;
-@group(0) @binding(0) var<storage, read> points: array<vec4<f32>>;
-@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
 @compute @workgroup_size(64)
 fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= arrayLength(&points) {
@@ -587,8 +531,9 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
 
 #[test]
 fn gpu_facing_samples_equal_the_cpu_twin() {
+    use octolux::voxel::facing::facing_toward;
     use octolux::voxel::svo::sample::{
-        facing_toward, svo_bindings, svo_facing_bindings, svo_radiance_bindings, svo_sample,
+        svo_bindings, svo_facing_bindings, svo_radiance_bindings, svo_sample,
     };
     let ctx = context();
     let (_, grid, svo) = lit_thin_wall_octree(&ctx);
@@ -597,9 +542,8 @@ fn gpu_facing_samples_equal_the_cpu_twin() {
     radiance.bricks = svo.read_radiance(&ctx).unwrap();
     let mut facing = svo.read_back(&ctx).unwrap();
     facing.bricks = svo.read_facing(&ctx).unwrap().unwrap();
-    let kernel = "import octolux::voxel::svo::radiance_sample::{svo_facing_toward, svo_radiance_facing_sample};
-@group(0) @binding(0) var<storage, read> points: array<vec4<f32>>;
-@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
+    let kernel = "import octolux::voxel::svo::radiance_sample::svo_radiance_facing_sample;
+import octolux::voxel::facing::facing_toward;
 @compute @workgroup_size(64)
 fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x / 2u;
@@ -610,7 +554,7 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = svo_radiance_facing_sample(q.xyz, q.w);
     out[3u * i] = s.radiance;
     out[3u * i + 1u] = vec4<f32>(s.facing, 0.0);
-    out[3u * i + 2u] = vec4<f32>(svo_facing_toward(s, points[2u * i + 1u].xyz));
+    out[3u * i + 2u] = vec4<f32>(facing_toward(s.radiance, s.facing, points[2u * i + 1u].xyz));
 }
 ";
     // Points around the wall and over the floor, footprints of 1 to 8 voxels, and the
@@ -916,7 +860,7 @@ fn lit_thin_wall_octree(ctx: &GpuContext) -> (Scene, VoxelGrid, Svo) {
 
 #[test]
 fn facing_points_where_the_radiance_leaves_and_is_filtered_as_the_radiance() {
-    use octolux::voxel::svo::sample::facing_toward;
+    use octolux::voxel::facing::facing_toward;
     let ctx = context();
     let (scene, grid, svo) = lit_thin_wall_octree(&ctx);
     let (light, vs) = (scene.lights[0].position, grid.voxel_size);

@@ -68,6 +68,7 @@ pub const MODULES: &[(&str, &str)] = modules![
     "voxel/clipmap/inject_common",
     "voxel/clipmap/inject",
     "voxel/clipmap/inject_shadow",
+    "voxel/facing",
     "voxel/svo/sample",
     "voxel/svo/radiance_sample",
     "voxel/svo/sample_aniso",

@@ -39,6 +39,7 @@
 pub mod clipmap;
 pub mod cpu;
 pub mod debug;
+pub mod facing;
 pub mod pairs;
 pub mod sample;
 pub mod svo;

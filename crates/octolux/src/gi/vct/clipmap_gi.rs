@@ -1,11 +1,12 @@
 //! `vct-clipmap`: voxel cone tracing on the clipmap (`003` §3.2, §4): per frame the clipmap
-//! follows the camera (and revoxelises around moving objects), direct light (plus, with
+//! follows the camera, or the nearest point of the scene to a camera outside it (and
+//! revoxelises around moving objects), direct light (plus, with
 //! multiple bounces, the indirect light the voxels gathered last frame) is injected into its
 //! voxels, and every pixel gathers through six cones.
 //!
 //! Everything is made in [`VctClipmap::new`] except the clipmap itself, which the first frame
 //! makes with its scene ([`ClipmapVoxels::new`]): its voxel size follows from the camera's
-//! distance to the scene's bounds, which only a frame knows. From then on it exists.
+//! place in the scene's bounds, which only a frame knows. From then on it exists.
 
 use super::bounce_list::{bounce_settle_frames, bounce_spread, BounceList};
 use super::clipmap_tail::{tail_levels, ClipmapTail};
@@ -51,8 +52,8 @@ struct ClipmapVoxels {
 }
 
 impl ClipmapVoxels {
-    /// The clipmap for the camera of `frame` (its voxel sized so that the levels reach the
-    /// farthest corner of `bounds`), with `frame`'s scene: the static triangles, then the
+    /// The clipmap for the camera of `frame` (centred as [`clipmap_centre`] says, its voxel
+    /// sized so that the levels reach the farthest corner of `bounds` from there), with `frame`'s scene: the static triangles, then the
     /// animated objects'. Sets the cone parameters of `tracer` that go with its voxel; with
     /// multiple bounces, the injection adds `bounce`.
     fn new(
@@ -63,7 +64,7 @@ impl ClipmapVoxels {
         bounce: Option<&wgpu::Buffer>,
         frame: &GiFrame,
     ) -> Result<ClipmapVoxels> {
-        let camera = frame.view.position;
+        let centre = clipmap_centre(frame.view.position, (lo, hi));
         let far = (0..8)
             .map(|k| {
                 let corner = glam::Vec3::new(
@@ -71,7 +72,7 @@ impl ClipmapVoxels {
                     if k & 2 == 0 { lo.y } else { hi.y },
                     if k & 4 == 0 { lo.z } else { hi.z },
                 );
-                (corner - camera).abs().max_element()
+                (corner - centre).abs().max_element()
             })
             .fold(0.0f32, f32::max);
         let span = s.resolution as f32 * (1u32 << (s.levels - 1)) as f32;
@@ -80,7 +81,8 @@ impl ClipmapVoxels {
         let coarsest = voxel * (1u32 << (s.levels - 1 + tail_levels(s.resolution))) as f32;
         if !voxel.is_finite() || voxel <= 0.0 {
             return Err(Error::InvalidArgument(format!(
-                "vct-clipmap: no clipmap fits a camera at {camera} and scene bounds {lo} to {hi}"
+                "vct-clipmap: no clipmap fits a camera at {} and scene bounds {lo} to {hi}",
+                frame.view.position
             )));
         }
         let clip = ClipmapSettings {
@@ -120,6 +122,17 @@ impl ClipmapVoxels {
         }
         Ok(())
     }
+}
+
+/// Where the clipmap's levels are centred for a camera at `camera` in a scene of bounds
+/// `(lo, hi)`: on the camera while it is inside them, else on the nearest point of them.
+/// Following the camera everywhere puts the fine levels where the camera is; from outside the
+/// scene (a room seen through its open side, a building from the street) they then held only
+/// air, and the scene lay in the coarsest level: `two-rooms-leak`'s rooms in 19 cm voxels,
+/// 5 across a room, which its cones could neither light nor keep apart (docs/vct.md, "The
+/// clipmap's centre").
+fn clipmap_centre(camera: glam::Vec3, (lo, hi): (glam::Vec3, glam::Vec3)) -> glam::Vec3 {
+    camera.clamp(lo, hi.max(lo))
 }
 
 /// Multiple bounces on the clipmap: the indirect irradiance every voxel slot gathered last
@@ -333,8 +346,8 @@ impl VctClipmap {
             TraceStructure {
                 trace: "gi/vct/clipmap_trace",
                 bounce: "gi/vct/clipmap_bounce",
-                features: Vec::new(),
-                bounce_features: Vec::new(),
+                features: vec![("facing", settings.facing)],
+                bounce_features: vec![("facing", settings.facing)],
                 octree: false,
             },
             settings,
@@ -374,7 +387,8 @@ impl GiTechnique for VctClipmap {
     }
 
     fn update(&mut self, ctx: &GpuContext, frame: &GiFrame, timer: &mut PassTimer) -> Result<()> {
-        // 1. Voxels: the clipmap (made at the first frame) follows the camera; moving objects
+        // 1. Voxels: the clipmap (made at the first frame) follows the camera (its nearest point
+        //    in the scene from outside, `clipmap_centre`); moving objects
         //    are revoxelised.
         let voxels = match &mut self.voxels {
             Some(voxels) => {
@@ -395,7 +409,7 @@ impl GiTechnique for VctClipmap {
             }
         };
         let clipmap = &mut voxels.clipmap;
-        clipmap.follow(ctx, timer, frame.view.position)?;
+        clipmap.follow(ctx, timer, clipmap_centre(frame.view.position, self.bounds))?;
         let info = ClipInfo::new(&clipmap.settings, &clipmap.origins);
         ctx.queue
             .write_buffer(&self.info, 0, bytemuck::bytes_of(&info));
@@ -477,9 +491,36 @@ mod tests {
     use crate::gpu::layout::assert_mirrors_wgsl;
 
     #[test]
+    fn the_levels_follow_the_camera_inside_the_scene_and_its_nearest_point_outside() {
+        let bounds = (glam::Vec3::ZERO, glam::Vec3::new(2.0, 2.0, 2.0));
+        let inside = glam::Vec3::new(0.5, 1.5, 1.0);
+        assert_eq!(clipmap_centre(inside, bounds), inside);
+        let front = glam::Vec3::new(1.0, 1.0, -3.5);
+        assert_eq!(
+            clipmap_centre(front, bounds),
+            glam::Vec3::new(1.0, 1.0, 0.0)
+        );
+        let corner = glam::Vec3::new(-1.0, 5.0, 9.0);
+        assert_eq!(
+            clipmap_centre(corner, bounds),
+            glam::Vec3::new(0.0, 2.0, 2.0)
+        );
+        // A flat scene (no extent along y) keeps its plane.
+        let flat = (glam::Vec3::ZERO, glam::Vec3::new(2.0, 0.0, 2.0));
+        assert_eq!(clipmap_centre(front, flat), glam::Vec3::new(1.0, 0.0, 0.0));
+    }
+
+    #[test]
     fn bounce_blocks_mirror_the_wgsl_ones() {
         let module = "gi/vct/clipmap_bounce";
-        assert_mirrors_wgsl!(BounceParams, module, "BounceParams", [slots, spread]);
-        assert_mirrors_wgsl!(BounceBox, module, "BounceBox", [lo, _pad, size, first]);
+        let flags = &[("facing", false)];
+        assert_mirrors_wgsl!(BounceParams, module, "BounceParams", [slots, spread], flags);
+        assert_mirrors_wgsl!(
+            BounceBox,
+            module,
+            "BounceBox",
+            [lo, _pad, size, first],
+            flags
+        );
     }
 }

@@ -14,7 +14,7 @@ use crate::gpu::alloc::storage;
 use crate::gpu::pass::KeptBindGroup;
 use crate::gpu::{GpuContext, PassTimer};
 use crate::voxel::clipmap::sample::{CLIP_BINDINGS, CLIP_RADIANCE_BINDING};
-use glam::{IVec3, Vec4};
+use glam::{IVec3, Vec3, Vec4};
 
 /// The tail of a clipmap of `res` voxels per side: its levels k = 1..=K have `res >> k`
 /// voxels per side, down to 2.
@@ -46,8 +46,8 @@ struct TailParams {
 /// The tail's buffer and the passes that fill it from the clipmap's injected radiance.
 pub(crate) struct ClipmapTail {
     res: u32,
-    /// RGBA16F premultiplied radiance and opacity, 2 words per voxel, levels one after the
-    /// other.
+    /// Per voxel, as the clipmap's radiance: RGBA16F premultiplied radiance and opacity and
+    /// the radiance's facing (snorm8 x 3), 3 words; levels one after the other.
     pub buffer: wgpu::Buffer,
     params: Vec<wgpu::Buffer>,
     pipeline: wgpu::ComputePipeline,
@@ -60,7 +60,7 @@ impl ClipmapTail {
     pub fn new(ctx: &GpuContext, owner: &str, res: u32) -> ClipmapTail {
         let levels = tail_levels(res);
         let voxels = tail_offset(res, levels + 1) as u64;
-        let buffer = storage(ctx, owner, "clipmap tail", voxels * 8);
+        let buffer = storage(ctx, owner, "clipmap tail", voxels * 12);
         let params: Vec<wgpu::Buffer> = (1..=levels)
             .map(|k| {
                 let p = TailParams {
@@ -132,28 +132,38 @@ impl ClipmapTail {
 
 /// CPU twin of the tail build: the tail levels (level k at [`tail_offset`]) of a clipmap of
 /// `res` voxels per side whose coarsest level reads `coarsest(g)` at world-voxel coordinates
-/// `g`, with that level's first voxel at `origin`. In f32: the GPU stores each level in f16,
-/// so its values differ by the rounding of up to K stores (relative 2^-11 each).
-pub fn tail_cpu(res: u32, origin: IVec3, coarsest: impl Fn(IVec3) -> Vec4) -> Vec<Vec4> {
+/// `g` (radiance and opacity, and the direction the radiance leaves in), with that level's
+/// first voxel at `origin`. Each voxel's radiance is the mean of the 8 below it, its facing
+/// the mean of theirs weighted by their radiance's r + g + b. In f32: the GPU stores each
+/// level's radiance in f16 (relative 2^-11 per store) and its facing in snorm8 (0.5 / 127 per
+/// store), so its values differ by the rounding of up to K stores.
+pub fn tail_cpu(
+    res: u32,
+    origin: IVec3,
+    coarsest: impl Fn(IVec3) -> (Vec4, Vec3),
+) -> Vec<(Vec4, Vec3)> {
     let levels = tail_levels(res);
-    let mut tail = vec![Vec4::ZERO; tail_offset(res, levels + 1) as usize];
+    let mut tail = vec![(Vec4::ZERO, Vec3::ZERO); tail_offset(res, levels + 1) as usize];
     for k in 1..=levels {
         let n = res >> k;
         for z in 0..n {
             for y in 0..n {
                 for x in 0..n {
-                    let mut sum = Vec4::ZERO;
+                    let (mut sum, mut facing) = (Vec4::ZERO, Vec3::ZERO);
                     for c in 0..8u32 {
                         let j = 2 * glam::UVec3::new(x, y, z)
                             + glam::UVec3::new(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-                        sum += if k == 1 {
+                        let (r, f) = if k == 1 {
                             coarsest(origin + j.as_ivec3())
                         } else {
                             let m = 2 * n;
                             tail[(tail_offset(res, k - 1) + j.x + m * (j.y + m * j.z)) as usize]
                         };
+                        sum += r;
+                        facing += f * r.truncate().element_sum();
                     }
-                    tail[(tail_offset(res, k) + x + n * (y + n * z)) as usize] = sum * 0.125;
+                    let f = facing / sum.truncate().element_sum().max(1e-20);
+                    tail[(tail_offset(res, k) + x + n * (y + n * z)) as usize] = (sum * 0.125, f);
                 }
             }
         }
@@ -189,11 +199,13 @@ mod tests {
         assert_eq!(tail_offset(8, tail_levels(8) + 1), 64 + 8);
     }
 
-    /// The GPU tail of a clipmap filled with arbitrary f16 radiance, its coarsest level's
-    /// origin odd on every axis (so the toroidal wrap is crossed), equals the CPU twin within
-    /// the f16 rounding of its stores: relative 2^-11 per level, two levels, bound 2^-9.
+    /// The GPU tail of a clipmap filled with arbitrary f16 radiance and facing, its coarsest
+    /// level's origin odd on every axis (so the toroidal wrap is crossed), equals the CPU twin
+    /// within the rounding of its stores: the radiance relative 2^-11 per level, two levels,
+    /// bound 2^-9; the facing 0.5 / 127 per level (snorm8), bound 1.5 / 127.
     #[test]
     fn gpu_tail_equals_cpu_twin() {
+        use crate::voxel::clipmap::{pack_facing, unpack_facing};
         let ctx = GpuContext::shared(&GpuOptions::default())
             .expect("a GPU adapter (install mesa-vulkan-drivers)");
         let res = 8u32;
@@ -205,17 +217,35 @@ mod tests {
         let origins = [Some(IVec3::new(-8, 2, 0)), Some(IVec3::new(-3, 5, -1))];
         let slots = 2 * res.pow(3) as usize;
         // Positive finite f16s from a fixed linear congruential sequence: exponents 10..=17
-        // (about 2^-5 to 4), any mantissa.
+        // (about 2^-5 to 4), any mantissa; facings of any direction and length up to 1.
         let mut state = 12345u32;
         let mut next = || {
             state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            let e = 10 + (state >> 29);
-            (e << 10 | (state >> 8) & 1023) as u16
+            state
         };
-        let halves: Vec<u16> = (0..4 * slots).map(|_| next()).collect();
-        let words: Vec<u32> = halves
-            .chunks(2)
-            .map(|h| h[0] as u32 | (h[1] as u32) << 16)
+        let mut half = || {
+            let s = next();
+            let e = 10 + (s >> 29);
+            (e << 10 | (s >> 8) & 1023) as u16
+        };
+        let halves: Vec<u16> = (0..4 * slots).map(|_| half()).collect();
+        let facings: Vec<u32> = (0..slots)
+            .map(|_| {
+                let s = next();
+                let c = |k: u32| ((s >> (8 * k)) & 255) as f32 / 255.0 * 2.0 - 1.0;
+                let f = Vec3::new(c(0), c(1), c(2));
+                pack_facing(f / f.length().max(1.0))
+            })
+            .collect();
+        let words: Vec<u32> = (0..slots)
+            .flat_map(|i| {
+                let h = &halves[4 * i..4 * i + 4];
+                [
+                    h[0] as u32 | (h[1] as u32) << 16,
+                    h[2] as u32 | (h[3] as u32) << 16,
+                    facings[i],
+                ]
+            })
             .collect();
         let radiance = ctx.create_buffer_init(
             "test",
@@ -234,7 +264,7 @@ mod tests {
         tail.record(&ctx, &mut timer, &info, &radiance);
         timer.finish_frame().expect("tail pass");
         let bytes = read_buffer(&ctx, &tail.buffer, 0, tail.buffer.size()).expect("read tail");
-        let gpu: Vec<u16> = bytemuck::cast_slice(&bytes).to_vec();
+        let gpu: Vec<u32> = bytemuck::cast_slice(&bytes).to_vec();
 
         let level_slot = |g: IVec3| {
             let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
@@ -242,17 +272,25 @@ mod tests {
         };
         let coarsest = |g: IVec3| {
             let s = level_slot(g);
-            Vec4::from_array(std::array::from_fn(|c| f16_to_f32(halves[4 * s + c])))
+            let r = Vec4::from_array(std::array::from_fn(|c| f16_to_f32(halves[4 * s + c])));
+            (r, unpack_facing(facings[s]))
         };
         let cpu = tail_cpu(res, IVec3::new(-3, 5, -1), coarsest);
         assert_eq!(cpu.len(), 72);
-        for (i, want) in cpu.iter().enumerate() {
-            let got = Vec4::from_array(std::array::from_fn(|c| f16_to_f32(gpu[4 * i + c])));
+        let mut worst_facing = 0.0f32;
+        for (i, (want, want_facing)) in cpu.iter().enumerate() {
+            let got = crate::gpu::pack::unpack_half4(gpu[3 * i], gpu[3 * i + 1]);
             let err = (got - *want).abs().max_element();
             assert!(
                 err <= want.abs().max_element() * 2f32.powi(-9),
                 "tail voxel {i}: GPU {got} CPU {want}"
             );
+            let facing = unpack_facing(gpu[3 * i + 2]);
+            worst_facing = worst_facing.max((facing - *want_facing).abs().max_element());
         }
+        assert!(
+            worst_facing <= 1.5 / 127.0,
+            "tail facing: GPU and CPU differ by {worst_facing}"
+        );
     }
 }

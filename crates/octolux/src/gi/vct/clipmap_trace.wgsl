@@ -1,8 +1,9 @@
 // The clipmap back-end of `trace.wgsl` (mounted as its `structure`): samples the clipmap's
-// injected radiance.
+// injected radiance. The flag `facing` follows the settings.
 
 import octolux::voxel::clipmap::sample::{clip_contains, clip_corner, clip_info};
-import octolux::voxel::clipmap::radiance_sample::clip_radiance_level;
+import octolux::voxel::clipmap::radiance_sample::{ClipRadianceFacing, clip_radiance_facing_level, clip_radiance_facing_mix, clip_thicken};
+import octolux::voxel::facing::facing_toward;
 import octolux::voxel::clipmap::blend::clip_blend_choice;
 
 // The clipmap's tail (`clipmap_tail.rs`): levels k = 1..=K of res / 2^k voxels over the
@@ -14,41 +15,67 @@ import octolux::voxel::clipmap::blend::clip_blend_choice;
 // sample reads, it fades to the next coarser level, so cones do not jump where a level ends);
 // past it, the tail, quadrilinear between its levels (without the tail, wide cones
 // point-sampled the coarsest level with steps of many voxels and the indirect light showed
-// blotches of its voxels).
-// Isotropic: `dir` is not read.
+// blotches of its voxels). With `facing`, only the share of the radiance that leaves towards
+// the cone's apex (`facing_toward`: the light on a wall's far face is not seen).
 fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
+    let s = clip_radiance_facing(p, footprint);
+    return vec4<f32>(s.radiance.rgb * clip_toward(s, dir), s.radiance.a);
+}
+
+@if(facing) fn clip_toward(s: ClipRadianceFacing, dir: vec3<f32>) -> f32 {
+    return facing_toward(s.radiance, s.facing, dir);
+}
+
+@if(!facing) fn clip_toward(s: ClipRadianceFacing, dir: vec3<f32>) -> f32 {
+    return 1.0;
+}
+
+fn clip_radiance_facing(p: vec3<f32>, footprint: f32) -> ClipRadianceFacing {
     let last = clip_info.levels - 1u;
     let coarsest = clip_info.voxel_size * f32(1u << last);
+    let surface = clip_surface_level(p);
     if footprint <= coarsest {
-        return clip_levels_sample(p, footprint);
+        return clip_levels_sample(p, footprint, surface);
     }
     let levels = clip_tail_levels();
     let m = min(log2(footprint / coarsest), f32(levels));
     let k = u32(floor(m));
     let t = m - f32(k);
-    var a = vec4<f32>(0.0);
+    var a: ClipRadianceFacing;
     if k == 0u {
-        a = clip_levels_sample(p, coarsest);
+        a = clip_levels_sample(p, coarsest, surface);
     } else {
-        a = clip_tail_level(p, k);
+        a = clip_thicken(clip_tail_level(p, k), last + k, surface);
     }
     if t <= 0.0 || k >= levels {
         return a;
     }
-    return mix(a, clip_tail_level(p, k + 1u), t);
+    let b = clip_thicken(clip_tail_level(p, k + 1u), last + k + 1u, surface);
+    return clip_radiance_facing_mix(a, b, t);
 }
 
-fn clip_levels_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+fn clip_levels_sample(p: vec3<f32>, footprint: f32, surface: u32) -> ClipRadianceFacing {
     let c = clip_blend_choice(p, footprint);
     let l = u32(c.x);
     if l >= clip_info.levels {
-        return vec4<f32>(0.0);
+        return ClipRadianceFacing(vec4<f32>(0.0), vec3<f32>(0.0));
     }
-    let a = clip_radiance_level(p, l);
+    let a = clip_thicken(clip_radiance_facing_level(p, l), l, surface);
     if c.y <= 0.0 {
         return a;
     }
-    return mix(a, clip_radiance_level(p, l + 1u), c.y);
+    let b = clip_thicken(clip_radiance_facing_level(p, l + 1u), l + 1u, surface);
+    return clip_radiance_facing_mix(a, b, c.y);
+}
+
+// The finest level that holds p: where the surfaces around p are voxelised (levels when none
+// does).
+fn clip_surface_level(p: vec3<f32>) -> u32 {
+    var l = 0u;
+    while l < clip_info.levels && !clip_contains(p, l) {
+        l++;
+    }
+    return l;
 }
 
 // Tail levels: down to 2 voxels per side (resolution a power of two).
@@ -66,18 +93,21 @@ fn clip_tail_first(k: u32) -> u32 {
     return first;
 }
 
-fn clip_tail_voxel(k: u32, first: u32, j: vec3<i32>) -> vec4<f32> {
+// Tail voxel j of level k: radiance and facing sum, as a clipmap voxel's (3 words).
+fn clip_tail_voxel(k: u32, first: u32, j: vec3<i32>) -> ClipRadianceFacing {
     let n = clip_info.resolution >> k;
     if any(j < vec3<i32>(0)) || any(j >= vec3<i32>(i32(n))) {
-        return vec4<f32>(0.0);
+        return ClipRadianceFacing(vec4<f32>(0.0), vec3<f32>(0.0));
     }
     let slot = first + u32(j.x) + n * (u32(j.y) + n * u32(j.z));
-    return vec4<f32>(unpack2x16float(clip_tail[2u * slot]),
-                     unpack2x16float(clip_tail[2u * slot + 1u]));
+    let r = vec4<f32>(unpack2x16float(clip_tail[3u * slot]),
+                      unpack2x16float(clip_tail[3u * slot + 1u]));
+    let f = unpack4x8snorm(clip_tail[3u * slot + 2u]).xyz;
+    return ClipRadianceFacing(r, f * (r.r + r.g + r.b));
 }
 
 // Trilinear sample of tail level k (outside the region: empty).
-fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
+fn clip_tail_level(p: vec3<f32>, k: u32) -> ClipRadianceFacing {
     let last = clip_info.levels - 1u;
     let coarsest = clip_info.voxel_size * f32(1u << last);
     let origin = vec3<f32>(clip_info.origins[last].xyz);
@@ -85,11 +115,14 @@ fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
     let i0 = vec3<i32>(floor(g));
     let f = g - floor(g);
     let first = clip_tail_first(k);
-    var sum = vec4<f32>(0.0);
+    var sum = ClipRadianceFacing(vec4<f32>(0.0), vec3<f32>(0.0));
     for (var c = 0u; c < 8u; c++) {
         let o = clip_corner(c);
-        let w = select(1.0 - f, f, o == vec3<i32>(1));
-        sum += w.x * w.y * w.z * clip_tail_voxel(k, first, i0 + o);
+        let w3 = select(1.0 - f, f, o == vec3<i32>(1));
+        let w = w3.x * w3.y * w3.z;
+        let v = clip_tail_voxel(k, first, i0 + o);
+        sum.radiance += w * v.radiance;
+        sum.facing += w * v.facing;
     }
     return sum;
 }
@@ -97,14 +130,7 @@ fn clip_tail_level(p: vec3<f32>, k: u32) -> vec4<f32> {
 // The voxel of the finest level holding p (a coarse level's voxel is thicker than a fine
 // level's offset, so the start offset grows with it).
 fn vct_surface_voxel(p: vec3<f32>, finest: f32) -> f32 {
-    var voxel = finest;
-    for (var l = 0u; l < clip_info.levels; l++) {
-        if clip_contains(p, l) {
-            break;
-        }
-        voxel *= 2.0;
-    }
-    return voxel;
+    return finest * f32(1u << clip_surface_level(p));
 }
 
 // The clipmap's samples are texture reads, counted as the cones' samples: nothing more to

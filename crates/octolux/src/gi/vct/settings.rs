@@ -175,18 +175,20 @@ pub struct VctSettings {
     /// light, at the cost of a slower bounce gather (docs/vct.md, "Anisotropic radiance in
     /// the bounce only").
     pub anisotropic_bounce: bool,
-    /// `vct-svo`: every radiance texel also keeps the direction its radiance leaves in (the
-    /// radiance-weighted mean facing of its surfaces; a wall thinner than a voxel faces the
-    /// light that lights it), and a cone sample keeps of the radiance only the share that
-    /// leaves towards the cone's apex, so light on one face of a thin wall is not seen from
-    /// the other face. Default true: without it the sunlit outside of a building (its roof,
-    /// its outer walls, the ground around it) is read through the walls by the coarse cones,
-    /// and `vct-svo` ends many times farther from the reference than GI off in a stone church
-    /// and a living room lit through their windows (`stone-church`, `living-room`); with it,
-    /// it beats GI off on every shipped scene. It costs 216 bytes per brick, a second
-    /// radiance mip per frame, 22 storage buffers per shader stage in the light injection,
-    /// and a little error in rooms lit by their own bounce light (docs/vct.md, "The
-    /// radiance's facing").
+    /// Both techniques: every radiance texel (octree) or voxel (clipmap) also keeps the
+    /// direction its radiance leaves in (the radiance-weighted mean facing of its surfaces; a
+    /// wall thinner than a voxel faces the light that lights it), and a cone sample keeps of
+    /// the radiance only the share that leaves towards the cone's apex, so light on one face
+    /// of a thin wall is not seen from the other face. Default true: without it the sunlit
+    /// outside of a building (its roof, its outer walls, the ground around it) is read through
+    /// the walls by the coarse cones, and `vct-svo` ends many times farther from the reference
+    /// than GI off in a stone church and a living room lit through their windows
+    /// (`stone-church`, `living-room`); with it, it beats GI off on every shipped scene. The
+    /// clipmap, whose coarse levels hold the surfaces as a medium (`clip_thicken`), is brighter
+    /// than the reference in most shipped scenes without it. It costs the octree 216 bytes per
+    /// brick, a second radiance mip per frame and 22 storage buffers per shader stage in the
+    /// light injection, the clipmap a word per voxel, and a little error in rooms lit by their
+    /// own bounce light (docs/vct.md, "The radiance's facing").
     pub facing: bool,
     /// Multiple bounces: every frame the voxels (the octree's static voxels, every clipmap
     /// voxel) gather indirect irradiance with the diffuse cones and add it to their direct

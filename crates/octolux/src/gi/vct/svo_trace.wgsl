@@ -4,7 +4,8 @@
 // only with `facing`.
 
 import octolux::voxel::svo::sample::{SvoNodeLod, svo_info, svo_node_lod};
-import octolux::voxel::svo::radiance_sample::{svo_facing_toward, svo_radiance_facing_sample, svo_radiance_sample};
+import octolux::voxel::svo::radiance_sample::{svo_radiance_facing_sample, svo_radiance_sample};
+import octolux::voxel::facing::facing_toward;
 import octolux::voxel::svo::radiance_sample_aniso::{svo_radiance_aniso, svo_radiance_aniso_level};
 import octolux::voxel::svo::sample::count_lookup_work;
 
@@ -35,11 +36,11 @@ fn vct_sample(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
 }
 
 // The radiance sample, with the feature `facing` only the share that leaves towards the
-// cone's apex (`svo_facing_toward`: light on a wall's far face, or on a surface seen from
+// cone's apex (`facing_toward`: light on a wall's far face, or on a surface seen from
 // behind, is not seen).
 @if(facing) fn svo_radiance_toward(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {
     let s = svo_radiance_facing_sample(p, footprint);
-    return vec4<f32>(s.radiance.rgb * svo_facing_toward(s, dir), s.radiance.a);
+    return vec4<f32>(s.radiance.rgb * facing_toward(s.radiance, s.facing, dir), s.radiance.a);
 }
 
 @if(!facing) fn svo_radiance_toward(p: vec3<f32>, footprint: f32, dir: vec3<f32>) -> vec4<f32> {

@@ -1,10 +1,11 @@
 //! Light injection: every occupied voxel gets outgoing radiance emission + albedo / pi x its
 //! direct irradiance (plus, with multiple bounces, the indirect irradiance of
-//! [`Clipmap::set_bounce`]), as RGBA16F per voxel slot ([`Clipmap::radiance`]). Visibility
+//! [`Clipmap::set_bounce`]), as RGBA16F per voxel slot, and the direction that radiance leaves
+//! in (its facing, [`crate::voxel::facing`]) as snorm8 x 3 ([`Clipmap::radiance`]). Visibility
 //! comes from marching the clipmap's own opacity towards each light ([`Clipmap::inject`],
 //! `inject.wgsl`) or from the renderer's shadow maps ([`Clipmap::inject_shadow_maps`],
-//! `inject_shadow.wgsl`); both store through `inject_common.wgsl`, whose CPU twin is
-//! [`injected_radiance`].
+//! `inject_shadow.wgsl`); both store through `inject_common.wgsl`, whose CPU twins are
+//! [`injected_radiance`] and [`injected_facing`].
 //!
 //! Parameters are written with [`wgpu::Queue::write_buffer`], which lands at the submission,
 //! so each injection recorded before one takes the next of [`INJECT_SLOTS`] slots.
@@ -145,6 +146,41 @@ pub fn injected_radiance(voxel: u32, emission: u32, irradiance: Vec3) -> Vec3 {
     decode_emission(emission) + albedo / std::f32::consts::PI * irradiance
 }
 
+/// CPU twin of the injections' facing (`inject_common.wgsl`): the direction the radiance of a
+/// voxel slot leaves in, before its snorm8 storage ([`pack_facing`]). A voxel with a dominant
+/// normal (its snorm8 `normal` word's length above 0.1) faces along it; one without (opposite
+/// faces cancelled, lit as facing each light) faces the mean of the directions to its lights,
+/// `lit` holding each light's direction and the irradiance it brings (after incidence and
+/// visibility), weighted by the light the voxel reflects from it over all it sends out
+/// (`radiance`, [`injected_radiance`]): its emission and bounce light have no direction.
+pub fn injected_facing(voxel: u32, normal: u32, lit: &[(Vec3, Vec3)], radiance: Vec3) -> Vec3 {
+    let n = unpack_facing(normal);
+    if n.length_squared() > 0.01 {
+        return n.normalize();
+    }
+    let albedo = Vec3::new(
+        (voxel & 255) as f32,
+        ((voxel >> 8) & 255) as f32,
+        ((voxel >> 16) & 255) as f32,
+    ) / 255.0;
+    let toward: Vec3 = lit.iter().map(|&(to, e)| to * albedo.dot(e)).sum();
+    toward / (std::f32::consts::PI * radiance.element_sum().max(1e-20))
+}
+
+/// The facing's storage (WGSL `pack4x8snorm` of xyz, w = 0): each component rounded to the
+/// nearest of k / 127 (halves up).
+pub fn pack_facing(f: Vec3) -> u32 {
+    let byte = |c: f32| ((0.5 + 127.0 * c.clamp(-1.0, 1.0)).floor() as i32 as u8) as u32;
+    byte(f.x) | byte(f.y) << 8 | byte(f.z) << 16
+}
+
+/// A facing word (or a normal word, the same snorm8 layout) read back: WGSL
+/// `unpack4x8snorm(..).xyz`.
+pub fn unpack_facing(w: u32) -> Vec3 {
+    let c = |k: u32| ((w >> (8 * k)) as u8 as i8 as f32 / 127.0).max(-1.0);
+    Vec3::new(c(0), c(1), c(2))
+}
+
 impl Clipmap {
     /// Injects light: every occupied voxel gets outgoing radiance emission + albedo / pi x the
     /// irradiance from `lights` (point, spot, directional), with visibility found by marching
@@ -251,7 +287,7 @@ impl Clipmap {
             .write_buffer(&inj.info, offset, bytemuck::bytes_of(&info));
         let radiance = self
             .radiance
-            .get_or_insert_with(|| storage(ctx, self.owner, "radiance", slots as u64 * 8));
+            .get_or_insert_with(|| storage(ctx, self.owner, "radiance", slots as u64 * 12));
         let mut entries: Vec<(u32, wgpu::BindingResource)> = [
             (2, &self.normals),
             (4, &*radiance),
@@ -275,18 +311,28 @@ impl Clipmap {
     /// Reads the injected radiance back: per voxel slot (layout of `voxels`), RGB radiance
     /// and opacity. Empty before [`Clipmap::inject`]. Blocks.
     pub fn read_radiance(&self, ctx: &GpuContext) -> Result<Vec<Vec4>> {
-        let Some(radiance) = &self.radiance else {
-            return Ok(Vec::new());
-        };
-        let words = read_words(ctx, radiance)?;
-        Ok(words
-            .chunks_exact(2)
-            .map(|w| {
-                let a = crate::gpu::pack::unpack_half2(w[0]);
-                let b = crate::gpu::pack::unpack_half2(w[1]);
-                Vec4::new(a[0], a[1], b[0], b[1])
-            })
+        Ok(self
+            .read_radiance_words(ctx)?
+            .chunks_exact(3)
+            .map(|w| crate::gpu::pack::unpack_half4(w[0], w[1]))
             .collect())
+    }
+
+    /// Reads the injected radiance's facing back: per voxel slot, the direction its radiance
+    /// leaves in, as stored ([`unpack_facing`]). Empty before [`Clipmap::inject`]. Blocks.
+    pub fn read_facing(&self, ctx: &GpuContext) -> Result<Vec<Vec3>> {
+        Ok(self
+            .read_radiance_words(ctx)?
+            .chunks_exact(3)
+            .map(|w| unpack_facing(w[2]))
+            .collect())
+    }
+
+    fn read_radiance_words(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        match &self.radiance {
+            Some(radiance) => read_words(ctx, radiance),
+            None => Ok(Vec::new()),
+        }
     }
 }
 
@@ -294,6 +340,43 @@ impl Clipmap {
 mod tests {
     use super::*;
     use crate::gpu::layout::assert_mirrors_wgsl;
+
+    #[test]
+    fn facing_words_round_as_wgsl_snorm8() {
+        assert_eq!(pack_facing(Vec3::new(1.0, -1.0, 0.0)), 0x00_81_7f);
+        assert_eq!(
+            unpack_facing(pack_facing(Vec3::new(1.0, -1.0, 0.0))),
+            Vec3::new(1.0, -1.0, 0.0)
+        );
+        // Halves round up: 0.5 / 127 -> 1, -0.5 / 127 -> 0.
+        assert_eq!(
+            pack_facing(Vec3::new(0.5 / 127.0, -0.5 / 127.0, 2.0)),
+            0x7f_00_01
+        );
+        for k in -127..=127 {
+            let c = k as f32 / 127.0;
+            assert_eq!(unpack_facing(pack_facing(Vec3::splat(c))), Vec3::splat(c));
+        }
+    }
+
+    #[test]
+    fn facing_of_a_voxel_without_normal_is_the_reflected_lights_mean_direction() {
+        let grey = 0xff_80_80_80u32;
+        let lit = [(Vec3::X, Vec3::splat(2.0)), (Vec3::NEG_X, Vec3::splat(1.0))];
+        let e: Vec3 = lit.iter().map(|l| l.1).sum();
+        let radiance = injected_radiance(grey, 0, e);
+        let f = injected_facing(grey, 0, &lit, radiance);
+        // (2 - 1) / (2 + 1) of the way towards +x.
+        assert!((f - Vec3::X / 3.0).length() < 1e-6, "{f}");
+        // With a normal it faces along it, whatever the lights.
+        assert_eq!(
+            injected_facing(grey, pack_facing(Vec3::Y), &lit, radiance),
+            Vec3::Y
+        );
+        // Emission has no direction: it shortens the mean.
+        let glowing = radiance + Vec3::splat(1.0);
+        assert!(injected_facing(grey, 0, &lit, glowing).length() < f.length());
+    }
 
     #[test]
     fn injection_blocks_mirror_the_wgsl_ones() {

@@ -2,7 +2,7 @@
 // and directional lights with visibility from marching the clipmap's own opacity towards the
 // light (no shadow maps).
 
-import octolux::voxel::clipmap::inject_common::{inject_slot, inject_store, inject_voxel, params};
+import octolux::voxel::clipmap::inject_common::{InjectLit, inject_add, inject_slot, inject_store, inject_voxel, params};
 import octolux::voxel::clipmap::sample::clip_sample;
 // The renderer's light record; its own bindings (from 40) stay out of this pass's layout.
 import octolux::frame::lights::{Light, LIGHT_DIRECTIONAL, LIGHT_SPOT};
@@ -43,7 +43,7 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
     let n = vox.n;
     let has_normal = vox.has_normal;
     let v = vox.size;
-    var e = vec3<f32>(0.0);
+    var lit = InjectLit(vec3<f32>(0.0), vec3<f32>(0.0));
     for (var k = 0u; k < params.lights; k++) {
         let light = inject_lights[k];
         var to_light: vec3<f32>;
@@ -75,7 +75,7 @@ fn inject(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: ve
             start += n * 2.0 * v;
         }
         let vis = transmittance(start, to_light, dist - 3.0 * v, v);
-        e += el * cos_theta * vis;
+        inject_add(&lit, vox, el * cos_theta * vis, to_light);
     }
-    inject_store(i, vox, e);
+    inject_store(i, vox, lit);
 }

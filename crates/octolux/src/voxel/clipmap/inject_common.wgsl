@@ -1,8 +1,9 @@
 // What both light injections into the clipmap share (`inject.wgsl`: voxel shadow rays,
 // `inject_shadow.wgsl`: the renderer's shadow maps): every occupied voxel gets outgoing
 // radiance emission + albedo / pi x direct irradiance (both premultiplied by the voxel's
-// opacity on filtered levels). Output: RGBA16F (radiance, opacity) per voxel slot, same
-// layout as `clip_voxels`.
+// opacity on filtered levels), and the direction that radiance leaves in (the voxel's
+// facing, `voxel/facing.wgsl`). Output per voxel slot, same layout as `clip_voxels`: three
+// words, RGBA16F (radiance, opacity) and the facing as snorm8 x 3.
 
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
 import octolux::voxel::clipmap::emission::emission_decode;
@@ -47,8 +48,9 @@ fn inject_voxel(i: u32) -> InjectVoxel {
     var v: InjectVoxel;
     v.value = unpack4x8unorm(clip_voxels[i]);
     if v.value.a == 0.0 {
-        radiance[2u * i] = 0u;
-        radiance[2u * i + 1u] = 0u;
+        radiance[3u * i] = 0u;
+        radiance[3u * i + 1u] = 0u;
+        radiance[3u * i + 2u] = 0u;
         return v;
     }
     let centre = clip_slot_centre(i);
@@ -64,17 +66,38 @@ fn inject_voxel(i: u32) -> InjectVoxel {
     return v;
 }
 
-// Writes slot i's radiance from its albedo/opacity and direct irradiance e, plus (multiple
-// bounces) the indirect irradiance the slot gathered last frame.
-fn inject_store(i: u32, v: InjectVoxel, e: vec3<f32>) {
-    var irradiance = e;
+// What the lights give a voxel: direct irradiance, and for a voxel without a dominant normal
+// the directions to the lights, each weighted by the light the voxel reflects from it.
+struct InjectLit {
+    e: vec3<f32>,
+    toward: vec3<f32>,
+}
+
+// Adds irradiance `e` arriving from direction `to_light` to `lit`.
+fn inject_add(lit: ptr<function, InjectLit>, v: InjectVoxel, e: vec3<f32>, to_light: vec3<f32>) {
+    (*lit).e += e;
+    (*lit).toward += to_light * dot(v.value.rgb, e);
+}
+
+// Writes slot i's radiance from its albedo/opacity and direct light, plus (multiple bounces)
+// the indirect irradiance the slot gathered last frame, and its facing: the voxel's normal,
+// or for a voxel without one (lit as facing each light) the mean of the directions to the
+// lights weighted by the light it reflects from each (its emission and bounce light have no
+// direction: they shorten the mean). CPU twins: `injected_radiance`, `injected_facing`.
+fn inject_store(i: u32, v: InjectVoxel, lit: InjectLit) {
+    var irradiance = lit.e;
     if params.bounce != 0u {
         irradiance += vec3<f32>(unpack2x16float(bounce[2u * i]),
                                 unpack2x16float(bounce[2u * i + 1u]).x);
     }
     let out = emission_decode(emission[i]) + v.value.rgb / INJECT_PI * irradiance;
-    radiance[2u * i] = pack2x16float(out.rg);
-    radiance[2u * i + 1u] = pack2x16float(vec2<f32>(out.b, v.value.a));
+    var facing = v.n;
+    if !v.has_normal {
+        facing = lit.toward / (INJECT_PI * max(out.r + out.g + out.b, 1e-20));
+    }
+    radiance[3u * i] = pack2x16float(out.rg);
+    radiance[3u * i + 1u] = pack2x16float(vec2<f32>(out.b, v.value.a));
+    radiance[3u * i + 2u] = pack4x8snorm(vec4<f32>(facing, 0.0));
 }
 
 fn inject_slot(wg: vec3<u32>, nwg: vec3<u32>, li: u32) -> u32 {

@@ -5,7 +5,7 @@
 // may lie.
 
 import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
-import octolux::voxel::clipmap::inject_common::{inject_slot, inject_store, inject_voxel, params};
+import octolux::voxel::clipmap::inject_common::{InjectLit, inject_add, inject_slot, inject_store, inject_voxel, params};
 
 
 
@@ -20,7 +20,7 @@ fn inject_shadow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
     if v.value.a == 0.0 {
         return;
     }
-    var e = vec3<f32>(0.0);
+    var lit = InjectLit(vec3<f32>(0.0), vec3<f32>(0.0));
     for (var k = 0u; k < params.lights; k++) {
         let light = lights[k];
         let inc = light_incidence(light, v.p);
@@ -33,8 +33,8 @@ fn inject_shadow(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) 
         if cos_theta <= 0.0 || all(inc.irradiance <= vec3<f32>(0.0)) {
             continue;
         }
-        e += inc.irradiance * cos_theta
-            * shadow_visibility(light, v.p, v.n, inc.to_light, inc.dist, 0.5 * v.size);
+        let vis = shadow_visibility(light, v.p, v.n, inc.to_light, inc.dist, 0.5 * v.size);
+        inject_add(&lit, v, inc.irradiance * cos_theta * vis, inc.to_light);
     }
-    inject_store(i, v, e);
+    inject_store(i, v, lit);
 }

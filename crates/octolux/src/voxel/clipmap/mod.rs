@@ -11,7 +11,8 @@
 //! Storage: one `array<u32>` of RGBA8 texels (averaged albedo, opacity 255 where any triangle
 //! touches the voxel), level after level, and in the same layout the averaged normals and the
 //! mean emission (RGB9E5, [`encode_emission`]): 12 bytes per voxel. [`Clipmap::inject`] adds
-//! RGBA16F radiance (emission + reflected direct light, visibility by voxel shadow rays).
+//! RGBA16F radiance (emission + reflected direct light, visibility by voxel shadow rays) and
+//! the direction it leaves in (its facing, [`crate::voxel::facing`]), 12 bytes more.
 //! The scene stays resident ([`Clipmap::set_scene`]: triangles uploaded once, their bounds
 //! indexed on the CPU by [`crate::voxel::clipmap::index`]), so a per-frame [`Clipmap::follow`]
 //! snaps and uploads only the triangles near the boxes it revoxelises, into scratch buffers
@@ -50,7 +51,7 @@ pub use boxes::{box_minus, covered_box, exposed_boxes, UpdateBox};
 pub use emission::{
     decode_emission, decode_emission_fixed, emission_fixed, encode_emission, EMISSION_SCALE,
 };
-pub use inject::injected_radiance;
+pub use inject::{injected_facing, injected_radiance, pack_facing, unpack_facing};
 pub use revoxelise::{UpdateStats, SCRATCH_KEEP};
 pub use settings::{ClipmapOptions, ClipmapSettings};
 pub use volume::Clipmap;

@@ -128,6 +128,44 @@ pub fn clip_radiance_sample(info: &ClipInfo, radiance: &[Vec4], p: Vec3, footpri
     })
 }
 
+/// CPU twin of `clip_radiance_facing_level` (`voxel/clipmap/radiance_sample.wgsl`): level
+/// `l`'s trilinear sample at `p` of the radiance and of its facing sum (each voxel's facing
+/// times its radiance's r + g + b, [`crate::voxel::facing`]), over radiance and facing read
+/// back with [`super::Clipmap::read_radiance`] and [`super::Clipmap::read_facing`].
+pub fn clip_radiance_facing_level(
+    info: &ClipInfo,
+    radiance: &[Vec4],
+    facing: &[Vec3],
+    p: Vec3,
+    l: u32,
+) -> (Vec4, Vec3) {
+    let res = info.resolution;
+    let slot = |l: u32, g: IVec3| {
+        let m = g.rem_euclid(IVec3::splat(res as i32)).as_uvec3();
+        (l * res * res * res + m.x + res * (m.y + res * m.z)) as usize
+    };
+    let r = clip_sample_level(info, p, l, &|l, g| radiance[slot(l, g)]);
+    let f = clip_sample_level(info, p, l, &|l, g| {
+        let s = slot(l, g);
+        (facing[s] * radiance[s].truncate().element_sum()).extend(0.0)
+    });
+    (r, f.truncate())
+}
+
+/// CPU twin of `clip_thicken` (`voxel/clipmap/radiance_sample.wgsl`): a sample of a level
+/// `levels_above` levels coarser than the one its surfaces are voxelised on, its opacity a
+/// (the occupied fraction of its volume) read as a medium's over the voxel's width,
+/// 1 - (1 - a)^(2^levels_above); its radiance and facing sum scaled alike.
+pub fn clip_thicken(radiance: Vec4, facing: Vec3, levels_above: u32) -> (Vec4, Vec3) {
+    let a = radiance.w.clamp(0.0, 1.0);
+    if levels_above == 0 || a <= 0.0 || a >= 1.0 {
+        return (radiance, facing);
+    }
+    let thick = 1.0 - (1.0 - a).powf((1u32 << levels_above.min(30)) as f32);
+    let k = thick / a;
+    (radiance * k, facing * k)
+}
+
 fn clip_sample_with(
     info: &ClipInfo,
     p: Vec3,

@@ -32,8 +32,9 @@ pub struct Clipmap {
     /// Mean emitted radiance per voxel (RGB9E5 words, [`super::decode_emission`]), same layout
     /// as `voxels`; on filtered levels premultiplied by coverage like the albedo.
     pub emission: wgpu::Buffer,
-    /// Injected radiance (RGBA16F: radiance, opacity; 2 words per voxel slot), once
-    /// [`Clipmap::inject`] has run.
+    /// Injected radiance, once [`Clipmap::inject`] has run: per voxel slot 3 words, RGBA16F
+    /// radiance and opacity, then the direction the radiance leaves in (snorm8 x 3, w zero;
+    /// [`crate::voxel::facing`], [`super::unpack_facing`]).
     pub radiance: Option<wgpu::Buffer>,
     /// How coarser levels are built.
     pub options: ClipmapOptions,
@@ -273,6 +274,12 @@ impl Clipmap {
     /// Reads all voxels back (RGBA8 words, level after level, toroidal order). Blocks.
     pub fn read_voxels(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
         read_words(ctx, &self.voxels)
+    }
+
+    /// Reads the averaged normals back (snorm8 x 3 words, [`super::unpack_facing`] decodes
+    /// them; layout of `voxels`). Blocks.
+    pub fn read_normals(&self, ctx: &GpuContext) -> Result<Vec<u32>> {
+        read_words(ctx, &self.normals)
     }
 
     /// Reads the emission back (RGB9E5 words, [`super::decode_emission`], layout of

@@ -48,7 +48,8 @@ fn svo_radiance_sample(p: vec3<f32>, footprint: f32) -> vec4<f32> {
 
 // The facing pool (`Svo::facing`, bound at 68..71, `voxel::svo::sample::svo_facing_bindings`):
 // per texel the radiance's weight (r + g + b) times the direction its surface faces, filtered
-// as the radiance. `svo_radiance_facing_sample` reads it with the radiance, from one descent.
+// as the radiance. `svo_radiance_facing_sample` reads it with the radiance, from one descent;
+// `facing_toward` (`voxel/facing.wgsl`) says how much of it a cone sees.
 @group(0) @binding(68) var<storage, read> svo_facing0: array<u32>;
 @group(0) @binding(69) var<storage, read> svo_facing1: array<u32>;
 @group(0) @binding(70) var<storage, read> svo_facing2: array<u32>;
@@ -102,24 +103,4 @@ fn svo_radiance_facing_sample(p: vec3<f32>, footprint: f32) -> SvoRadianceFacing
     }
     let b = svo_radiance_facing_cell(cells.coarse);
     return SvoRadianceFacing(mix(a.radiance, b.radiance, lod.t), mix(a.facing, b.facing, lod.t));
-}
-
-// How fast radiance seen from behind fades: all of it is dropped once the cone travels
-// more than asin(1 / FACING_SHARPNESS) (14.5 degrees) off the plane its surface faces out of.
-// A sharpness of 1 kept 1 - cos(angle) of the light on a wall's far face seen at that angle
-// off its normal, and let most of a thin wall's leak through (docs/vct.md, "The radiance's
-// facing", measured). The CPU twin is `voxel::svo::sample::FACING_SHARPNESS`.
-const FACING_SHARPNESS: f32 = 4.0;
-
-// The share of a sample's radiance that leaves towards the apex of a cone travelling along
-// `dir`. Radiance whose mean facing is F (|F| <= 1, F = facing / (r + g + b)) keeps
-// 1 - FACING_SHARPNESS F . dir, at most 1 and at least 1 - |F|: what faces the apex is kept
-// whole (as without the facing), what faces away is dropped. The floor 1 - |F| is the share
-// that does not face away: for a wall thinner than a voxel whose faces hold radiance a and b,
-// the texel's mean (a + b) / 2 keeps 2b / (a + b) of itself seen from b's side, b, at every
-// angle more than 14.5 degrees off the wall's plane.
-fn svo_facing_toward(s: SvoRadianceFacing, dir: vec3<f32>) -> f32 {
-    let f = s.facing / max(s.radiance.r + s.radiance.g + s.radiance.b, 1e-20);
-    let undirected = 1.0 - min(length(f), 1.0);
-    return clamp(1.0 - FACING_SHARPNESS * dot(f, dir), undirected, 1.0);
 }
