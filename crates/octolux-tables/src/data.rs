@@ -117,16 +117,19 @@ fn apply_reruns(dir: &Path, files: &mut [(String, Value)]) -> Result<()> {
     if !dir.is_dir() {
         return Ok(());
     }
-    for (name, rerun) in bench_files(dir)? {
+    // `<scene>.json`, or `<scene>.<label>.json` for a later re-run of other techniques of the
+    // same scene; merged in name order, so a later file's cells replace an earlier one's.
+    for (file, rerun) in bench_files(dir)? {
+        let name = file.split('.').next().unwrap_or_default().to_string();
         let at = files
             .iter()
             .position(|(n, _)| *n == name)
-            .with_context(|| format!("reruns/{name}.json: no {name}.json to merge it into"))?;
+            .with_context(|| format!("reruns/{file}.json: no {name}.json to merge it into"))?;
         let doc = &mut files[at].1;
         for key in ["width", "height", "warmup", "settle"] {
             if rerun[key] != doc[key] {
                 bail!(
-                    "reruns/{name}.json: '{key}' is {}, {name}.json's {}",
+                    "reruns/{file}.json: '{key}' is {}, {name}.json's {}",
                     rerun[key],
                     doc[key]
                 );
@@ -137,11 +140,11 @@ fn apply_reruns(dir: &Path, files: &mut [(String, Value)]) -> Result<()> {
             (r["spp"].clone(), r["bounces"].clone(), r["seed"].clone())
         };
         if reference(&rerun) != reference(doc) {
-            bail!("reruns/{name}.json: another reference than {name}.json's");
+            bail!("reruns/{file}.json: another reference than {name}.json's");
         }
         let entries = rerun["scenes"][0]["techniques"]
             .as_array()
-            .with_context(|| format!("reruns/{name}.json: no techniques"))?
+            .with_context(|| format!("reruns/{file}.json: no techniques"))?
             .clone();
         let list = doc["scenes"][0]["techniques"]
             .as_array_mut()
@@ -152,10 +155,10 @@ fn apply_reruns(dir: &Path, files: &mut [(String, Value)]) -> Result<()> {
                 .iter_mut()
                 .find(|t| t["technique"] == technique.as_str())
                 .with_context(|| {
-                    format!("reruns/{name}.json: '{technique}' is not in {name}.json")
+                    format!("reruns/{file}.json: '{technique}' is not in {name}.json")
                 })?;
             if entry["early"]["frame"] != slot["early"]["frame"] {
-                bail!("reruns/{name}.json: '{technique}' has another early frame");
+                bail!("reruns/{file}.json: '{technique}' has another early frame");
             }
             if technique == "none" {
                 let m = |t: &Value, key: &str| t["metrics"][key].as_f64().unwrap_or(f64::NAN);
@@ -163,7 +166,7 @@ fn apply_reruns(dir: &Path, files: &mut [(String, Value)]) -> Result<()> {
                 let (flip0, rel0) = (m(slot, "flip"), m(slot, "rel_mse"));
                 if !((flip - flip0).abs() <= 5e-4 && (rel - rel0).abs() <= 1e-3 * rel0.abs()) {
                     bail!(
-                        "reruns/{name}.json: GI off is {flip} / {rel}, {name}.json's {flip0} / \
+                        "reruns/{file}.json: GI off is {flip} / {rel}, {name}.json's {flip0} / \
                          {rel0}: the build changed what every technique is judged against; \
                          re-run the whole scene"
                     );
@@ -676,6 +679,14 @@ mod tests {
         );
         let commits: Vec<&String> = run.provenance.commits.iter().collect();
         assert_eq!(commits, ["1111111111", "2222222222"]);
+        // A later re-run of another technique, labelled, merges after it.
+        let later = [("none", 0.4998, 0.2), ("b", 0.15, 0.04)];
+        write(&reruns, "room.b-again", &doc("4444444444dd", 8, &later));
+        let run = ErrorRun::load(dir.path(), "data", false).unwrap();
+        assert_eq!(run.of("a").unwrap()[1].flip, 0.25);
+        assert_eq!(run.of("b").unwrap()[1].flip, 0.15);
+        assert_eq!(run.provenance.commits.len(), 3);
+        std::fs::remove_file(reruns.join("room.b-again.json")).unwrap();
 
         // What a re-run may not change: GI off, the protocol, a scene with no document.
         for (name, bad, what) in [
