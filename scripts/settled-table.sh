@@ -23,7 +23,9 @@
 # A technique changed since the table was made can be measured again alone: the bench command
 # below with `--gi none,<it>`, its JSON and text kept as OUT_DIR/reruns/<scene>.json and .txt,
 # which the tables merge into the scene's file (its techniques replace the scene file's; its
-# GI off must be the same). Its images go into OUT_DIR/<scene>/ for the sheet command.
+# GI off must be the same); a later re-run of another technique goes beside it as
+# OUT_DIR/reruns/<scene>.<label>.json (merged after it, in name order). Its images go into
+# OUT_DIR/<scene>/ for the sheet command.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
