@@ -110,7 +110,8 @@ fn settled_radiance(technique: &str, max_frames: u32) -> (f32, u32) {
 /// vct-svo 1.822 with the radiance's facing, its default (1.970 without; one bounce on its
 /// first frame: 1.487, the exact one-bounce value is 1.5), 1.837 with the 64^3 octree the
 /// test runs it with (after 16 frames),
-/// vct-clipmap 1.089, probes-grid 1.123, probes-octree 1.435 (with its history and bounces),
+/// vct-clipmap 1.353 (1.089 before its coarse levels were read as a medium and it kept the
+/// facing), probes-grid 1.123, probes-octree 1.435 (with its history and bounces),
 /// against 2.0: the structures of the last three lose light per bounce in a small closed
 /// room, none gains. The bounds: not
 /// above the exact value (2 % for the techniques' rounding and half-float storage; a loop gain
