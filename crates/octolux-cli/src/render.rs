@@ -646,8 +646,24 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     } else {
         ProgressBar::hidden()
     };
-    for _ in 0..warmup {
+    // A light beyond what a technique stores shows from its first frame: that one is checked
+    // too, so the error does not wait for the technique to settle.
+    let finite = |hdr: &HdrImage, frame: &str, t: f32| -> Result<()> {
+        if let Some((x, y, v)) = hdr.first_non_finite() {
+            bail!(
+                "{frame} at t = {t} s: --gi {} produced {v} at pixel ({x}, {y}): the light is \
+                 beyond what it stores (the cone tracers keep radiance in half floats, at most \
+                 65504); lower the scene's light intensities or emission",
+                args.gi
+            );
+        }
+        Ok(())
+    };
+    for w in 0..warmup {
         renderer.render(&scene, start_time)?;
+        if w == 0 {
+            finite(&renderer.read_hdr()?, "warm-up frame 0", start_time)?;
+        }
         progress.inc(1);
     }
     let mut all_timings = Vec::new();
@@ -655,14 +671,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         let t = start_time + i as f32 / args.fps;
         all_timings.push(renderer.render(&scene, t)?);
         let hdr = renderer.read_hdr()?;
-        if let Some((x, y, v)) = hdr.first_non_finite() {
-            bail!(
-                "frame {i} at t = {t} s: --gi {} produced {v} at pixel ({x}, {y}): the light is \
-                 beyond what it stores (the cone tracers keep radiance in half floats, at most \
-                 65504); lower the scene's light intensities or emission",
-                args.gi
-            );
-        }
+        finite(&hdr, &format!("frame {i}"), t)?;
         if output == Output::Final {
             warn_if_black(&scene, camera, t, &hdr);
         }

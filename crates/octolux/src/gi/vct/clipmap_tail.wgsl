@@ -8,7 +8,7 @@
 // `clipmap_tail::tail_cpu`.
 
 import octolux::voxel::clipmap::sample::{clip_info, clip_slot};
-import octolux::voxel::clipmap::radiance_sample::{ClipRadianceFacing, clip_radiance_facing_voxel};
+import octolux::voxel::clipmap::radiance_sample::{ClipRadianceFacing, clip_radiance_facing_voxel, clip_radiance_facing_words};
 
 // `TailParams` in clipmap_tail.rs: one tail level.
 struct TailParams {
@@ -31,9 +31,7 @@ fn tail_source(j: vec3<u32>) -> ClipRadianceFacing {
     }
     let n = 2u * tail_params.side;
     let slot = tail_params.source_first + j.x + n * (j.y + n * j.z);
-    let r = vec4<f32>(unpack2x16float(tail[3u * slot]), unpack2x16float(tail[3u * slot + 1u]));
-    let f = unpack4x8snorm(tail[3u * slot + 2u]).xyz;
-    return ClipRadianceFacing(r, f * (r.r + r.g + r.b));
+    return clip_radiance_facing_words(vec3<u32>(tail[3u * slot], tail[3u * slot + 1u], tail[3u * slot + 2u]));
 }
 
 @compute @workgroup_size(4, 4, 4)

@@ -2,7 +2,7 @@
 // injected radiance. The flag `facing` follows the settings.
 
 import octolux::voxel::clipmap::sample::{clip_contains, clip_corner, clip_info};
-import octolux::voxel::clipmap::radiance_sample::{ClipRadianceFacing, clip_radiance_facing_level, clip_radiance_facing_mix, clip_thicken};
+import octolux::voxel::clipmap::radiance_sample::{ClipRadianceFacing, clip_radiance_facing_level, clip_radiance_facing_mix, clip_radiance_facing_words, clip_thicken};
 import octolux::voxel::facing::facing_toward;
 import octolux::voxel::clipmap::blend::clip_blend_choice;
 
@@ -99,11 +99,8 @@ fn clip_tail_voxel(k: u32, first: u32, j: vec3<i32>) -> ClipRadianceFacing {
     if any(j < vec3<i32>(0)) || any(j >= vec3<i32>(i32(n))) {
         return ClipRadianceFacing(vec4<f32>(0.0), vec3<f32>(0.0));
     }
-    let slot = first + u32(j.x) + n * (u32(j.y) + n * u32(j.z));
-    let r = vec4<f32>(unpack2x16float(clip_tail[3u * slot]),
-                      unpack2x16float(clip_tail[3u * slot + 1u]));
-    let f = unpack4x8snorm(clip_tail[3u * slot + 2u]).xyz;
-    return ClipRadianceFacing(r, f * (r.r + r.g + r.b));
+    let i = 3u * (first + u32(j.x) + n * (u32(j.y) + n * u32(j.z)));
+    return clip_radiance_facing_words(vec3<u32>(clip_tail[i], clip_tail[i + 1u], clip_tail[i + 2u]));
 }
 
 // Trilinear sample of tail level k (outside the region: empty).

@@ -23,12 +23,17 @@ fn clip_radiance_voxel(l: u32, g: vec3<i32>) -> vec4<f32> {
                      unpack2x16float(clip_radiance[3u * slot + 1u]));
 }
 
+// A voxel's three words (the clipmap's and the tail's layout): RGBA16F radiance and opacity,
+// then its facing (snorm8 x 3), made a facing sum.
+fn clip_radiance_facing_words(w: vec3<u32>) -> ClipRadianceFacing {
+    let r = vec4<f32>(unpack2x16float(w.x), unpack2x16float(w.y));
+    return ClipRadianceFacing(r, unpack4x8snorm(w.z).xyz * (r.r + r.g + r.b));
+}
+
 fn clip_radiance_facing_voxel(l: u32, g: vec3<i32>) -> ClipRadianceFacing {
-    let slot = clip_slot(l, g);
-    let r = vec4<f32>(unpack2x16float(clip_radiance[3u * slot]),
-                      unpack2x16float(clip_radiance[3u * slot + 1u]));
-    let f = unpack4x8snorm(clip_radiance[3u * slot + 2u]).xyz;
-    return ClipRadianceFacing(r, f * (r.r + r.g + r.b));
+    let i = 3u * clip_slot(l, g);
+    let w = vec3<u32>(clip_radiance[i], clip_radiance[i + 1u], clip_radiance[i + 2u]);
+    return clip_radiance_facing_words(w);
 }
 
 fn clip_radiance_level(p: vec3<f32>, l: u32) -> vec4<f32> {
