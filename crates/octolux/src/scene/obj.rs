@@ -42,6 +42,17 @@ pub fn load_within(path: &Path, account: &Account) -> Result<Scene> {
         ignore_points: true,
         ignore_lines: true,
     };
+    // `tobj` resolves a relative index that reaches before the first element, or a huge one,
+    // with arithmetic that overflows (a panic in a debug build, a wrapped index otherwise).
+    if let Some((line, text)) = index_out_of_reach(&String::from_utf8_lossy(&bytes)) {
+        return Err(Error::parse(
+            path,
+            format!(
+                "malformed OBJ (a face index before the first vertex, texture coordinate or \
+                 normal, or beyond any file's) at line {line}: '{text}'"
+            ),
+        ));
+    }
     let loaded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         tobj::load_obj_buf(&mut &bytes[..], &options, |mtl| {
             load_mtl(&dir, mtl, &warnings, account)
@@ -246,6 +257,38 @@ fn bad_line(text: &str, error: &tobj::LoadError) -> Option<(usize, String)> {
         };
         if bad {
             return Some((i + 1, line.trim().to_string()));
+        }
+    }
+    None
+}
+
+/// The first face, line or point element (1-based line number and text) with an index `tobj`
+/// cannot resolve safely: a relative (negative) one reaching before the first vertex, texture
+/// coordinate or normal defined so far, or one of more than 2^31 in magnitude. Indices past
+/// the elements defined are left to `tobj`, which rejects them with an error.
+fn index_out_of_reach(text: &str) -> Option<(usize, String)> {
+    const MAX_INDEX: i64 = 1 << 31;
+    let mut counts = [0i64; 3]; // v, vt, vn defined so far
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let key = words.next().unwrap_or("");
+        match key {
+            "v" => counts[0] += 1,
+            "vt" => counts[1] += 1,
+            "vn" => counts[2] += 1,
+            "f" | "l" | "p" => {
+                let out_of_reach = words.take_while(|w| !w.starts_with('#')).any(|corner| {
+                    corner.split('/').take(3).enumerate().any(|(k, index)| {
+                        index
+                            .parse::<i64>()
+                            .is_ok_and(|n| n.abs() > MAX_INDEX || (n < 0 && -n > counts[k]))
+                    })
+                });
+                if out_of_reach {
+                    return Some((i + 1, line.trim().to_string()));
+                }
+            }
+            _ => {}
         }
     }
     None
@@ -493,4 +536,32 @@ pub(crate) fn build_texture(
     }
     texture.name = format!("{}+{}", texture.name, mask_tex.name);
     (Some(texture), true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::index_out_of_reach;
+
+    #[test]
+    fn relative_indices_before_the_first_element_and_huge_ones_are_out_of_reach() {
+        let head = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\n";
+        for (face, bad) in [
+            ("f 1 2 3", false),
+            ("f -3 -2 -1", false),
+            ("f 1/1/1 2/2/1 3/-2/-1", false),
+            // Past the elements defined: tobj's own error.
+            ("f 1 2 9", false),
+            ("f 1 2 -4", true),
+            ("f 13//4 15/-4 16//4", true),
+            ("f 1//-2 2//1 3//1", true),
+            ("f 1 2 4294967296", true),
+            ("l 1 -9", true),
+        ] {
+            let got = index_out_of_reach(&format!("{head}{face}\n"));
+            assert_eq!(got.is_some(), bad, "{face}: {got:?}");
+            if bad {
+                assert_eq!(got, Some((7, face.to_string())));
+            }
+        }
+    }
 }
