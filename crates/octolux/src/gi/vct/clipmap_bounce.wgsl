@@ -4,9 +4,9 @@
 // frame's injection adds it to the voxel's direct irradiance (`Clipmap::set_bounce`), so each
 // frame carries the light one bounce further.
 //
-// `bounce_list` lists the voxels that gather and zeroes the other slots' bounce,
-// `bounce_args` (`bounce_list.wgsl`) sizes the gather, and `bounce` gathers the listed voxels,
-// their cones spread over lanes (`cone_lanes.wgsl`).
+// `bounce_list` lists the voxels that gather and zeroes the others' bounce, `bounce_args`
+// (`bounce_list.wgsl`) sizes the gather, and `bounce` gathers the listed voxels, their cones
+// spread over lanes (`cone_lanes.wgsl`).
 //
 // `bounce_clear`: zeroes the slots of one box the clipmap revoxelised this frame (slots that
 // wrapped to new voxels as the clipmap scrolled, regions moving objects left or entered), so
@@ -15,7 +15,7 @@
 import octolux::gi::vct::cone::march_cone;
 import octolux::gi::vct::gather::{diffuse_cone_dir, diffuse_cone_weight};
 import octolux::gi::vct::trace::trace;
-import octolux::voxel::clipmap::sample::{clip_info, clip_slot_centre, clip_voxels};
+import octolux::voxel::clipmap::sample::{clip_info, clip_slot, clip_slot_centre, clip_voxels};
 import octolux::gi::vct::cone_set::{CONES_PER_LANE, DIFFUSE_CONES};
 import octolux::gi::vct::cone_lanes::{
     first_lane, gather_item, keep_cone, lane_cone, sum_item_cones,
@@ -25,7 +25,7 @@ import octolux::gi::vct::cone::count_cone_work;
 import octolux::gpu::work::count_work;
 import octolux::gi::vct::bounce_list::{bounce_due, list_or_clear, listed_slot, store_bounce};
 
-// `BounceParams` in clipmap_gi.rs.
+// `BounceParams` in clipmap_bounce.rs.
 struct BounceParams {
     // Voxel slots (levels * res^3).
     slots: u32,
@@ -33,14 +33,14 @@ struct BounceParams {
     spread: u32,
 }
 
-// A box of one level (`BounceBox` in clipmap_gi.rs).
+// A box of one level the clear zeroes (`BounceBox` in clipmap_bounce.rs).
 struct BounceBox {
     // First voxel (world voxel coordinates of the level).
     lo: vec3<i32>,
+    // The box's level.
+    level: u32,
     // Voxels along each axis.
     size: vec3<u32>,
-    // First slot of the level.
-    first: u32,
 }
 
 @group(0) @binding(20) var<storage, read> bounce_params: BounceParams;
@@ -111,9 +111,5 @@ fn bounce_clear(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) n
     }
     let c = bounce_box.lo + vec3<i32>(vec3<u32>(i % size.x, (i / size.x) % size.y,
                                                     i / (size.x * size.y)));
-    let r = clip_info.resolution;
-    let ri = i32(r);
-    let m = vec3<u32>((c % ri + ri) % ri);
-    let slot = bounce_box.first + m.x + r * (m.y + r * m.z);
-    store_bounce(slot, vec3<f32>(0.0));
+    store_bounce(clip_slot(bounce_box.level, c), vec3<f32>(0.0));
 }

@@ -8,20 +8,16 @@
 //! makes with its scene ([`ClipmapVoxels::new`]): its voxel size follows from the camera's
 //! place in the scene's bounds, which only a frame knows. From then on it exists.
 
-use super::bounce_list::{bounce_settle_frames, bounce_spread, BounceList};
+use super::bounce_list::bounce_settle_frames;
+use super::clipmap_bounce::ClipmapBounce;
 use super::clipmap_tail::{tail_levels, ClipmapTail};
 use super::cone::ConeParams;
 use super::tracer::{ConeTracer, TraceStructure};
 use super::{ClipmapInjection, VctSettings, VctStructure};
 use crate::gi::{GiFrame, GiTechnique};
 use crate::gpu::alloc::storage;
-use crate::gpu::pass::SLOT;
-use crate::gpu::pass::{dispatch_1d, KeptBindGroup};
 use crate::gpu::{GpuContext, PassTimer};
-use crate::voxel::clipmap::sample::{
-    clip_bindings, ClipInfo, CLIP_BINDINGS, CLIP_RADIANCE_BINDING,
-};
-use crate::voxel::clipmap::UpdateBox;
+use crate::voxel::clipmap::sample::{ClipInfo, CLIP_BINDINGS, CLIP_RADIANCE_BINDING};
 use crate::voxel::clipmap::{Clipmap, ClipmapOptions, ClipmapSettings};
 use crate::voxel::{objects_triangles, scene_triangles_split, VoxelTriangle};
 use crate::{Error, Result};
@@ -133,194 +129,6 @@ impl ClipmapVoxels {
 /// clipmap's centre").
 fn clipmap_centre(camera: glam::Vec3, (lo, hi): (glam::Vec3, glam::Vec3)) -> glam::Vec3 {
     camera.clamp(lo, hi.max(lo))
-}
-
-/// Multiple bounces on the clipmap: the indirect irradiance every voxel slot gathered last
-/// frame (RGBA16F per slot, layout of the clipmap's voxels), the gather over the listed
-/// voxels (`clipmap_bounce.wgsl`: the list, its indirect dispatch, the gather) and the pass
-/// that clears the revoxelised boxes.
-struct ClipmapBounce {
-    irradiance: wgpu::Buffer,
-    /// The voxels that gather this frame.
-    list: BounceList,
-    gather: wgpu::ComputePipeline,
-    clear: wgpu::ComputePipeline,
-    /// The [`BounceParams`] block, written every frame.
-    params: wgpu::Buffer,
-    /// The boxes a frame clears, one [`BounceBox`] per [`SLOT`] (grown when a frame
-    /// has more than it holds), and the clear's bind group per box and the gather's, kept
-    /// while their resources are.
-    boxes: wgpu::Buffer,
-    clear_groups: Vec<KeptBindGroup>,
-    gather_group: KeptBindGroup,
-    /// Frames over which every voxel gathers once (`bounce_frames`), and frames gathered so
-    /// far: together they pick this frame's set of voxels.
-    sets: u32,
-    frame: u32,
-}
-
-/// Parameter block `BounceParams` of `clipmap_bounce.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct BounceParams {
-    /// Voxel slots (`levels * res^3`).
-    slots: u32,
-    /// This frame's set of voxels ([`bounce_spread`]).
-    spread: u32,
-}
-
-/// `BounceBox` of `clipmap_bounce.wgsl`: one box of one level the clear zeroes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct BounceBox {
-    /// First voxel (world-voxel coordinates of the level).
-    lo: [i32; 3],
-    _pad: u32,
-    /// Voxels along each axis.
-    size: [u32; 3],
-    /// First voxel slot of the level.
-    first: u32,
-}
-
-impl BounceBox {
-    /// Box `b` of a clipmap of `res`^3 voxels per level.
-    fn new(b: &UpdateBox, res: u32) -> BounceBox {
-        BounceBox {
-            lo: b.lo.to_array(),
-            _pad: 0,
-            size: (b.hi - b.lo).max(glam::IVec3::ZERO).as_uvec3().to_array(),
-            first: (b.level as u64 * (res as u64).pow(3)) as u32,
-        }
-    }
-}
-
-/// Boxes the clear's box buffer holds at first.
-const BOX_ROOM: u64 = 16;
-
-/// The clear's box buffer for `boxes` boxes.
-fn box_buffer(ctx: &GpuContext, boxes: u64) -> wgpu::Buffer {
-    storage(ctx, OWNER, "bounce boxes", boxes * SLOT)
-}
-
-impl ClipmapBounce {
-    fn new(ctx: &GpuContext, settings: &VctSettings, tracer: &ConeTracer) -> ClipmapBounce {
-        let slots = settings.levels as u64 * (settings.resolution as u64).pow(3);
-        let module = tracer.bounce_module(ctx);
-        ClipmapBounce {
-            list: BounceList::new(ctx, OWNER, &module, slots as u32),
-            irradiance: storage(ctx, OWNER, "bounce irradiance", slots * 8),
-            gather: ctx.compute_pipeline("bounce", &module, "bounce"),
-            clear: ctx.compute_pipeline("bounce_clear", &module, "bounce_clear"),
-            params: storage(
-                ctx,
-                OWNER,
-                "bounce params",
-                std::mem::size_of::<BounceParams>() as u64,
-            ),
-            boxes: box_buffer(ctx, BOX_ROOM),
-            clear_groups: Vec::new(),
-            gather_group: KeptBindGroup::default(),
-            sets: settings.bounce_frames,
-            frame: 0,
-        }
-    }
-
-    /// Before the injection: the slots of every box the clipmap rewrote this frame lose their
-    /// bounce light (a wrapped slot holds another voxel now; a moving object changed the
-    /// voxels around it). `info` is the clipmap's `ClipInfo` block.
-    fn clear_revoxelised(
-        &mut self,
-        ctx: &GpuContext,
-        timer: &mut PassTimer,
-        info: &wgpu::Buffer,
-        clipmap: &Clipmap,
-    ) {
-        let boxes: Vec<&UpdateBox> = clipmap
-            .last_revoxelised()
-            .iter()
-            .filter(|b| b.volume() > 0)
-            .collect();
-        if boxes.is_empty() {
-            return;
-        }
-        let mut bytes = vec![0u8; boxes.len() * SLOT as usize];
-        for (k, ub) in boxes.iter().enumerate() {
-            let block = BounceBox::new(ub, clipmap.settings.resolution);
-            let at = k * SLOT as usize;
-            bytes[at..at + std::mem::size_of::<BounceBox>()]
-                .copy_from_slice(bytemuck::bytes_of(&block));
-        }
-        if self.boxes.size() < bytes.len() as u64 {
-            self.boxes = box_buffer(ctx, (boxes.len() as u64).next_power_of_two());
-        }
-        ctx.queue.write_buffer(&self.boxes, 0, &bytes);
-        self.clear_groups
-            .resize_with(self.clear_groups.len().max(boxes.len()), Default::default);
-        for (k, ub) in boxes.iter().enumerate() {
-            let entries = [
-                (CLIP_BINDINGS, info.as_entire_binding()),
-                (22, self.irradiance.as_entire_binding()),
-                (
-                    23,
-                    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &self.boxes,
-                        offset: k as u64 * SLOT,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<BounceBox>() as u64),
-                    }),
-                ),
-            ];
-            let group = self.clear_groups[k].get(ctx, "bounce clear", &self.clear, &entries);
-            dispatch_1d(
-                timer,
-                "bounce clear",
-                &self.clear,
-                &group,
-                ub.volume() as u32,
-            );
-        }
-    }
-
-    /// After the injection and the tail: this frame's set of voxels gathers indirect
-    /// irradiance for the next frame (every voxel once in `sets` frames), through `radiance`
-    /// (the clipmap's, described by `info`) and `tail`.
-    fn gather(
-        &mut self,
-        ctx: &GpuContext,
-        timer: &mut PassTimer,
-        (info, clipmap, radiance): (&wgpu::Buffer, &Clipmap, &wgpu::Buffer),
-        tail: &ClipmapTail,
-        tracer: &ConeTracer,
-    ) -> Result<()> {
-        let params = BounceParams {
-            slots: clipmap.settings.slots() as u32,
-            spread: bounce_spread(self.sets, self.frame),
-        };
-        ctx.queue
-            .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        self.frame = self.frame.wrapping_add(1);
-        let [info, voxels] = clip_bindings(info, &clipmap.voxels);
-        let shared = [
-            (21, clipmap.normals.as_entire_binding()),
-            (22, self.irradiance.as_entire_binding()),
-        ];
-        let mut entries = vec![
-            info.clone(),
-            (CLIP_RADIANCE_BINDING, radiance.as_entire_binding()),
-            (5, tracer.bounce_params().as_entire_binding()),
-            (13, tail.buffer.as_entire_binding()),
-        ];
-        entries.extend(shared.iter().cloned());
-        entries.extend(self.list.gather_entries());
-        entries.extend(tracer.bounce_work(ctx, "bounce")?);
-        let gather = self
-            .gather_group
-            .get(ctx, "vct bounce", &self.gather, &entries);
-        let mut list = vec![info, voxels, (20, self.params.as_entire_binding())];
-        list.extend(shared);
-        self.list
-            .record(ctx, timer, "bounce", &list, &self.gather, &gather);
-        Ok(())
-    }
 }
 
 impl VctClipmap {
@@ -488,7 +296,6 @@ impl GiTechnique for VctClipmap {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::layout::assert_mirrors_wgsl;
 
     #[test]
     fn the_levels_follow_the_camera_inside_the_scene_and_its_nearest_point_outside() {
@@ -508,19 +315,5 @@ mod tests {
         // A flat scene (no extent along y) keeps its plane.
         let flat = (glam::Vec3::ZERO, glam::Vec3::new(2.0, 0.0, 2.0));
         assert_eq!(clipmap_centre(front, flat), glam::Vec3::new(1.0, 0.0, 0.0));
-    }
-
-    #[test]
-    fn bounce_blocks_mirror_the_wgsl_ones() {
-        let module = "gi/vct/clipmap_bounce";
-        let flags = &[("facing", false)];
-        assert_mirrors_wgsl!(BounceParams, module, "BounceParams", [slots, spread], flags);
-        assert_mirrors_wgsl!(
-            BounceBox,
-            module,
-            "BounceBox",
-            [lo, _pad, size, first],
-            flags
-        );
     }
 }

@@ -12,6 +12,7 @@
 //! two differ only in the structure they bring up to date and sample.
 
 mod bounce_list;
+mod clipmap_bounce;
 mod clipmap_gi;
 pub mod clipmap_tail;
 pub mod cone;
