@@ -386,7 +386,8 @@ fn bounce_gathers_launch_lanes_for_the_cones_of_each_listed_voxel() {
     // The cone tracers' bounce gathers visit the listed voxels only, their cones spread over
     // lanes: the lanes launched are the voxels that gathered times their cones rounded up to
     // a power of two (at most 16), rounded up to whole workgroups of 64, whatever the
-    // structure.
+    // structure and its size (small ones here: at the defaults the two gathers alone took
+    // minutes of the suite on a CPU driver).
     let tmp = temp_dir("lanes");
     let dir = tmp.path();
     let json = dir.join("lanes.json");
@@ -395,6 +396,12 @@ fn bounce_gathers_launch_lanes_for_the_cones_of_each_listed_voxel() {
         &[
             "--gi",
             "vct-clipmap,vct-svo",
+            "--vct-resolution",
+            "32",
+            "--vct-levels",
+            "3",
+            "--vct-octree-resolution",
+            "64",
             "--no-flicker",
             "--json",
             json.to_str().unwrap(),
