@@ -24,8 +24,10 @@ pub struct GpuArgs {
     /// Time passes on the CPU (submit + wait) even if GPU timestamps are available.
     #[arg(long)]
     pub no_timestamps: bool,
-    /// Soft shadows for the sky's lights (percentage-closer, by each light's angular size).
-    #[arg(long)]
+    /// Soft shadows for the sky's lights (percentage-closer, by each light's angular size);
+    /// `--soft-sky-shadows false` draws each light's shadow sharp, as a sun's.
+    #[arg(long, value_name = "BOOL", default_value_t = true, num_args = 0..=1,
+          default_missing_value = "true", action = clap::ArgAction::Set)]
     pub soft_sky_shadows: bool,
 }
 

@@ -82,7 +82,7 @@ impl LitScene {
             lights,
             sky_lights,
             sky_spread,
-            soft_sky_shadows: false,
+            soft_sky_shadows: true,
             frame: None,
             layers: Vec::new(),
         })

@@ -121,26 +121,31 @@ fn receiver_slope(m: mat4x4<f32>, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
 // Soft visibility of a sky light (percentage-closer soft shadows): the light stands for a
 // region of the sky of angular radius atan(sky_spread), so a receiver d metres behind
 // its occluder sees a penumbra of radius d x tan. The blockers' mean depth within the largest
-// possible penumbra gives d; 16 filtered comparisons over that radius give the visible
-// fraction. Depths are linear (orthographic): world distance = depth x range (sky_depth_range).
-// Radii are capped at the tile's free margin (sky_margin texels). Every tap compares
-// against the receiver's own plane at that tap (receiver-plane depth bias), or wide filters
-// would find the receiver itself in front of it under grazing light.
-fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f32>, depth: f32) -> f32 {
+// possible penumbra gives d; 16 taps over that radius give the visible fraction. Depths are
+// linear (orthographic): world distance = depth x range (sky_depth_range). Radii are capped at
+// the tile's free margin (sky_margin texels). Every tap compares against the receiver's own
+// plane at that tap (receiver-plane depth bias), or wide filters would find the receiver
+// itself in front of it under grazing light; a tap whose texel lies more than `margin` metres
+// beyond that plane sees past the receiver's surroundings (beyond the edge of the wall it
+// meets, as in `orthographic_visibility`) and is left out, or wide filters would let the light
+// creep along a box's inner corners.
+fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f32>, depth: f32, margin: f32) -> f32 {
     let size = vec2<f32>(textureDimensions(shadow_maps));
     let tan_a = light.sky_spread;
     let range = light.sky_depth_range;
     let cap = light.sky_margin;
     let texel_world = light.shadow_texel;
     let slope = receiver_slope(shadow_matrices[view], n, size);
+    let past = margin / range;
+    let f = uv * size;
     let search = clamp(tan_a * depth * range / texel_world, 1.0, cap);
     var blockers = 0.0;
     var blocker_gap = 0.0;
     for (var i = 0u; i < 16u; i++) {
         let o = vogel_disk(i, 16u) * search;
-        let at = vec2<i32>(floor(uv * size + o));
-        let d = textureLoad(shadow_maps, at, layer, 0);
-        let receiver = depth + dot(slope, o);
+        let t = floor(f + o);
+        let d = textureLoad(shadow_maps, vec2<i32>(t), layer, 0);
+        let receiver = depth + dot(slope, t + 0.5 - f);
         if d < receiver {
             blockers += 1.0;
             blocker_gap += receiver - d;
@@ -150,12 +155,19 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
         return 1.0;
     }
     let radius = clamp(tan_a * (blocker_gap / blockers) * range / texel_world, 1.0, cap);
-    var sum = 0.0;
+    var lit = 0.0;
+    var seen = 0.0;
     for (var i = 0u; i < 16u; i++) {
-        let o = vogel_disk(i, 16u) * radius;
-        sum += textureSampleCompareLevel(shadow_maps, shadow_sampler, uv + o / size, layer, depth + dot(slope, o));
+        let t = floor(f + vogel_disk(i, 16u) * radius);
+        let d = textureLoad(shadow_maps, vec2<i32>(t), layer, 0);
+        let receiver = depth + dot(slope, t + 0.5 - f);
+        if d > receiver + past {
+            continue;
+        }
+        seen += 1.0;
+        lit += select(0.0, 1.0, receiver <= d);
     }
-    return sum / 16.0;
+    return select(1.0, lit / seen, seen > 0.0);
 }
 
 // An orthographic view's filtered visibility at `uv` (receiver depth `depth`, normal `n`): the
@@ -227,13 +239,14 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     if any(uv < vec2<f32>(0.0)) || any(uv > vec2<f32>(1.0)) || ndc.z > 1.0 {
         return 1.0;
     }
+    // Past (orthographic views): farther than the normal offset and a voxel's lift could put
+    // the receiver's own surface (twice each), plus a few texels of the clamped slope's error.
+    let past = 2.0 * lift + 6.0 * texel_world;
     if sky && light.sky_spread > 0.0 {
-        return sky_visibility(light, view, layer, n, uv, ndc.z);
+        return sky_visibility(light, view, layer, n, uv, ndc.z, past);
     }
     if orthographic {
-        // Past: farther than the normal offset and a voxel's lift could put the receiver's
-        // own surface (twice each), plus a few texels of the clamped slope's error.
-        return orthographic_visibility(m, layer, n, uv, ndc.z, 2.0 * lift + 6.0 * texel_world);
+        return orthographic_visibility(m, layer, n, uv, ndc.z, past);
     }
     let size = vec2<f32>(textureDimensions(shadow_maps));
     var sum = 0.0;

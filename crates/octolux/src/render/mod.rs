@@ -32,8 +32,9 @@ pub struct RenderSettings {
     /// Settings of the GI techniques.
     pub gi_settings: gi::GiSettings,
     /// Soft shadows for the sky's directional lights (percentage-closer soft shadows with
-    /// each light's angular size; `lights.wgsl`), else the 3x3 filter of every light. Off by
-    /// default: smoother, but measured further from the reference (docs/scene-format.md).
+    /// each light's angular size; `lights.wgsl`), else the filter of every directional
+    /// light, which sums the sky lights' sharp shadows into steps. On by default: smoother and
+    /// closer to the reference's direct light (docs/scene-format.md).
     pub soft_sky_shadows: bool,
 }
 
@@ -46,7 +47,7 @@ impl Default for RenderSettings {
             camera: 0,
             gi: "none".into(),
             gi_settings: gi::GiSettings::default(),
-            soft_sky_shadows: false,
+            soft_sky_shadows: true,
         }
     }
 }
