@@ -118,6 +118,20 @@ fn receiver_slope(m: mat4x4<f32>, n: vec3<f32>, size: vec2<f32>) -> vec2<f32> {
     return clamp(slope, vec2<f32>(-0.01), vec2<f32>(0.01));
 }
 
+// The turn of a sky light's tap disk at shadow texel `texel` of view `view`: interleaved
+// gradient noise (Jimenez 2014) of the texel, offset per view. With one disk for every
+// receiver, neighbouring receivers whose disks straddle an edge alike switch their taps
+// together, and the 32 sky lights' switches line up into streaks; turned per texel and per
+// light, they become a fine grain that the lights' sum averages out. Tied to the map's
+// texels, so it stays put when the camera moves.
+fn disk_turn(texel: vec2<f32>, view: u32) -> mat2x2<f32> {
+    let q = texel + vec2<f32>(f32(view) * 5.588238, f32(view) * 7.370101);
+    let a = 6.2831853 * fract(52.9829189 * fract(dot(q, vec2<f32>(0.06711056, 0.00583715))));
+    let c = cos(a);
+    let s = sin(a);
+    return mat2x2<f32>(c, s, -s, c);
+}
+
 // Soft visibility of a sky light (percentage-closer soft shadows): the light stands for a
 // region of the sky of angular radius atan(sky_spread), so a receiver d metres behind
 // its occluder sees a penumbra of radius d x tan. The blockers' mean depth within the largest
@@ -138,11 +152,12 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
     let slope = receiver_slope(shadow_matrices[view], n, size);
     let past = margin / range;
     let f = uv * size;
+    let turn = disk_turn(floor(f), view);
     let search = clamp(tan_a * depth * range / texel_world, 1.0, cap);
     var blockers = 0.0;
     var blocker_gap = 0.0;
     for (var i = 0u; i < 16u; i++) {
-        let o = vogel_disk(i, 16u) * search;
+        let o = turn * vogel_disk(i, 16u) * search;
         let t = floor(f + o);
         let d = textureLoad(shadow_maps, vec2<i32>(t), layer, 0);
         let receiver = depth + dot(slope, t + 0.5 - f);
@@ -158,7 +173,7 @@ fn sky_visibility(light: Light, view: u32, layer: u32, n: vec3<f32>, uv: vec2<f3
     var lit = 0.0;
     var seen = 0.0;
     for (var i = 0u; i < 16u; i++) {
-        let t = floor(f + vogel_disk(i, 16u) * radius);
+        let t = floor(f + turn * vogel_disk(i, 16u) * radius);
         let d = textureLoad(shadow_maps, vec2<i32>(t), layer, 0);
         let receiver = depth + dot(slope, t + 0.5 - f);
         if d > receiver + past {
