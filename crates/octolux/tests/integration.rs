@@ -24,6 +24,7 @@ mod probes_voxel_rays;
 mod reference;
 mod reference_vs_gpu;
 mod scene_files;
+mod shadow_edges;
 mod shipped_scenes;
 mod sky;
 mod technique_switch;

@@ -232,6 +232,15 @@ fn orthographic_visibility(m: mat4x4<f32>, layer: u32, n: vec3<f32>, uv: vec2<f3
 // offset) take 3 x 3 bilinear comparison taps at a flat depth, shifted half a texel towards
 // the light.
 fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32, lift: f32) -> f32 {
+    return shadow_visibility_offset(light, p, n, to_light, dist, lift, 1.5);
+}
+
+// `shadow_visibility` with the normal offset of the sharp orthographic filter given in shadow
+// texels (`offset_texels`, 1.5 there): a receiver that knows its surface is flat within the
+// filter's reach needs less, and the offset hides occluders that touch the receiver (a wall
+// meeting the floor) over its width. Perspective views and the soft sky filter, whose wide
+// taps lean on the receiver's plane farther out, keep 1.5.
+fn shadow_visibility_offset(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32, lift: f32, offset_texels: f32) -> f32 {
     if light.shadow_view < 0 {
         return 1.0;
     }
@@ -246,7 +255,9 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     let texel_world = select(light.shadow_texel * dist, light.shadow_texel, orthographic);
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
     let toward = select(texel_world * 0.5, 0.0, orthographic);
-    let offset_p = p + n * (lift + texel_world * 1.5 * (1.0 - 0.5 * cos_l)) + to_light * toward;
+    let soft_sky = sky && light.sky_spread > 0.0;
+    let offset = select(1.5, offset_texels, orthographic && !soft_sky);
+    let offset_p = p + n * (lift + texel_world * offset * (1.0 - 0.5 * cos_l)) + to_light * toward;
     let m = shadow_matrices[view];
     let clip = m * vec4<f32>(offset_p, 1.0);
     let ndc = clip.xyz / clip.w;
@@ -257,7 +268,7 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     // Past (orthographic views): farther than the normal offset and a voxel's lift could put
     // the receiver's own surface (twice each), plus a few texels of the clamped slope's error.
     let past = 2.0 * lift + 6.0 * texel_world;
-    if sky && light.sky_spread > 0.0 {
+    if soft_sky {
         return sky_visibility(light, view, layer, n, uv, ndc.z, past);
     }
     if orthographic {

@@ -6,7 +6,7 @@
 // the visible fraction of the directional lights that stand in for the sky (`frame/sky.rs`).
 
 import octolux::frame::common::{Camera, PI, world_from_depth};
-import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility};
+import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility_offset};
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var albedo_tex: texture_2d<f32>;
@@ -87,6 +87,33 @@ fn sky_irradiance(n: vec3<f32>) -> vec3<f32> {
     return max(e, vec3<f32>(0.0));
 }
 
+// How fast the surface at pixel px (point p, normal n) turns: the largest change of normal per
+// metre towards the four neighbouring pixels of the same surface (a neighbour much farther
+// along the view than across it lies on another surface and is skipped).
+fn curvature(px: vec2<u32>, p: vec3<f32>, n: vec3<f32>, size: vec2<u32>) -> f32 {
+    var k = 0.0;
+    let steps = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(-1, 0), vec2<i32>(0, 1), vec2<i32>(0, -1));
+    for (var i = 0u; i < 4u; i++) {
+        let q = vec2<i32>(px) + steps[i];
+        if any(q < vec2<i32>(0)) || any(q >= vec2<i32>(size)) {
+            continue;
+        }
+        let d = textureLoad(depth_tex, vec2<u32>(q), 0);
+        if d >= 1.0 {
+            continue;
+        }
+        let pq = world_from_depth(cam, vec2<u32>(q), d);
+        let along = pq - p;
+        let len = length(along);
+        if len <= 0.0 || abs(dot(along, n)) > 0.5 * len {
+            continue;
+        }
+        let nq = normalize(textureLoad(normal_tex, vec2<u32>(q), 0).xyz);
+        k = max(k, length(nq - n) / len);
+    }
+    return k;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = vec2<u32>(cam.size.xy);
@@ -109,6 +136,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var sky_all = vec3<f32>(0.0);
     var sky_seen = vec3<f32>(0.0);
     let count = cam.light_count;
+    let bend = curvature(px, p, n, size);
     for (var i = 0u; i < count; i++) {
         let light = lights[i];
         let inc = light_incidence(light, p);
@@ -117,7 +145,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             continue;
         }
         let e = inc.irradiance * cos_theta;
-        let seen = e * shadow_visibility(light, p, n, inc.to_light, inc.dist, 0.0);
+        // The filter reaches about 2 texels t; a surface turning at bend per metre leaves its
+        // tangent plane by about 2 bend t^2 there: an offset of 4 bend t texels covers it twice.
+        let offset = clamp(0.25 + 4.0 * bend * light.shadow_texel, 0.25, 1.5);
+        let seen = e * shadow_visibility_offset(light, p, n, inc.to_light, inc.dist, 0.0, offset);
         if light.sky_layer_plus_one > 0u {
             sky_all += e;
             sky_seen += seen;
