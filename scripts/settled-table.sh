@@ -5,9 +5,10 @@
 # and its early frame (EARLY, the fourth) beside it, against the unlimited-bounce reference at
 # 1024 spp, whose own noise is measured seed to seed and printed beside it. Writes OUT_DIR/<scene>.json (bench JSON),
 # <scene>.txt, <scene>-noise.txt (the reference against a second one of another seed) and a
-# sheet of the images, OUT_DIR/<scene>.png (GI off, the techniques, the reference;
-# `cargo run -p octolux-tables -- sheet`). The images themselves stay in OUT_DIR/<scene>/
-# and are not committed (ignored: only the sheet is).
+# sheet of the images, OUT_DIR/<scene>.jpg (GI off, the techniques, the reference;
+# `cargo run -p octolux-tables -- sheet`; JPEG at quality 90, a fifth of the PNG's bytes in
+# the repository). The images themselves stay in OUT_DIR/<scene>/ as PNG and EXR and are not
+# committed (ignored: only the sheet is).
 #
 #   scripts/settled-table.sh [BINARY] [OUT_DIR]   (OUT_DIR default: results/lavapipe/settled-SIZE)
 #
@@ -53,7 +54,7 @@ for scene in $scenes; do
   # The reference's own noise: a second render with another seed, compared with the first
   # (once per scene and reference size).
   if [ -s "$out/$name-noise.txt" ] && grep -q "spp $spp" "$out/$name-noise.txt"; then
-    $tables sheet "$out/$name" "$out/$name.png" 5
+    $tables sheet "$out/$name" "$out/$name.jpg" 5
     continue
   fi
   "$bin" render "$scene" --gi reference --bounces unlimited --spp "$spp" --seed 8 \
@@ -62,6 +63,6 @@ for scene in $scenes; do
   { echo "spp $spp"; "$bin" diff "$out/$name/reference-seed8.exr" \
     "$out/$name/reference-unlimited.exr"; } > "$out/$name-noise.txt"
   rm "$out/$name/reference-seed8.png"
-  $tables sheet "$out/$name" "$out/$name.png" 5
+  $tables sheet "$out/$name" "$out/$name.jpg" 5
 done
 echo "settled-table: wrote $out; remake the docs' tables with: cargo run -p octolux-tables" >&2

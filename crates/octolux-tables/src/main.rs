@@ -31,7 +31,7 @@ fn main() -> ExitCode {
             "-h" | "--help" => {
                 println!(
                     "tables [--check] [--root DIR]\n\
-                     tables sheet IMAGES_DIR OUT.png [COLUMNS]\n\
+                     tables sheet IMAGES_DIR OUT.png|OUT.jpg [COLUMNS]\n\
                      tables figures [--root DIR]\n\n\
                      Regenerates the tables between `<!-- table: ... -->` and `<!-- end table -->` in\n\
                      DIR/README.md and DIR/docs/*.md from the data in DIR/results/ (DIR: the\n\
@@ -67,10 +67,10 @@ fn main() -> ExitCode {
     }
 }
 
-/// `tables sheet DIR OUT.png [COLUMNS]`: one scene's images side by side.
+/// `tables sheet DIR OUT.png|OUT.jpg [COLUMNS]`: one scene's images side by side.
 fn sheet(args: &[String]) -> ExitCode {
     let (Some(dir), Some(out)) = (args.first(), args.get(1)) else {
-        return usage("sheet needs IMAGES_DIR and OUT.png");
+        return usage("sheet needs IMAGES_DIR and OUT.png (or OUT.jpg)");
     };
     let columns = match args.get(2).map(|c| c.parse::<u32>()) {
         None => 5,
@@ -130,7 +130,7 @@ fn figures(args: &[String]) -> ExitCode {
 
 fn usage(problem: &str) -> ExitCode {
     eprintln!(
-        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png [COLUMNS] | tables figures [--root DIR]"
+        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png|OUT.jpg [COLUMNS] | tables figures [--root DIR]"
     );
     ExitCode::FAILURE
 }

@@ -1,5 +1,5 @@
 //! Image sheets: a scene's images (every technique and the reference, as `bench --out-dir`
-//! writes them) side by side in one PNG, in a fixed order, for the docs.
+//! writes them) side by side in one image, in a fixed order, for the docs.
 use anyhow::{bail, Context, Result};
 use image::{GenericImage, RgbImage};
 use std::path::Path;
@@ -19,9 +19,12 @@ pub const SHEET_ORDER: [&str; 10] = [
     "reference",
 ];
 
-/// Writes the PNGs of `dir` named after [`SHEET_ORDER`] (`reference*.png` for the reference)
+/// Writes the PNGs (or JPEGs) of `dir` named after [`SHEET_ORDER`] (`reference*` for the
+/// reference)
 /// into one sheet of `columns` columns at `out`; names with no image are left out. Returns
-/// the names placed, in order.
+/// the names placed, in order. `out` ending in `.jpg` is written as JPEG at quality
+/// [`JPEG_QUALITY`] (a 640 x 360 sheet of ten images: about a fifth of the PNG's bytes, which
+/// the repository carries to every machine it runs on); any other name as PNG.
 pub fn sheet(dir: &Path, out: &Path, columns: u32) -> Result<Vec<String>> {
     let mut images = Vec::new();
     for name in SHEET_ORDER {
@@ -31,10 +34,13 @@ pub fn sheet(dir: &Path, out: &Path, columns: u32) -> Result<Vec<String>> {
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .find(|p| {
                     let f = p.file_name().unwrap_or_default().to_string_lossy();
-                    f.starts_with("reference") && f.ends_with(".png")
+                    f.starts_with("reference") && (f.ends_with(".png") || f.ends_with(".jpg"))
                 })
         } else {
-            Some(dir.join(format!("{name}.png"))).filter(|p| p.exists())
+            ["png", "jpg"]
+                .iter()
+                .map(|ext| dir.join(format!("{name}.{ext}")))
+                .find(|p| p.exists())
         };
         if let Some(path) = path {
             let image = image::open(&path)
@@ -62,8 +68,61 @@ pub fn sheet(dir: &Path, out: &Path, columns: u32) -> Result<Vec<String>> {
         let (x, y) = (i as u32 % columns, i as u32 / columns);
         sheet.copy_from(image, x * (w + gap), y * (h + gap))?;
     }
-    sheet
-        .save(out)
-        .with_context(|| format!("writing {}", out.display()))?;
+    write(&sheet, out).with_context(|| format!("writing {}", out.display()))?;
     Ok(images.into_iter().map(|(n, _)| n).collect())
+}
+
+/// JPEG quality of `.jpg` sheets: high enough that the blotches, grain and edges the sheets are
+/// looked at for are not the encoder's.
+pub const JPEG_QUALITY: u8 = 90;
+
+fn write(sheet: &RgbImage, out: &Path) -> Result<()> {
+    let jpeg = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
+    if !jpeg {
+        sheet.save(out)?;
+        return Ok(());
+    }
+    let file = std::io::BufWriter::new(std::fs::File::create(out)?);
+    image::codecs::jpeg::JpegEncoder::new_with_quality(file, JPEG_QUALITY).encode_image(sheet)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::Rgb;
+
+    /// Two images of flat colours, as `bench --out-dir` names them, made into a sheet of two
+    /// columns as PNG (exact) and as JPEG (within the encoder's error on flat colour).
+    #[test]
+    fn a_sheet_places_the_images_in_order_as_png_or_jpeg() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (32, 16);
+        RgbImage::from_pixel(w, h, Rgb([200, 40, 40]))
+            .save(dir.path().join("none.png"))
+            .unwrap();
+        RgbImage::from_pixel(w, h, Rgb([40, 40, 200]))
+            .save(dir.path().join("reference-unlimited.png"))
+            .unwrap();
+        for (name, tolerance) in [("sheet.png", 0i32), ("sheet.jpg", 6)] {
+            let out = dir.path().join(name);
+            let placed = sheet(dir.path(), &out, 2).unwrap();
+            assert_eq!(placed, ["none", "reference"]);
+            let read = image::open(&out).unwrap().to_rgb8();
+            assert_eq!(read.dimensions(), (2 * w + 2, h), "{name}");
+            let near = |p: &Rgb<u8>, q: [u8; 3]| {
+                (0..3).all(|c| (i32::from(p[c]) - i32::from(q[c])).abs() <= tolerance)
+            };
+            assert!(near(read.get_pixel(w / 2, h / 2), [200, 40, 40]), "{name}");
+            assert!(
+                near(read.get_pixel(w + 2 + w / 2, h / 2), [40, 40, 200]),
+                "{name}"
+            );
+        }
+        let jpeg = std::fs::read(dir.path().join("sheet.jpg")).unwrap();
+        assert_eq!(jpeg[..2], [0xFF, 0xD8], "a JPEG stream");
+    }
 }
