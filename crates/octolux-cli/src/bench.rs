@@ -497,7 +497,9 @@ fn unique_name(scene: &str, used: &mut Vec<String>) -> String {
 }
 
 fn write_json(path: &Path, report: &BenchReport) -> Result<()> {
-    let text = serde_json::to_string_pretty(report)? + "\n";
+    // Compact: a scene with many textures lists hundreds of memory entries per technique, and
+    // the committed runs travel with the repository (`jq .` prints them indented).
+    let text = serde_json::to_string(report)? + "\n";
     octolux::image_io::write_atomically(path, |file| {
         std::fs::write(file, &text).map_err(|e| octolux::Error::io(path, e))
     })
