@@ -235,11 +235,20 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
     return shadow_visibility_offset(light, p, n, to_light, dist, lift, 1.5);
 }
 
-// `shadow_visibility` with the normal offset of the sharp orthographic filter given in shadow
-// texels (`offset_texels`, 1.5 there): a receiver that knows its surface is flat within the
-// filter's reach needs less, and the offset hides occluders that touch the receiver (a wall
-// meeting the floor) over its width. Perspective views and the soft sky filter, whose wide
-// taps lean on the receiver's plane farther out, keep 1.5.
+// Whether `light`'s shadow is looked up through the sharp orthographic filter (a directional
+// light, or a sky light with sharp sky shadows): the one lookup whose normal offset a receiver
+// that knows its surface's curvature may shrink (`shadow_visibility_offset`). Perspective
+// views and the soft sky filter, whose wide taps lean on the receiver's plane farther out,
+// keep 1.5 texels.
+fn sharp_orthographic_shadow(light: Light) -> bool {
+    let soft_sky = light.sky_layer_plus_one > 0u && light.sky_spread > 0.0;
+    return light.shadow_view >= 0 && light.shadow_orthographic == 1u && !soft_sky;
+}
+
+// `shadow_visibility` with the normal offset given in shadow texels (`offset_texels`; 1.5 for
+// every lookup but the sharp orthographic one of a receiver flat within the filter's reach,
+// `sharp_orthographic_shadow`): the offset hides occluders that touch the receiver (a wall
+// meeting the floor) over its width.
 fn shadow_visibility_offset(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f32>, dist: f32, lift: f32, offset_texels: f32) -> f32 {
     if light.shadow_view < 0 {
         return 1.0;
@@ -256,8 +265,7 @@ fn shadow_visibility_offset(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: 
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
     let toward = select(texel_world * 0.5, 0.0, orthographic);
     let soft_sky = sky && light.sky_spread > 0.0;
-    let offset = select(1.5, offset_texels, orthographic && !soft_sky);
-    let offset_p = p + n * (lift + texel_world * offset * (1.0 - 0.5 * cos_l)) + to_light * toward;
+    let offset_p = p + n * (lift + texel_world * offset_texels * (1.0 - 0.5 * cos_l)) + to_light * toward;
     let m = shadow_matrices[view];
     let clip = m * vec4<f32>(offset_p, 1.0);
     let ndc = clip.xyz / clip.w;

@@ -6,7 +6,7 @@
 // the visible fraction of the directional lights that stand in for the sky (`frame/sky.rs`).
 
 import octolux::frame::common::{Camera, PI, world_from_depth};
-import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility_offset};
+import octolux::frame::lights::{Light, light_incidence, lights, shadow_visibility_offset, sharp_orthographic_shadow};
 
 @group(0) @binding(0) var<uniform> cam: Camera;
 @group(0) @binding(1) var albedo_tex: texture_2d<f32>;
@@ -136,7 +136,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var sky_all = vec3<f32>(0.0);
     var sky_seen = vec3<f32>(0.0);
     let count = cam.light_count;
-    let bend = curvature(px, p, n, size);
+    // The surface's curvature, read once and only for a light that uses it.
+    var bend = -1.0;
     for (var i = 0u; i < count; i++) {
         let light = lights[i];
         let inc = light_incidence(light, p);
@@ -147,7 +148,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let e = inc.irradiance * cos_theta;
         // The filter reaches about 2 texels t; a surface turning at bend per metre leaves its
         // tangent plane by about 2 bend t^2 there: an offset of 4 bend t texels covers it twice.
-        let offset = clamp(0.25 + 4.0 * bend * light.shadow_texel, 0.25, 1.5);
+        var offset = 1.5;
+        if sharp_orthographic_shadow(light) {
+            if bend < 0.0 {
+                bend = curvature(px, p, n, size);
+            }
+            offset = clamp(0.25 + 4.0 * bend * light.shadow_texel, 0.25, 1.5);
+        }
         let seen = e * shadow_visibility_offset(light, p, n, inc.to_light, inc.dist, 0.0, offset);
         if light.sky_layer_plus_one > 0u {
             sky_all += e;
