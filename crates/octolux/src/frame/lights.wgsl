@@ -241,8 +241,12 @@ fn shadow_visibility(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: vec3<f3
 // views and the soft sky filter, whose wide taps lean on the receiver's plane farther out,
 // keep 1.5 texels.
 fn sharp_orthographic_shadow(light: Light) -> bool {
-    let soft_sky = light.sky_layer_plus_one > 0u && light.sky_spread > 0.0;
-    return light.shadow_view >= 0 && light.shadow_orthographic == 1u && !soft_sky;
+    return light.shadow_view >= 0 && light.shadow_orthographic == 1u && !soft_sky_shadow(light);
+}
+
+// Whether `light` is a sky light with soft shadows (`sky_visibility`).
+fn soft_sky_shadow(light: Light) -> bool {
+    return light.sky_layer_plus_one > 0u && light.sky_spread > 0.0;
 }
 
 // `shadow_visibility` with the normal offset given in shadow texels (`offset_texels`; 1.5 for
@@ -264,7 +268,6 @@ fn shadow_visibility_offset(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: 
     let texel_world = select(light.shadow_texel * dist, light.shadow_texel, orthographic);
     let cos_l = clamp(dot(n, to_light), 0.0, 1.0);
     let toward = select(texel_world * 0.5, 0.0, orthographic);
-    let soft_sky = sky && light.sky_spread > 0.0;
     let offset_p = p + n * (lift + texel_world * offset_texels * (1.0 - 0.5 * cos_l)) + to_light * toward;
     let m = shadow_matrices[view];
     let clip = m * vec4<f32>(offset_p, 1.0);
@@ -276,7 +279,7 @@ fn shadow_visibility_offset(light: Light, p: vec3<f32>, n: vec3<f32>, to_light: 
     // Past (orthographic views): farther than the normal offset and a voxel's lift could put
     // the receiver's own surface (twice each), plus a few texels of the clamped slope's error.
     let past = 2.0 * lift + 6.0 * texel_world;
-    if soft_sky {
+    if soft_sky_shadow(light) {
         return sky_visibility(light, view, layer, n, uv, ndc.z, past);
     }
     if orthographic {
