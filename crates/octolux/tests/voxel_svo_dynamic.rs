@@ -483,3 +483,54 @@ fn measure_update_against_rebuild() {
         }
     }
 }
+
+/// Another thread polling the same device (as other renderers or tests sharing it do) may be
+/// the one that sees a frame finish; the readback's callback then runs on that thread a moment
+/// after this one's wait has returned. A blocking update still returns its own counts.
+#[test]
+fn blocking_updates_read_their_counts_while_another_thread_polls_the_device() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let ctx = context();
+    let builder = SvoBuilder::new(&ctx);
+    let grid = unit_grid(16);
+    let statics = static_scene();
+    let (mut svo, _) = builder
+        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(4096))
+        .unwrap();
+    let moving = cube(Vec3::splat(0.3), Vec3::splat(0.45), [40, 90, 250]);
+    let expected = cpu::voxelize(&grid, &moving).len() as u32;
+    let done = AtomicBool::new(false);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            // Its own mappings' callbacks take a while, so a callback of the octree's that a
+            // poll of this thread collects alongside one of them runs late.
+            let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("another thread's readback"),
+                size: 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            while !done.load(Ordering::Relaxed) {
+                let mapped = std::sync::Arc::new(AtomicBool::new(false));
+                let sink = mapped.clone();
+                buffer.map_async(wgpu::MapMode::Read, .., move |_| {
+                    std::thread::sleep(std::time::Duration::from_millis(3));
+                    sink.store(true, Ordering::Release);
+                });
+                while !mapped.load(Ordering::Acquire) && !done.load(Ordering::Relaxed) {
+                    let _ = ctx.device.poll(wgpu::PollType::Poll);
+                }
+                if mapped.load(Ordering::Acquire) {
+                    buffer.unmap();
+                }
+            }
+        });
+        for step in 0..200 {
+            let update = builder.update_dynamic(&ctx, &mut svo, &moving);
+            let update = update.map_err(|e| format!("update {step}: {e}"));
+            done.store(update.is_err(), Ordering::Relaxed);
+            assert_eq!(update.unwrap().fragments, expected, "update {step}");
+        }
+        done.store(true, Ordering::Relaxed);
+    });
+}

@@ -226,7 +226,7 @@ impl SvoBuilder {
         // Submitted even when an earlier update's error is reported: this one was recorded.
         let timings = timer.finish_frame()?;
         let update = recorded?;
-        let counts = svo.sync_dynamic(ctx)?;
+        let counts = svo.sync_dynamic_update(ctx, update)?;
         match counts {
             Some(c) if c.update == update => Ok(DynamicUpdate {
                 fragments: c.fragments,

@@ -13,6 +13,11 @@ use crate::voxel::svo::control::{SvoControl, BRICK_OVERFLOW, CONTROL_BYTES};
 use crate::voxel::svo::Svo;
 use crate::{Error, Result};
 use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+/// How long a blocking update waits, once the GPU is idle, for its readback's callback to be
+/// run by whichever thread collected it.
+const CALLBACK_WAIT: Duration = Duration::from_secs(10);
 
 impl SvoDynamic {
     /// Records the copy of update `update`'s control block, and of the previous update's, into
@@ -77,12 +82,46 @@ impl Svo {
     /// Waits until the GPU has finished all submitted work, then does what
     /// [`Svo::poll_dynamic`] does: afterwards the octree's counts are those of the latest
     /// dynamic update submitted. For tests and tools; a renderer polls instead.
+    ///
+    /// Where another thread polls the same device, it may be the one that sees the GPU finish,
+    /// and the readback it collected is then handed over a moment after this wait returns;
+    /// the next poll picks it up ([`SvoBuilder::update_dynamic`](crate::voxel::svo::SvoBuilder::update_dynamic)
+    /// waits for its own update's).
     pub fn sync_dynamic(&mut self, ctx: &GpuContext) -> Result<Option<DynamicCounts>> {
         if self.dynamic.is_none() {
             return Ok(None);
         }
         ctx.wait_idle()?;
         self.take_readbacks()
+    }
+
+    /// [`Svo::sync_dynamic`] for an update known to be submitted: after the wait, also waits
+    /// (at most [`CALLBACK_WAIT`]) for its readback's mapping callback. Another thread polling
+    /// the same device may be the one that saw the frame finish; wgpu runs the callbacks it
+    /// collected on that thread after its poll, so they can land a moment after this thread's
+    /// wait has returned. Returns the counts of the latest update applied by either pickup.
+    pub(super) fn sync_dynamic_update(
+        &mut self,
+        ctx: &GpuContext,
+        update: u64,
+    ) -> Result<Option<DynamicCounts>> {
+        let first = self.sync_dynamic(ctx)?;
+        let start = std::time::Instant::now();
+        let pending = |svo: &Svo| {
+            svo.dynamic.as_ref().is_some_and(|d| {
+                d.readbacks
+                    .iter()
+                    .any(|r| r.update == update && r.state.load(Ordering::Acquire) == WAITING)
+            })
+        };
+        if !pending(self) {
+            return Ok(first);
+        }
+        while pending(self) && start.elapsed() < CALLBACK_WAIT {
+            let _ = ctx.device.poll(wgpu::PollType::Poll);
+            std::thread::yield_now();
+        }
+        Ok(self.take_readbacks()?.or(first))
     }
 
     /// Applies the counts of every readback the GPU has filled, in update order, and reports
