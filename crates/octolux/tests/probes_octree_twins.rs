@@ -61,8 +61,8 @@ fn assert_live_list(ctx: &GpuContext, gpu: &GpuProbeOctree, cpu: &ProbeOctree, w
     assert_eq!(live[1..1 + want.len()], want[..], "{what}: live slots");
     let args: Vec<u32> = read(ctx, gpu.live_args());
     let surfels = gpu.rule().surfels;
-    let moment_texels = octolux::gi::probes::moments::MOMENT_TEXELS;
-    for (k, per_probe) in [surfels, moment_texels, 1].into_iter().enumerate() {
+    let moment_lanes = octolux::gi::probes::moments::MOMENT_LANES;
+    for (k, per_probe) in [surfels, moment_lanes, 1].into_iter().enumerate() {
         let [x, y, z] = [args[3 * k], args[3 * k + 1], args[3 * k + 2]];
         let launched = 64 * x as u64 * y as u64 * z as u64;
         let needed = want.len() as u64 * per_probe as u64;

@@ -177,10 +177,11 @@ fn run_dispatch(
 
 /// Slots of a listed set's indirect-dispatch arguments (`GpuProbeOctree::live_args`, written by
 /// `set_args` in `octree.wgsl` under the same names): place and light run over the live
-/// probes' surfels, the moments over their texels, the integration over the probes.
+/// probes' surfels, the moments over their maps' lanes (`MOMENT_LANES` each), the integration
+/// over the probes.
 pub(crate) const LIVE_SURFELS: u32 = 0;
 /// See [`LIVE_SURFELS`].
-pub(crate) const LIVE_MOMENT_TEXELS: u32 = 1;
+pub(crate) const LIVE_MOMENT_LANES: u32 = 1;
 /// See [`LIVE_SURFELS`].
 pub(crate) const LIVE_PROBES: u32 = 2;
 
@@ -517,8 +518,8 @@ impl ProbeEngine {
         let groups: Vec<&wgpu::BindGroup> = std::iter::once(&group)
             .chain(set.map(|s| s.group))
             .collect();
-        let size = dispatch_size(self.params.probe_slots * super::moments::MOMENT_TEXELS);
-        let dispatch = set_dispatch(set, LIVE_MOMENT_TEXELS, size);
+        let size = dispatch_size(self.params.probe_slots * super::moments::MOMENT_LANES);
+        let dispatch = set_dispatch(set, LIVE_MOMENT_LANES, size);
         run_dispatch(timer, "moments", &self.moments_build, &groups, dispatch);
     }
 

@@ -5,15 +5,18 @@
 //! mean squared distance of its surfels: texel `i` (centre direction `t_i`) holds
 //! `sum_k w_k (d_k, d_k^2) / sum_k w_k` over the probe's surfels, `d_k` the hit distance along
 //! lattice direction `w_k` (misses at the ray's maximum distance) and `w_k = max(0, t_i .
-//! w_k)^32` (half its weight within 12 degrees). 8 x 8 texels (about 0.2 sr each, the solid
-//! angle of one of the default 64 surfels): the map then follows the distances ray by ray,
+//! w_k)^32` (half its weight within 12 degrees). 16 x 16 texels (about 0.05 sr each, a
+//! quarter of the solid angle of one of the default 64 surfels per frame; the maps gather the
+//! turned lattices of their first frames): the map then follows the distances ray by ray,
 //! which a probe close to a wall needs, since from there the wall is seen at grazing angles
-//! where the distance grows fast. 4 x 4 texels with a kernel of a texel's width (`^8`) blend
-//! the wall with the open room beyond its grazing directions: on the leak scene (lit by a
-//! narrow spot then) they cut the grid's leak 1.6x where 8 x 8 cut it 37x (docs/probes.md,
-//! "Leaks"). The maps are built by a pass of one
-//! invocation per (probe, texel) right after placement (once for a static scene), each writing
-//! its own texel.
+//! where the distance grows fast, and the bilinear read's steps across an occluder's edge are
+//! a quarter texel's solid angle of 8 x 8's (8 x 8 drew a saw-tooth of light and shade down a
+//! sunlit pillar of the church: docs/probes.md, "Gather and leaks"). 4 x 4 texels with a
+//! kernel of a texel's width (`^8`) blend the wall with the open room beyond its grazing
+//! directions: on the leak scene (lit by a narrow spot then) they cut the grid's leak 1.6x
+//! where 8 x 8 cut it 37x (docs/probes.md, "Leaks"). The maps are built by a pass of
+//! [`MOMENT_LANES`] invocations per probe right after placement (once for a static scene),
+//! each writing its own [`MOMENT_TEXELS`] / [`MOMENT_LANES`] texels.
 //!
 //! A point `q` (the gather's biased point) at distance `r` from probe `x` then weighs the
 //! probe by 1 while `r <= mean` along `x -> q` (the map read bilinearly, its edges folded as
@@ -25,11 +28,13 @@
 use glam::{Vec2, Vec3};
 
 /// Texels per side of a probe's moment map.
-pub const MOMENT_RES: u32 = 8;
+pub const MOMENT_RES: u32 = 16;
 /// Texels per probe.
 pub const MOMENT_TEXELS: u32 = MOMENT_RES * MOMENT_RES;
-// `moments_build.wgsl` makes one probe's map per 64-lane workgroup, a texel per lane.
-const _: () = assert!(MOMENT_TEXELS == 64);
+/// Invocations that build one probe's map (`moments_build.wgsl`: a 64-lane workgroup per
+/// probe, lane `l` making texels `l`, `l + 64`, `l + 128` and `l + 192`).
+pub const MOMENT_LANES: u32 = 64;
+const _: () = assert!(MOMENT_TEXELS == 4 * MOMENT_LANES);
 /// Bytes of one probe's map (two `f32` per texel).
 pub const MOMENT_BYTES: u64 = MOMENT_TEXELS as u64 * 8;
 /// The variance floor's standard deviation, in probe spacings.

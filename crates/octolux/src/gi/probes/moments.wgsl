@@ -5,8 +5,8 @@
 
 import octolux::gi::probes::probes::P;
 
-const MOMENT_RES: u32 = 8u;
-const MOMENT_TEXELS: u32 = 64u;
+const MOMENT_RES: u32 = 16u;
+const MOMENT_TEXELS: u32 = 256u;
 
 @group(0) @binding(8) var<storage, read> moments: array<vec2<f32>>;
 

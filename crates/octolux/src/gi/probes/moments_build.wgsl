@@ -1,4 +1,4 @@
-// Depth moments (moments.wgsl): one workgroup per probe, a lane per texel of its map, over the
+// Depth moments (moments.wgsl): one workgroup per probe, four texels of its map per lane, over the
 // probes the set has just placed (with a placement that keeps unchanged surfels,
 // P.keep_unmoved, only those with a ray traced again this frame, stamped by the placement).
 // Each texel holds the kernel-weighted mean distance and mean squared distance of the probe's
@@ -18,10 +18,11 @@ import octolux::gpu::work::count_work;
 @group(0) @binding(2) var<storage, read_write> moments_out: array<vec2<f32>>;
 @group(0) @binding(3) var<storage, read> probe_stamps: array<u32>;
 
-// A workgroup is one probe's map (MOMENT_TEXELS = 64 texels, one per lane), and every texel
-// reads every surfel of the set: each lane fetches one surfel and makes its lattice direction
-// once per round of 64, into these, and all 64 texels read them from here (instead of each lane
-// reading all the surfels and making all their directions itself).
+// A workgroup is one probe's map (MOMENT_TEXELS = 256 texels, four per lane: lane li makes
+// texels li, li + 64, li + 128 and li + 192), and every texel reads every surfel of the set:
+// each lane fetches one surfel and makes its lattice direction once per round of 64, into
+// these, and all 256 texels read them from here (instead of each lane reading all the surfels
+// and making all their directions itself).
 var<workgroup> round_dirs: array<vec4<f32>, 64>;
 // Whether the workgroup's probe makes its map this frame (lane 0's decision, read back as a
 // uniform value so that every lane reaches the barriers or none does).
@@ -30,7 +31,7 @@ var<workgroup> group_makes: u32;
 @compute @workgroup_size(64)
 fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) li: u32) {
-    // Workgroup w: the set's w-th probe; lane li: texel li of its map.
+    // Workgroup w: the set's w-th probe; lane li: texels li + 64 k of its map.
     let w = wg.y * nwg.x + wg.x;
     let accumulate = P.set_count > 1u;
     if li == 0u {
@@ -41,15 +42,18 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
     }
     let probe = probe_slot(w);
     let restarts = probe_restarts(probe);
-    let t = moment_texel_dir(li);
+    var t: array<vec3<f32>, 4>;
+    for (var k = 0u; k < 4u; k++) {
+        t[k] = moment_texel_dir(li + 64u * k);
+    }
     let n = P.surfels_per_set;
     // Work counts (`MOMENTS_WORK` in engine.rs): texels made, kernel terms (surfels read).
-    count_work(0u, 1u);
-    count_work(1u, n);
+    count_work(0u, 4u);
+    count_work(1u, 4u * n);
     let ray_set = select(0u, P.latest_set, accumulate);
     let first = probe * probe_surfels() + ray_set * n;
-    var sum = vec2<f32>(0.0);
-    var total = 0.0;
+    var sum: array<vec2<f32>, 4>;
+    var total: array<f32, 4>;
     // The surfels in rounds of 64, in order, so each texel sums them as one lane alone would.
     for (var base = 0u; base < n; base += 64u) {
         let k = base + li;
@@ -62,16 +66,22 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg: vec3
         let count = min(n - base, 64u);
         for (var j = 0u; j < count; j++) {
             let ray = round_dirs[j];
-            let wt = moment_kernel(t, ray.xyz);
-            sum += wt * vec2<f32>(ray.w, ray.w * ray.w);
-            total += wt;
+            let m = vec2<f32>(ray.w, ray.w * ray.w);
+            for (var k = 0u; k < 4u; k++) {
+                let wt = moment_kernel(t[k], ray.xyz);
+                sum[k] += wt * m;
+                total[k] += wt;
+            }
         }
         workgroupBarrier();
     }
     let far = vec2<f32>(P.max_distance, P.max_distance * P.max_distance);
-    let m = select(far, sum / total, total > 0.0);
-    let id = probe * MOMENT_TEXELS + li;
-    moments_out[id] = select(m, mix(m, moments_out[id], P.moments_keep), accumulate && !restarts);
+    let keep = accumulate && !restarts;
+    for (var k = 0u; k < 4u; k++) {
+        let m = select(far, sum[k] / total[k], total[k] > 0.0);
+        let id = probe * MOMENT_TEXELS + li + 64u * k;
+        moments_out[id] = select(m, mix(m, moments_out[id], P.moments_keep), keep);
+    }
 }
 
 // Whether the set's w-th probe makes its map this frame.

@@ -32,7 +32,7 @@ import octolux::gpu::dispatch::{dispatch_covering, DispatchArgs};
 @group(0) @binding(9) var<storage, read_write> live_args: array<DispatchArgs, 3>;
 // Slots of `live_args` (`LIVE_SURFELS`... in gi/probes/octree_gi.rs).
 const LIVE_SURFELS: u32 = 0u;
-const LIVE_MOMENT_TEXELS: u32 = 1u;
+const LIVE_MOMENT_LANES: u32 = 1u;
 const LIVE_PROBES: u32 = 2u;
 
 // State codes (`State::code`); a push keeps the higher code.
@@ -317,7 +317,7 @@ fn list_live_probes(t: u32) {
         // Work counts: the live probes the shared passes run over.
         count_work(1u, count);
         set_args(LIVE_SURFELS, count * O.surfels_per_probe);
-        set_args(LIVE_MOMENT_TEXELS, count * O.moment_texels);
+        set_args(LIVE_MOMENT_LANES, count * O.moment_lanes);
         set_args(LIVE_PROBES, count * INTEGRATE_LANES);
     }
 }

@@ -72,8 +72,8 @@ struct OctreeParams {
     /// Surfels per probe (of both sets with a history): the place and light passes'
     /// invocations per listed probe.
     surfels_per_probe: u32,
-    /// Moment-map texels per probe (the shared passes' invocations per listed probe).
-    moment_texels: u32,
+    /// Invocations per listed probe of the moment maps' pass (`MOMENT_LANES`).
+    moment_lanes: u32,
     _pad: [u32; 2],
 }
 
@@ -173,7 +173,7 @@ impl GpuProbeOctree {
             place_all: 0,
             min_depth: rule.min_depth,
             surfels_per_probe: rule.surfels,
-            moment_texels: super::moments::MOMENT_TEXELS,
+            moment_lanes: super::moments::MOMENT_LANES,
             _pad: [0; 2],
         };
         let source = library_shader_with(
@@ -799,7 +799,7 @@ mod tests {
                 place_all,
                 min_depth,
                 surfels_per_probe,
-                moment_texels,
+                moment_lanes,
                 _pad,
             ]
         );

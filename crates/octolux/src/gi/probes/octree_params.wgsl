@@ -33,8 +33,8 @@ struct OctreeParams {
     // Surfels per probe (of both sets with a history): the place and light passes' invocations
     // per listed probe
     surfels_per_probe: u32,
-    // Moment-map texels per probe (the shared passes' invocations per listed probe)
-    moment_texels: u32,
+    // Invocations per listed probe of the moment maps' pass (MOMENT_LANES)
+    moment_lanes: u32,
     _pad0: u32,
     _pad1: u32,
 };
