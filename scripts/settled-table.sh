@@ -26,7 +26,9 @@
 # which the tables merge into the scene's file (its techniques replace the scene file's; its
 # GI off must be the same); a later re-run of another technique goes beside it as
 # OUT_DIR/reruns/<scene>.<label>.json (merged after it, in name order). Its images go into
-# OUT_DIR/<scene>/ for the sheet command.
+# OUT_DIR/<scene>/ for the sheet command; where the other techniques' images are gone (they
+# are not committed), `$TABLES unsheet OUT_DIR/<scene>.jpg OUT_DIR/<scene>` first puts the
+# committed sheet's tiles of the techniques not re-run beside them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

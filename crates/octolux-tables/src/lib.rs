@@ -21,7 +21,7 @@ pub mod figures;
 mod sheet;
 mod tables;
 
-pub use sheet::{sheet, SHEET_ORDER};
+pub use sheet::{sheet, unsheet, SHEET_ORDER};
 
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;

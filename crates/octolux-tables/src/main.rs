@@ -15,6 +15,9 @@ fn main() -> ExitCode {
     if argv.get(1).map(String::as_str) == Some("sheet") {
         return sheet(&argv[2..]);
     }
+    if argv.get(1).map(String::as_str) == Some("unsheet") {
+        return unsheet(&argv[2..]);
+    }
     if argv.get(1).map(String::as_str) == Some("figures") {
         return figures(&argv[2..]);
     }
@@ -32,10 +35,14 @@ fn main() -> ExitCode {
                 println!(
                     "tables [--check] [--root DIR]\n\
                      tables sheet IMAGES_DIR OUT.png|OUT.jpg [COLUMNS]\n\
+                     tables unsheet SHEET IMAGES_DIR [COLUMNS]\n\
                      tables figures [--root DIR]\n\n\
                      Regenerates the tables between `<!-- table: ... -->` and `<!-- end table -->` in\n\
                      DIR/README.md and DIR/docs/*.md from the data in DIR/results/ (DIR: the\n\
                      repository). --check: change nothing, list the tables that differ, exit 1 if any.\n\
+                     sheet: one scene's images side by side. unsheet: a sheet of all ten images back\n\
+                     into IMAGES_DIR as PNGs, keeping the images already there (to remake a sheet\n\
+                     after re-running some techniques alone).\n\
                      figures: list the measured figures in the prose (times, sizes, ratios, errors)\n\
                      whose paragraph names no file in results/, and the cited files in results/\n\
                      that do not exist; exit 1 if any."
@@ -80,6 +87,28 @@ fn sheet(args: &[String]) -> ExitCode {
     match octolux_tables::sheet(dir.as_ref(), out.as_ref(), columns) {
         Ok(names) => {
             println!("{out}: {}", names.join(", "));
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// `tables unsheet SHEET DIR [COLUMNS]`: a sheet's tiles back into images.
+fn unsheet(args: &[String]) -> ExitCode {
+    let (Some(sheet), Some(dir)) = (args.first(), args.get(1)) else {
+        return usage("unsheet needs SHEET and IMAGES_DIR");
+    };
+    let columns = match args.get(2).map(|c| c.parse::<u32>()) {
+        None => 5,
+        Some(Ok(c)) if c > 0 => c,
+        Some(_) => return usage("COLUMNS: a whole number above 0"),
+    };
+    match octolux_tables::unsheet(sheet.as_ref(), dir.as_ref(), columns) {
+        Ok(names) => {
+            println!("{dir}: {}", names.join(", "));
             ExitCode::SUCCESS
         }
         Err(e) => {

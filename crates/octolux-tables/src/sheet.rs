@@ -72,6 +72,53 @@ pub fn sheet(dir: &Path, out: &Path, columns: u32) -> Result<Vec<String>> {
     Ok(images.into_iter().map(|(n, _)| n).collect())
 }
 
+/// The inverse of [`sheet`] for a sheet of all ten images of [`SHEET_ORDER`] in `columns`
+/// columns: writes each tile as `dir/<name>.png` (`reference.png` for the reference), leaving
+/// every name that already has an image in `dir` as it is. So a technique re-run alone (its
+/// fresh images in `dir`) makes a whole sheet again with the other techniques' tiles taken
+/// from the committed one, whose other images are not kept. Returns the names written.
+pub fn unsheet(sheet: &Path, dir: &Path, columns: u32) -> Result<Vec<String>> {
+    let image = image::open(sheet)
+        .with_context(|| format!("reading {}", sheet.display()))?
+        .to_rgb8();
+    let n = SHEET_ORDER.len() as u32;
+    let columns = columns.clamp(1, n);
+    let rows = n.div_ceil(columns);
+    let gap = 2;
+    let (sw, sh) = image.dimensions();
+    if (sw + gap) % columns != 0 || (sh + gap) % rows != 0 {
+        bail!(
+            "{}: {sw}x{sh} is not a sheet of {n} images in {columns} columns",
+            sheet.display()
+        );
+    }
+    let (w, h) = ((sw + gap) / columns - gap, (sh + gap) / rows - gap);
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let present: Vec<String> = std::fs::read_dir(dir)
+        .with_context(|| format!("listing {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect();
+    let mut written = Vec::new();
+    for (i, name) in SHEET_ORDER.iter().enumerate() {
+        let has = |f: &String| {
+            let stem = f.rsplit_once('.').map_or(f.as_str(), |(s, _)| s);
+            let image = f.ends_with(".png") || f.ends_with(".jpg");
+            image && (stem == *name || (*name == "reference" && stem.starts_with("reference")))
+        };
+        if present.iter().any(has) {
+            continue;
+        }
+        let (x, y) = (i as u32 % columns, i as u32 / columns);
+        let tile = image::imageops::crop_imm(&image, x * (w + gap), y * (h + gap), w, h);
+        let path = dir.join(format!("{name}.png"));
+        tile.to_image()
+            .save(&path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        written.push(name.to_string());
+    }
+    Ok(written)
+}
+
 /// JPEG quality of `.jpg` sheets: high enough that the blotches, grain and edges the sheets are
 /// looked at for are not the encoder's.
 pub const JPEG_QUALITY: u8 = 90;
@@ -124,5 +171,48 @@ mod tests {
         }
         let jpeg = std::fs::read(dir.path().join("sheet.jpg")).unwrap();
         assert_eq!(jpeg[..2], [0xFF, 0xD8], "a JPEG stream");
+    }
+
+    /// A full sheet taken apart gives back every tile exactly, and a name with a fresh image
+    /// keeps it.
+    #[test]
+    fn unsheet_gives_back_the_tiles_a_sheet_was_made_of() {
+        let made = tempfile::tempdir().unwrap();
+        let (w, h) = (12, 8);
+        let colour = |i: usize| Rgb([20 * i as u8, 255 - 20 * i as u8, (i as u8) * 7]);
+        for (i, name) in SHEET_ORDER.iter().enumerate() {
+            let file = if *name == "reference" {
+                "reference-unlimited.png".to_string()
+            } else {
+                format!("{name}.png")
+            };
+            RgbImage::from_pixel(w, h, colour(i))
+                .save(made.path().join(file))
+                .unwrap();
+        }
+        let out = made.path().join("sheet.png");
+        sheet(made.path(), &out, 5).unwrap();
+        let apart = tempfile::tempdir().unwrap();
+        RgbImage::from_pixel(w, h, Rgb([1, 2, 3]))
+            .save(apart.path().join("vpl.png"))
+            .unwrap();
+        let written = unsheet(&out, apart.path(), 5).unwrap();
+        assert_eq!(written.len(), SHEET_ORDER.len() - 1);
+        assert!(!written.contains(&"vpl".to_string()));
+        for (i, name) in SHEET_ORDER.iter().enumerate() {
+            let tile = image::open(apart.path().join(format!("{name}.png")))
+                .unwrap()
+                .to_rgb8();
+            let want = if *name == "vpl" {
+                Rgb([1, 2, 3])
+            } else {
+                colour(i)
+            };
+            assert_eq!(tile.dimensions(), (w, h), "{name}");
+            assert!(tile.pixels().all(|p| *p == want), "{name}");
+        }
+        // A sheet of another shape is refused, naming it.
+        let err = unsheet(&made.path().join("none.png"), apart.path(), 5).unwrap_err();
+        assert!(err.to_string().contains("none.png"), "{err}");
     }
 }
