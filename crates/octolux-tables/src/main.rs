@@ -76,39 +76,40 @@ fn main() -> ExitCode {
 
 /// `tables sheet DIR OUT.png|OUT.jpg [COLUMNS]`: one scene's images side by side.
 fn sheet(args: &[String]) -> ExitCode {
-    let (Some(dir), Some(out)) = (args.first(), args.get(1)) else {
-        return usage("sheet needs IMAGES_DIR and OUT.png (or OUT.jpg)");
-    };
-    let columns = match args.get(2).map(|c| c.parse::<u32>()) {
-        None => 5,
-        Some(Ok(c)) if c > 0 => c,
-        Some(_) => return usage("COLUMNS: a whole number above 0"),
-    };
-    match octolux_tables::sheet(dir.as_ref(), out.as_ref(), columns) {
-        Ok(names) => {
-            println!("{out}: {}", names.join(", "));
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
-    }
+    sheet_command(
+        args,
+        "sheet needs IMAGES_DIR and OUT.png (or OUT.jpg)",
+        |dir, out, columns| octolux_tables::sheet(dir.as_ref(), out.as_ref(), columns),
+    )
 }
 
 /// `tables unsheet SHEET DIR [COLUMNS]`: a sheet's tiles back into images.
 fn unsheet(args: &[String]) -> ExitCode {
-    let (Some(sheet), Some(dir)) = (args.first(), args.get(1)) else {
-        return usage("unsheet needs SHEET and IMAGES_DIR");
+    sheet_command(
+        args,
+        "unsheet needs SHEET and IMAGES_DIR",
+        |sheet, dir, columns| octolux_tables::unsheet(sheet.as_ref(), dir.as_ref(), columns),
+    )
+}
+
+/// The two sheet commands' arguments (two paths, then COLUMNS, 5 by default) and report: the
+/// names placed or written, printed after the second path.
+fn sheet_command(
+    args: &[String],
+    missing: &str,
+    run: impl FnOnce(&str, &str, u32) -> anyhow::Result<Vec<String>>,
+) -> ExitCode {
+    let (Some(first), Some(second)) = (args.first(), args.get(1)) else {
+        return usage(missing);
     };
     let columns = match args.get(2).map(|c| c.parse::<u32>()) {
         None => 5,
         Some(Ok(c)) if c > 0 => c,
         Some(_) => return usage("COLUMNS: a whole number above 0"),
     };
-    match octolux_tables::unsheet(sheet.as_ref(), dir.as_ref(), columns) {
+    match run(first, second, columns) {
         Ok(names) => {
-            println!("{dir}: {}", names.join(", "));
+            println!("{second}: {}", names.join(", "));
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -159,7 +160,7 @@ fn figures(args: &[String]) -> ExitCode {
 
 fn usage(problem: &str) -> ExitCode {
     eprintln!(
-        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png|OUT.jpg [COLUMNS] | tables figures [--root DIR]"
+        "error: {problem}\nusage: tables [--check] [--root DIR] | tables sheet IMAGES_DIR OUT.png|OUT.jpg [COLUMNS] | tables unsheet SHEET IMAGES_DIR [COLUMNS] | tables figures [--root DIR]"
     );
     ExitCode::FAILURE
 }

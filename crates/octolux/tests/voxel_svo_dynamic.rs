@@ -8,7 +8,7 @@ use crate::common::{context, tri};
 use glam::Vec3;
 use octolux::gpu::{GpuContext, GpuOptions, PassTimer};
 use octolux::voxel::svo::dynamic::DynamicReserve;
-use octolux::voxel::svo::{SvoBuilder, SvoCpu};
+use octolux::voxel::svo::{Svo, SvoBuilder, SvoCpu};
 use octolux::voxel::{cpu, VoxelGrid, VoxelTriangle};
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -177,15 +177,26 @@ fn with(a: &[VoxelTriangle], b: &[VoxelTriangle]) -> Vec<VoxelTriangle> {
     a.iter().chain(b).copied().collect()
 }
 
+/// The octree of [`static_scene`] in the unit grid of `res`^3 voxels, with room for a dynamic
+/// part of `nodes` nodes: its builder, grid, static triangles and the octree.
+fn static_octree(
+    ctx: &GpuContext,
+    res: u32,
+    nodes: u32,
+) -> (SvoBuilder, VoxelGrid, Vec<VoxelTriangle>, Svo) {
+    let builder = SvoBuilder::new(ctx);
+    let grid = unit_grid(res);
+    let statics = static_scene();
+    let (svo, _) = builder
+        .build_with_reserve(ctx, &grid, &statics, DynamicReserve::new(nodes))
+        .unwrap();
+    (builder, grid, statics, svo)
+}
+
 #[test]
 fn dynamic_updates_equal_rebuilds() {
     let ctx = context();
-    let builder = SvoBuilder::new(&ctx);
-    let grid = unit_grid(32);
-    let statics = static_scene();
-    let (mut svo, _) = builder
-        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(20_000))
-        .unwrap();
+    let (builder, grid, statics, mut svo) = static_octree(&ctx, 32, 20_000);
     let (static_nodes, static_bricks) = (svo.node_count(), svo.brick_count());
     check(&svo.read_back(&ctx).unwrap(), &grid, &statics, "static");
     // A block resting on the floor (sharing voxels with it and with the slanted triangle),
@@ -282,12 +293,7 @@ fn recorded_updates_without_waits_equal_a_rebuild() {
 
 fn recorded_updates(ctx: &GpuContext) {
     let ctx = ctx.clone();
-    let builder = SvoBuilder::new(&ctx);
-    let grid = unit_grid(32);
-    let statics = static_scene();
-    let (mut svo, _) = builder
-        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(20_000))
-        .unwrap();
+    let (builder, grid, statics, mut svo) = static_octree(&ctx, 32, 20_000);
     let block = |x: f32, y: f32| {
         let p = Vec3::new(x, y, 0.35);
         cube(p, p + Vec3::new(0.17, 0.13, 0.11), [40, 90, 250])
@@ -491,12 +497,7 @@ fn measure_update_against_rebuild() {
 fn blocking_updates_read_their_counts_while_another_thread_polls_the_device() {
     use std::sync::atomic::{AtomicBool, Ordering};
     let ctx = context();
-    let builder = SvoBuilder::new(&ctx);
-    let grid = unit_grid(16);
-    let statics = static_scene();
-    let (mut svo, _) = builder
-        .build_with_reserve(&ctx, &grid, &statics, DynamicReserve::new(4096))
-        .unwrap();
+    let (builder, grid, _, mut svo) = static_octree(&ctx, 16, 4096);
     let moving = cube(Vec3::splat(0.3), Vec3::splat(0.45), [40, 90, 250]);
     let expected = cpu::voxelize(&grid, &moving).len() as u32;
     let done = AtomicBool::new(false);
